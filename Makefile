@@ -1,0 +1,92 @@
+# nzlua - analytical mechanics with Taylor jets, in C with Lua 5.4.
+#
+#   make          build build/nzlua (the program) and build/nz.so (the module)
+#   make demo     install missing Debian packages, build, run the showcase
+#   make test     build and run every test (also under ASan and UBSan)
+#   make sanitize only the tests under AddressSanitizer + UBSan
+#   make bench    print the benchmark tables
+#   make clean
+
+PKGS      = lua5.4 gsl readline
+# Debian packages for building, testing (busted, tmux) and plotting (gnuplot).
+DEB_PKGS  = make gcc pkg-config liblua5.4-dev lua5.4 libreadline-dev libgsl-dev \
+            lua-busted tmux gnuplot-nox
+
+CC       ?= cc
+WARN      = -Wall -Wextra -Werror -Wshadow -Wstrict-prototypes -Wmissing-prototypes
+CFLAGS   ?= -O2 -g
+ALL_CFLAGS = -std=c11 -D_GNU_SOURCE -fPIC $(WARN) $(CFLAGS) \
+             $(shell pkg-config --cflags $(PKGS) 2>/dev/null) -Isrc -Ibuild/gen
+LUA_LIBS  = $(shell pkg-config --libs lua5.4 2>/dev/null)
+GSL_LIBS  = $(shell pkg-config --libs gsl 2>/dev/null)
+RL_LIBS   = $(shell pkg-config --libs readline 2>/dev/null)
+SAN_FLAGS = -O1 -g -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=all
+
+# The numerical core (never includes lua.h), then the Lua binding.
+CORE_SRC  = src/series.c src/jet.c src/interrupt.c
+LUA_SRC   = src/lua_jet.c src/lua_nz.c
+LUA_MODS  = $(sort $(wildcard lua/nz/*.lua))
+GEN_SRC   = build/gen/embedded_lua.c
+
+B         = build
+OBJ       = $(patsubst src/%.c,$(B)/obj/%.o,$(CORE_SRC) $(LUA_SRC)) $(B)/obj/embedded_lua.o
+SAN_OBJ   = $(patsubst src/%.c,$(B)/asan/%.o,$(CORE_SRC) $(LUA_SRC)) $(B)/asan/embedded_lua.o
+CORE_OBJ  = $(patsubst src/%.c,$(B)/obj/%.o,$(CORE_SRC))
+SAN_CORE  = $(patsubst src/%.c,$(B)/asan/%.o,$(CORE_SRC))
+
+.PHONY: all deps demo test check sanitize bench clean
+
+all: $(B)/nzlua $(B)/nz.so
+
+deps:
+	@tools/deps.sh $(DEB_PKGS)
+
+$(GEN_SRC): tools/embed.lua $(LUA_MODS) | $(B)/gen
+	lua5.4 tools/embed.lua $@ $(LUA_MODS)
+
+$(B)/obj/%.o: src/%.c $(wildcard src/*.h) | $(B)/obj
+	$(CC) $(ALL_CFLAGS) -c -o $@ $<
+$(B)/obj/embedded_lua.o: $(GEN_SRC) src/embedded.h | $(B)/obj
+	$(CC) $(ALL_CFLAGS) -c -o $@ $<
+$(B)/asan/%.o: src/%.c $(wildcard src/*.h) | $(B)/asan
+	$(CC) $(ALL_CFLAGS) $(SAN_FLAGS) -c -o $@ $<
+$(B)/asan/embedded_lua.o: $(GEN_SRC) src/embedded.h | $(B)/asan
+	$(CC) $(ALL_CFLAGS) $(SAN_FLAGS) -c -o $@ $<
+
+$(B)/nzlua: $(B)/obj/nzlua.o $(B)/obj/repl_complete.o $(OBJ)
+	$(CC) $(CFLAGS) -o $@ $^ $(LUA_LIBS) $(GSL_LIBS) $(RL_LIBS) -lm
+# The module links neither liblua (the host provides it) nor readline.
+$(B)/nz.so: $(OBJ)
+	$(CC) $(CFLAGS) -shared -o $@ $^ $(GSL_LIBS) -lm
+$(B)/asan/nzlua: $(B)/asan/nzlua.o $(B)/asan/repl_complete.o $(SAN_OBJ)
+	$(CC) $(SAN_FLAGS) -o $@ $^ $(LUA_LIBS) $(GSL_LIBS) $(RL_LIBS) -lm
+
+# C unit tests of the core, GSL-style PASS/FAIL lines.
+$(B)/test_series: tests/test_series.c $(CORE_OBJ) | $(B)
+	$(CC) $(ALL_CFLAGS) -o $@ $^ $(GSL_LIBS) -lm
+$(B)/asan/test_series: tests/test_series.c $(SAN_CORE) | $(B)/asan
+	$(CC) $(ALL_CFLAGS) $(SAN_FLAGS) -o $@ $^ $(GSL_LIBS) -lm
+$(B)/bench_jet: bench/bench_jet.c $(CORE_OBJ) | $(B)
+	$(CC) $(ALL_CFLAGS) -o $@ $^ $(GSL_LIBS) -lm
+
+$(B) $(B)/obj $(B)/asan $(B)/gen:
+	mkdir -p $@
+
+demo: deps all
+	$(B)/nzlua examples/demo.lua
+
+# Every test, normal build then sanitized build; one tally line at the end.
+test: deps all $(B)/test_series $(B)/asan/nzlua $(B)/asan/test_series
+	@tests/run.sh all
+
+check: deps all $(B)/test_series
+	@tests/run.sh plain
+
+sanitize: deps $(B)/asan/nzlua $(B)/asan/test_series all
+	@tests/run.sh sanitize
+
+bench: deps all $(B)/bench_jet
+	@bench/run.sh
+
+clean:
+	rm -rf $(B)

@@ -1,0 +1,6 @@
+#!/bin/sh
+# run.sh - every benchmark, each printing its table (make bench).
+cd "$(dirname "$0")/.." || exit 1
+build/bench_jet
+echo
+build/nzlua bench/jet_lua.lua

@@ -1,0 +1,90 @@
+/* jet.h - truncated Taylor series carrying tangent (dual) directions.
+ *
+ * A jet of order K with D tangent directions holds D + 1 series of order K:
+ * the value series c_0..c_K (c_j = f^(j)(t0) / j!) and, for each direction d,
+ * the series of the partial derivative of those coefficients along d.  The
+ * arithmetic is that of truncated series whose coefficients are dual numbers
+ * a + sum_d a_d eps_d with eps_d eps_e = 0: THEORY.md §3 explains why the
+ * mechanics needs both (T differentiated n times along the motion, then one
+ * partial derivative with respect to q^(n)).  Plain dual numbers are K = 0.
+ *
+ * Plain C: this module never includes lua.h, never prints and never exits.
+ * Functions return an nz_status; on failure the result is unspecified and the
+ * caller (a binding) raises an error naming the function and the value.
+ */
+#ifndef NZ_JET_H
+#define NZ_JET_H
+
+#include <stddef.h>
+
+/* Limits, documented in nz.help(nz.jet). */
+#define NZ_JET_MAX_ORDER 1024
+#define NZ_JET_MAX_TANGENTS 1024
+
+typedef enum nz_status {
+  NZ_OK = 0,
+  NZ_EDOM,      /* argument outside the function's domain (log(-1))            */
+  NZ_ESING,     /* defined, but not differentiable there (sqrt(0) with K >= 1) */
+  NZ_EZERODIV,  /* division by a series whose constant term is zero            */
+  NZ_ERANGE,    /* the result overflows (a coefficient is not finite)          */
+  NZ_ENOMEM
+} nz_status;
+
+typedef struct nz_jet {
+  int order;   /* K: the series hold coefficients 0..K          */
+  int ntan;    /* D: number of tangent directions                */
+  double c[];  /* (D + 1) blocks of K + 1: value, then tangent 0..D-1 */
+} nz_jet;
+
+/* The unary functions of nz_jet_apply. */
+typedef enum nz_jet_fn {
+  NZ_FN_EXP, NZ_FN_LOG, NZ_FN_SQRT, NZ_FN_SIN, NZ_FN_COS, NZ_FN_TAN,
+  NZ_FN_ASIN, NZ_FN_ACOS, NZ_FN_ATAN, NZ_FN_SINH, NZ_FN_COSH, NZ_FN_TANH,
+  NZ_FN_ABS, NZ_FN_COUNT
+} nz_jet_fn;
+
+extern const char *const nz_jet_fn_names[NZ_FN_COUNT];
+
+/* Storage: nz_jet_bytes gives the size of a jet of that shape, so that a
+ * binding can place it in memory it owns (a Lua userdata). */
+size_t nz_jet_bytes(int order, int ntan);
+void nz_jet_init(nz_jet *z, int order, int ntan);   /* set shape, zero all */
+nz_jet *nz_jet_alloc(int order, int ntan);         /* NULL if out of memory */
+void nz_jet_free(nz_jet *z);                       /* NULL is harmless */
+void nz_jet_copy(nz_jet *z, const nz_jet *a);      /* same shape required */
+
+/* Workspace length (in doubles) every operation on jets of order K needs. */
+size_t nz_jet_work_len(int order);
+
+static inline double *nz_jet_value(nz_jet *z) { return z->c; }
+/* Tangent series d (0-based), or NULL if the jet has no such direction. */
+static inline double *nz_jet_tangent(const nz_jet *z, int d)
+{
+  return d < z->ntan ? (double *)z->c + (size_t)(d + 1) * (size_t)(z->order + 1) : NULL;
+}
+
+/* The shape of a result: the lower order (a truncated series is only known to
+ * the lower order) and the larger tangent count (a missing direction is zero). */
+void nz_jet_result_shape(const nz_jet *a, const nz_jet *b, int *order, int *ntan);
+
+/* Make z the variable t0 + (t - t0) of its order; with seed >= 0, its tangent
+ * along direction `seed` is 1 (the derivative with respect to t0). */
+void nz_jet_set_variable(nz_jet *z, double t0, int seed);
+void nz_jet_set_constant(nz_jet *z, double v);
+
+/* Arithmetic.  z has the result shape of its operands and aliases none of them;
+ * w is a workspace of nz_jet_work_len(z->order) doubles. */
+nz_status nz_jet_add(nz_jet *z, const nz_jet *a, const nz_jet *b);
+nz_status nz_jet_sub(nz_jet *z, const nz_jet *a, const nz_jet *b);
+nz_status nz_jet_mul(nz_jet *z, const nz_jet *a, const nz_jet *b, double *w);
+nz_status nz_jet_div(nz_jet *z, const nz_jet *a, const nz_jet *b, double *w);
+nz_status nz_jet_neg(nz_jet *z, const nz_jet *a);
+nz_status nz_jet_scale(nz_jet *z, const nz_jet *a, double s);      /* s a */
+nz_status nz_jet_offset(nz_jet *z, const nz_jet *a, double s);     /* a + s */
+nz_status nz_jet_apply(nz_jet *z, nz_jet_fn f, const nz_jet *x, double *w);
+nz_status nz_jet_pow(nz_jet *z, const nz_jet *x, double p, double *w);     /* x^p */
+nz_status nz_jet_pow_jet(nz_jet *z, const nz_jet *x, const nz_jet *y, double *w);
+nz_status nz_jet_atan2(nz_jet *z, const nz_jet *y, const nz_jet *x, double *w);
+nz_status nz_jet_hypot(nz_jet *z, const nz_jet *a, const nz_jet *b, double *w);
+
+#endif

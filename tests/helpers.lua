@@ -1,0 +1,57 @@
+-- helpers.lua - what several spec files share: loading nz the way the suite
+-- runs (plain lua5.4 + build/nz.so, or inside nzlua), comparing series, and
+-- running the nzlua program as a black box.
+local M = {}
+
+M.nz = rawget(_G, "nz") or require("nz")
+
+-- The program under test: build/nzlua, or the sanitized one (NZLUA=...).
+M.nzlua = os.getenv("NZLUA") or "build/nzlua"
+
+-- Worst error of coefficient-wise comparison; scale(j) sets what "relative"
+-- means for coefficient j (by default max(|want_j|, 1)).
+function M.worst_error(got, want, K, scale)
+  local worst, at = 0, 0
+  for j = 0, K do
+    local g = type(got) == "function" and got(j) or got:coef(j)
+    local w = type(want) == "function" and want(j) or want:coef(j)
+    local s = scale and scale(j) or math.max(math.abs(w), 1)
+    local e = math.abs(g - w) / s
+    if e ~= e then e = math.huge end
+    if e > worst then worst, at = e, j end
+  end
+  return worst, at
+end
+
+function M.assert_series(got, want, K, tol, what, scale)
+  local e, at = M.worst_error(got, want, K, scale)
+  assert(e <= tol, ("%s: coefficient %d off by %.3g (relative), expected <= %.3g"):format(
+    what, at, e, tol))
+end
+
+-- Run a shell command; returns exit code, stdout, stderr.
+function M.run(cmd, stdin)
+  local out, err = os.tmpname(), os.tmpname()
+  local full = cmd .. " >" .. out .. " 2>" .. err
+  if stdin then
+    local inp = os.tmpname()
+    local f = assert(io.open(inp, "w")); f:write(stdin); f:close()
+    full = full .. " <" .. inp
+  else
+    full = full .. " </dev/null"
+  end
+  local ok, how, code = os.execute(full)
+  local function slurp(p) local f = io.open(p); local s = f and f:read("a") or ""; if f then f:close() end; os.remove(p); return s end
+  if how == "signal" then code = 128 + code end
+  return ok and 0 or code, slurp(out), slurp(err)
+end
+
+-- Expect f(...) to raise an error containing `pattern` (plain text).
+function M.checkerror(pattern, f, ...)
+  local ok, msg = pcall(f, ...)
+  assert(not ok, ("expected an error containing %q, but the call succeeded"):format(pattern))
+  assert(tostring(msg):find(pattern, 1, true),
+    ("expected an error containing %q, got %q"):format(pattern, tostring(msg)))
+end
+
+return M

@@ -1,0 +1,126 @@
+-- repl_spec.lua - the nzlua session tested as a person uses it: a real
+-- terminal (tmux), keys typed, the screen read back.
+local h = require "tests.helpers"
+
+local session = "nzlua_test_" .. tostring(os.time()) .. "_" .. tostring(math.random(1e6))
+local history = os.tmpname()
+
+local function sh(cmd)
+  local code, out = h.run(cmd)
+  return code, out
+end
+
+local function screen()
+  local _, out = sh("tmux capture-pane -p -J -S -200 -t " .. session)
+  return out
+end
+
+-- Wait until the screen shows `text` (plain) `count` times; return the screen.
+local function wait_for(text, count, timeout)
+  count, timeout = count or 1, timeout or 10
+  local deadline = os.time() + timeout
+  local s
+  repeat
+    s = screen()
+    local n, i = 0, 1
+    while true do
+      local a, b = s:find(text, i, true)
+      if not a then break end
+      n, i = n + 1, b + 1
+    end
+    if n >= count then return s end
+    sh("sleep 0.05")
+  until os.time() > deadline
+  error(("screen never showed %q %d time(s); it shows:\n%s"):format(text, count, s))
+end
+
+local function type_keys(...)
+  local keys = {}
+  for i = 1, select("#", ...) do keys[#keys + 1] = "'" .. select(i, ...):gsub("'", "'\\''") .. "'" end
+  sh("tmux send-keys -t " .. session .. " " .. table.concat(keys, " "))
+end
+
+local function type_line(text) type_keys("-l", text); type_keys("Enter") end
+
+local function start()
+  sh("tmux kill-session -t " .. session)
+  local cmd = ("env NZLUA_HISTORY=%s TERM=xterm %s"):format(history, h.nzlua)
+  assert(sh(("tmux new-session -d -s %s -x 150 -y 50 '%s'"):format(session, cmd)) == 0, "tmux failed to start")
+  sh("tmux set-option -t " .. session .. " remain-on-exit on")
+  wait_for("nz> ")
+end
+
+describe("the nzlua session", function()
+  setup(function() os.remove(history); start() end)
+  teardown(function() sh("tmux kill-session -t " .. session); os.remove(history) end)
+
+  it("prints the value of an expression", function()
+    type_line("1 + 41")
+    wait_for("\n42\n")
+  end)
+  it("prints jets and tables readably", function()
+    type_line("jet(0, 2)")
+    wait_for("jet{0, 1, 0; order 2}")
+    type_line("{1, 2, x = 3}")
+    wait_for("{1, 2, x = 3}")
+  end)
+  it("reads a statement over two lines", function()
+    type_line("for i = 1, 3 do")
+    wait_for("nz>> ")
+    type_line("io.write(i, ';') end")
+    wait_for("1;2;3;")
+  end)
+  it("reports an error and goes on, without a traceback for a typed call", function()
+    type_line("nz.log(-2)")
+    local s = wait_for("'log' of a non-positive value (got -2)")
+    assert.falsy(s:find("stack traceback", 1, true), s)
+    type_line("6 * 7 + 1")
+    wait_for("\n43\n")
+  end)
+  it("shows a traceback when the error came from inside a function", function()
+    type_line("function inner() error('deep trouble') end; function outer() inner() end")
+    type_line("outer()")
+    wait_for("deep trouble")
+    wait_for("in function 'inner'")
+  end)
+  it("Ctrl-C interrupts a busy loop and the session goes on", function()
+    type_line("while true do end")
+    sh("sleep 0.3")
+    type_keys("C-c")
+    wait_for("interrupted!")
+    type_line("2 * 22")
+    wait_for("\n44\n")
+  end)
+  it("Ctrl-C at the prompt discards the line", function()
+    type_keys("-l", "undefined_function_xyz()")
+    type_keys("C-c")
+    type_line("3 * 15")
+    local s = wait_for("\n45\n")
+    assert.falsy(s:find("attempt to call", 1, true), s)
+  end)
+  it("completes globals, fields and methods with Tab", function()
+    type_keys("-l", "nz.hyp")
+    type_keys("Tab")
+    type_line("(3, 4)")
+    wait_for("\n5.0\n")
+    type_line("xj = jet(1, 2)")
+    type_keys("-l", "xj:coe")
+    type_keys("Tab")
+    type_line("(1)")
+    wait_for("xj:coef(1)")
+  end)
+  it("keeps history across sessions, and Ctrl-D leaves", function()
+    type_line("marker_value = 12345")
+    type_keys("C-d")
+    wait_for("Pane is dead")
+    local f = assert(io.open(history))
+    local text = f:read("a")
+    f:close()
+    assert.truthy(text:find("marker_value = 12345", 1, true), text)
+    start()
+    type_keys("Up")
+    type_keys("Enter")
+    type_line("marker_value + 1")
+    wait_for("\n12346\n")
+  end)
+end)

@@ -1,0 +1,62 @@
+#!/bin/sh
+# run.sh MODE - run the test suites and print one tally line at the end.
+#   plain     the C tests and the busted specs with the normal build
+#   sanitize  the same under AddressSanitizer + UndefinedBehaviorSanitizer:
+#             the specs run inside build/asan/nzlua, which loads the
+#             sanitized engine; LeakSanitizer checks a million-operation loop
+#   all       both
+# Every suite prints TAP ("ok N" / "not ok N") or GSL-style PASS/FAIL lines;
+# this script counts them and exits 1 if any failed or a suite crashed.
+mode=${1:-all}
+cd "$(dirname "$0")/.." || exit 1
+log=$(mktemp -d)
+passed=0
+failed=0
+suites=0
+
+# suite NAME COMMAND...: run, echo the output, count the results.
+suite() {
+  name=$1; shift
+  suites=$((suites + 1))
+  out="$log/$suites.out"
+  echo "== $name"
+  "$@" >"$out" 2>&1
+  rc=$?
+  cat "$out"
+  p=$(grep -cE '^(ok [0-9]|PASS:)' "$out")
+  f=$(grep -cE '^(not ok [0-9]|FAIL:)' "$out")
+  if [ "$rc" -ne 0 ] && [ "$f" -eq 0 ]; then
+    echo "not ok - suite '$name' exited with status $rc without reporting a failed test"
+    f=1
+  fi
+  passed=$((passed + p))
+  failed=$((failed + f))
+}
+
+# One-shot scripts count as one test each.
+script_test() {
+  name=$1; shift
+  if "$@"; then echo "ok 1 - $name"; else echo "not ok 1 - $name"; return 1; fi
+}
+
+specs="tests/jet_spec.lua tests/help_spec.lua tests/cli_spec.lua tests/repl_spec.lua"
+BUSTED="/usr/bin/busted -o TAP --helper=tests/busted_setup.lua"
+
+if [ "$mode" = plain ] || [ "$mode" = all ]; then
+  suite "C core (series, jets)" build/test_series
+  suite "Lua specs (lua5.4 + build/nz.so)" env LUA_CPATH="build/?.so;;" NZLUA=build/nzlua \
+    lua5.4 $BUSTED $specs
+fi
+if [ "$mode" = sanitize ] || [ "$mode" = all ]; then
+  export ASAN_OPTIONS=detect_leaks=1:abort_on_error=0:halt_on_error=1
+  export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+  suite "C core under ASan+UBSan" build/asan/test_series
+  suite "Lua specs inside build/asan/nzlua" env NZLUA=build/asan/nzlua \
+    build/asan/nzlua $BUSTED $specs
+  suite "LeakSanitizer: a million jet operations" \
+    script_test "memory loop under LeakSanitizer exits 0" build/asan/nzlua tests/data/memory_loop.lua
+fi
+rm -rf "$log"
+echo
+echo "$passed passed, $failed failed"
+[ "$failed" -eq 0 ]

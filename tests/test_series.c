@@ -1,0 +1,150 @@
+/* test_series.c - the coefficient kernels (series.c) and jets (jet.c) in C,
+ * without Lua, against closed-form Taylor series.  GSL's test functions
+ * print one PASS/FAIL line per check (GSL_TEST_VERBOSE style). */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <gsl/gsl_math.h>
+#include <gsl/gsl_sf_gamma.h>
+#include <gsl/gsl_test.h>
+#include "jet.h"
+#include "series.h"
+
+#define K 40
+/* Closed-form coefficients below are sums of at most K products of O(1)
+ * numbers: a few hundred ulps is the honest rounding bound. */
+#define TOL (256 * GSL_DBL_EPSILON)
+
+static double x[K + 1], y[K + 1], z[K + 1], w[8 * (K + 1)];
+
+static void variable(double *s, double t0)
+{
+  for (int j = 0; j <= K; j++) s[j] = 0.0;
+  s[0] = t0;
+  s[1] = 1.0;
+}
+
+/* |got - want| relative to max(|want|, floor): floor keeps tiny coefficients
+ * from demanding more than rounding of O(floor) terms can give. */
+static void check_series(const char *what, const double *got, double (*want)(int, double),
+                         double p, double floor)
+{
+  double worst = 0.0;
+  int at = 0;
+  for (int j = 0; j <= K; j++) {
+    double e = fabs(got[j] - want(j, p)) / fmax(fabs(want(j, p)), floor);
+    if (e > worst) { worst = e; at = j; }
+  }
+  gsl_test(!(worst <= TOL), "%s: coefficients 0..%d, worst relative error %.2g at c_%d", what,
+           K, worst, at);
+}
+
+static double exp_coef(int j, double a) { return exp(a) / gsl_sf_fact((unsigned)j); }
+/* log(a + s) = log a + sum_{j>=1} (-1)^(j+1) s^j / (j a^j) */
+static double log_coef(int j, double a) { return j == 0 ? log(a) : (j % 2 ? 1 : -1) / (j * pow(a, j)); }
+/* 1/(a - s) = sum s^j / a^(j+1) */
+static double geometric_coef(int j, double a) { return 1.0 / pow(a, j + 1); }
+/* (1 + s)^p = sum binomial(p, j) s^j */
+static double binomial_coef(int j, double p)
+{
+  double c = 1.0;
+  for (int i = 0; i < j; i++) c *= (p - i) / (i + 1);
+  return c;
+}
+/* atan(s) = sum (-1)^m s^(2m+1) / (2m+1) */
+static double atan_coef(int j, double unused)
+{
+  (void)unused;
+  return j % 2 ? ((j / 2) % 2 ? -1.0 : 1.0) / j : 0.0;
+}
+/* sin(a + s), cos(a + s): derivatives cycle through sin, cos, -sin, -cos */
+static double sin_coef(int j, double a)
+{
+  double d[4] = { sin(a), cos(a), -sin(a), -cos(a) };
+  return d[j % 4] / gsl_sf_fact((unsigned)j);
+}
+static double cosh_coef(int j, double a) { return (j % 2 ? sinh(a) : cosh(a)) / gsl_sf_fact((unsigned)j); }
+/* asin(s) = sum (2m)! / (4^m (m!)^2 (2m+1)) s^(2m+1) */
+static double asin_coef(int j, double unused)
+{
+  (void)unused;
+  if (j % 2 == 0) return 0.0;
+  int m = j / 2;
+  return exp(gsl_sf_lnchoose((unsigned)(2 * m), (unsigned)m) - m * log(4.0)) / j;
+}
+
+int main(void)
+{
+  gsl_test_verbose(1);
+  double one[K + 1];
+  variable(x, 0.0);
+
+  variable(x, 0.385);
+  nz_series_exp(y, x, K);
+  check_series("exp(0.385 + t)", y, exp_coef, 0.385, 1e-300);
+
+  variable(x, 2.385);
+  nz_series_log(y, x, K);
+  check_series("log(2.385 + t)", y, log_coef, 2.385, 1e-300);
+
+  for (int j = 0; j <= K; j++) one[j] = j == 0;
+  variable(x, 1.385);
+  for (int j = 0; j <= K; j++) x[j] = -x[j];
+  x[0] += 2 * 1.385;                 /* x = 1.385 - t */
+  nz_series_div(y, one, x, K);
+  check_series("1 / (1.385 - t) by division", y, geometric_coef, 1.385, 1e-300);
+
+  variable(x, 1.0);
+  nz_series_pow(y, x, 0.5, K);
+  check_series("(1 + t)^0.5 by the power recurrence", y, binomial_coef, 0.5, 1e-300);
+  nz_series_sqrt(z, x, K);
+  check_series("sqrt(1 + t)", z, binomial_coef, 0.5, 1e-300);
+  nz_series_pow(y, x, -2.75, K);
+  check_series("(1 + t)^-2.75", y, binomial_coef, -2.75, 1e-300);
+  nz_series_powi(y, x, 7, K, w);
+  check_series("(1 + t)^7 by binary powering", y, binomial_coef, 7.0, 1.0);
+
+  variable(x, 0.0);
+  y[0] = 0.0;
+  for (int j = 0; j <= K; j++) z[j] = j == 0 ? 1.0 : 0.0;
+  nz_series_mul(z, x, x, K);
+  z[0] += 1.0;                       /* z = 1 + t^2 */
+  nz_series_quadrature(y, x, z, 1.0, K);
+  check_series("atan(t) by quadrature with d = 1 + t^2", y, atan_coef, 0.0, 1.0);
+
+  variable(x, 0.385);
+  nz_series_sincos(y, z, x, K, 0);
+  check_series("sin(0.385 + t)", y, sin_coef, 0.385, 1e-300);
+  nz_series_sincos(y, z, x, K, 1);
+  check_series("cosh(0.385 + t)", z, cosh_coef, 0.385, 1e-300);
+
+  {
+    /* asin through the jet layer (it builds sqrt(1 - x^2) itself). */
+    nz_jet *a = nz_jet_alloc(K, 1), *b = nz_jet_alloc(K, 1);
+    double *ww = malloc(nz_jet_work_len(K) * sizeof(double));
+    nz_jet_set_variable(a, 0.0, 0);
+    int st = nz_jet_apply(b, NZ_FN_ASIN, a, ww);
+    gsl_test(st != NZ_OK, "asin(t) through nz_jet_apply returns NZ_OK");
+    check_series("asin(t)", b->c, asin_coef, 0.0, 1.0);
+    /* Its tangent (seeded as d/dt0) is the derivative series: (j+1) c_{j+1}. */
+    double worst = 0.0;
+    for (int j = 0; j < K; j++)
+      worst = fmax(worst, fabs(nz_jet_tangent(b, 0)[j] - (j + 1) * b->c[j + 1]) /
+                              fmax(1.0, fabs((j + 1) * b->c[j + 1])));
+    gsl_test(!(worst <= TOL), "asin(t): tangent d/dt0 equals the shifted series, error %.2g", worst);
+
+    /* Domain errors are statuses, never NaN. */
+    nz_jet_set_constant(a, -1.5);
+    gsl_test(nz_jet_apply(b, NZ_FN_LOG, a, ww) != NZ_EDOM, "log(-1.5) is NZ_EDOM");
+    nz_jet_set_variable(a, 0.0, -1);
+    gsl_test(nz_jet_apply(b, NZ_FN_SQRT, a, ww) != NZ_ESING, "sqrt at 0 with order 40 is NZ_ESING");
+    gsl_test(nz_jet_div(b, a, a, ww) != NZ_EZERODIV, "t / t is NZ_EZERODIV (zero constant term)");
+    nz_jet_set_constant(a, 800.0);
+    gsl_test(nz_jet_apply(b, NZ_FN_EXP, a, ww) != NZ_ERANGE, "exp(800) is NZ_ERANGE, not inf");
+    nz_jet_free(a);
+    nz_jet_free(b);
+    nz_jet_free(NULL);               /* harmless, as GSL's _free(NULL) */
+    free(ww);
+  }
+  return gsl_test_summary();
+}
