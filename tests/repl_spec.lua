@@ -5,8 +5,12 @@ local h = require "tests.helpers"
 local session = "nzlua_test_" .. tostring(os.time()) .. "_" .. tostring(math.random(1e6))
 local history = os.tmpname()
 
+-- A tmux server of our own (-L): never the user's, started from this
+-- process's environment (so ASAN_OPTIONS and the like reach the pane).
+local tmux = "tmux -L " .. session .. " "
+
 local function sh(cmd)
-  local code, out = h.run(cmd)
+  local code, out = h.run((cmd:gsub("^tmux ", tmux)))
   return code, out
 end
 
@@ -44,15 +48,17 @@ local function type_line(text) type_keys("-l", text); type_keys("Enter") end
 
 local function start()
   sh("tmux kill-session -t " .. session)
-  local cmd = ("env NZLUA_HISTORY=%s TERM=xterm %s"):format(history, h.nzlua)
+  -- The shell around nzlua prints its exit status, so that a test can see
+  -- the session end (and end well); `sleep` keeps the pane readable.
+  local cmd = ("env NZLUA_HISTORY=%s TERM=xterm %s; echo \"[nzlua exited with status $?]\"; sleep 60")
+    :format(history, h.nzlua)
   assert(sh(("tmux new-session -d -s %s -x 150 -y 50 '%s'"):format(session, cmd)) == 0, "tmux failed to start")
-  sh("tmux set-option -t " .. session .. " remain-on-exit on")
   wait_for("nz> ")
 end
 
 describe("the nzlua session", function()
   setup(function() os.remove(history); start() end)
-  teardown(function() sh("tmux kill-session -t " .. session); os.remove(history) end)
+  teardown(function() sh("tmux kill-server"); os.remove(history) end)
 
   it("prints the value of an expression", function()
     type_line("1 + 41")
@@ -112,7 +118,7 @@ describe("the nzlua session", function()
   it("keeps history across sessions, and Ctrl-D leaves", function()
     type_line("marker_value = 12345")
     type_keys("C-d")
-    wait_for("Pane is dead")
+    wait_for("[nzlua exited with status 0]")
     local f = assert(io.open(history))
     local text = f:read("a")
     f:close()
