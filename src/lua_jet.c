@@ -156,11 +156,31 @@ static void push_result(lua_State *L, nz_jet *z, int as_number)
 }
 
 /* ------------------------------------------------------------------ */
+/* Other number types                                                   */
+
+/* A table argument whose metatable has a field named `name` (sin, atan2,
+ * __add, ...) is a number type written in Lua (lua/nz/hyperdual.lua): the
+ * call goes to that field.  Returns 1 and leaves the results if it did. */
+static int dispatch_to_table(lua_State *L, int nargs, const char *name)
+{
+  for (int i = 1; i <= nargs; i++) {
+    if (lua_type(L, i) != LUA_TTABLE) continue;
+    if (luaL_getmetafield(L, i, name) == LUA_TNIL) continue;
+    lua_insert(L, 1);
+    lua_call(L, nargs, 1);
+    return 1;
+  }
+  return 0;
+}
+
+/* ------------------------------------------------------------------ */
 /* Unary functions                                                      */
 
 static int unary(lua_State *L, nz_jet_fn f)
 {
   const char *fname = nz_jet_fn_names[f];
+  lua_settop(L, 1);
+  if (lua_type(L, 1) == LUA_TTABLE && dispatch_to_table(L, 1, fname)) return 1;
   int as_number = lua_type(L, 1) == LUA_TNUMBER;
   nz_jet *x = jet_or_scalar(L, 1, 0, fname);
   nz_jet *z = as_number ? get_workspace(L)->scalar[2] : nz_lua_newjet(L, x->order, x->ntan);
@@ -190,10 +210,16 @@ UNARY(abs, NZ_FN_ABS)
 
 typedef enum { OP_ADD, OP_SUB, OP_MUL, OP_DIV, OP_POW, OP_ATAN2, OP_HYPOT } binop;
 static const char *const binop_names[] = { "add", "sub", "mul", "division", "pow", "atan2", "hypot" };
+/* What a Lua number type calls the operation (its metatable field). */
+static const char *const binop_fields[] = { "__add", "__sub", "__mul", "__div", "__pow", "atan2", "hypot" };
 
 static int binary(lua_State *L, binop op)
 {
   const char *fname = binop_names[op];
+  lua_settop(L, 2);
+  if ((lua_type(L, 1) == LUA_TTABLE || lua_type(L, 2) == LUA_TTABLE) &&
+      dispatch_to_table(L, 2, binop_fields[op]))
+    return 1;
   int na = lua_type(L, 1) == LUA_TNUMBER, nb = lua_type(L, 2) == LUA_TNUMBER;
   nz_jet *a = jet_or_scalar(L, 1, 0, fname);
   nz_jet *b = jet_or_scalar(L, 2, 1, fname);
@@ -423,6 +449,22 @@ static int lj_tangent(lua_State *L)
   return 1;
 }
 
+/* x:derivative(): the series of dx/dt, one order lower:  c'_j = (j+1) c_{j+1},
+ * the same for every tangent series. */
+static int lj_derivative(lua_State *L)
+{
+  nz_jet *x = nz_lua_checkjet(L, 1);
+  if (x->order < 1)
+    return luaL_error(L, "'derivative' of a jet of order 0: its derivative is unknown");
+  nz_jet *z = nz_lua_newjet(L, x->order - 1, x->ntan);
+  for (int d = -1; d < x->ntan; d++) {
+    const double *src = d < 0 ? x->c : nz_jet_tangent(x, d);
+    double *dst = d < 0 ? z->c : nz_jet_tangent(z, d);
+    for (int j = 0; j < x->order; j++) dst[j] = (j + 1) * src[j + 1];
+  }
+  return 1;
+}
+
 static int lj_coefs(lua_State *L)
 {
   nz_jet *x = nz_lua_checkjet(L, 1);
@@ -475,7 +517,7 @@ static int lj_tostring(lua_State *L)
 static const luaL_Reg jet_methods[] = {
   { "coef", lj_coef }, { "deriv", lj_deriv }, { "order", lj_order },
   { "value", lj_value }, { "ntangents", lj_ntangents }, { "tangent", lj_tangent },
-  { "coefs", lj_coefs }, { NULL, NULL }
+  { "coefs", lj_coefs }, { "derivative", lj_derivative }, { NULL, NULL }
 };
 
 static const luaL_Reg jet_metamethods[] = {

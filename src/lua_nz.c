@@ -7,7 +7,9 @@
 #include <lua.h>
 #include <lauxlib.h>
 #include "embedded.h"
+#include <gsl/gsl_errno.h>
 #include "lua_jet.h"
+#include "lua_system.h"
 #include "nz.h"
 
 static int load_embedded(lua_State *L)
@@ -35,6 +37,7 @@ static int open_core(lua_State *L)
 {
   lua_newtable(L);
   nz_lua_open_jet(L);
+  nz_lua_open_system(L);
   lua_pushstring(L, NZ_VERSION);
   lua_setfield(L, -2, "version");
   return 1;
@@ -42,6 +45,7 @@ static int open_core(lua_State *L)
 
 int luaopen_nz(lua_State *L)
 {
+  gsl_set_error_handler_off();     /* GSL's default handler aborts: statuses instead */
   preload_embedded(L);
   luaL_requiref(L, "nz.core", open_core, 0);
   lua_pop(L, 1);

@@ -8,6 +8,8 @@ local M = {}
 local sections = {
   { id = "jets", title = "Jets: truncated Taylor series with tangent (dual) directions" },
   { id = "functions", title = "Functions of numbers and jets (numbers give numbers)" },
+  { id = "mechanics", title = "Mechanical systems and their equations of any order" },
+  { id = "operators", title = "Operators on a function f(t, q, qd) (THEORY.md §2, §5)" },
   { id = "session", title = "Session" },
 }
 
@@ -65,6 +67,62 @@ directions; f(x):tangent(1):value() is then df/dx at 2.]] },
     summary = "absolute value (not differentiable at 0)" },
   { name = "hypot", section = "functions", usage = "nz.hypot(x, y)",
     summary = "sqrt(x^2 + y^2) without overflow" },
+  { name = "system", section = "mechanics", usage = "nz.system{coords = {...}, T = f, V = f, Q = f, ...}",
+    summary = "define a mechanical system; methods residual, accel, mass, energy, equations",
+    text = [[
+Fields:
+  coords   names of the k generalized coordinates, {"th1", "th2"}
+  T        kinetic energy T(t, q, qd, params)           (q, qd: 1-based arrays)
+  V        potential energy V(t, q, params)             (optional)
+  Q        generalized non-potential forces Q(t, q, qd, params) -> {Q1, ..., Qk}
+  L        a general Lagrangian L(t, q, qd, params), instead of or besides T
+  bodies   particles and rigid bodies (see help(nz.bodies)): adds T, V, S
+  S        acceleration energy along the motion (Wassmuth's form; from bodies)
+  params   a table of named numbers passed to every function; change
+           sys.params.m and the next call uses it
+  name     a name for messages
+T, V, Q and L may also be lists of functions whose contributions add up.
+Functions receive jets (see help(nz.jet)): write them with nz.sin, nz.exp, ...
+and plain arithmetic, and return a number or a jet.
+
+Methods (t a number, q, qd, qdd tables of k numbers):
+  sys:residual(n, t, q, qd, qdd [, form])  k residuals of the equations of order n,
+        (1/n)(dT^(n)/dq^(n) - (n+1) dT/dq) - Q (THEORY.md (3.1)), n = 1..100;
+        form: "generalized" (default), "lagrange", "difference" (3.2), "euler" (3.3),
+        "appell" (4.2), "extremal" (4.3), "wassmuth" (particles, n >= 2).
+        Or {form = ..., higher = {q3, q4, ...}}: derivatives beyond qdd (default 0;
+        the equations do not depend on them).
+  sys:accel(t, q, qd)        accelerations qdd (Cholesky of M; clear error if M is
+                             singular or not positive definite)
+  sys:mass(t, q [, qd]), sys:bias(t, q, qd), sys:mass_bias(t, q, qd)
+                             M and h of M qdd + h = 0 (h includes -Q + dV/dq)
+  sys:energy(t, q, qd)       T + V (nil with L only) and H = sum qd dL/dqd - L
+  sys:equations(n, t, q, qd [, qdd])  print the terms of (3.1) per coordinate
+  print(sys)                 a summary]] },
+  { name = "forms", section = "mechanics", usage = "nz.forms",
+    summary = "the names of the forms of the equations sys:residual accepts" },
+  { name = "bodies", section = "mechanics", usage = "nz.bodies{ {mass =, pos = [, rot =, inertia =]}, gravity = }",
+    summary = "T, V and S of particles and rigid bodies from their positions",
+    text = [[
+Each body: mass (a positive number), pos = function(t, q, params) returning its
+centre of mass {x, y, z}; a rigid body also has rot = function(t, q, params)
+returning its 3x3 rotation matrix (body axes to space) and inertia = {I1, I2, I3}
+(principal, about the centre of mass) or a symmetric 3x3 matrix, in body axes.
+gravity = {gx, gy, gz} adds V = -sum m g.r.  Velocities come from the jets.
+Returns {T = ..., V = ..., S = ...} (S, for Wassmuth's form, for particles only);
+nz.system{coords = ..., bodies = {...}} does the same inline.]] },
+  { name = "partial", section = "operators", usage = "nz.partial(n, f, t, q, qd [, qdd, higher])",
+    summary = "d f^(n) / d q^(n): the n-th time derivative of f, differentiated by q^(n)",
+    text = [[
+Computed with jets as THEORY.md §3 says (f differentiated n times along the motion,
+the partial taken by a tangent seeded on q^(n)).  n = 0 gives df/dq.  By (2.1) it
+equals n d/dt(df/dqd) + df/dq.  k values.]] },
+  { name = "top_coefficient", section = "operators", usage = "nz.top_coefficient(m, f, t, q, qd [, qdd])",
+    summary = "d f^(m-1) / d q^(m): the coefficient of the top derivative (equals df/dqd)" },
+  { name = "nielsen_op", section = "operators", usage = "nz.nielsen_op(m, f, t, q, qd [, qdd, higher])",
+    summary = "N^m(f) = d f^(m)/dq^(m) - 2 d f^(m-1)/dq^(m-1)  (THEORY.md (5.1))" },
+  { name = "euler_op", section = "operators", usage = "nz.euler_op(m, f, t, q, qd [, qdd, higher])",
+    summary = "E^m(f) = d/dt(d f^(m-1)/dq^(m)) - d f^(m-1)/dq^(m-1)  (THEORY.md (5.2))" },
   { name = "help", section = "session", usage = "nz.help([f])",
     summary = "list what nz offers, or explain one function (help(nz.jet))" },
   { name = "version", section = "session", usage = "nz.version", summary = "the version string" },

@@ -3,7 +3,18 @@
 local core = require "nz.core"
 
 local nz = {}
+
 for name, value in pairs(core) do nz[name] = value end
+nz.mech = nil                  -- the C mechanics is reached through nz.system
+
+local system = require "nz.system"
+nz.system = system.system
+nz.forms = system.forms
+nz.nielsen_op = system.nielsen_op
+nz.euler_op = system.euler_op
+nz.partial = system.partial
+nz.top_coefficient = system.top_coefficient
+nz.bodies = require("nz.bodies").bodies
 
 nz.help = require("nz.help").bind(nz)
 

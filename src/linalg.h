@@ -1,0 +1,23 @@
+/* linalg.h - the dense linear algebra the mechanics needs, on GSL. */
+#ifndef NZ_LINALG_H
+#define NZ_LINALG_H
+
+/* Default for NZ: a matrix whose reciprocal condition number (1-norm
+ * estimate) is below this is reported singular rather than solved. */
+#define NZ_RCOND_MIN 1e-13
+
+typedef struct nz_solve_info {
+  double rcond;        /* reciprocal condition estimate (0 if not computed)  */
+  double eig_min;      /* smallest and largest eigenvalue, when diagnosed    */
+  double eig_max;
+  int not_spd;         /* 1 when the Cholesky factorization failed           */
+} nz_solve_info;
+
+/* Solve A x = b for symmetric positive definite A (k x k, row-major; A is
+ * overwritten).  Returns NZ_OK, or NZ_ESINGULAR with info filled: not_spd and
+ * the eigenvalue range of the original matrix when A is not positive
+ * definite, or rcond < rcond_min when it is too badly conditioned. */
+int nz_solve_spd(int k, double *A, const double *b, double *x, double rcond_min,
+                 nz_solve_info *info);
+
+#endif

@@ -1,0 +1,486 @@
+/* lua_system.c - the mechanics (mech.h) for Lua.
+ *
+ * The Lua class (lua/nz/system.lua) validates a system and hands these
+ * functions its definition table `def`:
+ *   def.k, def.name, def.coords, def.params,
+ *   def.F, def.T, def.V, def.Q, def.S   lists of functions (any may be empty),
+ *   def.labels = {F = {...}, ...}       what to call each function in errors.
+ * The evaluator calls the Lua functions under lua_pcall (a Lua error must
+ * never longjmp through the C core or GSL), keeps the message, and the
+ * binding raises it after the core has returned, with the system, the
+ * function and the state. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <lauxlib.h>
+#include "linalg.h"
+#include "lua_jet.h"
+#include "lua_system.h"
+#include "mech.h"
+
+static const char *const piece_fields[NZ_PIECE_COUNT] = { "F", "T", "V", "Q", "S" };
+
+typedef struct lua_evaluator {
+  lua_State *L;
+  int def;                 /* stack index of the definition table */
+  int k;
+  char message[1024];      /* what failed, when eval returned NZ_EFUNC */
+  int interrupted;
+} lua_evaluator;
+
+/* Shortest round-trip text of a number, for messages. */
+static void fmt_num(char *buf, size_t n, double v)
+{
+  snprintf(buf, n, "%.15g", v);
+  if (strtod(buf, NULL) != v) snprintf(buf, n, "%.17g", v);
+}
+
+static void append_vector(luaL_Buffer *b, const char *name, nz_jet *const *v, int k)
+{
+  char num[40];
+  luaL_addstring(b, name);
+  luaL_addstring(b, " = {");
+  for (int i = 0; i < k; i++) {
+    fmt_num(num, sizeof num, v[i]->c[0]);
+    if (i) luaL_addstring(b, ", ");
+    luaL_addstring(b, num);
+  }
+  luaL_addstring(b, "}");
+}
+
+/* Keep "LABEL MESSAGE at t = .., q = {..}, qd = {..}" in ev->message. */
+static void record_failure(lua_evaluator *ev, nz_piece piece, int index, const nz_jet *t,
+                           nz_jet *const *const *levels, int nlevels, const char *what)
+{
+  lua_State *L = ev->L;
+  luaL_Buffer b;
+  char num[40];
+  luaL_buffinit(L, &b);
+  lua_getfield(L, ev->def, "labels");
+  lua_getfield(L, -1, piece_fields[piece]);
+  lua_geti(L, -1, index);
+  const char *label = lua_tostring(L, -1);
+  lua_pop(L, 3);
+  luaL_addstring(&b, label ? label : piece_fields[piece]);
+  luaL_addstring(&b, " ");
+  luaL_addstring(&b, what);
+  fmt_num(num, sizeof num, t->c[0]);
+  luaL_addstring(&b, " at t = ");
+  luaL_addstring(&b, num);
+  luaL_addstring(&b, ", ");
+  append_vector(&b, "q", levels[0], ev->k);
+  if (nlevels > 1) {
+    luaL_addstring(&b, ", ");
+    append_vector(&b, "qd", levels[1], ev->k);
+  }
+  luaL_pushresult(&b);
+  snprintf(ev->message, sizeof ev->message, "%s", lua_tostring(L, -1));
+  lua_pop(L, 1);
+}
+
+/* out += the value at idx (a number or a jet of at least out's order). */
+static int accumulate(lua_State *L, int idx, nz_jet *out, const char **why)
+{
+  if (lua_type(L, idx) == LUA_TNUMBER) {
+    double v = lua_tonumber(L, idx);
+    if (!isfinite(v)) { *why = "returned a value that is not finite"; return 0; }
+    out->c[0] += v;
+    return 1;
+  }
+  nz_jet *j = nz_lua_tojet(L, idx);
+  if (!j) { *why = "returned something that is neither a number nor a jet"; return 0; }
+  if (j->order < out->order) {
+    *why = "returned a jet of lower order than its arguments (make constants numbers, not jets)";
+    return 0;
+  }
+  int K = out->order;
+  for (int d = -1; d < out->ntan && d < j->ntan; d++) {
+    const double *src = d < 0 ? j->c : nz_jet_tangent(j, d);
+    double *dst = d < 0 ? out->c : nz_jet_tangent(out, d);
+    for (int c = 0; c <= K; c++) {
+      if (!isfinite(src[c])) { *why = "returned a value that is not finite (NaN or inf)"; return 0; }
+      dst[c] += src[c];
+    }
+  }
+  return 1;
+}
+
+static void push_jet_copy(lua_State *L, const nz_jet *j)
+{
+  nz_jet *z = nz_lua_newjet(L, j->order, j->ntan);
+  nz_jet_copy(z, j);
+}
+
+static void push_jet_list(lua_State *L, nz_jet *const *v, int k)
+{
+  lua_createtable(L, k, 0);
+  for (int i = 0; i < k; i++) {
+    push_jet_copy(L, v[i]);
+    lua_rawseti(L, -2, i + 1);
+  }
+}
+
+static int lua_eval(void *vctx, nz_piece piece, const nz_jet *t, nz_jet *const *const *levels,
+                    int nlevels, nz_jet *const *out)
+{
+  lua_evaluator *ev = vctx;
+  lua_State *L = ev->L;
+  int top = lua_gettop(L), status = NZ_OK;
+  int nout = piece == NZ_PIECE_Q ? ev->k : 1;
+  const char *why = NULL;
+  luaL_checkstack(L, 16, "evaluating a system");
+  for (int o = 0; o < nout; o++) nz_jet_init(out[o], out[o]->order, out[o]->ntan);
+
+  /* Arguments, shared by every function of the piece: t, q[, qd], params. */
+  push_jet_copy(L, t);
+  int argbase = lua_gettop(L);
+  for (int lv = 0; lv < nlevels; lv++) push_jet_list(L, levels[lv], ev->k);
+  lua_getfield(L, ev->def, "params");
+  int nargs = nlevels + 2;
+
+  lua_getfield(L, ev->def, piece_fields[piece]);
+  int list = lua_gettop(L);
+  lua_Integer nf = luaL_len(L, list);
+  for (lua_Integer f = 1; f <= nf && status == NZ_OK; f++) {
+    lua_geti(L, list, f);
+    for (int a = 0; a < nargs; a++) lua_pushvalue(L, argbase + a);
+    if (lua_pcall(L, nargs, 1, 0) != LUA_OK) {
+      const char *msg = lua_tostring(L, -1);
+      if (msg && strstr(msg, "interrupted!")) ev->interrupted = 1;
+      lua_pushfstring(L, "raised an error: %s", msg ? msg : "(error object is not a string)");
+      record_failure(ev, piece, (int)f, t, levels, nlevels, lua_tostring(L, -1));
+      status = NZ_EFUNC;
+      break;
+    }
+    int res = lua_gettop(L);
+    if (piece == NZ_PIECE_Q) {
+      if (!lua_istable(L, res)) {
+        why = "must return a table of forces, one per coordinate";
+      } else if (luaL_len(L, res) != ev->k) {
+        lua_pushfstring(L, "returned %d forces for %d coordinates", (int)luaL_len(L, res), ev->k);
+        why = lua_tostring(L, -1);
+      } else {
+        for (int o = 0; o < nout && !why; o++) {
+          lua_geti(L, res, o + 1);
+          accumulate(L, -1, out[o], &why);
+          lua_pop(L, 1);
+        }
+      }
+    } else {
+      accumulate(L, res, out[0], &why);
+    }
+    if (why) {
+      record_failure(ev, piece, (int)f, t, levels, nlevels, why);
+      status = NZ_EFUNC;
+    }
+    lua_settop(L, list);
+  }
+  lua_settop(L, top);
+  return status;
+}
+
+/* ------------------------------------------------------------------ */
+/* Reading the system and the state                                     */
+
+typedef struct bound_system {
+  nz_system sys;
+  lua_evaluator ev;
+} bound_system;
+
+static void bind_system(lua_State *L, int def, bound_system *b)
+{
+  memset(b, 0, sizeof *b);
+  luaL_checktype(L, def, LUA_TTABLE);
+  lua_getfield(L, def, "k");
+  b->sys.k = (int)lua_tointeger(L, -1);
+  lua_pop(L, 1);
+  if (b->sys.k < 1) luaL_error(L, "internal: system definition without coordinates");
+  for (int p = 0; p < NZ_PIECE_COUNT; p++) {
+    if (lua_getfield(L, def, piece_fields[p]) == LUA_TTABLE && luaL_len(L, -1) > 0)
+      b->sys.has |= 1u << p;
+    lua_pop(L, 1);
+  }
+  b->ev.L = L;
+  b->ev.def = lua_absindex(L, def);
+  b->ev.k = b->sys.k;
+  b->sys.ev.eval = lua_eval;
+  b->sys.ev.ctx = &b->ev;
+}
+
+static const char *system_name(lua_State *L, int def)
+{
+  lua_getfield(L, def, "name");
+  const char *name = lua_tostring(L, -1);
+  lua_pop(L, 1);     /* the string stays alive in def */
+  return name ? name : "unnamed";
+}
+
+/* Read k numbers from the table at idx (nil gives zeros when allow_nil). */
+static void read_vector(lua_State *L, int idx, int k, double *v, const char *what, int allow_nil,
+                        const char *fname)
+{
+  if (allow_nil && lua_isnoneornil(L, idx)) {
+    memset(v, 0, (size_t)k * sizeof(double));
+    return;
+  }
+  if (!lua_istable(L, idx))
+    luaL_error(L, "bad argument to '%s' (%s: a table of %d numbers expected, got %s)", fname, what,
+               k, luaL_typename(L, idx));
+  if (luaL_len(L, idx) != k)
+    luaL_error(L, "bad argument to '%s' (%s: %d numbers expected, one per coordinate, got %d)",
+               fname, what, k, (int)luaL_len(L, idx));
+  for (int i = 0; i < k; i++) {
+    lua_geti(L, idx, i + 1);
+    int isnum;
+    v[i] = lua_tonumberx(L, -1, &isnum);
+    lua_pop(L, 1);
+    if (!isnum || !isfinite(v[i]))
+      luaL_error(L, "bad argument to '%s' (%s[%d] must be a finite number)", fname, what, i + 1);
+  }
+}
+
+static void push_vector(lua_State *L, const double *v, int k)
+{
+  lua_createtable(L, k, 0);
+  for (int i = 0; i < k; i++) {
+    lua_pushnumber(L, v[i]);
+    lua_rawseti(L, -2, i + 1);
+  }
+}
+
+static void push_matrix(lua_State *L, const double *M, int k)
+{
+  lua_createtable(L, k, 0);
+  for (int i = 0; i < k; i++) {
+    push_vector(L, M + (size_t)i * (size_t)k, k);
+    lua_rawseti(L, -2, i + 1);
+  }
+}
+
+/* Raise the error of a failed core call, with the system's name. */
+static int raise_core(lua_State *L, bound_system *b, int st, const char *fname)
+{
+  const char *name = system_name(L, b->ev.def);
+  if (b->ev.interrupted) return luaL_error(L, "interrupted!");
+  if (st == NZ_EFUNC) return luaL_error(L, "system '%s': %s", name, b->ev.message);
+  if (st == NZ_ENOMEM) return luaL_error(L, "system '%s': not enough memory in '%s'", name, fname);
+  return luaL_error(L, "system '%s': '%s' failed (status %d)", name, fname, st);
+}
+
+/* Arguments (def, ..., t, q, qd, qdd, higher) from `at` on: the state levels. */
+typedef struct state_buf {
+  double *data;
+  const double *levels[NZ_MAX_LEVELS];
+  int n;
+} state_buf;
+
+static void read_state(lua_State *L, int at, int k, state_buf *s, const char *fname)
+{
+  int extra = 0;
+  if (lua_istable(L, at + 3)) extra = (int)luaL_len(L, at + 3);
+  if (extra > NZ_MAX_LEVELS - 3) luaL_error(L, "bad argument to '%s' (too many higher derivatives)", fname);
+  s->n = 3 + extra;
+  s->data = lua_newuserdatauv(L, (size_t)s->n * (size_t)k * sizeof(double), 0);
+  static const char *const names[] = { "q", "qd", "qdd" };
+  for (int j = 0; j < 3; j++) {
+    s->levels[j] = s->data + (size_t)j * (size_t)k;
+    read_vector(L, at + j, k, (double *)s->levels[j], names[j], j == 2, fname);
+  }
+  for (int j = 0; j < extra; j++) {
+    lua_geti(L, at + 3, j + 1);
+    s->levels[3 + j] = s->data + (size_t)(3 + j) * (size_t)k;
+    read_vector(L, lua_gettop(L), k, (double *)s->levels[3 + j], "higher derivative", 0, fname);
+    lua_pop(L, 1);
+  }
+}
+
+static int check_order(lua_State *L, int idx, int lo, const char *fname)
+{
+  lua_Integer n = luaL_checkinteger(L, idx);
+  if (n < lo || n > NZ_MAX_EQ_ORDER)
+    return (int)luaL_error(L, "bad argument #1 to '%s' (order between %d and %d expected, got %I)",
+                           fname, lo, NZ_MAX_EQ_ORDER, (lua_Integer)n);
+  return (int)n;
+}
+
+/* ------------------------------------------------------------------ */
+/* Core functions                                                       */
+
+/* residual(def, form, n, t, q, qd, qdd, higher, want_terms) -> r [, terms] */
+static int ls_residual(lua_State *L)
+{
+  bound_system b;
+  bind_system(L, 1, &b);
+  int form = luaL_checkoption(L, 2, NULL, nz_form_names);
+  int n = check_order(L, 3, 1, "residual");
+  double t = luaL_checknumber(L, 4);
+  int k = b.sys.k, want_terms = lua_toboolean(L, 9);
+  state_buf s;
+  read_state(L, 5, k, &s, "residual");
+  double *buf = lua_newuserdatauv(L, 4 * (size_t)k * sizeof(double), 0);
+  nz_terms terms = { buf + k, buf + 2 * k, buf + 3 * k };
+  if (form == NZ_FORM_WASSMUTH && n < 2)
+    return luaL_error(L, "system '%s': Wassmuth's form needs n >= 2 (got %d)", system_name(L, 1), n);
+  if (form == NZ_FORM_WASSMUTH && !nz_system_has(&b.sys, NZ_PIECE_S))
+    return luaL_error(L, "system '%s': Wassmuth's form needs the acceleration energy S: build "
+                      "the system from particles (bodies = {...}) or give S", system_name(L, 1));
+  int st = nz_residual(&b.sys, form, n, t, s.levels, s.n, buf, want_terms ? &terms : NULL);
+  if (st) return raise_core(L, &b, st, "residual");
+  push_vector(L, buf, k);
+  if (!want_terms) return 1;
+  lua_createtable(L, 0, 3);
+  push_vector(L, terms.dFn, k);
+  lua_setfield(L, -2, "dFn");
+  push_vector(L, terms.dFq, k);
+  lua_setfield(L, -2, "dFq");
+  push_vector(L, terms.force, k);
+  lua_setfield(L, -2, "force");
+  return 2;
+}
+
+/* operator(def, which, m, t, q, qd, qdd, higher) with which in N, E, top,
+ * partial (the last accepts m = 0) */
+static int ls_operator(lua_State *L)
+{
+  static const char *const which_names[] = { "N", "E", "top", "partial", NULL };
+  bound_system b;
+  bind_system(L, 1, &b);
+  int which = luaL_checkoption(L, 2, NULL, which_names);
+  int m = check_order(L, 3, which == 3 ? 0 : 1, "operator");
+  double t = luaL_checknumber(L, 4);
+  int k = b.sys.k;
+  state_buf s;
+  read_state(L, 5, k, &s, "operator");
+  double *out = lua_newuserdatauv(L, (size_t)k * sizeof(double), 0);
+  int st = which == 0 ? nz_operator_N(&b.sys, m, t, s.levels, s.n, out)
+         : which == 1 ? nz_operator_E(&b.sys, m, t, s.levels, s.n, out)
+         : which == 2 ? nz_top_coefficient(&b.sys, m, t, s.levels, s.n, out)
+                      : nz_partial(&b.sys, m, t, s.levels, s.n, out);
+  if (st) return raise_core(L, &b, st, "operator");
+  push_vector(L, out, k);
+  return 1;
+}
+
+static void read_tq_qd(lua_State *L, int k, double *t, double *q, double *qd, const char *fname)
+{
+  *t = luaL_checknumber(L, 2);
+  read_vector(L, 3, k, q, "q", 0, fname);
+  read_vector(L, 4, k, qd, "qd", 1, fname);
+}
+
+/* mass_bias(def, t, q, qd) -> M, h */
+static int ls_mass_bias(lua_State *L)
+{
+  bound_system b;
+  bind_system(L, 1, &b);
+  int k = b.sys.k;
+  double t, *buf = lua_newuserdatauv(L, ((size_t)k * (size_t)k + 3 * (size_t)k) * sizeof(double), 0);
+  double *q = buf, *qd = buf + k, *h = buf + 2 * k, *M = buf + 3 * k;
+  read_tq_qd(L, k, &t, q, qd, "mass");
+  int st = nz_mass_bias(&b.sys, t, q, qd, M, h);
+  if (st) return raise_core(L, &b, st, "mass");
+  push_matrix(L, M, k);
+  push_vector(L, h, k);
+  return 2;
+}
+
+static void append_numbers(luaL_Buffer *b, const double *v, int k)
+{
+  char num[40];
+  luaL_addchar(b, '{');
+  for (int i = 0; i < k; i++) {
+    fmt_num(num, sizeof num, v[i]);
+    if (i) luaL_addstring(b, ", ");
+    luaL_addstring(b, num);
+  }
+  luaL_addchar(b, '}');
+}
+
+/* accel(def, t, q, qd [, rcond_min]) -> qdd: solves M qdd = -h by Cholesky. */
+static int ls_accel(lua_State *L)
+{
+  bound_system b;
+  bind_system(L, 1, &b);
+  int k = b.sys.k;
+  double rcond_min = luaL_optnumber(L, 5, NZ_RCOND_MIN);
+  double t, *buf = lua_newuserdatauv(L, ((size_t)k * (size_t)k + 5 * (size_t)k) * sizeof(double), 0);
+  double *q = buf, *qd = buf + k, *h = buf + 2 * k, *rhs = buf + 3 * k, *qdd = buf + 4 * k,
+         *M = buf + 5 * k;
+  read_tq_qd(L, k, &t, q, qd, "accel");
+  int st = nz_mass_bias(&b.sys, t, q, qd, M, h);
+  if (st) return raise_core(L, &b, st, "accel");
+  for (int i = 0; i < k; i++) rhs[i] = -h[i];
+  nz_solve_info info;
+  st = nz_solve_spd(k, M, rhs, qdd, rcond_min, &info);
+  if (st == NZ_ESINGULAR) {
+    luaL_Buffer msg;
+    char num[64];
+    luaL_buffinit(L, &msg);
+    lua_pushfstring(L, "system '%s': the mass matrix M = d2T/dqd2 is %s at t = ", system_name(L, 1),
+                    info.not_spd ? "not positive definite" : "singular or badly conditioned");
+    luaL_addvalue(&msg);
+    fmt_num(num, sizeof num, t);
+    luaL_addstring(&msg, num);
+    luaL_addstring(&msg, ", q = ");
+    append_numbers(&msg, q, k);
+    luaL_addstring(&msg, ", qd = ");
+    append_numbers(&msg, qd, k);
+    snprintf(num, sizeof num, " (eigenvalues from %.3g to %.3g", info.eig_min, info.eig_max);
+    luaL_addstring(&msg, num);
+    if (info.eig_min > 0) {
+      snprintf(num, sizeof num, ", condition number %.3g", info.eig_max / info.eig_min);
+      luaL_addstring(&msg, num);
+    }
+    luaL_addstring(&msg, "): check T, or move away from this configuration");
+    luaL_pushresult(&msg);
+    return lua_error(L);
+  }
+  if (st) return raise_core(L, &b, st, "accel");
+  push_vector(L, qdd, k);
+  return 1;
+}
+
+/* energy(def, t, q, qd) -> T (nil without T), V, F, H */
+static int ls_energy(lua_State *L)
+{
+  bound_system b;
+  bind_system(L, 1, &b);
+  int k = b.sys.k;
+  double t, T, V, F, H, *buf = lua_newuserdatauv(L, 2 * (size_t)k * sizeof(double), 0);
+  read_tq_qd(L, k, &t, buf, buf + k, "energy");
+  int st = nz_energy(&b.sys, t, buf, buf + k, &T, &V, &F, &H);
+  if (st) return raise_core(L, &b, st, "energy");
+  if (isnan(T)) lua_pushnil(L);
+  else lua_pushnumber(L, T);
+  lua_pushnumber(L, V);
+  lua_pushnumber(L, F);
+  lua_pushnumber(L, H);
+  return 4;
+}
+
+/* jet:derivative() lives with the jets; the forms' names are data. */
+static int ls_forms(lua_State *L)
+{
+  lua_createtable(L, NZ_FORM_COUNT, 0);
+  for (int f = 0; f < NZ_FORM_COUNT; f++) {
+    lua_pushstring(L, nz_form_names[f]);
+    lua_rawseti(L, -2, f + 1);
+  }
+  return 1;
+}
+
+static const luaL_Reg system_functions[] = {
+  { "residual", ls_residual }, { "operator", ls_operator }, { "mass_bias", ls_mass_bias },
+  { "accel", ls_accel }, { "energy", ls_energy }, { "forms", ls_forms }, { NULL, NULL }
+};
+
+void nz_lua_open_system(lua_State *L)
+{
+  lua_newtable(L);
+  luaL_setfuncs(L, system_functions, 0);
+  lua_pushinteger(L, NZ_MAX_EQ_ORDER);
+  lua_setfield(L, -2, "max_order");
+  lua_pushnumber(L, NZ_RCOND_MIN);
+  lua_setfield(L, -2, "rcond_min");
+  lua_setfield(L, -2, "mech");
+}

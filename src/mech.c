@@ -1,0 +1,422 @@
+/* mech.c - residuals of the generalized equations (see mech.h).
+ *
+ * Every form is a combination of a few primitives, each one evaluation of a
+ * piece on jets with tangent seeds placed as THEORY.md §3 says:
+ *   top_partials(m)   dF^(m)/dq^(m) (and dF^(m-1)/dq^(m-1)): order m jets,
+ *                     seeds on q^(m), which moves a_{i,m} by 1/m! and
+ *                     b_{i,m-1} by 1/(m-1)! (the same number in both series);
+ *                     m = 0 gives dF/dq;
+ *   velocity_rate     d/dt(dF/dq'): order 1 jets, the velocity slot seeded
+ *                     as a whole, so the tangent series is dF/dq' along the
+ *                     motion and its coefficient 1 is the time derivative;
+ *   frozen_partial(n) dF_0^(n)/dq^(n) with the velocity slot held constant (§4);
+ *   generalized_force Q - dV/dq at the state.
+ * Coefficients stay normalized; n! multiplies only the final coefficient. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include "mech.h"
+
+const char *const nz_form_names[NZ_FORM_COUNT] = {
+  "generalized", "lagrange", "difference", "euler", "appell", "extremal", "wassmuth"
+};
+
+static double factorial(int n)
+{
+  double f = 1.0;
+  for (int i = 2; i <= n; i++) f *= i;
+  return f;
+}
+
+/* ------------------------------------------------------------------ */
+/* Jets of a motion                                                     */
+
+typedef struct motion {
+  int k, K, D;
+  nz_jet *t;
+  nz_jet **q, **qd;      /* slots of level 0 and 1 */
+  nz_jet **out;          /* k output jets          */
+} motion;
+
+static void jets_free(nz_jet **v, int k)
+{
+  if (!v) return;
+  for (int i = 0; i < k; i++) nz_jet_free(v[i]);
+  free(v);
+}
+
+static nz_jet **jets_alloc(int k, int K, int D)
+{
+  nz_jet **v = calloc((size_t)k, sizeof *v);
+  if (!v) return NULL;
+  for (int i = 0; i < k; i++)
+    if (!(v[i] = nz_jet_alloc(K, D))) { jets_free(v, k); return NULL; }
+  return v;
+}
+
+static void motion_free(motion *m)
+{
+  nz_jet_free(m->t);
+  jets_free(m->q, m->k);
+  jets_free(m->qd, m->k);
+  jets_free(m->out, m->k);
+  memset(m, 0, sizeof *m);
+}
+
+static double level_value(const double *const *state, int nstate, int j, int i)
+{
+  return j < nstate && state[j] ? state[j][i] : 0.0;
+}
+
+/* Jets of order K with D directions along the motion given by state:
+ * a_{i,j} = q_i^(j)/j!, b_{i,j} = q_i^(j+1)/j!, t = t0 + (t - t0). */
+static int motion_init(motion *m, int k, int K, int D, double t, const double *const *state,
+                       int nstate)
+{
+  memset(m, 0, sizeof *m);
+  m->k = k;
+  m->K = K;
+  m->D = D;
+  m->t = nz_jet_alloc(K, 0);
+  m->q = jets_alloc(k, K, D);
+  m->qd = jets_alloc(k, K, D);
+  m->out = jets_alloc(k, K, D);
+  if (!m->t || !m->q || !m->qd || !m->out) { motion_free(m); return NZ_ENOMEM; }
+  nz_jet_set_variable(m->t, t, -1);
+  for (int i = 0; i < k; i++) {
+    double inv = 1.0;
+    for (int j = 0; j <= K; j++) {
+      if (j > 0) inv /= j;
+      m->q[i]->c[j] = level_value(state, nstate, j, i) * inv;
+      m->qd[i]->c[j] = level_value(state, nstate, j + 1, i) * inv;
+    }
+  }
+  return NZ_OK;
+}
+
+/* Seed direction d on q_i^(level): THEORY.md §3. */
+static void seed_level(motion *m, int i, int d, int level)
+{
+  if (level <= m->K) nz_jet_tangent(m->q[i], d)[level] += 1.0 / factorial(level);
+  if (level >= 1 && level - 1 <= m->K) nz_jet_tangent(m->qd[i], d)[level - 1] += 1.0 / factorial(level - 1);
+}
+
+/* Seed direction d on the velocity slot of q_i as a whole. */
+static void seed_velocity_slot(motion *m, int i, int d) { nz_jet_tangent(m->qd[i], d)[0] += 1.0; }
+
+/* Evaluate a piece on the motion's jets; qd, if given, replaces the velocity
+ * slot (the frozen velocities of §4).  V and S receive the q slot only. */
+static int eval_piece(const nz_system *s, nz_piece p, motion *m, nz_jet **qd, int nout)
+{
+  nz_jet *const *levels[2] = { m->q, qd ? qd : m->qd };
+  int nlevels = (p == NZ_PIECE_V || p == NZ_PIECE_S) ? 1 : 2;
+  (void)nout;
+  return s->ev.eval(s->ev.ctx, p, m->t, levels, nlevels, m->out);
+}
+
+/* ------------------------------------------------------------------ */
+/* Primitives                                                           */
+
+/* dF^(m)/dq^(m) into top (k values) and, if below != NULL,
+ * dF^(m-1)/dq^(m-1) into below (m >= 1), from one evaluation. */
+static int top_partials(const nz_system *s, nz_piece p, int m, double t,
+                        const double *const *state, int nstate, double *top, double *below)
+{
+  motion mo;
+  int k = s->k, D = below ? 2 * k : k;
+  int st = motion_init(&mo, k, m, D, t, state, nstate);
+  if (st) return st;
+  for (int i = 0; i < k; i++) {
+    seed_level(&mo, i, i, m);
+    if (below) seed_level(&mo, i, k + i, m - 1);
+  }
+  st = eval_piece(s, p, &mo, NULL, 1);
+  if (!st) {
+    double fm = factorial(m), fm1 = m >= 1 ? factorial(m - 1) : 1.0;
+    for (int i = 0; i < k; i++) {
+      top[i] = fm * nz_jet_tangent(mo.out[0], i)[m];
+      if (below) below[i] = fm1 * nz_jet_tangent(mo.out[0], k + i)[m - 1];
+    }
+  }
+  motion_free(&mo);
+  return st;
+}
+
+/* d/dt (dF/dq'_i) at t0. */
+static int velocity_rate(const nz_system *s, double t, const double *const *state, int nstate,
+                         double *out)
+{
+  motion mo;
+  int k = s->k;
+  int st = motion_init(&mo, k, 1, k, t, state, nstate);
+  if (st) return st;
+  for (int i = 0; i < k; i++) seed_velocity_slot(&mo, i, i);
+  st = eval_piece(s, NZ_PIECE_F, &mo, NULL, 1);
+  if (!st)
+    for (int i = 0; i < k; i++) out[i] = nz_jet_tangent(mo.out[0], i)[1];
+  motion_free(&mo);
+  return st;
+}
+
+/* dF_0^(n)/dq^(n): the velocity slot is the constant q'(t0) (§4). */
+static int frozen_partial(const nz_system *s, int n, double t, const double *const *state,
+                          int nstate, double *out)
+{
+  motion mo;
+  int k = s->k;
+  int st = motion_init(&mo, k, n, k, t, state, nstate);
+  if (st) return st;
+  nz_jet **frozen = jets_alloc(k, n, 0);
+  if (!frozen) { motion_free(&mo); return NZ_ENOMEM; }
+  for (int i = 0; i < k; i++) {
+    frozen[i]->c[0] = mo.qd[i]->c[0];
+    seed_level(&mo, i, i, n);
+  }
+  st = eval_piece(s, NZ_PIECE_F, &mo, frozen, 1);
+  if (!st) {
+    double fn = factorial(n);
+    for (int i = 0; i < k; i++) out[i] = fn * nz_jet_tangent(mo.out[0], i)[n];
+  }
+  jets_free(frozen, k);
+  motion_free(&mo);
+  return st;
+}
+
+/* Q - dV/dq at the state (each piece only if present). */
+static int generalized_force(const nz_system *s, double t, const double *const *state, int nstate,
+                             double *force)
+{
+  int k = s->k, st = NZ_OK;
+  memset(force, 0, (size_t)k * sizeof(double));
+  if (nz_system_has(s, NZ_PIECE_Q)) {
+    motion mo;
+    if ((st = motion_init(&mo, k, 0, 0, t, state, nstate))) return st;
+    st = eval_piece(s, NZ_PIECE_Q, &mo, NULL, k);
+    if (!st)
+      for (int i = 0; i < k; i++) force[i] = mo.out[i]->c[0];
+    motion_free(&mo);
+    if (st) return st;
+  }
+  if (nz_system_has(s, NZ_PIECE_V)) {
+    double *dV = malloc((size_t)k * sizeof(double));
+    if (!dV) return NZ_ENOMEM;
+    st = top_partials(s, NZ_PIECE_V, 0, t, state, nstate, dV, NULL);
+    if (!st)
+      for (int i = 0; i < k; i++) force[i] -= dV[i];
+    free(dV);
+  }
+  return st;
+}
+
+/* sum_j q_j^(n) dQ_j/dq_i^(n): the part of dK_n/dq^(n) that the forces'
+ * dependence on q^(n) adds (nonzero for n = 1 with velocity-dependent Q). */
+static int force_rate_term(const nz_system *s, int n, double t, const double *const *state,
+                           int nstate, double *out)
+{
+  int k = s->k;
+  memset(out, 0, (size_t)k * sizeof(double));
+  if (!nz_system_has(s, NZ_PIECE_Q)) return NZ_OK;
+  motion mo;
+  int st = motion_init(&mo, k, n, k, t, state, nstate);
+  if (st) return st;
+  for (int i = 0; i < k; i++) seed_level(&mo, i, i, n);
+  st = eval_piece(s, NZ_PIECE_Q, &mo, NULL, k);
+  if (!st)
+    for (int i = 0; i < k; i++)
+      for (int j = 0; j < k; j++)
+        out[i] += level_value(state, nstate, n, j) * nz_jet_tangent(mo.out[j], i)[0];
+  motion_free(&mo);
+  return st;
+}
+
+/* dS^(n-2)/dq^(n): S receives the q series (Wassmuth, §4). */
+static int acceleration_energy_partial(const nz_system *s, int n, double t,
+                                       const double *const *state, int nstate, double *out)
+{
+  motion mo;
+  int k = s->k;
+  int st = motion_init(&mo, k, n, k, t, state, nstate);
+  if (st) return st;
+  /* S is built from r'', two orders below the q series. */
+  nz_jet_free(mo.out[0]);
+  if (!(mo.out[0] = nz_jet_alloc(n - 2, k))) { motion_free(&mo); return NZ_ENOMEM; }
+  for (int i = 0; i < k; i++) seed_level(&mo, i, i, n);
+  st = eval_piece(s, NZ_PIECE_S, &mo, NULL, 1);
+  if (!st) {
+    double f = factorial(n - 2);
+    for (int i = 0; i < k; i++) out[i] = f * nz_jet_tangent(mo.out[0], i)[n - 2];
+  }
+  motion_free(&mo);
+  return st;
+}
+
+/* ------------------------------------------------------------------ */
+/* Forms                                                                */
+
+int nz_residual(const nz_system *s, nz_form form, int n, double t, const double *const *state,
+                int nstate, double *r, nz_terms *terms)
+{
+  int k = s->k, st;
+  if (n < 1 || n > NZ_MAX_EQ_ORDER) return NZ_EARG;
+  if (form == NZ_FORM_WASSMUTH && (n < 2 || !nz_system_has(s, NZ_PIECE_S))) return NZ_EARG;
+  double *a = calloc((size_t)(4 * k), sizeof(double));
+  if (!a) return NZ_ENOMEM;
+  double *force = a, *x = a + k, *y = a + 2 * k, *z = a + 3 * k;
+  int hasF = nz_system_has(s, NZ_PIECE_F);
+
+  st = generalized_force(s, t, state, nstate, force);
+  if (st) goto done;
+  switch (form) {
+  case NZ_FORM_GENERALIZED:   /* x = dF^(n)/dq^(n), y = dF/dq */
+    if (hasF && ((st = top_partials(s, NZ_PIECE_F, n, t, state, nstate, x, NULL)) ||
+                 (st = top_partials(s, NZ_PIECE_F, 0, t, state, nstate, y, NULL)))) goto done;
+    for (int i = 0; i < k; i++) r[i] = (x[i] - (n + 1) * y[i]) / n - force[i];
+    if (terms) {
+      if (terms->dFn) memcpy(terms->dFn, x, (size_t)k * sizeof(double));
+      if (terms->dFq) memcpy(terms->dFq, y, (size_t)k * sizeof(double));
+    }
+    break;
+  case NZ_FORM_LAGRANGE:      /* x = d/dt dF/dq', y = dF/dq */
+    if (hasF && ((st = velocity_rate(s, t, state, nstate, x)) ||
+                 (st = top_partials(s, NZ_PIECE_F, 0, t, state, nstate, y, NULL)))) goto done;
+    for (int i = 0; i < k; i++) r[i] = x[i] - y[i] - force[i];
+    break;
+  case NZ_FORM_DIFFERENCE:    /* x = dF^(n)/dq^(n), y = dF^(n-1)/dq^(n-1) */
+    if (hasF && (st = top_partials(s, NZ_PIECE_F, n, t, state, nstate, x, y))) goto done;
+    for (int i = 0; i < k; i++) r[i] = n * x[i] - (n + 1) * y[i] - force[i];
+    break;
+  case NZ_FORM_EULER:         /* x = d/dt dF^(n-1)/dq^(n) = d/dt dF/dq', y = dF^(n-1)/dq^(n-1) */
+    if (hasF && ((st = velocity_rate(s, t, state, nstate, x)) ||
+                 (st = top_partials(s, NZ_PIECE_F, n - 1, t, state, nstate, y, NULL)))) goto done;
+    for (int i = 0; i < k; i++) r[i] = n * x[i] - y[i] - force[i];
+    break;
+  case NZ_FORM_APPELL:
+  case NZ_FORM_EXTREMAL:      /* x = dF^(n)/dq^(n), y = dF_0^(n)/dq^(n) */
+    if (hasF && ((st = top_partials(s, NZ_PIECE_F, n, t, state, nstate, x, NULL)) ||
+                 (st = frozen_partial(s, n, t, state, nstate, y)))) goto done;
+    if (form == NZ_FORM_EXTREMAL && (st = force_rate_term(s, n, t, state, nstate, z))) goto done;
+    for (int i = 0; i < k; i++) r[i] = (x[i] - (n + 1) * y[i]) / n - force[i] - z[i];
+    break;
+  case NZ_FORM_WASSMUTH:
+    if ((st = acceleration_energy_partial(s, n, t, state, nstate, x))) goto done;
+    for (int i = 0; i < k; i++) r[i] = x[i] - force[i];
+    break;
+  default:
+    st = NZ_EARG;
+  }
+  if (terms && terms->force) memcpy(terms->force, force, (size_t)k * sizeof(double));
+done:
+  free(a);
+  return st;
+}
+
+int nz_operator_N(const nz_system *s, int m, double t, const double *const *state, int nstate,
+                  double *out)
+{
+  int k = s->k;
+  double *below = malloc((size_t)k * sizeof(double));
+  if (!below) return NZ_ENOMEM;
+  int st = top_partials(s, NZ_PIECE_F, m, t, state, nstate, out, below);
+  if (!st)
+    for (int i = 0; i < k; i++) out[i] -= 2.0 * below[i];
+  free(below);
+  return st;
+}
+
+int nz_operator_E(const nz_system *s, int m, double t, const double *const *state, int nstate,
+                  double *out)
+{
+  int k = s->k;
+  double *below = malloc((size_t)k * sizeof(double));
+  if (!below) return NZ_ENOMEM;
+  int st = velocity_rate(s, t, state, nstate, out);
+  if (!st) st = top_partials(s, NZ_PIECE_F, m - 1, t, state, nstate, below, NULL);
+  if (!st)
+    for (int i = 0; i < k; i++) out[i] -= below[i];
+  free(below);
+  return st;
+}
+
+int nz_partial(const nz_system *s, int m, double t, const double *const *state, int nstate,
+               double *out)
+{
+  return top_partials(s, NZ_PIECE_F, m, t, state, nstate, out, NULL);
+}
+
+int nz_top_coefficient(const nz_system *s, int m, double t, const double *const *state,
+                       int nstate, double *out)
+{
+  motion mo;
+  int k = s->k;
+  int st = motion_init(&mo, k, m - 1, k, t, state, nstate);
+  if (st) return st;
+  for (int i = 0; i < k; i++) seed_level(&mo, i, i, m);   /* touches b_{i,m-1} only */
+  st = eval_piece(s, NZ_PIECE_F, &mo, NULL, 1);
+  if (!st) {
+    double f = factorial(m - 1);
+    for (int i = 0; i < k; i++) out[i] = f * nz_jet_tangent(mo.out[0], i)[m - 1];
+  }
+  motion_free(&mo);
+  return st;
+}
+
+/* Nielsen's form (n = 1) is affine in q'': h = r(0), M e_j = r(e_j) - r(0)
+ * (THEORY.md §11).  dF/dq and the force are computed once. */
+int nz_mass_bias(const nz_system *s, double t, const double *q, const double *qd, double *M,
+                 double *h)
+{
+  int k = s->k, st;
+  double *buf = calloc((size_t)(5 * k), sizeof(double));
+  if (!buf) return NZ_ENOMEM;
+  double *force = buf, *dFq = buf + k, *dF1 = buf + 2 * k, *qdd = buf + 3 * k, *r0 = buf + 4 * k;
+  const double *state[3] = { q, qd, qdd };
+  memset(M, 0, (size_t)k * (size_t)k * sizeof(double));
+  if ((st = generalized_force(s, t, state, 3, force))) goto done;
+  if (nz_system_has(s, NZ_PIECE_F)) {
+    if ((st = top_partials(s, NZ_PIECE_F, 0, t, state, 3, dFq, NULL))) goto done;
+    if ((st = top_partials(s, NZ_PIECE_F, 1, t, state, 3, dF1, NULL))) goto done;
+  }
+  for (int i = 0; i < k; i++) h[i] = r0[i] = dF1[i] - 2.0 * dFq[i] - force[i];
+  if (nz_system_has(s, NZ_PIECE_F))
+    for (int j = 0; j < k; j++) {
+      qdd[j] = 1.0;
+      st = top_partials(s, NZ_PIECE_F, 1, t, state, 3, dF1, NULL);
+      qdd[j] = 0.0;
+      if (st) goto done;
+      for (int i = 0; i < k; i++) M[i * k + j] = (dF1[i] - 2.0 * dFq[i] - force[i]) - r0[i];
+    }
+done:
+  free(buf);
+  return st;
+}
+
+int nz_energy(const nz_system *s, double t, const double *q, const double *qd, double *T,
+              double *V, double *F, double *H)
+{
+  int k = s->k, st = NZ_OK;
+  const double *state[2] = { q, qd };
+  motion mo;
+  *T = NAN;
+  *V = 0.0;
+  *F = 0.0;
+  *H = 0.0;
+  if ((st = motion_init(&mo, k, 0, k, t, state, 2))) return st;
+  if (nz_system_has(s, NZ_PIECE_T)) {
+    if ((st = eval_piece(s, NZ_PIECE_T, &mo, NULL, 1))) goto done;
+    *T = mo.out[0]->c[0];
+  }
+  if (nz_system_has(s, NZ_PIECE_V)) {
+    if ((st = eval_piece(s, NZ_PIECE_V, &mo, NULL, 1))) goto done;
+    *V = mo.out[0]->c[0];
+  }
+  if (nz_system_has(s, NZ_PIECE_F)) {
+    for (int i = 0; i < k; i++) seed_velocity_slot(&mo, i, i);
+    if ((st = eval_piece(s, NZ_PIECE_F, &mo, NULL, 1))) goto done;
+    *F = mo.out[0]->c[0];
+    for (int i = 0; i < k; i++) *H += qd[i] * nz_jet_tangent(mo.out[0], i)[0];
+  }
+  *H += *V - *F;    /* H = sum q' dL/dq' - L, L = F - V */
+done:
+  motion_free(&mo);
+  return st;
+}

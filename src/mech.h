@@ -1,0 +1,106 @@
+/* mech.h - generalized equations of motion of any order (THEORY.md §2-§5, §11).
+ *
+ * Plain C: the mechanics reaches the user's functions only through the
+ * evaluator below ("evaluate this piece on these jets"), so that a faster
+ * evaluator (an expression graph recorded once and run in C) can replace the
+ * Lua callbacks without touching this module.
+ *
+ * Notation: k coordinates; the state is given as derivative levels,
+ * state[j][i] = q_i^(j) (state[0] = q, state[1] = q', state[2] = q'', ...).
+ * A jet of q_i of order K holds a_{i,j} = q_i^(j)/j!; the jet of the velocity
+ * slot holds b_{i,j} = q_i^(j+1)/j! (THEORY.md §3).  The function F is the
+ * kinetic part, T plus any general Lagrangian pieces; V enters every form
+ * through its gradient only, and Q is the non-potential force. */
+#ifndef NZ_MECH_H
+#define NZ_MECH_H
+
+#include "jet.h"
+
+#define NZ_MAX_EQ_ORDER 100     /* highest n of (3.1); n! must stay finite */
+#define NZ_MAX_LEVELS (NZ_MAX_EQ_ORDER + 2)
+
+/* Statuses beyond jet.h's */
+#define NZ_EFUNC 100   /* a user function failed; the evaluator holds the message */
+#define NZ_EARG 101    /* a request the system cannot answer (e.g. no S for Wassmuth) */
+#define NZ_ESINGULAR 102   /* singular or ill-conditioned matrix */
+
+typedef enum nz_piece {
+  NZ_PIECE_F,     /* F(t, q, q'): T and Lagrangian pieces, one output          */
+  NZ_PIECE_T,     /* T alone (energy), one output                               */
+  NZ_PIECE_V,     /* V(t, q), one output                                        */
+  NZ_PIECE_Q,     /* Q(t, q, q'), k outputs                                     */
+  NZ_PIECE_S,     /* S along the motion: receives the q series, one output      */
+  NZ_PIECE_COUNT
+} nz_piece;
+
+typedef struct nz_evaluator {
+  /* Evaluate `piece` at the jets t and levels[0..nlevels-1] (levels[j][i] is
+   * the series of the j-th derivative slot of q_i), adding nothing and
+   * writing the outputs into out[0..] (1 jet, or k for NZ_PIECE_Q), whose
+   * shape the caller set.  Returns NZ_OK, or NZ_EFUNC with the message kept
+   * by the evaluator. */
+  int (*eval)(void *ctx, nz_piece piece, const nz_jet *t, nz_jet *const *const *levels,
+              int nlevels, nz_jet *const *out);
+  void *ctx;
+} nz_evaluator;
+
+typedef struct nz_system {
+  int k;
+  unsigned has;              /* bit (1u << piece) set when the piece exists */
+  nz_evaluator ev;
+} nz_system;
+
+static inline int nz_system_has(const nz_system *s, nz_piece p) { return (s->has >> p) & 1u; }
+
+/* The forms of the equations; all give the same residual (THEORY.md). */
+typedef enum nz_form {
+  NZ_FORM_GENERALIZED,  /* (3.1)  (1/n)(dF^(n)/dq^(n) - (n+1) dF/dq)            */
+  NZ_FORM_LAGRANGE,     /*        d/dt dF/dq' - dF/dq                          */
+  NZ_FORM_DIFFERENCE,   /* (3.2)  n dF^(n)/dq^(n) - (n+1) dF^(n-1)/dq^(n-1)      */
+  NZ_FORM_EULER,        /* (3.3)  n d/dt(dF^(n-1)/dq^(n)) - dF^(n-1)/dq^(n-1)   */
+  NZ_FORM_APPELL,       /* (4.2)  dR_n/dq^(n), R_n = (F^(n) - (n+1) F_0^(n))/n  */
+  NZ_FORM_EXTREMAL,     /* (4.3)  dK_n/dq^(n), K_n = R_n - sum Q q^(n)          */
+  NZ_FORM_WASSMUTH,     /* Wassmuth: dS^(n-2)/dq^(n), particles only, n >= 2   */
+  NZ_FORM_COUNT
+} nz_form;
+
+extern const char *const nz_form_names[NZ_FORM_COUNT];
+
+/* Terms of (3.1) for printing, each k values (any pointer may be NULL). */
+typedef struct nz_terms {
+  double *dFn;     /* dF^(n)/dq^(n)                         */
+  double *dFq;     /* dF/dq                                 */
+  double *force;   /* Q - dV/dq: the whole generalized force */
+} nz_terms;
+
+/* Residual of order n of the chosen form: r = lhs - (Q - dV/dq), k values.
+ * state has nstate levels (at least 3: q, q', q''); levels the jets need
+ * beyond those are taken as 0 (the result does not depend on them). */
+int nz_residual(const nz_system *s, nz_form form, int n, double t, const double *const *state,
+                int nstate, double *r, nz_terms *terms);
+
+/* The operators of §5 on F:  N^m = dF^(m)/dq^(m) - 2 dF^(m-1)/dq^(m-1) and
+ * E^m = d/dt(dF^(m-1)/dq^(m)) - dF^(m-1)/dq^(m-1), k values each. */
+int nz_operator_N(const nz_system *s, int m, double t, const double *const *state, int nstate,
+                  double *out);
+int nz_operator_E(const nz_system *s, int m, double t, const double *const *state, int nstate,
+                  double *out);
+/* dF^(m)/dq^(m) (m >= 0; m = 0 gives dF/dq), by seeding q^(m) (§3). */
+int nz_partial(const nz_system *s, int m, double t, const double *const *state, int nstate,
+               double *out);
+/* dF^(m-1)/dq^(m) at t0, computed by seeding q^(m) (the coefficient of the top
+ * derivative of F^(m-1): THEORY.md §3 says it is dF/dq'). */
+int nz_top_coefficient(const nz_system *s, int m, double t, const double *const *state,
+                       int nstate, double *out);
+
+/* M and h of M q'' + h = 0, where h = r(q'' = 0) includes -Q + dV/dq
+ * (THEORY.md §11): M is k x k row-major. */
+int nz_mass_bias(const nz_system *s, double t, const double *q, const double *qd, double *M,
+                 double *h);
+
+/* Energies: T (NaN when there is no T piece), V (0 without V), F, and the
+ * generalized energy H = sum q' dL/dq' - L with L = F - V. */
+int nz_energy(const nz_system *s, double t, const double *q, const double *qd, double *T,
+              double *V, double *F, double *H);
+
+#endif
