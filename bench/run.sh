@@ -4,3 +4,5 @@ cd "$(dirname "$0")/.." || exit 1
 build/bench_jet
 echo
 build/nzlua bench/jet_lua.lua
+echo
+build/nzlua bench/mech.lua

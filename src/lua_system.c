@@ -430,6 +430,8 @@ static int ls_accel(lua_State *L)
     if (info.eig_min > 0) {
       snprintf(num, sizeof num, ", condition number %.3g", info.eig_max / info.eig_min);
       luaL_addstring(&msg, num);
+    } else {
+      luaL_addstring(&msg, ", condition number infinite");
     }
     luaL_addstring(&msg, "): check T, or move away from this configuration");
     luaL_pushresult(&msg);
