@@ -75,6 +75,13 @@ describe("nzlua script runner", function()
     assert.are.equal(1, code)
     assert.truthy(err:find("interrupted!", 1, true), err)
   end)
+  it("SIGINT inside a user function called by the C mechanics stops cleanly", function()
+    local code, _, err = h.run("timeout --foreground --preserve-status -s INT 1 " .. nzlua ..
+      [[ -e 'local s = nz.system{coords = {"x"}, T = function(t, q, v) while true do end end}; s:accel(0, {0}, {0})']])
+    assert.are.equal(1, code)
+    assert.truthy(err:find("interrupted!", 1, true), err)
+    assert.falsy(err:find("raised an error", 1, true), err)
+  end)
 end)
 
 describe("the nz module from plain Lua", function()
