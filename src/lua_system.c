@@ -18,7 +18,7 @@
 #include "lua_system.h"
 #include "mech.h"
 
-static const char *const piece_fields[NZ_PIECE_COUNT] = { "F", "T", "V", "Q", "S" };
+static const char *const piece_fields[NZ_PIECE_COUNT] = { "F", "T", "V", "Q", "S", "constraints" };
 
 typedef struct lua_evaluator {
   lua_State *L;
@@ -120,8 +120,8 @@ static void push_jet_list(lua_State *L, nz_jet *const *v, int k)
   }
 }
 
-static int lua_eval(void *vctx, nz_piece piece, const nz_jet *t, nz_jet *const *const *levels,
-                    int nlevels, nz_jet *const *out)
+static int lua_eval(void *vctx, nz_piece piece, int index, const nz_jet *t,
+                    nz_jet *const *const *levels, int nlevels, nz_jet *const *out)
 {
   lua_evaluator *ev = vctx;
   lua_State *L = ev->L;
@@ -140,8 +140,9 @@ static int lua_eval(void *vctx, nz_piece piece, const nz_jet *t, nz_jet *const *
 
   lua_getfield(L, ev->def, piece_fields[piece]);
   int list = lua_gettop(L);
-  lua_Integer nf = luaL_len(L, list);
-  for (lua_Integer f = 1; f <= nf && status == NZ_OK; f++) {
+  lua_Integer first = 1, nf = luaL_len(L, list);
+  if (piece == NZ_PIECE_PHI) first = nf = index + 1;    /* one constraint */
+  for (lua_Integer f = first; f <= nf && status == NZ_OK; f++) {
     lua_geti(L, list, f);
     for (int a = 0; a < nargs; a++) lua_pushvalue(L, argbase + a);
     if (lua_pcall(L, nargs, 1, 0) != LUA_OK) {

@@ -21,7 +21,7 @@ const char *const nz_form_names[NZ_FORM_COUNT] = {
   "generalized", "lagrange", "difference", "euler", "appell", "extremal", "wassmuth"
 };
 
-static double factorial(int n)
+double nz_factorial(int n)
 {
   double f = 1.0;
   for (int i = 2; i <= n; i++) f *= i;
@@ -29,37 +29,29 @@ static double factorial(int n)
 }
 
 /* ------------------------------------------------------------------ */
-/* Jets of a motion                                                     */
+/* Jets of a motion (mech.h)                                            */
 
-typedef struct motion {
-  int k, K, D;
-  nz_jet *t;
-  nz_jet **q, **qd;      /* slots of level 0 and 1 */
-  nz_jet **out;          /* k output jets          */
-} motion;
-
-static void jets_free(nz_jet **v, int k)
+void nz_jets_free(nz_jet **v, int k)
 {
   if (!v) return;
   for (int i = 0; i < k; i++) nz_jet_free(v[i]);
   free(v);
 }
 
-static nz_jet **jets_alloc(int k, int K, int D)
+nz_jet **nz_jets_alloc(int k, int K, int D)
 {
   nz_jet **v = calloc((size_t)k, sizeof *v);
   if (!v) return NULL;
   for (int i = 0; i < k; i++)
-    if (!(v[i] = nz_jet_alloc(K, D))) { jets_free(v, k); return NULL; }
+    if (!(v[i] = nz_jet_alloc(K, D))) { nz_jets_free(v, k); return NULL; }
   return v;
 }
 
-static void motion_free(motion *m)
+void nz_motion_free(nz_motion *m)
 {
   nz_jet_free(m->t);
-  jets_free(m->q, m->k);
-  jets_free(m->qd, m->k);
-  jets_free(m->out, m->k);
+  for (int j = 0; j < m->nslots; j++) nz_jets_free(m->slot[j], m->k);
+  nz_jets_free(m->out, m->k);
   memset(m, 0, sizeof *m);
 }
 
@@ -68,50 +60,52 @@ static double level_value(const double *const *state, int nstate, int j, int i)
   return j < nstate && state[j] ? state[j][i] : 0.0;
 }
 
-/* Jets of order K with D directions along the motion given by state:
- * a_{i,j} = q_i^(j)/j!, b_{i,j} = q_i^(j+1)/j!, t = t0 + (t - t0). */
-static int motion_init(motion *m, int k, int K, int D, double t, const double *const *state,
-                       int nstate)
+int nz_motion_init(nz_motion *m, int k, int nslots, int K, int D, double t,
+                   const double *const *state, int nstate)
 {
   memset(m, 0, sizeof *m);
   m->k = k;
   m->K = K;
   m->D = D;
+  m->nslots = nslots;
   m->t = nz_jet_alloc(K, 0);
-  m->q = jets_alloc(k, K, D);
-  m->qd = jets_alloc(k, K, D);
-  m->out = jets_alloc(k, K, D);
-  if (!m->t || !m->q || !m->qd || !m->out) { motion_free(m); return NZ_ENOMEM; }
+  m->out = nz_jets_alloc(k, K, D);
+  int ok = m->t && m->out;
+  for (int j = 0; j < nslots; j++) ok = ok && (m->slot[j] = nz_jets_alloc(k, K, D));
+  if (!ok) { nz_motion_free(m); return NZ_ENOMEM; }
   nz_jet_set_variable(m->t, t, -1);
-  for (int i = 0; i < k; i++) {
-    double inv = 1.0;
-    for (int j = 0; j <= K; j++) {
-      if (j > 0) inv /= j;
-      m->q[i]->c[j] = level_value(state, nstate, j, i) * inv;
-      m->qd[i]->c[j] = level_value(state, nstate, j + 1, i) * inv;
+  for (int j = 0; j < nslots; j++)
+    for (int i = 0; i < k; i++) {
+      double inv = 1.0;
+      for (int c = 0; c <= K; c++) {
+        if (c > 0) inv /= c;
+        m->slot[j][i]->c[c] = level_value(state, nstate, j + c, i) * inv;
+      }
     }
-  }
   return NZ_OK;
 }
 
-/* Seed direction d on q_i^(level): THEORY.md §3. */
-static void seed_level(motion *m, int i, int d, int level)
+/* The same number q^(level) is coefficient level - j of slot j, normalized
+ * by (level - j)!: a seed moves all of them together. */
+void nz_motion_seed_level(nz_motion *m, int i, int d, int level)
 {
-  if (level <= m->K) nz_jet_tangent(m->q[i], d)[level] += 1.0 / factorial(level);
-  if (level >= 1 && level - 1 <= m->K) nz_jet_tangent(m->qd[i], d)[level - 1] += 1.0 / factorial(level - 1);
+  for (int j = 0; j < m->nslots; j++) {
+    int c = level - j;
+    if (c >= 0 && c <= m->K) nz_jet_tangent(m->slot[j][i], d)[c] += 1.0 / nz_factorial(c);
+  }
 }
 
-/* Seed direction d on the velocity slot of q_i as a whole. */
-static void seed_velocity_slot(motion *m, int i, int d) { nz_jet_tangent(m->qd[i], d)[0] += 1.0; }
+void nz_motion_seed_slot(nz_motion *m, int i, int d, int j) { nz_jet_tangent(m->slot[j][i], d)[0] += 1.0; }
 
-/* Evaluate a piece on the motion's jets; qd, if given, replaces the velocity
- * slot (the frozen velocities of §4).  V and S receive the q slot only. */
-static int eval_piece(const nz_system *s, nz_piece p, motion *m, nz_jet **qd, int nout)
+/* V and S receive the q slot only. */
+int nz_motion_eval(const nz_system *s, nz_piece p, int index, nz_motion *m, nz_jet **qd)
 {
-  nz_jet *const *levels[2] = { m->q, qd ? qd : m->qd };
-  int nlevels = (p == NZ_PIECE_V || p == NZ_PIECE_S) ? 1 : 2;
-  (void)nout;
-  return s->ev.eval(s->ev.ctx, p, m->t, levels, nlevels, m->out);
+  nz_jet *const *levels[NZ_CONSTRAINT_SLOTS];
+  int nlevels = m->nslots;
+  for (int j = 0; j < nlevels; j++) levels[j] = m->slot[j];
+  if (qd) levels[1] = qd;
+  if (p == NZ_PIECE_V || p == NZ_PIECE_S) nlevels = 1;
+  return s->ev.eval(s->ev.ctx, p, index, m->t, levels, nlevels, m->out);
 }
 
 /* ------------------------------------------------------------------ */
@@ -122,23 +116,23 @@ static int eval_piece(const nz_system *s, nz_piece p, motion *m, nz_jet **qd, in
 static int top_partials(const nz_system *s, nz_piece p, int m, double t,
                         const double *const *state, int nstate, double *top, double *below)
 {
-  motion mo;
+  nz_motion mo;
   int k = s->k, D = below ? 2 * k : k;
-  int st = motion_init(&mo, k, m, D, t, state, nstate);
+  int st = nz_motion_init(&mo, k, 2, m, D, t, state, nstate);
   if (st) return st;
   for (int i = 0; i < k; i++) {
-    seed_level(&mo, i, i, m);
-    if (below) seed_level(&mo, i, k + i, m - 1);
+    nz_motion_seed_level(&mo, i, i, m);
+    if (below) nz_motion_seed_level(&mo, i, k + i, m - 1);
   }
-  st = eval_piece(s, p, &mo, NULL, 1);
+  st = nz_motion_eval(s, p, 0, &mo, NULL);
   if (!st) {
-    double fm = factorial(m), fm1 = m >= 1 ? factorial(m - 1) : 1.0;
+    double fm = nz_factorial(m), fm1 = m >= 1 ? nz_factorial(m - 1) : 1.0;
     for (int i = 0; i < k; i++) {
       top[i] = fm * nz_jet_tangent(mo.out[0], i)[m];
       if (below) below[i] = fm1 * nz_jet_tangent(mo.out[0], k + i)[m - 1];
     }
   }
-  motion_free(&mo);
+  nz_motion_free(&mo);
   return st;
 }
 
@@ -146,15 +140,15 @@ static int top_partials(const nz_system *s, nz_piece p, int m, double t,
 static int velocity_rate(const nz_system *s, double t, const double *const *state, int nstate,
                          double *out)
 {
-  motion mo;
+  nz_motion mo;
   int k = s->k;
-  int st = motion_init(&mo, k, 1, k, t, state, nstate);
+  int st = nz_motion_init(&mo, k, 2, 1, k, t, state, nstate);
   if (st) return st;
-  for (int i = 0; i < k; i++) seed_velocity_slot(&mo, i, i);
-  st = eval_piece(s, NZ_PIECE_F, &mo, NULL, 1);
+  for (int i = 0; i < k; i++) nz_motion_seed_slot(&mo, i, i, 1);
+  st = nz_motion_eval(s, NZ_PIECE_F, 0, &mo, NULL);
   if (!st)
     for (int i = 0; i < k; i++) out[i] = nz_jet_tangent(mo.out[0], i)[1];
-  motion_free(&mo);
+  nz_motion_free(&mo);
   return st;
 }
 
@@ -162,23 +156,23 @@ static int velocity_rate(const nz_system *s, double t, const double *const *stat
 static int frozen_partial(const nz_system *s, int n, double t, const double *const *state,
                           int nstate, double *out)
 {
-  motion mo;
+  nz_motion mo;
   int k = s->k;
-  int st = motion_init(&mo, k, n, k, t, state, nstate);
+  int st = nz_motion_init(&mo, k, 2, n, k, t, state, nstate);
   if (st) return st;
-  nz_jet **frozen = jets_alloc(k, n, 0);
-  if (!frozen) { motion_free(&mo); return NZ_ENOMEM; }
+  nz_jet **frozen = nz_jets_alloc(k, n, 0);
+  if (!frozen) { nz_motion_free(&mo); return NZ_ENOMEM; }
   for (int i = 0; i < k; i++) {
-    frozen[i]->c[0] = mo.qd[i]->c[0];
-    seed_level(&mo, i, i, n);
+    frozen[i]->c[0] = mo.slot[1][i]->c[0];
+    nz_motion_seed_level(&mo, i, i, n);
   }
-  st = eval_piece(s, NZ_PIECE_F, &mo, frozen, 1);
+  st = nz_motion_eval(s, NZ_PIECE_F, 0, &mo, frozen);
   if (!st) {
-    double fn = factorial(n);
+    double fn = nz_factorial(n);
     for (int i = 0; i < k; i++) out[i] = fn * nz_jet_tangent(mo.out[0], i)[n];
   }
-  jets_free(frozen, k);
-  motion_free(&mo);
+  nz_jets_free(frozen, k);
+  nz_motion_free(&mo);
   return st;
 }
 
@@ -189,12 +183,12 @@ static int generalized_force(const nz_system *s, double t, const double *const *
   int k = s->k, st = NZ_OK;
   memset(force, 0, (size_t)k * sizeof(double));
   if (nz_system_has(s, NZ_PIECE_Q)) {
-    motion mo;
-    if ((st = motion_init(&mo, k, 0, 0, t, state, nstate))) return st;
-    st = eval_piece(s, NZ_PIECE_Q, &mo, NULL, k);
+    nz_motion mo;
+    if ((st = nz_motion_init(&mo, k, 2, 0, 0, t, state, nstate))) return st;
+    st = nz_motion_eval(s, NZ_PIECE_Q, 0, &mo, NULL);
     if (!st)
       for (int i = 0; i < k; i++) force[i] = mo.out[i]->c[0];
-    motion_free(&mo);
+    nz_motion_free(&mo);
     if (st) return st;
   }
   if (nz_system_has(s, NZ_PIECE_V)) {
@@ -216,16 +210,16 @@ static int force_rate_term(const nz_system *s, int n, double t, const double *co
   int k = s->k;
   memset(out, 0, (size_t)k * sizeof(double));
   if (!nz_system_has(s, NZ_PIECE_Q)) return NZ_OK;
-  motion mo;
-  int st = motion_init(&mo, k, n, k, t, state, nstate);
+  nz_motion mo;
+  int st = nz_motion_init(&mo, k, 2, n, k, t, state, nstate);
   if (st) return st;
-  for (int i = 0; i < k; i++) seed_level(&mo, i, i, n);
-  st = eval_piece(s, NZ_PIECE_Q, &mo, NULL, k);
+  for (int i = 0; i < k; i++) nz_motion_seed_level(&mo, i, i, n);
+  st = nz_motion_eval(s, NZ_PIECE_Q, 0, &mo, NULL);
   if (!st)
     for (int i = 0; i < k; i++)
       for (int j = 0; j < k; j++)
         out[i] += level_value(state, nstate, n, j) * nz_jet_tangent(mo.out[j], i)[0];
-  motion_free(&mo);
+  nz_motion_free(&mo);
   return st;
 }
 
@@ -233,20 +227,20 @@ static int force_rate_term(const nz_system *s, int n, double t, const double *co
 static int acceleration_energy_partial(const nz_system *s, int n, double t,
                                        const double *const *state, int nstate, double *out)
 {
-  motion mo;
+  nz_motion mo;
   int k = s->k;
-  int st = motion_init(&mo, k, n, k, t, state, nstate);
+  int st = nz_motion_init(&mo, k, 2, n, k, t, state, nstate);
   if (st) return st;
   /* S is built from r'', two orders below the q series. */
   nz_jet_free(mo.out[0]);
-  if (!(mo.out[0] = nz_jet_alloc(n - 2, k))) { motion_free(&mo); return NZ_ENOMEM; }
-  for (int i = 0; i < k; i++) seed_level(&mo, i, i, n);
-  st = eval_piece(s, NZ_PIECE_S, &mo, NULL, 1);
+  if (!(mo.out[0] = nz_jet_alloc(n - 2, k))) { nz_motion_free(&mo); return NZ_ENOMEM; }
+  for (int i = 0; i < k; i++) nz_motion_seed_level(&mo, i, i, n);
+  st = nz_motion_eval(s, NZ_PIECE_S, 0, &mo, NULL);
   if (!st) {
-    double f = factorial(n - 2);
+    double f = nz_factorial(n - 2);
     for (int i = 0; i < k; i++) out[i] = f * nz_jet_tangent(mo.out[0], i)[n - 2];
   }
-  motion_free(&mo);
+  nz_motion_free(&mo);
   return st;
 }
 
@@ -346,17 +340,17 @@ int nz_partial(const nz_system *s, int m, double t, const double *const *state, 
 int nz_top_coefficient(const nz_system *s, int m, double t, const double *const *state,
                        int nstate, double *out)
 {
-  motion mo;
+  nz_motion mo;
   int k = s->k;
-  int st = motion_init(&mo, k, m - 1, k, t, state, nstate);
+  int st = nz_motion_init(&mo, k, 2, m - 1, k, t, state, nstate);
   if (st) return st;
-  for (int i = 0; i < k; i++) seed_level(&mo, i, i, m);   /* touches b_{i,m-1} only */
-  st = eval_piece(s, NZ_PIECE_F, &mo, NULL, 1);
+  for (int i = 0; i < k; i++) nz_motion_seed_level(&mo, i, i, m);   /* touches b_{i,m-1} only */
+  st = nz_motion_eval(s, NZ_PIECE_F, 0, &mo, NULL);
   if (!st) {
-    double f = factorial(m - 1);
+    double f = nz_factorial(m - 1);
     for (int i = 0; i < k; i++) out[i] = f * nz_jet_tangent(mo.out[0], i)[m - 1];
   }
-  motion_free(&mo);
+  nz_motion_free(&mo);
   return st;
 }
 
@@ -395,28 +389,28 @@ int nz_energy(const nz_system *s, double t, const double *q, const double *qd, d
 {
   int k = s->k, st = NZ_OK;
   const double *state[2] = { q, qd };
-  motion mo;
+  nz_motion mo;
   *T = NAN;
   *V = 0.0;
   *F = 0.0;
   *H = 0.0;
-  if ((st = motion_init(&mo, k, 0, k, t, state, 2))) return st;
+  if ((st = nz_motion_init(&mo, k, 2, 0, k, t, state, 2))) return st;
   if (nz_system_has(s, NZ_PIECE_T)) {
-    if ((st = eval_piece(s, NZ_PIECE_T, &mo, NULL, 1))) goto done;
+    if ((st = nz_motion_eval(s, NZ_PIECE_T, 0, &mo, NULL))) goto done;
     *T = mo.out[0]->c[0];
   }
   if (nz_system_has(s, NZ_PIECE_V)) {
-    if ((st = eval_piece(s, NZ_PIECE_V, &mo, NULL, 1))) goto done;
+    if ((st = nz_motion_eval(s, NZ_PIECE_V, 0, &mo, NULL))) goto done;
     *V = mo.out[0]->c[0];
   }
   if (nz_system_has(s, NZ_PIECE_F)) {
-    for (int i = 0; i < k; i++) seed_velocity_slot(&mo, i, i);
-    if ((st = eval_piece(s, NZ_PIECE_F, &mo, NULL, 1))) goto done;
+    for (int i = 0; i < k; i++) nz_motion_seed_slot(&mo, i, i, 1);
+    if ((st = nz_motion_eval(s, NZ_PIECE_F, 0, &mo, NULL))) goto done;
     *F = mo.out[0]->c[0];
     for (int i = 0; i < k; i++) *H += qd[i] * nz_jet_tangent(mo.out[0], i)[0];
   }
   *H += *V - *F;    /* H = sum q' dL/dq' - L, L = F - V */
 done:
-  motion_free(&mo);
+  nz_motion_free(&mo);
   return st;
 }

@@ -30,6 +30,7 @@ typedef enum nz_piece {
   NZ_PIECE_V,     /* V(t, q), one output                                        */
   NZ_PIECE_Q,     /* Q(t, q, q'), k outputs                                     */
   NZ_PIECE_S,     /* S along the motion: receives the q series, one output      */
+  NZ_PIECE_PHI,   /* constraint number `index` (0-based), one output            */
   NZ_PIECE_COUNT
 } nz_piece;
 
@@ -39,18 +40,46 @@ typedef struct nz_evaluator {
    * writing the outputs into out[0..] (1 jet, or k for NZ_PIECE_Q), whose
    * shape the caller set.  Returns NZ_OK, or NZ_EFUNC with the message kept
    * by the evaluator. */
-  int (*eval)(void *ctx, nz_piece piece, const nz_jet *t, nz_jet *const *const *levels,
-              int nlevels, nz_jet *const *out);
+  int (*eval)(void *ctx, nz_piece piece, int index, const nz_jet *t,
+              nz_jet *const *const *levels, int nlevels, nz_jet *const *out);
   void *ctx;
 } nz_evaluator;
 
+/* Constraints receive this many derivative slots: q, q', q'', q'''. */
+#define NZ_CONSTRAINT_SLOTS 4
+
 typedef struct nz_system {
   int k;
+  int nc;                    /* number of constraints */
   unsigned has;              /* bit (1u << piece) set when the piece exists */
   nz_evaluator ev;
 } nz_system;
 
 static inline int nz_system_has(const nz_system *s, nz_piece p) { return (s->has >> p) & 1u; }
+
+/* Jets of a motion: slot j of q_i holds q_i^(j+c)/c!, c = 0..K (slot 0 is
+ * q, slot 1 the velocity slot), and t = t0 + (t - t0).  The pieces of the
+ * mechanics (this file and constrained.c) are all evaluations of these. */
+typedef struct nz_motion {
+  int k, K, D, nslots;
+  nz_jet *t;
+  nz_jet **slot[NZ_CONSTRAINT_SLOTS];
+  nz_jet **out;          /* k output jets */
+} nz_motion;
+
+int nz_motion_init(nz_motion *m, int k, int nslots, int K, int D, double t,
+                   const double *const *state, int nstate);
+void nz_motion_free(nz_motion *m);
+/* Seed direction d on q_i^(level) wherever it appears (THEORY.md §3). */
+void nz_motion_seed_level(nz_motion *m, int i, int d, int level);
+/* Seed direction d on slot j of q_i as a whole: a partial derivative with
+ * respect to that argument of the function, along the motion. */
+void nz_motion_seed_slot(nz_motion *m, int i, int d, int j);
+/* Evaluate a piece (constraint `index`); qd, if given, replaces slot 1. */
+int nz_motion_eval(const nz_system *s, nz_piece p, int index, nz_motion *m, nz_jet **qd);
+nz_jet **nz_jets_alloc(int k, int K, int D);
+void nz_jets_free(nz_jet **v, int k);
+double nz_factorial(int n);
 
 /* The forms of the equations; all give the same residual (THEORY.md). */
 typedef enum nz_form {
