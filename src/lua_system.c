@@ -13,6 +13,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <lauxlib.h>
+#include "constrained.h"
 #include "linalg.h"
 #include "lua_jet.h"
 #include "lua_system.h"
@@ -197,8 +198,10 @@ static void bind_system(lua_State *L, int def, bound_system *b)
   lua_pop(L, 1);
   if (b->sys.k < 1) luaL_error(L, "internal: system definition without coordinates");
   for (int p = 0; p < NZ_PIECE_COUNT; p++) {
-    if (lua_getfield(L, def, piece_fields[p]) == LUA_TTABLE && luaL_len(L, -1) > 0)
+    if (lua_getfield(L, def, piece_fields[p]) == LUA_TTABLE && luaL_len(L, -1) > 0) {
       b->sys.has |= 1u << p;
+      if (p == NZ_PIECE_PHI) b->sys.nc = (int)luaL_len(L, -1);
+    }
     lua_pop(L, 1);
   }
   b->ev.L = L;
@@ -310,6 +313,7 @@ static int check_order(lua_State *L, int idx, int lo, const char *fname)
 /* residual(def, form, n, t, q, qd, qdd, higher, want_terms) -> r [, terms] */
 static int ls_residual(lua_State *L)
 {
+  lua_settop(L, 9);   /* optional arguments read as nil, scratch above */
   bound_system b;
   bind_system(L, 1, &b);
   int form = luaL_checkoption(L, 2, NULL, nz_form_names);
@@ -343,6 +347,7 @@ static int ls_residual(lua_State *L)
  * partial (the last accepts m = 0) */
 static int ls_operator(lua_State *L)
 {
+  lua_settop(L, 8);   /* optional arguments read as nil, scratch above */
   static const char *const which_names[] = { "N", "E", "top", "partial", NULL };
   bound_system b;
   bind_system(L, 1, &b);
@@ -372,6 +377,7 @@ static void read_tq_qd(lua_State *L, int k, double *t, double *q, double *qd, co
 /* mass_bias(def, t, q, qd) -> M, h */
 static int ls_mass_bias(lua_State *L)
 {
+  lua_settop(L, 4);   /* optional arguments read as nil, scratch above */
   bound_system b;
   bind_system(L, 1, &b);
   int k = b.sys.k;
@@ -400,6 +406,7 @@ static void append_numbers(luaL_Buffer *b, const double *v, int k)
 /* accel(def, t, q, qd [, rcond_min]) -> qdd: solves M qdd = -h by Cholesky. */
 static int ls_accel(lua_State *L)
 {
+  lua_settop(L, 5);   /* optional arguments read as nil, scratch above */
   bound_system b;
   bind_system(L, 1, &b);
   int k = b.sys.k;
@@ -446,6 +453,7 @@ static int ls_accel(lua_State *L)
 /* energy(def, t, q, qd) -> T (nil without T), V, F, H */
 static int ls_energy(lua_State *L)
 {
+  lua_settop(L, 4);   /* optional arguments read as nil, scratch above */
   bound_system b;
   bind_system(L, 1, &b);
   int k = b.sys.k;
@@ -461,6 +469,282 @@ static int ls_energy(lua_State *L)
   return 4;
 }
 
+/* ------------------------------------------------------------------ */
+/* Constraints                                                          */
+
+static int check_constraint(lua_State *L, bound_system *b, int idx)
+{
+  lua_Integer r = luaL_checkinteger(L, idx);
+  if (r < 1 || r > b->sys.nc)
+    return (int)luaL_error(L, "system '%s': no constraint %I (it has %d)", system_name(L, 1),
+                           (lua_Integer)r, b->sys.nc);
+  return (int)r - 1;
+}
+
+/* Read up to NZ_CONSTRAINT_SLOTS state levels from index `at` on (nil: zeros). */
+static void read_levels(lua_State *L, int at, int k, double *data, const double **levels,
+                        const char *fname)
+{
+  static const char *const names[] = { "q", "qd", "qdd", "qddd" };
+  for (int j = 0; j < NZ_CONSTRAINT_SLOTS; j++) {
+    levels[j] = data + (size_t)j * (size_t)k;
+    read_vector(L, at + j, k, (double *)levels[j], names[j], j > 0, fname);
+  }
+}
+
+/* constraint_partials(def, r, t, q, qd, qdd, qddd) -> value, {dq, dqd, dqdd, dqddd}, dphidt */
+static int ls_constraint_partials(lua_State *L)
+{
+  lua_settop(L, 7);   /* optional arguments read as nil, scratch above */
+  bound_system b;
+  bind_system(L, 1, &b);
+  int r = check_constraint(L, &b, 2), k = b.sys.k, S = NZ_CONSTRAINT_SLOTS;
+  double t = luaL_checknumber(L, 3), value, dphidt;
+  double *data = lua_newuserdatauv(L, 2 * (size_t)S * (size_t)k * sizeof(double), 0);
+  const double *levels[NZ_CONSTRAINT_SLOTS];
+  read_levels(L, 4, k, data, levels, "constraint_partials");
+  double *dphi = data + (size_t)S * k;
+  int st = nz_constraint_partials(&b.sys, r, t, levels, S, &value, dphi, &dphidt);
+  if (st) return raise_core(L, &b, st, "constraint_partials");
+  lua_pushnumber(L, value);
+  lua_createtable(L, S, 0);
+  for (int j = 0; j < S; j++) {
+    push_vector(L, dphi + (size_t)j * k, k);
+    lua_rawseti(L, -2, j + 1);
+  }
+  lua_pushnumber(L, dphidt);
+  return 3;
+}
+
+/* constraint_curvature(def, r, m, t, q, qd, qdd, qddd, v) -> c0, c1, c2 */
+static int ls_constraint_curvature(lua_State *L)
+{
+  lua_settop(L, 9);   /* optional arguments read as nil, scratch above */
+  bound_system b;
+  bind_system(L, 1, &b);
+  int r = check_constraint(L, &b, 2), k = b.sys.k, S = NZ_CONSTRAINT_SLOTS;
+  int m = (int)luaL_checkinteger(L, 3);
+  luaL_argcheck(L, m >= 0 && m < S, 3, "slot between 0 and 3 expected");
+  double t = luaL_checknumber(L, 4), c[3];
+  double *data = lua_newuserdatauv(L, ((size_t)S + 1) * (size_t)k * sizeof(double), 0);
+  const double *levels[NZ_CONSTRAINT_SLOTS];
+  read_levels(L, 5, k, data, levels, "constraint_curvature");
+  read_vector(L, 9, k, data + (size_t)S * k, "direction", 0, "constraint_curvature");
+  int st = nz_constraint_curvature(&b.sys, r, m, t, levels, S, data + (size_t)S * k, c);
+  if (st) return raise_core(L, &b, st, "constraint_curvature");
+  for (int j = 0; j < 3; j++) lua_pushnumber(L, c[j]);
+  return 3;
+}
+
+/* constraint_row(def, r, m, t, q, qd, qdd) -> A, value: the acceleration level */
+static int ls_constraint_row(lua_State *L)
+{
+  lua_settop(L, 7);   /* optional arguments read as nil, scratch above */
+  bound_system b;
+  bind_system(L, 1, &b);
+  int r = check_constraint(L, &b, 2), k = b.sys.k;
+  int m = (int)luaL_checkinteger(L, 3);
+  luaL_argcheck(L, m >= 0 && m <= 2, 3, "order between 0 and 2 expected");
+  double t = luaL_checknumber(L, 4), value;
+  double *data = lua_newuserdatauv(L, 4 * (size_t)k * sizeof(double), 0);
+  const double *levels[3] = { data, data + k, data + 2 * k };
+  read_vector(L, 5, k, data, "q", 0, "constraint_row");
+  read_vector(L, 6, k, data + k, "qd", 1, "constraint_row");
+  read_vector(L, 7, k, data + 2 * k, "qdd", 1, "constraint_row");
+  int st = nz_constraint_row(&b.sys, r, m, t, levels, 3, data + 3 * k, &value);
+  if (st) return raise_core(L, &b, st, "constraint_row");
+  push_vector(L, data + 3 * k, k);
+  lua_pushnumber(L, value);
+  return 2;
+}
+
+static void read_flags(lua_State *L, int idx, int n, int *v, const char *what)
+{
+  luaL_checktype(L, idx, LUA_TTABLE);
+  for (int r = 0; r < n; r++) {
+    lua_geti(L, idx, r + 1);
+    v[r] = lua_isboolean(L, -1) ? lua_toboolean(L, -1) : (int)luaL_optinteger(L, -1, -1);
+    lua_pop(L, 1);
+    if (v[r] < 0) luaL_error(L, "internal: %s[%d] missing", what, r + 1);
+  }
+}
+
+static void add_state(luaL_Buffer *msg, double t, const double *q, const double *qd, int k)
+{
+  char num[40];
+  fmt_num(num, sizeof num, t);
+  luaL_addstring(msg, " at t = ");
+  luaL_addstring(msg, num);
+  luaL_addstring(msg, ", q = ");
+  append_numbers(msg, q, k);
+  luaL_addstring(msg, ", qd = ");
+  append_numbers(msg, qd, k);
+}
+
+/* accel_constrained(def, t, q, qd, orders, linear, opts) -> qdd, lambda, report */
+static int ls_accel_constrained(lua_State *L)
+{
+  lua_settop(L, 7);   /* optional arguments read as nil, scratch above */
+  bound_system b;
+  bind_system(L, 1, &b);
+  int k = b.sys.k, nc = b.sys.nc;
+  double t = luaL_checknumber(L, 2);
+  double *data = lua_newuserdatauv(L, (5 * (size_t)k + 2 * (size_t)nc) * sizeof(double), 0);
+  double *q = data, *qd = q + k, *qdd = qd + k, *gq = qdd + k, *lam = gq + k, *gl = lam + nc;
+  read_vector(L, 3, k, q, "q", 0, "accel");
+  read_vector(L, 4, k, qd, "qd", 1, "accel");
+  int *ints = lua_newuserdatauv(L, 3 * (size_t)(nc + 1) * sizeof(int), 0);
+  int *orders = ints, *linear = ints + nc + 1, *involved = ints + 2 * (nc + 1);
+  read_flags(L, 5, nc, orders, "orders");
+  read_flags(L, 6, nc, linear, "linear");
+  memset(involved, 0, (size_t)(nc + 1) * sizeof(int));
+  nz_accel_options opt = NZ_ACCEL_DEFAULTS;
+  if (lua_istable(L, 7)) {
+    if (lua_getfield(L, 7, "tol") == LUA_TNUMBER) opt.newton_tol = lua_tonumber(L, -1);
+    if (lua_getfield(L, 7, "maxit") == LUA_TNUMBER) opt.newton_maxit = (int)lua_tointeger(L, -1);
+    if (lua_getfield(L, 7, "rcond_min") == LUA_TNUMBER) opt.rcond_min = lua_tonumber(L, -1);
+    if (lua_getfield(L, 7, "qdd") == LUA_TTABLE) {
+      read_vector(L, lua_gettop(L), k, gq, "guess qdd", 0, "accel");
+      opt.guess_qdd = gq;
+    }
+    if (lua_getfield(L, 7, "lambda") == LUA_TTABLE) {
+      luaL_argcheck(L, luaL_len(L, -1) == nc, 7, "lambda: one multiplier per constraint expected");
+      for (int r = 0; r < nc; r++) {
+        lua_geti(L, -1, r + 1);
+        gl[r] = luaL_checknumber(L, -1);
+        lua_pop(L, 1);
+      }
+      opt.guess_lambda = gl;
+    }
+    lua_pop(L, 5);
+  }
+  nz_accel_report rep;
+  memset(&rep, 0, sizeof rep);
+  rep.involved = involved;
+  int st = nz_accel_constrained(&b.sys, orders, linear, t, q, qd, &opt, qdd, lam, &rep);
+  if (st == NZ_EFUNC || st == NZ_ENOMEM) return raise_core(L, &b, st, "accel");
+  if (st) {
+    luaL_Buffer msg;
+    char num[160];
+    luaL_buffinit(L, &msg);
+    lua_pushfstring(L, "system '%s': ", system_name(L, 1));
+    luaL_addvalue(&msg);
+    if (rep.failure == NZ_ACCEL_ORDER) {
+      for (int r = 0; r < nc; r++)
+        if (orders[r] > 2) {
+          snprintf(num, sizeof num, "constraint %d is of order %d", r + 1, orders[r]);
+          luaL_addstring(&msg, num);
+          break;
+        }
+      luaL_addstring(&msg, ": accelerations (and integration) support constraints up to order 2; "
+                           "its residuals and classification work");
+    } else if (rep.failure == NZ_ACCEL_NEWTON) {
+      snprintf(num, sizeof num, "Newton's method on (6.2) and the constraints did not converge in %d "
+               "iterations (residual %.3g)", rep.iterations, rep.residual);
+      luaL_addstring(&msg, num);
+      add_state(&msg, t, q, qd, k);
+      luaL_addstring(&msg, rep.from_guess ? "; started from the guess given"
+                                          : "; started from the unconstrained accelerations");
+      luaL_addstring(&msg, ": give another start with sys:accel(t, q, qd, {qdd = ..., lambda = ...}), "
+                           "or check that the constraints have a real solution here");
+    } else {
+      if (rep.rank_A < nc) {
+        luaL_addstring(&msg, "dependent constraints: ");
+        int first = 1;
+        for (int r = 0; r < nc; r++)
+          if (involved[r]) {
+            snprintf(num, sizeof num, "%s%d", first ? "constraints " : " and ", r + 1);
+            luaL_addstring(&msg, num);
+            first = 0;
+          }
+        snprintf(num, sizeof num, " (the rank of their gradients A is %d < %d)", rep.rank_A, nc);
+        luaL_addstring(&msg, num);
+      } else {
+        luaL_addstring(&msg, "the mass matrix is singular on the directions the constraints allow");
+      }
+      snprintf(num, sizeof num, ": [M A^T; A 0] is singular or badly conditioned (reciprocal condition %.2g)",
+               rep.rcond);
+      luaL_addstring(&msg, num);
+      add_state(&msg, t, q, qd, k);
+      luaL_addstring(&msg, ": remove a redundant constraint or move away from this configuration");
+    }
+    luaL_pushresult(&msg);
+    return lua_error(L);
+  }
+  push_vector(L, qdd, k);
+  push_vector(L, lam, nc);
+  lua_createtable(L, 0, 4);
+  lua_pushinteger(L, rep.iterations);
+  lua_setfield(L, -2, "iterations");
+  lua_pushnumber(L, rep.residual);
+  lua_setfield(L, -2, "residual");
+  lua_pushnumber(L, rep.rcond);
+  lua_setfield(L, -2, "rcond");
+  lua_pushstring(L, rep.from_guess ? "guess" : "unconstrained");
+  lua_setfield(L, -2, "start");
+  return 3;
+}
+
+/* force_velocity_jacobian(def, t, q, qd) -> dQ/dqd */
+static int ls_force_velocity_jacobian(lua_State *L)
+{
+  lua_settop(L, 4);   /* optional arguments read as nil, scratch above */
+  bound_system b;
+  bind_system(L, 1, &b);
+  int k = b.sys.k;
+  double t, *buf = lua_newuserdatauv(L, (2 * (size_t)k + (size_t)k * k) * sizeof(double), 0);
+  read_tq_qd(L, k, &t, buf, buf + k, "force_velocity_jacobian");
+  int st = nz_force_velocity_jacobian(&b.sys, t, buf, buf + k, buf + 2 * k);
+  if (st) return raise_core(L, &b, st, "force_velocity_jacobian");
+  push_matrix(L, buf + 2 * k, k);
+  return 1;
+}
+
+/* energy_terms(def, t, q, qd, qdd) -> dL/dt, T0, T1, d/dt(T1 + 2 T0) */
+static int ls_energy_terms(lua_State *L)
+{
+  lua_settop(L, 5);   /* optional arguments read as nil, scratch above */
+  bound_system b;
+  bind_system(L, 1, &b);
+  int k = b.sys.k;
+  double t = luaL_checknumber(L, 2), dLdt, T0, T1, rate;
+  double *buf = lua_newuserdatauv(L, 3 * (size_t)k * sizeof(double), 0);
+  read_vector(L, 3, k, buf, "q", 0, "energy_terms");
+  read_vector(L, 4, k, buf + k, "qd", 1, "energy_terms");
+  read_vector(L, 5, k, buf + 2 * k, "qdd", 1, "energy_terms");
+  int st = nz_lagrangian_time_partial(&b.sys, t, buf, buf + k, &dLdt);
+  if (!st) st = nz_kinetic_parts(&b.sys, t, buf, buf + k, buf + 2 * k, &T0, &T1, &rate);
+  if (st) return raise_core(L, &b, st, "energy_terms");
+  lua_pushnumber(L, dLdt);
+  lua_pushnumber(L, T0);
+  lua_pushnumber(L, T1);
+  lua_pushnumber(L, rate);
+  return 4;
+}
+
+/* lstsq(A, b) -> x of minimum norm minimizing |A x - b| (A a list of rows). */
+static int ls_lstsq(lua_State *L)
+{
+  luaL_checktype(L, 1, LUA_TTABLE);
+  int m = (int)luaL_len(L, 1);
+  luaL_argcheck(L, m >= 1, 1, "at least one row expected");
+  lua_geti(L, 1, 1);
+  int n = (int)luaL_len(L, -1);
+  lua_pop(L, 1);
+  luaL_argcheck(L, n >= 1, 1, "rows of at least one number expected");
+  double *A = lua_newuserdatauv(L, ((size_t)m * n + (size_t)m + (size_t)n) * sizeof(double), 0);
+  double *bb = A + (size_t)m * n, *x = bb + m;
+  for (int i = 0; i < m; i++) {
+    lua_geti(L, 1, i + 1);
+    read_vector(L, lua_gettop(L), n, A + (size_t)i * n, "row", 0, "lstsq");
+    lua_pop(L, 1);
+  }
+  read_vector(L, 2, m, bb, "b", 0, "lstsq");
+  if (nz_lstsq(m, n, A, bb, x)) return luaL_error(L, "'lstsq': not enough memory");
+  push_vector(L, x, n);
+  return 1;
+}
+
 /* jet:derivative() lives with the jets; the forms' names are data. */
 static int ls_forms(lua_State *L)
 {
@@ -474,7 +758,11 @@ static int ls_forms(lua_State *L)
 
 static const luaL_Reg system_functions[] = {
   { "residual", ls_residual }, { "operator", ls_operator }, { "mass_bias", ls_mass_bias },
-  { "accel", ls_accel }, { "energy", ls_energy }, { "forms", ls_forms }, { NULL, NULL }
+  { "accel", ls_accel }, { "energy", ls_energy }, { "forms", ls_forms },
+  { "constraint_partials", ls_constraint_partials }, { "constraint_curvature", ls_constraint_curvature },
+  { "constraint_row", ls_constraint_row }, { "accel_constrained", ls_accel_constrained },
+  { "force_velocity_jacobian", ls_force_velocity_jacobian }, { "lstsq", ls_lstsq },
+  { "energy_terms", ls_energy_terms }, { NULL, NULL }
 };
 
 void nz_lua_open_system(lua_State *L)

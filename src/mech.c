@@ -384,6 +384,74 @@ done:
   return st;
 }
 
+int nz_force_velocity_jacobian(const nz_system *s, double t, const double *q, const double *qd,
+                               double *J)
+{
+  int k = s->k, st;
+  const double *state[2] = { q, qd };
+  memset(J, 0, (size_t)k * (size_t)k * sizeof(double));
+  if (!nz_system_has(s, NZ_PIECE_Q)) return NZ_OK;
+  nz_motion mo;
+  if ((st = nz_motion_init(&mo, k, 2, 0, k, t, state, 2))) return st;
+  for (int j = 0; j < k; j++) nz_motion_seed_slot(&mo, j, j, 1);
+  st = nz_motion_eval(s, NZ_PIECE_Q, 0, &mo, NULL);
+  if (!st)
+    for (int i = 0; i < k; i++)
+      for (int j = 0; j < k; j++) J[i * k + j] = nz_jet_tangent(mo.out[i], j)[0];
+  nz_motion_free(&mo);
+  return st;
+}
+
+int nz_lagrangian_time_partial(const nz_system *s, double t, const double *q, const double *qd,
+                               double *dLdt)
+{
+  int k = s->k, st = NZ_OK;
+  const double *state[2] = { q, qd };
+  nz_motion mo;
+  *dLdt = 0.0;
+  if ((st = nz_motion_init(&mo, k, 2, 0, 1, t, state, 2))) return st;
+  nz_jet_free(mo.t);
+  if (!(mo.t = nz_jet_alloc(0, 1))) { nz_motion_free(&mo); return NZ_ENOMEM; }
+  nz_jet_set_variable(mo.t, t, 0);
+  if (nz_system_has(s, NZ_PIECE_F)) {
+    if ((st = nz_motion_eval(s, NZ_PIECE_F, 0, &mo, NULL))) goto done;
+    *dLdt += nz_jet_tangent(mo.out[0], 0)[0];
+  }
+  if (nz_system_has(s, NZ_PIECE_V)) {
+    if ((st = nz_motion_eval(s, NZ_PIECE_V, 0, &mo, NULL))) goto done;
+    *dLdt -= nz_jet_tangent(mo.out[0], 0)[0];
+  }
+done:
+  nz_motion_free(&mo);
+  return st;
+}
+
+int nz_kinetic_parts(const nz_system *s, double t, const double *q, const double *qd,
+                     const double *qdd, double *T0, double *T1, double *rate)
+{
+  int k = s->k, st;
+  const double *state[3] = { q, qd, qdd };
+  nz_piece p = nz_system_has(s, NZ_PIECE_T) ? NZ_PIECE_T : NZ_PIECE_F;
+  nz_motion mo;
+  if ((st = nz_motion_init(&mo, k, 2, 1, 1, t, state, 3))) return st;
+  nz_jet **scaled = nz_jets_alloc(k, 1, 1);     /* s q'(t) at s = 0, tangent along s */
+  if (!scaled) { nz_motion_free(&mo); return NZ_ENOMEM; }
+  for (int i = 0; i < k; i++) {
+    nz_jet_tangent(scaled[i], 0)[0] = qd[i];
+    nz_jet_tangent(scaled[i], 0)[1] = qdd[i];
+  }
+  st = nz_motion_eval(s, p, 0, &mo, scaled);
+  if (!st) {
+    const nz_jet *T = mo.out[0];
+    *T0 = T->c[0];
+    *T1 = nz_jet_tangent(T, 0)[0];
+    *rate = nz_jet_tangent(T, 0)[1] + 2.0 * T->c[1];
+  }
+  nz_jets_free(scaled, k);
+  nz_motion_free(&mo);
+  return st;
+}
+
 int nz_energy(const nz_system *s, double t, const double *q, const double *qd, double *T,
               double *V, double *F, double *H)
 {

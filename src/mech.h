@@ -127,6 +127,20 @@ int nz_top_coefficient(const nz_system *s, int m, double t, const double *const 
 int nz_mass_bias(const nz_system *s, double t, const double *q, const double *qd, double *M,
                  double *h);
 
+/* dQ_i/dq'_j (k x k, row-major): whether the forces depend on velocities. */
+int nz_force_velocity_jacobian(const nz_system *s, double t, const double *q, const double *qd,
+                               double *J);
+
+/* dL/dt with q and q' held (L = F - V): the explicit time dependence (§9). */
+int nz_lagrangian_time_partial(const nz_system *s, double t, const double *q, const double *qd,
+                               double *dLdt);
+
+/* T = T2 + T1 + T0 by degree in q' (§9; T is the T piece, or F without one):
+ * T0, T1 at the state and d/dt (T1 + 2 T0) along the motion with q''.
+ * T(t, q, s q') is evaluated at s = 0 with a tangent along s. */
+int nz_kinetic_parts(const nz_system *s, double t, const double *q, const double *qd,
+                     const double *qdd, double *T0, double *T1, double *rate);
+
 /* Energies: T (NaN when there is no T piece), V (0 without V), F, and the
  * generalized energy H = sum q' dL/dq' - L with L = F - V. */
 int nz_energy(const nz_system *s, double t, const double *q, const double *qd, double *T,

@@ -7,6 +7,7 @@
 -- differentiate), T, V, Q, S (acceleration energy, from particles).
 local core = require "nz.core"
 local bodies = require "nz.bodies"
+local constraints = require "nz.constraints"
 local repl = require "nz.repl"
 
 local mech = core.mech
@@ -17,7 +18,7 @@ local M = { System = System }
 
 local known_fields = {
   coords = true, T = true, V = true, Q = true, L = true, S = true, params = true,
-  name = true, bodies = true,
+  name = true, bodies = true, constraints = true, sample = true,
 }
 
 -- A function or a list of functions, as a list.
@@ -96,20 +97,28 @@ function M.system(def)
   local F, Flab = {}, {}
   append(F, Flab, T, lab.T)
   append(F, Flab, L, lab.L)
+  local C = as_list(def.constraints, "constraints", name)
+  local Clab = {}
+  for i = 1, #C do Clab[i] = ("constraint %d"):format(i) end
+  if def.sample ~= nil and type(def.sample) ~= "table" then
+    error(("nz.system '%s': 'sample' must be a state {t = ..., q = {...}, qd = {...}}"):format(name), 2)
+  end
 
   local self = setmetatable({
     name = name,
     coords = { table.unpack(coords) },
     k = #coords,
+    nc = #C,
     params = def.params or {},
+    sample = def.sample,
     pieces = { T = #T, V = #V, Q = #Q, L = #L, S = #S },
   }, System)
   -- What the C mechanics reads (params is the same table: change a mass in
   -- sys.params and the next call sees it).
   self.engine = {
     k = #coords, name = name, coords = self.coords, params = self.params,
-    F = F, T = T, V = V, Q = Q, S = S,
-    labels = { F = Flab, T = lab.T, V = lab.V, Q = lab.Q, S = lab.S },
+    F = F, T = T, V = V, Q = Q, S = S, constraints = C,
+    labels = { F = Flab, T = lab.T, V = lab.V, Q = lab.Q, S = lab.S, constraints = Clab },
   }
   return self
 end
@@ -121,20 +130,33 @@ local form_set = {}
 for _, f in ipairs(mech.forms()) do form_set[f] = true end
 M.forms = mech.forms()
 
--- residual(n, t, q, qd, qdd [, opts]); opts: a form name, or a table
--- {form = ..., higher = {q3, q4, ...}} (derivatives beyond qdd that the jets
--- use; 0 when not given: the result does not depend on them).
-function System:residual(n, t, q, qd, qdd, opts)
+-- residual(n, t, q, qd, qdd [, lambda] [, opts]); opts: a form name, or a
+-- table {form = ..., higher = {q3, q4, ...}} (derivatives beyond qdd that the
+-- jets use; 0 when not given: the result does not depend on them).  With
+-- multipliers lambda (one per constraint) the constraint terms of (6.2),
+-- -A^T lambda with A = dPhi/dq^(m), are included.  n = nil: the rule's n.
+function System:residual(n, t, q, qd, qdd, a6, a7)
+  local lambda, opts = nil, a6
+  if type(a6) == "table" and self.nc > 0 and #a6 == self.nc and type(a6[1]) == "number" then
+    lambda, opts = a6, a7
+  end
   local form, higher = "generalized", nil
   if type(opts) == "string" then form = opts
   elseif type(opts) == "table" then form, higher = opts.form or form, opts.higher
-  elseif opts ~= nil then error("bad argument #6 to 'residual' (form name or options table expected)", 2) end
+  elseif opts ~= nil then error("bad argument #6 to 'residual' (multipliers, a form name or options expected)", 2) end
   if not form_set[form] then
     error(("bad argument to 'residual' (unknown form '%s'; forms: %s)"):format(
       tostring(form), table.concat(M.forms, ", ")), 2)
   end
-  self.params = self.params   -- (params is shared with the engine table)
-  return (mech.residual(self.engine, form, n, t, q, qd, qdd, higher))
+  n = n or self:rule()
+  local r = mech.residual(self.engine, form, n, t, q, qd, qdd, higher)
+  if lambda then
+    local A = constraints.gradients(self, t, { q, qd, qdd, higher and higher[1] })
+    for c = 1, self.nc do
+      for i = 1, self.k do r[i] = r[i] - A[c][i] * lambda[c] end
+    end
+  end
+  return r
 end
 
 -- M(t, q [, qd]) and h(t, q, qd) of M qdd + h = 0 (h includes -Q and dV/dq).
@@ -150,14 +172,45 @@ end
 
 function System:mass_bias(t, q, qd) return mech.mass_bias(self.engine, t, q, qd) end
 
-function System:accel(t, q, qd) return mech.accel(self.engine, t, q, qd) end
+-- Accelerations, multipliers (one per constraint) and, with constraints, a
+-- report {iterations, residual, rcond, start}.  opts (constraints of second
+-- order nonlinear in qdd): {qdd = guess, lambda = guess, tol =, maxit =}.
+function System:accel(t, q, qd, opts)
+  if self.nc == 0 then return mech.accel(self.engine, t, q, qd), {} end
+  local orders, linear = constraints.orders(self)
+  return mech.accel_constrained(self.engine, t, q, qd, orders, linear, opts)
+end
 
--- Returns T + V (nil when the system is given by L without T) and the
--- generalized energy H = sum qd dL/dqd - L.
+-- Returns T + V (nil when the system is given by L without T), the
+-- generalized energy H = sum qd dL/dqd - L, and whether H is a first
+-- integral here: {holds, explicit_t = dL/dt, homogeneous, reasons}.
 function System:energy(t, q, qd)
   local T, V, _, H = mech.energy(self.engine, t, q, qd)
-  return T and (T + V) or nil, H
+  return T and (T + V) or nil, H, constraints.energy_conditions(self, t, q, qd)
 end
+
+-- The power of the reactions of moving constraints, R_0 of (9.1).
+function System:reaction_power(t, q, qd)
+  local qdd, lambda = self:accel(t, q, qd)
+  return constraints.reaction_power(self, t, q, qd, qdd, lambda)
+end
+
+-- Classification of the constraints (printed unless opts.quiet).
+function System:constraints(opts)
+  local classes = constraints.classify(self)
+  if not (opts and opts.quiet) then print(constraints.report(self)) end
+  return classes
+end
+
+-- Dolapchiev's order n and why; opts.extremal for the extremal form (4.3).
+function System:rule(opts) return constraints.rule(self, opts) end
+
+-- Accelerations from Tsenov's reduced equations (7.1), without multipliers.
+function System:reduced(t, q, qd, n, form) return constraints.reduced(self, t, q, qd, n or self:rule(), form) end
+
+function System:project(t, q, qd, opts) return constraints.project(self, t, q, qd, opts) end
+
+function System:check_state(t, q, qd, tol) return constraints.check_state(self, t, q, qd, tol) end
 
 -- ------------------------------------------------------------------ --
 -- Printing                                                             --
@@ -204,14 +257,23 @@ end
 -- The terms of (3.1) of order n at a state, per coordinate.  Without qdd,
 -- the accelerations of the motion are used (the residual is then ~0).
 function System:equations(n, t, q, qd, qdd, opts)
-  n = n or 1
+  n = n or self:rule()
   t = t or 0
   if q == nil then error("bad argument to 'equations' (a state t, q, qd is needed)", 2) end
   qd = qd or {}
   if #qd == 0 then for i = 1, self.k do qd[i] = 0 end end
   local given = qdd ~= nil
   qdd = qdd or self:accel(t, q, qd)
+  local lambda
+  if self.nc > 0 and not given then qdd, lambda = self:accel(t, q, qd) end
   local r, terms = mech.residual(self.engine, "generalized", n, t, q, qd, qdd, nil, true)
+  local reaction = {}
+  for i = 1, self.k do reaction[i] = 0 end
+  if lambda then
+    local A = constraints.gradients(self, t, { q, qd, qdd })
+    for c = 1, self.nc do for i = 1, self.k do reaction[i] = reaction[i] + A[c][i] * lambda[c] end end
+    for i = 1, self.k do r[i] = r[i] - reaction[i] end
+  end
   local lines = {
     ("System '%s', order n = %d: %s"):format(self.name, n, M.principle(n)),
     ("  (1/%d) (dT^(%d)/dq^(%d) - %d dT/dq) - Q = residual,  Q includes -dV/dq"):format(n, n, n, n + 1),
@@ -219,10 +281,14 @@ function System:equations(n, t, q, qd, qdd, opts)
       vector_text(qdd), given and "" or " (the system's accelerations)"),
     "",
   }
-  local rows = { { "coordinate", ("dT^(%d)/dq^(%d)"):format(n, n), ("%d dT/dq"):format(n + 1), "Q", "residual" } }
+  local rows = { { "coordinate", ("dT^(%d)/dq^(%d)"):format(n, n), ("%d dT/dq"):format(n + 1), "Q" } }
+  if lambda then rows[1][#rows[1] + 1] = "A^T lambda" end
+  rows[1][#rows[1] + 1] = "residual"
   for i = 1, self.k do
-    rows[#rows + 1] = { self.coords[i], fmt(terms.dFn[i]), fmt((n + 1) * terms.dFq[i]), fmt(terms.force[i]),
-      ("%.3e"):format(r[i]) }
+    local row = { self.coords[i], fmt(terms.dFn[i]), fmt((n + 1) * terms.dFq[i]), fmt(terms.force[i]) }
+    if lambda then row[#row + 1] = fmt(reaction[i]) end
+    row[#row + 1] = ("%.3e"):format(r[i])
+    rows[#rows + 1] = row
   end
   lines[#lines + 1] = M.table_text(rows)
   local text = table.concat(lines, "\n")
@@ -236,6 +302,7 @@ function System:__tostring()
   for _, p in ipairs{ "T", "L", "V", "Q", "S" } do
     if self.pieces[p] > 0 then have[#have + 1] = self.pieces[p] > 1 and ("%s (%d pieces)"):format(p, self.pieces[p]) or p end
   end
+  if self.nc > 0 then have[#have + 1] = ("%d constraint%s"):format(self.nc, self.nc == 1 and "" or "s") end
   local params = {}
   for k, v in pairs(self.params) do params[#params + 1] = ("%s = %s"):format(k, tostring(v)) end
   table.sort(params)

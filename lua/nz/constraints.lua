@@ -1,0 +1,436 @@
+-- nz/constraints.lua - what the constraints of a system are and what they
+-- demand (THEORY.md §6-§9): classification by jets at sample states,
+-- Dolapchiev's rule, the reduced form of Tsenov, projection onto the
+-- constraints, and the energy balance with moving constraints.
+--
+-- Nothing here reads source text: the order m of a constraint is the
+-- highest derivative slot whose partial derivative is not zero at the sample
+-- states, and it is linear in q^(m) when its second derivative along
+-- q^(m) + s v (the curvature) vanishes for random v.
+local core = require "nz.core"
+local mech = core.mech
+
+local M = {}
+
+-- Defaults, documented in help(nz.system).
+M.SAMPLES = 5              -- sample states for the classification
+M.ZERO = 1e-11             -- a partial below ZERO x scale counts as zero
+M.PROJECT_TOL = 1e-12      -- projection stops when the violation is below this
+M.CHECK_TOL = 1e-8         -- a start state may violate a constraint by this much
+
+local order_words = { [0] = "holonomic (of order 0)", "of first order", "of second order", "of third order" }
+local top_words = { [0] = "the coordinates", "the velocities", "the accelerations", "the third derivatives q'''" }
+local equation_names = {
+  [1] = "Nielsen's equations", [2] = "Tsenov's equations", [3] = "the equations with the jerk q'''",
+}
+M.equation_names = equation_names
+
+-- A small deterministic generator: the classification must not depend on
+-- the user's math.random state, and must repeat from run to run.
+local function generator(seed)
+  local x = seed
+  return function(a, b)
+    x = (x * 1103515245 + 12345) % 2147483648
+    return a + (b - a) * (x / 2147483648)
+  end
+end
+
+local function max_abs(v) local m = 0; for i = 1, #v do m = math.max(m, math.abs(v[i])) end; return m end
+
+local function sample_states(sys, n)
+  local rand = generator(20261122)
+  local base = sys.sample or {}
+  local k, states = sys.k, {}
+  for s = 1, n do
+    local st = { t = (base.t or 0.3) + rand(-0.5, 0.5) }
+    for j, name in ipairs{ "q", "qd", "qdd", "qddd" } do
+      local b = base[name] or {}
+      local v = {}
+      for i = 1, k do v[i] = (b[i] or 0.2 * j) + rand(-1, 1) end
+      st[j] = v
+    end
+    states[s] = st
+  end
+  return states
+end
+
+-- Classify constraint r: order, linearity in the top derivative, dependence
+-- on t, homogeneity in the velocities (Euler's theorem, §9), with evidence.
+local function classify_one(sys, r)
+  local e = sys.engine
+  local attempts, last_error = sample_states(sys, 4 * M.SAMPLES), nil
+  local rows = {}
+  for _, st in ipairs(attempts) do
+    if #rows >= M.SAMPLES then break end
+    local ok, value, partials, dt = pcall(mech.constraint_partials, e, r, st.t, st[1], st[2], st[3], st[4])
+    if ok then rows[#rows + 1] = { state = st, value = value, partials = partials, dt = dt }
+    else last_error = value end
+  end
+  if #rows < 2 then
+    error(("system '%s': constraint %d could not be evaluated at sample states (%s): give a typical "
+      .. "state as sample = {q = ..., qd = ...} in nz.system"):format(sys.name, r, tostring(last_error)), 0)
+  end
+  local c = { index = r, samples = #rows, norms = { 0, 0, 0, 0 }, orders_seen = {} }
+  for _, row in ipairs(rows) do
+    local norms, scale = {}, math.abs(row.value) + math.abs(row.dt)
+    for j = 1, 4 do norms[j] = max_abs(row.partials[j]); scale = scale + norms[j] end
+    local m = -1
+    for j = 1, 4 do
+      c.norms[j] = math.max(c.norms[j], norms[j])
+      if norms[j] > M.ZERO * math.max(scale, 1e-300) then m = j - 1 end
+    end
+    row.order = m
+    c.orders_seen[m] = (c.orders_seen[m] or 0) + 1
+    c.depends_on_t = c.depends_on_t or math.abs(row.dt) > M.ZERO * math.max(scale, 1)
+  end
+  local m, distinct = -1, 0
+  for order in pairs(c.orders_seen) do m = math.max(m, order); distinct = distinct + 1 end
+  c.order, c.consistent = m, distinct == 1
+  if m < 0 then
+    error(("system '%s': constraint %d depends on no coordinate or derivative (its partial "
+      .. "derivatives vanish at %d sample states): it constrains nothing"):format(sys.name, r, #rows), 0)
+  end
+  -- Linearity in q^(m): the curvature along random directions.
+  local rand = generator(7 + r)
+  c.curvature = 0
+  for _, row in ipairs(rows) do
+    local v = {}
+    for i = 1, sys.k do v[i] = rand(-1, 1) end
+    local st = row.state
+    local c0, c1, c2 = mech.constraint_curvature(e, r, m, st.t, st[1], st[2], st[3], st[4], v)
+    c.curvature = math.max(c.curvature, math.abs(c2) / (math.abs(c0) + math.abs(c1) + 1))
+  end
+  c.linear = c.curvature <= M.ZERO
+  c.holonomic = m == 0
+  -- Homogeneity in the velocities (§9): holonomic ones through Phi' =
+  -- Phi_q q' + Phi_t, which is homogeneous of degree 1 iff Phi_t = 0;
+  -- first-order ones by the ratio sum dPhi/dq' q' / Phi, constant for a
+  -- homogeneous Phi (Euler's theorem).
+  if m == 0 then
+    c.homogeneous, c.degree = not c.depends_on_t, 1
+  elseif m == 1 then
+    local lo, hi = math.huge, -math.huge
+    for _, row in ipairs(rows) do
+      local euler = 0
+      for i = 1, sys.k do euler = euler + row.partials[2][i] * row.state[2][i] end
+      if math.abs(row.value) > 1e-8 * (math.abs(euler) + 1) then
+        local d = euler / row.value
+        lo, hi = math.min(lo, d), math.max(hi, d)
+      elseif math.abs(euler) > 1e-8 then
+        lo, hi = -math.huge, math.huge     -- Phi = 0 but Euler's sum is not: not homogeneous
+      end
+    end
+    c.homogeneous = hi - lo <= 1e-8 * (1 + math.abs(hi))
+    if c.homogeneous then c.degree = math.floor(0.5 * (lo + hi) * 1e6 + 0.5) / 1e6 end
+  end
+  c.needs = c.linear and math.max(m, 1) or m + 1
+  return c
+end
+
+function M.classify(sys)
+  if sys._classes then return sys._classes end
+  local classes = {}
+  for r = 1, sys.nc do classes[r] = classify_one(sys, r) end
+  sys._classes = classes
+  return classes
+end
+
+function M.orders(sys)
+  local orders, linear = {}, {}
+  for r, c in ipairs(M.classify(sys)) do orders[r], linear[r] = c.order, c.linear end
+  return orders, linear
+end
+
+local function describe_need(c)
+  local what = order_words[c.order] or ("of order " .. c.order)
+  if c.order == 0 then
+    return ("constraint %d is holonomic: after differentiation it is linear in every derivative, so Nielsen's equations suffice (n = 1)"):format(c.index)
+  end
+  local lin = c.linear and "linear" or "nonlinear"
+  local eq = equation_names[c.needs] or ("the generalized equations of order " .. c.needs)
+  return ("constraint %d is %s and %s in %s: %s, n = %d"):format(c.index, what, lin,
+    top_words[c.order] or ("q^(" .. c.order .. ")"), eq, c.needs)
+end
+
+-- Does any force depend on the velocities (at the sample states)?
+local function forces_depend_on_velocity(sys)
+  if sys.pieces.Q == 0 then return false end
+  for _, st in ipairs(sample_states(sys, 3)) do
+    local J = mech.force_velocity_jacobian(sys.engine, st.t, st[1], st[2])
+    for i = 1, sys.k do if max_abs(J[i]) > M.ZERO then return true end end
+  end
+  return false
+end
+
+-- Dolapchiev's criterion (THEORY.md §8).  opts.extremal: the extremal form
+-- (4.3) is wanted, which needs forces free of q^(n).
+function M.rule(sys, opts)
+  local lines, n = {}, 1
+  for _, c in ipairs(M.classify(sys)) do
+    lines[#lines + 1] = describe_need(c)
+    n = math.max(n, c.needs)
+  end
+  if #lines == 0 then lines[1] = "the system has no constraints: Nielsen's equations (n = 1), and every order agrees" end
+  if opts and opts.extremal and n == 1 and forces_depend_on_velocity(sys) then
+    n = 2
+    lines[#lines + 1] = "the forces depend on the velocities, so the extremal form (4.3) needs one order more: n = 2"
+  end
+  local principle = require("nz.system").principle(n)
+  local text = ("Dolapchiev's rule: n = %d, %s.  "):format(n, principle)
+    .. (#lines > 1 and "The largest order any of them needs decides: " or "")
+    .. table.concat(lines, "; ") .. "."
+  return n, text
+end
+
+-- A table of the classification, with the evidence.
+function M.report(sys)
+  local table_text = require("nz.system").table_text
+  local rows = { { "#", "order", "kind", "top derivative", "homogeneous in qd", "evidence" } }
+  for _, c in ipairs(M.classify(sys)) do
+    local norms = {}
+    for j = 1, 4 do norms[j] = ("%.2g"):format(c.norms[j]) end
+    rows[#rows + 1] = {
+      tostring(c.index), tostring(c.order), c.holonomic and "holonomic" or "nonholonomic",
+      c.linear and "linear" or "nonlinear",
+      c.homogeneous == nil and "n/a" or (c.homogeneous and ("yes, degree %g"):format(c.degree) or "no"),
+      ("max |dPhi/dq^(j)|, j=0..3: %s; curvature %.1g; %d states%s%s"):format(table.concat(norms, ", "),
+        c.curvature, c.samples, c.depends_on_t and "; depends on t" or "",
+        c.consistent and "" or "; ORDER DIFFERS ACROSS STATES: check the constraint"),
+    }
+  end
+  return ("System '%s': %d constraint%s\n"):format(sys.name, sys.nc, sys.nc == 1 and "" or "s") .. table_text(rows)
+end
+
+-- ------------------------------------------------------------------ --
+-- Multipliers in the residual                                          --
+
+-- A_{r,i} = dPhi_r/dq_i^(m_r) at the state (levels q, qd, qdd, qddd).
+function M.gradients(sys, t, levels)
+  local A = {}
+  for r, c in ipairs(M.classify(sys)) do
+    local _, partials = mech.constraint_partials(sys.engine, r, t, levels[1], levels[2], levels[3], levels[4])
+    A[r] = partials[c.order + 1]
+  end
+  return A
+end
+
+-- ------------------------------------------------------------------ --
+-- Projection onto the constraints                                      --
+
+local function violations(sys, t, q, qd, which)
+  local vals, rows = {}, {}
+  for r, c in ipairs(M.classify(sys)) do
+    if which(c) then
+      local v, partials, dt = mech.constraint_partials(sys.engine, r, t, q, qd)
+      vals[#vals + 1], rows[#rows + 1] = v, { c = c, partials = partials, dt = dt }
+    end
+  end
+  return vals, rows
+end
+
+-- The nearest state (least change, Euclidean) that satisfies the holonomic
+-- constraints at position and velocity level and the first-order ones at
+-- velocity level, by Gauss-Newton steps of minimum norm.
+function M.project(sys, t, q, qd, opts)
+  local tol = opts and opts.tol or M.PROJECT_TOL
+  local maxit = opts and opts.maxit or 50
+  q, qd = { table.unpack(q) }, { table.unpack(qd) }
+  local report = { position_iterations = 0, velocity_iterations = 0 }
+  local function holonomic(c) return c.order == 0 end
+  for it = 1, maxit + 1 do
+    local vals, rows = violations(sys, t, q, qd, holonomic)
+    if #vals == 0 or max_abs(vals) <= tol then break end
+    if it > maxit then error(("system '%s': projection onto the holonomic constraints did not converge in %d steps (violation %.3g)"):format(sys.name, maxit, max_abs(vals)), 0) end
+    local A, b = {}, {}
+    for i, row in ipairs(rows) do A[i], b[i] = row.partials[1], -vals[i] end
+    local dq = mech.lstsq(A, b)
+    for i = 1, sys.k do q[i] = q[i] + dq[i] end
+    report.position_iterations = it
+  end
+  -- Velocity level: holonomic Phi' = Phi_q q' + Phi_t and first-order Phi.
+  local function velocity_level(c) return c.order <= 1 end
+  for it = 1, maxit + 1 do
+    local vals, rows = violations(sys, t, q, qd, velocity_level)
+    if #vals == 0 then break end
+    local A, b = {}, {}
+    for i, row in ipairs(rows) do
+      if row.c.order == 0 then
+        local v = row.dt
+        for j = 1, sys.k do v = v + row.partials[1][j] * qd[j] end
+        vals[i], A[i] = v, row.partials[1]
+      else
+        A[i] = row.partials[2]
+      end
+      b[i] = -vals[i]
+    end
+    if max_abs(vals) <= tol then break end
+    if it > maxit then error(("system '%s': projection onto the velocity constraints did not converge in %d steps (violation %.3g)"):format(sys.name, maxit, max_abs(vals)), 0) end
+    local dv = mech.lstsq(A, b)
+    for i = 1, sys.k do qd[i] = qd[i] + dv[i] end
+    report.velocity_iterations = it
+  end
+  return q, qd, report
+end
+
+-- The largest violation of constraints of order <= 1 at position and
+-- velocity level: {value, constraint, level}.
+function M.violation(sys, t, q, qd)
+  local worst, which, level = 0, nil, nil
+  for r, c in ipairs(M.classify(sys)) do
+    if c.order <= 1 then
+      local v, partials, dt = mech.constraint_partials(sys.engine, r, t, q, qd)
+      if math.abs(v) > worst then worst, which, level = math.abs(v), r, c.order == 0 and "position" or "velocity" end
+      if c.order == 0 then
+        local d = dt
+        for j = 1, sys.k do d = d + partials[1][j] * qd[j] end
+        if math.abs(d) > worst then worst, which, level = math.abs(d), r, "velocity" end
+      end
+    end
+  end
+  return worst, which, level
+end
+
+function M.check_state(sys, t, q, qd, tol)
+  tol = tol or M.CHECK_TOL
+  local worst, r, level = M.violation(sys, t, q, qd)
+  if worst > tol then
+    error(("system '%s': the state at t = %s violates constraint %d at %s level by %.3g (tolerance %.3g): "
+      .. "start from a consistent state, e.g. q, qd = sys:project(t, q, qd)"):format(
+      sys.name, tostring(t), r, level, worst, tol), 0)
+  end
+end
+
+-- ------------------------------------------------------------------ --
+-- Tsenov's elimination (THEORY.md §7)                                  --
+
+-- Choose r dependent coordinates by Gauss-Jordan elimination with complete
+-- pivoting on A (r x k), and return them with a = -A_dep^-1 A_ind (r x l)
+-- and a0 = -A_dep^-1 b: q''_dep = a q''_ind + a0.
+local function partition(A, b, k)
+  local nc = #A
+  local W, rhs = {}, {}
+  for r = 1, nc do W[r] = { table.unpack(A[r]) }; rhs[r] = b[r] end
+  local dep, used = {}, {}
+  for r = 1, nc do
+    local best, bc, br = 0, nil, nil
+    for rr = r, nc do
+      for j = 1, k do
+        if not used[j] and math.abs(W[rr][j]) > best then best, bc, br = math.abs(W[rr][j]), j, rr end
+      end
+    end
+    if not bc or best < 1e-12 then return nil end
+    W[r], W[br], rhs[r], rhs[br] = W[br], W[r], rhs[br], rhs[r]
+    local p = W[r][bc]
+    for j = 1, k do W[r][j] = W[r][j] / p end
+    rhs[r] = rhs[r] / p
+    for rr = 1, nc do
+      if rr ~= r and W[rr][bc] ~= 0 then
+        local f = W[rr][bc]
+        for j = 1, k do W[rr][j] = W[rr][j] - f * W[r][j] end
+        rhs[rr] = rhs[rr] - f * rhs[r]
+      end
+    end
+    dep[r], used[bc] = bc, true
+  end
+  local ind = {}
+  for j = 1, k do if not used[j] then ind[#ind + 1] = j end end
+  local a, a0 = {}, {}
+  for r = 1, nc do
+    a[r] = {}
+    for l, j in ipairs(ind) do a[r][l] = -W[r][j] end
+    a0[r] = -rhs[r]
+  end
+  return dep, ind, a, a0
+end
+
+-- Accelerations from the reduced equations (7.1) of order n, without
+-- multipliers: dK_n*/dq_l^(n) = dK_n/dq_l^(n) + sum_rho dK_n/dq_rho^(n) a_{rho,l}.
+function M.reduced(sys, t, q, qd, n, form)
+  local classes = M.classify(sys)
+  local A, b = {}, {}
+  local zero = {}
+  for i = 1, sys.k do zero[i] = 0 end
+  for r, c in ipairs(classes) do
+    if c.order > 2 or (c.order == 2 and not c.linear) then
+      error(("system '%s': Tsenov's elimination needs constraints linear at the acceleration level; "
+        .. "constraint %d is not: use the multiplier form sys:accel"):format(sys.name, r), 0)
+    end
+    A[r], b[r] = mech.constraint_row(sys.engine, r, c.order, t, q, qd, zero)
+  end
+  local dep, ind, a, a0 = partition(A, b, sys.k)
+  if not dep then error(("system '%s': the constraints are dependent at this state: no set of dependent coordinates"):format(sys.name), 0) end
+  local function full(qi)             -- q'' from the independent accelerations
+    local qdd = {}
+    for l, j in ipairs(ind) do qdd[j] = qi[l] end
+    for r, j in ipairs(dep) do
+      local v = a0[r]
+      for l = 1, #ind do v = v + a[r][l] * qi[l] end
+      qdd[j] = v
+    end
+    return qdd
+  end
+  local function reduced_residual(qi)
+    local res = sys:residual(n, t, q, qd, full(qi), form)
+    local out = {}
+    for l, j in ipairs(ind) do
+      local v = res[j]
+      for r, jr in ipairs(dep) do v = v + res[jr] * a[r][l] end
+      out[l] = v
+    end
+    return out
+  end
+  -- The reduced equations are affine in the independent accelerations.
+  local l = #ind
+  local base = {}
+  for i = 1, l do base[i] = 0 end
+  local r0 = reduced_residual(base)
+  local Mred = {}
+  for i = 1, l do Mred[i] = {} end
+  for c = 1, l do
+    base[c] = 1
+    local rc = reduced_residual(base)
+    base[c] = 0
+    for i = 1, l do Mred[i][c] = rc[i] - r0[i] end
+  end
+  local neg = {}
+  for i = 1, l do neg[i] = -r0[i] end
+  local qi = l > 0 and mech.lstsq(Mred, neg) or {}
+  return full(qi), { dependent = dep, independent = ind, a = a, a0 = a0, matrix = Mred, rhs = neg }
+end
+
+-- ------------------------------------------------------------------ --
+-- Energy with constraints (THEORY.md §9)                               --
+
+-- R_0 = d/dt(T1 + 2 T0) - dL/dt + sum_r lambda_r (dPhi_r/dq^(m_r) . q'), eq. (9.1).
+function M.reaction_power(sys, t, q, qd, qdd, lambda)
+  local dLdt, _, _, rate = mech.energy_terms(sys.engine, t, q, qd, qdd)
+  local R0 = rate - dLdt
+  if sys.nc > 0 then
+    local A = M.gradients(sys, t, { q, qd, qdd })
+    for r = 1, sys.nc do
+      local p = 0
+      for i = 1, sys.k do p = p + A[r][i] * qd[i] end
+      R0 = R0 + lambda[r] * p
+    end
+  end
+  return R0
+end
+
+-- Whether H = h is a first integral: L free of t, constraints homogeneous.
+function M.energy_conditions(sys, t, q, qd)
+  local dLdt = mech.energy_terms(sys.engine, t, q, qd)
+  local cond = { explicit_t = dLdt, homogeneous = true, reasons = {} }
+  if math.abs(dLdt) > M.ZERO * 1e3 then
+    cond.reasons[#cond.reasons + 1] = ("L depends on t explicitly (dL/dt = %.6g)"):format(dLdt)
+  end
+  for _, c in ipairs(M.classify(sys)) do
+    if c.homogeneous == false or c.homogeneous == nil then
+      cond.homogeneous = false
+      cond.reasons[#cond.reasons + 1] = ("constraint %d is not homogeneous in the velocities"):format(c.index)
+    end
+  end
+  cond.holds = #cond.reasons == 0
+  return cond
+end
+
+return M

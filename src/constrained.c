@@ -1,0 +1,367 @@
+/* constrained.c - constraint primitives and constrained accelerations (see
+ * constrained.h).  Linear algebra on GSL: the saddle-point matrix
+ * [M -A^T; A 0] is solved through its SVD, which gives its condition at no
+ * extra cost and, when it is singular, the constraints to blame. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <gsl/gsl_errno.h>
+#include <gsl/gsl_linalg.h>
+#include <gsl/gsl_multiroots.h>
+#include "constrained.h"
+#include "linalg.h"
+
+/* ------------------------------------------------------------------ */
+/* Primitives                                                           */
+
+int nz_constraint_partials(const nz_system *s, int r, double t, const double *const *state,
+                           int nstate, double *value, double *dphi, double *dphidt)
+{
+  int k = s->k, L = NZ_CONSTRAINT_SLOTS, D = L * k + 1;
+  nz_motion mo;
+  int st = nz_motion_init(&mo, k, L, 0, D, t, state, nstate);
+  if (st) return st;
+  nz_jet_free(mo.t);                            /* t carries direction L k */
+  if (!(mo.t = nz_jet_alloc(0, D))) { nz_motion_free(&mo); return NZ_ENOMEM; }
+  nz_jet_set_variable(mo.t, t, L * k);
+  for (int j = 0; j < L; j++)
+    for (int i = 0; i < k; i++) nz_motion_seed_slot(&mo, i, j * k + i, j);
+  st = nz_motion_eval(s, NZ_PIECE_PHI, r, &mo, NULL);
+  if (!st) {
+    *value = mo.out[0]->c[0];
+    for (int d = 0; d < L * k; d++) dphi[d] = nz_jet_tangent(mo.out[0], d)[0];
+    *dphidt = nz_jet_tangent(mo.out[0], L * k)[0];
+  }
+  nz_motion_free(&mo);
+  return st;
+}
+
+/* Make every slot (and t) constant in the series variable. */
+static void freeze(nz_motion *mo)
+{
+  for (int c = 1; c <= mo->K; c++) {
+    mo->t->c[c] = 0.0;
+    for (int j = 0; j < mo->nslots; j++)
+      for (int i = 0; i < mo->k; i++) mo->slot[j][i]->c[c] = 0.0;
+  }
+}
+
+int nz_constraint_curvature(const nz_system *s, int r, int m, double t, const double *const *state,
+                            int nstate, const double *v, double c[3])
+{
+  nz_motion mo;
+  int st = nz_motion_init(&mo, s->k, NZ_CONSTRAINT_SLOTS, 2, 0, t, state, nstate);
+  if (st) return st;
+  freeze(&mo);
+  for (int i = 0; i < s->k; i++) mo.slot[m][i]->c[1] = v[i];
+  st = nz_motion_eval(s, NZ_PIECE_PHI, r, &mo, NULL);
+  if (!st)
+    for (int j = 0; j < 3; j++) c[j] = mo.out[0]->c[j];
+  nz_motion_free(&mo);
+  return st;
+}
+
+int nz_constraint_row(const nz_system *s, int r, int m, double t, const double *const *state,
+                      int nstate, double *A, double *value)
+{
+  int k = s->k, K = 2 - m;
+  if (m < 0 || m > 2) return NZ_EARG;
+  nz_motion mo;
+  int st = nz_motion_init(&mo, k, NZ_CONSTRAINT_SLOTS, K, k, t, state, nstate);
+  if (st) return st;
+  for (int i = 0; i < k; i++) nz_motion_seed_level(&mo, i, i, 2);
+  st = nz_motion_eval(s, NZ_PIECE_PHI, r, &mo, NULL);
+  if (!st) {
+    double f = nz_factorial(K);
+    *value = f * mo.out[0]->c[K];
+    for (int i = 0; i < k; i++) A[i] = f * nz_jet_tangent(mo.out[0], i)[K];
+  }
+  nz_motion_free(&mo);
+  return st;
+}
+
+/* Column j: q'' + s e_j in the series variable, tangents on q'':
+ * the s-coefficient of tangent i is d^2 Phi / dq''_i dq''_j. */
+int nz_constraint_hessian(const nz_system *s, int r, double t, const double *const *state,
+                          int nstate, double *H)
+{
+  int k = s->k, st = NZ_OK;
+  for (int j = 0; j < k && !st; j++) {
+    nz_motion mo;
+    if ((st = nz_motion_init(&mo, k, NZ_CONSTRAINT_SLOTS, 1, k, t, state, nstate))) return st;
+    freeze(&mo);
+    mo.slot[2][j]->c[1] = 1.0;
+    for (int i = 0; i < k; i++) nz_motion_seed_slot(&mo, i, i, 2);
+    st = nz_motion_eval(s, NZ_PIECE_PHI, r, &mo, NULL);
+    if (!st)
+      for (int i = 0; i < k; i++) H[i * k + j] = nz_jet_tangent(mo.out[0], i)[1];
+    nz_motion_free(&mo);
+  }
+  return st;
+}
+
+/* ------------------------------------------------------------------ */
+/* Linear algebra                                                       */
+
+/* SVD of a (rows x cols, rows >= cols) into U (in a), S, V. */
+typedef struct svd {
+  gsl_matrix *U, *V;
+  gsl_vector *S, *work;
+} svd;
+
+static void svd_free(svd *d)
+{
+  gsl_matrix_free(d->U);
+  gsl_matrix_free(d->V);
+  gsl_vector_free(d->S);
+  gsl_vector_free(d->work);
+  memset(d, 0, sizeof *d);
+}
+
+/* Decompose the row-major rows x cols matrix a (transposed first if it has
+ * fewer rows than columns, so that GSL's rows >= cols holds). */
+static int svd_of(svd *d, int rows, int cols, const double *a, int transpose)
+{
+  int R = transpose ? cols : rows, C = transpose ? rows : cols;
+  memset(d, 0, sizeof *d);
+  d->U = gsl_matrix_alloc((size_t)R, (size_t)C);
+  d->V = gsl_matrix_alloc((size_t)C, (size_t)C);
+  d->S = gsl_vector_alloc((size_t)C);
+  d->work = gsl_vector_alloc((size_t)C);
+  if (!d->U || !d->V || !d->S || !d->work) { svd_free(d); return NZ_ENOMEM; }
+  for (int i = 0; i < rows; i++)
+    for (int j = 0; j < cols; j++)
+      gsl_matrix_set(d->U, (size_t)(transpose ? j : i), (size_t)(transpose ? i : j), a[i * cols + j]);
+  gsl_linalg_SV_decomp(d->U, d->V, d->S, d->work);
+  return NZ_OK;
+}
+
+int nz_lstsq(int m, int n, const double *A, const double *b, double *x)
+{
+  svd d;
+  int transpose = m < n;
+  int st = svd_of(&d, m, n, A, transpose);
+  if (st) return st;
+  /* A = U S V^T (or A^T = U S V^T): x = V S+ U^T b (or U S+ V^T b). */
+  int C = transpose ? m : n;
+  double smax = gsl_vector_get(d.S, 0), cut = 1e-13 * smax;
+  memset(x, 0, (size_t)n * sizeof(double));
+  for (int c = 0; c < C; c++) {
+    double sc = gsl_vector_get(d.S, (size_t)c);
+    if (!(sc > cut)) continue;
+    double proj = 0.0;
+    if (!transpose) for (int i = 0; i < m; i++) proj += gsl_matrix_get(d.U, (size_t)i, (size_t)c) * b[i];
+    else for (int i = 0; i < m; i++) proj += gsl_matrix_get(d.V, (size_t)i, (size_t)c) * b[i];
+    proj /= sc;
+    if (!transpose) for (int j = 0; j < n; j++) x[j] += gsl_matrix_get(d.V, (size_t)j, (size_t)c) * proj;
+    else for (int j = 0; j < n; j++) x[j] += gsl_matrix_get(d.U, (size_t)j, (size_t)c) * proj;
+  }
+  svd_free(&d);
+  return NZ_OK;
+}
+
+/* Rank of A (nc x k) and the constraints that take part in a dependence:
+ * the left singular vectors of A for zero singular values. */
+static void diagnose_dependence(int nc, int k, const double *A, nz_accel_report *rep)
+{
+  svd d;
+  int transpose = nc <= k;          /* decompose A^T: its V spans constraint space */
+  if (svd_of(&d, nc, k, A, transpose)) return;
+  int C = transpose ? nc : k;
+  double smax = gsl_vector_get(d.S, 0);
+  rep->rank_A = 0;
+  for (int c = 0; c < C; c++)
+    if (gsl_vector_get(d.S, (size_t)c) > 1e-10 * smax) rep->rank_A++;
+  if (rep->involved && transpose)
+    for (int c = rep->rank_A; c < C; c++)
+      for (int r = 0; r < nc; r++)
+        if (fabs(gsl_matrix_get(d.V, (size_t)r, (size_t)c)) > 0.1) rep->involved[r] = 1;
+  svd_free(&d);
+}
+
+/* Solve the N x N system J x = rhs by SVD; rcond = s_min / s_max. */
+static int svd_solve(int N, const double *J, const double *rhs, double *x, double *rcond)
+{
+  svd d;
+  int st = svd_of(&d, N, N, J, 0);
+  if (st) return st;
+  double smax = gsl_vector_get(d.S, 0), smin = gsl_vector_get(d.S, (size_t)(N - 1));
+  *rcond = smax > 0 ? smin / smax : 0.0;
+  gsl_vector_const_view bv = gsl_vector_const_view_array(rhs, (size_t)N);
+  gsl_vector_view xv = gsl_vector_view_array(x, (size_t)N);
+  if (smin > 0) gsl_linalg_SV_solve(d.U, d.V, d.S, &bv.vector, &xv.vector);
+  svd_free(&d);
+  return NZ_OK;
+}
+
+/* ------------------------------------------------------------------ */
+/* Accelerations                                                        */
+
+/* Everything needed to evaluate G(q'', lambda) = (M q'' + h - A^T lambda,
+ * Phi rows) and its Jacobian [M - sum lambda_r H_r, -A^T; A, 0]. */
+typedef struct kkt {
+  const nz_system *s;
+  const int *orders, *linear;
+  double t;
+  const double *q, *qd;
+  int k, nc, N;
+  double *M, *h, *A, *phi, *H, *x;   /* x: the point of the last evaluation */
+  int status;                         /* first failure of a user function  */
+} kkt;
+
+/* Evaluate G (and J if not NULL, N x N row-major) at x. */
+static int kkt_eval(kkt *c, const double *x, double *G, double *J)
+{
+  int k = c->k, nc = c->nc, N = c->N, st;
+  memcpy(c->x, x, (size_t)N * sizeof(double));
+  const double *state[3] = { c->q, c->qd, c->x };
+  for (int r = 0; r < nc; r++)
+    if ((st = nz_constraint_row(c->s, r, c->orders[r], c->t, state, 3, c->A + (size_t)r * k, &c->phi[r])))
+      return st;
+  for (int i = 0; i < k; i++) {
+    double g = c->h[i];
+    for (int j = 0; j < k; j++) g += c->M[i * k + j] * x[j];
+    for (int r = 0; r < nc; r++) g -= c->A[(size_t)r * k + i] * x[k + r];
+    G[i] = g;
+  }
+  for (int r = 0; r < nc; r++) G[k + r] = c->phi[r];
+  if (!J) return NZ_OK;
+  memset(J, 0, (size_t)N * N * sizeof(double));
+  for (int i = 0; i < k; i++)
+    for (int j = 0; j < k; j++) J[i * N + j] = c->M[i * k + j];
+  for (int r = 0; r < nc; r++) {
+    if (c->orders[r] == 2 && !c->linear[r]) {
+      if ((st = nz_constraint_hessian(c->s, r, c->t, state, 3, c->H))) return st;
+      for (int i = 0; i < k; i++)
+        for (int j = 0; j < k; j++) J[i * N + j] -= x[k + r] * c->H[i * k + j];
+    }
+    for (int i = 0; i < k; i++) {
+      J[i * N + k + r] = -c->A[(size_t)r * k + i];
+      J[(k + r) * N + i] = c->A[(size_t)r * k + i];
+    }
+  }
+  return NZ_OK;
+}
+
+/* GSL multiroot callbacks: a failing user function stops the solver with
+ * GSL_EBADFUNC and its status is kept (no Lua error crosses GSL's frames). */
+static int gsl_fdf(const gsl_vector *x, void *p, gsl_vector *f, gsl_matrix *J)
+{
+  kkt *c = p;
+  int N = c->N;
+  double *G = f ? f->data : NULL, *Jm = NULL, *scratch = NULL;
+  for (int i = 0; i < N; i++)          /* the solver diverged: never feed NaN to the user */
+    if (!isfinite(gsl_vector_get(x, (size_t)i))) return GSL_EBADFUNC;
+  if (!G) G = scratch = malloc((size_t)N * sizeof(double));
+  if (J) Jm = malloc((size_t)N * N * sizeof(double));
+  int st = (!G || (J && !Jm)) ? NZ_ENOMEM : kkt_eval(c, x->data, G, Jm);
+  if (!st && J)
+    for (int i = 0; i < N; i++)
+      for (int j = 0; j < N; j++) gsl_matrix_set(J, (size_t)i, (size_t)j, Jm[i * N + j]);
+  free(Jm);
+  free(scratch);
+  if (st) { if (!c->status) c->status = st; return GSL_EBADFUNC; }
+  for (int i = 0; f && i < N; i++)
+    if (!isfinite(gsl_vector_get(f, (size_t)i))) return GSL_EBADFUNC;
+  return GSL_SUCCESS;
+}
+static int gsl_f(const gsl_vector *x, void *p, gsl_vector *f) { return gsl_fdf(x, p, f, NULL); }
+static int gsl_df(const gsl_vector *x, void *p, gsl_matrix *J) { return gsl_fdf(x, p, NULL, J); }
+
+/* Powell's hybrid method with the exact Jacobian (GSL hybridsj): Newton's
+ * step where it works, a trust region where plain Newton would cycle. */
+static int solve_nonlinear(kkt *c, double *x, const nz_accel_options *opt, double scale,
+                           nz_accel_report *rep)
+{
+  int N = c->N, st = NZ_OK;
+  gsl_multiroot_function_fdf fn = { gsl_f, gsl_df, gsl_fdf, (size_t)N, c };
+  gsl_multiroot_fdfsolver *solver = gsl_multiroot_fdfsolver_alloc(gsl_multiroot_fdfsolver_hybridsj, (size_t)N);
+  if (!solver) return NZ_ENOMEM;
+  gsl_vector_view xv = gsl_vector_view_array(x, (size_t)N);
+  int gs = gsl_multiroot_fdfsolver_set(solver, &fn, &xv.vector);
+  int it = 0;
+  while (gs == GSL_SUCCESS) {
+    double gmax = 0.0;
+    for (int i = 0; i < N; i++) gmax = fmax(gmax, fabs(gsl_vector_get(solver->f, (size_t)i)));
+    rep->residual = gmax;
+    rep->iterations = it;
+    if (gmax <= opt->newton_tol * scale) break;
+    if (it >= opt->newton_maxit) { gs = GSL_EMAXITER; break; }
+    gs = gsl_multiroot_fdfsolver_iterate(solver);
+    it++;
+  }
+  if (c->status) st = c->status;
+  else if (gs != GSL_SUCCESS) { rep->failure = NZ_ACCEL_NEWTON; st = NZ_EARG; }
+  else memcpy(x, solver->x->data, (size_t)N * sizeof(double));
+  gsl_multiroot_fdfsolver_free(solver);
+  return st;
+}
+
+int nz_accel_constrained(const nz_system *s, const int *orders, const int *linear, double t,
+                         const double *q, const double *qd, const nz_accel_options *opt,
+                         double *qdd, double *lambda, nz_accel_report *rep)
+{
+  int k = s->k, nc = s->nc, N = k + nc, st = NZ_OK, nonlinear = 0;
+  rep->failure = NZ_ACCEL_OK;
+  rep->iterations = 0;
+  rep->residual = 0.0;
+  rep->rank_A = nc;
+  rep->from_guess = 0;
+  for (int r = 0; r < nc; r++) {
+    if (orders[r] > 2) { rep->failure = NZ_ACCEL_ORDER; return NZ_EARG; }
+    if (orders[r] == 2 && !linear[r]) nonlinear = 1;
+  }
+  size_t kk = (size_t)k * (size_t)k, NN = (size_t)N * (size_t)N;
+  double *buf = calloc(2 * kk + 2 * NN + (size_t)nc * (size_t)k + 5 * (size_t)N + (size_t)k, sizeof(double));
+  if (!buf) return NZ_ENOMEM;
+  kkt c = { s, orders, linear, t, q, qd, k, nc, N, NULL, NULL, NULL, NULL, NULL, NULL, NZ_OK };
+  c.M = buf;
+  c.H = c.M + kk;
+  double *J = c.H + kk, *Jc = J + NN;
+  c.A = Jc + NN;
+  double *G = c.A + (size_t)nc * k, *x = G + N, *dx = x + N;
+  c.phi = dx + N;
+  c.x = c.phi + N;
+  c.h = c.x + N;
+
+  if ((st = nz_mass_bias(s, t, q, qd, c.M, c.h))) goto done;
+  double scale = 1.0;
+  for (int i = 0; i < k; i++) scale = fmax(scale, fabs(c.h[i]));
+
+  if (nonlinear) {
+    /* Start from the caller's guess or the unconstrained accelerations. */
+    if (opt->guess_qdd) {
+      memcpy(x, opt->guess_qdd, (size_t)k * sizeof(double));
+      if (opt->guess_lambda) memcpy(x + k, opt->guess_lambda, (size_t)nc * sizeof(double));
+      rep->from_guess = 1;
+    } else {
+      nz_solve_info info;
+      memcpy(Jc, c.M, kk * sizeof(double));
+      for (int i = 0; i < k; i++) G[i] = -c.h[i];
+      if (nz_solve_spd(k, Jc, G, x, opt->rcond_min, &info)) {
+        rep->failure = NZ_ACCEL_SINGULAR;
+        st = NZ_ESINGULAR;
+        goto done;
+      }
+    }
+    if ((st = solve_nonlinear(&c, x, opt, scale, rep))) goto done;
+  }
+  /* The linear solve (all constraints affine in q'': one step from 0 is
+   * exact), and for the nonlinear case a last step at the root, whose
+   * matrix tells the condition of the system and the multipliers' quality. */
+  if ((st = kkt_eval(&c, x, G, J))) goto done;
+  for (int i = 0; i < N; i++) G[i] = -G[i];
+  if ((st = svd_solve(N, J, G, dx, &rep->rcond))) goto done;
+  if (!(rep->rcond >= opt->rcond_min)) {
+    rep->failure = NZ_ACCEL_SINGULAR;
+    diagnose_dependence(nc, k, c.A, rep);
+    st = NZ_ESINGULAR;
+    goto done;
+  }
+  for (int i = 0; i < N; i++) x[i] += dx[i];
+  memcpy(qdd, x, (size_t)k * sizeof(double));
+  memcpy(lambda, x + k, (size_t)nc * sizeof(double));
+done:
+  free(buf);
+  return st;
+}

@@ -1,0 +1,72 @@
+/* constrained.h - constraints of any order and the motion they allow
+ * (THEORY.md §6-§8).
+ *
+ * A constraint Phi_r(t, q, q', q'', q''') = 0 has an order m (the highest
+ * derivative it depends on) and is linear or not in q^(m); both are found
+ * numerically (lua/nz/constraints.lua) from the primitives below.  At the
+ * acceleration level (§6) a constraint of order m <= 2 is differentiated
+ * 2 - m times, which makes it affine in q'' unless m = 2 and it is nonlinear
+ * there; then (6.2) and Phi = 0 are solved together by Newton's method. */
+#ifndef NZ_CONSTRAINED_H
+#define NZ_CONSTRAINED_H
+
+#include "mech.h"
+
+/* Value, partial derivatives with respect to every slot (dphi[j*k + i] =
+ * dPhi/dq_i^(j), j = 0..NZ_CONSTRAINT_SLOTS-1) and dPhi/dt, at the state. */
+int nz_constraint_partials(const nz_system *s, int r, double t, const double *const *state,
+                           int nstate, double *value, double *dphi, double *dphidt);
+
+/* Phi along q^(m) + s v, as a series in s: c[0] + c[1] s + c[2] s^2.
+ * c[2] = v^T H v / 2 vanishes for every v exactly when Phi is affine in q^(m). */
+int nz_constraint_curvature(const nz_system *s, int r, int m, double t, const double *const *state,
+                            int nstate, const double *v, double c[3]);
+
+/* The constraint at the acceleration level: Phi^(2-m) at the state's q'' in
+ * *value, and its gradient A = d Phi^(2-m) / d q'' (= dPhi/dq^(m) by (2.1)). */
+int nz_constraint_row(const nz_system *s, int r, int m, double t, const double *const *state,
+                      int nstate, double *A, double *value);
+
+/* d^2 Phi / dq''^2 (k x k, row-major) of a second-order constraint. */
+int nz_constraint_hessian(const nz_system *s, int r, double t, const double *const *state,
+                          int nstate, double *H);
+
+typedef struct nz_accel_options {
+  double rcond_min;         /* below this reciprocal condition: singular   */
+  double newton_tol;        /* |G| <= tol (1 + |h|) ends Newton             */
+  int newton_maxit;
+  const double *guess_qdd;  /* Newton's start, or NULL: unconstrained qdd   */
+  const double *guess_lambda;
+} nz_accel_options;
+
+#define NZ_ACCEL_DEFAULTS { 1e-13, 1e-12, 50, NULL, NULL }
+
+typedef enum nz_accel_failure {
+  NZ_ACCEL_OK = 0,
+  NZ_ACCEL_SINGULAR,        /* [M A^T; A 0] singular or badly conditioned     */
+  NZ_ACCEL_NEWTON,          /* Newton did not converge                        */
+  NZ_ACCEL_ORDER            /* a constraint of order > 2                      */
+} nz_accel_failure;
+
+typedef struct nz_accel_report {
+  nz_accel_failure failure;
+  int iterations;           /* Newton iterations; 0 for one linear solve      */
+  double residual;          /* max |G| of (6.2) and the constraints at the end */
+  double rcond;             /* sigma_min / sigma_max of the last matrix       */
+  int rank_A;               /* rank of A (constraint gradients)               */
+  int *involved;            /* caller's nc ints: 1 for constraints in a dependence */
+  int from_guess;           /* Newton started from the caller's guess         */
+} nz_accel_report;
+
+/* Accelerations and multipliers of M q'' + h = A^T lambda with the
+ * constraints closed at the acceleration level.  orders[r] and linear[r]
+ * come from the classification.  Returns NZ_OK, NZ_ESINGULAR (report says
+ * why), or NZ_EARG (report.failure = NZ_ACCEL_NEWTON / NZ_ACCEL_ORDER). */
+int nz_accel_constrained(const nz_system *s, const int *orders, const int *linear, double t,
+                         const double *q, const double *qd, const nz_accel_options *opt,
+                         double *qdd, double *lambda, nz_accel_report *rep);
+
+/* Least squares with the minimum norm (SVD): x minimizes |A x - b| (m x n). */
+int nz_lstsq(int m, int n, const double *A, const double *b, double *x);
+
+#endif
