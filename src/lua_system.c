@@ -648,7 +648,14 @@ static int ls_accel_constrained(lua_State *L)
       luaL_addstring(&msg, ": give another start with sys:accel(t, q, qd, {qdd = ..., lambda = ...}), "
                            "or check that the constraints have a real solution here");
     } else {
-      if (rep.rank_A < nc) {
+      int ninvolved = 0, lone = 0;
+      for (int r = 0; r < nc; r++)
+        if (involved[r]) { ninvolved++; lone = r; }
+      if (rep.rank_A < nc && ninvolved == 1) {
+        snprintf(num, sizeof num, "constraint %d has a zero gradient dPhi/dq^(m) here (a singular "
+                 "configuration of the constraint)", lone + 1);
+        luaL_addstring(&msg, num);
+      } else if (rep.rank_A < nc) {
         luaL_addstring(&msg, "dependent constraints: ");
         int first = 1;
         for (int r = 0; r < nc; r++)
