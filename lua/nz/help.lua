@@ -78,6 +78,12 @@ Fields:
   L        a general Lagrangian L(t, q, qd, params), instead of or besides T
   bodies   particles and rigid bodies (see help(nz.bodies)): adds T, V, S
   S        acceleration energy along the motion (Wassmuth's form; from bodies)
+  constraints  a list of functions Phi(t, q, qd, qdd, qddd, params) = 0 of any
+           order: holonomic (of q only), first order (velocities, linear or
+           not), second order (accelerations); their order and linearity are
+           found numerically (sys:constraints())
+  sample   a typical state {t =, q =, qd =, qdd =} near which constraints are
+           classified (default: random states around 0)
   params   a table of named numbers passed to every function; change
            sys.params.m and the next call uses it
   name     a name for messages
@@ -86,17 +92,32 @@ Functions receive jets (see help(nz.jet)): write them with nz.sin, nz.exp, ...
 and plain arithmetic, and return a number or a jet.
 
 Methods (t a number, q, qd, qdd tables of k numbers):
-  sys:residual(n, t, q, qd, qdd [, form])  k residuals of the equations of order n,
+  sys:residual(n, t, q, qd, qdd [, lambda] [, form])  k residuals of order n,
         (1/n)(dT^(n)/dq^(n) - (n+1) dT/dq) - Q (THEORY.md (3.1)), n = 1..100;
         form: "generalized" (default), "lagrange", "difference" (3.2), "euler" (3.3),
         "appell" (4.2), "extremal" (4.3), "wassmuth" (particles, n >= 2).
         Or {form = ..., higher = {q3, q4, ...}}: derivatives beyond qdd (default 0;
-        the equations do not depend on them).
-  sys:accel(t, q, qd)        accelerations qdd (Cholesky of M; clear error if M is
-                             singular or not positive definite)
+        the equations do not depend on them).  With multipliers lambda the terms
+        -A^T lambda of (6.2) are included.  n = nil: the rule's n.
+  sys:accel(t, q, qd [, opts]) accelerations qdd, multipliers lambda and, with
+        constraints, a report {iterations, residual, rcond, start}.  Without
+        constraints: Cholesky of M.  With constraints closed at the acceleration
+        level: one SVD solve of [M -A^T; A 0]; second-order constraints
+        nonlinear in qdd: GSL's hybridsj (Newton with a trust region) from the
+        unconstrained accelerations or opts = {qdd = guess, lambda = guess}.
+        Singular systems name the constraints involved.
+  sys:constraints()          print and return the classification: order,
+                             linear in the top derivative, holonomic,
+                             homogeneous in qd (Euler's theorem), evidence
+  sys:rule([{extremal = true}])  Dolapchiev's n and a paragraph saying why
+  sys:reduced(t, q, qd [, n])    accelerations from Tsenov's reduced equations (7.1)
+  sys:project(t, q, qd)      the nearest state on the constraints of order <= 1
+  sys:check_state(t, q, qd [, tol])  error if a constraint is violated
+  sys:reaction_power(t, q, qd)   R_0 of (9.1): the power of moving constraints
   sys:mass(t, q [, qd]), sys:bias(t, q, qd), sys:mass_bias(t, q, qd)
                              M and h of M qdd + h = 0 (h includes -Q + dV/dq)
-  sys:energy(t, q, qd)       T + V (nil with L only) and H = sum qd dL/dqd - L
+  sys:energy(t, q, qd)       T + V (nil with L only), H = sum qd dL/dqd - L, and
+                             whether H is a first integral: {holds, reasons, ...}
   sys:equations(n, t, q, qd [, qdd])  print the terms of (3.1) per coordinate
   print(sys)                 a summary]] },
   { name = "forms", section = "mechanics", usage = "nz.forms",
