@@ -261,6 +261,18 @@ static void push_matrix(lua_State *L, const double *M, int k)
   }
 }
 
+static void append_numbers(luaL_Buffer *b, const double *v, int k)
+{
+  char num[40];
+  luaL_addchar(b, '{');
+  for (int i = 0; i < k; i++) {
+    fmt_num(num, sizeof num, v[i]);
+    if (i) luaL_addstring(b, ", ");
+    luaL_addstring(b, num);
+  }
+  luaL_addchar(b, '}');
+}
+
 /* Raise the error of a failed core call, with the system's name. */
 static int raise_core(lua_State *L, bound_system *b, int st, const char *fname)
 {
@@ -391,16 +403,33 @@ static int ls_mass_bias(lua_State *L)
   return 2;
 }
 
-static void append_numbers(luaL_Buffer *b, const double *v, int k)
+/* The error of a singular or indefinite mass matrix, with the state. */
+static int raise_singular_mass(lua_State *L, int def, double t, const double *q, const double *qd,
+                               int k, const nz_solve_info *info)
 {
-  char num[40];
-  luaL_addchar(b, '{');
-  for (int i = 0; i < k; i++) {
-    fmt_num(num, sizeof num, v[i]);
-    if (i) luaL_addstring(b, ", ");
-    luaL_addstring(b, num);
+  luaL_Buffer msg;
+  char num[64];
+  luaL_buffinit(L, &msg);
+  lua_pushfstring(L, "system '%s': the mass matrix M = d2T/dqd2 is %s at t = ", system_name(L, def),
+                  info->not_spd ? "not positive definite" : "singular or badly conditioned");
+  luaL_addvalue(&msg);
+  fmt_num(num, sizeof num, t);
+  luaL_addstring(&msg, num);
+  luaL_addstring(&msg, ", q = ");
+  append_numbers(&msg, q, k);
+  luaL_addstring(&msg, ", qd = ");
+  append_numbers(&msg, qd, k);
+  snprintf(num, sizeof num, " (eigenvalues from %.3g to %.3g", info->eig_min, info->eig_max);
+  luaL_addstring(&msg, num);
+  if (info->eig_min > 0) {
+    snprintf(num, sizeof num, ", condition number %.3g", info->eig_max / info->eig_min);
+    luaL_addstring(&msg, num);
+  } else {
+    luaL_addstring(&msg, ", condition number infinite");
   }
-  luaL_addchar(b, '}');
+  luaL_addstring(&msg, "): check T, or move away from this configuration");
+  luaL_pushresult(&msg);
+  return lua_error(L);
 }
 
 /* accel(def, t, q, qd [, rcond_min]) -> qdd: solves M qdd = -h by Cholesky. */
@@ -411,40 +440,12 @@ static int ls_accel(lua_State *L)
   bind_system(L, 1, &b);
   int k = b.sys.k;
   double rcond_min = luaL_optnumber(L, 5, NZ_RCOND_MIN);
-  double t, *buf = lua_newuserdatauv(L, ((size_t)k * (size_t)k + 5 * (size_t)k) * sizeof(double), 0);
-  double *q = buf, *qd = buf + k, *h = buf + 2 * k, *rhs = buf + 3 * k, *qdd = buf + 4 * k,
-         *M = buf + 5 * k;
+  double t, *buf = lua_newuserdatauv(L, 3 * (size_t)k * sizeof(double), 0);
+  double *q = buf, *qd = buf + k, *qdd = buf + 2 * k;
   read_tq_qd(L, k, &t, q, qd, "accel");
-  int st = nz_mass_bias(&b.sys, t, q, qd, M, h);
-  if (st) return raise_core(L, &b, st, "accel");
-  for (int i = 0; i < k; i++) rhs[i] = -h[i];
   nz_solve_info info;
-  st = nz_solve_spd(k, M, rhs, qdd, rcond_min, &info);
-  if (st == NZ_ESINGULAR) {
-    luaL_Buffer msg;
-    char num[64];
-    luaL_buffinit(L, &msg);
-    lua_pushfstring(L, "system '%s': the mass matrix M = d2T/dqd2 is %s at t = ", system_name(L, 1),
-                    info.not_spd ? "not positive definite" : "singular or badly conditioned");
-    luaL_addvalue(&msg);
-    fmt_num(num, sizeof num, t);
-    luaL_addstring(&msg, num);
-    luaL_addstring(&msg, ", q = ");
-    append_numbers(&msg, q, k);
-    luaL_addstring(&msg, ", qd = ");
-    append_numbers(&msg, qd, k);
-    snprintf(num, sizeof num, " (eigenvalues from %.3g to %.3g", info.eig_min, info.eig_max);
-    luaL_addstring(&msg, num);
-    if (info.eig_min > 0) {
-      snprintf(num, sizeof num, ", condition number %.3g", info.eig_max / info.eig_min);
-      luaL_addstring(&msg, num);
-    } else {
-      luaL_addstring(&msg, ", condition number infinite");
-    }
-    luaL_addstring(&msg, "): check T, or move away from this configuration");
-    luaL_pushresult(&msg);
-    return lua_error(L);
-  }
+  int st = nz_accel(&b.sys, t, q, qd, rcond_min, qdd, &info);
+  if (st == NZ_ESINGULAR) return raise_singular_mass(L, 1, t, q, qd, k, &info);
   if (st) return raise_core(L, &b, st, "accel");
   push_vector(L, qdd, k);
   return 1;

@@ -15,6 +15,7 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include "linalg.h"
 #include "mech.h"
 
 const char *const nz_form_names[NZ_FORM_COUNT] = {
@@ -449,6 +450,22 @@ int nz_kinetic_parts(const nz_system *s, double t, const double *q, const double
   }
   nz_jets_free(scaled, k);
   nz_motion_free(&mo);
+  return st;
+}
+
+int nz_accel(const nz_system *s, double t, const double *q, const double *qd, double rcond_min,
+             double *qdd, nz_solve_info *info)
+{
+  int k = s->k;
+  double *buf = malloc(((size_t)k * (size_t)k + 2 * (size_t)k) * sizeof(double));
+  if (!buf) return NZ_ENOMEM;
+  double *M = buf, *h = M + (size_t)k * k, *rhs = h + k;
+  int st = nz_mass_bias(s, t, q, qd, M, h);
+  if (!st) {
+    for (int i = 0; i < k; i++) rhs[i] = -h[i];
+    st = nz_solve_spd(k, M, rhs, qdd, rcond_min, info);
+  }
+  free(buf);
   return st;
 }
 

@@ -141,6 +141,13 @@ int nz_lagrangian_time_partial(const nz_system *s, double t, const double *q, co
 int nz_kinetic_parts(const nz_system *s, double t, const double *q, const double *qd,
                      const double *qdd, double *T0, double *T1, double *rate);
 
+/* Accelerations of an unconstrained system: M qdd = -h by Cholesky (linalg.h);
+ * NZ_ESINGULAR with info filled when M is not positive definite or its
+ * reciprocal condition is below rcond_min. */
+struct nz_solve_info;
+int nz_accel(const nz_system *s, double t, const double *q, const double *qd, double rcond_min,
+             double *qdd, struct nz_solve_info *info);
+
 /* Energies: T (NaN when there is no T piece), V (0 without V), F, and the
  * generalized energy H = sum q' dL/dq' - L with L = F - V. */
 int nz_energy(const nz_system *s, double t, const double *q, const double *qd, double *T,
