@@ -64,17 +64,44 @@ int nz_constraint_curvature(const nz_system *s, int r, int m, double t, const do
 int nz_constraint_row(const nz_system *s, int r, int m, double t, const double *const *state,
                       int nstate, double *A, double *value)
 {
+  return nz_constraint_row_stabilized(s, r, m, t, state, nstate, 0.0, 0.0, A, value);
+}
+
+int nz_constraint_row_stabilized(const nz_system *s, int r, int m, double t,
+                                 const double *const *state, int nstate, double alpha, double beta,
+                                 double *A, double *value)
+{
+  return nz_constraint_row_along(s, r, m, t, state, nstate, alpha, beta, NULL, A, value, NULL, NULL);
+}
+
+/* The row's value and gradient read from one output jet (the value or its
+ * derivative along a direction: the reading is linear). */
+static void read_row(const nz_jet *out, int m, int k, double alpha, double beta, double *A, double *value)
+{
+  int K = 2 - m;
+  const double *c = out->c;
+  double f = nz_factorial(K);
+  *value = f * c[K];
+  if (m == 0) *value += 2.0 * alpha * c[1] + beta * beta * c[0];   /* c: Phi, Phi', Phi''/2 */
+  if (m == 1) *value += alpha * c[0];
+  for (int i = 0; i < k; i++) A[i] = f * nz_jet_tangent(out, i)[K];
+}
+
+int nz_constraint_row_along(const nz_system *s, int r, int m, double t, const double *const *state,
+                            int nstate, double alpha, double beta, const nz_state_direction *dir,
+                            double *A, double *value, double *dA, double *dvalue)
+{
   int k = s->k, K = 2 - m;
   if (m < 0 || m > 2) return NZ_EARG;
   nz_motion mo;
   int st = nz_motion_init(&mo, k, NZ_CONSTRAINT_SLOTS, K, k, t, state, nstate);
   if (st) return st;
+  if (dir && (st = nz_motion_set_direction(&mo, dir))) { nz_motion_free(&mo); return st; }
   for (int i = 0; i < k; i++) nz_motion_seed_level(&mo, i, i, 2);
   st = nz_motion_eval(s, NZ_PIECE_PHI, r, &mo, NULL);
   if (!st) {
-    double f = nz_factorial(K);
-    *value = f * mo.out[0]->c[K];
-    for (int i = 0; i < k; i++) A[i] = f * nz_jet_tangent(mo.out[0], i)[K];
+    read_row(mo.out[0], m, k, alpha, beta, A, value);
+    if (dir) read_row(mo.dout[0], m, k, alpha, beta, dA, dvalue);
   }
   nz_motion_free(&mo);
   return st;
@@ -100,73 +127,13 @@ int nz_constraint_hessian(const nz_system *s, int r, double t, const double *con
   return st;
 }
 
-/* ------------------------------------------------------------------ */
-/* Linear algebra                                                       */
-
-/* SVD of a (rows x cols, rows >= cols) into U (in a), S, V. */
-typedef struct svd {
-  gsl_matrix *U, *V;
-  gsl_vector *S, *work;
-} svd;
-
-static void svd_free(svd *d)
-{
-  gsl_matrix_free(d->U);
-  gsl_matrix_free(d->V);
-  gsl_vector_free(d->S);
-  gsl_vector_free(d->work);
-  memset(d, 0, sizeof *d);
-}
-
-/* Decompose the row-major rows x cols matrix a (transposed first if it has
- * fewer rows than columns, so that GSL's rows >= cols holds). */
-static int svd_of(svd *d, int rows, int cols, const double *a, int transpose)
-{
-  int R = transpose ? cols : rows, C = transpose ? rows : cols;
-  memset(d, 0, sizeof *d);
-  d->U = gsl_matrix_alloc((size_t)R, (size_t)C);
-  d->V = gsl_matrix_alloc((size_t)C, (size_t)C);
-  d->S = gsl_vector_alloc((size_t)C);
-  d->work = gsl_vector_alloc((size_t)C);
-  if (!d->U || !d->V || !d->S || !d->work) { svd_free(d); return NZ_ENOMEM; }
-  for (int i = 0; i < rows; i++)
-    for (int j = 0; j < cols; j++)
-      gsl_matrix_set(d->U, (size_t)(transpose ? j : i), (size_t)(transpose ? i : j), a[i * cols + j]);
-  gsl_linalg_SV_decomp(d->U, d->V, d->S, d->work);
-  return NZ_OK;
-}
-
-int nz_lstsq(int m, int n, const double *A, const double *b, double *x)
-{
-  svd d;
-  int transpose = m < n;
-  int st = svd_of(&d, m, n, A, transpose);
-  if (st) return st;
-  /* A = U S V^T (or A^T = U S V^T): x = V S+ U^T b (or U S+ V^T b). */
-  int C = transpose ? m : n;
-  double smax = gsl_vector_get(d.S, 0), cut = 1e-13 * smax;
-  memset(x, 0, (size_t)n * sizeof(double));
-  for (int c = 0; c < C; c++) {
-    double sc = gsl_vector_get(d.S, (size_t)c);
-    if (!(sc > cut)) continue;
-    double proj = 0.0;
-    if (!transpose) for (int i = 0; i < m; i++) proj += gsl_matrix_get(d.U, (size_t)i, (size_t)c) * b[i];
-    else for (int i = 0; i < m; i++) proj += gsl_matrix_get(d.V, (size_t)i, (size_t)c) * b[i];
-    proj /= sc;
-    if (!transpose) for (int j = 0; j < n; j++) x[j] += gsl_matrix_get(d.V, (size_t)j, (size_t)c) * proj;
-    else for (int j = 0; j < n; j++) x[j] += gsl_matrix_get(d.U, (size_t)j, (size_t)c) * proj;
-  }
-  svd_free(&d);
-  return NZ_OK;
-}
-
 /* Rank of A (nc x k) and the constraints that take part in a dependence:
  * the left singular vectors of A for zero singular values. */
 static void diagnose_dependence(int nc, int k, const double *A, nz_accel_report *rep)
 {
-  svd d;
+  nz_svd d;
   int transpose = nc <= k;          /* decompose A^T: its V spans constraint space */
-  if (svd_of(&d, nc, k, A, transpose)) return;
+  if (nz_svd_of(&d, nc, k, A, transpose)) return;
   int C = transpose ? nc : k;
   double smax = gsl_vector_get(d.S, 0);
   rep->rank_A = 0;
@@ -176,22 +143,7 @@ static void diagnose_dependence(int nc, int k, const double *A, nz_accel_report 
     for (int c = rep->rank_A; c < C; c++)
       for (int r = 0; r < nc; r++)
         if (fabs(gsl_matrix_get(d.V, (size_t)r, (size_t)c)) > 0.1) rep->involved[r] = 1;
-  svd_free(&d);
-}
-
-/* Solve the N x N system J x = rhs by SVD; rcond = s_min / s_max. */
-static int svd_solve(int N, const double *J, const double *rhs, double *x, double *rcond)
-{
-  svd d;
-  int st = svd_of(&d, N, N, J, 0);
-  if (st) return st;
-  double smax = gsl_vector_get(d.S, 0), smin = gsl_vector_get(d.S, (size_t)(N - 1));
-  *rcond = smax > 0 ? smin / smax : 0.0;
-  gsl_vector_const_view bv = gsl_vector_const_view_array(rhs, (size_t)N);
-  gsl_vector_view xv = gsl_vector_view_array(x, (size_t)N);
-  if (smin > 0) gsl_linalg_SV_solve(d.U, d.V, d.S, &bv.vector, &xv.vector);
-  svd_free(&d);
-  return NZ_OK;
+  nz_svd_free(&d);
 }
 
 /* ------------------------------------------------------------------ */
@@ -202,6 +154,7 @@ static int svd_solve(int N, const double *J, const double *rhs, double *x, doubl
 typedef struct kkt {
   const nz_system *s;
   const int *orders, *linear;
+  double alpha, beta;                 /* Baumgarte */
   double t;
   const double *q, *qd;
   int k, nc, N;
@@ -216,7 +169,8 @@ static int kkt_eval(kkt *c, const double *x, double *G, double *J)
   memcpy(c->x, x, (size_t)N * sizeof(double));
   const double *state[3] = { c->q, c->qd, c->x };
   for (int r = 0; r < nc; r++)
-    if ((st = nz_constraint_row(c->s, r, c->orders[r], c->t, state, 3, c->A + (size_t)r * k, &c->phi[r])))
+    if ((st = nz_constraint_row_stabilized(c->s, r, c->orders[r], c->t, state, 3, c->alpha, c->beta,
+                                           c->A + (size_t)r * k, &c->phi[r])))
       return st;
   for (int i = 0; i < k; i++) {
     double g = c->h[i];
@@ -314,7 +268,8 @@ int nz_accel_constrained(const nz_system *s, const int *orders, const int *linea
   size_t kk = (size_t)k * (size_t)k, NN = (size_t)N * (size_t)N;
   double *buf = calloc(2 * kk + 2 * NN + (size_t)nc * (size_t)k + 5 * (size_t)N + (size_t)k, sizeof(double));
   if (!buf) return NZ_ENOMEM;
-  kkt c = { s, orders, linear, t, q, qd, k, nc, N, NULL, NULL, NULL, NULL, NULL, NULL, NZ_OK };
+  kkt c = { s, orders, linear, opt->baumgarte_alpha, opt->baumgarte_beta, t, q, qd, k, nc, N,
+            NULL, NULL, NULL, NULL, NULL, NULL, NZ_OK };
   c.M = buf;
   c.H = c.M + kk;
   double *J = c.H + kk, *Jc = J + NN;
@@ -351,7 +306,7 @@ int nz_accel_constrained(const nz_system *s, const int *orders, const int *linea
    * matrix tells the condition of the system and the multipliers' quality. */
   if ((st = kkt_eval(&c, x, G, J))) goto done;
   for (int i = 0; i < N; i++) G[i] = -G[i];
-  if ((st = svd_solve(N, J, G, dx, &rep->rcond))) goto done;
+  if ((st = nz_solve_svd(N, J, G, dx, &rep->rcond))) goto done;
   if (!(rep->rcond >= opt->rcond_min)) {
     rep->failure = NZ_ACCEL_SINGULAR;
     diagnose_dependence(nc, k, c.A, rep);
@@ -361,6 +316,7 @@ int nz_accel_constrained(const nz_system *s, const int *orders, const int *linea
   for (int i = 0; i < N; i++) x[i] += dx[i];
   memcpy(qdd, x, (size_t)k * sizeof(double));
   memcpy(lambda, x + k, (size_t)nc * sizeof(double));
+  if (rep->A) memcpy(rep->A, c.A, (size_t)nc * (size_t)k * sizeof(double));
 done:
   free(buf);
   return st;

@@ -26,6 +26,16 @@ int nz_constraint_curvature(const nz_system *s, int r, int m, double t, const do
  * *value, and its gradient A = d Phi^(2-m) / d q'' (= dPhi/dq^(m) by (2.1)). */
 int nz_constraint_row(const nz_system *s, int r, int m, double t, const double *const *state,
                       int nstate, double *A, double *value);
+/* The same row with Baumgarte's terms added to the value: for m = 0,
+ * Phi'' + 2 alpha Phi' + beta^2 Phi; for m = 1, Phi' + alpha Phi (the
+ * lower coefficients of the same jet give Phi and Phi'). */
+int nz_constraint_row_stabilized(const nz_system *s, int r, int m, double t,
+                                 const double *const *state, int nstate, double alpha, double beta,
+                                 double *A, double *value);
+/* The same, with the derivatives dA and dvalue along a state direction. */
+int nz_constraint_row_along(const nz_system *s, int r, int m, double t, const double *const *state,
+                            int nstate, double alpha, double beta, const nz_state_direction *dir,
+                            double *A, double *value, double *dA, double *dvalue);
 
 /* d^2 Phi / dq''^2 (k x k, row-major) of a second-order constraint. */
 int nz_constraint_hessian(const nz_system *s, int r, double t, const double *const *state,
@@ -37,9 +47,12 @@ typedef struct nz_accel_options {
   int newton_maxit;
   const double *guess_qdd;  /* Newton's start, or NULL: unconstrained qdd   */
   const double *guess_lambda;
+  double baumgarte_alpha;   /* Baumgarte stabilization (0, 0: none):           */
+  double baumgarte_beta;    /* Phi'' + 2 alpha Phi' + beta^2 Phi = 0 (holonomic), */
+                            /* Phi' + alpha Phi = 0 (first order)               */
 } nz_accel_options;
 
-#define NZ_ACCEL_DEFAULTS { 1e-13, 1e-12, 50, NULL, NULL }
+#define NZ_ACCEL_DEFAULTS { 1e-13, 1e-12, 50, NULL, NULL, 0.0, 0.0 }
 
 typedef enum nz_accel_failure {
   NZ_ACCEL_OK = 0,
@@ -56,6 +69,7 @@ typedef struct nz_accel_report {
   int rank_A;               /* rank of A (constraint gradients)               */
   int *involved;            /* caller's nc ints: 1 for constraints in a dependence */
   int from_guess;           /* Newton started from the caller's guess         */
+  double *A;                /* caller's nc x k, or NULL: the gradients A at the end */
 } nz_accel_report;
 
 /* Accelerations and multipliers of M q'' + h = A^T lambda with the
@@ -65,8 +79,5 @@ typedef struct nz_accel_report {
 int nz_accel_constrained(const nz_system *s, const int *orders, const int *linear, double t,
                          const double *q, const double *qd, const nz_accel_options *opt,
                          double *qdd, double *lambda, nz_accel_report *rep);
-
-/* Least squares with the minimum norm (SVD): x minimizes |A x - b| (m x n). */
-int nz_lstsq(int m, int n, const double *A, const double *b, double *x);
 
 #endif

@@ -20,4 +20,25 @@ typedef struct nz_solve_info {
 int nz_solve_spd(int k, double *A, const double *b, double *x, double rcond_min,
                  nz_solve_info *info);
 
+#include <gsl/gsl_matrix.h>
+#include <gsl/gsl_vector.h>
+
+/* A singular value decomposition a = U S V^T kept for several uses. */
+typedef struct nz_svd {
+  gsl_matrix *U, *V;
+  gsl_vector *S, *work;
+} nz_svd;
+
+/* Decompose the row-major rows x cols matrix a (transposed first when
+ * transpose is set, so that GSL's rows >= cols holds). */
+int nz_svd_of(nz_svd *d, int rows, int cols, const double *a, int transpose);
+void nz_svd_free(nz_svd *d);
+
+/* Least squares with the minimum norm (SVD): x minimizes |A x - b| (m x n). */
+int nz_lstsq(int m, int n, const double *A, const double *b, double *x);
+
+/* Solve the square N x N system J x = rhs through its SVD; *rcond is
+ * s_min / s_max (x is left untouched when s_min = 0). */
+int nz_solve_svd(int N, const double *J, const double *rhs, double *x, double *rcond);
+
 #endif

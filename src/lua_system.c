@@ -16,18 +16,12 @@
 #include "constrained.h"
 #include "linalg.h"
 #include "lua_jet.h"
+#include "lua_ode.h"
 #include "lua_system.h"
 #include "mech.h"
 
 static const char *const piece_fields[NZ_PIECE_COUNT] = { "F", "T", "V", "Q", "S", "constraints" };
 
-typedef struct lua_evaluator {
-  lua_State *L;
-  int def;                 /* stack index of the definition table */
-  int k;
-  char message[1024];      /* what failed, when eval returned NZ_EFUNC */
-  int interrupted;
-} lua_evaluator;
 
 /* Shortest round-trip text of a number, for messages. */
 static void fmt_num(char *buf, size_t n, double v)
@@ -121,8 +115,33 @@ static void push_jet_list(lua_State *L, nz_jet *const *v, int k)
   }
 }
 
+/* With a direction, an argument is the nested dual number v + eta d
+ * (lua/nz/hyperdual.lua) built by `make` (stack index). */
+static void push_dual_copy(lua_State *L, int make, const nz_jet *v, const nz_jet *d)
+{
+  lua_pushvalue(L, make);
+  push_jet_copy(L, v);
+  push_jet_copy(L, d);
+  lua_call(L, 2, 1);
+}
+
+/* Add a result at idx into out (and its eta-part into dout when it is a
+ * nested dual number); 0 and *why on a bad value. */
+static int accumulate_result(lua_State *L, int idx, nz_jet *out, nz_jet *dout, const char **why)
+{
+  if (dout && lua_type(L, idx) == LUA_TTABLE) {
+    lua_getfield(L, idx, "v");
+    lua_getfield(L, idx, "d");
+    int ok = accumulate(L, -2, out, why) && accumulate(L, -1, dout, why);
+    lua_pop(L, 2);
+    return ok;
+  }
+  return accumulate(L, idx, out, why);
+}
+
 static int lua_eval(void *vctx, nz_piece piece, int index, const nz_jet *t,
-                    nz_jet *const *const *levels, int nlevels, nz_jet *const *out)
+                    nz_jet *const *const *levels, int nlevels, nz_jet *const *out,
+                    const nz_direction *dir)
 {
   lua_evaluator *ev = vctx;
   lua_State *L = ev->L;
@@ -130,12 +149,35 @@ static int lua_eval(void *vctx, nz_piece piece, int index, const nz_jet *t,
   int nout = piece == NZ_PIECE_Q ? ev->k : 1;
   const char *why = NULL;
   luaL_checkstack(L, 16, "evaluating a system");
-  for (int o = 0; o < nout; o++) nz_jet_init(out[o], out[o]->order, out[o]->ntan);
+  for (int o = 0; o < nout; o++) {
+    nz_jet_init(out[o], out[o]->order, out[o]->ntan);
+    if (dir) nz_jet_init(dir->dout[o], out[o]->order, out[o]->ntan);
+  }
+  int make = 0;
+  if (dir) {
+    lua_getglobal(L, "require");
+    lua_pushliteral(L, "nz.hyperdual");
+    lua_call(L, 1, 1);
+    lua_getfield(L, -1, "new");
+    lua_remove(L, -2);
+    make = lua_gettop(L);
+  }
 
   /* Arguments, shared by every function of the piece: t, q[, qd], params. */
-  push_jet_copy(L, t);
+  if (dir) push_dual_copy(L, make, t, dir->dt);
+  else push_jet_copy(L, t);
   int argbase = lua_gettop(L);
-  for (int lv = 0; lv < nlevels; lv++) push_jet_list(L, levels[lv], ev->k);
+  for (int lv = 0; lv < nlevels; lv++) {
+    if (!dir) {
+      push_jet_list(L, levels[lv], ev->k);
+      continue;
+    }
+    lua_createtable(L, ev->k, 0);
+    for (int i = 0; i < ev->k; i++) {
+      push_dual_copy(L, make, levels[lv][i], dir->dlevels[lv][i]);
+      lua_rawseti(L, -2, i + 1);
+    }
+  }
   lua_getfield(L, ev->def, "params");
   int nargs = nlevels + 2;
 
@@ -164,12 +206,12 @@ static int lua_eval(void *vctx, nz_piece piece, int index, const nz_jet *t,
       } else {
         for (int o = 0; o < nout && !why; o++) {
           lua_geti(L, res, o + 1);
-          accumulate(L, -1, out[o], &why);
+          accumulate_result(L, lua_gettop(L), out[o], dir ? dir->dout[o] : NULL, &why);
           lua_pop(L, 1);
         }
       }
     } else {
-      accumulate(L, res, out[0], &why);
+      accumulate_result(L, res, out[0], dir ? dir->dout[0] : NULL, &why);
     }
     if (why) {
       record_failure(ev, piece, (int)f, t, levels, nlevels, why);
@@ -184,12 +226,8 @@ static int lua_eval(void *vctx, nz_piece piece, int index, const nz_jet *t,
 /* ------------------------------------------------------------------ */
 /* Reading the system and the state                                     */
 
-typedef struct bound_system {
-  nz_system sys;
-  lua_evaluator ev;
-} bound_system;
 
-static void bind_system(lua_State *L, int def, bound_system *b)
+void nz_lua_bind_system(lua_State *L, int def, bound_system *b)
 {
   memset(b, 0, sizeof *b);
   luaL_checktype(L, def, LUA_TTABLE);
@@ -211,7 +249,7 @@ static void bind_system(lua_State *L, int def, bound_system *b)
   b->sys.ev.ctx = &b->ev;
 }
 
-static const char *system_name(lua_State *L, int def)
+const char *nz_lua_system_name(lua_State *L, int def)
 {
   lua_getfield(L, def, "name");
   const char *name = lua_tostring(L, -1);
@@ -220,7 +258,7 @@ static const char *system_name(lua_State *L, int def)
 }
 
 /* Read k numbers from the table at idx (nil gives zeros when allow_nil). */
-static void read_vector(lua_State *L, int idx, int k, double *v, const char *what, int allow_nil,
+void nz_lua_read_vector(lua_State *L, int idx, int k, double *v, const char *what, int allow_nil,
                         const char *fname)
 {
   if (allow_nil && lua_isnoneornil(L, idx)) {
@@ -243,7 +281,7 @@ static void read_vector(lua_State *L, int idx, int k, double *v, const char *wha
   }
 }
 
-static void push_vector(lua_State *L, const double *v, int k)
+void nz_lua_push_vector(lua_State *L, const double *v, int k)
 {
   lua_createtable(L, k, 0);
   for (int i = 0; i < k; i++) {
@@ -256,7 +294,7 @@ static void push_matrix(lua_State *L, const double *M, int k)
 {
   lua_createtable(L, k, 0);
   for (int i = 0; i < k; i++) {
-    push_vector(L, M + (size_t)i * (size_t)k, k);
+    nz_lua_push_vector(L, M + (size_t)i * (size_t)k, k);
     lua_rawseti(L, -2, i + 1);
   }
 }
@@ -274,9 +312,9 @@ static void append_numbers(luaL_Buffer *b, const double *v, int k)
 }
 
 /* Raise the error of a failed core call, with the system's name. */
-static int raise_core(lua_State *L, bound_system *b, int st, const char *fname)
+int nz_lua_raise_core(lua_State *L, bound_system *b, int st, const char *fname)
 {
-  const char *name = system_name(L, b->ev.def);
+  const char *name = nz_lua_system_name(L, b->ev.def);
   if (b->ev.interrupted) return luaL_error(L, "interrupted!");
   if (st == NZ_EFUNC) return luaL_error(L, "system '%s': %s", name, b->ev.message);
   if (st == NZ_ENOMEM) return luaL_error(L, "system '%s': not enough memory in '%s'", name, fname);
@@ -300,12 +338,12 @@ static void read_state(lua_State *L, int at, int k, state_buf *s, const char *fn
   static const char *const names[] = { "q", "qd", "qdd" };
   for (int j = 0; j < 3; j++) {
     s->levels[j] = s->data + (size_t)j * (size_t)k;
-    read_vector(L, at + j, k, (double *)s->levels[j], names[j], j == 2, fname);
+    nz_lua_read_vector(L, at + j, k, (double *)s->levels[j], names[j], j == 2, fname);
   }
   for (int j = 0; j < extra; j++) {
     lua_geti(L, at + 3, j + 1);
     s->levels[3 + j] = s->data + (size_t)(3 + j) * (size_t)k;
-    read_vector(L, lua_gettop(L), k, (double *)s->levels[3 + j], "higher derivative", 0, fname);
+    nz_lua_read_vector(L, lua_gettop(L), k, (double *)s->levels[3 + j], "higher derivative", 0, fname);
     lua_pop(L, 1);
   }
 }
@@ -327,7 +365,7 @@ static int ls_residual(lua_State *L)
 {
   lua_settop(L, 9);   /* optional arguments read as nil, scratch above */
   bound_system b;
-  bind_system(L, 1, &b);
+  nz_lua_bind_system(L, 1, &b);
   int form = luaL_checkoption(L, 2, NULL, nz_form_names);
   int n = check_order(L, 3, 1, "residual");
   double t = luaL_checknumber(L, 4);
@@ -337,20 +375,20 @@ static int ls_residual(lua_State *L)
   double *buf = lua_newuserdatauv(L, 4 * (size_t)k * sizeof(double), 0);
   nz_terms terms = { buf + k, buf + 2 * k, buf + 3 * k };
   if (form == NZ_FORM_WASSMUTH && n < 2)
-    return luaL_error(L, "system '%s': Wassmuth's form needs n >= 2 (got %d)", system_name(L, 1), n);
+    return luaL_error(L, "system '%s': Wassmuth's form needs n >= 2 (got %d)", nz_lua_system_name(L, 1), n);
   if (form == NZ_FORM_WASSMUTH && !nz_system_has(&b.sys, NZ_PIECE_S))
     return luaL_error(L, "system '%s': Wassmuth's form needs the acceleration energy S: build "
-                      "the system from particles (bodies = {...}) or give S", system_name(L, 1));
+                      "the system from particles (bodies = {...}) or give S", nz_lua_system_name(L, 1));
   int st = nz_residual(&b.sys, form, n, t, s.levels, s.n, buf, want_terms ? &terms : NULL);
-  if (st) return raise_core(L, &b, st, "residual");
-  push_vector(L, buf, k);
+  if (st) return nz_lua_raise_core(L, &b, st, "residual");
+  nz_lua_push_vector(L, buf, k);
   if (!want_terms) return 1;
   lua_createtable(L, 0, 3);
-  push_vector(L, terms.dFn, k);
+  nz_lua_push_vector(L, terms.dFn, k);
   lua_setfield(L, -2, "dFn");
-  push_vector(L, terms.dFq, k);
+  nz_lua_push_vector(L, terms.dFq, k);
   lua_setfield(L, -2, "dFq");
-  push_vector(L, terms.force, k);
+  nz_lua_push_vector(L, terms.force, k);
   lua_setfield(L, -2, "force");
   return 2;
 }
@@ -362,7 +400,7 @@ static int ls_operator(lua_State *L)
   lua_settop(L, 8);   /* optional arguments read as nil, scratch above */
   static const char *const which_names[] = { "N", "E", "top", "partial", NULL };
   bound_system b;
-  bind_system(L, 1, &b);
+  nz_lua_bind_system(L, 1, &b);
   int which = luaL_checkoption(L, 2, NULL, which_names);
   int m = check_order(L, 3, which == 3 ? 0 : 1, "operator");
   double t = luaL_checknumber(L, 4);
@@ -374,16 +412,16 @@ static int ls_operator(lua_State *L)
          : which == 1 ? nz_operator_E(&b.sys, m, t, s.levels, s.n, out)
          : which == 2 ? nz_top_coefficient(&b.sys, m, t, s.levels, s.n, out)
                       : nz_partial(&b.sys, m, t, s.levels, s.n, out);
-  if (st) return raise_core(L, &b, st, "operator");
-  push_vector(L, out, k);
+  if (st) return nz_lua_raise_core(L, &b, st, "operator");
+  nz_lua_push_vector(L, out, k);
   return 1;
 }
 
 static void read_tq_qd(lua_State *L, int k, double *t, double *q, double *qd, const char *fname)
 {
   *t = luaL_checknumber(L, 2);
-  read_vector(L, 3, k, q, "q", 0, fname);
-  read_vector(L, 4, k, qd, "qd", 1, fname);
+  nz_lua_read_vector(L, 3, k, q, "q", 0, fname);
+  nz_lua_read_vector(L, 4, k, qd, "qd", 1, fname);
 }
 
 /* mass_bias(def, t, q, qd) -> M, h */
@@ -391,26 +429,26 @@ static int ls_mass_bias(lua_State *L)
 {
   lua_settop(L, 4);   /* optional arguments read as nil, scratch above */
   bound_system b;
-  bind_system(L, 1, &b);
+  nz_lua_bind_system(L, 1, &b);
   int k = b.sys.k;
   double t, *buf = lua_newuserdatauv(L, ((size_t)k * (size_t)k + 3 * (size_t)k) * sizeof(double), 0);
   double *q = buf, *qd = buf + k, *h = buf + 2 * k, *M = buf + 3 * k;
   read_tq_qd(L, k, &t, q, qd, "mass");
   int st = nz_mass_bias(&b.sys, t, q, qd, M, h);
-  if (st) return raise_core(L, &b, st, "mass");
+  if (st) return nz_lua_raise_core(L, &b, st, "mass");
   push_matrix(L, M, k);
-  push_vector(L, h, k);
+  nz_lua_push_vector(L, h, k);
   return 2;
 }
 
 /* The error of a singular or indefinite mass matrix, with the state. */
-static int raise_singular_mass(lua_State *L, int def, double t, const double *q, const double *qd,
+int nz_lua_raise_singular_mass(lua_State *L, int def, double t, const double *q, const double *qd,
                                int k, const nz_solve_info *info)
 {
   luaL_Buffer msg;
   char num[64];
   luaL_buffinit(L, &msg);
-  lua_pushfstring(L, "system '%s': the mass matrix M = d2T/dqd2 is %s at t = ", system_name(L, def),
+  lua_pushfstring(L, "system '%s': the mass matrix M = d2T/dqd2 is %s at t = ", nz_lua_system_name(L, def),
                   info->not_spd ? "not positive definite" : "singular or badly conditioned");
   luaL_addvalue(&msg);
   fmt_num(num, sizeof num, t);
@@ -437,7 +475,7 @@ static int ls_accel(lua_State *L)
 {
   lua_settop(L, 5);   /* optional arguments read as nil, scratch above */
   bound_system b;
-  bind_system(L, 1, &b);
+  nz_lua_bind_system(L, 1, &b);
   int k = b.sys.k;
   double rcond_min = luaL_optnumber(L, 5, NZ_RCOND_MIN);
   double t, *buf = lua_newuserdatauv(L, 3 * (size_t)k * sizeof(double), 0);
@@ -445,9 +483,9 @@ static int ls_accel(lua_State *L)
   read_tq_qd(L, k, &t, q, qd, "accel");
   nz_solve_info info;
   int st = nz_accel(&b.sys, t, q, qd, rcond_min, qdd, &info);
-  if (st == NZ_ESINGULAR) return raise_singular_mass(L, 1, t, q, qd, k, &info);
-  if (st) return raise_core(L, &b, st, "accel");
-  push_vector(L, qdd, k);
+  if (st == NZ_ESINGULAR) return nz_lua_raise_singular_mass(L, 1, t, q, qd, k, &info);
+  if (st) return nz_lua_raise_core(L, &b, st, "accel");
+  nz_lua_push_vector(L, qdd, k);
   return 1;
 }
 
@@ -456,12 +494,12 @@ static int ls_energy(lua_State *L)
 {
   lua_settop(L, 4);   /* optional arguments read as nil, scratch above */
   bound_system b;
-  bind_system(L, 1, &b);
+  nz_lua_bind_system(L, 1, &b);
   int k = b.sys.k;
   double t, T, V, F, H, *buf = lua_newuserdatauv(L, 2 * (size_t)k * sizeof(double), 0);
   read_tq_qd(L, k, &t, buf, buf + k, "energy");
   int st = nz_energy(&b.sys, t, buf, buf + k, &T, &V, &F, &H);
-  if (st) return raise_core(L, &b, st, "energy");
+  if (st) return nz_lua_raise_core(L, &b, st, "energy");
   if (isnan(T)) lua_pushnil(L);
   else lua_pushnumber(L, T);
   lua_pushnumber(L, V);
@@ -477,7 +515,7 @@ static int check_constraint(lua_State *L, bound_system *b, int idx)
 {
   lua_Integer r = luaL_checkinteger(L, idx);
   if (r < 1 || r > b->sys.nc)
-    return (int)luaL_error(L, "system '%s': no constraint %I (it has %d)", system_name(L, 1),
+    return (int)luaL_error(L, "system '%s': no constraint %I (it has %d)", nz_lua_system_name(L, 1),
                            (lua_Integer)r, b->sys.nc);
   return (int)r - 1;
 }
@@ -489,7 +527,7 @@ static void read_levels(lua_State *L, int at, int k, double *data, const double 
   static const char *const names[] = { "q", "qd", "qdd", "qddd" };
   for (int j = 0; j < NZ_CONSTRAINT_SLOTS; j++) {
     levels[j] = data + (size_t)j * (size_t)k;
-    read_vector(L, at + j, k, (double *)levels[j], names[j], j > 0, fname);
+    nz_lua_read_vector(L, at + j, k, (double *)levels[j], names[j], j > 0, fname);
   }
 }
 
@@ -498,7 +536,7 @@ static int ls_constraint_partials(lua_State *L)
 {
   lua_settop(L, 7);   /* optional arguments read as nil, scratch above */
   bound_system b;
-  bind_system(L, 1, &b);
+  nz_lua_bind_system(L, 1, &b);
   int r = check_constraint(L, &b, 2), k = b.sys.k, S = NZ_CONSTRAINT_SLOTS;
   double t = luaL_checknumber(L, 3), value, dphidt;
   double *data = lua_newuserdatauv(L, 2 * (size_t)S * (size_t)k * sizeof(double), 0);
@@ -506,11 +544,11 @@ static int ls_constraint_partials(lua_State *L)
   read_levels(L, 4, k, data, levels, "constraint_partials");
   double *dphi = data + (size_t)S * k;
   int st = nz_constraint_partials(&b.sys, r, t, levels, S, &value, dphi, &dphidt);
-  if (st) return raise_core(L, &b, st, "constraint_partials");
+  if (st) return nz_lua_raise_core(L, &b, st, "constraint_partials");
   lua_pushnumber(L, value);
   lua_createtable(L, S, 0);
   for (int j = 0; j < S; j++) {
-    push_vector(L, dphi + (size_t)j * k, k);
+    nz_lua_push_vector(L, dphi + (size_t)j * k, k);
     lua_rawseti(L, -2, j + 1);
   }
   lua_pushnumber(L, dphidt);
@@ -522,7 +560,7 @@ static int ls_constraint_curvature(lua_State *L)
 {
   lua_settop(L, 9);   /* optional arguments read as nil, scratch above */
   bound_system b;
-  bind_system(L, 1, &b);
+  nz_lua_bind_system(L, 1, &b);
   int r = check_constraint(L, &b, 2), k = b.sys.k, S = NZ_CONSTRAINT_SLOTS;
   int m = (int)luaL_checkinteger(L, 3);
   luaL_argcheck(L, m >= 0 && m < S, 3, "slot between 0 and 3 expected");
@@ -530,9 +568,9 @@ static int ls_constraint_curvature(lua_State *L)
   double *data = lua_newuserdatauv(L, ((size_t)S + 1) * (size_t)k * sizeof(double), 0);
   const double *levels[NZ_CONSTRAINT_SLOTS];
   read_levels(L, 5, k, data, levels, "constraint_curvature");
-  read_vector(L, 9, k, data + (size_t)S * k, "direction", 0, "constraint_curvature");
+  nz_lua_read_vector(L, 9, k, data + (size_t)S * k, "direction", 0, "constraint_curvature");
   int st = nz_constraint_curvature(&b.sys, r, m, t, levels, S, data + (size_t)S * k, c);
-  if (st) return raise_core(L, &b, st, "constraint_curvature");
+  if (st) return nz_lua_raise_core(L, &b, st, "constraint_curvature");
   for (int j = 0; j < 3; j++) lua_pushnumber(L, c[j]);
   return 3;
 }
@@ -542,19 +580,19 @@ static int ls_constraint_row(lua_State *L)
 {
   lua_settop(L, 7);   /* optional arguments read as nil, scratch above */
   bound_system b;
-  bind_system(L, 1, &b);
+  nz_lua_bind_system(L, 1, &b);
   int r = check_constraint(L, &b, 2), k = b.sys.k;
   int m = (int)luaL_checkinteger(L, 3);
   luaL_argcheck(L, m >= 0 && m <= 2, 3, "order between 0 and 2 expected");
   double t = luaL_checknumber(L, 4), value;
   double *data = lua_newuserdatauv(L, 4 * (size_t)k * sizeof(double), 0);
   const double *levels[3] = { data, data + k, data + 2 * k };
-  read_vector(L, 5, k, data, "q", 0, "constraint_row");
-  read_vector(L, 6, k, data + k, "qd", 1, "constraint_row");
-  read_vector(L, 7, k, data + 2 * k, "qdd", 1, "constraint_row");
+  nz_lua_read_vector(L, 5, k, data, "q", 0, "constraint_row");
+  nz_lua_read_vector(L, 6, k, data + k, "qd", 1, "constraint_row");
+  nz_lua_read_vector(L, 7, k, data + 2 * k, "qdd", 1, "constraint_row");
   int st = nz_constraint_row(&b.sys, r, m, t, levels, 3, data + 3 * k, &value);
-  if (st) return raise_core(L, &b, st, "constraint_row");
-  push_vector(L, data + 3 * k, k);
+  if (st) return nz_lua_raise_core(L, &b, st, "constraint_row");
+  nz_lua_push_vector(L, data + 3 * k, k);
   lua_pushnumber(L, value);
   return 2;
 }
@@ -570,7 +608,7 @@ static void read_flags(lua_State *L, int idx, int n, int *v, const char *what)
   }
 }
 
-static void add_state(luaL_Buffer *msg, double t, const double *q, const double *qd, int k)
+void nz_lua_add_state(luaL_Buffer *msg, double t, const double *q, const double *qd, int k)
 {
   char num[40];
   fmt_num(num, sizeof num, t);
@@ -582,18 +620,79 @@ static void add_state(luaL_Buffer *msg, double t, const double *q, const double 
   append_numbers(msg, qd, k);
 }
 
+/* The error of a failed constrained solve: why, where, and what to do. */
+int nz_lua_raise_accel_failure(lua_State *L, int def, const nz_accel_report *rep_, const int *orders,
+                               double t, const double *q, const double *qd, int k, int nc)
+{
+  nz_accel_report rep = *rep_;
+  const int *involved = rep.involved;
+  luaL_Buffer msg;
+  char num[160];
+  luaL_buffinit(L, &msg);
+  lua_pushfstring(L, "system '%s': ", nz_lua_system_name(L, def));
+  luaL_addvalue(&msg);
+  if (rep.failure == NZ_ACCEL_ORDER) {
+    for (int r = 0; r < nc; r++)
+      if (orders[r] > 2) {
+        snprintf(num, sizeof num, "constraint %d is of order %d", r + 1, orders[r]);
+        luaL_addstring(&msg, num);
+        break;
+      }
+    luaL_addstring(&msg, ": accelerations (and integration) support constraints up to order 2; "
+                         "its residuals and classification work");
+  } else if (rep.failure == NZ_ACCEL_NEWTON) {
+    snprintf(num, sizeof num, "Newton's method on (6.2) and the constraints did not converge in %d "
+             "iterations (residual %.3g)", rep.iterations, rep.residual);
+    luaL_addstring(&msg, num);
+    nz_lua_add_state(&msg, t, q, qd, k);
+    luaL_addstring(&msg, rep.from_guess ? "; started from the guess given"
+                                        : "; started from the unconstrained accelerations");
+    luaL_addstring(&msg, ": give another start with sys:accel(t, q, qd, {qdd = ..., lambda = ...}), "
+                         "or check that the constraints have a real solution here");
+  } else {
+    int ninvolved = 0, lone = 0;
+    for (int r = 0; r < nc; r++)
+      if (involved[r]) { ninvolved++; lone = r; }
+    if (rep.rank_A < nc && ninvolved == 1) {
+      snprintf(num, sizeof num, "constraint %d has a zero gradient dPhi/dq^(m) here (a singular "
+               "configuration of the constraint)", lone + 1);
+      luaL_addstring(&msg, num);
+    } else if (rep.rank_A < nc) {
+      luaL_addstring(&msg, "dependent constraints: ");
+      int first = 1;
+      for (int r = 0; r < nc; r++)
+        if (involved[r]) {
+          snprintf(num, sizeof num, "%s%d", first ? "constraints " : " and ", r + 1);
+          luaL_addstring(&msg, num);
+          first = 0;
+        }
+      snprintf(num, sizeof num, " (the rank of their gradients A is %d < %d)", rep.rank_A, nc);
+      luaL_addstring(&msg, num);
+    } else {
+      luaL_addstring(&msg, "the mass matrix is singular on the directions the constraints allow");
+    }
+    snprintf(num, sizeof num, ": [M A^T; A 0] is singular or badly conditioned (reciprocal condition %.2g)",
+             rep.rcond);
+    luaL_addstring(&msg, num);
+    nz_lua_add_state(&msg, t, q, qd, k);
+    luaL_addstring(&msg, ": remove a redundant constraint or move away from this configuration");
+  }
+  luaL_pushresult(&msg);
+  return lua_error(L);
+}
+
 /* accel_constrained(def, t, q, qd, orders, linear, opts) -> qdd, lambda, report */
 static int ls_accel_constrained(lua_State *L)
 {
   lua_settop(L, 7);   /* optional arguments read as nil, scratch above */
   bound_system b;
-  bind_system(L, 1, &b);
+  nz_lua_bind_system(L, 1, &b);
   int k = b.sys.k, nc = b.sys.nc;
   double t = luaL_checknumber(L, 2);
   double *data = lua_newuserdatauv(L, (5 * (size_t)k + 2 * (size_t)nc) * sizeof(double), 0);
   double *q = data, *qd = q + k, *qdd = qd + k, *gq = qdd + k, *lam = gq + k, *gl = lam + nc;
-  read_vector(L, 3, k, q, "q", 0, "accel");
-  read_vector(L, 4, k, qd, "qd", 1, "accel");
+  nz_lua_read_vector(L, 3, k, q, "q", 0, "accel");
+  nz_lua_read_vector(L, 4, k, qd, "qd", 1, "accel");
   int *ints = lua_newuserdatauv(L, 3 * (size_t)(nc + 1) * sizeof(int), 0);
   int *orders = ints, *linear = ints + nc + 1, *involved = ints + 2 * (nc + 1);
   read_flags(L, 5, nc, orders, "orders");
@@ -605,7 +704,7 @@ static int ls_accel_constrained(lua_State *L)
     if (lua_getfield(L, 7, "maxit") == LUA_TNUMBER) opt.newton_maxit = (int)lua_tointeger(L, -1);
     if (lua_getfield(L, 7, "rcond_min") == LUA_TNUMBER) opt.rcond_min = lua_tonumber(L, -1);
     if (lua_getfield(L, 7, "qdd") == LUA_TTABLE) {
-      read_vector(L, lua_gettop(L), k, gq, "guess qdd", 0, "accel");
+      nz_lua_read_vector(L, lua_gettop(L), k, gq, "guess qdd", 0, "accel");
       opt.guess_qdd = gq;
     }
     if (lua_getfield(L, 7, "lambda") == LUA_TTABLE) {
@@ -623,64 +722,10 @@ static int ls_accel_constrained(lua_State *L)
   memset(&rep, 0, sizeof rep);
   rep.involved = involved;
   int st = nz_accel_constrained(&b.sys, orders, linear, t, q, qd, &opt, qdd, lam, &rep);
-  if (st == NZ_EFUNC || st == NZ_ENOMEM) return raise_core(L, &b, st, "accel");
-  if (st) {
-    luaL_Buffer msg;
-    char num[160];
-    luaL_buffinit(L, &msg);
-    lua_pushfstring(L, "system '%s': ", system_name(L, 1));
-    luaL_addvalue(&msg);
-    if (rep.failure == NZ_ACCEL_ORDER) {
-      for (int r = 0; r < nc; r++)
-        if (orders[r] > 2) {
-          snprintf(num, sizeof num, "constraint %d is of order %d", r + 1, orders[r]);
-          luaL_addstring(&msg, num);
-          break;
-        }
-      luaL_addstring(&msg, ": accelerations (and integration) support constraints up to order 2; "
-                           "its residuals and classification work");
-    } else if (rep.failure == NZ_ACCEL_NEWTON) {
-      snprintf(num, sizeof num, "Newton's method on (6.2) and the constraints did not converge in %d "
-               "iterations (residual %.3g)", rep.iterations, rep.residual);
-      luaL_addstring(&msg, num);
-      add_state(&msg, t, q, qd, k);
-      luaL_addstring(&msg, rep.from_guess ? "; started from the guess given"
-                                          : "; started from the unconstrained accelerations");
-      luaL_addstring(&msg, ": give another start with sys:accel(t, q, qd, {qdd = ..., lambda = ...}), "
-                           "or check that the constraints have a real solution here");
-    } else {
-      int ninvolved = 0, lone = 0;
-      for (int r = 0; r < nc; r++)
-        if (involved[r]) { ninvolved++; lone = r; }
-      if (rep.rank_A < nc && ninvolved == 1) {
-        snprintf(num, sizeof num, "constraint %d has a zero gradient dPhi/dq^(m) here (a singular "
-                 "configuration of the constraint)", lone + 1);
-        luaL_addstring(&msg, num);
-      } else if (rep.rank_A < nc) {
-        luaL_addstring(&msg, "dependent constraints: ");
-        int first = 1;
-        for (int r = 0; r < nc; r++)
-          if (involved[r]) {
-            snprintf(num, sizeof num, "%s%d", first ? "constraints " : " and ", r + 1);
-            luaL_addstring(&msg, num);
-            first = 0;
-          }
-        snprintf(num, sizeof num, " (the rank of their gradients A is %d < %d)", rep.rank_A, nc);
-        luaL_addstring(&msg, num);
-      } else {
-        luaL_addstring(&msg, "the mass matrix is singular on the directions the constraints allow");
-      }
-      snprintf(num, sizeof num, ": [M A^T; A 0] is singular or badly conditioned (reciprocal condition %.2g)",
-               rep.rcond);
-      luaL_addstring(&msg, num);
-      add_state(&msg, t, q, qd, k);
-      luaL_addstring(&msg, ": remove a redundant constraint or move away from this configuration");
-    }
-    luaL_pushresult(&msg);
-    return lua_error(L);
-  }
-  push_vector(L, qdd, k);
-  push_vector(L, lam, nc);
+  if (st == NZ_EFUNC || st == NZ_ENOMEM) return nz_lua_raise_core(L, &b, st, "accel");
+  if (st) return nz_lua_raise_accel_failure(L, 1, &rep, orders, t, q, qd, k, nc);
+  nz_lua_push_vector(L, qdd, k);
+  nz_lua_push_vector(L, lam, nc);
   lua_createtable(L, 0, 4);
   lua_pushinteger(L, rep.iterations);
   lua_setfield(L, -2, "iterations");
@@ -698,12 +743,12 @@ static int ls_force_velocity_jacobian(lua_State *L)
 {
   lua_settop(L, 4);   /* optional arguments read as nil, scratch above */
   bound_system b;
-  bind_system(L, 1, &b);
+  nz_lua_bind_system(L, 1, &b);
   int k = b.sys.k;
   double t, *buf = lua_newuserdatauv(L, (2 * (size_t)k + (size_t)k * k) * sizeof(double), 0);
   read_tq_qd(L, k, &t, buf, buf + k, "force_velocity_jacobian");
   int st = nz_force_velocity_jacobian(&b.sys, t, buf, buf + k, buf + 2 * k);
-  if (st) return raise_core(L, &b, st, "force_velocity_jacobian");
+  if (st) return nz_lua_raise_core(L, &b, st, "force_velocity_jacobian");
   push_matrix(L, buf + 2 * k, k);
   return 1;
 }
@@ -713,16 +758,16 @@ static int ls_energy_terms(lua_State *L)
 {
   lua_settop(L, 5);   /* optional arguments read as nil, scratch above */
   bound_system b;
-  bind_system(L, 1, &b);
+  nz_lua_bind_system(L, 1, &b);
   int k = b.sys.k;
   double t = luaL_checknumber(L, 2), dLdt, T0, T1, rate;
   double *buf = lua_newuserdatauv(L, 3 * (size_t)k * sizeof(double), 0);
-  read_vector(L, 3, k, buf, "q", 0, "energy_terms");
-  read_vector(L, 4, k, buf + k, "qd", 1, "energy_terms");
-  read_vector(L, 5, k, buf + 2 * k, "qdd", 1, "energy_terms");
+  nz_lua_read_vector(L, 3, k, buf, "q", 0, "energy_terms");
+  nz_lua_read_vector(L, 4, k, buf + k, "qd", 1, "energy_terms");
+  nz_lua_read_vector(L, 5, k, buf + 2 * k, "qdd", 1, "energy_terms");
   int st = nz_lagrangian_time_partial(&b.sys, t, buf, buf + k, &dLdt);
   if (!st) st = nz_kinetic_parts(&b.sys, t, buf, buf + k, buf + 2 * k, &T0, &T1, &rate);
-  if (st) return raise_core(L, &b, st, "energy_terms");
+  if (st) return nz_lua_raise_core(L, &b, st, "energy_terms");
   lua_pushnumber(L, dLdt);
   lua_pushnumber(L, T0);
   lua_pushnumber(L, T1);
@@ -744,12 +789,12 @@ static int ls_lstsq(lua_State *L)
   double *bb = A + (size_t)m * n, *x = bb + m;
   for (int i = 0; i < m; i++) {
     lua_geti(L, 1, i + 1);
-    read_vector(L, lua_gettop(L), n, A + (size_t)i * n, "row", 0, "lstsq");
+    nz_lua_read_vector(L, lua_gettop(L), n, A + (size_t)i * n, "row", 0, "lstsq");
     lua_pop(L, 1);
   }
-  read_vector(L, 2, m, bb, "b", 0, "lstsq");
+  nz_lua_read_vector(L, 2, m, bb, "b", 0, "lstsq");
   if (nz_lstsq(m, n, A, bb, x)) return luaL_error(L, "'lstsq': not enough memory");
-  push_vector(L, x, n);
+  nz_lua_push_vector(L, x, n);
   return 1;
 }
 
@@ -777,6 +822,7 @@ void nz_lua_open_system(lua_State *L)
 {
   lua_newtable(L);
   luaL_setfuncs(L, system_functions, 0);
+  nz_lua_open_ode(L);
   lua_pushinteger(L, NZ_MAX_EQ_ORDER);
   lua_setfield(L, -2, "max_order");
   lua_pushnumber(L, NZ_RCOND_MIN);

@@ -2,8 +2,42 @@
 #ifndef NZ_LUA_SYSTEM_H
 #define NZ_LUA_SYSTEM_H
 #include <lua.h>
+#include <lauxlib.h>
+#include "constrained.h"
+#include "linalg.h"
+#include "mech.h"
 
 /* Add the table of mechanics functions as field "mech" of the table on top. */
 void nz_lua_open_system(lua_State *L);
+
+/* The Lua evaluator behind nz_evaluator: calls the functions of the
+ * definition table at stack index `def` under lua_pcall. */
+typedef struct lua_evaluator {
+  lua_State *L;
+  int def;                 /* stack index of the definition table */
+  int k;
+  char message[1024];      /* what failed, when eval returned NZ_EFUNC */
+  int interrupted;
+} lua_evaluator;
+
+/* A system bound to its definition table for the duration of one call. */
+typedef struct bound_system {
+  nz_system sys;
+  lua_evaluator ev;
+} bound_system;
+
+void nz_lua_bind_system(lua_State *L, int def, bound_system *b);
+const char *nz_lua_system_name(lua_State *L, int def);
+/* Read k finite numbers from the table at idx (nil gives zeros if allow_nil). */
+void nz_lua_read_vector(lua_State *L, int idx, int k, double *v, const char *what, int allow_nil,
+                        const char *fname);
+void nz_lua_push_vector(lua_State *L, const double *v, int k);
+void nz_lua_add_state(luaL_Buffer *msg, double t, const double *q, const double *qd, int k);
+/* Errors, raised with the system's name and the state. */
+int nz_lua_raise_core(lua_State *L, bound_system *b, int st, const char *fname);
+int nz_lua_raise_singular_mass(lua_State *L, int def, double t, const double *q, const double *qd,
+                               int k, const nz_solve_info *info);
+int nz_lua_raise_accel_failure(lua_State *L, int def, const nz_accel_report *rep, const int *orders,
+                               double t, const double *q, const double *qd, int k, int nc);
 
 #endif

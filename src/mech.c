@@ -51,9 +51,34 @@ nz_jet **nz_jets_alloc(int k, int K, int D)
 void nz_motion_free(nz_motion *m)
 {
   nz_jet_free(m->t);
-  for (int j = 0; j < m->nslots; j++) nz_jets_free(m->slot[j], m->k);
+  nz_jet_free(m->dt);
+  for (int j = 0; j < m->nslots; j++) {
+    nz_jets_free(m->slot[j], m->k);
+    nz_jets_free(m->dslot[j], m->k);
+  }
   nz_jets_free(m->out, m->k);
+  nz_jets_free(m->dout, m->k);
   memset(m, 0, sizeof *m);
+}
+
+/* The direction moves slot j's coefficient c by d(level j + c)/c!, where
+ * only levels 0 (q) and 1 (q') move: slot 0 gets dq and dqd (q's series
+ * holds q' as its first coefficient), slot 1 gets dqd. */
+int nz_motion_set_direction(nz_motion *m, const nz_state_direction *d)
+{
+  int k = m->k;
+  m->dt = nz_jet_alloc(m->K, 0);
+  m->dout = nz_jets_alloc(k, m->K, m->D);
+  int ok = m->dt && m->dout;
+  for (int j = 0; j < m->nslots && ok; j++) ok = (m->dslot[j] = nz_jets_alloc(k, m->K, m->D)) != NULL;
+  if (!ok) return NZ_ENOMEM;
+  m->dt->c[0] = d->dt;
+  for (int i = 0; i < k; i++) {
+    m->dslot[0][i]->c[0] = d->dq[i];
+    if (m->K >= 1) m->dslot[0][i]->c[1] = d->dqd[i];
+    if (m->nslots > 1) m->dslot[1][i]->c[0] = d->dqd[i];
+  }
+  return NZ_OK;
 }
 
 static double level_value(const double *const *state, int nstate, int j, int i)
@@ -106,7 +131,14 @@ int nz_motion_eval(const nz_system *s, nz_piece p, int index, nz_motion *m, nz_j
   for (int j = 0; j < nlevels; j++) levels[j] = m->slot[j];
   if (qd) levels[1] = qd;
   if (p == NZ_PIECE_V || p == NZ_PIECE_S) nlevels = 1;
-  return s->ev.eval(s->ev.ctx, p, index, m->t, levels, nlevels, m->out);
+  nz_direction dir, *dp = NULL;
+  if (m->dout) {
+    dir.dt = m->dt;
+    for (int j = 0; j < nlevels; j++) dir.dlevels[j] = m->dslot[j];
+    dir.dout = m->dout;
+    dp = &dir;
+  }
+  return s->ev.eval(s->ev.ctx, p, index, m->t, levels, nlevels, m->out, dp);
 }
 
 /* ------------------------------------------------------------------ */
@@ -114,13 +146,15 @@ int nz_motion_eval(const nz_system *s, nz_piece p, int index, nz_motion *m, nz_j
 
 /* dF^(m)/dq^(m) into top (k values) and, if below != NULL,
  * dF^(m-1)/dq^(m-1) into below (m >= 1), from one evaluation. */
-static int top_partials(const nz_system *s, nz_piece p, int m, double t,
-                        const double *const *state, int nstate, double *top, double *below)
+static int top_partials_along(const nz_system *s, nz_piece p, int m, double t,
+                              const double *const *state, int nstate, double *top, double *below,
+                              const nz_state_direction *dir, double *dtop)
 {
   nz_motion mo;
   int k = s->k, D = below ? 2 * k : k;
   int st = nz_motion_init(&mo, k, 2, m, D, t, state, nstate);
   if (st) return st;
+  if (dir && (st = nz_motion_set_direction(&mo, dir))) { nz_motion_free(&mo); return st; }
   for (int i = 0; i < k; i++) {
     nz_motion_seed_level(&mo, i, i, m);
     if (below) nz_motion_seed_level(&mo, i, k + i, m - 1);
@@ -131,10 +165,17 @@ static int top_partials(const nz_system *s, nz_piece p, int m, double t,
     for (int i = 0; i < k; i++) {
       top[i] = fm * nz_jet_tangent(mo.out[0], i)[m];
       if (below) below[i] = fm1 * nz_jet_tangent(mo.out[0], k + i)[m - 1];
+      if (dir) dtop[i] = fm * nz_jet_tangent(mo.dout[0], i)[m];
     }
   }
   nz_motion_free(&mo);
   return st;
+}
+
+static int top_partials(const nz_system *s, nz_piece p, int m, double t,
+                        const double *const *state, int nstate, double *top, double *below)
+{
+  return top_partials_along(s, p, m, t, state, nstate, top, below, NULL, NULL);
 }
 
 /* d/dt (dF/dq'_i) at t0. */
@@ -177,29 +218,66 @@ static int frozen_partial(const nz_system *s, int n, double t, const double *con
   return st;
 }
 
-/* Q - dV/dq at the state (each piece only if present). */
-static int generalized_force(const nz_system *s, double t, const double *const *state, int nstate,
-                             double *force)
+/* Q - dV/dq at the state (each piece only if present), and with dir its
+ * derivative along dir into dforce. */
+static int generalized_force_along(const nz_system *s, double t, const double *const *state,
+                                   int nstate, double *force, const nz_state_direction *dir,
+                                   double *dforce)
 {
   int k = s->k, st = NZ_OK;
   memset(force, 0, (size_t)k * sizeof(double));
+  if (dir) memset(dforce, 0, (size_t)k * sizeof(double));
   if (nz_system_has(s, NZ_PIECE_Q)) {
     nz_motion mo;
     if ((st = nz_motion_init(&mo, k, 2, 0, 0, t, state, nstate))) return st;
+    if (dir && (st = nz_motion_set_direction(&mo, dir))) { nz_motion_free(&mo); return st; }
     st = nz_motion_eval(s, NZ_PIECE_Q, 0, &mo, NULL);
     if (!st)
-      for (int i = 0; i < k; i++) force[i] = mo.out[i]->c[0];
+      for (int i = 0; i < k; i++) {
+        force[i] = mo.out[i]->c[0];
+        if (dir) dforce[i] = mo.dout[i]->c[0];
+      }
     nz_motion_free(&mo);
     if (st) return st;
   }
   if (nz_system_has(s, NZ_PIECE_V)) {
-    double *dV = malloc((size_t)k * sizeof(double));
+    double *dV = malloc(2 * (size_t)k * sizeof(double));
     if (!dV) return NZ_ENOMEM;
-    st = top_partials(s, NZ_PIECE_V, 0, t, state, nstate, dV, NULL);
+    st = top_partials_along(s, NZ_PIECE_V, 0, t, state, nstate, dV, NULL, dir, dV + k);
     if (!st)
-      for (int i = 0; i < k; i++) force[i] -= dV[i];
+      for (int i = 0; i < k; i++) {
+        force[i] -= dV[i];
+        if (dir) dforce[i] -= dV[k + i];
+      }
     free(dV);
   }
+  return st;
+}
+
+static int generalized_force(const nz_system *s, double t, const double *const *state, int nstate,
+                             double *force)
+{
+  return generalized_force_along(s, t, state, nstate, force, NULL, NULL);
+}
+
+int nz_nielsen_residual_along(const nz_system *s, double t, const double *const *state,
+                              const nz_state_direction *dir, double *r, double *dr)
+{
+  int k = s->k, st;
+  double *buf = calloc(6 * (size_t)k, sizeof(double));
+  if (!buf) return NZ_ENOMEM;
+  double *f = buf, *df = f + k, *x = df + k, *dx = x + k, *y = dx + k, *dy = y + k;
+  st = generalized_force_along(s, t, state, 3, f, dir, df);
+  if (!st && nz_system_has(s, NZ_PIECE_F)) {
+    st = top_partials_along(s, NZ_PIECE_F, 1, t, state, 3, x, NULL, dir, dx);
+    if (!st) st = top_partials_along(s, NZ_PIECE_F, 0, t, state, 3, y, NULL, dir, dy);
+  }
+  if (!st)
+    for (int i = 0; i < k; i++) {
+      r[i] = x[i] - 2.0 * y[i] - f[i];
+      dr[i] = dx[i] - 2.0 * dy[i] - df[i];
+    }
+  free(buf);
   return st;
 }
 

@@ -34,14 +34,27 @@ typedef enum nz_piece {
   NZ_PIECE_COUNT
 } nz_piece;
 
+/* A direction of differentiation with respect to the state (a second,
+ * independent infinitesimal eta on top of the jets' own tangents): the
+ * arguments move by eta dt (t) and eta dlevels[j][i] (slot j of q_i), and
+ * the evaluator adds the eta-part of each output to dout.  This is what the
+ * exact Jacobian of the motion needs (mech_jacobian.c). */
+typedef struct nz_direction {
+  const nz_jet *dt;
+  nz_jet *const *dlevels[4];
+  nz_jet *const *dout;
+} nz_direction;
+
 typedef struct nz_evaluator {
   /* Evaluate `piece` at the jets t and levels[0..nlevels-1] (levels[j][i] is
    * the series of the j-th derivative slot of q_i), adding nothing and
    * writing the outputs into out[0..] (1 jet, or k for NZ_PIECE_Q), whose
-   * shape the caller set.  Returns NZ_OK, or NZ_EFUNC with the message kept
-   * by the evaluator. */
+   * shape the caller set.  With dir != NULL, also the derivatives of the
+   * outputs along dir into dir->dout.  Returns NZ_OK, or NZ_EFUNC with the
+   * message kept by the evaluator. */
   int (*eval)(void *ctx, nz_piece piece, int index, const nz_jet *t,
-              nz_jet *const *const *levels, int nlevels, nz_jet *const *out);
+              nz_jet *const *const *levels, int nlevels, nz_jet *const *out,
+              const nz_direction *dir);
   void *ctx;
 } nz_evaluator;
 
@@ -65,11 +78,23 @@ typedef struct nz_motion {
   nz_jet *t;
   nz_jet **slot[NZ_CONSTRAINT_SLOTS];
   nz_jet **out;          /* k output jets */
+  /* An optional direction (nz_motion_set_direction): */
+  nz_jet *dt;
+  nz_jet **dslot[NZ_CONSTRAINT_SLOTS];
+  nz_jet **dout;
 } nz_motion;
+
+/* A state direction: dt, and dq, dqd (k values each; q'' and above fixed). */
+typedef struct nz_state_direction {
+  double dt;
+  const double *dq, *dqd;
+} nz_state_direction;
 
 int nz_motion_init(nz_motion *m, int k, int nslots, int K, int D, double t,
                    const double *const *state, int nstate);
 void nz_motion_free(nz_motion *m);
+/* Make the next evaluations also differentiate along the state direction. */
+int nz_motion_set_direction(nz_motion *m, const nz_state_direction *d);
 /* Seed direction d on q_i^(level) wherever it appears (THEORY.md §3). */
 void nz_motion_seed_level(nz_motion *m, int i, int d, int level);
 /* Seed direction d on slot j of q_i as a whole: a partial derivative with
@@ -147,6 +172,11 @@ int nz_kinetic_parts(const nz_system *s, double t, const double *q, const double
 struct nz_solve_info;
 int nz_accel(const nz_system *s, double t, const double *q, const double *qd, double rcond_min,
              double *qdd, struct nz_solve_info *info);
+
+/* Nielsen's residual r (n = 1) at state (q, q', q'') and its derivative dr
+ * along the state direction (q'' held): the heart of the Jacobian. */
+int nz_nielsen_residual_along(const nz_system *s, double t, const double *const *state,
+                              const nz_state_direction *dir, double *r, double *dr);
 
 /* Energies: T (NaN when there is no T piece), V (0 without V), F, and the
  * generalized energy H = sum q' dL/dq' - L with L = F - V. */

@@ -15,6 +15,7 @@ nz.euler_op = system.euler_op
 nz.partial = system.partial
 nz.top_coefficient = system.top_coefficient
 nz.bodies = require("nz.bodies").bodies
+nz.methods = core.mech.ode_methods()
 
 nz.help = require("nz.help").bind(nz)
 

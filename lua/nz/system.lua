@@ -212,6 +212,9 @@ function System:project(t, q, qd, opts) return constraints.project(self, t, q, q
 
 function System:check_state(t, q, qd, tol) return constraints.check_state(self, t, q, qd, tol) end
 
+-- Integrate the motion (lua/nz/simulate.lua): returns a trajectory.
+function System:simulate(opts) return require("nz.simulate").simulate(self, opts) end
+
 -- ------------------------------------------------------------------ --
 -- Printing                                                             --
 

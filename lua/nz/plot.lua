@@ -1,0 +1,74 @@
+-- nz/plot.lua - line plots with gnuplot: in the terminal (gnuplot's dumb
+-- terminal) or to an SVG or PNG file.  One function, used by trajectories
+-- and the work-precision diagram.
+local M = {}
+
+M.INSTALL_HINT = "gnuplot is not installed: install it with 'sudo apt-get install gnuplot-nox' (or run 'make deps')"
+
+local function have_gnuplot()
+  local ok = os.execute("command -v gnuplot >/dev/null 2>&1")
+  return ok == true or ok == 0
+end
+
+local function terminal_for(opts)
+  local file = opts.file
+  if not file then return ("dumb size %d,%d"):format(opts.width or 100, opts.height or 30) end
+  local ext = file:match("%.(%w+)$")
+  if ext == "svg" then return ("svg size %d,%d"):format(opts.width or 800, opts.height or 500) end
+  if ext == "png" then return ("pngcairo size %d,%d"):format(opts.width or 800, opts.height or 500) end
+  error(("plot: file '%s' must end in .svg or .png"):format(file), 3)
+end
+
+local function quote(s) return '"' .. tostring(s):gsub('"', "'") .. '"' end
+
+-- plot.lines{ series = { {name =, x = {...}, y = {...}}, ... }, title =, xlabel =,
+--             ylabel =, logx =, logy =, file = "out.svg", width =, height = }
+-- Returns the text drawn (terminal) or the file name.
+function M.lines(opts)
+  if not have_gnuplot() then error(M.INSTALL_HINT, 3) end
+  local series = opts.series
+  if type(series) ~= "table" or #series == 0 then error("plot: no series to draw", 3) end
+  local data = os.tmpname()
+  local f = assert(io.open(data, "w"))
+  for si, s in ipairs(series) do
+    if #s.x ~= #s.y then error(("plot: series %d has %d x and %d y values"):format(si, #s.x, #s.y), 3) end
+    for i = 1, #s.x do
+      local x, y = s.x[i], s.y[i]
+      if x == x and y == y and (not opts.logy or y > 0) and (not opts.logx or x > 0) then
+        f:write(("%.17g %.17g\n"):format(x, y))
+      end
+    end
+    f:write("\n\n")
+  end
+  f:close()
+  local script = {
+    "set terminal " .. terminal_for(opts),
+    opts.file and ("set output " .. quote(opts.file)) or "set output",
+    opts.title and ("set title " .. quote(opts.title)) or "",
+    opts.xlabel and ("set xlabel " .. quote(opts.xlabel)) or "",
+    opts.ylabel and ("set ylabel " .. quote(opts.ylabel)) or "",
+    opts.logx and "set logscale x" or "", opts.logy and "set logscale y" or "",
+    "set key outside right", "set grid",
+  }
+  local parts = {}
+  for si, s in ipairs(series) do
+    parts[si] = ("%s index %d with %s title %s"):format(quote(data), si - 1,
+      s.points and "linespoints" or "lines", quote(s.name or ("series " .. si)))
+  end
+  script[#script + 1] = "plot " .. table.concat(parts, ", ")
+  local sfile = os.tmpname()
+  local sf = assert(io.open(sfile, "w"))
+  sf:write(table.concat(script, "\n"), "\n")
+  sf:close()
+  local p = io.popen("gnuplot " .. sfile .. " 2>&1")
+  local out = p:read("a")
+  local ok = p:close()
+  os.remove(data)
+  os.remove(sfile)
+  if not ok then error("plot: gnuplot failed: " .. out, 3) end
+  if opts.file then return opts.file end
+  if not opts.quiet then io.write(out) end
+  return out
+end
+
+return M

@@ -1,0 +1,271 @@
+-- nz/simulate.lua - sys:simulate{...}: integrate the motion with a GSL
+-- stepper (src/ode.c), one step at a time, so that this loop decides the
+-- output grid, locates events, projects onto the constraints, records the
+-- monitors a scene asked for (and nothing else), shows progress on a
+-- terminal, and keeps what it computed when interrupted or when it fails.
+local core = require "nz.core"
+local constraints = require "nz.constraints"
+local trajectory = require "nz.trajectory"
+
+local mech = core.mech
+local M = {}
+
+-- Defaults chosen so that a first run is accurate: an 8th-order adaptive
+-- method at tight tolerances (documented in help(nz.system)).
+M.defaults = { method = "rk8pd", rtol = 1e-10, atol = 1e-12, points = 200, event_tol = 1e-12 }
+
+local known = {
+  q0 = true, qd0 = true, t0 = true, t1 = true, dt = true, method = true, rtol = true, atol = true,
+  step = true, events = true, project = true, baumgarte = true, monitors = true, progress = true,
+  check = true, h0 = true, event_tol = true, guess = true,
+}
+local known_monitors = { energy = true, work = true }
+
+local function fail(sys, msg, ...) error(("simulate '%s': " .. msg):format(sys.name, ...), 3) end
+
+local function check_vector(sys, v, what)
+  if type(v) ~= "table" or #v ~= sys.k then
+    fail(sys, "'%s' must be a table of %d numbers (one per coordinate: %s)", what, sys.k, table.concat(sys.coords, ", "))
+  end
+  for i = 1, sys.k do
+    if type(v[i]) ~= "number" or v[i] ~= v[i] or math.abs(v[i]) == math.huge then
+      fail(sys, "'%s'[%d] must be a finite number", what, i)
+    end
+  end
+end
+
+local function validate(sys, o)
+  if type(o) ~= "table" then fail(sys, "a table {q0 = ..., qd0 = ..., t1 = ...} expected") end
+  for key in pairs(o) do
+    if not known[key] then
+      local names = {}
+      for k in pairs(known) do names[#names + 1] = k end
+      table.sort(names)
+      fail(sys, "unknown option '%s' (options: %s)", tostring(key), table.concat(names, ", "))
+    end
+  end
+  check_vector(sys, o.q0, "q0")
+  check_vector(sys, o.qd0 or {}, "qd0")
+  local cfg = {}
+  for k, v in pairs(M.defaults) do cfg[k] = v end
+  for k, v in pairs(o) do cfg[k] = v end
+  cfg.t0 = cfg.t0 or 0
+  if type(cfg.t1) ~= "number" or not (cfg.t1 > cfg.t0) then fail(sys, "'t1' must be a number greater than t0 = %g", cfg.t0) end
+  cfg.dt = cfg.dt or (cfg.t1 - cfg.t0) / cfg.points
+  if type(cfg.dt) ~= "number" or not (cfg.dt > 0) then fail(sys, "'dt' (the output spacing) must be a positive number") end
+  for _, key in ipairs{ "rtol", "atol" } do
+    if type(cfg[key]) ~= "number" or not (cfg[key] > 0) then fail(sys, "'%s' must be a positive number", key) end
+  end
+  if cfg.step ~= nil and (type(cfg.step) ~= "number" or not (cfg.step > 0)) then
+    fail(sys, "'step' (a fixed step size) must be a positive number")
+  end
+  cfg.monitors = cfg.monitors or {}
+  for key in pairs(cfg.monitors) do
+    if not known_monitors[key] then fail(sys, "unknown monitor '%s' (monitors: energy, work)", tostring(key)) end
+  end
+  if cfg.monitors.work then cfg.monitors.energy = true end   -- T + V - work needs T + V
+  if cfg.baumgarte ~= nil and cfg.baumgarte ~= false then
+    local b = cfg.baumgarte
+    if type(b) == "number" then b = { alpha = b, beta = b } end
+    if type(b) ~= "table" or type(b.alpha) ~= "number" or type(b.beta or b.alpha) ~= "number" then
+      fail(sys, "'baumgarte' must be {alpha = a, beta = b} (or one number for both)")
+    end
+    cfg.alpha, cfg.beta = b.alpha, b.beta or b.alpha
+  end
+  cfg.events = cfg.events or {}
+  for i, ev in ipairs(cfg.events) do
+    if type(ev) == "function" then ev = { f = ev }; cfg.events[i] = ev end
+    if type(ev) ~= "table" or type(ev.f) ~= "function" then
+      fail(sys, "event %d must be {f = function(t, q, qd) ... end [, stop = true, direction = 1 or -1, name = ...]}", i)
+    end
+    ev.name = ev.name or ("event " .. i)
+    ev.direction = ev.direction or 0
+  end
+  return cfg
+end
+
+-- Progress on a terminal only, after half a second, at most 5 times a second.
+local function progress_bar(cfg, t0, t1)
+  local enabled = cfg.progress
+  if enabled == nil then enabled = mech.isatty(2) end
+  if not enabled then return function() end, function() end end
+  local start, last = mech.now(), 0
+  local shown = false
+  local function update(t, steps)
+    local now = mech.now()
+    if now - start < 0.5 or now - last < 0.2 then return end
+    last, shown = now, true
+    local frac = (t - t0) / (t1 - t0)
+    local width = 30
+    local fill = math.floor(frac * width + 0.5)
+    io.stderr:write(("\r[%s%s] %3d%%  t = %-10.4g steps %d  (Ctrl-C stops, keeping what is done)")
+      :format(("#"):rep(fill), (" "):rep(width - fill), math.floor(100 * frac), t, steps))
+  end
+  local function done()
+    if shown then io.stderr:write("\r" .. (" "):rep(100) .. "\r") end
+  end
+  return update, done
+end
+
+local function split(y, k)
+  local q, qd = {}, {}
+  for i = 1, k do q[i], qd[i] = y[i], y[k + i] end
+  return q, qd
+end
+
+function M.simulate(sys, opts)
+  local cfg = validate(sys, opts)
+  local k, engine = sys.k, sys.engine
+  local orders, linear = {}, {}
+  if sys.nc > 0 then
+    orders, linear = constraints.orders(sys)
+    for r, m in ipairs(orders) do
+      if m > 2 then fail(sys, "constraint %d is of order %d: integration supports constraints up to order 2", r, m) end
+    end
+  end
+  engine.orders = orders
+  local qd0 = cfg.qd0 or {}
+  if #qd0 == 0 then for i = 1, k do qd0[i] = 0 end end
+  if sys.nc > 0 and cfg.check ~= false then constraints.check_state(sys, cfg.t0, cfg.q0, qd0) end
+
+  local ode = mech.ode_new(engine, {
+    method = cfg.method, rtol = cfg.rtol, atol = cfg.atol, h0 = cfg.h0 or math.min(cfg.dt, 1e-3),
+    work = cfg.monitors.work, orders = orders, linear = linear, alpha = cfg.alpha, beta = cfg.beta,
+  })
+  local tr = trajectory.new(sys, cfg)
+  if cfg.monitors.energy then tr.energy, tr.generalized_energy = {}, {} end
+  if cfg.monitors.work then tr.work = {} end
+
+  local y = {}
+  for i = 1, k do y[i], y[k + i] = cfg.q0[i], qd0[i] end
+  if cfg.monitors.work then y[2 * k + 1] = 0 end
+
+  local function record(t, yy)
+    local q, qd = split(yy, k)
+    local qdd, lambda = mech.ode_accel(ode, engine, t, yy)
+    local n = #tr.t + 1
+    tr.t[n], tr.q[n], tr.qd[n], tr.qdd[n], tr.lambda[n] = t, q, qd, qdd, lambda
+    if tr.violation then tr.violation[n] = (constraints.violation(sys, t, q, qd)) end
+    if tr.energy then tr.energy[n], tr.generalized_energy[n] = sys:energy(t, q, qd) end
+    if tr.work then tr.work[n] = yy[2 * k + 1] end
+  end
+
+  -- The state at tau in [ta, tb] of the last step, by integrating again from
+  -- (ta, ya) with an adaptive rk8pd at the run's tolerances: events are
+  -- located to tolerance, whatever the method (multistep ones included).
+  local locator
+  local function state_at(ta, ya, tau)
+    locator = locator or mech.ode_new(engine, { method = "rk8pd", rtol = math.min(cfg.rtol, 1e-10),
+      atol = math.min(cfg.atol, 1e-12), work = cfg.monitors.work, orders = orders, linear = linear,
+      alpha = cfg.alpha, beta = cfg.beta, h0 = math.max(tau - ta, 1e-12) })
+    mech.ode_reset(locator)
+    local t, h, yy = ta, math.max(tau - ta, 1e-12), ya
+    while t < tau do t, h, yy = mech.ode_step(locator, engine, t, tau, h, yy) end
+    return yy
+  end
+
+  local function event_value(ev, t, yy)
+    local q, qd = split(yy, k)
+    local v = ev.f(t, q, qd, sys.params)
+    if type(v) ~= "number" or v ~= v then
+      fail(sys, "event '%s' must return a number, got %s at t = %g", ev.name, tostring(v), t)
+    end
+    return v
+  end
+
+  local function crosses(ev, ga, gb)
+    if ga == 0 or (ga > 0) == (gb > 0) then return false end
+    return ev.direction == 0 or (ev.direction > 0 and gb > ga) or (ev.direction < 0 and gb < ga)
+  end
+
+  -- Illinois' variant of regula falsi on [ta, tb]: robust, and superlinear.
+  local function locate(ev, ta, ya, ga, tb, gb)
+    local tol = cfg.event_tol * math.max(1, math.abs(tb))
+    local side = 0
+    local tm, ym = tb, nil
+    for _ = 1, 100 do
+      if tb - ta <= tol then break end
+      tm = (ta * gb - tb * ga) / (gb - ga)
+      if not (tm > ta and tm < tb) then tm = 0.5 * (ta + tb) end
+      ym = state_at(ta, ya, tm)
+      local gm = event_value(ev, tm, ym)
+      if gm == 0 then return tm, ym end
+      if (gm > 0) == (ga > 0) then
+        ta, ya, ga = tm, ym, gm
+        if side == -1 then gb = gb / 2 end
+        side = -1
+      else
+        tb, gb = tm, gm
+        if side == 1 then ga = ga / 2 end
+        side = 1
+      end
+    end
+    return tb, state_at(ta, ya, tb)
+  end
+
+  local update, done = progress_bar(cfg, cfg.t0, cfg.t1)
+  local wall0 = mech.now()
+  local t, h = cfg.t0, cfg.h0 or math.min(cfg.dt, 1e-3)
+  local gvals = {}
+
+  local function run()
+    record(t, y)
+    for i, ev in ipairs(cfg.events) do gvals[i] = event_value(ev, t, y) end
+    local nout = math.ceil((cfg.t1 - cfg.t0) / cfg.dt - 1e-9)
+    for i = 1, nout do
+      local tout = i == nout and cfg.t1 or cfg.t0 + i * cfg.dt
+      while t < tout do
+        if mech.interrupted() then error("interrupted!", 0) end
+        local ta, ya = t, y
+        if cfg.step then
+          t, y = mech.ode_step_fixed(ode, engine, t, math.min(cfg.step, tout - t), y)
+        else
+          t, h, y = mech.ode_step(ode, engine, t, tout, h, y)
+        end
+        if cfg.project and sys.nc > 0 then
+          local q, qd = split(y, k)
+          local pq, pqd = constraints.project(sys, t, q, qd)
+          for j = 1, k do y[j], y[k + j] = pq[j], pqd[j] end
+          mech.ode_reset(ode)
+        end
+        for e, ev in ipairs(cfg.events) do
+          local g = event_value(ev, t, y)
+          if crosses(ev, gvals[e], g) then
+            local te, ye = locate(ev, ta, ya, gvals[e], t, g)
+            local q, qd = split(ye, k)
+            tr.events[#tr.events + 1] = { name = ev.name, t = te, q = q, qd = qd }
+            if ev.stop then
+              record(te, ye)
+              tr.status, tr.message = "stopped", ("event '%s' at t = %.12g"):format(ev.name, te)
+              return
+            end
+          end
+          gvals[e] = g
+        end
+        local s = mech.ode_stats(ode)
+        update(t, s.steps)
+      end
+      record(t, y)
+    end
+    tr.status = "done"
+  end
+
+  local ok, err = pcall(run)
+  done()
+  local s = mech.ode_stats(ode)
+  tr.stats = { steps = s.steps, rejected = s.rejected, nfev = s.nfev, njev = s.njev, wall = mech.now() - wall0 }
+  if not ok then
+    local msg = tostring(err)
+    if msg:find("interrupted!", 1, true) then
+      tr.status, tr.message = "interrupted", ("stopped by Ctrl-C at t = %.6g; the part computed so far is kept"):format(t)
+      return tr
+    end
+    tr.status, tr.message = "failed", msg
+    require("nz").last = tr
+    error(("%s\n(the trajectory computed so far, %d points up to t = %.6g, is kept in nz.last)"):format(
+      msg, #tr.t, tr.t[#tr.t] or cfg.t0), 2)
+  end
+  return tr
+end
+
+return M

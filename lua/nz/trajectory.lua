@@ -1,0 +1,173 @@
+-- nz/trajectory.lua - what sys:simulate returns: the motion on the output
+-- grid (tr.t[i], tr.q[i][j], tr.qd[i][j], tr.qdd[i][j], tr.lambda[i][r]),
+-- what it cost (tr.stats), how it ended (tr.status), the constraint
+-- violation, and the monitors a scene asked for.  Methods: a summary
+-- (tostring), csv, plot, residuals.
+local plot = require "nz.plot"
+
+local Trajectory = { __name = "nz.trajectory" }
+Trajectory.__index = Trajectory
+
+local M = { Trajectory = Trajectory }
+
+function M.new(sys, opts)
+  return setmetatable({
+    system = sys, coords = sys.coords, method = opts.method, rtol = opts.rtol, atol = opts.atol,
+    step = opts.step,
+    t = {}, q = {}, qd = {}, qdd = {}, lambda = {}, violation = sys.nc > 0 and {} or nil,
+    energy = nil, generalized_energy = nil, work = nil, events = {},
+    stats = { steps = 0, rejected = 0, nfev = 0, njev = 0, wall = 0 },
+    status = "running",
+  }, Trajectory)
+end
+
+function Trajectory:__len() return #self.t end
+
+local function short(v)
+  local p = {}
+  for i = 1, #v do p[i] = ("%.6g"):format(v[i]) end
+  return "{" .. table.concat(p, ", ") .. "}"
+end
+
+local function max_abs_change(list)
+  if not list or #list == 0 then return nil end
+  local m = 0
+  for i = 2, #list do m = math.max(m, math.abs(list[i] - list[1])) end
+  return m
+end
+
+function Trajectory:__tostring()
+  local n = #self.t
+  local s = self.stats
+  local lines = {
+    ("trajectory of '%s': %d points, t = %s .. %s, method %s (%s)"):format(self.system.name, n,
+      n > 0 and ("%.6g"):format(self.t[1]) or "?", n > 0 and ("%.6g"):format(self.t[n]) or "?", self.method,
+      self.step and ("fixed step %g"):format(self.step) or ("rtol %g, atol %g"):format(self.rtol, self.atol)),
+    ("  cost: %d steps (%d rejected), %d right-hand sides, %d Jacobians, %.3f s"):format(
+      s.steps, s.rejected, s.nfev, s.njev, s.wall),
+    ("  status: %s%s"):format(self.status, self.message and (": " .. self.message) or ""),
+  }
+  if n > 0 then lines[#lines + 1] = ("  final q = %s, qd = %s"):format(short(self.q[n]), short(self.qd[n])) end
+  if self.violation and #self.violation > 0 then
+    local m = 0
+    for i = 1, #self.violation do m = math.max(m, self.violation[i]) end
+    lines[#lines + 1] = ("  constraint violation: max %.3g, final %.3g"):format(m, self.violation[#self.violation])
+  end
+  local dE = max_abs_change(self.energy)
+  if dE then lines[#lines + 1] = ("  energy T + V: drift up to %.3g; generalized energy H: drift up to %.3g"):format(dE, max_abs_change(self.generalized_energy)) end
+  if self.work then
+    local c = {}
+    for i = 1, #self.work do c[i] = self.energy[i] - self.work[i] end
+    lines[#lines + 1] = ("  work of moving constraints: %.6g; T + V - work: drift up to %.3g"):format(self.work[#self.work], max_abs_change(c))
+  end
+  if #self.events > 0 then lines[#lines + 1] = ("  events: %d (first '%s' at t = %.10g)"):format(#self.events, self.events[1].name, self.events[1].t) end
+  return table.concat(lines, "\n")
+end
+
+-- Values of a named quantity over the trajectory: a coordinate name, its
+-- velocity "name'" or acceleration "name''", "t", "E" (T + V), "H",
+-- "work", "violation", or "lambda1", "lambda2", ...
+function Trajectory:column(name)
+  if name == "t" then return self.t end
+  local lists = { E = self.energy, H = self.generalized_energy, work = self.work, violation = self.violation }
+  if lists[name] then return lists[name] end
+  if lists[name] == nil and (name == "E" or name == "H" or name == "work") then
+    error(("trajectory: '%s' was not recorded: ask for it with monitors = {energy = true, work = true}"):format(name), 2)
+  end
+  local r = name:match("^lambda(%d+)$")
+  if r then
+    local out = {}
+    for i = 1, #self.t do out[i] = self.lambda[i][tonumber(r)] end
+    return out
+  end
+  local base, primes = name:match("^(.-)('*)$")
+  for j, c in ipairs(self.coords) do
+    if c == base then
+      local src = (#primes == 0 and self.q) or (#primes == 1 and self.qd) or (#primes == 2 and self.qdd)
+      if not src then break end
+      local out = {}
+      for i = 1, #self.t do out[i] = src[i][j] end
+      return out
+    end
+  end
+  error(("trajectory: no quantity '%s' (coordinates %s, with ' for velocities and '' for accelerations; t, E, H, work, violation, lambda1..)")
+    :format(name, table.concat(self.coords, ", ")), 2)
+end
+
+-- CSV with a header naming every column.
+function Trajectory:csv(file)
+  local f, err = io.open(file, "w")
+  if not f then error(("csv: cannot write '%s': %s"):format(file, err), 2) end
+  local head = { "t" }
+  for _, c in ipairs(self.coords) do head[#head + 1] = c end
+  for _, c in ipairs(self.coords) do head[#head + 1] = c .. "'" end
+  for _, c in ipairs(self.coords) do head[#head + 1] = c .. "''" end
+  for r = 1, self.system.nc do head[#head + 1] = "lambda" .. r end
+  local extra = {}
+  for _, name in ipairs{ "violation", "E", "H", "work" } do
+    local ok, col = pcall(self.column, self, name)
+    if ok and col then extra[#extra + 1] = col; head[#head + 1] = name end
+  end
+  f:write(table.concat(head, ","), "\n")
+  for i = 1, #self.t do
+    local row = { ("%.17g"):format(self.t[i]) }
+    for _, src in ipairs{ self.q[i], self.qd[i], self.qdd[i], self.lambda[i] } do
+      for j = 1, #src do row[#row + 1] = ("%.17g"):format(src[j]) end
+    end
+    for _, col in ipairs(extra) do row[#row + 1] = ("%.17g"):format(col[i]) end
+    f:write(table.concat(row, ","), "\n")
+  end
+  f:close()
+  return file
+end
+
+-- tr:plot{ y = {"th", "x"}, x = "t", file = "out.svg", title = ... }
+-- tr:plot{ phase = "th" } draws th' against th.  Default: every coordinate
+-- against t, in the terminal.
+function Trajectory:plot(opts)
+  opts = opts or {}
+  local series = {}
+  if opts.phase then
+    series[1] = { name = opts.phase .. "' vs " .. opts.phase, x = self:column(opts.phase), y = self:column(opts.phase .. "'") }
+  else
+    local ys = opts.y or self.coords
+    if type(ys) == "string" then ys = { ys } end
+    local x = self:column(opts.x or "t")
+    for i, name in ipairs(ys) do series[i] = { name = name, x = x, y = self:column(name) } end
+  end
+  return plot.lines{
+    series = series, file = opts.file, width = opts.width, height = opts.height, quiet = opts.quiet,
+    title = opts.title or ("%s (%s)"):format(self.system.name, self.method),
+    xlabel = opts.phase or opts.x or "t", ylabel = opts.phase and (opts.phase .. "'") or nil,
+  }
+end
+
+-- Residuals of the generalized equations of order n (with the multipliers)
+-- along the trajectory: max and RMS per equation; printed unless quiet.
+function Trajectory:residuals(n, opts)
+  local sys = self.system
+  n = n or sys:rule()
+  local k, worst, sq = sys.k, {}, {}
+  for j = 1, k do worst[j], sq[j] = 0, 0 end
+  for i = 1, #self.t do
+    local lam = sys.nc > 0 and self.lambda[i] or nil
+    local r = sys:residual(n, self.t[i], self.q[i], self.qd[i], self.qdd[i], lam)
+    for j = 1, k do
+      worst[j] = math.max(worst[j], math.abs(r[j]))
+      sq[j] = sq[j] + r[j] * r[j]
+    end
+  end
+  local result = {}
+  local rows = { { "equation", "max |r|", "RMS" } }
+  for j = 1, k do
+    result[j] = { coordinate = self.coords[j], max = worst[j], rms = math.sqrt(sq[j] / math.max(#self.t, 1)) }
+    rows[#rows + 1] = { self.coords[j], ("%.3e"):format(result[j].max), ("%.3e"):format(result[j].rms) }
+  end
+  if not (opts and opts.quiet) then
+    print(("Residuals of the equations of order %d along %d points of '%s':"):format(n, #self.t, sys.name))
+    print(require("nz.system").table_text(rows))
+  end
+  return result
+end
+
+return M

@@ -1,0 +1,315 @@
+/* lua_ode.c - the integrator (ode.h) for Lua: a userdata "nz.ode" owning a
+ * GSL stepper for one system, stepped by lua/nz/simulate.lua.  Each call
+ * binds the system's definition table again (the evaluator lives for one
+ * call), and a failure is raised after GSL has returned, with the time, the
+ * state and what went wrong. */
+#include <math.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+#include <lauxlib.h>
+#include "interrupt.h"
+#include "lua_ode.h"
+#include "lua_system.h"
+#include "ode.h"
+
+#define NZ_ODE_METATABLE "nz.ode"
+
+typedef struct ode_box {
+  nz_ode *o;
+  int k, nc;
+  char method[16];
+} ode_box;
+
+static ode_box *check_ode(lua_State *L, int idx)
+{
+  ode_box *b = luaL_checkudata(L, idx, NZ_ODE_METATABLE);
+  if (!b->o) luaL_error(L, "this integrator has been freed");
+  return b;
+}
+
+static int ode_gc(lua_State *L)
+{
+  ode_box *b = luaL_checkudata(L, 1, NZ_ODE_METATABLE);
+  nz_ode_free(b->o);
+  b->o = NULL;
+  return 0;
+}
+
+static double number_field(lua_State *L, int idx, const char *name, double dflt)
+{
+  lua_getfield(L, idx, name);
+  double v = luaL_optnumber(L, -1, dflt);
+  lua_pop(L, 1);
+  return v;
+}
+
+/* ode_new(def, cfg) with cfg = {method, rtol, atol, h0, work, orders,
+ * linear, alpha, beta, newton_tol, newton_maxit} -> ode */
+static int lo_new(lua_State *L)
+{
+  bound_system b;
+  nz_lua_bind_system(L, 1, &b);
+  luaL_checktype(L, 2, LUA_TTABLE);
+  int k = b.sys.k, nc = b.sys.nc;
+  nz_ode_config cfg;
+  memset(&cfg, 0, sizeof cfg);
+  lua_getfield(L, 2, "method");
+  cfg.method = luaL_optstring(L, -1, "rk8pd");
+  int known = 0;
+  for (int i = 0; nz_ode_methods[i]; i++) known |= !strcmp(nz_ode_methods[i], cfg.method);
+  if (!known) {
+    luaL_Buffer msg;
+    luaL_buffinit(L, &msg);
+    lua_pushfstring(L, "unknown method '%s'; GSL's steppers are:", cfg.method);
+    luaL_addvalue(&msg);
+    for (int i = 0; nz_ode_methods[i]; i++) {
+      luaL_addstring(&msg, " ");
+      luaL_addstring(&msg, nz_ode_methods[i]);
+    }
+    luaL_pushresult(&msg);
+    return lua_error(L);
+  }
+  cfg.rtol = number_field(L, 2, "rtol", 1e-10);
+  cfg.atol = number_field(L, 2, "atol", 1e-12);
+  cfg.h0 = number_field(L, 2, "h0", 1e-3);
+  lua_getfield(L, 2, "work");
+  cfg.work = lua_toboolean(L, -1);
+  lua_pop(L, 1);
+  cfg.nc = nc;
+  int *flags = lua_newuserdatauv(L, 2 * ((size_t)nc + 1) * sizeof(int), 0);
+  for (int r = 0; r < nc; r++) {
+    lua_getfield(L, 2, "orders");
+    lua_geti(L, -1, r + 1);
+    flags[r] = (int)luaL_checkinteger(L, -1);
+    lua_getfield(L, 2, "linear");
+    lua_geti(L, -1, r + 1);
+    flags[nc + 1 + r] = lua_toboolean(L, -1);
+    lua_pop(L, 4);
+  }
+  cfg.orders = flags;
+  cfg.linear = flags + nc + 1;
+  nz_accel_options acc = NZ_ACCEL_DEFAULTS;
+  acc.baumgarte_alpha = number_field(L, 2, "alpha", 0.0);
+  acc.baumgarte_beta = number_field(L, 2, "beta", 0.0);
+  acc.newton_tol = number_field(L, 2, "newton_tol", acc.newton_tol);
+  acc.newton_maxit = (int)number_field(L, 2, "newton_maxit", acc.newton_maxit);
+  acc.rcond_min = number_field(L, 2, "rcond_min", acc.rcond_min);
+  cfg.accel = acc;
+  ode_box *box = lua_newuserdatauv(L, sizeof *box, 0);
+  memset(box, 0, sizeof *box);
+  luaL_setmetatable(L, NZ_ODE_METATABLE);
+  box->k = k;
+  box->nc = nc;
+  snprintf(box->method, sizeof box->method, "%s", cfg.method);
+  if (!(box->o = nz_ode_alloc(k, &cfg))) return luaL_error(L, "not enough memory for the integrator");
+  return 1;
+}
+
+/* Raise the failure of the last step or evaluation, with time and state. */
+static int raise_failure(lua_State *L, ode_box *box, bound_system *b, int st)
+{
+  const nz_ode_failure *f = nz_ode_last_failure(box->o);
+  int k = box->k;
+  const double *q = f->y, *qd = f->y ? f->y + k : NULL;
+  if (b->ev.interrupted || (f->kind == NZ_ODE_FAIL_FUNCTION && nz_interrupt_requested()))
+    return luaL_error(L, "interrupted!");
+  switch (f->kind) {
+  case NZ_ODE_FAIL_MASS:
+    return nz_lua_raise_singular_mass(L, 1, f->t, q, qd, k, &f->mass);
+  case NZ_ODE_FAIL_CONSTRAINTS: {
+    int *orders = lua_newuserdatauv(L, ((size_t)box->nc + 1) * sizeof(int), 0);
+    memset(orders, 0, ((size_t)box->nc + 1) * sizeof(int));
+    lua_getfield(L, 1, "orders");          /* the definition keeps the classification */
+    for (int r = 0; r < box->nc && lua_istable(L, -1); r++) {
+      lua_geti(L, -1, r + 1);
+      orders[r] = (int)lua_tointeger(L, -1);
+      lua_pop(L, 1);
+    }
+    return nz_lua_raise_accel_failure(L, 1, &f->accel, orders, f->t, q, qd, k, box->nc);
+  }
+  case NZ_ODE_FAIL_STEP:
+  case NZ_ODE_FAIL_NONFINITE: {
+    luaL_Buffer msg;
+    luaL_buffinit(L, &msg);
+    lua_pushfstring(L, "system '%s': ", nz_lua_system_name(L, 1));
+    luaL_addvalue(&msg);
+    if (f->kind == NZ_ODE_FAIL_STEP)
+      lua_pushfstring(L, "the integrator (%s) could not make a step (GSL status %d): the step "
+                      "size fell below what the tolerance allows, or the motion is singular", box->method, f->status);
+    else
+      lua_pushfstring(L, "the state became NaN or infinite (method %s)", box->method);
+    luaL_addvalue(&msg);
+    nz_lua_add_state(&msg, f->t, q, qd, k);
+    luaL_addstring(&msg, ": check the system near this state, or change the method or the tolerances");
+    luaL_pushresult(&msg);
+    return lua_error(L);
+  }
+  default:
+    return nz_lua_raise_core(L, b, st ? st : NZ_EFUNC, "simulate");
+  }
+}
+
+static void read_y(lua_State *L, int idx, ode_box *box, double *y)
+{
+  nz_lua_read_vector(L, idx, nz_ode_dim(box->o), y, "y", 0, "simulate");
+}
+
+/* ode_step(ode, def, t, t1, h, y) -> t, h, y (a new table) */
+static int lo_step(lua_State *L)
+{
+  lua_settop(L, 6);
+  ode_box *box = check_ode(L, 1);
+  lua_copy(L, 2, 1);            /* def first, as the binding expects (the caller keeps ode) */
+  bound_system b;
+  nz_lua_bind_system(L, 1, &b);
+  double t = luaL_checknumber(L, 3), t1 = luaL_checknumber(L, 4), h = luaL_checknumber(L, 5);
+  int dim = nz_ode_dim(box->o);
+  double *y = lua_newuserdatauv(L, (size_t)dim * sizeof(double), 0);
+  read_y(L, 6, box, y);
+  int st = nz_ode_step(box->o, &b.sys, &t, t1, &h, y);
+  if (st) return raise_failure(L, box, &b, st);
+  lua_pushnumber(L, t);
+  lua_pushnumber(L, h);
+  nz_lua_push_vector(L, y, dim);
+  return 3;
+}
+
+/* ode_step_fixed(ode, def, t, h, y) -> t, y */
+static int lo_step_fixed(lua_State *L)
+{
+  lua_settop(L, 5);
+  ode_box *box = check_ode(L, 1);
+  lua_copy(L, 2, 1);
+  bound_system b;
+  nz_lua_bind_system(L, 1, &b);
+  double t = luaL_checknumber(L, 3), h = luaL_checknumber(L, 4);
+  int dim = nz_ode_dim(box->o);
+  double *y = lua_newuserdatauv(L, (size_t)dim * sizeof(double), 0);
+  read_y(L, 5, box, y);
+  int st = nz_ode_step_fixed(box->o, &b.sys, &t, h, y);
+  if (st) return raise_failure(L, box, &b, st);
+  lua_pushnumber(L, t);
+  nz_lua_push_vector(L, y, dim);
+  return 2;
+}
+
+/* ode_accel(ode, def, t, y) -> qdd, lambda */
+static int lo_accel(lua_State *L)
+{
+  lua_settop(L, 4);
+  ode_box *box = check_ode(L, 1);
+  lua_copy(L, 2, 1);
+  bound_system b;
+  nz_lua_bind_system(L, 1, &b);
+  double t = luaL_checknumber(L, 3);
+  int dim = nz_ode_dim(box->o), k = box->k, nc = box->nc;
+  double *y = lua_newuserdatauv(L, ((size_t)dim + (size_t)k + (size_t)nc) * sizeof(double), 0);
+  read_y(L, 4, box, y);
+  int st = nz_ode_accel(box->o, &b.sys, t, y, y + dim);
+  if (st) return raise_failure(L, box, &b, st);
+  nz_lua_push_vector(L, y + dim, k);
+  nz_lua_push_vector(L, y + dim + k, nc);
+  return 2;
+}
+
+/* ode_jacobian(ode, def, t, y) -> dfdy (rows), dfdt: the exact Jacobian the
+ * implicit steppers use (exposed for tests and for users who want it). */
+static int lo_jacobian(lua_State *L)
+{
+  lua_settop(L, 4);
+  ode_box *box = check_ode(L, 1);
+  lua_copy(L, 2, 1);
+  bound_system b;
+  nz_lua_bind_system(L, 1, &b);
+  double t = luaL_checknumber(L, 3);
+  int dim = nz_ode_dim(box->o);
+  double *y = lua_newuserdatauv(L, ((size_t)dim * (size_t)dim + 2 * (size_t)dim) * sizeof(double), 0);
+  double *J = y + dim, *dfdt = J + (size_t)dim * dim;
+  read_y(L, 4, box, y);
+  int st = nz_ode_jacobian_at(box->o, &b.sys, t, y, J, dfdt);
+  if (st) return raise_failure(L, box, &b, st);
+  lua_createtable(L, dim, 0);
+  for (int i = 0; i < dim; i++) {
+    nz_lua_push_vector(L, J + (size_t)i * dim, dim);
+    lua_rawseti(L, -2, i + 1);
+  }
+  nz_lua_push_vector(L, dfdt, dim);
+  return 2;
+}
+
+static int lo_reset(lua_State *L)
+{
+  nz_ode_reset(check_ode(L, 1)->o);
+  return 0;
+}
+
+static int lo_stats(lua_State *L)
+{
+  nz_ode_stats st;
+  nz_ode_get_stats(check_ode(L, 1)->o, &st);
+  lua_createtable(L, 0, 4);
+  lua_pushinteger(L, (lua_Integer)st.steps);
+  lua_setfield(L, -2, "steps");
+  lua_pushinteger(L, (lua_Integer)st.rejected);
+  lua_setfield(L, -2, "rejected");
+  lua_pushinteger(L, (lua_Integer)st.nfev);
+  lua_setfield(L, -2, "nfev");
+  lua_pushinteger(L, (lua_Integer)st.njev);
+  lua_setfield(L, -2, "njev");
+  return 1;
+}
+
+/* Small services of the loop: a monotonic clock, whether a stream is a
+ * terminal (the progress bar), and the Ctrl-C flag that C loops poll. */
+static int lo_now(lua_State *L)
+{
+  struct timespec ts;
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  lua_pushnumber(L, (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec);
+  return 1;
+}
+
+static int lo_isatty(lua_State *L)
+{
+  lua_pushboolean(L, isatty((int)luaL_checkinteger(L, 1)));
+  return 1;
+}
+
+static int lo_interrupted(lua_State *L)
+{
+  lua_pushboolean(L, nz_interrupt_requested());
+  return 1;
+}
+
+static int lo_methods(lua_State *L)
+{
+  lua_newtable(L);
+  for (int i = 0; nz_ode_methods[i]; i++) {
+    lua_createtable(L, 0, 2);
+    lua_pushstring(L, nz_ode_methods[i]);
+    lua_setfield(L, -2, "name");
+    lua_pushboolean(L, nz_ode_is_implicit(nz_ode_methods[i]));
+    lua_setfield(L, -2, "implicit");
+    lua_rawseti(L, -2, i + 1);
+  }
+  return 1;
+}
+
+static const luaL_Reg ode_functions[] = {
+  { "ode_new", lo_new }, { "ode_step", lo_step }, { "ode_step_fixed", lo_step_fixed },
+  { "ode_accel", lo_accel }, { "ode_reset", lo_reset }, { "ode_jacobian", lo_jacobian }, { "ode_stats", lo_stats },
+  { "now", lo_now }, { "isatty", lo_isatty }, { "interrupted", lo_interrupted },
+  { "ode_methods", lo_methods }, { NULL, NULL }
+};
+
+/* Add the functions to the table on top of the stack (core.mech). */
+void nz_lua_open_ode(lua_State *L)
+{
+  if (luaL_newmetatable(L, NZ_ODE_METATABLE)) {
+    lua_pushcfunction(L, ode_gc);
+    lua_setfield(L, -2, "__gc");
+  }
+  lua_pop(L, 1);
+  luaL_setfuncs(L, ode_functions, 0);
+}
