@@ -9,6 +9,7 @@
 #include "embedded.h"
 #include <gsl/gsl_errno.h>
 #include "lua_jet.h"
+#include "lua_special.h"
 #include "lua_system.h"
 #include "nz.h"
 
@@ -38,6 +39,7 @@ static int open_core(lua_State *L)
   lua_newtable(L);
   nz_lua_open_jet(L);
   nz_lua_open_system(L);
+  nz_lua_open_special(L);
   lua_pushstring(L, NZ_VERSION);
   lua_setfield(L, -2, "version");
   return 1;

@@ -132,6 +132,25 @@ returning its 3x3 rotation matrix (body axes to space) and inertia = {I1, I2, I3
 gravity = {gx, gy, gz} adds V = -sum m g.r.  Velocities come from the jets.
 Returns {T = ..., V = ..., S = ...} (S, for Wassmuth's form, for particles only);
 nz.system{coords = ..., bodies = {...}} does the same inline.]] },
+  { name = "workprecision", section = "mechanics",
+    usage = "nz.workprecision(sys, {q0 =, qd0 =, t1 =, methods =, tols =, reference =, plot =})",
+    summary = "what accuracy costs in time: error, time, evaluations per method and tolerance",
+    text = [[
+Runs the same motion with each method at each tolerance (rtol = tol, atol = tol/100),
+measures the error (max over the output grid of |q - q_ref|) against
+reference = function(t) return {q1, ...} end when the scene has a closed form,
+or else against rk8pd at rtol 1e-13, and prints a table of error, wall time,
+right-hand-side evaluations and steps.  plot = true draws the work-precision
+diagram (log-log error against time, a line per method) in the terminal;
+plot = "file.svg" (or .png) writes it.  Returns the rows.
+Defaults: methods rk4, rkf45, rkck, rk8pd, rk4imp, bsimp, msadams, msbdf;
+tols 1e-4, 1e-6, 1e-8, 1e-10.  Ctrl-C stops the sweep, keeping the rows done.]] },
+  { name = "methods", section = "mechanics", usage = "nz.methods",
+    summary = "GSL's steppers for sys:simulate: {name =, implicit =} each" },
+  { name = "last", section = "mechanics", usage = "nz.last", optional = true,
+    summary = "the trajectory a failed sys:simulate had computed (the error says so)" },
+  { name = "special", section = "session", usage = "nz.special.ellint_K(k), nz.special.elljac(u, m)",
+    summary = "GSL's complete elliptic integral K(k) and Jacobi's sn, cn, dn (for closed forms)" },
   { name = "partial", section = "operators", usage = "nz.partial(n, f, t, q, qd [, qdd, higher])",
     summary = "d f^(n) / d q^(n): the n-th time derivative of f, differentiated by q^(n)",
     text = [[

@@ -16,6 +16,7 @@ nz.partial = system.partial
 nz.top_coefficient = system.top_coefficient
 nz.bodies = require("nz.bodies").bodies
 nz.methods = core.mech.ode_methods()
+nz.workprecision = require("nz.workprecision").run
 
 nz.help = require("nz.help").bind(nz)
 

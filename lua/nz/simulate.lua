@@ -45,7 +45,7 @@ local function validate(sys, o)
     end
   end
   check_vector(sys, o.q0, "q0")
-  check_vector(sys, o.qd0 or {}, "qd0")
+  if o.qd0 ~= nil then check_vector(sys, o.qd0, "qd0") end
   local cfg = {}
   for k, v in pairs(M.defaults) do cfg[k] = v end
   for k, v in pairs(o) do cfg[k] = v end
@@ -124,8 +124,8 @@ function M.simulate(sys, opts)
     end
   end
   engine.orders = orders
-  local qd0 = cfg.qd0 or {}
-  if #qd0 == 0 then for i = 1, k do qd0[i] = 0 end end
+  local qd0 = cfg.qd0
+  if not qd0 then qd0 = {}; for i = 1, k do qd0[i] = 0 end end   -- at rest
   if sys.nc > 0 and cfg.check ~= false then constraints.check_state(sys, cfg.t0, cfg.q0, qd0) end
 
   local ode = mech.ode_new(engine, {

@@ -1,0 +1,101 @@
+-- nz/workprecision.lua - what accuracy costs in time: the same motion with
+-- each method at each tolerance, its error against a reference (a closed
+-- form, or the most accurate method at a much tighter tolerance), the wall
+-- time and the right-hand-side evaluations it took; a table, and the
+-- work-precision diagram (error against time, log-log, a line per method).
+local plot = require "nz.plot"
+local core = require "nz.core"
+
+local M = {}
+
+M.defaults = {
+  methods = { "rk4", "rkf45", "rkck", "rk8pd", "rk4imp", "bsimp", "msadams", "msbdf" },
+  tols = { 1e-4, 1e-6, 1e-8, 1e-10 },
+  reference_method = "rk8pd", reference_tol = 1e-13,
+}
+
+local function max_error(tr, ref)
+  local worst = 0
+  for i = 1, #tr.t do
+    local want = ref(tr.t[i], i)
+    for j = 1, #want do worst = math.max(worst, math.abs(tr.q[i][j] - want[j])) end
+  end
+  return worst
+end
+
+-- nz.workprecision(sys, {q0 =, qd0 =, t0 =, t1 =, dt =, methods = {...},
+--   tols = {...}, reference = function(t) return q end (optional),
+--   plot = true | "file.svg", quiet = false, simulate = {extra options}})
+-- Returns the rows {method, tol, error, time, nfev, steps, status}.
+function M.run(sys, opts)
+  if type(opts) ~= "table" then error("workprecision: options {q0 =, t1 =, ...} expected", 2) end
+  local methods = opts.methods or M.defaults.methods
+  local tols = opts.tols or M.defaults.tols
+  local base = { q0 = opts.q0, qd0 = opts.qd0, t0 = opts.t0, t1 = opts.t1, dt = opts.dt, progress = false }
+  for k, v in pairs(opts.simulate or {}) do base[k] = v end
+  local function run(method, tol)
+    local o = {}
+    for k, v in pairs(base) do o[k] = v end
+    o.method, o.rtol, o.atol = method, tol, tol * 1e-2
+    return sys:simulate(o)
+  end
+  local reference, ref_text = opts.reference, "closed form"
+  if not reference then
+    local ref = run(opts.reference_method or M.defaults.reference_method, opts.reference_tol or M.defaults.reference_tol)
+    reference = function(_, i) return ref.q[i] end
+    ref_text = ("%s at rtol %g"):format(opts.reference_method or M.defaults.reference_method,
+      opts.reference_tol or M.defaults.reference_tol)
+  end
+  local rows = {}
+  for _, method in ipairs(methods) do
+    for _, tol in ipairs(tols) do
+      local ok, tr = pcall(run, method, tol)
+      local row = { method = method, tol = tol }
+      if ok then
+        row.error, row.time, row.nfev, row.steps, row.status = max_error(tr, reference), tr.stats.wall, tr.stats.nfev, tr.stats.steps, tr.status
+      else
+        row.status, row.message = "failed", tostring(tr):match("^[^\n]*")
+      end
+      rows[#rows + 1] = row
+      if core.mech.interrupted() then break end
+    end
+  end
+  if not opts.quiet then
+    print(("Work-precision of '%s', t = %g .. %g, error = max over the output grid of |q - q_ref| (reference: %s)")
+      :format(sys.name, base.t0 or 0, base.t1, ref_text))
+    print(M.table(rows))
+  end
+  if opts.plot then M.diagram(rows, { file = type(opts.plot) == "string" and opts.plot or nil, title = "work-precision: " .. sys.name }) end
+  return rows
+end
+
+function M.table(rows)
+  local t = { { "method", "tol", "error", "time (s)", "rhs evals", "steps" } }
+  for _, r in ipairs(rows) do
+    if r.status == "failed" then
+      t[#t + 1] = { r.method, ("%g"):format(r.tol), "failed", "-", "-", r.message or "" }
+    else
+      t[#t + 1] = { r.method, ("%g"):format(r.tol), ("%.2e"):format(r.error), ("%.4f"):format(r.time),
+        tostring(r.nfev), tostring(r.steps) }
+    end
+  end
+  return require("nz.system").table_text(t)
+end
+
+-- Error against time, log-log, one line per method.
+function M.diagram(rows, opts)
+  local by, order = {}, {}
+  for _, r in ipairs(rows) do
+    if r.status ~= "failed" and r.error > 0 and r.time > 0 then
+      if not by[r.method] then by[r.method] = { name = r.method, x = {}, y = {}, points = true }; order[#order + 1] = r.method end
+      local s = by[r.method]
+      s.x[#s.x + 1], s.y[#s.y + 1] = r.time, r.error
+    end
+  end
+  local series = {}
+  for i, m in ipairs(order) do series[i] = by[m] end
+  return plot.lines{ series = series, logx = true, logy = true, file = opts.file, quiet = opts.quiet,
+    xlabel = "wall time (s)", ylabel = "max error", title = opts.title, width = opts.width, height = opts.height }
+end
+
+return M
