@@ -39,7 +39,7 @@ script_test() {
   if "$@"; then echo "ok 1 - $name"; else echo "not ok 1 - $name"; return 1; fi
 }
 
-specs="tests/jet_spec.lua tests/mech_spec.lua tests/constraints_spec.lua tests/help_spec.lua tests/examples_spec.lua tests/cli_spec.lua tests/repl_spec.lua"
+specs="tests/jet_spec.lua tests/mech_spec.lua tests/constraints_spec.lua tests/simulate_spec.lua tests/stability_spec.lua tests/help_spec.lua tests/examples_spec.lua tests/cli_spec.lua tests/repl_spec.lua"
 BUSTED="/usr/bin/busted -o TAP --helper=tests/busted_setup.lua"
 
 if [ "$mode" = plain ] || [ "$mode" = all ]; then
@@ -51,8 +51,10 @@ if [ "$mode" = sanitize ] || [ "$mode" = all ]; then
   export ASAN_OPTIONS=detect_leaks=1:abort_on_error=0:halt_on_error=1
   export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
   suite "C core under ASan+UBSan" build/asan/test_series
+  # The long physics runs (#slow) are checked by the plain build; here the
+  # point is memory safety and undefined behaviour on every code path.
   suite "Lua specs inside build/asan/nzlua" env NZLUA=build/asan/nzlua \
-    build/asan/nzlua $BUSTED $specs
+    build/asan/nzlua $BUSTED --exclude-tags=slow $specs
   suite "LeakSanitizer: a million jet operations" \
     script_test "memory loop under LeakSanitizer exits 0" build/asan/nzlua tests/data/memory_loop.lua
 fi

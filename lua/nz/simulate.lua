@@ -214,11 +214,16 @@ function M.simulate(sys, opts)
     local nout = math.ceil((cfg.t1 - cfg.t0) / cfg.dt - 1e-9)
     for i = 1, nout do
       local tout = i == nout and cfg.t1 or cfg.t0 + i * cfg.dt
+      -- Fixed steps: equal steps no longer than `step` that land on tout.
+      local nfixed = cfg.step and math.max(1, math.ceil((tout - t) / cfg.step - 1e-9))
+      local hfixed = cfg.step and (tout - t) / nfixed
       while t < tout do
         if mech.interrupted() then error("interrupted!", 0) end
         local ta, ya = t, y
         if cfg.step then
-          t, y = mech.ode_step_fixed(ode, engine, t, math.min(cfg.step, tout - t), y)
+          nfixed = nfixed - 1
+          t, y = mech.ode_step_fixed(ode, engine, t, hfixed, y)
+          if nfixed == 0 then t = tout end
         else
           t, h, y = mech.ode_step(ode, engine, t, tout, h, y)
         end
