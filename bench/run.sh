@@ -6,3 +6,5 @@ echo
 build/nzlua bench/jet_lua.lua
 echo
 build/nzlua bench/mech.lua
+echo
+build/nzlua bench/workprecision.lua

@@ -47,7 +47,7 @@ function M.lines(opts)
     opts.title and ("set title " .. quote(opts.title)) or "",
     opts.xlabel and ("set xlabel " .. quote(opts.xlabel)) or "",
     opts.ylabel and ("set ylabel " .. quote(opts.ylabel)) or "",
-    opts.logx and "set logscale x" or "", opts.logy and "set logscale y" or "",
+    opts.logx and 'set logscale x\nset format x "%.0e"' or "", opts.logy and 'set logscale y\nset format y "%.0e"' or "",
     "set key outside right", "set grid",
   }
   local parts = {}
