@@ -93,14 +93,24 @@ describe("constraint drift", function()
       local function worst(tr) local m = 0; for _, v in ipairs(tr.violation) do m = math.max(m, v) end; return m end
       assert.are.equal(#free.t, #free.violation)
       -- Without projection the velocity constraint drifts with the local
-      -- error (rtol 1e-8 over 100 s): it is recorded, finite, and small but
-      -- not at rounding level.
-      assert(worst(free) > 1e-14 and worst(free) < 1e-3, ("drift without projection %.3g"):format(worst(free)))
+      -- error (rtol 1e-8 over 100 s): it is recorded at every point, finite,
+      -- and stays far below the motion's scale (bound 1e-3).  (For some
+      -- starts the disk keeps it at rounding level by itself.)
+      for _, v in ipairs(free.violation) do assert(v == v and v < 1e-3, ("drift without projection %.3g"):format(v)) end
       -- Projection after every step: at the projection tolerance (1e-12).
       assert(worst(proj) <= 1e-11, ("with projection %.3g"):format(worst(proj)))
-      -- Baumgarte (Phi' + alpha Phi = 0): the violation decays, so it stays
-      -- at the level of one step's error.
-      assert(worst(baum) <= worst(free) + 1e-9, ("with Baumgarte %.3g, without %.3g"):format(worst(baum), worst(free)))
+      -- Baumgarte (Phi' + alpha Phi = 0) changes the equations off the
+      -- constraint, so its violation is not smaller than the free run's at
+      -- every moment; what it guarantees is that the violation decays
+      -- instead of accumulating: it stays at the local-error level (rtol
+      -- 1e-8 on O(1) velocities: bound 1e-6) and does not grow between the
+      -- first and the second half of the run.
+      assert(worst(baum) <= 1e-6, ("with Baumgarte %.3g"):format(worst(baum)))
+      local first, second = 0, 0
+      for i, v in ipairs(baum.violation) do
+        if i <= #baum.violation / 2 then first = math.max(first, v) else second = math.max(second, v) end
+      end
+      assert(second <= 10 * first + 1e-10, ("Baumgarte: violation grew from %.3g to %.3g"):format(first, second))
     end)
   end
 end)
