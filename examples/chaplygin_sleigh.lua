@@ -28,3 +28,9 @@ for _, order in ipairs{ n, n + 1 } do
 end
 print()
 sleigh:equations(n, 0, q, qd)
+
+-- The sleigh's rotation dies out and it ends moving straight: w -> 0.
+local tr = sleigh:simulate{ q0 = q, qd0 = qd, t1 = 20 }
+print(tr)
+tr:plot{ x = "x", y = { "y" }, width = 72, height = 18 }
+print(("final turning rate th' = %.3e (it started at %.1f)"):format(tr.qd[#tr.qd][3], w))

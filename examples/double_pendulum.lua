@@ -31,3 +31,7 @@ for _, form in ipairs(nz.forms) do
 end
 local E, H = sys:energy(t, q, qd)
 print(("energy T + V = %.12f, generalized energy H = %.12f (equal: the system is scleronomic)"):format(E, H))
+
+local tr = sys:simulate{ q0 = q, qd0 = qd, t1 = 5, monitors = { energy = true } }
+print(tr)
+tr:plot{ y = { "a", "b" }, width = 72, height = 18 }

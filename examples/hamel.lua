@@ -22,3 +22,11 @@ for _, order in ipairs{ n, 1 } do
   local r = hamel:residual(order, 0, q, qd, a, lambda)
   print(("residual of order %d: max |r| = %.1e"):format(order, math.max(math.abs(r[1]), math.abs(r[2]), math.abs(r[3]))))
 end
+
+-- Along the motion the accelerations stay on the root reached at the start.
+local tr = hamel:simulate{ q0 = q, qd0 = qd, t1 = 10 }
+print(tr)
+tr:plot{ y = { "q1", "q2", "q3" }, width = 72, height = 18 }
+local worst = 0
+for i = 1, #tr.t do for j = 1, 3 do worst = math.max(worst, math.abs(tr.qdd[i][j] - a[j])) end end
+print(("largest change of q'' along the motion: %.1e (one root branch)"):format(worst))

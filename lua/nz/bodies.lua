@@ -129,6 +129,10 @@ local function acceleration_energy(bodies)
   end
 end
 
+M.validate = validate
+M.kinetic = kinetic
+M.acceleration_energy = acceleration_energy
+
 -- nz.bodies{ {mass = m, pos = f [, rot = g, inertia = I]}, ..., gravity = {gx, gy, gz} }
 -- returns {T = ..., V = ... (with gravity), S = ... (particles only)}.
 function M.bodies(spec)

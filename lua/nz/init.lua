@@ -17,6 +17,8 @@ nz.top_coefficient = system.top_coefficient
 nz.bodies = require("nz.bodies").bodies
 nz.methods = core.mech.ode_methods()
 nz.workprecision = require("nz.workprecision").run
+nz.effects = require "nz.effects"
+nz.scene = require("nz.scene").scene
 
 nz.help = require("nz.help").bind(nz)
 

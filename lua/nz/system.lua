@@ -212,6 +212,9 @@ function System:project(t, q, qd, opts) return constraints.project(self, t, q, q
 
 function System:check_state(t, q, qd, tol) return constraints.check_state(self, t, q, qd, tol) end
 
+-- What a scene shows, in one call (lua/nz/report.lua).
+function System:report(opts) return require("nz.report").report(self, opts) end
+
 -- Integrate the motion (lua/nz/simulate.lua): returns a trajectory.
 function System:simulate(opts) return require("nz.simulate").simulate(self, opts) end
 
@@ -306,6 +309,7 @@ function System:__tostring()
     if self.pieces[p] > 0 then have[#have + 1] = self.pieces[p] > 1 and ("%s (%d pieces)"):format(p, self.pieces[p]) or p end
   end
   if self.nc > 0 then have[#have + 1] = ("%d constraint%s"):format(self.nc, self.nc == 1 and "" or "s") end
+  if self.effects and #self.effects > 0 then have[#have + 1] = "effects " .. table.concat(self.effects, ", ") end
   local params = {}
   for k, v in pairs(self.params) do params[#params + 1] = ("%s = %s"):format(k, tostring(v)) end
   table.sort(params)

@@ -1,0 +1,275 @@
+-- nz/effects.lua - the effects a scene can declare (nz.scene{effects = ...}).
+--
+-- An effect is a table made by one of the constructors below; it checks its
+-- parameters when made (an error names the effect and the parameter) and,
+-- when the scene is built, contributes pieces through the ordinary system
+-- definition: V, Q, T functions and constraints.  Nothing in the engine
+-- knows an effect by name, and an effect that a scene does not declare costs
+-- nothing.  Points are body names, functions (t, q, params) -> {x, y, z}
+-- (moving supports) or fixed {x, y, z}; coordinates are given by name.
+local core = require "nz.core"
+local hyperdual = require "nz.hyperdual"
+
+local M = {}
+local Effect = { __name = "nz.effect" }
+Effect.__index = Effect
+function Effect:__tostring() return ("effect '%s'"):format(self.kind) end
+M.Effect = Effect
+
+local function param_error(kind, param, msg, ...)
+  error(("effect '%s': parameter '%s' %s"):format(kind, param, msg:format(...)), 4)   -- the user's line
+end
+
+-- Check args against spec {name = {type = "number"|"point"|"coordinate"|
+-- "function"|"vector"|"coordinates", required =, positive =, nonnegative =}}.
+local function check(kind, args, spec)
+  if type(args) ~= "table" then error(("effect '%s': a table of parameters expected"):format(kind), 3) end
+  for key in pairs(args) do
+    if not spec[key] then
+      local names = {}
+      for k in pairs(spec) do names[#names + 1] = k end
+      table.sort(names)
+      error(("effect '%s': unknown parameter '%s' (parameters: %s)"):format(kind, tostring(key), table.concat(names, ", ")), 3)
+    end
+  end
+  for name, s in pairs(spec) do
+    local v = args[name]
+    if v == nil then
+      if s.required then param_error(kind, name, "is missing (%s)", s.doc or s.type) end
+    elseif s.type == "number" then
+      if type(v) ~= "number" or v ~= v then param_error(kind, name, "must be a number, got %s", type(v)) end
+      if s.positive and not (v > 0) then param_error(kind, name, "must be positive, got %g", v) end
+      if s.nonnegative and not (v >= 0) then param_error(kind, name, "must not be negative, got %g", v) end
+    elseif s.type == "function" then
+      if type(v) ~= "function" then param_error(kind, name, "must be a function, got %s", type(v)) end
+    elseif s.type == "coordinate" then
+      if type(v) ~= "string" then param_error(kind, name, "must be a coordinate name, got %s", type(v)) end
+    elseif s.type == "coordinates" then
+      if type(v) ~= "table" or #v == 0 then param_error(kind, name, "must be a list of coordinate names") end
+    elseif s.type == "vector" then
+      if type(v) ~= "table" or #v ~= 3 then param_error(kind, name, "must be a vector {x, y, z}") end
+    elseif s.type == "point" or s.type == "pair" then
+      local pts = s.type == "pair" and v or { v }
+      if s.type == "pair" and (type(v) ~= "table" or #v ~= 2) then param_error(kind, name, "must be two points {A, B}") end
+      for _, p in ipairs(pts) do
+        local ok = type(p) == "string" or type(p) == "function" or (type(p) == "table" and #p == 3)
+        if not ok then param_error(kind, name, "must hold points: a body name, a function(t, q, params) or {x, y, z}") end
+      end
+    end
+  end
+end
+
+local function define(kind, spec, contribute, doc)
+  M[kind] = function(args)
+    check(kind, args, spec)
+    local o = setmetatable({ kind = kind }, Effect)
+    for k, v in pairs(args) do o[k] = v end
+    o.contribute = contribute
+    return o
+  end
+  M.docs = M.docs or {}
+  M.docs[kind] = doc
+end
+
+-- ------------------------------------------------------------------ --
+-- Helpers the contributions share (the scene is `sc`: sc.body(name),  --
+-- sc.coordinate(name) -> index, sc.k, sc.fail(effect, param, msg))      --
+
+local function point_fn(sc, e, param, p)
+  if type(p) == "function" then return p end
+  if type(p) == "string" then
+    local b = sc.body(p)
+    if not b then sc.fail(e, param, "names no body '%s'", p) end
+    return b.pos
+  end
+  local fixed = { p[1], p[2], p[3] }
+  return function() return fixed end
+end
+
+local function distance(ra, rb)
+  local d = { ra[1] - rb[1], ra[2] - rb[2], ra[3] - rb[3] }
+  return core.sqrt(d[1] * d[1] + d[2] * d[2] + d[3] * d[3])
+end
+
+-- f evaluated at (t + eta dt, q + eta dq): value and eta-part.
+local function along(f, t, q, p, dt, dq)
+  local ql = {}
+  for i = 1, #q do ql[i] = hyperdual.new(q[i], dq and dq[i] or 0) end
+  local r = f(hyperdual.new(t, dt or 0), ql, p)
+  if type(r) == "table" and not hyperdual.is(r) then     -- a point {x, y, z}
+    local v, d = {}, {}
+    for i = 1, #r do v[i], d[i] = hyperdual.parts(r[i]) end
+    return v, d
+  end
+  return hyperdual.parts(r)
+end
+
+local function unit(k, i) local e = {}; for j = 1, k do e[j] = j == i and 1 or 0 end; return e end
+
+-- ------------------------------------------------------------------ --
+-- Forces                                                               --
+
+define("gravity", { g = { type = "vector", doc = "{gx, gy, gz}, default {0, 0, -9.81}" },
+  bodies = { type = "coordinates", doc = "names of the bodies it acts on (default all)" } },
+  function(e, sc)
+    local g = e.g or { 0, 0, -9.81 }
+    local list = {}
+    for _, name in ipairs(e.bodies or sc.body_names) do
+      local b = sc.body(name)
+      if not b then sc.fail(e, "bodies", "names no body '%s'", name) end
+      list[#list + 1] = b
+    end
+    return { V = function(t, q, p)
+      local V = 0
+      for _, b in ipairs(list) do
+        local r = b.pos(t, q, p)
+        for j = 1, 3 do if g[j] ~= 0 then V = V - b.mass * g[j] * r[j] end end
+      end
+      return V
+    end }
+  end, "uniform gravity on the bodies: V = -sum m g . r")
+
+define("spring", {
+  between = { type = "pair", doc = "two points {A, B}" }, coordinate = { type = "coordinate" },
+  k = { type = "number", required = true, positive = true, doc = "the stiffness, a positive number" },
+  length = { type = "number", nonnegative = true }, rest = { type = "number" },
+  cubic = { type = "number" }, energy = { type = "function" } },
+  function(e, sc)
+    local k, k3 = e.k, e.cubic or 0
+    local law = e.energy or function(s) return 0.5 * k * s * s + 0.25 * k3 * s * s * s * s end
+    if e.coordinate then
+      local j = sc.coordinate(e, "coordinate", e.coordinate)
+      local rest = e.rest or 0
+      return { V = function(t, q) return law(q[j] - rest) end }
+    end
+    if not e.between then sc.fail(e, "between", "is missing: give two points {A, B} or a coordinate") end
+    local a, b = point_fn(sc, e, "between", e.between[1]), point_fn(sc, e, "between", e.between[2])
+    local l0 = e.length or 0
+    return { V = function(t, q, p) return law(distance(a(t, q, p), b(t, q, p)) - l0) end }
+  end, "a spring between two points (or on a coordinate): V = k s^2/2 + cubic s^4/4, or energy(s)")
+
+define("damper", {
+  between = { type = "pair" }, coordinate = { type = "coordinate" },
+  c = { type = "number", required = true, positive = true, doc = "the damping coefficient" } },
+  function(e, sc)
+    local c = e.c
+    if e.coordinate then
+      local j = sc.coordinate(e, "coordinate", e.coordinate)
+      return { Q = function(t, q, qd)
+        local Q = {}
+        for i = 1, sc.k do Q[i] = 0 end
+        Q[j] = -c * qd[j]
+        return Q
+      end }
+    end
+    if not e.between then sc.fail(e, "between", "is missing: give two points {A, B} or a coordinate") end
+    local a, b = point_fn(sc, e, "between", e.between[1]), point_fn(sc, e, "between", e.between[2])
+    local function s(t, q, p) return distance(a(t, q, p), b(t, q, p)) end
+    -- Rayleigh's D = c s'^2 / 2: Q_i = -dD/dq'_i = -c s' ds/dq_i.
+    return { Q = function(t, q, qd, p)
+      local _, sdot = along(s, t, q, p, 1, qd)
+      local Q = {}
+      for i = 1, sc.k do
+        local _, ds = along(s, t, q, p, 0, unit(sc.k, i))
+        Q[i] = -c * sdot * ds
+      end
+      return Q
+    end }
+  end, "viscous damping (Rayleigh dissipation c s'^2/2) between two points or on a coordinate")
+
+define("force", {
+  f = { type = "function", doc = "function(t, q, qd, params) returning k generalized forces" },
+  at = { type = "point" }, F = { type = "function", doc = "function(t, q, qd, params) returning {Fx, Fy, Fz}" } },
+  function(e, sc)
+    if e.f then return { Q = e.f } end
+    if not (e.at and e.F) then sc.fail(e, "F", "is missing: give f (generalized forces) or at = point and F") end
+    local r = point_fn(sc, e, "at", e.at)
+    -- Virtual work: Q_i = F . dr/dq_i.
+    return { Q = function(t, q, qd, p)
+      local F = e.F(t, q, qd, p)
+      local Q = {}
+      for i = 1, sc.k do
+        local _, dr = along(r, t, q, p, 0, unit(sc.k, i))
+        Q[i] = F[1] * dr[1] + F[2] * dr[2] + F[3] * dr[3]
+      end
+      return Q
+    end }
+  end, "an external force: generalized f(t, q, qd), or a force F(t, q, qd) applied at a point")
+
+-- ------------------------------------------------------------------ --
+-- Constraints                                                          --
+
+define("driven", { coordinate = { type = "coordinate", required = true },
+  motion = { type = "function", required = true, doc = "function(t) giving the coordinate" } },
+  function(e, sc)
+    local j = sc.coordinate(e, "coordinate", e.coordinate)
+    return { constraints = { function(t, q) return q[j] - e.motion(t) end } }
+  end, "a prescribed motion q_j = motion(t) (a rheonomic holonomic constraint; lambda is the drive's force)")
+
+define("knife_edge", { x = { type = "coordinate", required = true }, y = { type = "coordinate", required = true },
+  heading = { type = "coordinate", required = true } },
+  function(e, sc)
+    local x, y, th = sc.coordinate(e, "x", e.x), sc.coordinate(e, "y", e.y), sc.coordinate(e, "heading", e.heading)
+    return { constraints = { function(t, q, qd) return -qd[x] * core.sin(q[th]) + qd[y] * core.cos(q[th]) end } }
+  end, "no velocity across a blade at (x, y) with the given heading")
+
+define("rolling_disk", { x = { type = "coordinate", required = true }, y = { type = "coordinate", required = true },
+  heading = { type = "coordinate", required = true }, angle = { type = "coordinate", required = true },
+  radius = { type = "number", required = true, positive = true } },
+  function(e, sc)
+    local x, y = sc.coordinate(e, "x", e.x), sc.coordinate(e, "y", e.y)
+    local th, ph, R = sc.coordinate(e, "heading", e.heading), sc.coordinate(e, "angle", e.angle), e.radius
+    return { constraints = {
+      function(t, q, qd) return qd[x] - R * qd[ph] * core.cos(q[th]) end,
+      function(t, q, qd) return qd[y] - R * qd[ph] * core.sin(q[th]) end,
+    } }
+  end, "a vertical disk rolling without slipping: x' = R ph' cos th, y' = R ph' sin th")
+
+define("rolling_ball", { body = { type = "coordinate", required = true, doc = "the name of the ball's body (with rot)" },
+  radius = { type = "number", required = true, positive = true } },
+  function(e, sc)
+    local b = sc.body(e.body)
+    if not b then sc.fail(e, "body", "names no body '%s'", e.body) end
+    if not b.rot then sc.fail(e, "body", "'%s' has no rotation (rot): a ball needs one", e.body) end
+    local R = e.radius
+    -- The contact point's velocity v + omega x (0, 0, -R) vanishes, with
+    -- omega = vee(R' R^T) in space axes: v_x - R omega_y = 0, v_y + R omega_x = 0.
+    local function contact(comp)
+      return function(t, q, qd, p)
+        local ql = {}
+        for i = 1, #q do ql[i] = hyperdual.new(q[i], qd[i]) end
+        local tl = hyperdual.new(t, 1)
+        local r, Rm = b.pos(tl, ql, p), b.rot(tl, ql, p)
+        local Rv, Rd = {}, {}
+        for i = 1, 3 do
+          Rv[i], Rd[i] = {}, {}
+          for j = 1, 3 do Rv[i][j], Rd[i][j] = hyperdual.parts(Rm[i][j]) end
+        end
+        local function W(i, j) return Rd[i][1] * Rv[j][1] + Rd[i][2] * Rv[j][2] + Rd[i][3] * Rv[j][3] end
+        local omega = { W(3, 2), W(1, 3), W(2, 1) }
+        local _, vx = hyperdual.parts(r[1])
+        local _, vy = hyperdual.parts(r[2])
+        if comp == 1 then return vx - R * omega[2] end
+        return vy + R * omega[1]
+      end
+    end
+    return { constraints = { contact(1), contact(2) } }
+  end, "a ball (a body with rot) rolling without slipping on the plane z = const")
+
+define("constant_speed", { coords = { type = "coordinates", required = true },
+  speed = { type = "number", required = true, positive = true } },
+  function(e, sc)
+    local idx = {}
+    for i, name in ipairs(e.coords) do idx[i] = sc.coordinate(e, "coords", name) end
+    local v2 = e.speed * e.speed
+    return { constraints = { function(t, q, qd)
+      local s = 0
+      for _, j in ipairs(idx) do s = s + qd[j] * qd[j] end
+      return s - v2
+    end } }
+  end, "the speed in the given coordinates is held constant (nonlinear, first order)")
+
+define("constraint", { f = { type = "function", required = true, doc = "Phi(t, q, qd, qdd, qddd, params)" } },
+  function(e) return { constraints = { e.f } } end, "any constraint Phi(t, q, qd, qdd, ...) = 0 (its order is found)")
+
+return M

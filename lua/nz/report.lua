@@ -1,0 +1,46 @@
+-- nz/report.lua - sys:report{...}: what a scene shows, in one call: the
+-- system, its constraints and Dolapchiev's choice of n with the reason, the
+-- residuals of two orders at a state, a short integration and a plot.
+local constraints = require "nz.constraints"
+
+local M = {}
+
+local function max_abs(v) local m = 0; for i = 1, #v do m = math.max(m, math.abs(v[i])) end; return m end
+
+-- opts: t, q, qd (the state; projected onto the constraints), orders
+-- ({n, n + 1} by default), simulate = {t1 =, dt =, ...} (the run from the
+-- state; false for none), plot = {y = ..., phase = ..., file = ...} or false.
+-- Returns the trajectory (or nil) and the rule's n.
+function M.report(sys, opts)
+  opts = opts or {}
+  print(tostring(sys))
+  local n, why = sys:rule(opts.extremal and { extremal = true } or nil)
+  if sys.nc > 0 then print(constraints.report(sys)) end
+  print(why)
+  local t, q, qd = opts.t or 0, opts.q, opts.qd
+  if not q then error("report: give the state q (and qd)", 2) end
+  if not qd then qd = {}; for i = 1, sys.k do qd[i] = 0 end end
+  if sys.nc > 0 then q, qd = sys:project(t, q, qd) end
+  local qdd, lambda = sys:accel(t, q, qd)
+  local orders = opts.orders or { n, n + 1 }
+  for _, order in ipairs(orders) do
+    local r = sys:residual(order, t, q, qd, qdd, sys.nc > 0 and lambda or nil)
+    print(("residual of order %d (%s) at the motion: max |r| = %.1e"):format(order,
+      require("nz.system").principle(order), max_abs(r)))
+  end
+  local tr
+  if opts.simulate ~= false then
+    local s = { t0 = t, q0 = q, qd0 = qd, t1 = t + 5 }
+    for key, v in pairs(opts.simulate or {}) do s[key] = v end
+    tr = sys:simulate(s)
+    print(tostring(tr))
+    if opts.plot ~= false then
+      local p = { width = 72, height = 18 }
+      for key, v in pairs(opts.plot or {}) do p[key] = v end
+      tr:plot(p)
+    end
+  end
+  return tr, n
+end
+
+return M
