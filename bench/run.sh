@@ -8,3 +8,5 @@ echo
 build/nzlua bench/mech.lua
 echo
 build/nzlua bench/workprecision.lua
+echo
+build/nzlua bench/scene_cost.lua

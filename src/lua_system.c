@@ -798,6 +798,34 @@ static int ls_lstsq(lua_State *L)
   return 1;
 }
 
+/* singular_values(A) -> the singular values of A (a list of rows), largest first. */
+static int ls_singular_values(lua_State *L)
+{
+  luaL_checktype(L, 1, LUA_TTABLE);
+  int m = (int)luaL_len(L, 1);
+  luaL_argcheck(L, m >= 1, 1, "at least one row expected");
+  lua_geti(L, 1, 1);
+  int n = (int)luaL_len(L, -1);
+  lua_pop(L, 1);
+  luaL_argcheck(L, n >= 1, 1, "rows of at least one number expected");
+  double *A = lua_newuserdatauv(L, (size_t)m * (size_t)n * sizeof(double), 0);
+  for (int i = 0; i < m; i++) {
+    lua_geti(L, 1, i + 1);
+    nz_lua_read_vector(L, lua_gettop(L), n, A + (size_t)i * n, "row", 0, "singular_values");
+    lua_pop(L, 1);
+  }
+  nz_svd d;
+  if (nz_svd_of(&d, m, n, A, m < n)) return luaL_error(L, "'singular_values': not enough memory");
+  int c = m < n ? m : n;
+  lua_createtable(L, c, 0);
+  for (int i = 0; i < c; i++) {
+    lua_pushnumber(L, gsl_vector_get(d.S, (size_t)i));
+    lua_rawseti(L, -2, i + 1);
+  }
+  nz_svd_free(&d);
+  return 1;
+}
+
 /* jet:derivative() lives with the jets; the forms' names are data. */
 static int ls_forms(lua_State *L)
 {
@@ -815,7 +843,7 @@ static const luaL_Reg system_functions[] = {
   { "constraint_partials", ls_constraint_partials }, { "constraint_curvature", ls_constraint_curvature },
   { "constraint_row", ls_constraint_row }, { "accel_constrained", ls_accel_constrained },
   { "force_velocity_jacobian", ls_force_velocity_jacobian }, { "lstsq", ls_lstsq },
-  { "energy_terms", ls_energy_terms }, { NULL, NULL }
+  { "energy_terms", ls_energy_terms }, { "singular_values", ls_singular_values }, { NULL, NULL }
 };
 
 void nz_lua_open_system(lua_State *L)

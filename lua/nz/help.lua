@@ -9,6 +9,7 @@ local sections = {
   { id = "jets", title = "Jets: truncated Taylor series with tangent (dual) directions" },
   { id = "functions", title = "Functions of numbers and jets (numbers give numbers)" },
   { id = "mechanics", title = "Mechanical systems and their equations of any order" },
+  { id = "scenes", title = "Scenes, effects and the classroom" },
   { id = "operators", title = "Operators on a function f(t, q, qd) (THEORY.md §2, §5)" },
   { id = "session", title = "Session" },
 }
@@ -132,6 +133,43 @@ returning its 3x3 rotation matrix (body axes to space) and inertia = {I1, I2, I3
 gravity = {gx, gy, gz} adds V = -sum m g.r.  Velocities come from the jets.
 Returns {T = ..., V = ..., S = ...} (S, for Wassmuth's form, for particles only);
 nz.system{coords = ..., bodies = {...}} does the same inline.]] },
+  { name = "scene", section = "scenes",
+    usage = "nz.scene{coords =, bodies = {{name =, mass =, pos = ...}}, effects = {...}}",
+    summary = "a system built from bodies and the effects the scene declares",
+    text = [[
+A scene is a system assembled from named bodies ({name =, mass =, pos = [, rot =,
+inertia =]}: T comes from them) and the effects it declares (help(nz.effects)).
+Only what is declared is built, so only that is ever computed: an effect that a
+scene does not name costs nothing (make bench: bench/scene_cost.lua).  It also
+takes T, V, Q, L, constraints, params and sample as nz.system does, and returns
+a system (print(sys) lists its effects).]] },
+  { name = "effects", section = "scenes", usage = "nz.effects.NAME{...}",
+    summary = "gravity, spring, damper, force, driven, knife_edge, rolling_disk, rolling_ball, constant_speed, constraint",
+    text = [[
+Points are body names, functions (t, q, params) -> {x, y, z} (moving supports) or
+fixed {x, y, z}; coordinates are given by name.  A wrong or missing parameter is an
+error naming the effect and the parameter.
+  gravity{g = {0, 0, -9.81}, bodies = {names}}     V = -sum m g . r
+  spring{between = {A, B}, k =, length =, cubic =, energy = f(s)}  or
+  spring{coordinate = "x", k =, rest =, cubic =}   V = k s^2/2 + cubic s^4/4
+  damper{between = {A, B}, c =} or {coordinate =, c =}   Rayleigh: D = c s'^2/2
+  force{f = function(t, q, qd) return {Q...} end} or {at = point, F = function(t, q, qd) return {Fx, Fy, Fz} end}
+  driven{coordinate =, motion = function(t)}       q = motion(t), rheonomic
+  knife_edge{x =, y =, heading =}                   no sideways velocity
+  rolling_disk{x =, y =, heading =, angle =, radius =}
+  rolling_ball{body =, radius =}                    a body with rot on the plane
+  constant_speed{coords = {...}, speed =}           nonlinear, first order
+  constraint{f = function(t, q, qd, qdd) ... end}   any other constraint]] },
+  { name = "check", section = "scenes", usage = "nz.check(sys, function(t, q, qd, qdd) return {...} end)",
+    summary = "check a derivation by hand: equivalent to the system's equations?",
+    text = [[
+Your function returns k expressions meant to vanish on the motion.  At 10 random
+admissible states (projected onto the constraints) nz.check tests that each
+expression vanishes at the true accelerations and that together they determine
+them (full rank in qdd, by dual numbers), so a recombination or scaling of the
+rows is accepted.  It says which equation is wrong, where, with the true
+accelerations and the value your equation gives.  Returns ok, text; options
+{states =, tol = 1e-8, quiet = true}.  Write the equations with nz.sin etc.]] },
   { name = "workprecision", section = "mechanics",
     usage = "nz.workprecision(sys, {q0 =, qd0 =, t1 =, methods =, tols =, reference =, plot =})",
     summary = "what accuracy costs in time: error, time, evaluations per method and tolerance",

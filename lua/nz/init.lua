@@ -19,6 +19,7 @@ nz.methods = core.mech.ode_methods()
 nz.workprecision = require("nz.workprecision").run
 nz.effects = require "nz.effects"
 nz.scene = require("nz.scene").scene
+nz.check = require("nz.check").check
 
 nz.help = require("nz.help").bind(nz)
 

@@ -1,0 +1,122 @@
+-- nz/check.lua - nz.check(sys, eqs): does a student's derivation give the
+-- system's equations of motion?
+--
+-- The student writes eqs(t, q, qd, qdd) returning k expressions meant to
+-- vanish on the motion.  They may differ from the system's by an invertible
+-- recombination and scaling of the rows, so the test is, at many random
+-- admissible states (projected onto the constraints):
+--   1. every expression vanishes at the true accelerations;
+--   2. together they determine the accelerations: their Jacobian in qdd
+--      (computed with dual numbers) has full rank k.
+-- A failure says which equation, at which state, with the expected and the
+-- student's values.
+local core = require "nz.core"
+local mech = core.mech
+
+local M = {}
+M.STATES = 10
+M.TOL = 1e-8
+
+local function vec(v) local p = {}; for i = 1, #v do p[i] = ("%.6g"):format(v[i]) end; return "{" .. table.concat(p, ", ") .. "}" end
+
+local function generator(seed)
+  local x = seed
+  return function(a, b)
+    x = (x * 1103515245 + 12345) % 2147483648
+    return a + (b - a) * (x / 2147483648)
+  end
+end
+
+-- Evaluate the student's function; errors say what to fix.
+local function evaluate(sys, eqs, t, q, qd, qdd)
+  local ok, E = pcall(eqs, t, q, qd, qdd, sys.params)
+  if not ok then
+    local msg = tostring(E)
+    if core.isjet(qdd[1]) then
+      msg = msg .. " (your equations are evaluated with dual numbers to find how they depend on qdd: "
+        .. "write them with nz.sin, nz.cos, ... (sin, cos in nzlua), not math.sin)"
+    end
+    error("check: your equations raised an error: " .. msg, 0)
+  end
+  if type(E) ~= "table" or #E ~= sys.k then
+    error(("check: your equations must return a table of %d expressions (one per coordinate: %s), got %s")
+      :format(sys.k, table.concat(sys.coords, ", "), type(E) == "table" and (#E .. " values") or type(E)), 0)
+  end
+  return E
+end
+
+local function value(x) return core.isjet(x) and x:value() or x end
+
+-- nz.check(sys, eqs [, {states =, tol =, quiet =}]) -> ok, text
+function M.check(sys, eqs, opts)
+  opts = opts or {}
+  if type(eqs) ~= "function" then error("check: your equations must be a function(t, q, qd, qdd) returning k expressions", 2) end
+  local nstates, tol = opts.states or M.STATES, opts.tol or M.TOL
+  local rand = generator(opts.seed or 4711)
+  local base = sys.sample or {}
+  local k = sys.k
+  local lines, ok, checked, worst = {}, true, 0, 0
+  local attempts = 0
+  while checked < nstates and attempts < 10 * nstates do
+    attempts = attempts + 1
+    local t = (base.t or 0.3) + rand(-0.5, 0.5)
+    local q, qd = {}, {}
+    for i = 1, k do
+      q[i] = ((base.q or {})[i] or 0.2) + rand(-1, 1)
+      qd[i] = ((base.qd or {})[i] or 0.3) + rand(-1, 1)
+    end
+    local good, a = pcall(function()
+      if sys.nc > 0 then q, qd = sys:project(t, q, qd) end
+      return (sys:accel(t, q, qd))
+    end)
+    if good then
+      checked = checked + 1
+      -- Values at the true accelerations, and the Jacobian in qdd by duals.
+      local E = evaluate(sys, eqs, t, q, qd, a)
+      local duals = {}
+      for i = 1, k do duals[i] = core.dual(a[i], i, k) end
+      local Ed = evaluate(sys, eqs, t, q, qd, duals)
+      local J = {}
+      for i = 1, k do
+        J[i] = {}
+        for j = 1, k do J[i][j] = core.isjet(Ed[i]) and Ed[i]:tangent(j):value() or 0 end
+      end
+      local E0 = evaluate(sys, eqs, t, q, qd, (function() local z = {}; for i = 1, k do z[i] = 0 end; return z end)())
+      for i = 1, k do
+        -- The size of the terms: what equation i is made of near the motion.
+        local scale = math.abs(value(E0[i]))
+        for j = 1, k do scale = scale + math.abs(J[i][j] * a[j]) end
+        local rel = math.abs(value(E[i])) / math.max(scale, 1e-300)
+        worst = math.max(worst, scale > 0 and rel or 0)
+        if not (rel <= tol) and ok then
+          ok = false
+          lines[#lines + 1] = ("Equation %d is wrong: at t = %.6g, q = %s, qd = %s the true accelerations are qdd = %s; "
+            .. "there your equation %d should give 0 but gives %.6g (its terms are of size %.3g).")
+            :format(i, t, vec(q), vec(qd), vec(a), i, value(E[i]), scale)
+        end
+      end
+      if ok then
+        local sv = mech.singular_values(J)
+        local rank = 0
+        for _, s in ipairs(sv) do if s > 1e-10 * sv[1] then rank = rank + 1 end end
+        if rank < k then
+          ok = false
+          lines[#lines + 1] = ("Your equations vanish on the true motion but do not determine the accelerations: "
+            .. "at t = %.6g, q = %s, qd = %s only %d of the %d are independent in qdd (one is a combination of the "
+            .. "others, or does not contain the accelerations)."):format(t, vec(q), vec(qd), rank, k)
+        end
+      end
+      if not ok then break end
+    end
+  end
+  if checked == 0 then error("check: no admissible state could be drawn (accelerations failed everywhere)", 2) end
+  if ok then
+    lines[#lines + 1] = ("Your equations are equivalent to the system's: at %d random admissible states they vanish on "
+      .. "the true accelerations (largest relative residual %.1e) and determine them."):format(checked, worst)
+  end
+  local text = table.concat(lines, "\n")
+  if not opts.quiet then print(text) end
+  return ok, text
+end
+
+return M

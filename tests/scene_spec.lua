@@ -1,0 +1,179 @@
+-- scene_spec.lua - scenes, effects and nz.check: each effect against forces
+-- derived by hand, only declared effects computed, every parameter error
+-- named, and derivations checked.
+local h = require "tests.helpers"
+local nz = h.nz
+local cs = require "tests.constraint_systems"
+local E = nz.effects
+
+local function max_diff(a, b) local m = 0; for i = 1, #a do m = math.max(m, math.abs(a[i] - b[i])) end; return m end
+local function particle(mass) return { { name = "p", mass = mass, pos = function(t, q) return { q[1], q[2], 0 } end } } end
+
+describe("effects against hand-derived forces", function()
+  it("a spring between a body and a fixed point: m a = -k (|r| - l0) r/|r|", function()
+    local m, k, l0 = 1.3, 7.0, 0.5
+    local sc = nz.scene{ coords = { "x", "y" }, bodies = particle(m),
+      effects = { E.spring{ between = { "p", { 0, 0, 0 } }, k = k, length = l0 } } }
+    local q = { 0.9, -0.4 }
+    local r = math.sqrt(q[1] ^ 2 + q[2] ^ 2)
+    local want = { -k * (r - l0) * q[1] / r / m, -k * (r - l0) * q[2] / r / m }
+    assert(max_diff(sc:accel(0, q, { 0.2, 0.1 }), want) <= 1e-13)
+  end)
+  it("a cubic spring on a coordinate: force -(k s + k3 s^3)", function()
+    local sc = nz.scene{ coords = { "x" }, T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end,
+      effects = { E.spring{ coordinate = "x", k = 2, rest = 0.5, cubic = 3 } } }
+    local s = 1.7 - 0.5
+    assert(math.abs(sc:accel(0, { 1.7 }, { 0 })[1] + (2 * s + 3 * s ^ 3)) <= 1e-13)
+  end)
+  it("dampers: on a coordinate Q = -c x'; between points Rayleigh's -c s' grad s", function()
+    local sc = nz.scene{ coords = { "x" }, T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end,
+      effects = { E.damper{ coordinate = "x", c = 0.7 } } }
+    assert(math.abs(sc:accel(0, { 1 }, { 2 })[1] + 1.4) <= 1e-15)
+    local m, c = 0.8, 0.3
+    local sp = nz.scene{ coords = { "x", "y" }, bodies = particle(m), effects = { E.damper{ between = { "p", { 0, 0, 0 } }, c = c } } }
+    local q, v = { 0.6, 0.8 }, { 0.5, -0.2 }
+    local r = 1.0                         -- |q|
+    local sdot = (q[1] * v[1] + q[2] * v[2]) / r
+    local want = { -c * sdot * q[1] / r / m, -c * sdot * q[2] / r / m }
+    assert(max_diff(sp:accel(0, q, v), want) <= 1e-14)
+  end)
+  it("a force at a point gives the virtual work F . dr/dq; gravity on chosen bodies", function()
+    local sc = nz.scene{ coords = { "x", "y" }, bodies = particle(2.0),
+      effects = { E.force{ at = "p", F = function() return { 0.4, -1.0, 5.0 } end } } }
+    assert(max_diff(sc:accel(0, { 0, 0 }, { 0, 0 }), { 0.2, -0.5 }) <= 1e-15)
+    local two = nz.scene{ coords = { "a", "b" },
+      bodies = { { name = "one", mass = 1, pos = function(t, q) return { 0, 0, q[1] } end },
+        { name = "two", mass = 1, pos = function(t, q) return { 0, 0, q[2] } end } },
+      effects = { E.gravity{ g = { 0, 0, -9.81 }, bodies = { "two" } } } }
+    assert(max_diff(two:accel(0, { 0, 0 }, { 0, 0 }), { 0, -9.81 }) <= 1e-15)
+  end)
+  it("knife edge, rolling disk and constant speed give the hand-derived motions", function()
+    local function same(case, effects)
+      local sc = nz.scene{ coords = case.sys.coords, T = case.sys.engine.T, V = case.sys.engine.V, effects = effects }
+      for _ = 1, 4 do
+        local t, q, qd = case.draw()
+        assert(max_diff(sc:accel(t, q, qd), case.accel(t, q, qd)) <= 1e-11, case.name)
+      end
+    end
+    same(cs.sleigh(), { E.knife_edge{ x = "x", y = "y", heading = "th" } })
+    same(cs.rolling_disk(), { E.rolling_disk{ x = "x", y = "y", heading = "th", angle = "ph", radius = 0.3 } })
+    same(cs.constant_speed(), { E.constant_speed{ coords = { "x", "y" }, speed = 1.5 } })
+  end)
+  it("a driven coordinate follows its motion exactly along a simulation", function()
+    local sc = nz.scene{ coords = { "th", "ph" },
+      T = function(t, q, qd) return 0.5 * (qd[1] ^ 2 + nz.sin(q[1]) ^ 2 * qd[2] ^ 2) end,
+      effects = { E.driven{ coordinate = "ph", motion = function(t) return 2 * t + 0.1 * t * t end } } }
+    local tr = sc:simulate{ q0 = { 0.5, 0 }, qd0 = { 0, 2 }, t1 = 2 }
+    for i = 1, #tr.t do
+      local t = tr.t[i]
+      assert(math.abs(tr.q[i][2] - (2 * t + 0.1 * t * t)) <= 1e-9)
+    end
+  end)
+  it("a ball rolling on a plane, pushed at its centre, accelerates at 5F/7m", function()
+    local R, m, F = 0.3, 1.0, 0.7
+    local I = 0.4 * m * R * R
+    -- Three Euler angles (z-x-z): a ball must be free to turn about any axis.
+    local function rot(t, q)
+      local c, s = nz.cos, nz.sin
+      local function mul(X, Y)
+        local Z = {}
+        for i = 1, 3 do Z[i] = {}; for j = 1, 3 do Z[i][j] = X[i][1] * Y[1][j] + X[i][2] * Y[2][j] + X[i][3] * Y[3][j] end end
+        return Z
+      end
+      local A = { { c(q[3]), -s(q[3]), 0 }, { s(q[3]), c(q[3]), 0 }, { 0, 0, 1 } }
+      local B = { { 1, 0, 0 }, { 0, c(q[4]), -s(q[4]) }, { 0, s(q[4]), c(q[4]) } }
+      local C = { { c(q[5]), -s(q[5]), 0 }, { s(q[5]), c(q[5]), 0 }, { 0, 0, 1 } }
+      return mul(mul(A, B), C)
+    end
+    local ball = nz.scene{ coords = { "x", "y", "psi", "theta", "phi" },
+      bodies = { { name = "ball", mass = m, inertia = { I, I, I }, rot = rot, pos = function(t, q) return { q[1], q[2], R } end } },
+      effects = { E.rolling_ball{ body = "ball", radius = R }, E.force{ at = "ball", F = function() return { F, 0, 0 } end } } }
+    local a = ball:accel(0, { 0, 0, 0.2, 1.1, 0.4 }, { 0, 0, 0, 0, 0 })
+    assert(math.abs(a[1] - 5 * F / (7 * m)) <= 1e-12 and math.abs(a[2]) <= 1e-12, ("x'' = %.15g"):format(a[1]))
+  end)
+end)
+
+describe("only what a scene declares is computed", function()
+  it("an effect made but not declared is never called; a declared one is", function()
+    local undeclared, declared = 0, 0
+    local unused = E.force{ f = function() undeclared = undeclared + 1; return { 0 } end }
+    local used = E.force{ f = function() declared = declared + 1; return { 0 } end }
+    local sc = nz.scene{ coords = { "x" }, T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end,
+      effects = { used, E.spring{ coordinate = "x", k = 1 } } }
+    sc:simulate{ q0 = { 1 }, t1 = 1 }
+    assert.are.equal(0, undeclared)
+    assert(declared > 0)
+    assert.is_nil(unused.calls)
+  end)
+  it("without effects there is no V, no Q and no constraint machinery", function()
+    local sc = nz.scene{ coords = { "x" }, T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end }
+    assert.are.same({ T = 1, V = 0, Q = 0, L = 0, S = 0 }, sc.pieces)
+    assert.are.equal(0, sc.nc)
+  end)
+end)
+
+describe("a scene that names an effect wrongly gets an error naming the effect and the parameter", function()
+  it("missing, wrong and unknown parameters", function()
+    h.checkerror("effect 'spring': parameter 'k' is missing (the stiffness, a positive number)", E.spring, { coordinate = "x" })
+    h.checkerror("effect 'spring': parameter 'k' must be positive, got -2", E.spring, { coordinate = "x", k = -2 })
+    h.checkerror("effect 'damper': unknown parameter 'cc' (parameters: between, c, coordinate)", E.damper, { cc = 1 })
+    h.checkerror("effect 'rolling_disk': parameter 'radius' is missing", E.rolling_disk, { x = "x", y = "y", heading = "t", angle = "p" })
+    h.checkerror("effect 'gravity': parameter 'g' must be a vector {x, y, z}", E.gravity, { g = 9.81 })
+    h.checkerror("effect 'spring': parameter 'between' must be two points {A, B}", E.spring, { between = { "a" }, k = 1 })
+    h.checkerror("effect 'driven': parameter 'motion' is missing", E.driven, { coordinate = "x" })
+    h.checkerror("effect 'constant_speed': parameter 'speed' must be positive", E.constant_speed, { coords = { "x" }, speed = 0 })
+  end)
+  it("names that the scene does not have", function()
+    local T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end
+    h.checkerror("nz.scene 'bad': effect 'spring': parameter 'between' names no body 'bob'",
+      nz.scene, { name = "bad", coords = { "x" }, T = T, effects = { E.spring{ between = { "bob", { 0, 0, 0 } }, k = 1 } } })
+    h.checkerror("nz.scene 'bad': effect 'damper': parameter 'coordinate' names no coordinate 'y' (coordinates: x)",
+      nz.scene, { name = "bad", coords = { "x" }, T = T, effects = { E.damper{ coordinate = "y", c = 1 } } })
+    h.checkerror("nz.scene 'bad': effects[1] is not an effect: make one with nz.effects.NAME{...}",
+      nz.scene, { name = "bad", coords = { "x" }, T = T, effects = { { kind = "spring" } } })
+    h.checkerror("effect 'rolling_ball': parameter 'body' 'p' has no rotation (rot)",
+      nz.scene, { name = "bad", coords = { "x", "y" }, bodies = particle(1), effects = { E.rolling_ball{ body = "p", radius = 1 } } })
+  end)
+end)
+
+describe("nz.check: a derivation by hand", function()
+  local P = { M = 3.0, m = 0.8, l = 0.6, k = 40.0, g = 9.81 }
+  local cart = nz.system{ name = "cart", coords = { "x", "th" }, params = P,
+    T = function(t, q, qd, p) return 0.5 * (p.M + p.m) * qd[1] ^ 2 + p.m * p.l * qd[1] * qd[2] * nz.cos(q[2]) + 0.5 * p.m * p.l ^ 2 * qd[2] ^ 2 end,
+    V = function(t, q, p) return 0.5 * p.k * q[1] ^ 2 - p.m * p.g * p.l * nz.cos(q[2]) end }
+  local function right(t, q, qd, a)
+    return { (P.M + P.m) * a[1] + P.m * P.l * nz.cos(q[2]) * a[2] - P.m * P.l * nz.sin(q[2]) * qd[2] ^ 2 + P.k * q[1],
+      nz.cos(q[2]) * a[1] + P.l * a[2] + P.g * nz.sin(q[2]) }      -- divided by m l
+  end
+  it("accepts the right equations, and recombinations and scalings of them", function()
+    assert.is_true((nz.check(cart, right, { quiet = true })))
+    assert.is_true((nz.check(cart, function(t, q, qd, a) local r = right(t, q, qd, a); return { 3 * r[1] + r[2], r[1] - 2 * r[2] } end, { quiet = true })))
+  end)
+  it("names the wrong equation, the state, the expected and the student's values", function()
+    local ok, text = nz.check(cart, function(t, q, qd, a) local r = right(t, q, qd, a); r[2] = r[2] + 0.01 * a[1]; return r end, { quiet = true })
+    assert.is_false(ok)
+    assert.truthy(text:find("Equation 2 is wrong: at t = ", 1, true), text)
+    assert.truthy(text:find("the true accelerations are qdd = {", 1, true) and text:find("should give 0 but gives", 1, true), text)
+  end)
+  it("says when the equations do not determine the accelerations", function()
+    local ok, text = nz.check(cart, function(t, q, qd, a) local r = right(t, q, qd, a); return { r[1], 2 * r[1] } end, { quiet = true })
+    assert.is_false(ok)
+    assert.truthy(text:find("do not determine the accelerations", 1, true) and text:find("only 1 of the 2 are independent", 1, true), text)
+  end)
+  it("works with constraints: the sleigh's equations at the acceleration level", function()
+    local case = cs.sleigh()
+    local m, I, a = 2.0, 0.3, 0.4
+    local ok = nz.check(case.sys, function(t, q, qd, qdd)
+      local c, s = nz.cos(q[3]), nz.sin(q[3])
+      local u = qd[1] * c + qd[2] * s
+      local ud = qdd[1] * c + qdd[2] * s + qd[3] * (-qd[1] * s + qd[2] * c)
+      return { -qdd[1] * s + qdd[2] * c - qd[3] * u, m * (ud - a * qd[3] ^ 2), (I + m * a * a) * qdd[3] + m * a * u * qd[3] }
+    end, { quiet = true })
+    assert.is_true(ok)
+  end)
+  it("explains a count mismatch and math.sin on dual numbers", function()
+    h.checkerror("check: your equations must return a table of 2 expressions (one per coordinate: x, th), got 1 values",
+      nz.check, cart, function() return { 0 } end, { quiet = true })
+    h.checkerror("write them with nz.sin, nz.cos", nz.check, cart, function(t, q, qd, a) return { math.sin(a[1]), a[2] } end, { quiet = true })
+  end)
+end)
