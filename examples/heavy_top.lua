@@ -1,17 +1,7 @@
 -- heavy_top.lua - a heavy symmetric top as a rigid body (Euler angles z-x-z):
 -- T from its rotation matrix and inertia tensor, velocities from the jets.
 local m, lc, A, C, g = 1.5, 0.4, 0.3, 0.2, 9.81
-local function rot(t, q)
-  local Rz1 = { { cos(q[1]), -sin(q[1]), 0 }, { sin(q[1]), cos(q[1]), 0 }, { 0, 0, 1 } }
-  local Rx = { { 1, 0, 0 }, { 0, cos(q[2]), -sin(q[2]) }, { 0, sin(q[2]), cos(q[2]) } }
-  local Rz2 = { { cos(q[3]), -sin(q[3]), 0 }, { sin(q[3]), cos(q[3]), 0 }, { 0, 0, 1 } }
-  local function mul(X, Y)
-    local Z = {}
-    for i = 1, 3 do Z[i] = {}; for j = 1, 3 do Z[i][j] = X[i][1] * Y[1][j] + X[i][2] * Y[2][j] + X[i][3] * Y[3][j] end end
-    return Z
-  end
-  return mul(mul(Rz1, Rx), Rz2)
-end
+local function rot(t, q) return nz.rotations.euler_zxz(q[1], q[2], q[3]) end   -- body to space, z-x-z
 local top = nz.scene{ name = "heavy symmetric top", coords = { "psi", "theta", "phi" },
   bodies = { { name = "top", mass = m, inertia = { A - m * lc * lc, A - m * lc * lc, C }, rot = rot,
     pos = function(t, q) local R = rot(t, q); return { lc * R[1][3], lc * R[2][3], lc * R[3][3] } end } },

@@ -155,18 +155,29 @@ static void read_y(lua_State *L, int idx, ode_box *box, double *y)
   nz_lua_read_vector(L, idx, nz_ode_dim(box->o), y, "y", 0, "simulate");
 }
 
+/* The start of every call (ode, def, ...): check the integrator, put def
+ * first (as the binding expects; the caller keeps ode alive), bind it, and
+ * read the state y at idx into scratch with `extra` more doubles. */
+static ode_box *begin_call(lua_State *L, int nargs, bound_system *b, int idx, size_t extra, double **y)
+{
+  lua_settop(L, nargs);
+  ode_box *box = check_ode(L, 1);
+  lua_copy(L, 2, 1);
+  nz_lua_bind_system(L, 1, b);
+  int dim = nz_ode_dim(box->o);
+  *y = lua_newuserdatauv(L, ((size_t)dim + extra) * sizeof(double), 0);
+  read_y(L, idx, box, *y);
+  return box;
+}
+
 /* ode_step(ode, def, t, t1, h, y) -> t, h, y (a new table) */
 static int lo_step(lua_State *L)
 {
-  lua_settop(L, 6);
-  ode_box *box = check_ode(L, 1);
-  lua_copy(L, 2, 1);            /* def first, as the binding expects (the caller keeps ode) */
   bound_system b;
-  nz_lua_bind_system(L, 1, &b);
+  double *y;
+  ode_box *box = begin_call(L, 6, &b, 6, 0, &y);
   double t = luaL_checknumber(L, 3), t1 = luaL_checknumber(L, 4), h = luaL_checknumber(L, 5);
   int dim = nz_ode_dim(box->o);
-  double *y = lua_newuserdatauv(L, (size_t)dim * sizeof(double), 0);
-  read_y(L, 6, box, y);
   int st = nz_ode_step(box->o, &b.sys, &t, t1, &h, y);
   if (st) return raise_failure(L, box, &b, st);
   lua_pushnumber(L, t);
@@ -178,15 +189,11 @@ static int lo_step(lua_State *L)
 /* ode_step_fixed(ode, def, t, h, y) -> t, y */
 static int lo_step_fixed(lua_State *L)
 {
-  lua_settop(L, 5);
-  ode_box *box = check_ode(L, 1);
-  lua_copy(L, 2, 1);
   bound_system b;
-  nz_lua_bind_system(L, 1, &b);
+  double *y;
+  ode_box *box = begin_call(L, 5, &b, 5, 0, &y);
   double t = luaL_checknumber(L, 3), h = luaL_checknumber(L, 4);
   int dim = nz_ode_dim(box->o);
-  double *y = lua_newuserdatauv(L, (size_t)dim * sizeof(double), 0);
-  read_y(L, 5, box, y);
   int st = nz_ode_step_fixed(box->o, &b.sys, &t, h, y);
   if (st) return raise_failure(L, box, &b, st);
   lua_pushnumber(L, t);
@@ -197,15 +204,14 @@ static int lo_step_fixed(lua_State *L)
 /* ode_accel(ode, def, t, y) -> qdd, lambda */
 static int lo_accel(lua_State *L)
 {
+  bound_system b;
+  double *y;
   lua_settop(L, 4);
   ode_box *box = check_ode(L, 1);
-  lua_copy(L, 2, 1);
-  bound_system b;
-  nz_lua_bind_system(L, 1, &b);
+  int k = box->k, nc = box->nc;
+  box = begin_call(L, 4, &b, 4, (size_t)k + (size_t)nc, &y);
   double t = luaL_checknumber(L, 3);
-  int dim = nz_ode_dim(box->o), k = box->k, nc = box->nc;
-  double *y = lua_newuserdatauv(L, ((size_t)dim + (size_t)k + (size_t)nc) * sizeof(double), 0);
-  read_y(L, 4, box, y);
+  int dim = nz_ode_dim(box->o);
   int st = nz_ode_accel(box->o, &b.sys, t, y, y + dim);
   if (st) return raise_failure(L, box, &b, st);
   nz_lua_push_vector(L, y + dim, k);
@@ -217,16 +223,13 @@ static int lo_accel(lua_State *L)
  * implicit steppers use (exposed for tests and for users who want it). */
 static int lo_jacobian(lua_State *L)
 {
-  lua_settop(L, 4);
-  ode_box *box = check_ode(L, 1);
-  lua_copy(L, 2, 1);
   bound_system b;
-  nz_lua_bind_system(L, 1, &b);
+  double *y;
+  lua_settop(L, 4);
+  int dim = nz_ode_dim(check_ode(L, 1)->o);
+  ode_box *box = begin_call(L, 4, &b, 4, (size_t)dim * (size_t)dim + (size_t)dim, &y);
   double t = luaL_checknumber(L, 3);
-  int dim = nz_ode_dim(box->o);
-  double *y = lua_newuserdatauv(L, ((size_t)dim * (size_t)dim + 2 * (size_t)dim) * sizeof(double), 0);
   double *J = y + dim, *dfdt = J + (size_t)dim * dim;
-  read_y(L, 4, box, y);
   int st = nz_ode_jacobian_at(box->o, &b.sys, t, y, J, dfdt);
   if (st) return raise_failure(L, box, &b, st);
   lua_createtable(L, dim, 0);

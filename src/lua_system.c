@@ -775,23 +775,33 @@ static int ls_energy_terms(lua_State *L)
   return 4;
 }
 
+/* Read the matrix at idx (a list of rows of numbers) into a new userdata
+ * with `extra` more doubles after it; sets *m, *n. */
+static double *read_matrix(lua_State *L, int idx, int *m, int *n, size_t extra, const char *fname)
+{
+  luaL_checktype(L, idx, LUA_TTABLE);
+  *m = (int)luaL_len(L, idx);
+  luaL_argcheck(L, *m >= 1, idx, "at least one row expected");
+  lua_geti(L, idx, 1);
+  *n = (int)luaL_len(L, -1);
+  lua_pop(L, 1);
+  luaL_argcheck(L, *n >= 1, idx, "rows of at least one number expected");
+  double *A = lua_newuserdatauv(L, ((size_t)*m * (size_t)*n + extra) * sizeof(double), 0);
+  for (int i = 0; i < *m; i++) {
+    lua_geti(L, idx, i + 1);
+    nz_lua_read_vector(L, lua_gettop(L), *n, A + (size_t)i * (size_t)*n, "row", 0, fname);
+    lua_pop(L, 1);
+  }
+  return A;
+}
+
 /* lstsq(A, b) -> x of minimum norm minimizing |A x - b| (A a list of rows). */
 static int ls_lstsq(lua_State *L)
 {
-  luaL_checktype(L, 1, LUA_TTABLE);
-  int m = (int)luaL_len(L, 1);
-  luaL_argcheck(L, m >= 1, 1, "at least one row expected");
-  lua_geti(L, 1, 1);
-  int n = (int)luaL_len(L, -1);
-  lua_pop(L, 1);
-  luaL_argcheck(L, n >= 1, 1, "rows of at least one number expected");
-  double *A = lua_newuserdatauv(L, ((size_t)m * n + (size_t)m + (size_t)n) * sizeof(double), 0);
-  double *bb = A + (size_t)m * n, *x = bb + m;
-  for (int i = 0; i < m; i++) {
-    lua_geti(L, 1, i + 1);
-    nz_lua_read_vector(L, lua_gettop(L), n, A + (size_t)i * n, "row", 0, "lstsq");
-    lua_pop(L, 1);
-  }
+  lua_settop(L, 2);
+  int m, n;
+  double *A = read_matrix(L, 1, &m, &n, 0, "lstsq");
+  double *bb = lua_newuserdatauv(L, ((size_t)m + (size_t)n) * sizeof(double), 0), *x = bb + m;
   nz_lua_read_vector(L, 2, m, bb, "b", 0, "lstsq");
   if (nz_lstsq(m, n, A, bb, x)) return luaL_error(L, "'lstsq': not enough memory");
   nz_lua_push_vector(L, x, n);
@@ -801,19 +811,8 @@ static int ls_lstsq(lua_State *L)
 /* singular_values(A) -> the singular values of A (a list of rows), largest first. */
 static int ls_singular_values(lua_State *L)
 {
-  luaL_checktype(L, 1, LUA_TTABLE);
-  int m = (int)luaL_len(L, 1);
-  luaL_argcheck(L, m >= 1, 1, "at least one row expected");
-  lua_geti(L, 1, 1);
-  int n = (int)luaL_len(L, -1);
-  lua_pop(L, 1);
-  luaL_argcheck(L, n >= 1, 1, "rows of at least one number expected");
-  double *A = lua_newuserdatauv(L, (size_t)m * (size_t)n * sizeof(double), 0);
-  for (int i = 0; i < m; i++) {
-    lua_geti(L, 1, i + 1);
-    nz_lua_read_vector(L, lua_gettop(L), n, A + (size_t)i * n, "row", 0, "singular_values");
-    lua_pop(L, 1);
-  }
+  int m, n;
+  double *A = read_matrix(L, 1, &m, &n, 0, "singular_values");
   nz_svd d;
   if (nz_svd_of(&d, m, n, A, m < n)) return luaL_error(L, "'singular_values': not enough memory");
   int c = m < n ? m : n;

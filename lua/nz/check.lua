@@ -19,13 +19,7 @@ M.TOL = 1e-8
 
 local function vec(v) local p = {}; for i = 1, #v do p[i] = ("%.6g"):format(v[i]) end; return "{" .. table.concat(p, ", ") .. "}" end
 
-local function generator(seed)
-  local x = seed
-  return function(a, b)
-    x = (x * 1103515245 + 12345) % 2147483648
-    return a + (b - a) * (x / 2147483648)
-  end
-end
+local generator = require("nz.constraints").generator   -- deterministic draws
 
 -- Evaluate the student's function; errors say what to fix.
 local function evaluate(sys, eqs, t, q, qd, qdd)

@@ -34,6 +34,7 @@ local function generator(seed)
     return a + (b - a) * (x / 2147483648)
   end
 end
+M.generator = generator
 
 local function max_abs(v) local m = 0; for i = 1, #v do m = math.max(m, math.abs(v[i])) end; return m end
 

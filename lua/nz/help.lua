@@ -160,6 +160,8 @@ error naming the effect and the parameter.
   rolling_ball{body =, radius =}                    a body with rot on the plane
   constant_speed{coords = {...}, speed =}           nonlinear, first order
   constraint{f = function(t, q, qd, qdd) ... end}   any other constraint]] },
+  { name = "rotations", section = "scenes", usage = "nz.rotations.euler_zxz(psi, theta, phi)",
+    summary = "rotation matrices x(a), y(a), z(a), mul(A, B), euler_zxz for a body's rot" },
   { name = "check", section = "scenes", usage = "nz.check(sys, function(t, q, qd, qdd) return {...} end)",
     summary = "check a derivation by hand: equivalent to the system's equations?",
     text = [[

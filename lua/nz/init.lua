@@ -20,6 +20,7 @@ nz.workprecision = require("nz.workprecision").run
 nz.effects = require "nz.effects"
 nz.scene = require("nz.scene").scene
 nz.check = require("nz.check").check
+nz.rotations = require "nz.rotations"
 
 nz.help = require("nz.help").bind(nz)
 
