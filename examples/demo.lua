@@ -25,7 +25,17 @@ for _, n in ipairs{ 1, 2, 3, 12 } do
   print(("  n = %2d: %.15f"):format(n, sys:residual(n, 0, th, thd, { 0 })[1]))
 end
 
--- 3. Outside its domain a function says so instead of returning NaN.
+-- 3. Its motion at large amplitude: rk8pd at rtol 1e-10 by default; the
+--    period against the complete elliptic integral (GSL).
+local tr = sys:simulate{ q0 = { 2.5 }, t1 = 8, dt = 0.02, monitors = { energy = true },
+  events = { { name = "up", f = function(t, q) return q[1] end, direction = 1 } } }
+print("\n" .. tostring(tr))
+local ev = tr.events
+print(("period: simulated %.10f, from the elliptic integral %.10f"):format((ev[#ev].t - ev[1].t) / (#ev - 1),
+  4 * nz.special.ellint_K(math.sin(1.25)) * math.sqrt(1.3 / 9.81)))
+tr:plot{ y = { "th" }, width = 72, height = 16 }
+
+-- 4. Outside its domain a function says so instead of returning NaN.
 local ok, err = pcall(nz.log, nz.jet(-1, 3))
 print("\nnz.log of a jet at -1: " .. (ok and "no error?!" or err))
 print("\nMore in examples/; type `build/nzlua` for a session, help() lists what nz offers.")

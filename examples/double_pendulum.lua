@@ -12,6 +12,7 @@ local sys = nz.system{
   },
 }
 print(sys)
+print(select(2, sys:rule()))
 local t, q, qd = 0, { 0.7, -0.4 }, { 0.3, 1.1 }
 local a = sys:accel(t, q, qd)
 print(("accelerations: a'' = %.12f, b'' = %.12f"):format(a[1], a[2]))

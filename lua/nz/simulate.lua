@@ -102,7 +102,7 @@ local function progress_bar(cfg, t0, t1)
       :format(("#"):rep(fill), (" "):rep(width - fill), math.floor(100 * frac), t, steps))
   end
   local function done()
-    if shown then io.stderr:write("\r" .. (" "):rep(100) .. "\r") end
+    if shown then io.stderr:write("\r\27[K") end      -- erase the line (a terminal: see above)
   end
   return update, done
 end
@@ -263,6 +263,7 @@ function M.simulate(sys, opts)
     local msg = tostring(err)
     if msg:find("interrupted!", 1, true) then
       tr.status, tr.message = "interrupted", ("stopped by Ctrl-C at t = %.6g; the part computed so far is kept"):format(t)
+      io.stderr:write(("simulate '%s': %s (%d points)\n"):format(sys.name, tr.message, #tr.t))
       return tr
     end
     tr.status, tr.message = "failed", msg
