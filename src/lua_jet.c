@@ -292,11 +292,20 @@ static int lj_unm(lua_State *L)
   return 1;
 }
 
-/* Comparisons compare values (the constant terms). */
+/* Comparisons compare values (the constant terms); a number type written
+ * in Lua (a nested dual number) compares by its field v. */
 static double value_of(lua_State *L, int idx)
 {
   nz_jet *j = nz_lua_tojet(L, idx);
-  return j ? j->c[0] : luaL_checknumber(L, idx);
+  if (j) return j->c[0];
+  if (lua_type(L, idx) == LUA_TTABLE && luaL_getmetafield(L, idx, "__lt") != LUA_TNIL) {
+    lua_pop(L, 1);
+    lua_getfield(L, idx, "v");
+    double v = value_of(L, lua_gettop(L));
+    lua_pop(L, 1);
+    return v;
+  }
+  return luaL_checknumber(L, idx);
 }
 static int lj_eq(lua_State *L) { lua_pushboolean(L, value_of(L, 1) == value_of(L, 2)); return 1; }
 static int lj_lt(lua_State *L) { lua_pushboolean(L, value_of(L, 1) < value_of(L, 2)); return 1; }

@@ -186,6 +186,22 @@ describe("the kinematic identity (2.1) and the operators of §5", function()
   end)
 end)
 
+describe("the extremal form and velocity-dependent forces (§4)", function()
+  it("with damping, dK_1/dq' differs from the equations; from n = 2 on it agrees", function()
+    local c = 0.7
+    local sys = nz.system{ coords = { "x" }, T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end,
+      V = function(t, q) return 0.5 * q[1] ^ 2 end, Q = function(t, q, qd) return { -c * qd[1] } end }
+    local q, qd, qdd = { 0.4 }, { 0.9 }, { -0.1 }
+    local ref = sys:residual(1, 0, q, qd, qdd)
+    -- By hand: K_1 = R_1 - Q q', so dK_1/dq' = (residual) - q' dQ/dq' = ref + c q'.
+    local k1 = sys:residual(1, 0, q, qd, qdd, "extremal")
+    assert(math.abs(k1[1] - (ref[1] + c * qd[1])) <= 1e-14, ("n = 1: %.17g, expected %.17g"):format(k1[1], ref[1] + c * qd[1]))
+    for n = 2, 5 do
+      assert(math.abs(sys:residual(n, 0, q, qd, qdd, "extremal")[1] - ref[1]) <= 1e-13)
+    end
+  end)
+end)
+
 describe("energy", function()
   it("T + V and H of a pendulum agree with the closed form", function()
     local case = systems.pendulum()
