@@ -290,7 +290,7 @@ void nz_lua_push_vector(lua_State *L, const double *v, int k)
   }
 }
 
-static void push_matrix(lua_State *L, const double *M, int k)
+void nz_lua_push_matrix(lua_State *L, const double *M, int k)
 {
   lua_createtable(L, k, 0);
   for (int i = 0; i < k; i++) {
@@ -309,6 +309,18 @@ static void append_numbers(luaL_Buffer *b, const double *v, int k)
     luaL_addstring(b, num);
   }
   luaL_addchar(b, '}');
+}
+
+void nz_lua_add_state(luaL_Buffer *msg, double t, const double *q, const double *qd, int k)
+{
+  char num[40];
+  fmt_num(num, sizeof num, t);
+  luaL_addstring(msg, " at t = ");
+  luaL_addstring(msg, num);
+  luaL_addstring(msg, ", q = ");
+  append_numbers(msg, q, k);
+  luaL_addstring(msg, ", qd = ");
+  append_numbers(msg, qd, k);
 }
 
 /* Raise the error of a failed core call, with the system's name. */
@@ -417,7 +429,7 @@ static int ls_operator(lua_State *L)
   return 1;
 }
 
-static void read_tq_qd(lua_State *L, int k, double *t, double *q, double *qd, const char *fname)
+void nz_lua_read_tq_qd(lua_State *L, int k, double *t, double *q, double *qd, const char *fname)
 {
   *t = luaL_checknumber(L, 2);
   nz_lua_read_vector(L, 3, k, q, "q", 0, fname);
@@ -433,10 +445,10 @@ static int ls_mass_bias(lua_State *L)
   int k = b.sys.k;
   double t, *buf = lua_newuserdatauv(L, ((size_t)k * (size_t)k + 3 * (size_t)k) * sizeof(double), 0);
   double *q = buf, *qd = buf + k, *h = buf + 2 * k, *M = buf + 3 * k;
-  read_tq_qd(L, k, &t, q, qd, "mass");
+  nz_lua_read_tq_qd(L, k, &t, q, qd, "mass");
   int st = nz_mass_bias(&b.sys, t, q, qd, M, h);
   if (st) return nz_lua_raise_core(L, &b, st, "mass");
-  push_matrix(L, M, k);
+  nz_lua_push_matrix(L, M, k);
   nz_lua_push_vector(L, h, k);
   return 2;
 }
@@ -480,7 +492,7 @@ static int ls_accel(lua_State *L)
   double rcond_min = luaL_optnumber(L, 5, NZ_RCOND_MIN);
   double t, *buf = lua_newuserdatauv(L, 3 * (size_t)k * sizeof(double), 0);
   double *q = buf, *qd = buf + k, *qdd = buf + 2 * k;
-  read_tq_qd(L, k, &t, q, qd, "accel");
+  nz_lua_read_tq_qd(L, k, &t, q, qd, "accel");
   nz_solve_info info;
   int st = nz_accel(&b.sys, t, q, qd, rcond_min, qdd, &info);
   if (st == NZ_ESINGULAR) return nz_lua_raise_singular_mass(L, 1, t, q, qd, k, &info);
@@ -497,7 +509,7 @@ static int ls_energy(lua_State *L)
   nz_lua_bind_system(L, 1, &b);
   int k = b.sys.k;
   double t, T, V, F, H, *buf = lua_newuserdatauv(L, 2 * (size_t)k * sizeof(double), 0);
-  read_tq_qd(L, k, &t, buf, buf + k, "energy");
+  nz_lua_read_tq_qd(L, k, &t, buf, buf + k, "energy");
   int st = nz_energy(&b.sys, t, buf, buf + k, &T, &V, &F, &H);
   if (st) return nz_lua_raise_core(L, &b, st, "energy");
   if (isnan(T)) lua_pushnil(L);
@@ -506,251 +518,6 @@ static int ls_energy(lua_State *L)
   lua_pushnumber(L, F);
   lua_pushnumber(L, H);
   return 4;
-}
-
-/* ------------------------------------------------------------------ */
-/* Constraints                                                          */
-
-static int check_constraint(lua_State *L, bound_system *b, int idx)
-{
-  lua_Integer r = luaL_checkinteger(L, idx);
-  if (r < 1 || r > b->sys.nc)
-    return (int)luaL_error(L, "system '%s': no constraint %I (it has %d)", nz_lua_system_name(L, 1),
-                           (lua_Integer)r, b->sys.nc);
-  return (int)r - 1;
-}
-
-/* Read up to NZ_CONSTRAINT_SLOTS state levels from index `at` on (nil: zeros). */
-static void read_levels(lua_State *L, int at, int k, double *data, const double **levels,
-                        const char *fname)
-{
-  static const char *const names[] = { "q", "qd", "qdd", "qddd" };
-  for (int j = 0; j < NZ_CONSTRAINT_SLOTS; j++) {
-    levels[j] = data + (size_t)j * (size_t)k;
-    nz_lua_read_vector(L, at + j, k, (double *)levels[j], names[j], j > 0, fname);
-  }
-}
-
-/* constraint_partials(def, r, t, q, qd, qdd, qddd) -> value, {dq, dqd, dqdd, dqddd}, dphidt */
-static int ls_constraint_partials(lua_State *L)
-{
-  lua_settop(L, 7);   /* optional arguments read as nil, scratch above */
-  bound_system b;
-  nz_lua_bind_system(L, 1, &b);
-  int r = check_constraint(L, &b, 2), k = b.sys.k, S = NZ_CONSTRAINT_SLOTS;
-  double t = luaL_checknumber(L, 3), value, dphidt;
-  double *data = lua_newuserdatauv(L, 2 * (size_t)S * (size_t)k * sizeof(double), 0);
-  const double *levels[NZ_CONSTRAINT_SLOTS];
-  read_levels(L, 4, k, data, levels, "constraint_partials");
-  double *dphi = data + (size_t)S * k;
-  int st = nz_constraint_partials(&b.sys, r, t, levels, S, &value, dphi, &dphidt);
-  if (st) return nz_lua_raise_core(L, &b, st, "constraint_partials");
-  lua_pushnumber(L, value);
-  lua_createtable(L, S, 0);
-  for (int j = 0; j < S; j++) {
-    nz_lua_push_vector(L, dphi + (size_t)j * k, k);
-    lua_rawseti(L, -2, j + 1);
-  }
-  lua_pushnumber(L, dphidt);
-  return 3;
-}
-
-/* constraint_curvature(def, r, m, t, q, qd, qdd, qddd, v) -> c0, c1, c2 */
-static int ls_constraint_curvature(lua_State *L)
-{
-  lua_settop(L, 9);   /* optional arguments read as nil, scratch above */
-  bound_system b;
-  nz_lua_bind_system(L, 1, &b);
-  int r = check_constraint(L, &b, 2), k = b.sys.k, S = NZ_CONSTRAINT_SLOTS;
-  int m = (int)luaL_checkinteger(L, 3);
-  luaL_argcheck(L, m >= 0 && m < S, 3, "slot between 0 and 3 expected");
-  double t = luaL_checknumber(L, 4), c[3];
-  double *data = lua_newuserdatauv(L, ((size_t)S + 1) * (size_t)k * sizeof(double), 0);
-  const double *levels[NZ_CONSTRAINT_SLOTS];
-  read_levels(L, 5, k, data, levels, "constraint_curvature");
-  nz_lua_read_vector(L, 9, k, data + (size_t)S * k, "direction", 0, "constraint_curvature");
-  int st = nz_constraint_curvature(&b.sys, r, m, t, levels, S, data + (size_t)S * k, c);
-  if (st) return nz_lua_raise_core(L, &b, st, "constraint_curvature");
-  for (int j = 0; j < 3; j++) lua_pushnumber(L, c[j]);
-  return 3;
-}
-
-/* constraint_row(def, r, m, t, q, qd, qdd) -> A, value: the acceleration level */
-static int ls_constraint_row(lua_State *L)
-{
-  lua_settop(L, 7);   /* optional arguments read as nil, scratch above */
-  bound_system b;
-  nz_lua_bind_system(L, 1, &b);
-  int r = check_constraint(L, &b, 2), k = b.sys.k;
-  int m = (int)luaL_checkinteger(L, 3);
-  luaL_argcheck(L, m >= 0 && m <= 2, 3, "order between 0 and 2 expected");
-  double t = luaL_checknumber(L, 4), value;
-  double *data = lua_newuserdatauv(L, 4 * (size_t)k * sizeof(double), 0);
-  const double *levels[3] = { data, data + k, data + 2 * k };
-  nz_lua_read_vector(L, 5, k, data, "q", 0, "constraint_row");
-  nz_lua_read_vector(L, 6, k, data + k, "qd", 1, "constraint_row");
-  nz_lua_read_vector(L, 7, k, data + 2 * k, "qdd", 1, "constraint_row");
-  int st = nz_constraint_row(&b.sys, r, m, t, levels, 3, data + 3 * k, &value);
-  if (st) return nz_lua_raise_core(L, &b, st, "constraint_row");
-  nz_lua_push_vector(L, data + 3 * k, k);
-  lua_pushnumber(L, value);
-  return 2;
-}
-
-static void read_flags(lua_State *L, int idx, int n, int *v, const char *what)
-{
-  luaL_checktype(L, idx, LUA_TTABLE);
-  for (int r = 0; r < n; r++) {
-    lua_geti(L, idx, r + 1);
-    v[r] = lua_isboolean(L, -1) ? lua_toboolean(L, -1) : (int)luaL_optinteger(L, -1, -1);
-    lua_pop(L, 1);
-    if (v[r] < 0) luaL_error(L, "internal: %s[%d] missing", what, r + 1);
-  }
-}
-
-void nz_lua_add_state(luaL_Buffer *msg, double t, const double *q, const double *qd, int k)
-{
-  char num[40];
-  fmt_num(num, sizeof num, t);
-  luaL_addstring(msg, " at t = ");
-  luaL_addstring(msg, num);
-  luaL_addstring(msg, ", q = ");
-  append_numbers(msg, q, k);
-  luaL_addstring(msg, ", qd = ");
-  append_numbers(msg, qd, k);
-}
-
-/* The error of a failed constrained solve: why, where, and what to do. */
-int nz_lua_raise_accel_failure(lua_State *L, int def, const nz_accel_report *rep_, const int *orders,
-                               double t, const double *q, const double *qd, int k, int nc)
-{
-  nz_accel_report rep = *rep_;
-  const int *involved = rep.involved;
-  luaL_Buffer msg;
-  char num[160];
-  luaL_buffinit(L, &msg);
-  lua_pushfstring(L, "system '%s': ", nz_lua_system_name(L, def));
-  luaL_addvalue(&msg);
-  if (rep.failure == NZ_ACCEL_ORDER) {
-    for (int r = 0; r < nc; r++)
-      if (orders[r] > 2) {
-        snprintf(num, sizeof num, "constraint %d is of order %d", r + 1, orders[r]);
-        luaL_addstring(&msg, num);
-        break;
-      }
-    luaL_addstring(&msg, ": accelerations (and integration) support constraints up to order 2; "
-                         "its residuals and classification work");
-  } else if (rep.failure == NZ_ACCEL_NEWTON) {
-    snprintf(num, sizeof num, "Newton's method on (6.2) and the constraints did not converge in %d "
-             "iterations (residual %.3g)", rep.iterations, rep.residual);
-    luaL_addstring(&msg, num);
-    nz_lua_add_state(&msg, t, q, qd, k);
-    luaL_addstring(&msg, rep.from_guess ? "; started from the guess given"
-                                        : "; started from the unconstrained accelerations");
-    luaL_addstring(&msg, ": give another start with sys:accel(t, q, qd, {qdd = ..., lambda = ...}), "
-                         "or check that the constraints have a real solution here");
-  } else {
-    int ninvolved = 0, lone = 0;
-    for (int r = 0; r < nc; r++)
-      if (involved[r]) { ninvolved++; lone = r; }
-    if (rep.rank_A < nc && ninvolved == 1) {
-      snprintf(num, sizeof num, "constraint %d has a zero gradient dPhi/dq^(m) here (a singular "
-               "configuration of the constraint)", lone + 1);
-      luaL_addstring(&msg, num);
-    } else if (rep.rank_A < nc) {
-      luaL_addstring(&msg, "dependent constraints: ");
-      int first = 1;
-      for (int r = 0; r < nc; r++)
-        if (involved[r]) {
-          snprintf(num, sizeof num, "%s%d", first ? "constraints " : " and ", r + 1);
-          luaL_addstring(&msg, num);
-          first = 0;
-        }
-      snprintf(num, sizeof num, " (the rank of their gradients A is %d < %d)", rep.rank_A, nc);
-      luaL_addstring(&msg, num);
-    } else {
-      luaL_addstring(&msg, "the mass matrix is singular on the directions the constraints allow");
-    }
-    snprintf(num, sizeof num, ": [M A^T; A 0] is singular or badly conditioned (reciprocal condition %.2g)",
-             rep.rcond);
-    luaL_addstring(&msg, num);
-    nz_lua_add_state(&msg, t, q, qd, k);
-    luaL_addstring(&msg, ": remove a redundant constraint or move away from this configuration");
-  }
-  luaL_pushresult(&msg);
-  return lua_error(L);
-}
-
-/* accel_constrained(def, t, q, qd, orders, linear, opts) -> qdd, lambda, report */
-static int ls_accel_constrained(lua_State *L)
-{
-  lua_settop(L, 7);   /* optional arguments read as nil, scratch above */
-  bound_system b;
-  nz_lua_bind_system(L, 1, &b);
-  int k = b.sys.k, nc = b.sys.nc;
-  double t = luaL_checknumber(L, 2);
-  double *data = lua_newuserdatauv(L, (5 * (size_t)k + 2 * (size_t)nc) * sizeof(double), 0);
-  double *q = data, *qd = q + k, *qdd = qd + k, *gq = qdd + k, *lam = gq + k, *gl = lam + nc;
-  nz_lua_read_vector(L, 3, k, q, "q", 0, "accel");
-  nz_lua_read_vector(L, 4, k, qd, "qd", 1, "accel");
-  int *ints = lua_newuserdatauv(L, 3 * (size_t)(nc + 1) * sizeof(int), 0);
-  int *orders = ints, *linear = ints + nc + 1, *involved = ints + 2 * (nc + 1);
-  read_flags(L, 5, nc, orders, "orders");
-  read_flags(L, 6, nc, linear, "linear");
-  memset(involved, 0, (size_t)(nc + 1) * sizeof(int));
-  nz_accel_options opt = NZ_ACCEL_DEFAULTS;
-  if (lua_istable(L, 7)) {
-    if (lua_getfield(L, 7, "tol") == LUA_TNUMBER) opt.newton_tol = lua_tonumber(L, -1);
-    if (lua_getfield(L, 7, "maxit") == LUA_TNUMBER) opt.newton_maxit = (int)lua_tointeger(L, -1);
-    if (lua_getfield(L, 7, "rcond_min") == LUA_TNUMBER) opt.rcond_min = lua_tonumber(L, -1);
-    if (lua_getfield(L, 7, "qdd") == LUA_TTABLE) {
-      nz_lua_read_vector(L, lua_gettop(L), k, gq, "guess qdd", 0, "accel");
-      opt.guess_qdd = gq;
-    }
-    if (lua_getfield(L, 7, "lambda") == LUA_TTABLE) {
-      luaL_argcheck(L, luaL_len(L, -1) == nc, 7, "lambda: one multiplier per constraint expected");
-      for (int r = 0; r < nc; r++) {
-        lua_geti(L, -1, r + 1);
-        gl[r] = luaL_checknumber(L, -1);
-        lua_pop(L, 1);
-      }
-      opt.guess_lambda = gl;
-    }
-    lua_pop(L, 5);
-  }
-  nz_accel_report rep;
-  memset(&rep, 0, sizeof rep);
-  rep.involved = involved;
-  int st = nz_accel_constrained(&b.sys, orders, linear, t, q, qd, &opt, qdd, lam, &rep);
-  if (st == NZ_EFUNC || st == NZ_ENOMEM) return nz_lua_raise_core(L, &b, st, "accel");
-  if (st) return nz_lua_raise_accel_failure(L, 1, &rep, orders, t, q, qd, k, nc);
-  nz_lua_push_vector(L, qdd, k);
-  nz_lua_push_vector(L, lam, nc);
-  lua_createtable(L, 0, 4);
-  lua_pushinteger(L, rep.iterations);
-  lua_setfield(L, -2, "iterations");
-  lua_pushnumber(L, rep.residual);
-  lua_setfield(L, -2, "residual");
-  lua_pushnumber(L, rep.rcond);
-  lua_setfield(L, -2, "rcond");
-  lua_pushstring(L, rep.from_guess ? "guess" : "unconstrained");
-  lua_setfield(L, -2, "start");
-  return 3;
-}
-
-/* force_velocity_jacobian(def, t, q, qd) -> dQ/dqd */
-static int ls_force_velocity_jacobian(lua_State *L)
-{
-  lua_settop(L, 4);   /* optional arguments read as nil, scratch above */
-  bound_system b;
-  nz_lua_bind_system(L, 1, &b);
-  int k = b.sys.k;
-  double t, *buf = lua_newuserdatauv(L, (2 * (size_t)k + (size_t)k * k) * sizeof(double), 0);
-  read_tq_qd(L, k, &t, buf, buf + k, "force_velocity_jacobian");
-  int st = nz_force_velocity_jacobian(&b.sys, t, buf, buf + k, buf + 2 * k);
-  if (st) return nz_lua_raise_core(L, &b, st, "force_velocity_jacobian");
-  push_matrix(L, buf + 2 * k, k);
-  return 1;
 }
 
 /* energy_terms(def, t, q, qd, qdd) -> dL/dt, T0, T1, d/dt(T1 + 2 T0) */
@@ -775,56 +542,6 @@ static int ls_energy_terms(lua_State *L)
   return 4;
 }
 
-/* Read the matrix at idx (a list of rows of numbers) into a new userdata
- * with `extra` more doubles after it; sets *m, *n. */
-static double *read_matrix(lua_State *L, int idx, int *m, int *n, size_t extra, const char *fname)
-{
-  luaL_checktype(L, idx, LUA_TTABLE);
-  *m = (int)luaL_len(L, idx);
-  luaL_argcheck(L, *m >= 1, idx, "at least one row expected");
-  lua_geti(L, idx, 1);
-  *n = (int)luaL_len(L, -1);
-  lua_pop(L, 1);
-  luaL_argcheck(L, *n >= 1, idx, "rows of at least one number expected");
-  double *A = lua_newuserdatauv(L, ((size_t)*m * (size_t)*n + extra) * sizeof(double), 0);
-  for (int i = 0; i < *m; i++) {
-    lua_geti(L, idx, i + 1);
-    nz_lua_read_vector(L, lua_gettop(L), *n, A + (size_t)i * (size_t)*n, "row", 0, fname);
-    lua_pop(L, 1);
-  }
-  return A;
-}
-
-/* lstsq(A, b) -> x of minimum norm minimizing |A x - b| (A a list of rows). */
-static int ls_lstsq(lua_State *L)
-{
-  lua_settop(L, 2);
-  int m, n;
-  double *A = read_matrix(L, 1, &m, &n, 0, "lstsq");
-  double *bb = lua_newuserdatauv(L, ((size_t)m + (size_t)n) * sizeof(double), 0), *x = bb + m;
-  nz_lua_read_vector(L, 2, m, bb, "b", 0, "lstsq");
-  if (nz_lstsq(m, n, A, bb, x)) return luaL_error(L, "'lstsq': not enough memory");
-  nz_lua_push_vector(L, x, n);
-  return 1;
-}
-
-/* singular_values(A) -> the singular values of A (a list of rows), largest first. */
-static int ls_singular_values(lua_State *L)
-{
-  int m, n;
-  double *A = read_matrix(L, 1, &m, &n, 0, "singular_values");
-  nz_svd d;
-  if (nz_svd_of(&d, m, n, A, m < n)) return luaL_error(L, "'singular_values': not enough memory");
-  int c = m < n ? m : n;
-  lua_createtable(L, c, 0);
-  for (int i = 0; i < c; i++) {
-    lua_pushnumber(L, gsl_vector_get(d.S, (size_t)i));
-    lua_rawseti(L, -2, i + 1);
-  }
-  nz_svd_free(&d);
-  return 1;
-}
-
 /* jet:derivative() lives with the jets; the forms' names are data. */
 static int ls_forms(lua_State *L)
 {
@@ -839,16 +556,15 @@ static int ls_forms(lua_State *L)
 static const luaL_Reg system_functions[] = {
   { "residual", ls_residual }, { "operator", ls_operator }, { "mass_bias", ls_mass_bias },
   { "accel", ls_accel }, { "energy", ls_energy }, { "forms", ls_forms },
-  { "constraint_partials", ls_constraint_partials }, { "constraint_curvature", ls_constraint_curvature },
-  { "constraint_row", ls_constraint_row }, { "accel_constrained", ls_accel_constrained },
-  { "force_velocity_jacobian", ls_force_velocity_jacobian }, { "lstsq", ls_lstsq },
-  { "energy_terms", ls_energy_terms }, { "singular_values", ls_singular_values }, { NULL, NULL }
+  { "energy_terms", ls_energy_terms }, { NULL, NULL }
 };
 
 void nz_lua_open_system(lua_State *L)
 {
   lua_newtable(L);
   luaL_setfuncs(L, system_functions, 0);
+  nz_lua_open_constraints(L);
+  nz_lua_open_linalg(L);
   nz_lua_open_ode(L);
   lua_pushinteger(L, NZ_MAX_EQ_ORDER);
   lua_setfield(L, -2, "max_order");

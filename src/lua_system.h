@@ -32,6 +32,9 @@ const char *nz_lua_system_name(lua_State *L, int def);
 void nz_lua_read_vector(lua_State *L, int idx, int k, double *v, const char *what, int allow_nil,
                         const char *fname);
 void nz_lua_push_vector(lua_State *L, const double *v, int k);
+void nz_lua_push_matrix(lua_State *L, const double *M, int k);
+/* Arguments 2, 3, 4: t, q, qd (nil qd: zeros). */
+void nz_lua_read_tq_qd(lua_State *L, int k, double *t, double *q, double *qd, const char *fname);
 void nz_lua_add_state(luaL_Buffer *msg, double t, const double *q, const double *qd, int k);
 /* Errors, raised with the system's name and the state. */
 int nz_lua_raise_core(lua_State *L, bound_system *b, int st, const char *fname);
@@ -39,5 +42,9 @@ int nz_lua_raise_singular_mass(lua_State *L, int def, double t, const double *q,
                                int k, const nz_solve_info *info);
 int nz_lua_raise_accel_failure(lua_State *L, int def, const nz_accel_report *rep, const int *orders,
                                double t, const double *q, const double *qd, int k, int nc);
+
+/* The functions of lua_constraints.c and lua_linalg.c, added to core.mech. */
+void nz_lua_open_constraints(lua_State *L);
+void nz_lua_open_linalg(lua_State *L);
 
 #endif
