@@ -5,6 +5,7 @@
 #   make test     build and run every test (also under ASan and UBSan)
 #   make sanitize only the tests under AddressSanitizer + UBSan
 #   make bench    print the benchmark tables
+#   make install  nzlua to $(PREFIX)/bin, nz.so to $(PREFIX)/lib/lua/5.4 (PREFIX=/usr/local)
 #   make clean
 
 PKGS      = lua5.4 gsl readline
@@ -34,7 +35,10 @@ SAN_OBJ   = $(patsubst src/%.c,$(B)/asan/%.o,$(CORE_SRC) $(LUA_SRC)) $(B)/asan/e
 CORE_OBJ  = $(patsubst src/%.c,$(B)/obj/%.o,$(CORE_SRC))
 SAN_CORE  = $(patsubst src/%.c,$(B)/asan/%.o,$(CORE_SRC))
 
-.PHONY: all deps demo test check sanitize bench clean
+PREFIX   ?= /usr/local
+DESTDIR  ?=
+
+.PHONY: all deps demo test check sanitize bench install uninstall clean
 
 all: $(B)/nzlua $(B)/nz.so
 
@@ -87,6 +91,16 @@ sanitize: deps $(B)/asan/nzlua $(B)/asan/test_series all
 
 bench: deps all $(B)/bench_jet
 	@bench/run.sh
+
+# nz.so carries its Lua half inside: one file serves `require "nz"` from any
+# Lua 5.4 (the default package.cpath searches $(PREFIX)/lib/lua/5.4).
+install: all
+	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/lib/lua/5.4
+	install -m 755 $(B)/nzlua $(DESTDIR)$(PREFIX)/bin/nzlua
+	install -m 644 $(B)/nz.so $(DESTDIR)$(PREFIX)/lib/lua/5.4/nz.so
+
+uninstall:
+	rm -f $(DESTDIR)$(PREFIX)/bin/nzlua $(DESTDIR)$(PREFIX)/lib/lua/5.4/nz.so
 
 clean:
 	rm -rf $(B)
