@@ -101,7 +101,7 @@ int nz_constraint_row_along(const nz_system *s, int r, int m, double t, const do
   st = nz_motion_eval(s, NZ_PIECE_PHI, r, &mo, NULL);
   if (!st) {
     read_row(mo.out[0], m, k, alpha, beta, A, value);
-    if (dir) read_row(mo.dout[0], m, k, alpha, beta, dA, dvalue);
+    if (dir && dA && dvalue) read_row(mo.dout[0], m, k, alpha, beta, dA, dvalue);  /* derivative outputs given with dir */
   }
   nz_motion_free(&mo);
   return st;
