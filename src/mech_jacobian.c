@@ -18,10 +18,14 @@ int nz_ode_jacobian(const nz_system *s, const int *orders, const int *linear,
   double *r = h + N, *dr = r + N, *e = dr + N, *zero = e + N;
   double *val = zero + N, *dval = val + N;
 
-  /* The motion's accelerations and multipliers. */
+  /* M and h once; then the motion's accelerations and multipliers (without
+   * constraints: M qdd = -h by Cholesky on a copy, J is scratch until below). */
+  if ((st = nz_mass_bias(s, t, q, qd, M, h))) goto done;
   if (nc == 0) {
     nz_solve_info info;
-    st = nz_accel(s, t, q, qd, opt->rcond_min, x, &info);
+    memcpy(J, M, kk * sizeof(double));
+    for (int i = 0; i < k; i++) rhs[i] = -h[i];
+    st = nz_solve_spd(k, J, rhs, x, opt->rcond_min, &info);
   } else {
     nz_accel_report rep;
     memset(&rep, 0, sizeof rep);
@@ -34,7 +38,7 @@ int nz_ode_jacobian(const nz_system *s, const int *orders, const int *linear,
   const double *state[3] = { q, qd, x };
 
   /* J = [M - sum lambda_r H_r, -A^T; A, 0] at the solution. */
-  if ((st = nz_mass_bias(s, t, q, qd, M, h))) goto done;
+  memset(J, 0, NN * sizeof(double));
   for (int i = 0; i < k; i++)
     for (int j = 0; j < k; j++) J[i * N + j] = M[i * k + j];
   for (int c = 0; c < nc; c++) {

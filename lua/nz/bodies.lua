@@ -131,6 +131,7 @@ end
 
 M.validate = validate
 M.kinetic = kinetic
+M.potential = potential
 M.acceleration_energy = acceleration_energy
 
 -- nz.bodies{ {mass = m, pos = f [, rot = g, inertia = I]}, ..., gravity = {gx, gy, gz} }

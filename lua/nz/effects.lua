@@ -119,14 +119,7 @@ define("gravity", { g = { type = "vector", doc = "{gx, gy, gz}, default {0, 0, -
       if not b then sc.fail(e, "bodies", "names no body '%s'", name) end
       list[#list + 1] = b
     end
-    return { V = function(t, q, p)
-      local V = 0
-      for _, b in ipairs(list) do
-        local r = b.pos(t, q, p)
-        for j = 1, 3 do if g[j] ~= 0 then V = V - b.mass * g[j] * r[j] end end
-      end
-      return V
-    end }
+    return { V = require("nz.bodies").potential(list, g) }
   end, "uniform gravity on the bodies: V = -sum m g . r")
 
 define("spring", {

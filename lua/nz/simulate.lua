@@ -91,6 +91,7 @@ local function progress_bar(cfg, t0, t1)
   if not enabled then return function() end, function() end end
   local start, last = mech.now(), 0
   local shown = false
+  -- steps: a function, asked only when the bar is drawn (not on every step).
   local function update(t, steps)
     local now = mech.now()
     if now - start < 0.5 or now - last < 0.2 then return end
@@ -99,7 +100,7 @@ local function progress_bar(cfg, t0, t1)
     local width = 30
     local fill = math.floor(frac * width + 0.5)
     io.stderr:write(("\r[%s%s] %3d%%  t = %-10.4g steps %d  (Ctrl-C stops, keeping what is done)")
-      :format(("#"):rep(fill), (" "):rep(width - fill), math.floor(100 * frac), t, steps))
+      :format(("#"):rep(fill), (" "):rep(width - fill), math.floor(100 * frac), t, steps()))
   end
   local function done()
     if shown then io.stderr:write("\r\27[K") end      -- erase the line (a terminal: see above)
@@ -247,8 +248,7 @@ function M.simulate(sys, opts)
           end
           gvals[e] = g
         end
-        local s = mech.ode_stats(ode)
-        update(t, s.steps)
+        update(t, function() return mech.ode_stats(ode).steps end)
       end
       record(t, y)
     end
