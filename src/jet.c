@@ -65,13 +65,17 @@ void nz_jet_set_constant(nz_jet *z, double v)
   z->c[0] = v;
 }
 
-/* A result whose coefficients are not all finite overflowed. */
-static nz_status check_finite(const nz_jet *z)
+/* An infinite coefficient is an overflow; NaN without one came in with an
+ * operand or from inf - inf inside a sum (the binding tells which). */
+nz_status nz_jet_check_finite(const nz_jet *x)
 {
-  size_t n = (size_t)(z->ntan + 1) * (size_t)(z->order + 1);
-  for (size_t i = 0; i < n; i++)
-    if (!isfinite(z->c[i])) return NZ_ERANGE;
-  return NZ_OK;
+  size_t n = (size_t)(x->ntan + 1) * (size_t)(x->order + 1);
+  int nan = 0;
+  for (size_t i = 0; i < n; i++) {
+    if (isinf(x->c[i])) return NZ_ERANGE;
+    if (isnan(x->c[i])) nan = 1;
+  }
+  return nan ? NZ_ENAN : NZ_OK;
 }
 
 /* Derivatives are asked for when the jet has order >= 1 or tangents. */
@@ -92,7 +96,7 @@ static nz_status add_signed(nz_jet *z, const nz_jet *a, const nz_jet *b, double 
     const double *bd = d < 0 ? b->c : nz_jet_tangent(b, d);
     for (int k = 0; k <= K; k++) zd[k] = (ad ? ad[k] : 0.0) + s * (bd ? bd[k] : 0.0);
   }
-  return check_finite(z);
+  return nz_jet_check_finite(z);
 }
 
 nz_status nz_jet_add(nz_jet *z, const nz_jet *a, const nz_jet *b) { return add_signed(z, a, b, 1.0); }
@@ -102,7 +106,7 @@ nz_status nz_jet_scale(nz_jet *z, const nz_jet *a, double s)
 {
   size_t n = (size_t)(z->ntan + 1) * (size_t)(z->order + 1);
   for (size_t i = 0; i < n; i++) z->c[i] = s * a->c[i];
-  return check_finite(z);
+  return nz_jet_check_finite(z);
 }
 
 nz_status nz_jet_neg(nz_jet *z, const nz_jet *a) { return nz_jet_scale(z, a, -1.0); }
@@ -111,7 +115,7 @@ nz_status nz_jet_offset(nz_jet *z, const nz_jet *a, double s)
 {
   nz_jet_copy(z, a);
   z->c[0] += s;
-  return check_finite(z);
+  return nz_jet_check_finite(z);
 }
 
 /* d(a b) = da b + a db */
@@ -126,7 +130,7 @@ nz_status nz_jet_mul(nz_jet *z, const nz_jet *a, const nz_jet *b, double *w)
     if (ad) { nz_series_mul(w, ad, b->c, K); series_axpy(zd, 1.0, w, K); }
     if (bd) { nz_series_mul(w, a->c, bd, K); series_axpy(zd, 1.0, w, K); }
   }
-  return check_finite(z);
+  return nz_jet_check_finite(z);
 }
 
 /* z = a / b;  dz = (da - z db) / b */
@@ -142,7 +146,7 @@ nz_status nz_jet_div(nz_jet *z, const nz_jet *a, const nz_jet *b, double *w)
     if (bd) { nz_series_mul(zb, z->c, bd, K); series_axpy(num, -1.0, zb, K); }
     nz_series_div(nz_jet_tangent(z, d), num, b->c, K);
   }
-  return check_finite(z);
+  return nz_jet_check_finite(z);
 }
 
 /* Tangents of a unary result y = f(x): dy = g dx (g = f'(x) as a series), or
@@ -243,7 +247,7 @@ nz_status nz_jet_apply(nz_jet *z, nz_jet_fn f, const nz_jet *x, double *w)
   default:
     return NZ_EDOM;
   }
-  return check_finite(z);
+  return nz_jet_check_finite(z);
 }
 
 static int is_small_integer(double p) { return p == floor(p) && fabs(p) <= 1e9; }
@@ -269,7 +273,7 @@ nz_status nz_jet_pow(nz_jet *z, const nz_jet *x, double p, double *w)
       nz_series_powi(g, x->c, n - 1, K, pw);
       tangents_times(z, x, g, p);
     }
-    return check_finite(z);
+    return nz_jet_check_finite(z);
   }
   if (x0 == 0.0) {
     if (integer || (!wants_derivatives(z) && p < 0.0)) return NZ_EZERODIV;
@@ -289,7 +293,7 @@ nz_status nz_jet_pow(nz_jet *z, const nz_jet *x, double p, double *w)
       nz_series_div(zd, tmp, x->c, K);
     }
   }
-  return check_finite(z);
+  return nz_jet_check_finite(z);
 }
 
 /* x^y = exp(y log x), x0 > 0;  d(x^y) = x^y (dy log x + y dx / x). */
@@ -315,7 +319,7 @@ nz_status nz_jet_pow_jet(nz_jet *z, const nz_jet *x, const nz_jet *y, double *w)
     }
     nz_series_mul(zd, z->c, p, K);
   }
-  return check_finite(z);
+  return nz_jet_check_finite(z);
 }
 
 /* dz = (x dy - y dx) / (x^2 + y^2) */
@@ -332,7 +336,7 @@ nz_status nz_jet_atan2(nz_jet *z, const nz_jet *y, const nz_jet *x, double *w)
     if (xd) { nz_series_mul(t, y->c, xd, K); series_axpy(num, -1.0, t, K); }
     nz_series_div(nz_jet_tangent(z, dd), num, d, K);
   }
-  return check_finite(z);
+  return nz_jet_check_finite(z);
 }
 
 /* z = s sqrt((a/s)^2 + (b/s)^2) with s = max(|a0|, |b0|), so that squares of
@@ -361,5 +365,5 @@ nz_status nz_jet_hypot(nz_jet *z, const nz_jet *a, const nz_jet *b, double *w)
     if (bd) { nz_series_mul(t, b->c, bd, K); series_axpy(num, 1.0, t, K); }
     nz_series_div(nz_jet_tangent(z, d), num, z->c, K);
   }
-  return check_finite(z);
+  return nz_jet_check_finite(z);
 }

@@ -26,8 +26,9 @@ typedef enum nz_status {
   NZ_EDOM,      /* argument outside the function's domain (log(-1))            */
   NZ_ESING,     /* defined, but not differentiable there (sqrt(0) with K >= 1) */
   NZ_EZERODIV,  /* division by a series whose constant term is zero            */
-  NZ_ERANGE,    /* the result overflows (a coefficient is not finite)          */
-  NZ_ENOMEM
+  NZ_ERANGE,    /* the result overflows (a coefficient is infinite)            */
+  NZ_ENOMEM,
+  NZ_ENAN       /* a coefficient of the result is NaN and none is infinite     */
 } nz_status;
 
 typedef struct nz_jet {
@@ -52,6 +53,12 @@ void nz_jet_init(nz_jet *z, int order, int ntan);   /* set shape, zero all */
 nz_jet *nz_jet_alloc(int order, int ntan);         /* NULL if out of memory */
 void nz_jet_free(nz_jet *z);                       /* NULL is harmless */
 void nz_jet_copy(nz_jet *z, const nz_jet *a);      /* same shape required */
+
+/* NZ_OK when every coefficient of x (value and tangents) is finite, else
+ * NZ_ERANGE if one is infinite, NZ_ENAN if one is NaN and none infinite.
+ * Every operation below ends with this check, so a jet that an operation
+ * returns with NZ_OK is finite throughout. */
+nz_status nz_jet_check_finite(const nz_jet *x);
 
 /* Workspace length (in doubles) every operation on jets of order K needs. */
 size_t nz_jet_work_len(int order);

@@ -5,6 +5,7 @@
  * (with the same domain checks), jets give jets.  All functions and
  * metamethods share one workspace, their first upvalue, so that no operation
  * allocates a temporary besides its result. */
+#include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -105,9 +106,12 @@ static nz_jet *jet_or_scalar(lua_State *L, int idx, int s, const char *fname)
 /* ------------------------------------------------------------------ */
 /* Errors: what went wrong, with the offending value, in Lua's style    */
 
-/* The shortest of %.15g / %.17g that reads back as the same double. */
+/* The shortest of %.15g / %.17g that reads back as the same double; NaN and
+ * infinities the same way on every C library. */
 static const char *fmt_num(char *buf, size_t n, double v)
 {
+  if (isnan(v)) return "NaN";
+  if (isinf(v)) return v > 0 ? "inf" : "-inf";
   snprintf(buf, n, "%.15g", v);
   if (strtod(buf, NULL) != v) snprintf(buf, n, "%.17g", v);
   return buf;
@@ -142,11 +146,51 @@ static int raise_status(lua_State *L, nz_status st, const char *fname, double v,
   case NZ_ERANGE:
     return luaL_error(L, "'%s' overflows: a coefficient of the result is not finite "
                       "(argument value %s)", fname, a);
+  case NZ_ENAN:
+    return luaL_error(L, "'%s' of finite arguments gives NaN: terms of a coefficient "
+                      "overflowed and cancelled (inf - inf) (argument value %s)", fname, a);
   case NZ_ENOMEM:
     return luaL_error(L, "'%s': not enough memory", fname);
   default:
     return 0;
   }
+}
+
+/* Where the first coefficient of x that is not finite sits, in words; NULL
+ * when x is finite.  An order 0 jet without tangents is a plain number. */
+static const char *describe_nonfinite(char *buf, size_t n, const nz_jet *x)
+{
+  size_t len = (size_t)(x->order + 1);
+  for (int d = -1; d < x->ntan; d++) {
+    const double *c = d < 0 ? x->c : nz_jet_tangent(x, d);
+    for (size_t j = 0; j < len; j++) {
+      if (isfinite(c[j])) continue;
+      char v[32];
+      const char *what = fmt_num(v, sizeof v, c[j]);
+      if (x->order == 0 && x->ntan == 0) snprintf(buf, n, "got %s", what);
+      else if (d < 0) snprintf(buf, n, "a jet whose coefficient %zu is %s", j, what);
+      else snprintf(buf, n, "a jet whose tangent %d has %s in coefficient %zu", d + 1, what, j);
+      return buf;
+    }
+  }
+  return NULL;
+}
+
+/* An operation failed.  An operand that already carried NaN or inf is the
+ * cause, so it is named first (the status would only describe its effect:
+ * 'log' of NaN is not a "non-positive value"); otherwise the status says
+ * what went wrong. */
+static int raise_failure(lua_State *L, nz_status st, const char *fname, const nz_jet *const *ops,
+                         int nops, double v, double v2)
+{
+  char where[96];
+  for (int i = 0; i < nops; i++) {
+    if (!describe_nonfinite(where, sizeof where, ops[i])) continue;
+    return luaL_error(L, "bad argument #%d to '%s' (%s: %s came from an earlier computation, "
+                      "such as 0/0, inf - inf or an overflow)", i + 1, fname, where,
+                      strstr(where, "NaN") ? "the NaN" : "the infinity");
+  }
+  return raise_status(L, st, fname, v, v2);
 }
 
 /* Push the result: a number when every operand was a number. */
@@ -185,7 +229,7 @@ static int unary(lua_State *L, nz_jet_fn f)
   nz_jet *x = jet_or_scalar(L, 1, 0, fname);
   nz_jet *z = as_number ? get_workspace(L)->scalar[2] : nz_lua_newjet(L, x->order, x->ntan);
   nz_status st = nz_jet_apply(z, f, x, work_for(L, x->order));
-  if (st) return raise_status(L, st, fname, x->c[0], 0.0);
+  if (st) return raise_failure(L, st, fname, (const nz_jet *const[]){ x }, 1, x->c[0], 0.0);
   push_result(L, z, as_number);
   return 1;
 }
@@ -223,6 +267,7 @@ static int binary(lua_State *L, binop op)
   int na = lua_type(L, 1) == LUA_TNUMBER, nb = lua_type(L, 2) == LUA_TNUMBER;
   nz_jet *a = jet_or_scalar(L, 1, 0, fname);
   nz_jet *b = jet_or_scalar(L, 2, 1, fname);
+  const nz_jet *const args[2] = { a, b };   /* as given, before any conversion */
   int order, ntan;
   nz_jet_result_shape(a, b, &order, &ntan);
   if (na && !nb) order = b->order;   /* a number is exact to every order */
@@ -241,7 +286,10 @@ static int binary(lua_State *L, binop op)
     break;
   case OP_SUB:
     if (nb) st = nz_jet_offset(z, a, -bv);
-    else if (na) { st = nz_jet_neg(z, b); z->c[0] += av; }
+    else if (na) {
+      st = nz_jet_neg(z, b);
+      if (!st) { z->c[0] += av; st = nz_jet_check_finite(z); }
+    }
     else st = nz_jet_sub(z, a, b);
     break;
   case OP_MUL:
@@ -272,7 +320,7 @@ static int binary(lua_State *L, binop op)
   default:
     st = NZ_EDOM;
   }
-  if (st) return raise_status(L, st, fname, av, bv);
+  if (st) return raise_failure(L, st, fname, args, 2, av, bv);
   push_result(L, z, as_number);
   return 1;
 }
@@ -323,6 +371,20 @@ static int check_count(lua_State *L, int idx, int lo, int hi, const char *what)
   return (int)n;
 }
 
+/* A jet starts finite: NaN or inf in a value or coefficient would only
+ * surface later, far from where it came in (every operation keeps jets
+ * finite, see nz_jet_check_finite). */
+static double check_finite_arg(lua_State *L, int idx, const char *fname)
+{
+  double v = luaL_checknumber(L, idx);
+  if (!isfinite(v)) {
+    char a[32];
+    luaL_error(L, "bad argument #%d to '%s' (finite number expected, got %s)", idx, fname,
+               fmt_num(a, sizeof a, v));
+  }
+  return v;
+}
+
 /* Read the numbers of the list at idx into dst[0..n-1], zero beyond its end. */
 static void read_coefficients(lua_State *L, int idx, double *dst, int n, const char *what)
 {
@@ -332,6 +394,11 @@ static void read_coefficients(lua_State *L, int idx, double *dst, int n, const c
     else if (t == LUA_TNUMBER) dst[j] = lua_tonumber(L, -1);
     else luaL_error(L, "bad argument to 'jet' (%s: entry %d is a %s, number expected)", what,
                     j + 1, lua_typename(L, t));
+    if (!isfinite(dst[j])) {
+      char a[32];
+      luaL_error(L, "bad argument to 'jet' (%s: entry %d is %s, finite number expected)", what,
+                 j + 1, fmt_num(a, sizeof a, dst[j]));
+    }
     lua_pop(L, 1);
   }
 }
@@ -378,7 +445,7 @@ static int jet_from_table(lua_State *L)
 static int lj_jet(lua_State *L)
 {
   if (lua_istable(L, 1)) return jet_from_table(L);
-  double t0 = luaL_checknumber(L, 1);
+  double t0 = check_finite_arg(L, 1, "jet");
   int order = lua_isnoneornil(L, 2) ? 1 : check_count(L, 2, 0, NZ_JET_MAX_ORDER, "order");
   int seed = -1, ntan = 0;
   if (!lua_isnoneornil(L, 3)) {
@@ -393,7 +460,7 @@ static int lj_jet(lua_State *L)
 /* nz.dual(v, d, D): the dual number v + eps_d (a jet of order 0). */
 static int lj_dual(lua_State *L)
 {
-  double v = luaL_checknumber(L, 1);
+  double v = check_finite_arg(L, 1, "dual");
   int seed = check_count(L, 2, 1, NZ_JET_MAX_TANGENTS, "tangent direction") - 1;
   int ntan = lua_isnoneornil(L, 3) ? seed + 1
                                    : check_count(L, 3, seed + 1, NZ_JET_MAX_TANGENTS, "tangent count");
@@ -426,17 +493,35 @@ static int lj_coef(lua_State *L)
   return 1;
 }
 
+/* x:deriv(j) = j! c_j.  Normalized coefficients fall below the smallest
+ * normal double (DBL_MIN) near j = 171 for an O(1) function, and to 0 a few
+ * orders later, where j! overflows: j! c_j then has lost its digits, or is 0
+ * for a derivative that is not.  A subnormal c_j is refused, and so is a zero
+ * c_j when an underflowed coefficient (below DBL_TRUE_MIN) could hide a
+ * derivative larger than DBL_EPSILON; never a wrong derivative. */
 static int lj_deriv(lua_State *L)
 {
   nz_jet *x = nz_lua_checkjet(L, 1);
   int j = check_index(L, 2, x->order, "deriv", "derivative order");
-  double d = x->c[j];
-  for (int i = 2; i <= j; i++) d *= i;
-  if (!isfinite(d)) {
-    char a[32];
-    return luaL_error(L, "'deriv': %d! times coefficient %d (%s) overflows a double; "
-                      "use coef(%d) instead", j, j, fmt_num(a, sizeof a, x->c[j]), j);
+  double c = x->c[j], d = c, hidden = DBL_TRUE_MIN;
+  for (int i = 2; i <= j; i++) { d *= i; hidden *= i; }
+  char a[32];
+  if (c != 0.0 && fabs(c) < DBL_MIN)
+    return luaL_error(L, "'deriv': coefficient %d (%s) has underflowed below the smallest normal "
+                      "double, so %d! times it has lost its digits; coef(%d) is the coefficient "
+                      "itself, or scale time: with h > 1, nz.jet{t0, h, order = K} has the "
+                      "coefficients f^(j) h^j / j!", j, fmt_num(a, sizeof a, c), j, j);
+  if (c == 0.0 && hidden > DBL_EPSILON) {
+    char bound[16];
+    snprintf(bound, sizeof bound, "%.2g", hidden);
+    return luaL_error(L, "'deriv': coefficient %d is 0, and %d! times a coefficient that "
+                      "underflowed to 0 can be %s: derivative %d cannot be told from 0; "
+                      "scale time instead: with h > 1, nz.jet{t0, h, order = K} has the "
+                      "coefficients f^(j) h^j / j!", j, j, bound, j);
   }
+  if (!isfinite(d))
+    return luaL_error(L, "'deriv': %d! times coefficient %d (%s) overflows a double; "
+                      "use coef(%d) instead", j, j, fmt_num(a, sizeof a, c), j);
   lua_pushnumber(L, d);
   return 1;
 }
@@ -471,6 +556,8 @@ static int lj_derivative(lua_State *L)
     double *dst = d < 0 ? z->c : nz_jet_tangent(z, d);
     for (int j = 0; j < x->order; j++) dst[j] = (j + 1) * src[j + 1];
   }
+  nz_status st = nz_jet_check_finite(z);
+  if (st) return raise_failure(L, st, "derivative", (const nz_jet *const[]){ x }, 1, x->c[0], 0.0);
   return 1;
 }
 

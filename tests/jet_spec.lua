@@ -68,6 +68,53 @@ describe("jet construction and access", function()
     h.checkerror("number or jet expected, got string", nz.sin, "x")
     h.checkerror("overflows a double; use coef(200)", function() return nz.exp(nz.jet(0, 200) * 1e3):deriv(200) end)
   end)
+  it("rejects NaN and inf where a jet is made", function()
+    h.checkerror("bad argument #1 to 'jet' (finite number expected, got NaN)", nz.jet, 0 / 0, 3)
+    h.checkerror("bad argument #1 to 'jet' (finite number expected, got inf)", nz.jet, math.huge, 3)
+    h.checkerror("bad argument #1 to 'dual' (finite number expected, got NaN)", nz.dual, 0 / 0, 1)
+    h.checkerror("bad argument #1 to 'dual' (finite number expected, got -inf)", nz.dual, -math.huge, 1)
+    h.checkerror("(coefficients: entry 2 is NaN, finite number expected)", nz.jet, { 1, 0 / 0, 3 })
+    h.checkerror("(tangent series: entry 1 is inf, finite number expected)", nz.jet,
+      { 1, 2, tangents = { { math.huge } } })
+  end)
+end)
+
+describe("deriv never returns a derivative the doubles cannot hold", function()
+  -- exp(t0 + s): every derivative is exp(t0), c_j = exp(t0) / j!.
+  local e = math.exp(0.5)
+  it("up to order 170 the coefficients are normal doubles: j! c_j = exp(t0)", function()
+    local y = nz.exp(nz.jet(0.5, 170))
+    for _, j in ipairs { 100, 150, 165, 170 } do
+      -- c_j is a sum of j rounded terms and j! is j - 1 more roundings.
+      assert(math.abs(y:deriv(j) - e) <= 4 * j * eps * e,
+        ("deriv(%d) = %.17g, expected exp(0.5) = %.17g"):format(j, y:deriv(j), e))
+    end
+  end)
+  it("order 180, where c_j underflows to 0 (the issue's case), is an error, not 0", function()
+    local y = nz.exp(nz.jet(0.5, 180))
+    h.checkerror("'deriv': coefficient 180 is 0, and 180! times a coefficient that underflowed to 0 can be 9.9e+05",
+      function() return y:deriv(180) end)
+    -- From 171 on, 1/j! is below the smallest normal double, 2.2250738585072014e-308.
+    h.checkerror("'deriv': coefficient 175 (", function() return y:deriv(175) end)
+    h.checkerror("has underflowed below the smallest normal double, so 171! times it has lost its digits",
+      function() return y:deriv(171) end)
+  end)
+  it("the scaled jet the message suggests gives the coefficients exactly", function()
+    -- exp(0.5 + 10 s) has c_j = exp(0.5) 10^j / j!, a normal double at j = 180.
+    local y = nz.exp(nz.jet{ 0.5, 10, order = 180 })
+    local want = e
+    for i = 1, 180 do want = want * 10 / i end
+    assert(math.abs(y:coef(180) - want) <= 4 * 180 * eps * want,
+      ("coef(180) = %.17g, closed form %.17g"):format(y:coef(180), want))
+  end)
+  it("a polynomial's zero coefficient is 0 where j! c_j cannot hide anything", function()
+    -- j! times the smallest subnormal (4.9e-324) is below 2.2e-16 up to j = 170.
+    assert.are.equal(0, nz.jet{ 1, 2, 3, order = 200 }:deriv(170))
+    h.checkerror("derivative 171 cannot be told from 0", function() return nz.jet{ 1, 2, 3, order = 200 }:deriv(171) end)
+  end)
+  it("derivative() that overflows is an error", function()
+    h.checkerror("'derivative' overflows", function() return nz.jet{ 0, 0, 1e308 }:derivative() end)
+  end)
 end)
 
 describe("series against closed forms", function()
@@ -123,7 +170,33 @@ describe("series against closed forms", function()
   it("x^y with a jet exponent is exp(y log x)", function()
     local t = nz.jet(0.385, K)
     check("2^t", 2 ^ t, function(j) return 2 ^ 0.385 * math.log(2) ^ j / fact(j) end)
-    check("t^t", t ^ t, nz.exp(t * nz.log(t)))
+  end)
+  it("t^t against its own differential equation, solved here in plain numbers", function()
+    -- y = t^t solves y' = y (1 + log t).  With the closed-form series
+    -- log(t0 + s) = log t0 + sum_{j>=1} (-1)^(j+1) s^j / (j t0^j), matching
+    -- coefficients of s^(k-1) gives k y_k = sum_{j<k} u_j y_{k-1-j}, u = 1 + log t:
+    -- a recurrence in Lua numbers that shares no code with the jet engine.
+    local t0 = 0.385
+    local u = { [0] = 1 + math.log(t0) }
+    for j = 1, K do u[j] = (j % 2 == 1 and 1 or -1) / (j * t0 ^ j) end
+    local y = { [0] = t0 ^ t0 }
+    for k = 1, K do
+      local s = 0
+      for j = 0, k - 1 do s = s + u[j] * y[k - 1 - j] end
+      y[k] = s / k
+    end
+    local t = nz.jet(t0, K)
+    -- The coefficients grow like t0^-j (radius of convergence t0): compare
+    -- relative to each coefficient's own size.
+    h.assert_series(t ^ t, function(j) return y[j] end, K, 64 * eps, "t^t", function(j) return math.abs(y[j]) end)
+    -- And the first three derivatives derived by hand, with L = 1 + log t0:
+    -- d/dt t^t = t^t L, d2/dt2 = t^t (L^2 + 1/t0), d3/dt3 = t^t (L^3 + 3 L / t0 - 1/t0^2).
+    local L, tt, z = 1 + math.log(t0), t0 ^ t0, t ^ t
+    local want = { tt * L, tt * (L ^ 2 + 1 / t0), tt * (L ^ 3 + 3 * L / t0 - 1 / t0 ^ 2) }
+    for j = 1, 3 do
+      assert(math.abs(z:deriv(j) - want[j]) <= 16 * eps * math.abs(want[j]) * t0 ^ -j,
+        ("(t^t) derivative %d = %.17g, hand derivation %.17g"):format(j, z:deriv(j), want[j]))
+    end
   end)
   it("numbers give numbers", function()
     assert.are.equal(math.sin(0.385), nz.sin(0.385))
@@ -310,5 +383,18 @@ describe("domain errors name the function and the value", function()
       nz.exp, nz.jet(800, 2))
     h.checkerror("'exp' overflows", nz.exp, 800)
     h.checkerror("'mul' overflows", function() return nz.jet(1e300, 1) * 1e300 end)
+  end)
+  it("NaN names the argument that carried it, never 'overflows'", function()
+    local nan = 0 / 0
+    h.checkerror("bad argument #2 to 'mul' (got NaN: the NaN came from an earlier computation",
+      function() return nz.jet(0.25, 3) * nan end)
+    h.checkerror("bad argument #1 to 'sub' (got NaN", function() return nan - nz.jet(0.25, 3) end)
+    h.checkerror("bad argument #1 to 'log' (got NaN", nz.log, nan)            -- not "non-positive"
+    h.checkerror("bad argument #2 to 'atan2' (got NaN", nz.atan2, nz.jet(1, 3), nan)
+    h.checkerror("bad argument #1 to 'sin' (got NaN", nz.sin, nan)
+    h.checkerror("bad argument #2 to 'mul' (got inf: the infinity came from", function() return nz.jet(0.25, 3) * math.huge end)
+    -- Finite operands whose terms overflow and cancel: c_1 = 10 * 1e308 - 1e300 * 1e300.
+    h.checkerror("'mul' of finite arguments gives NaN: terms of a coefficient overflowed and cancelled (inf - inf)",
+      function() return nz.jet{ 10, -1e300 } * nz.jet{ 1e300, 1e308 } end)
   end)
 end)

@@ -141,6 +141,23 @@ int main(void)
     gsl_test(nz_jet_div(b, a, a, ww) != NZ_EZERODIV, "t / t is NZ_EZERODIV (zero constant term)");
     nz_jet_set_constant(a, 800.0);
     gsl_test(nz_jet_apply(b, NZ_FN_EXP, a, ww) != NZ_ERANGE, "exp(800) is NZ_ERANGE, not inf");
+    /* NaN is told from overflow: a NaN operand, or inf - inf inside a
+     * coefficient of finite operands, gives NZ_ENAN; any inf, NZ_ERANGE. */
+    nz_jet_set_constant(a, NAN);
+    gsl_test(nz_jet_check_finite(a) != NZ_ENAN, "a NaN constant term is NZ_ENAN");
+    gsl_test(nz_jet_apply(b, NZ_FN_SIN, a, ww) != NZ_ENAN, "sin(NaN) is NZ_ENAN, not an overflow");
+    nz_jet_tangent(a, 0)[3] = INFINITY;
+    gsl_test(nz_jet_check_finite(a) != NZ_ERANGE, "an inf tangent coefficient is NZ_ERANGE");
+    {
+      /* (10 - 1e300 s)(1e300 + 1e308 s): c_1 = 10 * 1e308 - 1e300 * 1e300 = inf - inf */
+      nz_jet *u = nz_jet_alloc(1, 0), *v = nz_jet_alloc(1, 0), *p = nz_jet_alloc(1, 0);
+      u->c[0] = 10.0; u->c[1] = -1e300;
+      v->c[0] = 1e300; v->c[1] = 1e308;
+      gsl_test(nz_jet_mul(p, u, v, ww) != NZ_ENAN, "inf - inf in a product of finite jets is NZ_ENAN");
+      nz_jet_free(u);
+      nz_jet_free(v);
+      nz_jet_free(p);
+    }
     nz_jet_free(a);
     nz_jet_free(b);
     nz_jet_free(NULL);               /* harmless, as GSL's _free(NULL) */

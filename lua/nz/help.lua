@@ -38,7 +38,12 @@ A result combines operands of different orders at the lower order, and of
 different tangent counts with the larger count (a missing direction is zero).
 Outside a function's domain (log of a non-positive value, sqrt at 0 with
 derivatives, division by a series with zero constant term) an error names the
-function and the value: never a silent NaN or infinity.
+function and the value: never a silent NaN or infinity.  A NaN or inf given to
+nz.jet or nz.dual is refused, and one met in arithmetic names the argument
+that carried it.  x:deriv(j) refuses an order whose coefficient has
+underflowed (past about j = 170 for an O(1) function, where j! overflows):
+scale time instead, the coefficients of nz.jet{t0, h, order = K} are
+f^(j) h^j / j!.
 
 Example:  t = nz.jet(0, 5); print(nz.exp(t))   --> jet{1, 1, 0.5, ...}]] },
   { name = "dual", section = "jets", usage = "nz.dual(v, d [, D])",
