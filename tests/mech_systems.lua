@@ -202,9 +202,81 @@ function M.top(with_bodies)
   }
 end
 
+-- A charged particle in a plane, in polar coordinates (r, phi), on a
+-- spring k, in a uniform magnetic field (b = charge times B along z), with
+-- quadratic air drag -c |v| v and a driving force F0 cos(w t) along r: the
+-- generalized forces depend on the velocities and on t, so every term Q of
+-- (3.1) is exercised.  With v = r' e_r + r phi' e_phi, s = |v|, and
+-- v x z = r phi' e_r - r' e_phi, projected on dr/dr = e_r and dr/dphi = r e_phi:
+--   Q_r   = -c s r'       + b r phi'  + F0 cos(w t)
+--   Q_phi = -c s r^2 phi' - b r r'
+-- Lagrange: m r'' - m r phi'^2 + k r = Q_r;  m r^2 phi'' + 2 m r r' phi' = Q_phi.
+function M.charged_drag()
+  local m, k, b, c, F0, w = 1.3, 2.2, 0.9, 0.35, 0.6, 1.7
+  local function forces(t, q, qd, sqrt, cos)
+    local r, rd, phd = q[1], qd[1], qd[2]
+    local s = sqrt(rd * rd + r * r * phd * phd)
+    return { -c * s * rd + b * r * phd + F0 * cos(w * t), -c * s * r * r * phd - b * r * rd }, s
+  end
+  return {
+    name = "charged particle with drag in a magnetic field",
+    velocity_forces = true,
+    sys = nz.system{ name = "charged drag", coords = { "r", "phi" },
+      T = function(t, q, qd) return 0.5 * m * (qd[1] ^ 2 + q[1] ^ 2 * qd[2] ^ 2) end,
+      V = function(t, q) return 0.5 * k * q[1] ^ 2 end,
+      Q = function(t, q, qd) return (forces(t, q, qd, nz.sqrt, nz.cos)) end },
+    accel = function(t, q, qd)
+      local Q = forces(t, q, qd, math.sqrt, cos)
+      local r, rd, phd = q[1], qd[1], qd[2]
+      return { r * phd ^ 2 - k * r / m + Q[1] / m, (Q[2] - 2 * m * r * rd * phd) / (m * r * r) }
+    end,
+    -- dQ_j/dqd_i by hand (s_r' = r'/s, s_phi' = r^2 phi'/s), for the
+    -- extremal form at n = 1 (THEORY.md (4.3) needs dQ/dq^(n) = 0).
+    dQ_dqd = function(t, q, qd)
+      local _, s = forces(t, q, qd, math.sqrt, cos)
+      local r, rd, phd = q[1], qd[1], qd[2]
+      return { { -c * (s + rd * rd / s), -c * rd * r * r * phd / s + b * r },
+               { -c * r * r * phd * rd / s - b * r, -c * r * r * (s + r * r * phd * phd / s) } }
+    end,
+    draw = function() return uniform(0, 3), { uniform(0.5, 2), uniform(-3, 3) }, { uniform(-1, 1), uniform(-2, 2) } end,
+  }
+end
+
+-- A relativistic charged particle in a plane: a Lagrangian that is not
+-- quadratic in the velocities, with a magnetic term linear in them and a
+-- spring whose stiffness varies with t:
+--   L = -m c^2 sqrt(1 - v^2/c^2) + (e/2)(x y' - y x') - k(t) (x^2 + y^2) / 2,
+--   k(t) = k0 (1 + 0.3 sin t).
+-- d/dt(m gamma v) = F with F = (e y' - k x, -e x' - k y) (the magnetic terms
+-- of d/dt dL/dv and dL/dq add up), and m gamma (a + gamma^2 (v.a) v / c^2) = F
+-- inverts to a = (F - (v.F) v / c^2) / (m gamma), gamma = 1/sqrt(1 - v^2/c^2).
+function M.relativistic()
+  local m, c, e, k0 = 0.8, 2.0, 1.1, 1.9
+  local function k(t, sinf) return k0 * (1 + 0.3 * sinf(t)) end
+  return {
+    name = "relativistic charged oscillator (L not quadratic)",
+    sys = nz.system{ name = "relativistic", coords = { "x", "y" },
+      L = function(t, q, qd)
+        return -m * c * c * nz.sqrt(1 - (qd[1] ^ 2 + qd[2] ^ 2) / (c * c))
+          + 0.5 * e * (q[1] * qd[2] - q[2] * qd[1]) - 0.5 * k(t, nz.sin) * (q[1] ^ 2 + q[2] ^ 2)
+      end },
+    accel = function(t, q, qd)
+      local kt = k(t, sin)
+      local F = { e * qd[2] - kt * q[1], -e * qd[1] - kt * q[2] }
+      local v2 = qd[1] ^ 2 + qd[2] ^ 2
+      local gamma = 1 / math.sqrt(1 - v2 / (c * c))
+      local vF = qd[1] * F[1] + qd[2] * F[2]
+      return { (F[1] - vF * qd[1] / (c * c)) / (m * gamma), (F[2] - vF * qd[2] / (c * c)) / (m * gamma) }
+    end,
+    -- |v| <= sqrt(2) < c: gamma up to 1.41, far from quadratic.
+    draw = function() return uniform(0, 3), { uniform(-1, 1), uniform(-1, 1) }, { uniform(-1, 1), uniform(-1, 1) } end,
+  }
+end
+
 function M.all()
   return { M.pendulum(), M.double_pendulum(false), M.double_pendulum(true), M.spherical_pendulum(),
-    M.cart_pendulum(), M.hoop(false), M.hoop(true), M.kepler(), M.top(false), M.top(true) }
+    M.cart_pendulum(), M.hoop(false), M.hoop(true), M.kepler(), M.top(false), M.top(true),
+    M.charged_drag(), M.relativistic() }
 end
 
 return M
