@@ -59,8 +59,10 @@ describe("classification and Dolapchiev's rule", function()
     local c = sys:constraints{ quiet = true }[1]
     assert.are.equal(3, c.order); assert.is_false(c.linear)
     assert.are.equal(4, (sys:rule()))
-    local r = sys:residual(4, 0, { 0, 0 }, { 1, 2 }, { 0.5, 0.25 }, { 1.5 })
-    assert(max_diff(r, { 0.5 - 1.5 * 1, 0.25 - 1.5 * (-2 * 0) }) <= 1e-14, vec(r))
+    -- (6.2) by hand: E(T) = q'', A = dPhi/dq''' = (1, -2 y'''), so with
+    -- lambda = 1.5 and q''' = (0.8, 0.35) the residual is q'' - 1.5 A.
+    local r = sys:residual(4, 0, { 0, 0 }, { 1, 2 }, { 0.5, 0.25 }, { 1.5 }, { higher = { { 0.8, 0.35 } } })
+    assert(max_diff(r, { 0.5 - 1.5 * 1, 0.25 - 1.5 * (-2 * 0.35) }) <= 1e-14, vec(r))
     h.checkerror("system 'jerk': constraint 1 is of order 3: accelerations (and integration) support constraints up to order 2",
       sys.accel, sys, 0, { 0, 0 }, { 1, 2 })
   end)
@@ -271,10 +273,23 @@ describe("energy and the work of moving constraints (§9)", function()
       assert(math.abs(R0 - want) <= 1e-12 * (1 + math.abs(want)), ("R_0 = %.15g, want %.15g"):format(R0, want))
     end
   end)
-  it("R_0 with the moving constraint is the motor's power lambda ph'", function()
-    local q, qd = { 0.7, 0 }, { 0.3, W }
-    local _, lambda = driven:accel(0, q, qd)
-    assert(math.abs(driven:reaction_power(0, q, qd) - lambda[1] * W) <= 1e-12 * (1 + math.abs(lambda[1] * W)))
+  it("the motor's torque lambda and R_0 = lambda ph' against the hand derivation", function()
+    -- The ph equation of (6.2) with ph' = W, ph'' = 0 (Phi = ph - W t, A = (0, 1)):
+    -- d/dt(m R^2 sin^2 th ph') = 2 m R^2 sin th cos th th' W = lambda, and
+    -- th'' = W^2 sin th cos th - (g/R) sin th from the th equation.
+    for _ = 1, STATES do
+      local t, th, thd = math.random() * 3, math.random() * 6 - 3, math.random() * 4 - 2
+      local q, qd = { th, W * t }, { thd, W }
+      local a, lambda = driven:accel(t, q, qd)
+      local torque = 2 * m * R * R * math.sin(th) * math.cos(th) * thd * W
+      assert(math.abs(lambda[1] - torque) <= 1e-12 * (1 + math.abs(torque)), ("lambda = %.15g, hand %.15g"):format(lambda[1], torque))
+      local thdd = W * W * math.sin(th) * math.cos(th) - g / R * math.sin(th)
+      assert(math.abs(a[1] - thdd) <= 1e-12 * (1 + math.abs(thdd)) and math.abs(a[2]) <= 1e-12,
+        ("q'' = %s, hand {%.15g, 0}"):format(vec(a), thdd))
+      -- R_0 is the motor's power, the same closed form as the rheonomic hoop's.
+      local R0 = driven:reaction_power(t, q, qd)
+      assert(math.abs(R0 - torque * W) <= 1e-12 * (1 + math.abs(torque * W)), ("R_0 = %.15g, hand %.15g"):format(R0, torque * W))
+    end
   end)
   it("T2 - T0 + V is conserved while T + V is not; T + V - integral R_0 dt is conserved", function()
     local q0, qd0 = { 0.7 }, { 0.3 }
