@@ -93,10 +93,11 @@ describe("constraint drift", function()
       local function worst(tr) local m = 0; for _, v in ipairs(tr.violation) do m = math.max(m, v) end; return m end
       assert.are.equal(#free.t, #free.violation)
       -- Without projection the velocity constraint drifts with the local
-      -- error (rtol 1e-8 over 100 s): it is recorded at every point, finite,
-      -- and stays far below the motion's scale (bound 1e-3).  (For some
-      -- starts the disk keeps it at rounding level by itself.)
-      for _, v in ipairs(free.violation) do assert(v == v and v < 1e-3, ("drift without projection %.3g"):format(v)) end
+      -- error (rtol 1e-8 over 100 s): it is recorded at every point and
+      -- finite.  Measured over 42 random starts of each system: at most
+      -- 8.6e-10 (disk) and 1.7e-10 (sleigh); bound 2e-9.  (For some starts
+      -- the disk keeps it at rounding level by itself.)
+      for _, v in ipairs(free.violation) do assert(v == v and v <= 2e-9, ("drift without projection %.3g"):format(v)) end
       -- Projection after every step: at the projection tolerance (1e-12).
       assert(worst(proj) <= 1e-11, ("with projection %.3g"):format(worst(proj)))
       -- Baumgarte (Phi' + alpha Phi = 0) changes the equations off the
@@ -104,15 +105,43 @@ describe("constraint drift", function()
       -- every moment; what it guarantees is that the violation decays
       -- instead of accumulating: it stays at the local-error level (rtol
       -- 1e-8 on O(1) velocities: bound 1e-6) and does not grow between the
-      -- first and the second half of the run.
-      assert(worst(baum) <= 1e-6, ("with Baumgarte %.3g"):format(worst(baum)))
+      -- first and the second half of the run.  Measured over 42 random
+      -- starts: at most 2.0e-9 (disk), 2.7e-10 (sleigh); bound 5e-9.
+      assert(worst(baum) <= 5e-9, ("with Baumgarte %.3g"):format(worst(baum)))
       local first, second = 0, 0
       for i, v in ipairs(baum.violation) do
         if i <= #baum.violation / 2 then first = math.max(first, v) else second = math.max(second, v) end
       end
-      assert(second <= 10 * first + 1e-10, ("Baumgarte: violation grew from %.3g to %.3g"):format(first, second))
+      -- A violation that accumulated (grew linearly) would make the second
+      -- half's maximum twice the first's; measured at most 1.44 times
+      -- (disk; the sleigh's decays, < 0.03).  Bound 1.8.
+      assert(second <= 1.8 * first + 1e-13, ("Baumgarte: violation grew from %.3g to %.3g"):format(first, second))
     end)
   end
+end)
+
+describe("Baumgarte's law against its closed form", function()
+  it("a sleigh started off its constraint by Phi0: Phi(t) = Phi0 exp(-alpha t)", function()
+    -- Phi' + alpha Phi = 0 for a first-order constraint (Baumgarte): the
+    -- violation decays exactly exponentially, whatever the motion.  Phi is
+    -- computed here from tr.qd by hand: the sleigh's lateral velocity.
+    local case, alpha = cs.sleigh(), 5
+    local th, u, w, phi0 = 0.7, 1.3, -0.8, 5e-9   -- below the start's consistency tolerance 1e-8
+    local qd0 = { u * math.cos(th) - phi0 * math.sin(th), u * math.sin(th) + phi0 * math.cos(th), w }
+    local tr = case.sys:simulate{ q0 = { 0.2, -0.4, th }, qd0 = qd0, t1 = 2, dt = 0.125, rtol = 1e-12, atol = 1e-14,
+      baumgarte = { alpha = alpha } }
+    local function lateral(i) return -tr.qd[i][1] * math.sin(tr.q[i][3]) + tr.qd[i][2] * math.cos(tr.q[i][3]) end
+    local p0 = lateral(1)
+    assert(math.abs(p0 - phi0) <= 1e-15, ("Phi(0) = %.17g, expected %.17g"):format(p0, phi0))
+    for i = 1, #tr.t do
+      -- Measured: within 6e-15 of the closed form as it falls from 5e-9 to
+      -- 2e-13 (the integrator's atol 1e-14); bound 2e-14.
+      local want = p0 * math.exp(-alpha * tr.t[i])
+      assert(math.abs(lateral(i) - want) <= 2e-14, ("t = %g: Phi = %.6g, closed form %.6g"):format(tr.t[i], lateral(i), want))
+      assert(math.abs(tr.violation[i] - math.abs(lateral(i))) <= 1e-16, ("t = %g: monitor %.6g, by hand %.6g"):format(
+        tr.t[i], tr.violation[i], math.abs(lateral(i))))
+    end
+  end)
 end)
 
 describe("near-singular configurations", function()
@@ -127,7 +156,17 @@ describe("near-singular configurations", function()
     local ok, tr = pcall(sys.simulate, sys, { q0 = { th0, 0 }, qd0 = { 0, pphi / math.sin(th0) ^ 2 }, t1 = 4, dt = 0.01,
       monitors = { energy = true } })
     if not ok then
-      assert.truthy(tostring(tr):find("system 'spherical':", 1, true), tr)
+      -- Stopping is allowed only where M really is near singular, and the
+      -- message must say so with the time and the state; the points before
+      -- it are kept and end near the pole (sin theta small).
+      local msg = tostring(tr)
+      assert.truthy(msg:find("system 'spherical':", 1, true), msg)
+      assert.truthy(msg:find("t = [%d.]") and msg:find("q = {", 1, true), msg)
+      assert.truthy(msg:find("singular", 1, true) or msg:find("condition", 1, true), msg)
+      local last = nz.last
+      assert(last and last.status == "failed", "the partial trajectory is not kept in nz.last")
+      local n = #last.t
+      assert(math.abs(math.sin(last.q[n][1])) <= 1e-2, ("stopped at theta = %.6g, far from the pole"):format(last.q[n][1]))
       return
     end
     local E, Lz, mint = {}, {}, math.huge
@@ -142,6 +181,61 @@ describe("near-singular configurations", function()
     assert(span(tr.energy) <= 1e-7 * math.abs(tr.energy[1]), ("energy drift %.3g"):format(span(tr.energy)))
     assert(span(Lz) <= 1e-7 * pphi, ("azimuthal momentum drift %.3g"):format(span(Lz)))
   end)
+end)
+
+describe("a motion that reaches a singular mass matrix", function()
+  -- T = q'^2 (1 + log q) / 2 has M = 1 + log q = 0 at q = 1/e.  Energy:
+  -- (1 + log q) q'^2 = C, so from q = 0.5, q' = -1 the motion reaches 1/e
+  -- with infinite speed at t* = integral_{1/e}^{1/2} sqrt((1 + log q) / C) dq;
+  -- with u^2 = 1 + log q, t* = (2 / sqrt C) integral_0^sqrt(C) u^2 exp(u^2 - 1) du.
+  local C = 1 + math.log(0.5)
+  local tstar
+  do
+    local N, b = 2000, math.sqrt(C)
+    local hh, sum = b / N, 0
+    for i = 0, N do
+      local u = i * hh
+      sum = sum + ((i == 0 or i == N) and 1 or (i % 2 == 1 and 4 or 2)) * u * u * math.exp(u * u - 1)
+    end
+    tstar = 2 / math.sqrt(C) * sum * hh / 3   -- Simpson: 0.0907594087 to ~1e-12
+  end
+  local sys = nz.system{ name = "log mass", coords = { "q" },
+    T = function(t, q, qd) return 0.5 * qd[1] ^ 2 * (1 + nz.log(q[1])) end }
+  local function stops_at_the_singular_point(method)
+    local ok, err = pcall(sys.simulate, sys, { q0 = { 0.5 }, qd0 = { -1 }, t1 = 0.2, dt = 0.001, method = method })
+    assert(not ok, method .. ": went past the singular point at t* = " .. tstar .. " without an error")
+    local msg = tostring(err)
+    assert.truthy(msg:find("system 'log mass':", 1, true), msg)
+    assert.truthy(msg:find("singular", 1, true) or msg:find("condition", 1, true), msg)
+    assert.truthy(msg:find("q = {", 1, true), msg)
+    local terr = tonumber(msg:match("at t = ([%d.e+-]+)"))
+    -- bsimp today: t = 0.091, one output step past t* (it stepped over 1/e).
+    assert(terr and math.abs(terr - tstar) <= 1e-3, ("%s: stopped at t = %s, t* = %.6f"):format(method, tostring(terr), tstar))
+    local tr = nz.last
+    assert(tr and tr.status == "failed", "the partial trajectory is not kept in nz.last")
+    local n = #tr.t
+    -- The kept points hold the energy integral (measured 6.5e-13) and end
+    -- within the last output step of t*, where q - 1/e ~ (t* - t)^(2/3):
+    -- measured 0.0053 at t* - t = 7.6e-4 (bsimp); bound 0.01.
+    for i = 1, n do
+      local e = (1 + math.log(tr.q[i][1])) * tr.qd[i][1] ^ 2 - C
+      assert(math.abs(e) <= 1e-9, ("t = %g: energy integral off by %.3g"):format(tr.t[i], e))
+    end
+    assert(tr.t[n] >= tstar - 0.002, ("%s: the kept trajectory ends at t = %g, t* = %.6f"):format(method, tr.t[n], tstar))
+    assert(math.abs(tr.q[n][1] - math.exp(-1)) <= 0.01, ("%s: the kept trajectory ends at q = %.6g, 1/e = %.6g"):format(
+      method, tr.q[n][1], math.exp(-1)))
+  end
+  it("bsimp stops there with the time, the state and the condition of M; nz.last ends near 1/e", function()
+    stops_at_the_singular_point("bsimp")
+  end)
+  -- On main at dd4cf9a these steppers shrink the step to 1e-15 and never
+  -- return (issue 9); the stall detection of the same issue makes them stop
+  -- as bsimp does.  Turn these on (it instead of pending) once it is merged.
+  for _, method in ipairs{ "rk8pd", "rkf45", "msbdf" } do
+    pending(method .. " stops there too (needs the stalled-step detection of issue 9)", function()
+      stops_at_the_singular_point(method)
+    end)
+  end
 end)
 
 describe("high orders along a trajectory", function()
