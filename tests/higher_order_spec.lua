@@ -131,6 +131,14 @@ describe("integration at level 3: a servo constraint on the jerk", function()
     -- stepper takes few steps); 1e-13 leaves room for other libm/BLAS.
     assert(worst <= 1e-13, ("worst error %.3g"):format(worst))
   end)
+  it("Tsenov's reduced equations at level 3 give q''' = (1, 2) sin t / 5 without the multipliers' rate", function()
+    local t = 0.7
+    local lam = 0.21
+    local qdd = { (F1 + lam) / m, (F2 + 2 * lam) / m }
+    local q3 = sys:reduced(t, q0, qd0, nil, { qdd = qdd, lambdas = { { lam } } })
+    local s = math.sin(t) / 5
+    assert(max_diff(q3, { s, 2 * s }) <= 1e-15, ("{%.17g, %.17g}"):format(q3[1], q3[2]))
+  end)
   it("a qdd0 that no multiplier makes consistent is refused, naming the equation", function()
     h.checkerror("the equation of motion (6.2) for 'x' (no multipliers satisfy it with this qdd) is violated",
       sys.simulate, sys, { q0 = q0, qd0 = qd0, qdd0 = { 0.5, 0.5 }, t1 = 1 })
@@ -204,6 +212,13 @@ describe("integration at level 4 (constant gradient)", function()
     end
     -- rk8pd at rtol 1e-10: measured 6.9e-15 (chain) / 4.4e-16 (level 4); 1e-13 leaves room.
     assert(worst <= 1e-13, ("worst error %.3g"):format(worst))
+  end)
+  it("Tsenov's reduced equations at level 4 give q^(4) = (1, 2) cos t / 5", function()
+    local t, l0, l1 = 1.3, 0.4, -0.25
+    local q4 = sys:reduced(t, { 0.1, 0.2 }, { 0.3, 0.4 }, nil, { qdd = { (F1 + l0) / m, (F2 + 2 * l0) / m },
+      q3d = { l1 / m, 2 * l1 / m }, lambdas = { { l0 }, { l1 } } })
+    local c = math.cos(t) / 5
+    assert(max_diff(q4, { c, 2 * c }) <= 1e-15, ("{%.17g, %.17g}"):format(q4[1], q4[2]))
   end)
   it("a gradient that depends on q''' does not close at level 4: a clear error", function()
     local s2 = nz.system{ name = "open4", coords = { "x", "y" }, T = function(t, q, qd) return 0.5 * (qd[1] ^ 2 + qd[2] ^ 2) end,

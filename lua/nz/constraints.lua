@@ -471,9 +471,93 @@ local function partition(A, b, k)
   return dep, ind, a, a0
 end
 
+-- Tsenov's elimination at level p >= 3: the equations of level p
+-- (G^(p-2) = 0 and every Phi_r^(p - m_r) = 0, src/constrained_series.h),
+-- with q^(p) split by the constraint rows into dependent and independent
+-- components and G^(p-2) combined along the admissible directions, which
+-- removes lambda^(p-2) (its coefficient in G is A^T, in the rows A, by (2.1)).
+-- The state's levels and lower multipliers come in opts.  The equations of
+-- every form agree (§3), so `form` plays no part here.
+local function reduced_level(sys, t, q, qd, p, opts)
+  opts = type(opts) == "table" and opts or {}
+  local k, levels = sys.k, { q, qd }
+  for j = 2, p - 1 do
+    levels[j + 1] = opts[M.level_name(j)]
+    if levels[j + 1] == nil then
+      error(("system '%s': constraints of order %d make %s part of the state: give it, "
+        .. "sys:reduced(t, q, qd, nil, {%s = ..., lambdas = {lambda, ...}})"):format(
+        sys.name, p, M.level_name(j), M.level_name(j)), 0)
+    end
+  end
+  local lambdas = opts.lambdas or (opts.lambda and { opts.lambda })
+  if type(lambdas) ~= "table" or #lambdas < p - 2 then
+    error(("system '%s': constraints of order %d make the multipliers lambda .. lambda^(%d) part of the state: "
+      .. "give lambdas = {...} (%d lists of %d)"):format(sys.name, p, p - 3, p - 2, sys.nc), 0)
+  end
+  local orders = M.orders(sys)
+  local x = {}
+  for i = 1, k do x[i] = 0 end
+  levels[p + 1] = x
+  local r0 = mech.series_level(sys.engine, orders, p, t, levels, lambdas)
+  local Gx, B, b = {}, {}, {}
+  for i = 1, k do Gx[i] = {} end
+  for r = 1, sys.nc do B[r], b[r] = {}, r0[k + r] end
+  for j = 1, k do                      -- affine in q^(p): columns by differences
+    x[j] = 1
+    local rj = mech.series_level(sys.engine, orders, p, t, levels, lambdas)
+    x[j] = 0
+    for i = 1, k do Gx[i][j] = rj[i] - r0[i] end
+    for r = 1, sys.nc do B[r][j] = rj[k + r] - r0[k + r] end
+  end
+  local dep, ind, a, a0 = partition(B, b, k)
+  if not dep then error(("system '%s': the constraints are dependent at this state: no set of dependent coordinates"):format(sys.name), 0) end
+  local function full(qi)
+    local v = {}
+    for l, j in ipairs(ind) do v[j] = qi[l] end
+    for r, j in ipairs(dep) do
+      local s = a0[r]
+      for l = 1, #ind do s = s + a[r][l] * qi[l] end
+      v[j] = s
+    end
+    return v
+  end
+  local function reduced_residual(qi)
+    local v, G = full(qi), {}
+    for i = 1, k do
+      local s = r0[i]
+      for j = 1, k do s = s + Gx[i][j] * v[j] end
+      G[i] = s
+    end
+    local out = {}
+    for l, j in ipairs(ind) do
+      local s = G[j]
+      for r, jr in ipairs(dep) do s = s + G[jr] * a[r][l] end
+      out[l] = s
+    end
+    return out
+  end
+  local l = #ind
+  local base = {}
+  for i = 1, l do base[i] = 0 end
+  local g0, Mred, neg = reduced_residual(base), {}, {}
+  for i = 1, l do Mred[i] = {} end
+  for c = 1, l do
+    base[c] = 1
+    local rc = reduced_residual(base)
+    base[c] = 0
+    for i = 1, l do Mred[i][c] = rc[i] - g0[i] end
+  end
+  for i = 1, l do neg[i] = -g0[i] end
+  local qi = l > 0 and mech.lstsq(Mred, neg) or {}
+  return full(qi), { level = p, dependent = dep, independent = ind, a = a, a0 = a0, matrix = Mred, rhs = neg }
+end
+
 -- Accelerations from the reduced equations (7.1) of order n, without
 -- multipliers: dK_n*/dq_l^(n) = dK_n/dq_l^(n) + sum_rho dK_n/dq_rho^(n) a_{rho,l}.
+-- With constraints of order p >= 3: q^(p), from the equations of level p.
 function M.reduced(sys, t, q, qd, n, form)
+  local p = M.level(sys)
+  if p then return reduced_level(sys, t, q, qd, p, form) end
   local classes = M.classify(sys)
   local A, b = {}, {}
   local zero = {}
