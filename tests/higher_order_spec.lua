@@ -139,6 +139,20 @@ describe("integration at level 3: a servo constraint on the jerk", function()
     local s = math.sin(t) / 5
     assert(max_diff(q3, { s, 2 * s }) <= 1e-15, ("{%.17g, %.17g}"):format(q3[1], q3[2]))
   end)
+  it("tr.violation records the drift of (6.2): an inconsistent start (check = false) keeps its residual", function()
+    -- qdd0 = (1/2, 1/2): the best multiplier minimizes (a - l)^2 + (b - 2 l)^2 with
+    -- a = m/2 - F1, b = m/2 - F2, so l = (a + 2 b)/5 and the residual of (6.2) is
+    -- (a - l, b - 2 l).  Level 3 enforces its derivative, so it stays constant.
+    local a, b = m / 2 - F1, m / 2 - F2
+    local l = (a + 2 * b) / 5
+    local want = math.max(math.abs(a - l), math.abs(b - 2 * l))
+    local tr = sys:simulate{ q0 = q0, qd0 = qd0, qdd0 = { 0.5, 0.5 }, t1 = 2, dt = 0.5, check = false }
+    for n = 1, #tr.t do
+      assert(math.abs(tr.violation[n] - want) <= 1e-13, ("t = %g: %.17g, want %.17g"):format(tr.t[n], tr.violation[n], want))
+    end
+    local good = sys:simulate{ q0 = q0, qd0 = qd0, qdd0 = { (F1 + 0.1) / m, (F2 + 0.2) / m }, t1 = 2, dt = 0.5 }
+    for n = 1, #good.t do assert(good.violation[n] <= 1e-14, good.violation[n]) end
+  end)
   it("a qdd0 that no multiplier makes consistent is refused, naming the equation", function()
     h.checkerror("the equation of motion (6.2) for 'x' (no multipliers satisfy it with this qdd) is violated",
       sys.simulate, sys, { q0 = q0, qd0 = qd0, qdd0 = { 0.5, 0.5 }, t1 = 1 })

@@ -408,6 +408,21 @@ function M.start_lambdas(sys, t, levels, p, tol)
   return lambdas
 end
 
+-- Along a motion of level p: the largest residual of the equations of levels
+-- 2..p-1 (6.2) and its derivatives, and the constraints of order >= 2 with
+-- theirs) with the state's own multipliers: the drift that level p leaves
+-- free (the rows of level p hold to the solve's accuracy).  levels: q .. q^(p-1);
+-- lambdas: lambda .. lambda^(p-3).
+function M.level_violation(sys, t, levels, lambdas, p)
+  local orders, worst = M.orders(sys), 0
+  for l = 2, p - 1 do
+    local res = mech.series_level(sys.engine, orders, l, t, levels, lambdas)
+    for i = 1, sys.k do worst = math.max(worst, math.abs(res[i])) end
+    for r = 1, sys.nc do if orders[r] <= l then worst = math.max(worst, math.abs(res[sys.k + r])) end end
+  end
+  return worst
+end
+
 -- Complete the higher levels of a start state (p >= 3): given q, qd (already
 -- projected) and opts.qdd, opts.q3d, ... (0 when absent), the smallest
 -- change of each level l = 2..p-1 and its multipliers lambda^(l-2) that

@@ -202,13 +202,14 @@ function M.simulate(sys, opts)
     local qdd, lambda = mech.ode_accel(ode, engine, t, yy)
     local n = #tr.t + 1
     tr.t[n], tr.q[n], tr.qd[n], tr.qdd[n], tr.lambda[n] = t, q, qd, qdd, lambda
-    if p and p > 3 then                  -- q''' .. q^(p-1) of the state
-      tr.higher = tr.higher or {}
-      local h = {}
-      for j = 3, p - 1 do h[j - 2] = { table.unpack(yy, j * k + 1, (j + 1) * k) } end
-      tr.higher[n] = h
-    end
     if tr.violation then tr.violation[n] = (constraints.violation(sys, t, q, qd)) end
+    if p then                            -- q''' .. q^(p-1) and the multipliers of the state
+      local levels, lambdas = { q, qd }, {}
+      for j = 2, p - 1 do levels[j + 1] = { table.unpack(yy, j * k + 1, (j + 1) * k) } end
+      for j = 1, p - 2 do lambdas[j] = { table.unpack(yy, p * k + (j - 1) * sys.nc + 1, p * k + j * sys.nc) } end
+      if p > 3 then tr.higher = tr.higher or {}; tr.higher[n] = { table.unpack(levels, 4) } end
+      tr.violation[n] = math.max(tr.violation[n], constraints.level_violation(sys, t, levels, lambdas, p))
+    end
     if tr.energy then tr.energy[n], tr.generalized_energy[n] = sys:energy(t, q, qd) end
     if tr.work then tr.work[n] = yy[2 * k + 1] end
   end
