@@ -56,6 +56,19 @@ describe("derivative slots", function()
     sys:constraints{ quiet = true }
     assert.are.equal(sys.params, seen)
   end)
+  it("the rolling_ball effect hands params (not qdd) to the body's functions", function()
+    -- A ball of radius p.R pushed at its centre accelerates at 5 F / (7 m) (rolling without slipping).
+    local m, R, F = 1.3, 0.3, 0.7
+    local I = 0.4 * m * R * R
+    local ball = nz.scene{ name = "ball", coords = { "x", "y", "psi", "theta", "phi" }, params = { R = R },
+      bodies = { { name = "ball", mass = m, inertia = { I, I, I },
+        rot = function(t, q) return nz.rotations.euler_zxz(q[3], q[4], q[5]) end,
+        pos = function(t, q, p) return { q[1], q[2], p.R } end } },
+      effects = { nz.effects.rolling_ball{ body = "ball", radius = R },
+        nz.effects.force{ at = "ball", F = function() return { F, 0, 0 } end } } }
+    local qdd = ball:accel(0, { 0, 0, 0.1, 1.2, 0.3 }, { 0, 0, 0, 0, 0 })
+    assert(math.abs(qdd[1] - 5 * F / (7 * m)) <= 1e-13, ("%.17g"):format(qdd[1]))
+  end)
   it("a sixth parameter named like a derivative is refused, with the fix", function()
     h.checkerror("nz.system 'trap': constraint 1 declares 6 parameters and its last, 'q4d', receives params", nz.system,
       { name = "trap", coords = { "x" }, T = function(t, q, qd) return qd[1] ^ 2 end,
