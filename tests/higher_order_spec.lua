@@ -229,6 +229,30 @@ describe("integration at level 3 with a holonomic constraint beside it, and even
   end)
 end)
 
+describe("integration at level 3 beside Hamel's nonlinear second-order constraint", function()
+  it("q3'' = q1'' q2'' and (6.2) of order 1 hold along the motion (from tr.qdd and tr.lambda)", function()
+    local M = 1.5
+    local sys = nz.system{ name = "hamel and jerk", coords = { "q1", "q2", "q3", "q4" },
+      T = function(t, q, qd) return 0.5 * M * (qd[1] ^ 2 + qd[2] ^ 2 + qd[3] ^ 2 + qd[4] ^ 2) end,
+      Q = function() return { 0.7, -0.4, 2.0, 0.3 } end,
+      constraints = { function(t, q, qd, qdd) return qdd[3] - qdd[1] * qdd[2] end,
+        function(t, q, qd, qdd, qddd) return qddd[4] + qddd[1] - nz.sin(t) end } }
+    assert.are.equal(3, (sys:rule()))
+    local q0, qd0 = { 0, 0, 0, 0 }, { 0.4, -0.5, 0.6, 0.1 }
+    local _, _, rep = sys:project(0, q0, qd0, { qdd = { 0.5, -0.2, -0.1, 0.2 } })
+    local tr = sys:simulate{ q0 = q0, qd0 = qd0, qdd0 = rep.qdd, t1 = 5, dt = 0.5 }
+    local wc, wr = 0, 0
+    for n = 1, #tr.t do
+      local a = tr.qdd[n]
+      wc = math.max(wc, math.abs(a[3] - a[1] * a[2]))
+      local r = sys:residual(1, tr.t[n], tr.q[n], tr.qd[n], a, tr.lambda[n])
+      for i = 1, 4 do wr = math.max(wr, math.abs(r[i])) end
+    end
+    -- level 3 holds their derivatives; measured drift 3.4e-12 and 4.0e-12 over t = 5 (rk8pd, rtol 1e-10)
+    assert(wc <= 1e-11 and wr <= 1e-11, ("constraint %.3g, (6.2) %.3g"):format(wc, wr))
+  end)
+end)
+
 describe("integration at level 3: a chain of integrators", function()
   -- y on a spring (V = c y^2 / 2, unit mass) drives x''' = y: y = Y cos(w t) + (vy / w) sin(w t),
   -- and three integrations of x''' = Y cos w t + B sin w t give x (below).  The
