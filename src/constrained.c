@@ -17,7 +17,7 @@
 int nz_constraint_partials(const nz_system *s, int r, double t, const double *const *state,
                            int nstate, double *value, double *dphi, double *dphidt)
 {
-  int k = s->k, L = NZ_CONSTRAINT_SLOTS, D = L * k + 1;
+  int k = s->k, L = nz_constraint_levels(s, r), D = L * k + 1;
   nz_motion mo;
   int st = nz_motion_init(&mo, k, L, 0, D, t, state, nstate);
   if (st) return st;
@@ -50,8 +50,9 @@ int nz_constraint_curvature(const nz_system *s, int r, int m, double t, const do
                             int nstate, const double *v, double c[3])
 {
   nz_motion mo;
-  int st = nz_motion_init(&mo, s->k, NZ_CONSTRAINT_SLOTS, 2, 0, t, state, nstate);
+  int st = nz_motion_init(&mo, s->k, nz_constraint_levels(s, r), 2, 0, t, state, nstate);
   if (st) return st;
+  if (m < 0 || m >= mo.nslots) { nz_motion_free(&mo); return NZ_EARG; }
   freeze(&mo);
   for (int i = 0; i < s->k; i++) mo.slot[m][i]->c[1] = v[i];
   st = nz_motion_eval(s, NZ_PIECE_PHI, r, &mo, NULL);
@@ -94,7 +95,7 @@ int nz_constraint_row_along(const nz_system *s, int r, int m, double t, const do
   int k = s->k, K = 2 - m;
   if (m < 0 || m > 2) return NZ_EARG;
   nz_motion mo;
-  int st = nz_motion_init(&mo, k, NZ_CONSTRAINT_SLOTS, K, k, t, state, nstate);
+  int st = nz_motion_init(&mo, k, nz_constraint_levels(s, r), K, k, t, state, nstate);
   if (st) return st;
   if (dir && (st = nz_motion_set_direction(&mo, dir))) { nz_motion_free(&mo); return st; }
   for (int i = 0; i < k; i++) nz_motion_seed_level(&mo, i, i, 2);
@@ -115,7 +116,7 @@ int nz_constraint_hessian(const nz_system *s, int r, double t, const double *con
   int k = s->k, st = NZ_OK;
   for (int j = 0; j < k && !st; j++) {
     nz_motion mo;
-    if ((st = nz_motion_init(&mo, k, NZ_CONSTRAINT_SLOTS, 1, k, t, state, nstate))) return st;
+    if ((st = nz_motion_init(&mo, k, nz_constraint_levels(s, r), 1, k, t, state, nstate))) return st;
     freeze(&mo);
     mo.slot[2][j]->c[1] = 1.0;
     for (int i = 0; i < k; i++) nz_motion_seed_slot(&mo, i, i, 2);
@@ -320,4 +321,9 @@ int nz_accel_constrained(const nz_system *s, const int *orders, const int *linea
 done:
   free(buf);
   return st;
+}
+
+void nz_constraint_dependence(int nc, int k, const double *A, nz_accel_report *rep)
+{
+  diagnose_dependence(nc, k, A, rep);
 }

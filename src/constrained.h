@@ -1,7 +1,7 @@
 /* constrained.h - constraints of any order and the motion they allow
  * (THEORY.md §6-§8).
  *
- * A constraint Phi_r(t, q, q', q'', q''') = 0 has an order m (the highest
+ * A constraint Phi_r(t, q, q', q'', q''', ...) = 0 has an order m (the highest
  * derivative it depends on) and is linear or not in q^(m); both are found
  * numerically (lua/nz/constraints.lua) from the primitives below.  At the
  * acceleration level (§6) a constraint of order m <= 2 is differentiated
@@ -13,7 +13,7 @@
 #include "mech.h"
 
 /* Value, partial derivatives with respect to every slot (dphi[j*k + i] =
- * dPhi/dq_i^(j), j = 0..NZ_CONSTRAINT_SLOTS-1) and dPhi/dt, at the state. */
+ * dPhi/dq_i^(j), j = 0..nz_constraint_levels(s, r)-1) and dPhi/dt, at the state. */
 int nz_constraint_partials(const nz_system *s, int r, double t, const double *const *state,
                            int nstate, double *value, double *dphi, double *dphidt);
 
@@ -71,6 +71,10 @@ typedef struct nz_accel_report {
   int from_guess;           /* Newton started from the caller's guess         */
   double *A;                /* caller's nc x k, or NULL: the gradients A at the end */
 } nz_accel_report;
+
+/* Rank of the gradients A (nc x k) into rep->rank_A, and rep->involved[r]
+ * set for the constraints that take part in a dependence. */
+void nz_constraint_dependence(int nc, int k, const double *A, nz_accel_report *rep);
 
 /* Accelerations and multipliers of M q'' + h = A^T lambda with the
  * constraints closed at the acceleration level.  orders[r] and linear[r]

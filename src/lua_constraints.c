@@ -19,28 +19,58 @@ static int check_constraint(lua_State *L, bound_system *b, int idx)
   return (int)r - 1;
 }
 
-/* Read up to NZ_CONSTRAINT_SLOTS state levels from index `at` on (nil: zeros). */
-static void read_levels(lua_State *L, int at, int k, double *data, const double **levels,
-                        const char *fname)
+/* Read the levels constraint r receives: q, qd, qdd, qddd at `at` .. at+3,
+ * then the table `higher` at at+4 (or at+5 when skip: the direction sits
+ * between) for q^(4), q^(5), ... (nil or missing: zeros).  data holds
+ * nlev * k doubles. */
+static void read_levels(lua_State *L, int at, int k, int nlev, double *data, const double **levels,
+                        int higher, const char *fname)
 {
   static const char *const names[] = { "q", "qd", "qdd", "qddd" };
-  for (int j = 0; j < NZ_CONSTRAINT_SLOTS; j++) {
-    levels[j] = data + (size_t)j * (size_t)k;
-    nz_lua_read_vector(L, at + j, k, (double *)levels[j], names[j], j > 0, fname);
+  for (int j = 0; j < nlev; j++) {
+    double *v = data + (size_t)j * (size_t)k;
+    levels[j] = v;
+    if (j < NZ_CONSTRAINT_SLOTS) {
+      nz_lua_read_vector(L, at + j, k, v, names[j], j > 0, fname);
+      continue;
+    }
+    if (lua_istable(L, higher)) lua_geti(L, higher, j - NZ_CONSTRAINT_SLOTS + 1);
+    else lua_pushnil(L);
+    nz_lua_read_vector(L, lua_gettop(L), k, v, "higher derivative", 1, fname);
+    lua_pop(L, 1);
   }
 }
 
-/* constraint_partials(def, r, t, q, qd, qdd, qddd) -> value, {dq, dqd, dqdd, dqddd}, dphidt */
+/* constraint_levels(list) -> an array of ints for def.constraint_levels:
+ * the derivative slots each constraint receives (nz_system.levels). */
+static int ls_constraint_levels(lua_State *L)
+{
+  luaL_checktype(L, 1, LUA_TTABLE);
+  int n = (int)luaL_len(L, 1);
+  int *v = lua_newuserdatauv(L, ((size_t)n + 1) * sizeof(int), 0);
+  v[0] = n;
+  for (int r = 0; r < n; r++) {
+    lua_geti(L, 1, r + 1);
+    lua_Integer x = luaL_checkinteger(L, -1);
+    lua_pop(L, 1);
+    luaL_argcheck(L, x >= 1 && x <= NZ_MAX_LEVELS, 1, "slot counts between 1 and the largest level expected");
+    v[r + 1] = (int)x;
+  }
+  return 1;
+}
+
+/* constraint_partials(def, r, t, q, qd, qdd, qddd, higher) -> value,
+ * {dq, dqd, dqdd, dqddd, ...} (one per slot the constraint receives), dphidt */
 static int ls_constraint_partials(lua_State *L)
 {
-  lua_settop(L, 7);   /* optional arguments read as nil, scratch above */
+  lua_settop(L, 8);   /* optional arguments read as nil, scratch above */
   bound_system b;
   nz_lua_bind_system(L, 1, &b);
-  int r = check_constraint(L, &b, 2), k = b.sys.k, S = NZ_CONSTRAINT_SLOTS;
+  int r = check_constraint(L, &b, 2), k = b.sys.k, S = nz_constraint_levels(&b.sys, r);
   double t = luaL_checknumber(L, 3), value, dphidt;
   double *data = lua_newuserdatauv(L, 2 * (size_t)S * (size_t)k * sizeof(double), 0);
-  const double *levels[NZ_CONSTRAINT_SLOTS];
-  read_levels(L, 4, k, data, levels, "constraint_partials");
+  const double **levels = lua_newuserdatauv(L, (size_t)S * sizeof *levels, 0);
+  read_levels(L, 4, k, S, data, levels, 8, "constraint_partials");
   double *dphi = data + (size_t)S * k;
   int st = nz_constraint_partials(&b.sys, r, t, levels, S, &value, dphi, &dphidt);
   if (st) return nz_lua_raise_core(L, &b, st, "constraint_partials");
@@ -54,19 +84,19 @@ static int ls_constraint_partials(lua_State *L)
   return 3;
 }
 
-/* constraint_curvature(def, r, m, t, q, qd, qdd, qddd, v) -> c0, c1, c2 */
+/* constraint_curvature(def, r, m, t, q, qd, qdd, qddd, v, higher) -> c0, c1, c2 */
 static int ls_constraint_curvature(lua_State *L)
 {
-  lua_settop(L, 9);   /* optional arguments read as nil, scratch above */
+  lua_settop(L, 10);   /* optional arguments read as nil, scratch above */
   bound_system b;
   nz_lua_bind_system(L, 1, &b);
-  int r = check_constraint(L, &b, 2), k = b.sys.k, S = NZ_CONSTRAINT_SLOTS;
+  int r = check_constraint(L, &b, 2), k = b.sys.k, S = nz_constraint_levels(&b.sys, r);
   int m = (int)luaL_checkinteger(L, 3);
-  luaL_argcheck(L, m >= 0 && m < S, 3, "slot between 0 and 3 expected");
+  luaL_argcheck(L, m >= 0 && m < S, 3, "a slot the constraint receives expected");
   double t = luaL_checknumber(L, 4), c[3];
   double *data = lua_newuserdatauv(L, ((size_t)S + 1) * (size_t)k * sizeof(double), 0);
-  const double *levels[NZ_CONSTRAINT_SLOTS];
-  read_levels(L, 5, k, data, levels, "constraint_curvature");
+  const double **levels = lua_newuserdatauv(L, (size_t)S * sizeof *levels, 0);
+  read_levels(L, 5, k, S, data, levels, 10, "constraint_curvature");
   nz_lua_read_vector(L, 9, k, data + (size_t)S * k, "direction", 0, "constraint_curvature");
   int st = nz_constraint_curvature(&b.sys, r, m, t, levels, S, data + (size_t)S * k, c);
   if (st) return nz_lua_raise_core(L, &b, st, "constraint_curvature");
@@ -126,8 +156,9 @@ int nz_lua_raise_accel_failure(lua_State *L, int def, const nz_accel_report *rep
         luaL_addstring(&msg, num);
         break;
       }
-    luaL_addstring(&msg, ": accelerations (and integration) support constraints up to order 2; "
-                         "its residuals and classification work");
+    luaL_addstring(&msg, ": under it q'' is part of the state, not a function of (t, q, qd), so "
+                         "accelerations come from the state: integrate with sys:simulate{..., qdd0 = ...} "
+                         "(residuals, classification and sys:project work)");
   } else if (rep.failure == NZ_ACCEL_NEWTON) {
     snprintf(num, sizeof num, "Newton's method on (6.2) and the constraints did not converge in %d "
              "iterations (residual %.3g)", rep.iterations, rep.residual);
@@ -242,10 +273,14 @@ static int ls_force_velocity_jacobian(lua_State *L)
 }
 
 static const luaL_Reg constraint_functions[] = {
-  { "constraint_partials", ls_constraint_partials }, { "constraint_curvature", ls_constraint_curvature },
+  { "constraint_partials", ls_constraint_partials }, { "constraint_levels", ls_constraint_levels }, { "constraint_curvature", ls_constraint_curvature },
   { "constraint_row", ls_constraint_row }, { "accel_constrained", ls_accel_constrained },
   { "force_velocity_jacobian", ls_force_velocity_jacobian }, { NULL, NULL }
 };
 
 /* Add the functions to the table on top of the stack (core.mech). */
-void nz_lua_open_constraints(lua_State *L) { luaL_setfuncs(L, constraint_functions, 0); }
+void nz_lua_open_constraints(lua_State *L)
+{
+  luaL_setfuncs(L, constraint_functions, 0);
+  nz_lua_open_series(L);
+}

@@ -76,6 +76,7 @@ static int lo_new(lua_State *L)
   lua_getfield(L, 2, "work");
   cfg.work = lua_toboolean(L, -1);
   lua_pop(L, 1);
+  cfg.level = (int)number_field(L, 2, "level", 0.0);
   cfg.nc = nc;
   int *flags = lua_newuserdatauv(L, 2 * ((size_t)nc + 1) * sizeof(int), 0);
   for (int r = 0; r < nc; r++) {

@@ -242,6 +242,14 @@ void nz_lua_bind_system(lua_State *L, int def, bound_system *b)
     }
     lua_pop(L, 1);
   }
+  /* The slots each constraint asks for (lua/nz/system.lua): an int array
+   * {n, levels...} kept alive by def. */
+  if (lua_getfield(L, def, "constraint_levels") == LUA_TUSERDATA) {
+    const int *lv = lua_touserdata(L, -1);
+    b->sys.nlevels = lv[0];
+    b->sys.levels = lv + 1;
+  }
+  lua_pop(L, 1);
   b->ev.L = L;
   b->ev.def = lua_absindex(L, def);
   b->ev.k = b->sys.k;

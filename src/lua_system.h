@@ -46,5 +46,6 @@ int nz_lua_raise_accel_failure(lua_State *L, int def, const nz_accel_report *rep
 /* The functions of lua_constraints.c and lua_linalg.c, added to core.mech. */
 void nz_lua_open_constraints(lua_State *L);
 void nz_lua_open_linalg(lua_State *L);
+void nz_lua_open_series(lua_State *L);
 
 #endif

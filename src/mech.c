@@ -48,14 +48,29 @@ nz_jet **nz_jets_alloc(int k, int K, int D)
   return v;
 }
 
+int nz_constraint_levels(const nz_system *s, int r)
+{
+  int n = s->levels && r >= 0 && r < s->nlevels ? s->levels[r] : 0;
+  return n > NZ_CONSTRAINT_SLOTS ? n : NZ_CONSTRAINT_SLOTS;
+}
+
+int nz_constraint_levels_max(const nz_system *s)
+{
+  int n = NZ_CONSTRAINT_SLOTS;
+  for (int r = 0; r < s->nc; r++) if (nz_constraint_levels(s, r) > n) n = nz_constraint_levels(s, r);
+  return n;
+}
+
 void nz_motion_free(nz_motion *m)
 {
   nz_jet_free(m->t);
   nz_jet_free(m->dt);
   for (int j = 0; j < m->nslots; j++) {
-    nz_jets_free(m->slot[j], m->k);
-    nz_jets_free(m->dslot[j], m->k);
+    if (m->slot) nz_jets_free(m->slot[j], m->k);
+    if (m->dslot) nz_jets_free(m->dslot[j], m->k);
   }
+  free(m->slot);
+  free(m->dslot);
   nz_jets_free(m->out, m->k);
   nz_jets_free(m->dout, m->k);
   memset(m, 0, sizeof *m);
@@ -69,7 +84,8 @@ int nz_motion_set_direction(nz_motion *m, const nz_state_direction *d)
   int k = m->k;
   m->dt = nz_jet_alloc(m->K, 0);
   m->dout = nz_jets_alloc(k, m->K, m->D);
-  int ok = m->dt && m->dout;
+  m->dslot = calloc((size_t)m->nslots, sizeof *m->dslot);
+  int ok = m->dt && m->dout && m->dslot;
   for (int j = 0; j < m->nslots && ok; j++) ok = (m->dslot[j] = nz_jets_alloc(k, m->K, m->D)) != NULL;
   if (!ok) return NZ_ENOMEM;
   m->dt->c[0] = d->dt;
@@ -90,13 +106,15 @@ int nz_motion_init(nz_motion *m, int k, int nslots, int K, int D, double t,
                    const double *const *state, int nstate)
 {
   memset(m, 0, sizeof *m);
+  if (nslots < 1 || nslots > NZ_MAX_LEVELS) return NZ_EARG;
   m->k = k;
   m->K = K;
   m->D = D;
   m->nslots = nslots;
   m->t = nz_jet_alloc(K, 0);
   m->out = nz_jets_alloc(k, K, D);
-  int ok = m->t && m->out;
+  m->slot = calloc((size_t)nslots, sizeof *m->slot);
+  int ok = m->t && m->out && m->slot;
   for (int j = 0; j < nslots; j++) ok = ok && (m->slot[j] = nz_jets_alloc(k, K, D));
   if (!ok) { nz_motion_free(m); return NZ_ENOMEM; }
   nz_jet_set_variable(m->t, t, -1);
@@ -123,18 +141,24 @@ void nz_motion_seed_level(nz_motion *m, int i, int d, int level)
 
 void nz_motion_seed_slot(nz_motion *m, int i, int d, int j) { nz_jet_tangent(m->slot[j][i], d)[0] += 1.0; }
 
-/* V and S receive the q slot only. */
+static int piece_levels(const nz_system *s, nz_piece p, int index)
+{
+  if (p == NZ_PIECE_V || p == NZ_PIECE_S) return 1;
+  if (p == NZ_PIECE_PHI) return nz_constraint_levels(s, index);
+  return 2;
+}
+
 int nz_motion_eval(const nz_system *s, nz_piece p, int index, nz_motion *m, nz_jet **qd)
 {
-  nz_jet *const *levels[NZ_CONSTRAINT_SLOTS];
-  int nlevels = m->nslots;
+  nz_jet *const *levels[NZ_MAX_LEVELS];
+  int nlevels = piece_levels(s, p, index);
+  if (nlevels > m->nslots) return NZ_EARG;
   for (int j = 0; j < nlevels; j++) levels[j] = m->slot[j];
-  if (qd) levels[1] = qd;
-  if (p == NZ_PIECE_V || p == NZ_PIECE_S) nlevels = 1;
+  if (qd && nlevels > 1) levels[1] = qd;
   nz_direction dir, *dp = NULL;
   if (m->dout) {
     dir.dt = m->dt;
-    for (int j = 0; j < nlevels; j++) dir.dlevels[j] = m->dslot[j];
+    dir.dlevels = (nz_jet *const *const *)m->dslot;
     dir.dout = m->dout;
     dp = &dir;
   }

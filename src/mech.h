@@ -41,7 +41,7 @@ typedef enum nz_piece {
  * exact Jacobian of the motion needs (mech_jacobian.c). */
 typedef struct nz_direction {
   const nz_jet *dt;
-  nz_jet *const *dlevels[4];
+  nz_jet *const *const *dlevels;   /* one per level passed to eval */
   nz_jet *const *dout;
 } nz_direction;
 
@@ -58,7 +58,8 @@ typedef struct nz_evaluator {
   void *ctx;
 } nz_evaluator;
 
-/* Constraints receive this many derivative slots: q, q', q'', q'''. */
+/* Constraints receive at least this many derivative slots (q, q', q'',
+ * q'''), and more when they ask for them (nz_system.levels). */
 #define NZ_CONSTRAINT_SLOTS 4
 
 typedef struct nz_system {
@@ -66,21 +67,29 @@ typedef struct nz_system {
   int nc;                    /* number of constraints */
   unsigned has;              /* bit (1u << piece) set when the piece exists */
   nz_evaluator ev;
+  /* Derivative slots constraint r receives (q .. q^(levels[r]-1)); NULL, or
+   * fewer than nlevels entries: NZ_CONSTRAINT_SLOTS. */
+  const int *levels;
+  int nlevels;
 } nz_system;
 
 static inline int nz_system_has(const nz_system *s, nz_piece p) { return (s->has >> p) & 1u; }
+
+/* The slots constraint r receives, and the most any constraint receives. */
+int nz_constraint_levels(const nz_system *s, int r);
+int nz_constraint_levels_max(const nz_system *s);
 
 /* Jets of a motion: slot j of q_i holds q_i^(j+c)/c!, c = 0..K (slot 0 is
  * q, slot 1 the velocity slot), and t = t0 + (t - t0).  The pieces of the
  * mechanics (this file and constrained.c) are all evaluations of these. */
 typedef struct nz_motion {
-  int k, K, D, nslots;
+  int k, K, D, nslots;   /* nslots <= NZ_MAX_LEVELS */
   nz_jet *t;
-  nz_jet **slot[NZ_CONSTRAINT_SLOTS];
+  nz_jet ***slot;        /* nslots arrays of k jets */
   nz_jet **out;          /* k output jets */
   /* An optional direction (nz_motion_set_direction): */
   nz_jet *dt;
-  nz_jet **dslot[NZ_CONSTRAINT_SLOTS];
+  nz_jet ***dslot;
   nz_jet **dout;
 } nz_motion;
 
@@ -100,7 +109,9 @@ void nz_motion_seed_level(nz_motion *m, int i, int d, int level);
 /* Seed direction d on slot j of q_i as a whole: a partial derivative with
  * respect to that argument of the function, along the motion. */
 void nz_motion_seed_slot(nz_motion *m, int i, int d, int j);
-/* Evaluate a piece (constraint `index`); qd, if given, replaces slot 1. */
+/* Evaluate a piece (constraint `index`); qd, if given, replaces slot 1.
+ * Each piece receives its own slots (F, T, Q: q, q'; V, S: q; constraint r:
+ * nz_constraint_levels); NZ_EARG when the motion has fewer. */
 int nz_motion_eval(const nz_system *s, nz_piece p, int index, nz_motion *m, nz_jet **qd);
 nz_jet **nz_jets_alloc(int k, int K, int D);
 void nz_jets_free(nz_jet **v, int k);

@@ -11,6 +11,7 @@
 #include <gsl/gsl_errno.h>
 #include <gsl/gsl_odeiv2.h>
 #include "linalg.h"
+#include "constrained_series.h"
 #include "mech_jacobian.h"
 #include "ode.h"
 
@@ -40,6 +41,7 @@ static int is_multistep(const char *m) { return !strcmp(m, "msadams") || !strcmp
 
 struct nz_ode {
   int k, nc, dim, work, multistep;
+  int level;                      /* p >= 3: the state of constrained_series.h; else 0 */
   const nz_system *s;             /* bound for the current call */
   int *orders, *linear, *involved;
   nz_accel_options accel;
@@ -70,6 +72,11 @@ static int accelerations(nz_ode *o, double t, const double *y, double *out)
 {
   int k = o->k, st;
   const double *q = y, *qd = y + k;
+  if (o->level) {                  /* q'' and lambda are in the state */
+    memcpy(out, y + 2 * k, (size_t)k * sizeof(double));
+    memcpy(out + k, y + (size_t)o->level * k, (size_t)o->nc * sizeof(double));
+    return NZ_OK;
+  }
   if (o->nc == 0) {
     st = nz_accel(o->s, t, q, qd, o->accel.rcond_min, out, &o->failure.mass);
     return st == NZ_ESINGULAR ? (fail(o, NZ_ODE_FAIL_MASS, st, t, y), st) : st;
@@ -114,6 +121,22 @@ static int reaction_power(nz_ode *o, double t, const double *y, const double *ac
   return NZ_OK;
 }
 
+/* The right-hand side at level p >= 3 (constrained_series.h). */
+static int level_rhs(nz_ode *o, double t, const double *y, double *f)
+{
+  nz_accel_report rep;
+  memset(&rep, 0, sizeof rep);
+  memset(o->involved, 0, (size_t)o->nc * sizeof(int));
+  rep.involved = o->involved;
+  rep.A = o->A;
+  int st = nz_series_rhs(o->s, o->orders, o->level, o->accel.rcond_min, t, y, f, &rep);
+  if (st == NZ_ESINGULAR) {
+    o->failure.accel = rep;
+    return fail(o, NZ_ODE_FAIL_CONSTRAINTS, st, t, y);
+  }
+  return st ? fail(o, NZ_ODE_FAIL_FUNCTION, st, t, y) : GSL_SUCCESS;
+}
+
 static int rhs(double t, const double y[], double f[], void *params)
 {
   nz_ode *o = params;
@@ -121,6 +144,7 @@ static int rhs(double t, const double y[], double f[], void *params)
   o->nfev++;
   for (int i = 0; i < o->dim; i++)
     if (!isfinite(y[i])) return fail(o, NZ_ODE_FAIL_NONFINITE, NZ_ERANGE, t, y);
+  if (o->level) return level_rhs(o, t, y, f);
   double *acc = o->last + k + o->nc;          /* scratch after the guess */
   int st = accelerations(o, t, y, acc);
   if (st) return o->failure.kind ? GSL_EBADFUNC : fail(o, NZ_ODE_FAIL_FUNCTION, st, t, y);
@@ -137,6 +161,7 @@ static int jacobian(double t, const double y[], double *dfdy, double dfdt[], voi
 {
   nz_ode *o = params;
   o->njev++;
+  if (o->level) return fail(o, NZ_ODE_FAIL_FUNCTION, NZ_EARG, t, y);   /* no exact Jacobian at level p >= 3 */
   nz_accel_options opt = o->accel;
   if (o->have_last) {              /* the same root as the right-hand side */
     opt.guess_qdd = o->last;
@@ -156,7 +181,8 @@ nz_ode *nz_ode_alloc(int k, const nz_ode_config *cfg)
   o->k = k;
   o->nc = cfg->nc;
   o->work = cfg->work;
-  o->dim = 2 * k + (cfg->work ? 1 : 0);
+  o->level = cfg->level >= 3 ? cfg->level : 0;
+  o->dim = o->level ? nz_series_dim(k, cfg->nc, o->level) : 2 * k + (cfg->work ? 1 : 0);
   o->multistep = is_multistep(cfg->method);
   o->accel = cfg->accel;
   int nc = cfg->nc;

@@ -23,6 +23,8 @@ typedef struct nz_ode_config {
   int nc;                    /* constraints, with their classification:             */
   const int *orders, *linear;
   nz_accel_options accel;    /* including Baumgarte's alpha, beta                   */
+  int level;                 /* p >= 3: constraints of order >= 3, the state of     */
+                             /* constrained_series.h (no work, no Jacobian); else 0 */
 } nz_ode_config;
 
 /* The stepper names accepted, NULL-terminated. */

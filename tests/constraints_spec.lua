@@ -53,7 +53,7 @@ describe("classification and Dolapchiev's rule", function()
     assert.truthy(text:find("nonholonomic", 1, true) and text:find("nonlinear", 1, true), text)
     assert.truthy(text:find("max |dPhi/dq^(j)|, j=0..3:", 1, true) and text:find("curvature", 1, true), text)
   end)
-  it("constraints of order three: classification, rule and residual work; accel says it is not supported", function()
+  it("constraints of order three: classification, rule and residual work; accel says q'' is part of the state", function()
     local sys = nz.system{ name = "jerk", coords = { "x", "y" }, T = function(t, q, qd) return 0.5 * (qd[1] ^ 2 + qd[2] ^ 2) end,
       constraints = { function(t, q, qd, qdd, qddd) return qddd[1] - qddd[2] * qddd[2] end } }
     local c = sys:constraints{ quiet = true }[1]
@@ -63,7 +63,7 @@ describe("classification and Dolapchiev's rule", function()
     -- lambda = 1.5 and q''' = (0.8, 0.35) the residual is q'' - 1.5 A.
     local r = sys:residual(4, 0, { 0, 0 }, { 1, 2 }, { 0.5, 0.25 }, { 1.5 }, { higher = { { 0.8, 0.35 } } })
     assert(max_diff(r, { 0.5 - 1.5 * 1, 0.25 - 1.5 * (-2 * 0.35) }) <= 1e-14, vec(r))
-    h.checkerror("system 'jerk': constraint 1 is of order 3: accelerations (and integration) support constraints up to order 2",
+    h.checkerror("system 'jerk': constraint 1 is of order 3: under it q'' is part of the state, not a function of (t, q, qd)",
       sys.accel, sys, 0, { 0, 0 }, { 1, 2 })
   end)
   it("the extremal form raises n when the forces depend on the velocities (§8)", function()

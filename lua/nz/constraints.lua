@@ -25,6 +25,54 @@ local equation_names = {
 }
 M.equation_names = equation_names
 
+-- ------------------------------------------------------------------ --
+-- Derivative slots                                                     --
+
+M.MIN_SLOTS = 4            -- every constraint receives q, qd, qdd, qddd at least
+M.MAX_SLOTS = 50           -- q .. q^(49): far beyond any use, keeps jets small
+
+-- A parameter name that reads as a derivative level: q4d, qdddd, q5 ...
+local function names_a_level(name) return name ~= nil and name:match("^q[%dd]+$") ~= nil end
+
+-- The derivative slots each constraint receives.  Rule: every declared
+-- parameter after t is a level q, q', q'', ... except the last when there
+-- are six or more, which is params; at least q .. q''' are given, so
+-- function(t, q, qd, qdd, qddd, params) keeps its meaning, and a constraint
+-- on q^(4) is function(t, q, qd, qdd, qddd, q4d, params).  params always
+-- comes right after the last level.
+function M.levels(list, name)
+  local out = {}
+  for r, f in ipairs(list) do
+    local info = debug.getinfo(f, "u")
+    local np = info.nparams or 0
+    local n = math.max(M.MIN_SLOTS, np - 2)
+    if np >= 6 and names_a_level(debug.getlocal(f, np)) then
+      error(("nz.system '%s': constraint %d declares %d parameters and its last, '%s', receives params "
+        .. "(parameters after t are q, qd, qdd, ..., and the last from the 6th on is params): a constraint on "
+        .. "q^(%d) declares params after it, e.g. function(t, q, qd, qdd, qddd, q4d, params)"):format(
+        name, r, np, debug.getlocal(f, np), np - 2), 3)
+    end
+    if n > M.MAX_SLOTS then
+      error(("nz.system '%s': constraint %d asks for %d derivative slots (at most %d)"):format(name, r, n, M.MAX_SLOTS), 3)
+    end
+    out[r] = n
+  end
+  return out
+end
+
+local function slots_of(sys)
+  local n = M.MIN_SLOTS
+  for _, v in ipairs(sys.constraint_levels or {}) do n = math.max(n, v) end
+  return n
+end
+
+-- A state's levels beyond q''' as the `higher` argument of the C functions.
+local function higher_of(levels)
+  if #levels <= 4 then return nil end
+  return { table.unpack(levels, 5) }
+end
+M.higher_of = higher_of
+
 -- A small deterministic generator: the classification must not depend on
 -- the user's math.random state, and must repeat from run to run.
 local function generator(seed)
@@ -44,7 +92,8 @@ local function sample_states(sys, n)
   local k, states = sys.k, {}
   for s = 1, n do
     local st = { t = (base.t or 0.3) + rand(-0.5, 0.5) }
-    for j, name in ipairs{ "q", "qd", "qdd", "qddd" } do
+    for j = 1, slots_of(sys) do
+      local name = ({ "q", "qd", "qdd", "qddd" })[j] or ("q" .. (j - 1) .. "d")
       local b = base[name] or {}
       local v = {}
       for i = 1, k do v[i] = (b[i] or 0.2 * j) + rand(-1, 1) end
@@ -63,7 +112,7 @@ local function classify_one(sys, r)
   local rows = {}
   for _, st in ipairs(attempts) do
     if #rows >= M.SAMPLES then break end
-    local ok, value, partials, dt = pcall(mech.constraint_partials, e, r, st.t, st[1], st[2], st[3], st[4])
+    local ok, value, partials, dt = pcall(mech.constraint_partials, e, r, st.t, st[1], st[2], st[3], st[4], higher_of(st))
     if ok then rows[#rows + 1] = { state = st, value = value, partials = partials, dt = dt }
     else last_error = value end
   end
@@ -71,12 +120,14 @@ local function classify_one(sys, r)
     error(("system '%s': constraint %d could not be evaluated at sample states (%s): give a typical "
       .. "state as sample = {q = ..., qd = ...} in nz.system"):format(sys.name, r, tostring(last_error)), 0)
   end
-  local c = { index = r, samples = #rows, norms = { 0, 0, 0, 0 }, orders_seen = {} }
+  local nslots = #rows[1].partials
+  local c = { index = r, samples = #rows, norms = {}, orders_seen = {}, slots = nslots }
+  for j = 1, nslots do c.norms[j] = 0 end
   for _, row in ipairs(rows) do
     local norms, scale = {}, math.abs(row.value) + math.abs(row.dt)
-    for j = 1, 4 do norms[j] = max_abs(row.partials[j]); scale = scale + norms[j] end
+    for j = 1, nslots do norms[j] = max_abs(row.partials[j]); scale = scale + norms[j] end
     local m = -1
-    for j = 1, 4 do
+    for j = 1, nslots do
       c.norms[j] = math.max(c.norms[j], norms[j])
       if norms[j] > M.ZERO * math.max(scale, 1e-300) then m = j - 1 end
     end
@@ -98,7 +149,7 @@ local function classify_one(sys, r)
     local v = {}
     for i = 1, sys.k do v[i] = rand(-1, 1) end
     local st = row.state
-    local c0, c1, c2 = mech.constraint_curvature(e, r, m, st.t, st[1], st[2], st[3], st[4], v)
+    local c0, c1, c2 = mech.constraint_curvature(e, r, m, st.t, st[1], st[2], st[3], st[4], v, higher_of(st))
     c.curvature = math.max(c.curvature, math.abs(c2) / (math.abs(c0) + math.abs(c1) + 1))
   end
   c.linear = c.curvature <= M.ZERO
@@ -189,12 +240,12 @@ function M.report(sys)
   local rows = { { "#", "order", "kind", "top derivative", "homogeneous in qd", "evidence" } }
   for _, c in ipairs(M.classify(sys)) do
     local norms = {}
-    for j = 1, 4 do norms[j] = ("%.2g"):format(c.norms[j]) end
+    for j = 1, #c.norms do norms[j] = ("%.2g"):format(c.norms[j]) end
     rows[#rows + 1] = {
       tostring(c.index), tostring(c.order), c.holonomic and "holonomic" or "nonholonomic",
       c.linear and "linear" or "nonlinear",
       c.homogeneous == nil and "n/a" or (c.homogeneous and ("yes, degree %g"):format(c.degree) or "no"),
-      ("max |dPhi/dq^(j)|, j=0..3: %s; curvature %.1g; %d states%s%s"):format(table.concat(norms, ", "),
+      ("max |dPhi/dq^(j)|, j=0..%d: %s; curvature %.1g; %d states%s%s"):format(#norms - 1, table.concat(norms, ", "),
         c.curvature, c.samples, c.depends_on_t and "; depends on t" or "",
         c.consistent and "" or "; ORDER DIFFERS ACROSS STATES: check the constraint"),
     }
@@ -209,7 +260,7 @@ end
 function M.gradients(sys, t, levels)
   local A = {}
   for r, c in ipairs(M.classify(sys)) do
-    local _, partials = mech.constraint_partials(sys.engine, r, t, levels[1], levels[2], levels[3], levels[4])
+    local _, partials = mech.constraint_partials(sys.engine, r, t, levels[1], levels[2], levels[3], levels[4], higher_of(levels))
     A[r] = partials[c.order + 1]
   end
   return A
@@ -270,6 +321,8 @@ function M.project(sys, t, q, qd, opts)
     for i = 1, sys.k do qd[i] = qd[i] + dv[i] end
     report.velocity_iterations = it
   end
+  local p = sys.nc > 0 and M.level(sys)
+  if p then M.project_levels(sys, t, q, qd, p, opts, report) end
   return q, qd, report
 end
 
@@ -299,6 +352,95 @@ function M.check_state(sys, t, q, qd, tol)
       .. "start from a consistent state, e.g. q, qd = sys:project(t, q, qd)"):format(
       sys.name, tostring(t), r, level, worst, tol), 0)
   end
+end
+
+-- ------------------------------------------------------------------ --
+-- Constraints of order 3 and more: the motion at level p               --
+-- (src/constrained_series.h)                                           --
+
+-- The name of the start option and of the report field for level j.
+function M.level_name(j)
+  if j == 0 then return "q" elseif j == 1 then return "qd" elseif j == 2 then return "qdd" end
+  return "q" .. j .. "d"
+end
+
+-- The level p at which the motion is integrated: the highest order of a
+-- constraint linear in its top derivative when that is 3 or more (nil
+-- otherwise: the accelerations are a function of q and qd), and the first
+-- constraint of order >= 3 that is nonlinear in its top derivative, if any
+-- (its gradient depends on q^(m), so (6.2) does not close at any level).
+function M.level(sys)
+  local p, nonlinear = nil, nil
+  for r, c in ipairs(M.classify(sys)) do
+    if c.order >= 3 then
+      if c.linear then p = math.max(p or 3, c.order) else nonlinear = nonlinear or r end
+    end
+  end
+  return p, nonlinear
+end
+
+-- What row `row` (1-based, from series_initial) of level l is, in words.
+local function row_words(sys, orders, l, row)
+  if row <= sys.k then
+    return l == 2 and ("the equation of motion (6.2) for '%s' (no multipliers satisfy it with this qdd)"):format(sys.coords[row])
+      or ("(6.2) differentiated %d time%s, for '%s'"):format(l - 2, l == 3 and "" or "s", sys.coords[row])
+  end
+  local r = row - sys.k
+  local d = l - orders[r]
+  return ("constraint %d%s"):format(r, d == 0 and "" or (" differentiated %d time%s"):format(d, d == 1 and "" or "s"))
+end
+
+-- The multipliers at a start state of level p (levels = {q, qd, qdd, ...},
+-- p of them), after checking the equations of every level below p: an
+-- error naming the first one violated by more than tol (relative).
+function M.start_lambdas(sys, t, levels, p, tol)
+  local orders = M.orders(sys)
+  local lambdas, v = mech.series_initial(sys.engine, orders, p, t, levels)
+  if v.value > (tol or M.CHECK_TOL) then
+    local given = {}
+    for j = 0, p - 1 do given[#given + 1] = M.level_name(j) .. "0" end
+    error(("system '%s': the start state at t = %s is inconsistent: %s is violated by %.3g (tolerance %.3g, "
+      .. "relative to its terms): give %s that satisfy the constraints and (6.2) at levels 0..%d, e.g. "
+      .. "from sys:project(t0, q0, qd0, {qdd = ...}) (its report holds qdd and the multipliers)"):format(
+      sys.name, tostring(t), row_words(sys, orders, v.level, v.row), v.value, tol or M.CHECK_TOL,
+      table.concat(given, ", "), p - 1), 0)
+  end
+  return lambdas
+end
+
+-- Along a motion of level p: the largest residual of the equations of levels
+-- 2..p-1 (6.2) and its derivatives, and the constraints of order >= 2 with
+-- theirs) with the state's own multipliers: the drift that level p leaves
+-- free (the rows of level p hold to the solve's accuracy).  levels: q .. q^(p-1);
+-- lambdas: lambda .. lambda^(p-3).
+function M.level_violation(sys, t, levels, lambdas, p)
+  local orders, worst = M.orders(sys), 0
+  for l = 2, p - 1 do
+    local res = mech.series_level(sys.engine, orders, l, t, levels, lambdas)
+    for i = 1, sys.k do worst = math.max(worst, math.abs(res[i])) end
+    for r = 1, sys.nc do if orders[r] <= l then worst = math.max(worst, math.abs(res[sys.k + r])) end end
+  end
+  return worst
+end
+
+-- Complete the higher levels of a start state (p >= 3): given q, qd (already
+-- projected) and opts.qdd, opts.q3d, ... (0 when absent), the smallest
+-- change of each level l = 2..p-1 and its multipliers lambda^(l-2) that
+-- satisfies the equations of that level.
+function M.project_levels(sys, t, q, qd, p, opts, report)
+  local levels = { q, qd }
+  for j = 2, p - 1 do
+    local v = opts and opts[M.level_name(j)]
+    if v == nil then v = {}; for i = 1, sys.k do v[i] = 0 end end
+    levels[j + 1] = v
+  end
+  local tol = opts and opts.tol or M.PROJECT_TOL
+  local out, lambdas, its = mech.series_project(sys.engine, M.orders(sys), p, t, levels, tol, opts and opts.maxit or 50)
+  if not out then
+    error(("system '%s': completing the start state (qdd and higher, with the multipliers) did not converge in %d steps"):format(sys.name, lambdas), 0)
+  end
+  for j = 2, p - 1 do report[M.level_name(j)] = out[j + 1] end
+  report.lambda, report.lambdas, report.level_iterations = lambdas[1], lambdas, its
 end
 
 -- ------------------------------------------------------------------ --
@@ -344,9 +486,93 @@ local function partition(A, b, k)
   return dep, ind, a, a0
 end
 
+-- Tsenov's elimination at level p >= 3: the equations of level p
+-- (G^(p-2) = 0 and every Phi_r^(p - m_r) = 0, src/constrained_series.h),
+-- with q^(p) split by the constraint rows into dependent and independent
+-- components and G^(p-2) combined along the admissible directions, which
+-- removes lambda^(p-2) (its coefficient in G is A^T, in the rows A, by (2.1)).
+-- The state's levels and lower multipliers come in opts.  The equations of
+-- every form agree (§3), so `form` plays no part here.
+local function reduced_level(sys, t, q, qd, p, opts)
+  opts = type(opts) == "table" and opts or {}
+  local k, levels = sys.k, { q, qd }
+  for j = 2, p - 1 do
+    levels[j + 1] = opts[M.level_name(j)]
+    if levels[j + 1] == nil then
+      error(("system '%s': constraints of order %d make %s part of the state: give it, "
+        .. "sys:reduced(t, q, qd, nil, {%s = ..., lambdas = {lambda, ...}})"):format(
+        sys.name, p, M.level_name(j), M.level_name(j)), 0)
+    end
+  end
+  local lambdas = opts.lambdas or (opts.lambda and { opts.lambda })
+  if type(lambdas) ~= "table" or #lambdas < p - 2 then
+    error(("system '%s': constraints of order %d make the multipliers lambda .. lambda^(%d) part of the state: "
+      .. "give lambdas = {...} (%d lists of %d)"):format(sys.name, p, p - 3, p - 2, sys.nc), 0)
+  end
+  local orders = M.orders(sys)
+  local x = {}
+  for i = 1, k do x[i] = 0 end
+  levels[p + 1] = x
+  local r0 = mech.series_level(sys.engine, orders, p, t, levels, lambdas)
+  local Gx, B, b = {}, {}, {}
+  for i = 1, k do Gx[i] = {} end
+  for r = 1, sys.nc do B[r], b[r] = {}, r0[k + r] end
+  for j = 1, k do                      -- affine in q^(p): columns by differences
+    x[j] = 1
+    local rj = mech.series_level(sys.engine, orders, p, t, levels, lambdas)
+    x[j] = 0
+    for i = 1, k do Gx[i][j] = rj[i] - r0[i] end
+    for r = 1, sys.nc do B[r][j] = rj[k + r] - r0[k + r] end
+  end
+  local dep, ind, a, a0 = partition(B, b, k)
+  if not dep then error(("system '%s': the constraints are dependent at this state: no set of dependent coordinates"):format(sys.name), 0) end
+  local function full(qi)
+    local v = {}
+    for l, j in ipairs(ind) do v[j] = qi[l] end
+    for r, j in ipairs(dep) do
+      local s = a0[r]
+      for l = 1, #ind do s = s + a[r][l] * qi[l] end
+      v[j] = s
+    end
+    return v
+  end
+  local function reduced_residual(qi)
+    local v, G = full(qi), {}
+    for i = 1, k do
+      local s = r0[i]
+      for j = 1, k do s = s + Gx[i][j] * v[j] end
+      G[i] = s
+    end
+    local out = {}
+    for l, j in ipairs(ind) do
+      local s = G[j]
+      for r, jr in ipairs(dep) do s = s + G[jr] * a[r][l] end
+      out[l] = s
+    end
+    return out
+  end
+  local l = #ind
+  local base = {}
+  for i = 1, l do base[i] = 0 end
+  local g0, Mred, neg = reduced_residual(base), {}, {}
+  for i = 1, l do Mred[i] = {} end
+  for c = 1, l do
+    base[c] = 1
+    local rc = reduced_residual(base)
+    base[c] = 0
+    for i = 1, l do Mred[i][c] = rc[i] - g0[i] end
+  end
+  for i = 1, l do neg[i] = -g0[i] end
+  local qi = l > 0 and mech.lstsq(Mred, neg) or {}
+  return full(qi), { level = p, dependent = dep, independent = ind, a = a, a0 = a0, matrix = Mred, rhs = neg }
+end
+
 -- Accelerations from the reduced equations (7.1) of order n, without
 -- multipliers: dK_n*/dq_l^(n) = dK_n/dq_l^(n) + sum_rho dK_n/dq_rho^(n) a_{rho,l}.
+-- With constraints of order p >= 3: q^(p), from the equations of level p.
 function M.reduced(sys, t, q, qd, n, form)
+  local p = M.level(sys)
+  if p then return reduced_level(sys, t, q, qd, p, form) end
   local classes = M.classify(sys)
   local A, b = {}, {}
   local zero = {}

@@ -228,7 +228,7 @@ define("rolling_ball", { body = { type = "coordinate", required = true, doc = "t
     -- The contact point's velocity v + omega x (0, 0, -R) vanishes, with
     -- omega = vee(R' R^T) in space axes: v_x - R omega_y = 0, v_y + R omega_x = 0.
     local function contact(comp)
-      return function(t, q, qd, p)
+      return function(t, q, qd, qdd, qddd, p)   -- params after the four levels (slot rule)
         local ql = {}
         for i = 1, #q do ql[i] = hyperdual.new(q[i], qd[i]) end
         local tl = hyperdual.new(t, 1)

@@ -86,8 +86,11 @@ Fields:
   S        acceleration energy along the motion (Wassmuth's form; from bodies)
   constraints  a list of functions Phi(t, q, qd, qdd, qddd, params) = 0 of any
            order: holonomic (of q only), first order (velocities, linear or
-           not), second order (accelerations); their order and linearity are
-           found numerically (sys:constraints())
+           not), second order (accelerations), third and higher; their order
+           and linearity are found numerically (sys:constraints()).  Slots:
+           the parameters after t are q, qd, qdd, ... and, from the 6th on,
+           the last is params; q .. qddd are always given, so a constraint
+           on q^(4) is function(t, q, qd, qdd, qddd, q4d, params)
   sample   a typical state {t =, q =, qd =, qdd =} near which constraints are
            classified (default: random states around 0)
   params   a table of named numbers passed to every function; change
@@ -116,8 +119,19 @@ Methods (t a number, q, qd, qdd tables of k numbers):
                              linear in the top derivative, holonomic,
                              homogeneous in qd (Euler's theorem), evidence
   sys:rule([{extremal = true}])  Dolapchiev's n and a paragraph saying why
-  sys:reduced(t, q, qd [, n])    accelerations from Tsenov's reduced equations (7.1)
-  sys:project(t, q, qd)      the nearest state on the constraints of order <= 1
+  sys:reduced(t, q, qd [, n] [, form])  accelerations from Tsenov's reduced equations (7.1);
+                             order >= 3: q^(p) from the level-p equations, form =
+                             {qdd =, q3d =, ..., lambdas = {lambda, lambda', ...}}
+  sys:project(t, q, qd [, opts])  the nearest state on the constraints of order <= 1;
+                             with constraints of order p >= 3 also the start's
+                             higher levels: opts {qdd =, q3d =, ...} are corrected
+                             (0 if absent) and returned as report.qdd, report.q3d,
+                             ... with report.lambda (and report.lambdas)
+  sys:simulate{..., qdd0 =, q3d0 = ...}  constraints of order p >= 3 (linear in
+                             their top derivative): the state is q, qd, .., q^(p-1)
+                             and lambda, .., lambda^(p-3); (6.2) differentiated
+                             p-2 times gives q^(p) and lambda^(p-2).  The start
+                             levels are required and checked; explicit methods
   sys:check_state(t, q, qd [, tol])  error if a constraint is violated
   sys:reaction_power(t, q, qd)   R_0 of (9.1): the power of moving constraints
   sys:mass(t, q [, qd]), sys:bias(t, q, qd), sys:mass_bias(t, q, qd)

@@ -17,8 +17,10 @@ M.defaults = { method = "rk8pd", rtol = 1e-10, atol = 1e-12, points = 200, event
 local known = {
   q0 = true, qd0 = true, t0 = true, t1 = true, dt = true, method = true, rtol = true, atol = true,
   step = true, events = true, project = true, baumgarte = true, monitors = true, progress = true,
-  check = true, h0 = true, event_tol = true, guess = true,
+  check = true, h0 = true, event_tol = true, guess = true, qdd0 = true,
 }
+-- q3d0, q4d0, ...: the start of higher levels (constraints of order >= 3).
+local function level_option(key) return type(key) == "string" and key:match("^q%d+d0$") ~= nil end
 local known_monitors = { energy = true, work = true }
 
 local function fail(sys, msg, ...) error(("simulate '%s': " .. msg):format(sys.name, ...), 3) end
@@ -37,7 +39,7 @@ end
 local function validate(sys, o)
   if type(o) ~= "table" then fail(sys, "a table {q0 = ..., qd0 = ..., t1 = ...} expected") end
   for key in pairs(o) do
-    if not known[key] then
+    if not known[key] and not level_option(key) then
       local names = {}
       for k in pairs(known) do names[#names + 1] = k end
       table.sort(names)
@@ -108,6 +110,48 @@ local function progress_bar(cfg, t0, t1)
   return update, done
 end
 
+-- Constraints of order >= 3 (constraints.level): the state is
+-- (q, qd, qdd, .., q^(p-1), lambda, .., lambda^(p-3)) (src/constrained_series.h).
+-- Check what the start needs and return the part of y after q, qd.
+local function start_levels(sys, cfg, orders, p, qd0)
+  for _, m in ipairs(mech.ode_methods()) do
+    if m.name == cfg.method and m.implicit then
+      fail(sys, "constraints of order %d are integrated with explicit methods only (no exact Jacobian at level %d yet); got method '%s': use rk8pd, rkf45, rkck, rk4, rk2 or msadams", p, p, cfg.method)
+    end
+  end
+  for key, what in pairs{ work = "the 'work' monitor", alpha = "'baumgarte'", project = "'project'" } do
+    if (key == "work" and cfg.monitors.work) or (key ~= "work" and cfg[key]) then
+      fail(sys, "%s is not available with constraints of order %d (the state holds qdd and the multipliers): leave it out", what, p)
+    end
+  end
+  local k, levels = sys.k, { cfg.q0, qd0 }
+  for j = 2, p - 1 do
+    local name = constraints.level_name(j) .. "0"
+    if cfg[name] == nil then
+      fail(sys, "constraints of order %d make %s part of the state: give '%s' = {...} (sys:project(t0, q0, qd0) returns a consistent one as report.%s)",
+        p, constraints.level_name(j), name, constraints.level_name(j))
+    end
+    check_vector(sys, cfg[name], name)
+    levels[j + 1] = cfg[name]
+  end
+  for key in pairs(cfg) do
+    local j = type(key) == "string" and (key == "qdd0" and 2 or tonumber(key:match("^q(%d+)d0$")))
+    if j and j >= p then fail(sys, "'%s' is not part of the state (constraints of order %d need levels up to q^(%d))", key, p, p - 1) end
+  end
+  local probe = { table.unpack(levels) }
+  probe[p + 1] = {}
+  for i = 1, k do probe[p + 1][i] = 0 end
+  local bad = mech.series_closure(sys.engine, orders, p, cfg.t0, probe)
+  if bad then
+    fail(sys, "constraint %d: its gradient dPhi/dq^(m) depends on q''' or higher, so (6.2) differentiated %d times needs derivatives above q^(%d) and the motion does not close at level %d; a gradient that depends on q, qd, qdd at most works for any order", bad, p - 2, p, p)
+  end
+  local lambdas = constraints.start_lambdas(sys, cfg.t0, levels, p, cfg.check == false and math.huge or nil)
+  local tail = {}
+  for j = 3, p do for i = 1, k do tail[#tail + 1] = levels[j][i] end end
+  for j = 1, p - 2 do for r = 1, sys.nc do tail[#tail + 1] = lambdas[j][r] end end
+  return tail
+end
+
 local function split(y, k)
   local q, qd = {}, {}
   for i = 1, k do q[i], qd[i] = y[i], y[k + i] end
@@ -117,21 +161,32 @@ end
 function M.simulate(sys, opts)
   local cfg = validate(sys, opts)
   local k, engine = sys.k, sys.engine
-  local orders, linear = {}, {}
+  local orders, linear, p = {}, {}, nil
   if sys.nc > 0 then
     orders, linear = constraints.orders(sys)
-    for r, m in ipairs(orders) do
-      if m > 2 then fail(sys, "constraint %d is of order %d: integration supports constraints up to order 2", r, m) end
+    local nonlinear
+    p, nonlinear = constraints.level(sys)
+    if nonlinear then
+      fail(sys, "constraint %d is of order %d and nonlinear in q^(%d): its gradient depends on q^(%d), so (6.2) closes at no level; integration supports constraints of order 3 or more that are linear in their top derivative",
+        nonlinear, orders[nonlinear], orders[nonlinear], orders[nonlinear])
+    end
+  end
+  if not p then
+    for key in pairs(opts) do
+      if key == "qdd0" or level_option(key) then
+        fail(sys, "'%s' is for constraints of order 3 or more; this system's accelerations follow from q and qd: leave it out", key)
+      end
     end
   end
   engine.orders = orders
   local qd0 = cfg.qd0
   if not qd0 then qd0 = {}; for i = 1, k do qd0[i] = 0 end end   -- at rest
   if sys.nc > 0 and cfg.check ~= false then constraints.check_state(sys, cfg.t0, cfg.q0, qd0) end
+  local tail = p and start_levels(sys, cfg, orders, p, qd0)
 
   local ode = mech.ode_new(engine, {
     method = cfg.method, rtol = cfg.rtol, atol = cfg.atol, h0 = cfg.h0 or math.min(cfg.dt, 1e-3),
-    work = cfg.monitors.work, orders = orders, linear = linear, alpha = cfg.alpha, beta = cfg.beta,
+    work = cfg.monitors.work, orders = orders, linear = linear, alpha = cfg.alpha, beta = cfg.beta, level = p,
   })
   local tr = trajectory.new(sys, cfg)
   if cfg.monitors.energy then tr.energy, tr.generalized_energy = {}, {} end
@@ -140,6 +195,7 @@ function M.simulate(sys, opts)
   local y = {}
   for i = 1, k do y[i], y[k + i] = cfg.q0[i], qd0[i] end
   if cfg.monitors.work then y[2 * k + 1] = 0 end
+  for _, v in ipairs(tail or {}) do y[#y + 1] = v end
 
   local function record(t, yy)
     local q, qd = split(yy, k)
@@ -147,6 +203,13 @@ function M.simulate(sys, opts)
     local n = #tr.t + 1
     tr.t[n], tr.q[n], tr.qd[n], tr.qdd[n], tr.lambda[n] = t, q, qd, qdd, lambda
     if tr.violation then tr.violation[n] = (constraints.violation(sys, t, q, qd)) end
+    if p then                            -- q''' .. q^(p-1) and the multipliers of the state
+      local levels, lambdas = { q, qd }, {}
+      for j = 2, p - 1 do levels[j + 1] = { table.unpack(yy, j * k + 1, (j + 1) * k) } end
+      for j = 1, p - 2 do lambdas[j] = { table.unpack(yy, p * k + (j - 1) * sys.nc + 1, p * k + j * sys.nc) } end
+      if p > 3 then tr.higher = tr.higher or {}; tr.higher[n] = { table.unpack(levels, 4) } end
+      tr.violation[n] = math.max(tr.violation[n], constraints.level_violation(sys, t, levels, lambdas, p))
+    end
     if tr.energy then tr.energy[n], tr.generalized_energy[n] = sys:energy(t, q, qd) end
     if tr.work then tr.work[n] = yy[2 * k + 1] end
   end
@@ -158,7 +221,7 @@ function M.simulate(sys, opts)
   local function state_at(ta, ya, tau)
     locator = locator or mech.ode_new(engine, { method = "rk8pd", rtol = math.min(cfg.rtol, 1e-10),
       atol = math.min(cfg.atol, 1e-12), work = cfg.monitors.work, orders = orders, linear = linear,
-      alpha = cfg.alpha, beta = cfg.beta, h0 = math.max(tau - ta, 1e-12) })
+      alpha = cfg.alpha, beta = cfg.beta, h0 = math.max(tau - ta, 1e-12), level = p })
     mech.ode_reset(locator)
     local t, h, yy = ta, math.max(tau - ta, 1e-12), ya
     while t < tau do t, h, yy = mech.ode_step(locator, engine, t, tau, h, yy) end

@@ -100,6 +100,7 @@ function M.system(def)
   local C = as_list(def.constraints, "constraints", name)
   local Clab = {}
   for i = 1, #C do Clab[i] = ("constraint %d"):format(i) end
+  local Clevels = constraints.levels(C, name)
   if def.sample ~= nil and type(def.sample) ~= "table" then
     error(("nz.system '%s': 'sample' must be a state {t = ..., q = {...}, qd = {...}}"):format(name), 2)
   end
@@ -109,6 +110,7 @@ function M.system(def)
     coords = { table.unpack(coords) },
     k = #coords,
     nc = #C,
+    constraint_levels = Clevels,
     params = def.params or {},
     sample = def.sample,
     pieces = { T = #T, V = #V, Q = #Q, L = #L, S = #S },
@@ -117,7 +119,7 @@ function M.system(def)
   -- sys.params and the next call sees it).
   self.engine = {
     k = #coords, name = name, coords = self.coords, params = self.params,
-    F = F, T = T, V = V, Q = Q, S = S, constraints = C,
+    F = F, T = T, V = V, Q = Q, S = S, constraints = C, constraint_levels = mech.constraint_levels(Clevels),
     labels = { F = Flab, T = lab.T, V = lab.V, Q = lab.Q, S = lab.S, constraints = Clab },
   }
   return self
@@ -151,7 +153,7 @@ function System:residual(n, t, q, qd, qdd, a6, a7)
   n = n or self:rule()
   local r = mech.residual(self.engine, form, n, t, q, qd, qdd, higher)
   if lambda then
-    local A = constraints.gradients(self, t, { q, qd, qdd, higher and higher[1] })
+    local A = constraints.gradients(self, t, { q, qd, qdd, table.unpack(higher or {}) })
     for c = 1, self.nc do
       for i = 1, self.k do r[i] = r[i] - A[c][i] * lambda[c] end
     end

@@ -1,0 +1,281 @@
+/* constrained_series.c - the motion at level p >= 3 (see constrained_series.h).
+ *
+ * Series are normalized Taylor coefficients along the motion, x[c] =
+ * x^(c)/c!, so the c-th derivative of a product is c! sum_j a[j] b[c-j]. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include "constrained_series.h"
+#include "linalg.h"
+
+int nz_series_dim(int k, int nc, int p) { return p * k + (p - 2) * nc; }
+
+/* The Nielsen residual r_i = d/dt dF/dq'_i - dF/dq_i - Q_i + dV/dq_i along
+ * the motion, as a series of order K: r[i (K+1) + c].  dF/dq' and dF/dq are
+ * the tangents of F with the velocity and position slots seeded as a whole;
+ * dF/dq' needs one order more, for its time derivative. */
+static int nielsen_series(const nz_system *s, double t, const double *const *levels, int nstate,
+                          int K, double *r)
+{
+  int k = s->k, st = NZ_OK, W = K + 1;
+  nz_motion mo;
+  memset(r, 0, (size_t)k * (size_t)W * sizeof(double));
+  if (nz_system_has(s, NZ_PIECE_F)) {
+    if ((st = nz_motion_init(&mo, k, 2, K + 1, 2 * k, t, levels, nstate))) return st;
+    for (int i = 0; i < k; i++) {
+      nz_motion_seed_slot(&mo, i, i, 1);
+      nz_motion_seed_slot(&mo, i, k + i, 0);
+    }
+    st = nz_motion_eval(s, NZ_PIECE_F, 0, &mo, NULL);
+    for (int i = 0; i < k && !st; i++)
+      for (int c = 0; c <= K; c++)
+        r[i * W + c] = (c + 1) * nz_jet_tangent(mo.out[0], i)[c + 1] - nz_jet_tangent(mo.out[0], k + i)[c];
+    nz_motion_free(&mo);
+    if (st) return st;
+  }
+  if (nz_system_has(s, NZ_PIECE_Q)) {
+    if ((st = nz_motion_init(&mo, k, 2, K, 0, t, levels, nstate))) return st;
+    st = nz_motion_eval(s, NZ_PIECE_Q, 0, &mo, NULL);
+    for (int i = 0; i < k && !st; i++)
+      for (int c = 0; c <= K; c++) r[i * W + c] -= mo.out[i]->c[c];
+    nz_motion_free(&mo);
+    if (st) return st;
+  }
+  if (nz_system_has(s, NZ_PIECE_V)) {
+    if ((st = nz_motion_init(&mo, k, 2, K, k, t, levels, nstate))) return st;
+    for (int i = 0; i < k; i++) nz_motion_seed_slot(&mo, i, i, 0);
+    st = nz_motion_eval(s, NZ_PIECE_V, 0, &mo, NULL);
+    for (int i = 0; i < k && !st; i++)
+      for (int c = 0; c <= K; c++) r[i * W + c] += nz_jet_tangent(mo.out[0], i)[c];
+    nz_motion_free(&mo);
+  }
+  return st;
+}
+
+/* Constraint r along the motion, one evaluation: its series to order Kphi
+ * into phi (Kphi >= 0), and the series of its gradient A_r = dPhi/dq^(m) to
+ * order Ka into a[i (Ka+1) + c] (Ka >= 0; slot m seeded as a whole). */
+static int constraint_series(const nz_system *s, int r, int m, int Kphi, int Ka, double t,
+                             const double *const *levels, int nstate, double *phi, double *a)
+{
+  int k = s->k, Kc = Kphi > Ka ? Kphi : Ka;
+  nz_motion mo;
+  int st = nz_motion_init(&mo, k, nz_constraint_levels(s, r), Kc, Ka >= 0 ? k : 0, t, levels, nstate);
+  if (st) return st;
+  if (m >= mo.nslots) { nz_motion_free(&mo); return NZ_EARG; }
+  if (Ka >= 0)
+    for (int i = 0; i < k; i++) nz_motion_seed_slot(&mo, i, i, m);
+  st = nz_motion_eval(s, NZ_PIECE_PHI, r, &mo, NULL);
+  if (!st) {
+    for (int c = 0; c <= Kphi; c++) phi[c] = mo.out[0]->c[c];
+    for (int i = 0; i < k && Ka >= 0; i++)
+      for (int c = 0; c <= Ka; c++) a[i * (Ka + 1) + c] = nz_jet_tangent(mo.out[0], i)[c];
+  }
+  nz_motion_free(&mo);
+  return st;
+}
+
+int nz_series_level(const nz_system *s, const int *orders, int l, double t,
+                    const double *const *levels, const double *lam, double *res, double *A,
+                    double *gscale)
+{
+  int k = s->k, nc = s->nc, K = l - 2, W = K > 0 ? K + 1 : 1, st = NZ_OK;
+  memset(res, 0, ((size_t)k + (size_t)nc) * sizeof(double));
+  if (A) memset(A, 0, (size_t)nc * (size_t)k * sizeof(double));
+  if (gscale) *gscale = 1.0;
+  double *buf = calloc((size_t)k * W * (1 + (size_t)nc) + (size_t)l + 2, sizeof(double));
+  if (!buf) return NZ_ENOMEM;
+  double *rser = buf, *aser = rser + (size_t)k * W, *phi = aser + (size_t)nc * k * W;
+  if (K >= 0 && (st = nielsen_series(s, t, levels, l + 1, K, rser))) goto done;
+  for (int r = 0; r < nc; r++) {
+    int m = orders[r], Kphi = m <= l ? l - m : -1;
+    if (Kphi < 0 && K < 0) continue;
+    if ((st = constraint_series(s, r, m, Kphi, K, t, levels, l + 1, phi, aser + (size_t)r * k * W))) goto done;
+    if (Kphi >= 0) res[k + r] = nz_factorial(Kphi) * phi[Kphi];
+  }
+  if (K >= 0) {
+    /* G^(K) = K! (r[K] - sum_r sum_j lambda_r[j] A_r[K - j]), normalized. */
+    double fK = nz_factorial(K), big = 0.0;
+    for (int i = 0; i < k; i++) {
+      double g = rser[i * W + K];
+      big = fmax(big, fabs(fK * g));
+      for (int r = 0; r < nc; r++)
+        for (int j = 0; j <= K; j++)
+          g -= lam[(size_t)j * nc + r] / nz_factorial(j) * aser[((size_t)r * k + i) * W + K - j];
+      res[i] = fK * g;
+    }
+    if (gscale) *gscale = 1.0 + big;
+    if (A)
+      for (int r = 0; r < nc; r++)
+        for (int i = 0; i < k; i++) A[(size_t)r * k + i] = aser[((size_t)r * k + i) * W];
+  }
+done:
+  free(buf);
+  return st;
+}
+
+/* The matrix of the equations of level l in (q^(l), lambda^(l-2)): columns
+ * of q^(l) by probing (the equations are affine in it: the difference is
+ * exact up to rounding), columns of lambda^(l-2) = -A^T in the G rows.
+ * levels[l] is x, moved and restored; res0 and A at x are given. */
+static int level_matrix(const nz_system *s, const int *orders, int l, double t,
+                        const double *const *levels, double *x, const double *lam,
+                        const double *res0, const double *A, double *J, double *scratch)
+{
+  int k = s->k, nc = s->nc, N = k + nc, st;
+  memset(J, 0, (size_t)N * N * sizeof(double));
+  for (int j = 0; j < k; j++) {
+    double keep = x[j];
+    x[j] = keep + 1.0;
+    st = nz_series_level(s, orders, l, t, levels, lam, scratch, NULL, NULL);
+    x[j] = keep;
+    if (st) return st;
+    for (int i = 0; i < N; i++) J[i * N + j] = scratch[i] - res0[i];
+  }
+  if (l >= 2)
+    for (int r = 0; r < nc; r++)
+      for (int i = 0; i < k; i++) J[i * N + k + r] = -A[(size_t)r * k + i];
+  return NZ_OK;
+}
+
+int nz_series_rhs(const nz_system *s, const int *orders, int p, double rcond_min, double t,
+                  const double *y, double *f, nz_accel_report *rep)
+{
+  int k = s->k, nc = s->nc, N = k + nc, st;
+  const double *levels[NZ_MAX_LEVELS];
+  if (p < 3 || p + 1 > NZ_MAX_LEVELS) return NZ_EARG;
+  double *buf = calloc((size_t)k + (size_t)(p - 1) * nc + 5 * (size_t)N + (size_t)N * N + (size_t)nc * k,
+                       sizeof(double));
+  if (!buf) return NZ_ENOMEM;
+  double *x = buf, *lam = x + k, *res0 = lam + (size_t)(p - 1) * nc, *scratch = res0 + N;
+  double *rhs = scratch + N, *u = rhs + N, *J = u + N + N, *A = J + (size_t)N * N;
+  for (int j = 0; j < p; j++) levels[j] = y + (size_t)j * k;
+  levels[p] = x;                                      /* q^(p): the unknown, from 0 */
+  memcpy(lam, y + (size_t)p * k, (size_t)(p - 2) * nc * sizeof(double));
+  if ((st = nz_series_level(s, orders, p, t, levels, lam, res0, A, NULL))) goto done;
+  if ((st = level_matrix(s, orders, p, t, levels, x, lam, res0, A, J, scratch))) goto done;
+  for (int i = 0; i < N; i++) rhs[i] = -res0[i];
+  if ((st = nz_solve_svd(N, J, rhs, u, &rep->rcond))) goto done;
+  if (!(rep->rcond >= rcond_min)) {
+    rep->failure = NZ_ACCEL_SINGULAR;
+    if (rep->A) memcpy(rep->A, A, (size_t)nc * k * sizeof(double));
+    nz_constraint_dependence(nc, k, A, rep);
+    st = NZ_ESINGULAR;
+    goto done;
+  }
+  memcpy(f, y + k, (size_t)(p - 1) * k * sizeof(double));                 /* q' .. q^(p-1) */
+  memcpy(f + (size_t)(p - 1) * k, u, (size_t)k * sizeof(double));        /* q^(p) */
+  memcpy(f + (size_t)p * k, y + (size_t)p * k + nc, (size_t)(p - 3) * nc * sizeof(double));
+  memcpy(f + (size_t)p * k + (size_t)(p - 3) * nc, u + k, (size_t)nc * sizeof(double));
+  if (rep->A) memcpy(rep->A, A, (size_t)nc * k * sizeof(double));
+done:
+  free(buf);
+  return st;
+}
+
+int nz_series_closure(const nz_system *s, const int *orders, int p, double t,
+                      const double *const *levels, int *bad)
+{
+  int k = s->k, K = p - 2, W = K + 1, st = NZ_OK;
+  const double *more[NZ_MAX_LEVELS];
+  *bad = -1;
+  if (p + 3 > NZ_MAX_LEVELS) return NZ_EARG;
+  double *buf = calloc(2 * (size_t)k * W + 2 * (size_t)k + 1, sizeof(double));
+  if (!buf) return NZ_ENOMEM;
+  double *a0 = buf, *a1 = a0 + (size_t)k * W, *ones = a1 + (size_t)k * W, phi;
+  /* The same series with q^(p+1), q^(p+2) set to 1 instead of 0: a
+   * difference means A_r^(p-2) needs them. */
+  for (int i = 0; i < 2 * k; i++) ones[i] = 1.0;
+  for (int j = 0; j <= p; j++) more[j] = levels[j];
+  more[p + 1] = ones;
+  more[p + 2] = ones + k;
+  for (int r = 0; r < s->nc && *bad < 0; r++) {
+    if ((st = constraint_series(s, r, orders[r], -1, K, t, levels, p + 1, &phi, a0))) break;
+    if ((st = constraint_series(s, r, orders[r], -1, K, t, more, p + 3, &phi, a1))) break;
+    for (int i = 0; i < k * W; i++)
+      if (fabs(a1[i] - a0[i]) > 1e-12 * (1.0 + fabs(a0[i]))) { *bad = r; break; }
+  }
+  free(buf);
+  return st;
+}
+
+/* max over the rows of level l of |res| / scale (G rows: gscale; constraint
+ * rows with m_r <= l: 1), and which row. */
+static double worst_row(int k, int nc, const int *orders, int l, const double *res, double gscale,
+                        int *row)
+{
+  double w = 0.0;
+  for (int i = 0; i < k + nc; i++) {
+    if (i < k && l < 2) continue;
+    if (i >= k && orders[i - k] > l) continue;
+    double v = fabs(res[i]) / (i < k ? gscale : 1.0);
+    if (v > w || *row < 0) { w = v; *row = i; }
+  }
+  return w;
+}
+
+int nz_series_initial(const nz_system *s, const int *orders, int p, double t,
+                      const double *const *levels, double *lam, nz_series_violation *v)
+{
+  int k = s->k, nc = s->nc, N = k + nc, st = NZ_OK;
+  v->value = 0.0;
+  v->level = -1;
+  v->row = -1;
+  double *buf = calloc((size_t)(p - 1) * nc + (size_t)N + 2 * (size_t)nc * k + (size_t)nc + 1, sizeof(double));
+  if (!buf) return NZ_ENOMEM;
+  double *lw = buf, *res = lw + (size_t)(p - 1) * nc, *A = res + N, *At = A + (size_t)nc * k, *w = At + (size_t)nc * k;
+  for (int l = 0; l < p && !st; l++) {
+    double gscale;
+    if ((st = nz_series_level(s, orders, l, t, levels, lw, res, A, &gscale))) break;
+    if (l >= 2 && nc > 0) {
+      /* lambda^(l-2) enters the G rows as -A^T lambda^(l-2). */
+      for (int r = 0; r < nc; r++)
+        for (int i = 0; i < k; i++) At[(size_t)i * nc + r] = A[(size_t)r * k + i];
+      if ((st = nz_lstsq(k, nc, At, res, w))) break;
+      for (int r = 0; r < nc; r++) lw[(size_t)(l - 2) * nc + r] = w[r];
+      for (int i = 0; i < k; i++)
+        for (int r = 0; r < nc; r++) res[i] -= At[(size_t)i * nc + r] * w[r];
+    }
+    int row = -1;
+    double worst = worst_row(k, nc, orders, l, res, gscale, &row);
+    if (row >= 0 && (worst > v->value || v->row < 0)) {
+      v->value = worst;
+      v->level = l;
+      v->row = row;
+    }
+  }
+  if (!st) memcpy(lam, lw, (size_t)(p - 2) * nc * sizeof(double));
+  free(buf);
+  return st;
+}
+
+int nz_series_project(const nz_system *s, const int *orders, int p, double t, double *const *levels,
+                      double *lam, double tol, int maxit, int *iterations)
+{
+  int k = s->k, nc = s->nc, N = k + nc, st = NZ_OK;
+  *iterations = 0;
+  double *buf = calloc((size_t)(p - 1) * nc + 4 * (size_t)N + (size_t)N * N + (size_t)nc * k, sizeof(double));
+  if (!buf) return NZ_ENOMEM;
+  double *lw = buf, *res = lw + (size_t)(p - 1) * nc, *scratch = res + N, *rhs = scratch + N, *d = rhs + N;
+  double *J = d + N, *A = J + (size_t)N * N;
+  const double *const *lv = (const double *const *)levels;
+  for (int l = 2; l < p && !st; l++) {
+    double *x = levels[l], *w = lw + (size_t)(l - 2) * nc;
+    for (int it = 0;; it++) {
+      double gscale;
+      int row = -1;
+      if ((st = nz_series_level(s, orders, l, t, lv, lw, res, A, &gscale))) break;
+      if (worst_row(k, nc, orders, l, res, gscale, &row) <= tol) break;
+      if (it >= maxit) { st = NZ_EARG; break; }
+      if ((st = level_matrix(s, orders, l, t, lv, x, lw, res, A, J, scratch))) break;
+      for (int i = 0; i < N; i++) rhs[i] = -res[i];
+      if ((st = nz_lstsq(N, N, J, rhs, d))) break;
+      for (int i = 0; i < k; i++) x[i] += d[i];
+      for (int r = 0; r < nc; r++) w[r] += d[k + r];
+      (*iterations)++;
+    }
+  }
+  memcpy(lam, lw, (size_t)(p - 2) * nc * sizeof(double));
+  free(buf);
+  return st;
+}
