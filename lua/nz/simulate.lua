@@ -119,7 +119,7 @@ function M.simulate(sys, opts)
   local k, engine = sys.k, sys.engine
   local orders, linear = {}, {}
   if sys.nc > 0 then
-    orders, linear = constraints.orders(sys)
+    orders, linear = constraints.orders(sys, { t = cfg.t0, q = cfg.q0, qd = cfg.qd0 })
     for r, m in ipairs(orders) do
       if m > 2 then fail(sys, "constraint %d is of order %d: integration supports constraints up to order 2", r, m) end
     end
