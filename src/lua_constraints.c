@@ -277,4 +277,9 @@ static const luaL_Reg constraint_functions[] = {
 };
 
 /* Add the functions to the table on top of the stack (core.mech). */
-void nz_lua_open_constraints(lua_State *L) { luaL_setfuncs(L, constraint_functions, 0); }
+void nz_lua_open_constraints(lua_State *L)
+{
+  luaL_setfuncs(L, constraint_functions, 0);
+  lua_pushnumber(L, NZ_ACCEL_CHECK_TOL);      /* what the check promises (tests, help) */
+  lua_setfield(L, -2, "accel_check_tol");
+}
