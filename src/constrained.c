@@ -514,6 +514,7 @@ int nz_accel_constrained(const nz_system *s, const int *orders, const int *linea
   memcpy(qdd, x, (size_t)k * sizeof(double));
   memcpy(lambda, x + k, (size_t)nc * sizeof(double));
   if (rep->A) memcpy(rep->A, c.A, (size_t)nc * (size_t)k * sizeof(double));
+  if (rep->used) memcpy(rep->used, flags, 2 * (size_t)nc * sizeof(int));
 done:
   free(buf);
   free(flags);

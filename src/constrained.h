@@ -85,6 +85,8 @@ typedef struct nz_accel_report {
   int from_guess;           /* Newton started from the caller's guess         */
   double *A;                /* caller's nc x k, or NULL: the gradients A at the end */
   int reclassified;         /* constraints classified again at this state     */
+  int *used;                /* caller's 2 nc ints, or NULL: the orders, then   */
+                            /* the linear flags, the solution was found with   */
   /* NZ_ACCEL_CHECK: the row that failed (0..k-1: (6.2) for q_i; k + r:
    * constraint r), its violation |G| and its size (sum of |terms|); with
    * check_order >= 0, constraint r depends on q^(check_order) here, above

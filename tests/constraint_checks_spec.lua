@@ -52,6 +52,15 @@ describe("a constraint nonlinear only away from the sample states", function()
     local v = hamel_violation(qdd, lambda, switch(q3[1]))
     assert(v <= 1e-12, ("violation %.3g at qdd = %s"):format(v, vec(qdd)))
   end)
+  it("the user's state adds samples near it, and the rule says the linearity differs", function()
+    local sys = hamel_switch()
+    local n, why = sys:rule()
+    assert.are.equal(2, n, why)          -- near sys.sample the switch is below exp(-60)
+    sys:accel(t0, q3, qd3)
+    n, why = sys:rule()
+    assert.are.equal(3, n, why)
+    assert.truthy(why:find("its linearity in the accelerations differs across the sample states", 1, true), why)
+  end)
   it("the check after the solve repairs a linear classification (the C path alone)", function()
     local sys = hamel_switch()
     -- Force the classification the sample states near sys.sample give:
@@ -62,6 +71,26 @@ describe("a constraint nonlinear only away from the sample states", function()
     assert(v <= 1e-12, ("violation %.3g at qdd = %s"):format(v, vec(qdd)))
     local raw = mech.accel_constrained(sys.engine, t0, q3, qd3, { 2 }, { true }, { check = false })
     assert(math.abs(raw[3] - raw[1] * raw[2]) > 0.1, "check = false trusts the linear solve")
+  end)
+  it("the exact Jacobian of the motion uses the classification the check found", function()
+    local sys = hamel_switch()
+    -- The integrator told the linear classification; at q1 = 3 the check
+    -- switches to Newton, and the Jacobian must include the Hessian term.
+    local ode = mech.ode_new(sys.engine, { method = "bsimp", orders = { 2 }, linear = { true } })
+    local y = { q3[1], q3[2], q3[3], qd3[1], qd3[2], qd3[3] }
+    local J = mech.ode_jacobian(ode, sys.engine, t0, y)
+    for j = 1, 6 do
+      local yp, ym = { table.unpack(y) }, { table.unpack(y) }
+      yp[j], ym[j] = y[j] + 1e-6, y[j] - 1e-6
+      local ap, am = mech.ode_accel(ode, sys.engine, t0, yp), mech.ode_accel(ode, sys.engine, t0, ym)
+      for i = 1, 3 do
+        local fd = (ap[i] - am[i]) / 2e-6
+        -- Central differences with h = 1e-6: error ~ h^2 |q''''| + eps/h,
+        -- about 1e-9 here (the switch's third derivative is 30^3 e).
+        assert(math.abs(J[3 + i][j] - fd) <= 1e-6 * (1 + math.abs(fd)),
+          ("d qdd_%d / d y_%d = %.12g exact, %.12g by differences"):format(i, j, J[3 + i][j], fd))
+      end
+    end
   end)
   it("simulate across the switch keeps Phi at rounding and the motion on Hamel's equations", function()
     local sys = hamel_switch()

@@ -122,34 +122,43 @@ end
 
 -- The constraint could not be evaluated at the sample states: say what it
 -- returned or raised, at the user's file:line, and suggest a typical state
--- only when it fails for want of one (a domain error).
+-- only when it fails for want of one (a domain error at every sample).
 local function evaluation_failure(sys, r, failures)
-  local f = failures[1]
   local prefix = ("system '%s': constraint %d"):format(sys.name, r)
-  local all_domain = true
-  for _, e in ipairs(failures) do all_domain = all_domain and is_domain_error(e.msg) end
+  local f, all_domain = failures[1], true
+  for _, e in ipairs(failures) do
+    if not is_domain_error(e.msg) then
+      if all_domain then f = e end
+      all_domain = false
+    end
+  end
+  local msg, st = tostring(f.msg), f.state
   local fn = sys.engine.constraints[r]
   local info = type(fn) == "function" and debug.getinfo(fn, "S") or nil
   local where = info and ("%s:%d: "):format(info.short_src, info.linedefined) or ""
-  local st = f.state
+  -- The evaluator's words (lua_system.c): "raised an error: <error> at t = ...".
+  local raised = msg:match("raised an error: (.-) at t = ")
+  local loc, text
+  if raised then loc, text = raised:match("^([^:]+:%d+): (.*)$") end
+  where = loc and loc .. ": " or where
+  text = text or raised
   if all_domain then
-    local loc, msg = tostring(f.msg):match("raised an error: ([^:]+:%d+): (.-) at t = ")
     return ("%s%s cannot be evaluated at any of %d sample states (%s, at %s): give a typical "
       .. "state where it is defined as sample = {t = ..., q = {...}, qd = {...}} in nz.system")
-      :format(loc and loc .. ": " or where, prefix, #failures, msg or tostring(f.msg), fmt_state(st))
+      :format(where, prefix, #failures, text or msg, fmt_state(st))
+  elseif raised then
+    return ("%s%s raised an error at %s: %s"):format(where, prefix, fmt_state(st), text)
   end
-  -- Call it once more on plain numbers: what did it give?
-  local ok, got = pcall(fn, st.t, st[1], st[2], st[3], st[4])
-  if not ok then
-    local loc, msg = tostring(got):match("^([^:]+:%d+): (.*)$")
-    return ("%s%s raised an error at %s: %s"):format(loc and loc .. ": " or where, prefix,
-      fmt_state(st), msg or tostring(got))
-  elseif type(got) ~= "number" and not core.isjet(got) then
-    local what = got == nil and "nil" or ("%s (a %s)"):format(tostring(got), type(got))
+  -- It returned something else than a number or a jet: call it once more
+  -- on plain numbers to say what.
+  local ok, got = pcall(fn, st.t, st[1], st[2], st[3], st[4], sys.params)
+  if ok and type(got) ~= "number" and not core.isjet(got) then
+    local what = got == nil and "nil" or type(got) == "string" and ("'%s' (a string)"):format(got)
+      or ("%s (a %s)"):format(tostring(got), type(got))
     return ("%s%s returned %s at %s: a constraint returns the value of Phi(t, q, qd, ...), "
       .. "a number"):format(where, prefix, what, fmt_state(st))
   end
-  return ("%s%s could not be evaluated at the sample states: %s"):format(where, prefix, tostring(f.msg))
+  return ("%s%s could not be evaluated at the sample states: %s"):format(where, prefix, msg)
 end
 
 -- The highest slot constraint r depends on at one sample state (M.TOL), -1
