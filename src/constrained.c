@@ -348,10 +348,11 @@ static int check_row(kkt *c, int r, const double *const *state, double *high)
  * their terms (phi_prev: the rows before the last step, whose value a0 is a
  * term), and each constraint's order.  An acceleration counts at least 1 in
  * the sizes, as in slot_size: terms that cancel at an equilibrium (h = 0 up
- * to rounding, q'' = 0) must not turn rounding into a failure.  Returns NZ_OK with *failed = 0 when
- * all pass; otherwise *failed = 1, bad[r] = 1 for a constraint of too low
- * an order, 2 for a constraint row that fails, 4 when (6.2) fails (every
- * constraint's gradient may have moved), and the worst row in rep. */
+ * to rounding, q'' = 0) must not turn rounding into a failure.  Returns
+ * NZ_OK with *failed = 0 when all pass; otherwise *failed = 1, bad[r] has
+ * bit 1 for a constraint of too low an order, 2 for a constraint row that
+ * fails, 4 when (6.2) fails (every constraint's gradient may have moved),
+ * and rep holds the worst row. */
 static int check_solution(kkt *c, const double *x, const double *phi_prev, int *bad, int *failed,
                           nz_accel_report *rep)
 {
@@ -368,11 +369,12 @@ static int check_solution(kkt *c, const double *x, const double *phi_prev, int *
       size += fabs(c->A[(size_t)r * k + i]) * fmax(fabs(x[i]), 1.0);
       grad += fabs(c->A[(size_t)r * k + i]);
     }
-    double sm = slot_size(state, k, c->orders[r]);
-    if (fabs(high) > NZ_ACCEL_CHECK_TOL * grad * sm) {
+    double top = grad * slot_size(state, k, c->orders[r]);
+    if (fabs(high) > NZ_ACCEL_CHECK_TOL * top) {
+      double rel = top > 0 ? fabs(high) / top : INFINITY;
       bad[r] |= 1;
-      if (!*failed || fabs(high) / (grad * sm) > worst) {
-        worst = grad * sm > 0 ? fabs(high) / (grad * sm) : INFINITY;
+      if (!*failed || rel > worst) {
+        worst = rel;
         rep->check_row = k + r;
         rep->check_violation = fabs(c->phi[r]);
         rep->check_size = size;
@@ -418,7 +420,7 @@ static int check_solution(kkt *c, const double *x, const double *phi_prev, int *
 
 /* Classify the constraints the check blamed again at this state: the order
  * from the partial derivatives at (q, q', x), each slot weighted by its
- * size, with the test of the check; a second-order constraint is then solved
+ * size, as in the check; a second-order constraint is then solved
  * by Newton (which is exact in one step when it is linear after all).
  * Returns 1 when some classification changed, 0 when none did; -1 with
  * rep->check_order set for a constraint of order above 2 here. */
@@ -431,16 +433,18 @@ static int reclassify(kkt *c, const double *x, const int *bad, int *orders, int 
     if (!bad[r]) continue;
     int m = orders[r];
     if (bad[r] & 1) {
-      double value, dphidt, size[NZ_CONSTRAINT_SLOTS], top = 0.0;
+      double value, dphidt, size[NZ_CONSTRAINT_SLOTS];
       if ((*status = nz_constraint_partials(c->s, r, c->t, state, 3, &value, dphi, &dphidt))) return 0;
       for (int j = 0; j < L; j++) {
         size[j] = 0.0;
         for (int i = 0; i < k; i++) size[j] += fabs(dphi[j * k + i]);
         size[j] *= slot_size(state, k, j);
-        top = fmax(top, size[j]);
       }
+      /* The check's test slot by slot: its weighted sum over the slots
+       * above m exceeded tol x size[m], so one of them exceeds a fraction
+       * of that (the weights are at most 1.4, the slots at most 3). */
       for (int j = L - 1; j > m; j--)
-        if (size[j] > NZ_ACCEL_CHECK_TOL * top) { m = j; break; }
+        if (size[j] > 0.1 * NZ_ACCEL_CHECK_TOL * size[m]) { m = j; break; }
       if (m > 2) {
         rep->check_row = k + r;
         rep->check_order = m;
