@@ -376,8 +376,8 @@ static int check_solution(kkt *c, const double *x, const double *phi_prev, int *
       if (!*failed || rel > worst) {
         worst = rel;
         rep->check_row = k + r;
-        rep->check_violation = fabs(c->phi[r]);
-        rep->check_size = size;
+        rep->check_violation = fabs(high);
+        rep->check_size = top;
       }
       *failed = 1;
     }

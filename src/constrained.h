@@ -90,7 +90,8 @@ typedef struct nz_accel_report {
   /* NZ_ACCEL_CHECK: the row that failed (0..k-1: (6.2) for q_i; k + r:
    * constraint r), its violation |G| and its size (sum of |terms|); with
    * check_order >= 0, constraint r depends on q^(check_order) here, above
-   * the order 2 an acceleration-level solve can impose. */
+   * the order 2 an acceleration-level solve can impose, and the violation
+   * and size are those of its terms above and at its classified order. */
   int check_row, check_order;
   double check_violation, check_size;
 } nz_accel_report;

@@ -114,8 +114,10 @@ static void add_check_failure(luaL_Buffer *msg, const nz_accel_report *rep, cons
   char num[240];
   int row = rep->check_row;
   if (row >= k && rep->check_order > 2)
-    snprintf(num, sizeof num, "constraint %d, classified of order %d, depends on q^(%d) at this "
-             "state: accelerations cannot impose it here", row - k + 1, orders[row - k], rep->check_order);
+    snprintf(num, sizeof num, "constraint %d, classified of order %d, depends on q^(%d) here (its "
+             "terms above order %d are %.3g against %.3g at that order), and accelerations cannot "
+             "impose a constraint of order %d", row - k + 1, orders[row - k], rep->check_order,
+             orders[row - k], rep->check_violation, rep->check_size, rep->check_order);
   else if (row >= k)
     snprintf(num, sizeof num, "constraint %d is violated by %.3g (its terms are of size %.3g) after "
              "the solve, also after classifying it again at this state", row - k + 1,
@@ -151,7 +153,9 @@ int nz_lua_raise_accel_failure(lua_State *L, int def, const nz_accel_report *rep
     add_check_failure(&msg, &rep, orders, k);
     nz_lua_add_state(&msg, t, q, qd, k);
     luaL_addstring(&msg, rep.check_order > 2
-                   ? ": integrate it at its own order, or check the constraint where it changes order"
+                   ? ": give a state where it has that order as sample = {...} in nz.system, so that "
+                     "it is classified and integrated at its own order, or check the constraint "
+                     "where its order changes"
                    : ": check that the constraint is smooth here and consistent with its jet "
                      "(sys:constraints() shows its order and linearity at the sample states)");
   } else if (rep.failure == NZ_ACCEL_NEWTON) {
