@@ -84,7 +84,7 @@ static void read_row(const nz_jet *out, int m, int k, double alpha, double beta,
   *value = f * c[K];
   if (m == 0) *value += 2.0 * alpha * c[1] + beta * beta * c[0];   /* c: Phi, Phi', Phi''/2 */
   if (m == 1) *value += alpha * c[0];
-  for (int i = 0; i < k; i++) A[i] = f * nz_jet_tangent(out, i)[K];
+  for (int i = 0; A && i < k; i++) A[i] = f * nz_jet_tangent(out, i)[K];   /* A NULL: the value only */
 }
 
 int nz_constraint_row_along(const nz_system *s, int r, int m, double t, const double *const *state,
@@ -322,23 +322,27 @@ static double slot_size(const double *const *state, int k, int j)
  * irregular one cannot cancel two real dependences except by accident. */
 static double slot_weight(int j, int i, int k) { return 1.0 + 0.4 * sin(1.7 + 2.385 * (j * k + i)); }
 
-/* Constraint r at x: its row (value and A, as kkt_eval) and, in *high, its
- * derivative along the slots above its order weighted by their sizes: one
- * evaluation with one tangent more than the row needs. */
+/* Constraint r at x: its row's value (and for m = 2 its gradient A, as
+ * kkt_eval) and, in *high, its derivative along the slots above its order
+ * weighted by their sizes: one evaluation.  Below order 2 the row Phi^(2-m)
+ * is affine in q'' with A = dPhi/dq^(m) free of q'' as long as Phi does not
+ * depend on the slots above m, which *high tests: A from the solve stands,
+ * and the evaluation needs a single tangent. */
 static int check_row(kkt *c, int r, const double *const *state, double *high)
 {
-  int k = c->k, m = c->orders[r], K = 2 - m, st;
+  int k = c->k, m = c->orders[r], K = 2 - m, D = m == 2 ? k + 1 : 1, st;
   nz_motion mo;
-  if ((st = nz_motion_init(&mo, k, NZ_CONSTRAINT_SLOTS, K, k + 1, c->t, state, 3))) return st;
-  for (int i = 0; i < k; i++) nz_motion_seed_level(&mo, i, i, 2);
+  if ((st = nz_motion_init(&mo, k, NZ_CONSTRAINT_SLOTS, K, D, c->t, state, 3))) return st;
+  if (m == 2)
+    for (int i = 0; i < k; i++) nz_motion_seed_level(&mo, i, i, 2);
   for (int j = m + 1; j < NZ_CONSTRAINT_SLOTS; j++) {
     double sj = slot_size(state, k, j);
-    for (int i = 0; i < k; i++) nz_jet_tangent(mo.slot[j][i], k)[0] += slot_weight(j, i, k) * sj;
+    for (int i = 0; i < k; i++) nz_jet_tangent(mo.slot[j][i], D - 1)[0] += slot_weight(j, i, k) * sj;
   }
   st = nz_motion_eval(c->s, NZ_PIECE_PHI, r, &mo, NULL);
   if (!st) {
-    read_row(mo.out[0], m, k, c->alpha, c->beta, c->A + (size_t)r * k, &c->phi[r]);
-    *high = nz_jet_tangent(mo.out[0], k)[0];
+    read_row(mo.out[0], m, k, c->alpha, c->beta, m == 2 ? c->A + (size_t)r * k : NULL, &c->phi[r]);
+    *high = nz_jet_tangent(mo.out[0], D - 1)[0];
   }
   nz_motion_free(&mo);
   return st;
