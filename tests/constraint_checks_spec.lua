@@ -293,7 +293,7 @@ describe("a constraint function that fails says what it did", function()
   end)
   it("a domain error at every sample state suggests a typical state", function()
     local sys = plane("domain", function(t, q, qd) return nz.sqrt(q[1] - 50) - q[2] end)
-    h.checkerror("system 'domain': constraint 1 cannot be evaluated at any of 20 sample states ('sqrt' of a negative value",
+    h.checkerror("system 'domain': constraint 1 cannot be evaluated at 20 of 20 sample states ('sqrt' of a negative value",
       sys.rule, sys)
     h.checkerror("give a typical state where it is defined as sample = {t = ..., q = {...}, qd = {...}} in nz.system",
       sys.rule, sys)

@@ -123,7 +123,7 @@ end
 -- The constraint could not be evaluated at the sample states: say what it
 -- returned or raised, at the user's file:line, and suggest a typical state
 -- only when it fails for want of one (a domain error at every sample).
-local function evaluation_failure(sys, r, failures)
+local function evaluation_failure(sys, r, failures, tried)
   local prefix = ("system '%s': constraint %d"):format(sys.name, r)
   local f, all_domain = failures[1], true
   for _, e in ipairs(failures) do
@@ -143,9 +143,9 @@ local function evaluation_failure(sys, r, failures)
   where = loc and loc .. ": " or where
   text = text or raised
   if all_domain then
-    return ("%s%s cannot be evaluated at any of %d sample states (%s, at %s): give a typical "
+    return ("%s%s cannot be evaluated at %d of %d sample states (%s, at %s): give a typical "
       .. "state where it is defined as sample = {t = ..., q = {...}, qd = {...}} in nz.system")
-      :format(where, prefix, #failures, text or msg, fmt_state(st))
+      :format(where, prefix, #failures, tried, text or msg, fmt_state(st))
   elseif raised then
     return ("%s%s raised an error at %s: %s"):format(where, prefix, fmt_state(st), text)
   end
@@ -196,7 +196,7 @@ local function classify_one(sys, r)
       else failures[#failures + 1] = { state = st, msg = value } end
     end
   end
-  if #rows < 2 then error(evaluation_failure(sys, r, failures), 0) end
+  if #rows < 2 then error(evaluation_failure(sys, r, failures, #failures + #rows), 0) end
   local c = { index = r, samples = #rows, norms = { 0, 0, 0, 0 }, orders_seen = {} }
   for _, row in ipairs(rows) do
     local m, S = order_at(row)
