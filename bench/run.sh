@@ -10,3 +10,5 @@ echo
 build/nzlua bench/workprecision.lua
 echo
 build/nzlua bench/scene_cost.lua
+echo
+build/nzlua bench/accel_check.lua

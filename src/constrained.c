@@ -85,7 +85,7 @@ static void read_row(const nz_jet *out, int m, int k, double alpha, double beta,
   *value = f * c[K];
   if (m == 0) *value += 2.0 * alpha * c[1] + beta * beta * c[0];   /* c: Phi, Phi', Phi''/2 */
   if (m == 1) *value += alpha * c[0];
-  for (int i = 0; i < k; i++) A[i] = f * nz_jet_tangent(out, i)[K];
+  for (int i = 0; A && i < k; i++) A[i] = f * nz_jet_tangent(out, i)[K];   /* A NULL: the value only */
 }
 
 int nz_constraint_row_along(const nz_system *s, int r, int m, double t, const double *const *state,
@@ -252,37 +252,23 @@ static int solve_nonlinear(kkt *c, double *x, const nz_accel_options *opt, doubl
   return st;
 }
 
-int nz_accel_constrained(const nz_system *s, const int *orders, const int *linear, double t,
-                         const double *q, const double *qd, const nz_accel_options *opt,
-                         double *qdd, double *lambda, nz_accel_report *rep)
+/* The solve proper, with the classification in c->orders, c->linear: x
+ * (k + nc) on return; G holds G at the point before the last step. */
+static int solve(kkt *c, const nz_accel_options *opt, double *x, double *G, double *J, double *Jc,
+                 double *dx, nz_accel_report *rep)
 {
-  int k = s->k, nc = s->nc, N = k + nc, st = NZ_OK, nonlinear = 0;
-  rep->failure = NZ_ACCEL_OK;
+  int k = c->k, nc = c->nc, N = c->N, st, nonlinear = 0;
+  size_t kk = (size_t)k * (size_t)k;
+  for (int r = 0; r < nc; r++) {
+    if (c->orders[r] > 2) { rep->failure = NZ_ACCEL_ORDER; return NZ_EARG; }
+    if (c->orders[r] == 2 && !c->linear[r]) nonlinear = 1;
+  }
+  memset(x, 0, (size_t)N * sizeof(double));
   rep->iterations = 0;
   rep->residual = 0.0;
-  rep->rank_A = nc;
   rep->from_guess = 0;
-  for (int r = 0; r < nc; r++) {
-    if (orders[r] > 2) { rep->failure = NZ_ACCEL_ORDER; return NZ_EARG; }
-    if (orders[r] == 2 && !linear[r]) nonlinear = 1;
-  }
-  size_t kk = (size_t)k * (size_t)k, NN = (size_t)N * (size_t)N;
-  double *buf = calloc(2 * kk + 2 * NN + (size_t)nc * (size_t)k + 5 * (size_t)N + (size_t)k, sizeof(double));
-  if (!buf) return NZ_ENOMEM;
-  kkt c = { s, orders, linear, opt->baumgarte_alpha, opt->baumgarte_beta, t, q, qd, k, nc, N,
-            NULL, NULL, NULL, NULL, NULL, NULL, NZ_OK };
-  c.M = buf;
-  c.H = c.M + kk;
-  double *J = c.H + kk, *Jc = J + NN;
-  c.A = Jc + NN;
-  double *G = c.A + (size_t)nc * k, *x = G + N, *dx = x + N;
-  c.phi = dx + N;
-  c.x = c.phi + N;
-  c.h = c.x + N;
-
-  if ((st = nz_mass_bias(s, t, q, qd, c.M, c.h))) goto done;
   double scale = 1.0;
-  for (int i = 0; i < k; i++) scale = fmax(scale, fabs(c.h[i]));
+  for (int i = 0; i < k; i++) scale = fmax(scale, fabs(c->h[i]));
 
   if (nonlinear) {
     /* Start from the caller's guess or the unconstrained accelerations. */
@@ -292,34 +278,255 @@ int nz_accel_constrained(const nz_system *s, const int *orders, const int *linea
       rep->from_guess = 1;
     } else {
       nz_solve_info info;
-      memcpy(Jc, c.M, kk * sizeof(double));
-      for (int i = 0; i < k; i++) G[i] = -c.h[i];
+      memcpy(Jc, c->M, kk * sizeof(double));
+      for (int i = 0; i < k; i++) G[i] = -c->h[i];
       if (nz_solve_spd(k, Jc, G, x, opt->rcond_min, &info)) {
         rep->failure = NZ_ACCEL_SINGULAR;
-        st = NZ_ESINGULAR;
-        goto done;
+        return NZ_ESINGULAR;
       }
     }
-    if ((st = solve_nonlinear(&c, x, opt, scale, rep))) goto done;
+    if ((st = solve_nonlinear(c, x, opt, scale, rep))) return st;
   }
   /* The linear solve (all constraints affine in q'': one step from 0 is
    * exact), and for the nonlinear case a last step at the root, whose
    * matrix tells the condition of the system and the multipliers' quality. */
-  if ((st = kkt_eval(&c, x, G, J))) goto done;
-  for (int i = 0; i < N; i++) G[i] = -G[i];
-  if ((st = nz_solve_svd(N, J, G, dx, &rep->rcond))) goto done;
+  if ((st = kkt_eval(c, x, G, J))) return st;
+  for (int i = 0; i < N; i++) dx[i] = -G[i];
+  memcpy(Jc, dx, (size_t)N * sizeof(double));
+  if ((st = nz_solve_svd(N, J, Jc, dx, &rep->rcond))) return st;
   if (!(rep->rcond >= opt->rcond_min)) {
     rep->failure = NZ_ACCEL_SINGULAR;
-    diagnose_dependence(nc, k, c.A, rep);
-    st = NZ_ESINGULAR;
-    goto done;
+    diagnose_dependence(nc, k, c->A, rep);
+    return NZ_ESINGULAR;
   }
   for (int i = 0; i < N; i++) x[i] += dx[i];
+  return NZ_OK;
+}
+
+/* ------------------------------------------------------------------ */
+/* The check after the solve                                            */
+
+/* Typical size of q^(j) at the state: its largest component, at least 1
+ * (a state at rest must not hide a dependence on the velocities).  Slots
+ * above q'' are not known at the acceleration level: they take the size
+ * of q''. */
+static double slot_size(const double *const *state, int k, int j)
+{
+  double m = 1.0;
+  const double *v = state[j < 2 ? j : 2];
+  for (int i = 0; i < k; i++) m = fmax(m, fabs(v[i]));
+  return m;
+}
+
+/* A fixed weight in [0.6, 1.4] for slot j of q_i: the check differentiates
+ * along one combination of the slots above the order, and a fixed,
+ * irregular one cannot cancel two real dependences except by accident. */
+static double slot_weight(int j, int i, int k) { return 1.0 + 0.4 * sin(1.7 + 2.385 * (j * k + i)); }
+
+/* Constraint r at x: its row's value (and for m = 2 its gradient A, as
+ * kkt_eval) and, in *high, its derivative along the slots above its order
+ * weighted by their sizes: one evaluation.  Below order 2 the row Phi^(2-m)
+ * is affine in q'' with A = dPhi/dq^(m) free of q'' as long as Phi does not
+ * depend on the slots above m, which *high tests: A from the solve stands,
+ * and the evaluation needs a single tangent. */
+static int check_row(kkt *c, int r, const double *const *state, double *high)
+{
+  int k = c->k, m = c->orders[r], K = 2 - m, D = m == 2 ? k + 1 : 1, st;
+  nz_motion mo;
+  if ((st = nz_motion_init(&mo, k, NZ_CONSTRAINT_SLOTS, K, D, c->t, state, 3))) return st;
+  if (m == 2)
+    for (int i = 0; i < k; i++) nz_motion_seed_level(&mo, i, i, 2);
+  for (int j = m + 1; j < NZ_CONSTRAINT_SLOTS; j++) {
+    double sj = slot_size(state, k, j);
+    for (int i = 0; i < k; i++) nz_jet_tangent(mo.slot[j][i], D - 1)[0] += slot_weight(j, i, k) * sj;
+  }
+  st = nz_motion_eval(c->s, NZ_PIECE_PHI, r, &mo, NULL);
+  if (!st) {
+    read_row(mo.out[0], m, k, c->alpha, c->beta, m == 2 ? c->A + (size_t)r * k : NULL, &c->phi[r]);
+    *high = nz_jet_tangent(mo.out[0], D - 1)[0];
+  }
+  nz_motion_free(&mo);
+  return st;
+}
+
+/* Check the solution x: (6.2) and the constraint rows against the sizes of
+ * their terms (phi_prev: the rows before the last step, whose value a0 is a
+ * term), and each constraint's order.  An acceleration counts at least 1 in
+ * the sizes, as in slot_size: terms that cancel at an equilibrium (h = 0 up
+ * to rounding, q'' = 0) must not turn rounding into a failure.  Returns
+ * NZ_OK with *failed = 0 when all pass; otherwise *failed = 1, bad[r] has
+ * bit 1 for a constraint of too low an order, 2 for a constraint row that
+ * fails, 4 when (6.2) fails (every constraint's gradient may have moved),
+ * and rep holds the worst row. */
+static int check_solution(kkt *c, const double *x, const double *phi_prev, int *bad, int *failed,
+                          nz_accel_report *rep)
+{
+  int k = c->k, nc = c->nc, st;
+  const double *state[3] = { c->q, c->qd, x };
+  double worst = 0.0;
+  *failed = 0;
+  memcpy(c->x, x, (size_t)c->N * sizeof(double));
+  for (int r = 0; r < nc; r++) {
+    double high, size = fabs(phi_prev[r]), grad = 0.0;
+    bad[r] = 0;
+    if ((st = check_row(c, r, state, &high))) return st;
+    for (int i = 0; i < k; i++) {
+      size += fabs(c->A[(size_t)r * k + i]) * fmax(fabs(x[i]), 1.0);
+      grad += fabs(c->A[(size_t)r * k + i]);
+    }
+    double top = grad * slot_size(state, k, c->orders[r]);
+    if (fabs(high) > NZ_ACCEL_CHECK_TOL * top) {
+      double rel = top > 0 ? fabs(high) / top : INFINITY;
+      bad[r] |= 1;
+      if (!*failed || rel > worst) {
+        worst = rel;
+        rep->check_row = k + r;
+        rep->check_violation = fabs(high);
+        rep->check_size = top;
+      }
+      *failed = 1;
+    }
+    if (fabs(c->phi[r]) > NZ_ACCEL_CHECK_TOL * size) {
+      bad[r] |= 2;
+      double rel = size > 0 ? fabs(c->phi[r]) / size : INFINITY;
+      if (!*failed || rel > worst) {
+        worst = rel;
+        rep->check_row = k + r;
+        rep->check_violation = fabs(c->phi[r]);
+        rep->check_size = size;
+      }
+      *failed = 1;
+    }
+  }
+  for (int i = 0; i < k; i++) {
+    double g = c->h[i], size = fabs(c->h[i]);
+    for (int j = 0; j < k; j++) {
+      g += c->M[i * k + j] * x[j];
+      size += fabs(c->M[i * k + j]) * fmax(fabs(x[j]), 1.0);
+    }
+    for (int r = 0; r < nc; r++) {
+      g -= c->A[(size_t)r * k + i] * x[k + r];
+      size += fabs(c->A[(size_t)r * k + i] * x[k + r]);
+    }
+    if (fabs(g) > NZ_ACCEL_CHECK_TOL * size) {
+      for (int r = 0; r < nc; r++) bad[r] |= 4;
+      double rel = size > 0 ? fabs(g) / size : INFINITY;
+      if (!*failed || rel > worst) {
+        worst = rel;
+        rep->check_row = i;
+        rep->check_violation = fabs(g);
+        rep->check_size = size;
+      }
+      *failed = 1;
+    }
+  }
+  return NZ_OK;
+}
+
+/* Classify the constraints the check blamed again at this state: the order
+ * from the partial derivatives at (q, q', x), each slot weighted by its
+ * size, as in the check; a second-order constraint is then solved
+ * by Newton (which is exact in one step when it is linear after all).
+ * Returns 1 when some classification changed, 0 when none did; -1 with
+ * rep->check_order set for a constraint of order above 2 here. */
+static int reclassify(kkt *c, const double *x, const int *bad, int *orders, int *linear,
+                      double *dphi, nz_accel_report *rep, int *status)
+{
+  int k = c->k, L = NZ_CONSTRAINT_SLOTS, changed = 0;
+  const double *state[3] = { c->q, c->qd, x };
+  for (int r = 0; r < c->nc; r++) {
+    if (!bad[r]) continue;
+    int m = orders[r];
+    if (bad[r] & 1) {
+      double value, dphidt, size[NZ_CONSTRAINT_SLOTS];
+      if ((*status = nz_constraint_partials(c->s, r, c->t, state, 3, &value, dphi, &dphidt))) return 0;
+      for (int j = 0; j < L; j++) {
+        size[j] = 0.0;
+        for (int i = 0; i < k; i++) size[j] += fabs(dphi[j * k + i]);
+        size[j] *= slot_size(state, k, j);
+      }
+      /* The check's test slot by slot: its weighted sum over the slots
+       * above m exceeded tol x size[m], so one of them exceeds a fraction
+       * of that (the weights are at most 1.4, the slots at most 3). */
+      for (int j = L - 1; j > m; j--)
+        if (size[j] > 0.1 * NZ_ACCEL_CHECK_TOL * size[m]) { m = j; break; }
+      if (m > 2) {
+        rep->check_row = k + r;
+        rep->check_order = m;
+        return -1;
+      }
+    }
+    if (m == 2 && (linear[r] || m != orders[r])) {
+      orders[r] = 2;
+      linear[r] = 0;
+      changed = 1;
+      rep->reclassified++;
+    } else if (m != orders[r]) {
+      orders[r] = m;
+      changed = 1;
+      rep->reclassified++;
+    }
+  }
+  return changed;
+}
+
+int nz_accel_constrained(const nz_system *s, const int *orders, const int *linear, double t,
+                         const double *q, const double *qd, const nz_accel_options *opt,
+                         double *qdd, double *lambda, nz_accel_report *rep)
+{
+  int k = s->k, nc = s->nc, N = k + nc, st = NZ_OK;
+  rep->failure = NZ_ACCEL_OK;
+  rep->iterations = 0;
+  rep->residual = 0.0;
+  rep->rank_A = nc;
+  rep->from_guess = 0;
+  rep->reclassified = 0;
+  rep->check_row = -1;
+  rep->check_order = -1;
+  rep->check_violation = rep->check_size = 0.0;
+  size_t kk = (size_t)k * (size_t)k, NN = (size_t)N * (size_t)N;
+  double *buf = calloc(2 * kk + 2 * NN + (size_t)nc * (size_t)k + 6 * (size_t)N + (size_t)k
+                       + (size_t)NZ_CONSTRAINT_SLOTS * (size_t)k, sizeof(double));
+  int *flags = calloc(3 * (size_t)nc + 1, sizeof(int));
+  if (!buf || !flags) { free(buf); free(flags); return NZ_ENOMEM; }
+  int *ord = flags, *lin = flags + nc, *bad = flags + 2 * nc;
+  memcpy(ord, orders, (size_t)nc * sizeof(int));
+  memcpy(lin, linear, (size_t)nc * sizeof(int));
+  kkt c = { s, ord, lin, opt->baumgarte_alpha, opt->baumgarte_beta, t, q, qd, k, nc, N,
+            NULL, NULL, NULL, NULL, NULL, NULL, NZ_OK };
+  c.M = buf;
+  c.H = c.M + kk;
+  double *J = c.H + kk, *Jc = J + NN;
+  c.A = Jc + NN;
+  double *G = c.A + (size_t)nc * k, *x = G + N, *dx = x + N;
+  c.phi = dx + N;
+  c.x = c.phi + N;
+  c.h = c.x + N;
+  double *phi_prev = c.h + k, *dphi = phi_prev + N;
+
+  if ((st = nz_mass_bias(s, t, q, qd, c.M, c.h))) goto done;
+  if ((st = solve(&c, opt, x, G, J, Jc, dx, rep))) goto done;
+  if (!opt->skip_check) {
+    /* Check; when it fails, classify the blamed constraints again here and
+     * solve once more; a second failure is the caller's error. */
+    for (int pass = 0; pass < 2; pass++) {
+      int failed, changed;
+      memcpy(phi_prev, G + k, (size_t)nc * sizeof(double));
+      if ((st = check_solution(&c, x, phi_prev, bad, &failed, rep)) || !failed) break;
+      changed = pass == 0 ? reclassify(&c, x, bad, ord, lin, dphi, rep, &st) : 0;
+      if (st) break;
+      if (changed <= 0) { rep->failure = NZ_ACCEL_CHECK; st = NZ_EARG; break; }
+      if ((st = solve(&c, opt, x, G, J, Jc, dx, rep))) break;
+    }
+    if (st) goto done;
+  }
   memcpy(qdd, x, (size_t)k * sizeof(double));
   memcpy(lambda, x + k, (size_t)nc * sizeof(double));
   if (rep->A) memcpy(rep->A, c.A, (size_t)nc * (size_t)k * sizeof(double));
+  if (rep->used) memcpy(rep->used, flags, 2 * (size_t)nc * sizeof(int));
 done:
   free(buf);
+  free(flags);
   return st;
 }
 

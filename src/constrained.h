@@ -50,15 +50,29 @@ typedef struct nz_accel_options {
   double baumgarte_alpha;   /* Baumgarte stabilization (0, 0: none):           */
   double baumgarte_beta;    /* Phi'' + 2 alpha Phi' + beta^2 Phi = 0 (holonomic), */
                             /* Phi' + alpha Phi = 0 (first order)               */
+  int skip_check;           /* 1: trust the solve (only to measure the check's */
+                            /* cost); 0, the default, checks every solution    */
 } nz_accel_options;
 
-#define NZ_ACCEL_DEFAULTS { 1e-13, 1e-12, 50, NULL, NULL, 0.0, 0.0 }
+#define NZ_ACCEL_DEFAULTS { 1e-13, 1e-12, 50, NULL, NULL, 0.0, 0.0, 0 }
+
+/* The check after every solve: a row of (6.2) or of the constraints fails
+ * when |G| > NZ_ACCEL_CHECK_TOL x (the sum of the sizes of its terms), and a
+ * constraint classified of order m fails when its derivative along the slots
+ * above m, weighted by their typical sizes, exceeds NZ_ACCEL_CHECK_TOL x the
+ * size of its q^(m) terms.  A backward-stable solve leaves relative residuals
+ * of a few k eps (1e-15); 1e-10 leaves five orders for rounding in the
+ * user's terms, and matches the integrator's default rtol: an error the check
+ * lets pass is below what the integration itself commits. */
+#define NZ_ACCEL_CHECK_TOL 1e-10
 
 typedef enum nz_accel_failure {
   NZ_ACCEL_OK = 0,
   NZ_ACCEL_SINGULAR,        /* [M A^T; A 0] singular or badly conditioned     */
   NZ_ACCEL_NEWTON,          /* Newton did not converge                        */
-  NZ_ACCEL_ORDER            /* a constraint of order > 2                      */
+  NZ_ACCEL_ORDER,           /* a constraint of order > 2                      */
+  NZ_ACCEL_CHECK            /* the solution fails the check, also after the    */
+                            /* constraints were classified again at the state  */
 } nz_accel_failure;
 
 typedef struct nz_accel_report {
@@ -70,6 +84,16 @@ typedef struct nz_accel_report {
   int *involved;            /* caller's nc ints: 1 for constraints in a dependence */
   int from_guess;           /* Newton started from the caller's guess         */
   double *A;                /* caller's nc x k, or NULL: the gradients A at the end */
+  int reclassified;         /* constraints classified again at this state     */
+  int *used;                /* caller's 2 nc ints, or NULL: the orders, then   */
+                            /* the linear flags, the solution was found with   */
+  /* NZ_ACCEL_CHECK: the row that failed (0..k-1: (6.2) for q_i; k + r:
+   * constraint r), its violation |G| and its size (sum of |terms|); with
+   * check_order >= 0, constraint r depends on q^(check_order) here, above
+   * the order 2 an acceleration-level solve can impose, and the violation
+   * and size are those of its terms above and at its classified order. */
+  int check_row, check_order;
+  double check_violation, check_size;
 } nz_accel_report;
 
 /* Rank of the gradients A (nc x k) into rep->rank_A, and rep->involved[r]
@@ -78,8 +102,12 @@ void nz_constraint_dependence(int nc, int k, const double *A, nz_accel_report *r
 
 /* Accelerations and multipliers of M q'' + h = A^T lambda with the
  * constraints closed at the acceleration level.  orders[r] and linear[r]
- * come from the classification.  Returns NZ_OK, NZ_ESINGULAR (report says
- * why), or NZ_EARG (report.failure = NZ_ACCEL_NEWTON / NZ_ACCEL_ORDER). */
+ * come from the classification.  Every solution is checked (see
+ * NZ_ACCEL_CHECK_TOL); when the check fails, the constraints it blames are
+ * classified again at this state (order, and linearity in q'') and the
+ * system is solved again, by Newton where a constraint is nonlinear here.
+ * Returns NZ_OK, NZ_ESINGULAR (report says why), or NZ_EARG
+ * (report.failure = NZ_ACCEL_NEWTON / NZ_ACCEL_ORDER / NZ_ACCEL_CHECK). */
 int nz_accel_constrained(const nz_system *s, const int *orders, const int *linear, double t,
                          const double *q, const double *qd, const nz_accel_options *opt,
                          double *qdd, double *lambda, nz_accel_report *rep);

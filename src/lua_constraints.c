@@ -138,6 +138,27 @@ static void read_flags(lua_State *L, int idx, int n, int *v, const char *what)
 }
 
 
+/* What the check after the solve found (NZ_ACCEL_CHECK). */
+static void add_check_failure(luaL_Buffer *msg, const nz_accel_report *rep, const int *orders, int k)
+{
+  char num[240];
+  int row = rep->check_row;
+  if (row >= k && rep->check_order > 2)
+    snprintf(num, sizeof num, "constraint %d, classified of order %d, depends on q^(%d) here (its "
+             "terms above order %d are %.3g against %.3g at that order), and accelerations cannot "
+             "impose a constraint of order %d", row - k + 1, orders[row - k], rep->check_order,
+             orders[row - k], rep->check_violation, rep->check_size, rep->check_order);
+  else if (row >= k)
+    snprintf(num, sizeof num, "constraint %d is violated by %.3g (its terms are of size %.3g) after "
+             "the solve, also after classifying it again at this state", row - k + 1,
+             rep->check_violation, rep->check_size);
+  else
+    snprintf(num, sizeof num, "equation (6.2) for coordinate %d is violated by %.3g (its terms are "
+             "of size %.3g) after the solve, also after classifying the constraints again at this "
+             "state", row + 1, rep->check_violation, rep->check_size);
+  luaL_addstring(msg, num);
+}
+
 /* The error of a failed constrained solve: why, where, and what to do. */
 int nz_lua_raise_accel_failure(lua_State *L, int def, const nz_accel_report *rep_, const int *orders,
                                double t, const double *q, const double *qd, int k, int nc)
@@ -159,6 +180,15 @@ int nz_lua_raise_accel_failure(lua_State *L, int def, const nz_accel_report *rep
     luaL_addstring(&msg, ": under it q'' is part of the state, not a function of (t, q, qd), so "
                          "accelerations come from the state: integrate with sys:simulate{..., qdd0 = ...} "
                          "(residuals, classification and sys:project work)");
+  } else if (rep.failure == NZ_ACCEL_CHECK) {
+    add_check_failure(&msg, &rep, orders, k);
+    nz_lua_add_state(&msg, t, q, qd, k);
+    luaL_addstring(&msg, rep.check_order > 2
+                   ? ": give a state where it has that order as sample = {...} in nz.system, so that "
+                     "it is classified and integrated at its own order, or check the constraint "
+                     "where its order changes"
+                   : ": check that the constraint is smooth here and consistent with its jet "
+                     "(sys:constraints() shows its order and linearity at the sample states)");
   } else if (rep.failure == NZ_ACCEL_NEWTON) {
     snprintf(num, sizeof num, "Newton's method on (6.2) and the constraints did not converge in %d "
              "iterations (residual %.3g)", rep.iterations, rep.residual);
@@ -222,6 +252,7 @@ static int ls_accel_constrained(lua_State *L)
     if (lua_getfield(L, 7, "tol") == LUA_TNUMBER) opt.newton_tol = lua_tonumber(L, -1);
     if (lua_getfield(L, 7, "maxit") == LUA_TNUMBER) opt.newton_maxit = (int)lua_tointeger(L, -1);
     if (lua_getfield(L, 7, "rcond_min") == LUA_TNUMBER) opt.rcond_min = lua_tonumber(L, -1);
+    if (lua_getfield(L, 7, "check") == LUA_TBOOLEAN) opt.skip_check = !lua_toboolean(L, -1);
     if (lua_getfield(L, 7, "qdd") == LUA_TTABLE) {
       nz_lua_read_vector(L, lua_gettop(L), k, gq, "guess qdd", 0, "accel");
       opt.guess_qdd = gq;
@@ -235,7 +266,7 @@ static int ls_accel_constrained(lua_State *L)
       }
       opt.guess_lambda = gl;
     }
-    lua_pop(L, 5);
+    lua_pop(L, 6);
   }
   nz_accel_report rep;
   memset(&rep, 0, sizeof rep);
@@ -245,7 +276,9 @@ static int ls_accel_constrained(lua_State *L)
   if (st) return nz_lua_raise_accel_failure(L, 1, &rep, orders, t, q, qd, k, nc);
   nz_lua_push_vector(L, qdd, k);
   nz_lua_push_vector(L, lam, nc);
-  lua_createtable(L, 0, 4);
+  lua_createtable(L, 0, 5);
+  lua_pushinteger(L, rep.reclassified);
+  lua_setfield(L, -2, "reclassified");
   lua_pushinteger(L, rep.iterations);
   lua_setfield(L, -2, "iterations");
   lua_pushnumber(L, rep.residual);
@@ -283,4 +316,6 @@ void nz_lua_open_constraints(lua_State *L)
 {
   luaL_setfuncs(L, constraint_functions, 0);
   nz_lua_open_series(L);
+  lua_pushnumber(L, NZ_ACCEL_CHECK_TOL);      /* what the check promises (tests, help) */
+  lua_setfield(L, -2, "accel_check_tol");
 }

@@ -96,6 +96,9 @@ static int lo_new(lua_State *L)
   acc.newton_tol = number_field(L, 2, "newton_tol", acc.newton_tol);
   acc.newton_maxit = (int)number_field(L, 2, "newton_maxit", acc.newton_maxit);
   acc.rcond_min = number_field(L, 2, "rcond_min", acc.rcond_min);
+  lua_getfield(L, 2, "check");              /* false: trust every solve (to measure the check) */
+  acc.skip_check = lua_isboolean(L, -1) && !lua_toboolean(L, -1);
+  lua_pop(L, 1);
   cfg.accel = acc;
   ode_box *box = lua_newuserdatauv(L, sizeof *box, 0);
   memset(box, 0, sizeof *box);

@@ -12,7 +12,8 @@ int nz_ode_jacobian(const nz_system *s, const int *orders, const int *linear,
   const double *q = y, *qd = y + k;
   size_t kk = (size_t)k * k, NN = (size_t)N * N;
   double *buf = calloc(2 * kk + NN + 2 * (size_t)nc * k + 8 * (size_t)N + 4 * (size_t)k, sizeof(double));
-  if (!buf) return NZ_ENOMEM;
+  int *flags = calloc(3 * (size_t)nc + 1, sizeof(int));
+  if (!buf || !flags) { free(buf); free(flags); return NZ_ENOMEM; }
   double *M = buf, *H = M + kk, *J = H + kk, *A = J + NN, *dA = A + (size_t)nc * k;
   double *x = dA + (size_t)nc * k, *rhs = x + N, *dx = rhs + N, *h = dx + N;
   double *r = h + N, *dr = r + N, *e = dr + N, *zero = e + N;
@@ -29,10 +30,11 @@ int nz_ode_jacobian(const nz_system *s, const int *orders, const int *linear,
   } else {
     nz_accel_report rep;
     memset(&rep, 0, sizeof rep);
-    int *involved = calloc((size_t)nc, sizeof(int));
-    rep.involved = involved;
-    st = involved ? nz_accel_constrained(s, orders, linear, t, q, qd, opt, x, x + k, &rep) : NZ_ENOMEM;
-    free(involved);
+    rep.involved = flags;
+    rep.used = flags + nc;
+    st = nz_accel_constrained(s, orders, linear, t, q, qd, opt, x, x + k, &rep);
+    orders = flags + nc;           /* the classification the check settled on here */
+    linear = flags + 2 * nc;
   }
   if (st) goto done;
   const double *state[3] = { q, qd, x };
@@ -84,5 +86,6 @@ int nz_ode_jacobian(const nz_system *s, const int *orders, const int *linear,
   }
 done:
   free(buf);
+  free(flags);
   return st;
 }

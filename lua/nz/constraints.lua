@@ -13,8 +13,16 @@ local mech = core.mech
 local M = {}
 
 -- Defaults, documented in help(nz.system).
-M.SAMPLES = 5              -- sample states for the classification
-M.ZERO = 1e-11             -- a partial below ZERO x scale counts as zero
+M.SAMPLES = 5              -- sample states for the classification, per anchor state
+M.MAX_ANCHORS = 8          -- the user's states that add samples near them
+-- A slot counts when |dPhi/dq^(j)| s_j > TOL x S, s_j the typical size of
+-- q^(j) and S the largest such contribution (Phi's own value is no part of
+-- S: a big constant hides no dependence).  Jets give the partials exactly up
+-- to rounding: an absent dependence gives 0, one that cancels (sin^2 + cos^2)
+-- a few eps times its terms; 32 eps (7e-15) sits above that rounding and
+-- still sees 1e6 (q1 - q2) + 1e-6 q1' (ratio 5e-13) as first order.
+M.TOL = 32 * 2 ^ -52
+M.ZERO = 1e-11             -- a force Jacobian or dL/dt below this counts as zero
 M.PROJECT_TOL = 1e-12      -- projection stops when the violation is below this
 M.CHECK_TOL = 1e-8         -- a start state may violate a constraint by this much
 
@@ -86,17 +94,38 @@ M.generator = generator
 
 local function max_abs(v) local m = 0; for i = 1, #v do m = math.max(m, math.abs(v[i])) end; return m end
 
-local function sample_states(sys, n)
-  local rand = generator(20261122)
+-- The name of level j (1-based: q, qd, qdd, qddd, q4d, q5d, ...), as in a
+-- sample state or simulate's options.
+local function level_name(j) return ({ "q", "qd", "qdd", "qddd" })[j] or ("q" .. (j - 1) .. "d") end
+
+-- The state the samples spread around: sys.sample, or one of the user's.
+local function anchor_from(sys, st)
   local base = sys.sample or {}
-  local k, states = sys.k, {}
+  local a = { t = st.t or base.t or 0.3 }
+  for j = 1, slots_of(sys) do
+    local name = level_name(j)
+    local given, b, v = st[name], base[name] or {}, {}
+    for i = 1, sys.k do v[i] = given and given[i] or b[i] or 0.2 * j end
+    a[j] = v
+  end
+  return a
+end
+
+local function anchors(sys)
+  if not sys._anchors then sys._anchors = { anchor_from(sys, {}) } end
+  return sys._anchors
+end
+
+-- n states near an anchor: every slot moves by up to 1, and every other
+-- sample time by up to 10, so that a dependence on t switched on away from
+-- the anchor's time (a ramp) is seen.
+local function samples_near(sys, a, n, rand)
+  local states = {}
   for s = 1, n do
-    local st = { t = (base.t or 0.3) + rand(-0.5, 0.5) }
+    local st = { t = a.t + rand(-0.5, 0.5) * (s % 2 == 0 and 20 or 1) }
     for j = 1, slots_of(sys) do
-      local name = ({ "q", "qd", "qdd", "qddd" })[j] or ("q" .. (j - 1) .. "d")
-      local b = base[name] or {}
       local v = {}
-      for i = 1, k do v[i] = (b[i] or 0.2 * j) + rand(-1, 1) end
+      for i = 1, sys.k do v[i] = a[j][i] + rand(-1, 1) end
       st[j] = v
     end
     states[s] = st
@@ -104,36 +133,133 @@ local function sample_states(sys, n)
   return states
 end
 
+local function sample_states(sys, n)
+  return samples_near(sys, anchors(sys)[1], n, generator(20261122))
+end
+
+-- A state close to an anchor (within the samples' spread) adds nothing.
+local function near_anchor(sys, a, st)
+  if math.abs((st.t or a.t) - a.t) > 10 then return false end
+  for j = 1, slots_of(sys) do
+    local v = st[level_name(j)]
+    if v then
+      for i = 1, sys.k do
+        if v[i] and math.abs(v[i] - a[j][i]) > 1 then return false end
+      end
+    end
+  end
+  return true
+end
+
+local function slot_sizes(st)
+  local sizes = {}
+  for j = 1, #st do sizes[j] = math.max(max_abs(st[j]), 1) end
+  return sizes
+end
+
+local function fmt_state(st)
+  local function vec(v) local p = {}; for i = 1, #v do p[i] = ("%.6g"):format(v[i]) end; return "{" .. table.concat(p, ", ") .. "}" end
+  return ("t = %.6g, q = %s, qd = %s, qdd = %s"):format(st.t, vec(st[1]), vec(st[2]), vec(st[3]))
+end
+
+-- Errors of the jet functions outside their domain (lua_jet.c): a sample
+-- state the constraint cannot take, which a typical state avoids.
+local domain_errors = { "of a negative value", "of a non%-positive value", "outside %[%-1, 1%]",
+  "outside its domain", "is not differentiable", "whose constant term is zero" }
+local function is_domain_error(msg)
+  for _, pat in ipairs(domain_errors) do if tostring(msg):find(pat) then return true end end
+  return false
+end
+
+-- The constraint could not be evaluated at the sample states: say what it
+-- returned or raised, at the user's file:line, and suggest a typical state
+-- only when it fails for want of one (a domain error at every sample).
+local function evaluation_failure(sys, r, failures, tried)
+  local prefix = ("system '%s': constraint %d"):format(sys.name, r)
+  local f, all_domain = failures[1], true
+  for _, e in ipairs(failures) do
+    if not is_domain_error(e.msg) then
+      if all_domain then f = e end
+      all_domain = false
+    end
+  end
+  local msg, st = tostring(f.msg), f.state
+  local fn = sys.engine.constraints[r]
+  local info = type(fn) == "function" and debug.getinfo(fn, "S") or nil
+  local where = info and ("%s:%d: "):format(info.short_src, info.linedefined) or ""
+  -- The evaluator's words (lua_system.c): "raised an error: <error> at t = ...".
+  local raised = msg:match("raised an error: (.-) at t = ")
+  local loc, text
+  if raised then loc, text = raised:match("^([^:]+:%d+): (.*)$") end
+  where = loc and loc .. ": " or where
+  text = text or raised
+  if all_domain then
+    return ("%s%s cannot be evaluated at %d of %d sample states (%s, at %s): give a typical "
+      .. "state where it is defined as sample = {t = ..., q = {...}, qd = {...}} in nz.system")
+      :format(where, prefix, #failures, tried, text or msg, fmt_state(st))
+  elseif raised then
+    return ("%s%s raised an error at %s: %s"):format(where, prefix, fmt_state(st), text)
+  end
+  -- It returned something else than a number or a jet: call it once more
+  -- on plain numbers to say what.
+  local args, nlev = { st.t }, (sys.constraint_levels or {})[r] or M.MIN_SLOTS
+  for j = 1, nlev do args[j + 1] = st[j] end
+  args[nlev + 2] = sys.params
+  local ok, got = pcall(fn, table.unpack(args, 1, nlev + 2))
+  if ok and type(got) ~= "number" and not core.isjet(got) then
+    local what = got == nil and "nil" or type(got) == "string" and ("'%s' (a string)"):format(got)
+      or ("%s (a %s)"):format(tostring(got), type(got))
+    return ("%s%s returned %s at %s: a constraint returns the value of Phi(t, q, qd, ...), "
+      .. "a number"):format(where, prefix, what, fmt_state(st))
+  end
+  return ("%s%s could not be evaluated at the sample states: %s"):format(where, prefix, msg)
+end
+
+-- The highest slot constraint r depends on at one sample state (M.TOL), -1
+-- for none, and S, the size of its largest term.
+local function order_at(row)
+  local contrib, S = {}, 0
+  for j = 1, #row.partials do
+    contrib[j] = 0
+    for i = 1, #row.partials[j] do contrib[j] = contrib[j] + math.abs(row.partials[j][i]) end
+    contrib[j] = contrib[j] * row.sizes[j]
+    S = math.max(S, contrib[j])
+  end
+  for j = #row.partials, 1, -1 do
+    if contrib[j] > M.TOL * S then return j - 1, S end
+  end
+  return -1, S
+end
+
 -- Classify constraint r: order, linearity in the top derivative, dependence
 -- on t, homogeneity in the velocities (Euler's theorem, §9), with evidence.
+-- The sample states spread around every anchor (sys.sample and the user's
+-- states, see M.classify).
 local function classify_one(sys, r)
   local e = sys.engine
-  local attempts, last_error = sample_states(sys, 4 * M.SAMPLES), nil
-  local rows = {}
-  for _, st in ipairs(attempts) do
-    if #rows >= M.SAMPLES then break end
-    local ok, value, partials, dt = pcall(mech.constraint_partials, e, r, st.t, st[1], st[2], st[3], st[4], higher_of(st))
-    if ok then rows[#rows + 1] = { state = st, value = value, partials = partials, dt = dt }
-    else last_error = value end
+  local rows, failures = {}, {}
+  local rand = generator(20261122)
+  for _, a in ipairs(anchors(sys)) do
+    local got = 0
+    for _, st in ipairs(samples_near(sys, a, 4 * M.SAMPLES, rand)) do
+      if got >= M.SAMPLES then break end
+      local ok, value, partials, dt = pcall(mech.constraint_partials, e, r, st.t, st[1], st[2], st[3], st[4], higher_of(st))
+      if ok then
+        rows[#rows + 1] = { state = st, value = value, partials = partials, dt = dt, sizes = slot_sizes(st) }
+        got = got + 1
+      else failures[#failures + 1] = { state = st, msg = value } end
+    end
   end
-  if #rows < 2 then
-    error(("system '%s': constraint %d could not be evaluated at sample states (%s): give a typical "
-      .. "state as sample = {q = ..., qd = ...} in nz.system"):format(sys.name, r, tostring(last_error)), 0)
-  end
+  if #rows < 2 then error(evaluation_failure(sys, r, failures, #failures + #rows), 0) end
   local nslots = #rows[1].partials
   local c = { index = r, samples = #rows, norms = {}, orders_seen = {}, slots = nslots }
   for j = 1, nslots do c.norms[j] = 0 end
   for _, row in ipairs(rows) do
-    local norms, scale = {}, math.abs(row.value) + math.abs(row.dt)
-    for j = 1, nslots do norms[j] = max_abs(row.partials[j]); scale = scale + norms[j] end
-    local m = -1
-    for j = 1, nslots do
-      c.norms[j] = math.max(c.norms[j], norms[j])
-      if norms[j] > M.ZERO * math.max(scale, 1e-300) then m = j - 1 end
-    end
-    row.order = m
+    local m, S = order_at(row)
+    for j = 1, nslots do c.norms[j] = math.max(c.norms[j], max_abs(row.partials[j])) end
+    row.order, row.S = m, S
     c.orders_seen[m] = (c.orders_seen[m] or 0) + 1
-    c.depends_on_t = c.depends_on_t or math.abs(row.dt) > M.ZERO * math.max(scale, 1)
+    c.depends_on_t = c.depends_on_t or math.abs(row.dt) * math.max(math.abs(row.state.t), 1) > M.TOL * S
   end
   local m, distinct = -1, 0
   for order in pairs(c.orders_seen) do m = math.max(m, order); distinct = distinct + 1 end
@@ -142,17 +268,22 @@ local function classify_one(sys, r)
     error(("system '%s': constraint %d depends on no coordinate or derivative (its partial "
       .. "derivatives vanish at %d sample states): it constrains nothing"):format(sys.name, r, #rows), 0)
   end
-  -- Linearity in q^(m): the curvature along random directions.
-  local rand = generator(7 + r)
+  -- Linearity in q^(m): the curvature c2 = v^T H v / 2 along a random v of
+  -- the size of q^(m), against the size of Phi's terms at that state.
+  local vrand = generator(7 + r)
+  local nlinear = 0
   c.curvature = 0
   for _, row in ipairs(rows) do
-    local v = {}
-    for i = 1, sys.k do v[i] = rand(-1, 1) end
-    local st = row.state
-    local c0, c1, c2 = mech.constraint_curvature(e, r, m, st.t, st[1], st[2], st[3], st[4], v, higher_of(st))
-    c.curvature = math.max(c.curvature, math.abs(c2) / (math.abs(c0) + math.abs(c1) + 1))
+    local v, st = {}, row.state
+    for i = 1, sys.k do v[i] = vrand(-1, 1) * row.sizes[m + 1] end
+    local _, c1, c2 = mech.constraint_curvature(e, r, m, st.t, st[1], st[2], st[3], st[4], v, higher_of(st))
+    local size = math.max(row.S, math.abs(c1))
+    local rel = size > 0 and math.abs(c2) / size or 0
+    c.curvature = math.max(c.curvature, rel)
+    if rel <= M.TOL then nlinear = nlinear + 1 end
   end
-  c.linear = c.curvature <= M.ZERO
+  c.linear = nlinear == #rows
+  c.linear_consistent = nlinear == 0 or nlinear == #rows
   c.holonomic = m == 0
   -- Homogeneity in the velocities (§9): holonomic ones through Phi' =
   -- Phi_q q' + Phi_t, which is homogeneous of degree 1 iff Phi_t = 0;
@@ -179,7 +310,24 @@ local function classify_one(sys, r)
   return c
 end
 
-function M.classify(sys)
+-- The classification, at sample states near sys.sample and, once they are
+-- given, near the user's own states: state = {t =, q =, qd =} (what accel
+-- and simulate start from) adds samples near it the first time it is far
+-- from all anchors (up to M.MAX_ANCHORS), and the constraints are classified
+-- again with them.  The check after every solve (constrained.c) covers the
+-- states in between.
+function M.classify(sys, state)
+  if state and sys._classes then
+    local list = anchors(sys)
+    local near = #list >= M.MAX_ANCHORS + 1
+    for _, a in ipairs(list) do near = near or near_anchor(sys, a, state) end
+    if near then return sys._classes end
+    list[#list + 1] = anchor_from(sys, state)
+    sys._classes = nil
+  elseif state then
+    local list = anchors(sys)
+    if not near_anchor(sys, list[1], state) then list[#list + 1] = anchor_from(sys, state) end
+  end
   if sys._classes then return sys._classes end
   local classes = {}
   for r = 1, sys.nc do classes[r] = classify_one(sys, r) end
@@ -187,21 +335,44 @@ function M.classify(sys)
   return classes
 end
 
-function M.orders(sys)
+function M.orders(sys, state)
   local orders, linear = {}, {}
-  for r, c in ipairs(M.classify(sys)) do orders[r], linear[r] = c.order, c.linear end
+  for r, c in ipairs(M.classify(sys, state)) do orders[r], linear[r] = c.order, c.linear end
   return orders, linear
+end
+
+-- What differs across the sample states, for the rule's text ("" if nothing).
+local function variation(c)
+  local notes = {}
+  if not c.consistent then
+    local seen = {}
+    for order in pairs(c.orders_seen) do
+      if order ~= c.order then
+        seen[#seen + 1] = order < 0 and "depends on nothing" or ("is of order %d"):format(order)
+      end
+    end
+    table.sort(seen)
+    notes[#notes + 1] = ("its order differs across the %d sample states (at some it %s)"):format(c.samples,
+      table.concat(seen, ", "))
+  end
+  if c.linear_consistent == false then
+    notes[#notes + 1] = ("its linearity in %s differs across the sample states (linear at some, "
+      .. "nonlinear at others)"):format(top_words[c.order] or ("q^(" .. c.order .. ")"))
+  end
+  if #notes == 0 then return "" end
+  return " (but " .. table.concat(notes, ", and ") .. ": check the constraint; the accelerations are "
+    .. "checked and the constraint classified again where they fail)"
 end
 
 local function describe_need(c)
   local what = order_words[c.order] or ("of order " .. c.order)
   if c.order == 0 then
-    return ("constraint %d is holonomic: after differentiation it is linear in every derivative, so Nielsen's equations suffice (n = 1)"):format(c.index)
+    return ("constraint %d is holonomic: after differentiation it is linear in every derivative, so Nielsen's equations suffice (n = 1)%s"):format(c.index, variation(c))
   end
   local lin = c.linear and "linear" or "nonlinear"
   local eq = equation_names[c.needs] or ("the generalized equations of order " .. c.needs)
-  return ("constraint %d is %s and %s in %s: %s, n = %d"):format(c.index, what, lin,
-    top_words[c.order] or ("q^(" .. c.order .. ")"), eq, c.needs)
+  return ("constraint %d is %s and %s in %s: %s, n = %d%s"):format(c.index, what, lin,
+    top_words[c.order] or ("q^(" .. c.order .. ")"), eq, c.needs, variation(c))
 end
 
 -- Does any force depend on the velocities (at the sample states)?
@@ -245,9 +416,10 @@ function M.report(sys)
       tostring(c.index), tostring(c.order), c.holonomic and "holonomic" or "nonholonomic",
       c.linear and "linear" or "nonlinear",
       c.homogeneous == nil and "n/a" or (c.homogeneous and ("yes, degree %g"):format(c.degree) or "no"),
-      ("max |dPhi/dq^(j)|, j=0..%d: %s; curvature %.1g; %d states%s%s"):format(#norms - 1, table.concat(norms, ", "),
+      ("max |dPhi/dq^(j)|, j=0..%d: %s; curvature %.1g; %d states%s%s%s"):format(#norms - 1, table.concat(norms, ", "),
         c.curvature, c.samples, c.depends_on_t and "; depends on t" or "",
-        c.consistent and "" or "; ORDER DIFFERS ACROSS STATES: check the constraint"),
+        c.consistent and "" or "; ORDER DIFFERS ACROSS STATES: check the constraint",
+        c.linear_consistent == false and "; LINEARITY DIFFERS ACROSS STATES" or ""),
     }
   end
   return ("System '%s': %d constraint%s\n"):format(sys.name, sys.nc, sys.nc == 1 and "" or "s") .. table_text(rows)

@@ -92,7 +92,9 @@ Fields:
            the last is params; q .. qddd are always given, so a constraint
            on q^(4) is function(t, q, qd, qdd, qddd, q4d, params)
   sample   a typical state {t =, q =, qd =, qdd =} near which constraints are
-           classified (default: random states around 0)
+           classified (default: random states around 0, times spread over
+           +-10); the states given to accel and simulate add samples near
+           them the first time they are far from all others
   params   a table of named numbers passed to every function; change
            sys.params.m and the next call uses it
   name     a name for messages
@@ -114,7 +116,13 @@ Methods (t a number, q, qd, qdd tables of k numbers):
         level: one SVD solve of [M -A^T; A 0]; second-order constraints
         nonlinear in qdd: GSL's hybridsj (Newton with a trust region) from the
         unconstrained accelerations or opts = {qdd = guess, lambda = guess}.
-        Singular systems name the constraints involved.
+        Every solution is checked ((6.2) and each constraint against the size
+        of their terms, to 1e-10, and each constraint's order); where it fails
+        the constraint is classified again at this state and solved again
+        (report.reclassified counts them), else an error names the
+        constraint, the state and the violation.  opts.check = false skips
+        the check (to measure its cost).  Singular systems name the
+        constraints involved.
   sys:constraints()          print and return the classification: order,
                              linear in the top derivative, holonomic,
                              homogeneous in qd (Euler's theorem), evidence

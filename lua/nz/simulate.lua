@@ -163,7 +163,7 @@ function M.simulate(sys, opts)
   local k, engine = sys.k, sys.engine
   local orders, linear, p = {}, {}, nil
   if sys.nc > 0 then
-    orders, linear = constraints.orders(sys)
+    orders, linear = constraints.orders(sys, { t = cfg.t0, q = cfg.q0, qd = cfg.qd0 })
     local nonlinear
     p, nonlinear = constraints.level(sys)
     if nonlinear then

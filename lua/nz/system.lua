@@ -179,7 +179,7 @@ function System:mass_bias(t, q, qd) return mech.mass_bias(self.engine, t, q, qd)
 -- order nonlinear in qdd): {qdd = guess, lambda = guess, tol =, maxit =}.
 function System:accel(t, q, qd, opts)
   if self.nc == 0 then return mech.accel(self.engine, t, q, qd), {} end
-  local orders, linear = constraints.orders(self)
+  local orders, linear = constraints.orders(self, { t = t, q = q, qd = qd })
   return mech.accel_constrained(self.engine, t, q, qd, orders, linear, opts)
 end
 
