@@ -72,8 +72,10 @@ static int open_core(lua_State *L)
   nz_lua_open_special(L);
   lua_pushstring(L, NZ_VERSION);
   lua_setfield(L, -2, "version");
+  lua_getfield(L, -1, "mech");          /* the library's own services */
   lua_pushcfunction(L, temp_beside);
   lua_setfield(L, -2, "temp_beside");
+  lua_pop(L, 1);
   nz_lua_push_interrupt(L);       /* nz.interrupted: what Ctrl-C raises */
   lua_setfield(L, -2, "interrupted");
   return 1;

@@ -124,7 +124,7 @@ end
 -- previous file (or none), never one cut in the middle of a row.
 function Trajectory:csv(file)
   if type(file) ~= "string" then error(("bad argument #1 to 'csv' (a file name expected, got %s)"):format(type(file)), 2) end
-  local tmp, why = core.temp_beside(file)
+  local tmp, why = core.mech.temp_beside(file)
   if not tmp then error(("csv: cannot write '%s': %s"):format(file, why), 2) end
   local f, err = io.open(tmp, "w")
   if not f then os.remove(tmp); error(("csv: cannot write '%s': %s"):format(file, err), 2) end
