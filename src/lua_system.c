@@ -140,12 +140,31 @@ static void user_location(lua_State *L, int level, char *where, size_t n)
 }
 
 /* Message handler of the calls of user functions: notes where in the
- * user's code the error happened (the error itself is left as it is). */
+ * user's code the error happened, in the registry under where_key, for
+ * note_error to read as soon as lua_pcall returns (the error itself is left
+ * as it is).  A light C function: pushing it allocates nothing. */
+static const char where_key = 0;
+
 static int user_error_handler(lua_State *L)
 {
-  lua_evaluator *ev = lua_touserdata(L, lua_upvalueindex(1));
-  if (!nz_lua_is_interrupt(L, 1)) user_location(L, 1, ev->where, sizeof ev->where);
+  char where[sizeof ((lua_evaluator *)0)->where];
+  if (nz_lua_is_interrupt(L, 1)) return 1;
+  user_location(L, 1, where, sizeof where);
+  lua_pushstring(L, where);
+  lua_rawsetp(L, LUA_REGISTRYINDEX, &where_key);
   return 1;
+}
+
+/* Move what user_error_handler noted into ev->where. */
+static void take_location(lua_evaluator *ev)
+{
+  lua_State *L = ev->L;
+  lua_rawgetp(L, LUA_REGISTRYINDEX, &where_key);
+  const char *where = lua_tostring(L, -1);
+  snprintf(ev->where, sizeof ev->where, "%s", where ? where : "");
+  lua_pop(L, 1);
+  lua_pushnil(L);
+  lua_rawsetp(L, LUA_REGISTRYINDEX, &where_key);
 }
 
 /* The user's message without the "file:line:" that ev->where already says. */
@@ -228,8 +247,8 @@ typedef struct eval_call {
   const nz_direction *dir;
 } eval_call;
 
-/* Pushes the message handler of the user calls, then the arguments shared
- * by every function of the piece: t, q[, qd, ...], params.  It runs under
+/* Pushes the arguments shared by every function of the piece: t, q[, qd,
+ * ...], params.  It runs under
  * lua_pcall: building them calls Lua (the nested-dual constructor), where
  * Ctrl-C's hook may raise the interrupt or memory may run out, and no Lua
  * error may unwind through the C core and GSL frames below lua_eval. */
@@ -239,8 +258,7 @@ static int build_arguments(lua_State *L)
   lua_evaluator *ev = c->ev;
   const nz_direction *dir = c->dir;
   lua_settop(L, 2);                       /* the call, the definition table */
-  lua_pushlightuserdata(L, ev);
-  lua_pushcclosure(L, user_error_handler, 1);
+  luaL_checkstack(L, c->nlevels + 8, "building the arguments of a user function");
   int make = 0;
   if (dir) {
     lua_getglobal(L, "require");
@@ -293,6 +311,7 @@ static void note_error(lua_evaluator *ev, const eval_call *c, nz_piece piece, in
     ev->interrupted = 1;
     return;
   }
+  take_location(ev);
   const char *msg = lua_tostring(L, -1);
   lua_pushfstring(L, "%s: %s", doing, msg ? strip_location(ev, msg) : "(error object is not a string)");
   record_failure(ev, piece, index, c->t, c->levels, c->nlevels, lua_tostring(L, -1));
@@ -311,13 +330,13 @@ static int lua_eval(void *vctx, nz_piece piece, int index, const nz_jet *t,
     nz_jet_init(out[o], out[o]->order, out[o]->ntan);
     if (dir) nz_jet_init(dir->dout[o], out[o]->order, out[o]->ntan);
   }
-  ev->where[0] = '\0';
   if (!lua_checkstack(L, 2 * nlevels + 16)) return NZ_ENOMEM;   /* never raise here */
   eval_call call = { ev, t, levels, nlevels, dir };
+  lua_pushcfunction(L, user_error_handler);
   lua_pushcfunction(L, build_arguments);
   lua_pushlightuserdata(L, &call);
   lua_pushvalue(L, ev->def);
-  if (lua_pcall(L, 2, LUA_MULTRET, 0) != LUA_OK) {
+  if (lua_pcall(L, 2, LUA_MULTRET, top + 1) != LUA_OK) {
     note_error(ev, &call, piece, index + 1, "could not build the arguments");
     lua_settop(L, top);
     return NZ_EFUNC;
