@@ -1,6 +1,7 @@
 /* interrupt.h - a Ctrl-C request that long C loops (integration, work-
  * precision sweeps) poll, so that they stop cleanly, keep what they computed
- * and let the binding raise "interrupted!".  The signal handler only sets the
+ * and let the binding raise the interrupt object (nz.interrupted, see
+ * nz_lua_raise_interrupt in lua_system.c).  The signal handler only sets the
  * flag: it never touches a Lua state or the core's data. */
 #ifndef NZ_INTERRUPT_H
 #define NZ_INTERRUPT_H

@@ -4,6 +4,11 @@
  * program (`require "nz"` loads nz.so).  It builds the table of C functions
  * ("nz.core"), makes the embedded Lua modules require-able through
  * package.preload, and returns what lua/nz/init.lua makes of the core. */
+#include <errno.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
 #include <lua.h>
 #include <lauxlib.h>
 #include "embedded.h"
@@ -34,6 +39,31 @@ static void preload_embedded(lua_State *L)
   lua_pop(L, 1);
 }
 
+/* temp_beside(path) -> name: a new empty file "path.XXXXXX" in the same
+ * directory (so that renaming it onto path is atomic), with the permissions
+ * a new file gets; nil and the reason when it cannot be made.  Writers fill
+ * it and rename it into place, so that an interrupt or a kill never leaves
+ * a truncated file under the name the user gave. */
+static int temp_beside(lua_State *L)
+{
+  const char *path = luaL_checkstring(L, 1);
+  lua_pushfstring(L, "%s.XXXXXX", path);
+  char *name = (char *)lua_newuserdatauv(L, lua_rawlen(L, -1) + 1, 0);
+  memcpy(name, lua_tostring(L, -2), lua_rawlen(L, -2) + 1);
+  int fd = mkstemp(name);
+  if (fd < 0) {
+    luaL_pushfail(L);
+    lua_pushstring(L, strerror(errno));
+    return 2;
+  }
+  mode_t mask = umask(0);            /* mkstemp makes 0600; a new file is 0666 & ~umask */
+  umask(mask);
+  fchmod(fd, 0666 & ~mask);
+  close(fd);
+  lua_pushstring(L, name);
+  return 1;
+}
+
 static int open_core(lua_State *L)
 {
   lua_newtable(L);
@@ -42,6 +72,12 @@ static int open_core(lua_State *L)
   nz_lua_open_special(L);
   lua_pushstring(L, NZ_VERSION);
   lua_setfield(L, -2, "version");
+  lua_getfield(L, -1, "mech");          /* the library's own services */
+  lua_pushcfunction(L, temp_beside);
+  lua_setfield(L, -2, "temp_beside");
+  lua_pop(L, 1);
+  nz_lua_push_interrupt(L);       /* nz.interrupted: what Ctrl-C raises */
+  lua_setfield(L, -2, "interrupted");
   return 1;
 }
 

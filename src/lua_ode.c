@@ -117,7 +117,7 @@ static int raise_failure(lua_State *L, ode_box *box, bound_system *b, int st)
   int k = box->k;
   const double *q = f->y, *qd = f->y ? f->y + k : NULL;
   if (b->ev.interrupted || (f->kind == NZ_ODE_FAIL_FUNCTION && nz_interrupt_requested()))
-    return luaL_error(L, "interrupted!");
+    return nz_lua_raise_interrupt(L);
   switch (f->kind) {
   case NZ_ODE_FAIL_MASS:
     return nz_lua_raise_singular_mass(L, 1, f->t, q, qd, k, &f->mass);

@@ -43,7 +43,10 @@ static void append_vector(luaL_Buffer *b, const char *name, nz_jet *const *v, in
   luaL_addstring(b, "}");
 }
 
-/* Keep "LABEL MESSAGE at t = .., q = {..}, qd = {..}" in ev->message. */
+/* Keep "LABEL MESSAGE at t = .., q = {..}, qd = {..}" for the binding to
+ * raise (nz_lua_raise_core): in the registry, under the evaluator's address,
+ * as a Lua string of any length, so that a failure nested in user code that
+ * called the mechanics again keeps its root cause whole. */
 static void record_failure(lua_evaluator *ev, nz_piece piece, int index, const nz_jet *t,
                            nz_jet *const *const *levels, int nlevels, const char *what)
 {
@@ -69,8 +72,118 @@ static void record_failure(lua_evaluator *ev, nz_piece piece, int index, const n
     append_vector(&b, "qd", levels[1], ev->k);
   }
   luaL_pushresult(&b);
-  snprintf(ev->message, sizeof ev->message, "%s", lua_tostring(L, -1));
+  lua_rawsetp(L, LUA_REGISTRYINDEX, ev);
+}
+
+/* The interrupt: one object per Lua state, kept in the registry, that the
+ * Ctrl-C hook of nzlua and the bindings raise and that everyone recognises
+ * by identity (never by its text: a user's message may say "interrupted!"). */
+static const char interrupt_key = 0;
+
+static int interrupt_tostring(lua_State *L)
+{
+  lua_pushliteral(L, "interrupted!");
+  return 1;
+}
+
+void nz_lua_push_interrupt(lua_State *L)
+{
+  if (lua_rawgetp(L, LUA_REGISTRYINDEX, &interrupt_key) != LUA_TNIL) return;
   lua_pop(L, 1);
+  lua_newtable(L);
+  lua_createtable(L, 0, 3);
+  lua_pushcfunction(L, interrupt_tostring);
+  lua_setfield(L, -2, "__tostring");
+  lua_pushliteral(L, "nz.interrupted");
+  lua_setfield(L, -2, "__name");
+  lua_pushboolean(L, 0);
+  lua_setfield(L, -2, "__metatable");   /* nobody changes what it prints */
+  lua_setmetatable(L, -2);
+  lua_pushvalue(L, -1);
+  lua_rawsetp(L, LUA_REGISTRYINDEX, &interrupt_key);
+}
+
+int nz_lua_is_interrupt(lua_State *L, int idx)
+{
+  idx = lua_absindex(L, idx);
+  if (lua_type(L, idx) != LUA_TTABLE) return 0;
+  lua_rawgetp(L, LUA_REGISTRYINDEX, &interrupt_key);
+  int same = lua_rawequal(L, idx, -1);
+  lua_pop(L, 1);
+  return same;
+}
+
+int nz_lua_raise_interrupt(lua_State *L)
+{
+  nz_lua_push_interrupt(L);
+  return lua_error(L);
+}
+
+/* Is this chunk one of the nz library's own (the embedded lua/nz/ files)? */
+static int library_source(const char *source)
+{
+  return strncmp(source, "@lua/nz/", 8) == 0;
+}
+
+/* "file:line:" of the innermost frame, from `level` on, that is the user's
+ * Lua code (not C, not the library), or "" when there is none. */
+static void user_location(lua_State *L, int level, char *where, size_t n)
+{
+  lua_Debug ar;
+  where[0] = '\0';
+  for (; lua_getstack(L, level, &ar); level++) {
+    lua_getinfo(L, "Sl", &ar);
+    if (ar.currentline <= 0 || library_source(ar.source)) continue;
+    snprintf(where, n, "%s:%d:", ar.short_src, ar.currentline);
+    return;
+  }
+}
+
+/* Message handler of the calls of user functions: notes where in the
+ * user's code the error happened, in the registry under where_key, for
+ * note_error to read as soon as lua_pcall returns (the error itself is left
+ * as it is).  A light C function: pushing it allocates nothing. */
+static const char where_key = 0;
+
+static int user_error_handler(lua_State *L)
+{
+  char where[sizeof ((lua_evaluator *)0)->where];
+  if (nz_lua_is_interrupt(L, 1)) return 1;
+  user_location(L, 1, where, sizeof where);
+  lua_pushstring(L, where);
+  lua_rawsetp(L, LUA_REGISTRYINDEX, &where_key);
+  return 1;
+}
+
+/* Move what user_error_handler noted into ev->where. */
+static void take_location(lua_evaluator *ev)
+{
+  lua_State *L = ev->L;
+  lua_rawgetp(L, LUA_REGISTRYINDEX, &where_key);
+  const char *where = lua_tostring(L, -1);
+  snprintf(ev->where, sizeof ev->where, "%s", where ? where : "");
+  lua_pop(L, 1);
+  lua_pushnil(L);
+  lua_rawsetp(L, LUA_REGISTRYINDEX, &where_key);
+}
+
+/* The user's message without the "file:line:" that ev->where already says. */
+static const char *strip_location(const lua_evaluator *ev, const char *msg)
+{
+  size_t n = strlen(ev->where);
+  if (n > 0 && strncmp(msg, ev->where, n) == 0 && msg[n] == ' ') return msg + n + 1;
+  return msg;
+}
+
+/* Where a user function was defined ("file:line:"), for a bad result. */
+static void definition_location(lua_State *L, int fn, char *where, size_t n)
+{
+  lua_Debug ar;
+  where[0] = '\0';
+  lua_pushvalue(L, fn);
+  lua_getinfo(L, ">S", &ar);
+  if (ar.linedefined > 0 && !library_source(ar.source))
+    snprintf(where, n, "%s:%d:", ar.short_src, ar.linedefined);
 }
 
 /* out += the value at idx (a number or a jet of at least out's order). */
@@ -125,6 +238,56 @@ static void push_dual_copy(lua_State *L, int make, const nz_jet *v, const nz_jet
   lua_call(L, 2, 1);
 }
 
+/* What lua_eval asks of build_arguments. */
+typedef struct eval_call {
+  lua_evaluator *ev;
+  const nz_jet *t;
+  nz_jet *const *const *levels;
+  int nlevels;
+  const nz_direction *dir;
+} eval_call;
+
+/* Pushes the arguments shared by every function of the piece: t, q[, qd,
+ * ...], params.  It runs under
+ * lua_pcall: building them calls Lua (the nested-dual constructor), where
+ * Ctrl-C's hook may raise the interrupt or memory may run out, and no Lua
+ * error may unwind through the C core and GSL frames below lua_eval. */
+static int build_arguments(lua_State *L)
+{
+  const eval_call *c = lua_touserdata(L, 1);
+  lua_evaluator *ev = c->ev;
+  const nz_direction *dir = c->dir;
+  lua_settop(L, 2);                       /* the call, the definition table */
+  luaL_checkstack(L, c->nlevels + 8, "building the arguments of a user function");
+  int make = 0;
+  if (dir) {
+    lua_getglobal(L, "require");
+    lua_pushliteral(L, "nz.hyperdual");
+    lua_call(L, 1, 1);
+    lua_getfield(L, -1, "new");
+    lua_remove(L, -2);
+    make = lua_gettop(L);
+  }
+  if (dir) push_dual_copy(L, make, c->t, dir->dt);
+  else push_jet_copy(L, c->t);
+  for (int lv = 0; lv < c->nlevels; lv++) {
+    if (!dir) {
+      push_jet_list(L, c->levels[lv], ev->k);
+      continue;
+    }
+    lua_createtable(L, ev->k, 0);
+    for (int i = 0; i < ev->k; i++) {
+      push_dual_copy(L, make, c->levels[lv][i], dir->dlevels[lv][i]);
+      lua_rawseti(L, -2, i + 1);
+    }
+  }
+  lua_getfield(L, 2, "params");
+  if (make) lua_remove(L, make);
+  lua_remove(L, 2);
+  lua_remove(L, 1);
+  return lua_gettop(L);
+}
+
 /* Add a result at idx into out (and its eta-part into dout when it is a
  * nested dual number); 0 and *why on a bad value. */
 static int accumulate_result(lua_State *L, int idx, nz_jet *out, nz_jet *dout, const char **why)
@@ -139,6 +302,21 @@ static int accumulate_result(lua_State *L, int idx, nz_jet *out, nz_jet *dout, c
   return accumulate(L, idx, out, why);
 }
 
+/* A call that did not return: the interrupt, or a message to keep. */
+static void note_error(lua_evaluator *ev, const eval_call *c, nz_piece piece, int index,
+                       const char *doing)
+{
+  lua_State *L = ev->L;
+  if (nz_lua_is_interrupt(L, -1)) {
+    ev->interrupted = 1;
+    return;
+  }
+  take_location(ev);
+  const char *msg = lua_tostring(L, -1);
+  lua_pushfstring(L, "%s: %s", doing, msg ? strip_location(ev, msg) : "(error object is not a string)");
+  record_failure(ev, piece, index, c->t, c->levels, c->nlevels, lua_tostring(L, -1));
+}
+
 static int lua_eval(void *vctx, nz_piece piece, int index, const nz_jet *t,
                     nz_jet *const *const *levels, int nlevels, nz_jet *const *out,
                     const nz_direction *dir)
@@ -148,37 +326,22 @@ static int lua_eval(void *vctx, nz_piece piece, int index, const nz_jet *t,
   int top = lua_gettop(L), status = NZ_OK;
   int nout = piece == NZ_PIECE_Q ? ev->k : 1;
   const char *why = NULL;
-  luaL_checkstack(L, 16, "evaluating a system");
   for (int o = 0; o < nout; o++) {
     nz_jet_init(out[o], out[o]->order, out[o]->ntan);
     if (dir) nz_jet_init(dir->dout[o], out[o]->order, out[o]->ntan);
   }
-  int make = 0;
-  if (dir) {
-    lua_getglobal(L, "require");
-    lua_pushliteral(L, "nz.hyperdual");
-    lua_call(L, 1, 1);
-    lua_getfield(L, -1, "new");
-    lua_remove(L, -2);
-    make = lua_gettop(L);
+  if (!lua_checkstack(L, 2 * nlevels + 16)) return NZ_ENOMEM;   /* never raise here */
+  eval_call call = { ev, t, levels, nlevels, dir };
+  lua_pushcfunction(L, user_error_handler);
+  lua_pushcfunction(L, build_arguments);
+  lua_pushlightuserdata(L, &call);
+  lua_pushvalue(L, ev->def);
+  if (lua_pcall(L, 2, LUA_MULTRET, top + 1) != LUA_OK) {
+    note_error(ev, &call, piece, index + 1, "could not build the arguments");
+    lua_settop(L, top);
+    return NZ_EFUNC;
   }
-
-  /* Arguments, shared by every function of the piece: t, q[, qd], params. */
-  if (dir) push_dual_copy(L, make, t, dir->dt);
-  else push_jet_copy(L, t);
-  int argbase = lua_gettop(L);
-  for (int lv = 0; lv < nlevels; lv++) {
-    if (!dir) {
-      push_jet_list(L, levels[lv], ev->k);
-      continue;
-    }
-    lua_createtable(L, ev->k, 0);
-    for (int i = 0; i < ev->k; i++) {
-      push_dual_copy(L, make, levels[lv][i], dir->dlevels[lv][i]);
-      lua_rawseti(L, -2, i + 1);
-    }
-  }
-  lua_getfield(L, ev->def, "params");
+  int handler = top + 1, argbase = top + 2;
   int nargs = nlevels + 2;
 
   lua_getfield(L, ev->def, piece_fields[piece]);
@@ -188,11 +351,8 @@ static int lua_eval(void *vctx, nz_piece piece, int index, const nz_jet *t,
   for (lua_Integer f = first; f <= nf && status == NZ_OK; f++) {
     lua_geti(L, list, f);
     for (int a = 0; a < nargs; a++) lua_pushvalue(L, argbase + a);
-    if (lua_pcall(L, nargs, 1, 0) != LUA_OK) {
-      const char *msg = lua_tostring(L, -1);
-      if (msg && strstr(msg, "interrupted!")) ev->interrupted = 1;
-      lua_pushfstring(L, "raised an error: %s", msg ? msg : "(error object is not a string)");
-      record_failure(ev, piece, (int)f, t, levels, nlevels, lua_tostring(L, -1));
+    if (lua_pcall(L, nargs, 1, handler) != LUA_OK) {
+      note_error(ev, &call, piece, (int)f, "raised an error");
       status = NZ_EFUNC;
       break;
     }
@@ -214,6 +374,8 @@ static int lua_eval(void *vctx, nz_piece piece, int index, const nz_jet *t,
       accumulate_result(L, res, out[0], dir ? dir->dout[0] : NULL, &why);
     }
     if (why) {
+      lua_geti(L, list, f);
+      definition_location(L, lua_gettop(L), ev->where, sizeof ev->where);
       record_failure(ev, piece, (int)f, t, levels, nlevels, why);
       status = NZ_EFUNC;
     }
@@ -331,12 +493,21 @@ void nz_lua_add_state(luaL_Buffer *msg, double t, const double *q, const double 
   append_numbers(msg, qd, k);
 }
 
-/* Raise the error of a failed core call, with the system's name. */
+/* Raise the error of a failed core call, with the system's name; a failed
+ * user function's error starts with the user's file:line. */
 int nz_lua_raise_core(lua_State *L, bound_system *b, int st, const char *fname)
 {
   const char *name = nz_lua_system_name(L, b->ev.def);
-  if (b->ev.interrupted) return luaL_error(L, "interrupted!");
-  if (st == NZ_EFUNC) return luaL_error(L, "system '%s': %s", name, b->ev.message);
+  if (b->ev.interrupted) return nz_lua_raise_interrupt(L);
+  if (st == NZ_EFUNC) {
+    lua_rawgetp(L, LUA_REGISTRYINDEX, &b->ev);
+    lua_pushnil(L);
+    lua_rawsetp(L, LUA_REGISTRYINDEX, &b->ev);
+    const char *msg = lua_tostring(L, -1);
+    lua_pushfstring(L, "%s%ssystem '%s': %s", b->ev.where, b->ev.where[0] ? " " : "", name,
+                    msg ? msg : "a function failed");
+    return lua_error(L);
+  }
   if (st == NZ_ENOMEM) return luaL_error(L, "system '%s': not enough memory in '%s'", name, fname);
   return luaL_error(L, "system '%s': '%s' failed (status %d)", name, fname, st);
 }

@@ -16,8 +16,8 @@ typedef struct lua_evaluator {
   lua_State *L;
   int def;                 /* stack index of the definition table */
   int k;
-  char message[1024];      /* what failed, when eval returned NZ_EFUNC */
-  int interrupted;
+  char where[256];         /* the user's "file:line:" of the last failure */
+  int interrupted;         /* a user function was stopped by the interrupt */
 } lua_evaluator;
 
 /* A system bound to its definition table for the duration of one call. */
@@ -36,6 +36,10 @@ void nz_lua_push_matrix(lua_State *L, const double *M, int k);
 /* Arguments 2, 3, 4: t, q, qd (nil qd: zeros). */
 void nz_lua_read_tq_qd(lua_State *L, int k, double *t, double *q, double *qd, const char *fname);
 void nz_lua_add_state(luaL_Buffer *msg, double t, const double *q, const double *qd, int k);
+/* The interrupt object (nz.interrupted): pushed, recognised by identity, raised. */
+void nz_lua_push_interrupt(lua_State *L);
+int nz_lua_is_interrupt(lua_State *L, int idx);
+int nz_lua_raise_interrupt(lua_State *L);
 /* Errors, raised with the system's name and the state. */
 int nz_lua_raise_core(lua_State *L, bound_system *b, int st, const char *fname);
 int nz_lua_raise_singular_mass(lua_State *L, int def, double t, const double *q, const double *qd,

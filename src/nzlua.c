@@ -4,8 +4,9 @@
  * The design follows the standalone `lua` interpreter (lua.c): all work runs
  * under lua_pcall of one `pmain`; a message handler turns any error into text
  * with a traceback; Ctrl-C during a computation only installs a hook that
- * raises "interrupted!" inside the VM (and sets the flag that C loops poll),
- * and resets the signal so that a second Ctrl-C really kills; a line is first
+ * raises the interrupt object nz.interrupted inside the VM (and sets the
+ * flag that C loops poll), and resets the signal so that a second Ctrl-C
+ * really kills; a line is first
  * tried as `return <line>` so that an expression prints its value; a syntax
  * error at <eof> means "keep reading".
  *
@@ -13,7 +14,12 @@
  * prompt discards the pending input instead of ending the session; history
  * kept across sessions in ~/.nzlua_history (NZLUA_HISTORY overrides), limited
  * to NZLUA_HISTORY_LINES entries; tab completion; readable printing of values;
- * tracebacks only for errors that came from inside functions. */
+ * tracebacks only for errors that came from inside functions.
+ *
+ * Exit status: 0, 1 when a script (or -e, -l, stdin) failed, and 130
+ * (128 + SIGINT, the shell's convention) when Ctrl-C reached it, whether it
+ * stopped the script or a computation that kept its partial result (simulate
+ * returns the part computed, and the script may save it before it ends). */
 #include <errno.h>
 #include <limits.h>
 #include <signal.h>
@@ -31,6 +37,7 @@
 #include <lualib.h>
 
 #include "interrupt.h"
+#include "lua_system.h"
 #include "nz.h"
 #include "repl_complete.h"
 
@@ -38,10 +45,12 @@
 #define NZLUA_PROMPT2 "nz>> "
 #define NZLUA_HISTORY_LINES 1000
 #define NZLUA_MAXINPUT 512
+#define NZLUA_EXIT_INTERRUPTED (128 + SIGINT)
 
 static const char *progname = "nzlua";
 static lua_State *globalL = NULL;
 static int interactive_input = 0;   /* stdin is a terminal: use readline */
+static int run_interrupted = 0;     /* Ctrl-C reached a script, -e or -l */
 
 /* ------------------------------------------------------------------ */
 /* Interrupts                                                           */
@@ -50,7 +59,7 @@ static void lstop(lua_State *L, lua_Debug *ar)
 {
   (void)ar;
   lua_sethook(L, NULL, 0, 0);
-  luaL_error(L, "interrupted!");
+  nz_lua_raise_interrupt(L);
 }
 
 static void laction(int sig)
@@ -93,6 +102,10 @@ static void l_message(const char *pname, const char *msg)
 /* Message handler: any error object to text, plus a traceback. */
 static int msghandler(lua_State *L)
 {
+  if (nz_lua_is_interrupt(L, 1)) {
+    luaL_traceback(L, L, "interrupted!", 1);
+    return 1;
+  }
   const char *msg = lua_tostring(L, 1);
   if (msg == NULL) {
     if (luaL_callmeta(L, 1, "__tostring") && lua_type(L, -1) == LUA_TSTRING) return 1;
@@ -152,6 +165,7 @@ static int docall(lua_State *L, int narg, int nres)
   int status = lua_pcall(L, narg, nres, base);
   signal(SIGINT, SIG_DFL);
   lua_sethook(L, NULL, 0, 0);   /* a Ctrl-C that came too late to matter */
+  if (nz_interrupt_requested()) run_interrupted = 1;
   nz_interrupt_clear();
   lua_remove(L, base);
   return status;
@@ -435,6 +449,7 @@ static void print_results(lua_State *L)
 static void do_repl(lua_State *L)
 {
   int eof = 0;
+  run_interrupted = 0;      /* the session decides the exit status now */
   if (interactive_input) {
     history_open();
     nz_complete_install(L);
@@ -445,6 +460,7 @@ static void do_repl(lua_State *L)
     if (status == LUA_OK) status = docall(L, 0, LUA_MULTRET);
     if (status == LUA_OK) print_results(L);
     else report(L, status, 1);
+    run_interrupted = 0;
   }
   lua_settop(L, 0);
   fputs("\n", stdout);
@@ -575,5 +591,6 @@ int main(int argc, char **argv)
   int result = lua_toboolean(L, -1);
   report(L, status, 0);
   lua_close(L);
+  if (run_interrupted) return NZLUA_EXIT_INTERRUPTED;
   return (result && status == LUA_OK) ? EXIT_SUCCESS : EXIT_FAILURE;
 }

@@ -309,7 +309,8 @@ describe("misuse gets a clear error naming the system and the function", functio
     -- Overflow inside the function is caught by the jets themselves, and an
     -- infinity that came in is named as the argument that carried it.
     local s3 = sys_with{ V = function(t, q_) return q_[1] * 1e300 * 1e300 end }
-    h.checkerror("V raised an error: tests/mech_spec.lua", s3.accel, s3, 0, q, qd)
+    h.checkerror("tests/mech_spec.lua:", s3.accel, s3, 0, q, qd)      -- the user's line first
+    h.checkerror("system 'bad': V raised an error: ", s3.accel, s3, 0, q, qd)
     h.checkerror("'mul' overflows", s3.accel, s3, 0, q, qd)
     local s4 = sys_with{ V = function(t, q_) return q_[1] * math.huge end }
     h.checkerror("bad argument #2 to 'mul' (got inf", s4.accel, s4, 0, q, qd)
@@ -339,7 +340,7 @@ describe("misuse gets a clear error naming the system and the function", functio
   end)
   it("an order, a form, or Wassmuth's form without particles", function()
     local s = sys_with{}
-    h.checkerror("order between 1 and 100 expected, got 0", s.residual, s, 0, 0, q, qd, { 0, 0 })
+    h.checkerror("bad argument #1 to 'residual' (n: an integer order from 1 to 100 expected, got 0)", s.residual, s, 0, 0, q, qd, { 0, 0 })
     h.checkerror("unknown form 'nielsen'; forms: generalized, lagrange", s.residual, s, 1, 0, q, qd, { 0, 0 }, "nielsen")
     h.checkerror("system 'bad': Wassmuth's form needs the acceleration energy S", s.residual, s, 2, 0, q, qd, { 0, 0 }, "wassmuth")
     local p = systems.double_pendulum(true).sys

@@ -21,20 +21,35 @@ local function vec(v) local p = {}; for i = 1, #v do p[i] = ("%.6g"):format(v[i]
 
 local generator = require("nz.constraints").generator   -- deterministic draws
 
+-- "file:line: " where the student's function is defined: errors name it first.
+local function defined_at(eqs)
+  local info = debug.getinfo(eqs, "S")
+  return info.linedefined > 0 and ("%s:%d: "):format(info.short_src, info.linedefined) or ""
+end
+
 -- Evaluate the student's function; errors say what to fix.
 local function evaluate(sys, eqs, t, q, qd, qdd)
   local ok, E = pcall(eqs, t, q, qd, qdd, sys.params)
   if not ok then
+    if rawequal(E, core.interrupted) then error(E, 0) end    -- Ctrl-C stays Ctrl-C
     local msg = tostring(E)
     if core.isjet(qdd[1]) then
       msg = msg .. " (your equations are evaluated with dual numbers to find how they depend on qdd: "
         .. "write them with nz.sin, nz.cos, ... (sin, cos in nzlua), not math.sin)"
     end
-    error("check: your equations raised an error: " .. msg, 0)
+    local at, rest = msg:match("^([^\n]-:%d+: )(.*)$")     -- their file:line first
+    error((at or defined_at(eqs)) .. "check: your equations raised an error: " .. (rest or msg), 0)
   end
   if type(E) ~= "table" or #E ~= sys.k then
-    error(("check: your equations must return a table of %d expressions (one per coordinate: %s), got %s")
+    error((defined_at(eqs) .. "check: your equations must return a table of %d expressions (one per coordinate: %s), got %s")
       :format(sys.k, table.concat(sys.coords, ", "), type(E) == "table" and (#E .. " values") or type(E)), 0)
+  end
+  for i = 1, sys.k do
+    if type(E[i]) ~= "number" and not core.isjet(E[i]) then
+      local shown = type(E[i]) == "string" and ("the string %q"):format(E[i]) or ("a %s"):format(type(E[i]))
+      error((defined_at(eqs) .. "check: equation %d must be a number computed from t, q, qd, qdd, got %s: write it as a Lua "
+        .. "expression, e.g. qdd[1] + q[1] rather than \"x'' + x\""):format(i, shown), 0)
+    end
   end
   return E
 end

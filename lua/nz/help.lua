@@ -215,7 +215,7 @@ tols 1e-4, 1e-6, 1e-8, 1e-10.  Ctrl-C stops the sweep, keeping the rows done.]] 
   { name = "methods", section = "mechanics", usage = "nz.methods",
     summary = "GSL's steppers for sys:simulate: {name =, implicit =} each" },
   { name = "last", section = "mechanics", usage = "nz.last", optional = true,
-    summary = "the trajectory a failed sys:simulate had computed (the error says so)" },
+    summary = "the trajectory a failed or interrupted sys:simulate had computed" },
   { name = "special", section = "session", usage = "nz.special.ellint_K(k), nz.special.elljac(u, m)",
     summary = "GSL's complete elliptic integral K(k) and Jacobi's sn, cn, dn (for closed forms)" },
   { name = "partial", section = "operators", usage = "nz.partial(n, f, t, q, qd [, qdd, higher])",
@@ -233,6 +233,16 @@ equals n d/dt(df/dqd) + df/dq.  k values.]] },
   { name = "help", section = "session", usage = "nz.help([f])",
     summary = "list what nz offers, or explain one function (help(nz.jet))" },
   { name = "version", section = "session", usage = "nz.version", summary = "the version string" },
+  { name = "interrupted", section = "session", usage = "err == nz.interrupted",
+    summary = "the error Ctrl-C raises (prints as 'interrupted!'); compare by identity",
+    text = [[
+Ctrl-C during a computation raises this one object, so that code can tell an
+interrupt from an error whatever the error's text says:
+  local ok, err = pcall(f)
+  if not ok and err == nz.interrupted then ... end
+sys:simulate catches it and returns the part computed (also in nz.last);
+tr:csv leaves the previous file.  A script that Ctrl-C reached exits with
+status 130 (128 + SIGINT), after it has run to its end or to the interrupt.]] },
 }
 
 M.entries = entries

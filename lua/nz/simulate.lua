@@ -282,7 +282,7 @@ function M.simulate(sys, opts)
       local nfixed = cfg.step and math.max(1, math.ceil((tout - t) / cfg.step - 1e-9))
       local hfixed = cfg.step and (tout - t) / nfixed
       while t < tout do
-        if mech.interrupted() then error("interrupted!", 0) end
+        if mech.interrupted() then error(core.interrupted, 0) end
         local ta, ya = t, y
         if cfg.step then
           nfixed = nfixed - 1
@@ -324,9 +324,10 @@ function M.simulate(sys, opts)
   tr.stats = { steps = s.steps, rejected = s.rejected, nfev = s.nfev, njev = s.njev, wall = mech.now() - wall0 }
   if not ok then
     local msg = tostring(err)
-    if msg:find("interrupted!", 1, true) then
+    if rawequal(err, core.interrupted) then     -- by identity: a user's message may say "interrupted!"
       tr.status, tr.message = "interrupted", ("stopped by Ctrl-C at t = %.6g; the part computed so far is kept"):format(t)
-      io.stderr:write(("simulate '%s': %s (%d points)\n"):format(sys.name, tr.message, #tr.t))
+      io.stderr:write(("simulate '%s': %s (%d points, also in nz.last)\n"):format(sys.name, tr.message, #tr.t))
+      require("nz").last = tr
       return tr
     end
     tr.status, tr.message = "failed", msg

@@ -150,6 +150,14 @@ function System:residual(n, t, q, qd, qdd, a6, a7)
     error(("bad argument to 'residual' (unknown form '%s'; forms: %s)"):format(
       tostring(form), table.concat(M.forms, ", ")), 2)
   end
+  -- n and t are checked here: the C function counts its own arguments.
+  if n ~= nil and not (type(n) == "number" and n == math.floor(n) and n >= 1 and n <= mech.max_order) then
+    error(("bad argument #1 to 'residual' (n: an integer order from 1 to %d expected, got %s)"):format(
+      mech.max_order, type(n) == "number" and repl.number(n) or type(n)), 2)
+  end
+  if type(t) ~= "number" then
+    error(("bad argument #2 to 'residual' (t: a number expected, got %s)"):format(type(t)), 2)
+  end
   n = n or self:rule()
   local r = mech.residual(self.engine, form, n, t, q, qd, qdd, higher)
   if lambda then

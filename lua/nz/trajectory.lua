@@ -3,6 +3,7 @@
 -- what it cost (tr.stats), how it ended (tr.status), the constraint
 -- violation, and the monitors a scene asked for.  Methods: a summary
 -- (tostring), csv, plot, residuals.
+local core = require "nz.core"
 local plot = require "nz.plot"
 
 local Trajectory = { __name = "nz.trajectory" }
@@ -94,10 +95,8 @@ function Trajectory:column(name)
     :format(name, table.concat(self.coords, ", ")), 2)
 end
 
--- CSV with a header naming every column.
-function Trajectory:csv(file)
-  local f, err = io.open(file, "w")
-  if not f then error(("csv: cannot write '%s': %s"):format(file, err), 2) end
+-- The header and the rows of tr:csv, to the open file f.
+local function write_csv(self, f)
   local head = { "t" }
   for _, c in ipairs(self.coords) do head[#head + 1] = c end
   for _, c in ipairs(self.coords) do head[#head + 1] = c .. "'" end
@@ -108,16 +107,35 @@ function Trajectory:csv(file)
     local ok, col = pcall(self.column, self, name)
     if ok and col then extra[#extra + 1] = col; head[#head + 1] = name end
   end
-  f:write(table.concat(head, ","), "\n")
+  assert(f:write(table.concat(head, ","), "\n"))
   for i = 1, #self.t do
     local row = { ("%.17g"):format(self.t[i]) }
     for _, src in ipairs{ self.q[i], self.qd[i], self.qdd[i], self.lambda[i] } do
       for j = 1, #src do row[#row + 1] = ("%.17g"):format(src[j]) end
     end
     for _, col in ipairs(extra) do row[#row + 1] = ("%.17g"):format(col[i]) end
-    f:write(table.concat(row, ","), "\n")
+    assert(f:write(table.concat(row, ","), "\n"))
   end
+  assert(f:flush())
+end
+
+-- CSV with a header naming every column.  Written to a file beside `file`
+-- and renamed onto it at the end: Ctrl-C or a kill while writing leaves the
+-- previous file (or none), never one cut in the middle of a row.
+function Trajectory:csv(file)
+  if type(file) ~= "string" then error(("bad argument #1 to 'csv' (a file name expected, got %s)"):format(type(file)), 2) end
+  local tmp, why = core.mech.temp_beside(file)
+  if not tmp then error(("csv: cannot write '%s': %s"):format(file, why), 2) end
+  local f, err = io.open(tmp, "w")
+  if not f then os.remove(tmp); error(("csv: cannot write '%s': %s"):format(file, err), 2) end
+  local ok, failure = pcall(write_csv, self, f)
   f:close()
+  if ok then ok, failure = os.rename(tmp, file) end
+  if not ok then
+    os.remove(tmp)
+    if rawequal(failure, core.interrupted) then error(failure, 0) end   -- Ctrl-C stays Ctrl-C
+    error(("csv: cannot write '%s': %s"):format(file, tostring(failure)), 2)
+  end
   return file
 end
 

@@ -1,0 +1,172 @@
+-- errors_spec.lua - failures that lose nothing and messages that name the
+-- user's code first: the interrupt is an object recognised by identity, an
+-- error in a user function starts with the user's file:line, a nested
+-- failure keeps its root cause, and no Lua error unwinds through the C core
+-- while the arguments of a user function are being built.
+local h = require "tests.helpers"
+local nz = h.nz
+
+local g = 9.81
+
+-- The line of the caller, to say where an error must point.
+local function here() return debug.getinfo(2, "l").currentline end
+local SPEC = "tests/errors_spec.lua"
+
+-- A pendulum whose potential calls `hook(t, q)` first (set per test).
+local hook = function() end
+local pendulum = nz.system{ name = "pendulum", coords = { "th" },
+  T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end,
+  V = function(t, q) hook(t, q); return -g * nz.cos(q[1]) end }
+
+-- The driven hoop: its implicit integration (bsimp) builds nested duals for
+-- the exact Jacobian, so lua_eval calls the nested-dual constructor.
+local m, R, W = 0.3, 0.5, 4.0
+local hoop = nz.system{ name = "driven hoop", coords = { "th", "ph" },
+  T = function(t, q, qd) return 0.5 * m * R * R * (qd[1] ^ 2 + nz.sin(q[1]) ^ 2 * qd[2] ^ 2) end,
+  V = function(t, q) return -m * g * R * nz.cos(q[1]) end,
+  constraints = { function(t, q) return q[2] - W * t end } }
+local hoop_run = { q0 = { 0.7, 0 }, qd0 = { 0.3, W }, t1 = 3, method = "bsimp", monitors = { work = true } }
+
+-- Make the nested-dual constructor run `fail` on its n-th call, for f().
+local function failing_constructor(n, fail, f)
+  local hd = require "nz.hyperdual"
+  local new, calls = hd.new, 0
+  hd.new = function(...)
+    calls = calls + 1
+    if calls == n then fail() end
+    return new(...)
+  end
+  local ok, a, b = pcall(f)
+  hd.new = new
+  assert(calls >= n, ("the constructor was called %d times, fewer than %d"):format(calls, n))
+  return ok, a, b
+end
+
+describe("the interrupt is an object, recognised by identity", function()
+  after_each(function() hook = function() end end)
+
+  it("nz.interrupted prints as 'interrupted!' and is one object", function()
+    assert.are.equal("interrupted!", tostring(nz.interrupted))
+    assert.are.equal(rawequal(nz.interrupted, require("nz.core").interrupted), true)
+    assert.are.equal(false, getmetatable(nz.interrupted))       -- protected
+  end)
+  it("a user's error that says 'interrupted!' keeps its message (accel)", function()
+    hook = function() error("the user says interrupted! here") end
+    h.checkerror("the user says interrupted! here", pendulum.accel, pendulum, 0, { 0.385 }, { 0 })
+  end)
+  it("a user's error that says 'interrupted!' fails simulate instead of stopping it quietly", function()
+    hook = function(t) if t > 0.5 then error("interrupted! (a message, not Ctrl-C)") end end
+    local ok, err = pcall(pendulum.simulate, pendulum, { q0 = { 0.385 }, t1 = 1 })
+    assert.are.equal(false, ok)
+    assert.truthy(tostring(err):find("interrupted! (a message, not Ctrl-C)", 1, true), tostring(err))
+    assert.are.equal("failed", nz.last.status)
+  end)
+  it("the interrupt object raised in a user function stops simulate and keeps the part in nz.last", function()
+    hook = function(t) if t > 0.5 then error(nz.interrupted) end end
+    local tr = pendulum:simulate{ q0 = { 0.385 }, t1 = 1, dt = 0.1 }
+    assert.are.equal("interrupted", tr.status)
+    assert.are.equal(tr, nz.last)
+    -- the output grid holds t = 0, 0.1, ..., up to the last point before 0.5
+    assert(#tr.t >= 5 and tr.t[#tr.t] <= 0.5, ("%d points up to t = %g"):format(#tr.t, tr.t[#tr.t]))
+  end)
+  it("the interrupt object crosses the mechanics unchanged (accel raises it, not a message)", function()
+    hook = function() error(nz.interrupted) end
+    local ok, err = pcall(pendulum.accel, pendulum, 0, { 0.385 }, { 0 })
+    assert.are.equal(false, ok)
+    assert.are.equal(rawequal(err, nz.interrupted), true)
+  end)
+end)
+
+describe("no Lua error unwinds through the C core", function()
+  -- Under AddressSanitizer a Lua error that crossed nz_ode_jacobian would
+  -- leak its work space (the sanitized run of this spec checks leaks at exit).
+  it("an error in the nested-dual constructor fails cleanly, naming the system and the state", function()
+    local ok, err = failing_constructor(1000, function() error("boom in the constructor") end,
+      function() return hoop:simulate(hoop_run) end)
+    assert.are.equal(false, ok)
+    err = tostring(err)
+    assert.truthy(err:find("system 'driven hoop': ", 1, true), err)
+    assert.truthy(err:find("could not build the arguments: ", 1, true), err)
+    assert.truthy(err:find("boom in the constructor at t = ", 1, true), err)
+  end)
+  it("the interrupt raised in the nested-dual constructor stops the run, keeping what it computed", function()
+    local ok, tr = failing_constructor(1000, function() error(nz.interrupted) end,
+      function() return hoop:simulate(hoop_run) end)
+    assert.are.equal(true, ok, tostring(tr))
+    assert.are.equal("interrupted", tr.status)
+    assert(#tr.t > 1, #tr.t)
+  end)
+end)
+
+describe("messages name the user's code first", function()
+  after_each(function() hook = function() end end)
+
+  it("an error in a user function starts with its file:line, then the system, function and state", function()
+    local line
+    hook = function() line = here(); error("a deliberate failure") end
+    local ok, err = pcall(pendulum.accel, pendulum, 0.25, { 0.385 }, { 1.5 })
+    assert.are.equal(false, ok)
+    local want = ("%s:%d: system 'pendulum': V raised an error: a deliberate failure at t = 0.25, q = {0.385}")
+      :format(SPEC, line)
+    assert.are.equal(want, err:sub(1, #want))
+    assert.falsy(err:find("lua/nz/", 1, true), err)
+  end)
+  it("a runtime error in a user function points at the line that failed", function()
+    local line
+    hook = function(t, q) line = here(); return q.no_such_field.x end
+    local ok, err = pcall(pendulum.mass_bias, pendulum, 0, { 0.385 }, { 0 })
+    assert.are.equal(false, ok)
+    assert.are.equal(("%s:%d: system 'pendulum': V raised an error: attempt to index a nil value"):format(SPEC, line),
+      err:match("^(.-value)"))
+  end)
+  it("a bad result names the line where the function is defined", function()
+    local line = here() + 1
+    local bad = nz.system{ name = "bad", coords = { "x" }, T = function(t, q, qd) return "fast" end }
+    local ok, err = pcall(bad.accel, bad, 0, { 0.385 }, { 0 })
+    assert.are.equal(false, ok)
+    assert.truthy(err:find(("^%s:%d: system 'bad': T returned something that is neither a number nor a jet")
+      :format(SPEC:gsub("%p", "%%%0"), line)), err)
+  end)
+  it("a recursive failure keeps its root cause whole, however deep", function()
+    -- V calls the mechanics again at another state, 40 times deep: the
+    -- message of each level wraps the one below (some 100 characters each).
+    local depth, line = 0, nil
+    local deep
+    deep = nz.system{ name = "deep", coords = { "x", "y", "z" },
+      T = function(t, q, qd) return 0.5 * (qd[1] ^ 2 + qd[2] ^ 2 + qd[3] ^ 2) end,
+      V = function(t, q)
+        depth = depth + 1
+        if depth > 40 then line = here(); error("the root cause 4711") end
+        local a = deep:accel(0.5, { 1.2345678, 2.3456789, 3.456789 }, { 0.1234567, 0.2345678, 0.3456789 })
+        return q[1] + a[1]
+      end }
+    local ok, err = pcall(deep.accel, deep, 0, { 1, 2, 3 }, { 0, 0, 0 })
+    assert.are.equal(false, ok)
+    assert(#err > 1024, #err)      -- longer than the old buffer, which cut the root cause off
+    assert.truthy(err:find(("%s:%d: system 'deep': V raised an error: the root cause 4711"):format(SPEC, line), 1, true), err)
+    -- and it ends with the outermost state (V sees t and q)
+    assert.are.equal(" at t = 0, q = {1, 2, 3}", err:sub(-#" at t = 0, q = {1, 2, 3}"))
+  end)
+  it("sys:residual names the argument it got wrong, counted as the user counts", function()
+    local ok, err = pcall(pendulum.residual, pendulum, 2.5, 0, { 0.385 }, { 0 }, { 0 })
+    assert.are.equal(false, ok)
+    assert.truthy(err:find("bad argument #1 to 'residual' (n: an integer order from 1 to", 1, true), err)
+    assert.truthy(err:find("got 2.5)", 1, true), err)
+    h.checkerror("bad argument #2 to 'residual' (t: a number expected, got string)",
+      pendulum.residual, pendulum, 2, "0", { 0.385 }, { 0 }, { 0 })
+    h.checkerror("bad argument #1 to 'residual' (n: an integer order from 1 to",
+      pendulum.residual, pendulum, 0, 0, { 0.385 }, { 0 }, { 0 })
+    -- a float with an integer value is an order: th'' + g sin th = 0 at rest
+    local r = pendulum:residual(2.0, 0, { 0.385 }, { 0 }, { -g * math.sin(0.385) })
+    assert(math.abs(r[1]) <= 1e-12, r[1])
+  end)
+  it("nz.check with an equation written as a string says so, with the student's line", function()
+    local line = here() + 1
+    local ok, err = pcall(nz.check, pendulum, function(t, q, qd, qdd) return { "th'' + g sin(th)" } end, { quiet = true })
+    assert.are.equal(false, ok)
+    assert.are.equal(("%s:%d: check: equation 1 must be a number computed from t, q, qd, qdd, got the string \"th'' + g sin(th)\"")
+      :format(SPEC, line), err:match("^(.-%)\")"))
+    -- the same equation written in Lua passes
+    assert.are.equal(true, (nz.check(pendulum, function(t, q, qd, qdd) return { qdd[1] + g * nz.sin(q[1]) } end, { quiet = true })))
+  end)
+end)
