@@ -50,6 +50,7 @@ struct nz_ode {
   gsl_odeiv2_system gsys;
   gsl_odeiv2_driver *driver;
   unsigned long nfev, njev;
+  unsigned long steps0, rejected0;  /* counts of the evolve objects reset before */
   nz_ode_failure failure;
 };
 
@@ -234,6 +235,10 @@ int nz_ode_step_fixed(nz_ode *o, const nz_system *s, double *t, double h, double
 
 void nz_ode_reset(nz_ode *o)
 {
+  /* GSL's reset zeroes the evolve object's counts: keep them here, so that
+   * a run's statistics cover all of it. */
+  o->steps0 += o->driver->e->count;
+  o->rejected0 += o->driver->e->failed_steps;
   gsl_odeiv2_driver_reset(o->driver);
   o->have_last = 0;
 }
@@ -258,8 +263,8 @@ int nz_ode_jacobian_at(nz_ode *o, const nz_system *s, double t, const double *y,
 
 void nz_ode_get_stats(const nz_ode *o, nz_ode_stats *st)
 {
-  st->steps = o->driver->e->count;
-  st->rejected = o->driver->e->failed_steps;
+  st->steps = o->steps0 + o->driver->e->count;
+  st->rejected = o->rejected0 + o->driver->e->failed_steps;
   st->nfev = o->nfev;
   st->njev = o->njev;
 }
