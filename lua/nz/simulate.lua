@@ -362,13 +362,16 @@ function M.simulate(sys, opts)
     return v
   end
 
+  -- A sign change over the step, or a step that lands on the zero (an
+  -- event at an output time: g = t - 0.05 with dt = 0.005).
   local function crosses(ev, ga, gb)
-    if ga == 0 or (ga > 0) == (gb > 0) then return false end
+    if ga == 0 or (gb ~= 0 and (ga > 0) == (gb > 0)) then return false end
     return ev.direction == 0 or (ev.direction > 0 and gb > ga) or (ev.direction < 0 and gb < ga)
   end
 
   -- Illinois' variant of regula falsi on [ta, tb]: robust, and superlinear.
-  local function locate(ev, ta, ya, ga, tb, gb)
+  local function locate(ev, ta, ya, ga, tb, gb, yb)
+    if gb == 0 then return tb, yb end
     local tol = cfg.event_tol * math.max(1, math.abs(tb))
     local side = 0
     local tm, ym = tb, nil
@@ -484,7 +487,7 @@ function M.simulate(sys, opts)
         for e, ev in ipairs(cfg.events) do
           local g = event_value(ev, t, y)
           if crosses(ev, gvals[e], g) then
-            local te, ye = locate(ev, ta, ya, gvals[e], t, g)
+            local te, ye = locate(ev, ta, ya, gvals[e], t, g, y)
             local q, qd = split(ye, k)
             tr.events[#tr.events + 1] = { name = ev.name, t = te, q = q, qd = qd }
             if ev.stop then
