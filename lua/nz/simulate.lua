@@ -22,7 +22,7 @@ local known = {
 local known_monitors = { energy = true, work = true }
 
 -- Limits that keep a run finite and its memory bounded.
-M.MAX_POINTS = 1e6        -- output points kept in memory
+M.MAX_POINTS = 1e7        -- output points kept in memory (~300 bytes each)
 M.MAX_FIXED_STEPS = 1e9   -- steps of a fixed-step run
 M.MIN_RTOL = 1e-15        -- below this (~5 eps) no stepper can make progress
 M.PROJECT_TOL = 1e-10     -- project = true projects when the violation exceeds this
@@ -101,7 +101,7 @@ end
 local function check_times(sys, cfg)
   if not finite(cfg.t0) then fail(sys, "'t0' (the start time) must be a finite number, got %s", show(cfg.t0)) end
   if not finite(cfg.t1) or not (cfg.t1 > cfg.t0) then
-    fail(sys, "'t1' (the end time) must be a finite number greater than t0 = %g, got %s", cfg.t0, show(cfg.t1))
+    fail(sys, "'t1' must be a number greater than t0 = %g (the end time, finite), got %s", cfg.t0, show(cfg.t1))
   end
   cfg.dt = cfg.dt or (cfg.t1 - cfg.t0) / cfg.points
   check_positive(sys, cfg, "dt", "the output spacing")
@@ -113,8 +113,11 @@ local function check_times(sys, cfg)
 end
 
 local function check_stepping(sys, cfg)
-  if type(cfg.method) ~= "string" or not is_method(cfg.method) then
-    fail(sys, "'method' must be the name of a GSL stepper (%s), got %s", table.concat(method_names(), ", "), show(cfg.method))
+  if type(cfg.method) ~= "string" then
+    fail(sys, "'method' must be the name of a GSL stepper (%s), got %s", table.concat(method_names(), " "), show(cfg.method))
+  end
+  if not is_method(cfg.method) then
+    fail(sys, "unknown method '%s'; GSL's steppers are: %s (option 'method')", cfg.method, table.concat(method_names(), " "))
   end
   check_positive(sys, cfg, "rtol", "the relative tolerance")
   if not (cfg.rtol >= M.MIN_RTOL and cfg.rtol <= 1) then
@@ -395,6 +398,7 @@ function M.simulate(sys, opts)
     return tb, state_at(ta, ya, tb)
   end
 
+  local update, done = progress_bar(cfg, cfg.t0, cfg.t1)
   local wall0 = mech.now()
   local span = cfg.t1 - cfg.t0
   local nsteps, window_t, next_check, announced = 0, cfg.t0, 16, false
@@ -422,11 +426,11 @@ function M.simulate(sys, opts)
       .. "with %s at rtol = %g; it goes on (Ctrl-C stops it and keeps what is done): %s"):format(user_where(), sys.name,
       steps, duration(seconds), tt, cfg.t0, cfg.t1, nsteps, cfg.method, cfg.rtol, cheaper(cfg))
     tr.warnings[#tr.warnings + 1] = msg
+    done()                                  -- the progress bar's line, if shown
     M.warn(msg)
     return true
   end
 
-  local update, done = progress_bar(cfg, cfg.t0, cfg.t1)
   local t, h = cfg.t0, cfg.h0 or math.min(cfg.dt, 1e-3)
   local gvals = {}
 
