@@ -10,9 +10,9 @@
  * d(a, lambda)/dy = -J^-1 dG/dy, where dG/dy comes from one evaluation of
  * the residual and the constraint rows along each state direction (a second
  * infinitesimal on the jets: nz_direction).  No finite differences.  The row
- * of the work W is left zero: nothing depends on W, so an implicit stepper's
- * Newton iteration converges all the same.  opt->guess_* select the root of
- * nonlinear constraints, as in the right-hand side. */
+ * of the work W (W' = R_0) is left zero here: ode.c fills it (work_row).
+ * opt->guess_* select the root of nonlinear constraints, as in the
+ * right-hand side. */
 int nz_ode_jacobian(const nz_system *s, const int *orders, const int *linear,
                     const nz_accel_options *opt, int work, double t, const double *y, double *dfdy,
                     double *dfdt);

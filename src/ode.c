@@ -42,6 +42,7 @@ static int is_multistep(const char *m) { return !strcmp(m, "msadams") || !strcmp
 struct nz_ode {
   int k, nc, dim, work, multistep;
   int level;                      /* p >= 3: the state of constrained_series.h; else 0 */
+  double work_offset;             /* GSL carries W + work_offset (see nz_ode_alloc) */
   const nz_system *s;             /* bound for the current call */
   int *orders, *linear, *involved;
   nz_accel_options accel;
@@ -49,9 +50,11 @@ struct nz_ode {
   int have_last;
   double *A;                      /* nc x k gradients from the last solve */
   double *yfail;                  /* the state of the last failure */
+  double *wscratch;               /* dim + k + nc: the work row's evaluations */
   gsl_odeiv2_system gsys;
   gsl_odeiv2_driver *driver;
   unsigned long nfev, njev;
+  unsigned long steps0, rejected0;  /* counts of the evolve objects reset before */
   nz_ode_failure failure;
 };
 
@@ -157,6 +160,44 @@ static int rhs(double t, const double y[], double f[], void *params)
   return GSL_SUCCESS;
 }
 
+/* R_0 at (t, y) with the accelerations solved there. */
+static int reaction_power_at(nz_ode *o, double t, const double *y, double *R0)
+{
+  double *acc = o->wscratch + o->dim;
+  int st = accelerations(o, t, y, acc);
+  if (!st) st = reaction_power(o, t, y, acc, R0);
+  return st;
+}
+
+/* The row of W' = R_0 (and dR_0/dt): R_0 depends on the state through q, q'
+ * and through the accelerations and multipliers solved there, so its exact
+ * derivative needs third derivatives of T along the state that the jets'
+ * one direction does not carry; central differences of R_0 (each side with
+ * its own solve) give it to ~1e-10 relative, which is all an implicit
+ * stepper's Newton iteration asks of a Jacobian.  Without this row the
+ * iteration sees W' as constant and bsimp rejects ~40% of its steps. */
+static int work_row(nz_ode *o, double t, const double *y, double *dfdy, double *dfdt)
+{
+  int k = o->k, dim = o->dim, w = 2 * k, st;
+  double *yp = o->wscratch, Rp, Rm;
+  const double step = 6.0554544523933395e-06;   /* cbrt(DBL_EPSILON): h^2 against eps/h */
+  for (int j = 0; j <= w; j++) {                 /* j = w: along t */
+    double base = j < w ? y[j] : t, h = step * fmax(1.0, fabs(base));
+    memcpy(yp, y, (size_t)dim * sizeof(double));
+    if (j < w) yp[j] = base + h;
+    st = reaction_power_at(o, j < w ? t : t + h, yp, &Rp);
+    if (!st) {
+      if (j < w) yp[j] = base - h;
+      st = reaction_power_at(o, j < w ? t : t - h, yp, &Rm);
+    }
+    if (st) return o->failure.kind ? GSL_EBADFUNC : fail(o, NZ_ODE_FAIL_FUNCTION, st, t, y);
+    if (j < w) dfdy[(size_t)w * dim + j] = (Rp - Rm) / (2.0 * h);
+    else dfdt[w] = (Rp - Rm) / (2.0 * h);
+  }
+  dfdy[(size_t)w * dim + w] = 0.0;               /* nothing depends on W */
+  return GSL_SUCCESS;
+}
+
 static int jacobian(double t, const double y[], double *dfdy, double dfdt[], void *params)
 {
   nz_ode *o = params;
@@ -169,7 +210,7 @@ static int jacobian(double t, const double y[], double *dfdy, double dfdt[], voi
   }
   int st = nz_ode_jacobian(o->s, o->orders, o->linear, &opt, o->work, t, y, dfdy, dfdt);
   if (st) return fail(o, st == NZ_ESINGULAR ? NZ_ODE_FAIL_MASS : NZ_ODE_FAIL_FUNCTION, st, t, y);
-  return GSL_SUCCESS;
+  return o->work ? work_row(o, t, y, dfdy, dfdt) : GSL_SUCCESS;
 }
 
 nz_ode *nz_ode_alloc(int k, const nz_ode_config *cfg)
@@ -184,6 +225,11 @@ nz_ode *nz_ode_alloc(int k, const nz_ode_config *cfg)
   o->level = cfg->level >= 3 ? cfg->level : 0;
   o->dim = o->level ? nz_series_dim(k, cfg->nc, o->level) : 2 * k + (cfg->work ? 1 : 0);
   o->multistep = is_multistep(cfg->method);
+  /* bsimp weighs each component's change by |y_i| (1 when y_i = 0) and
+   * rejects a step that changes a component by more than 100 dim times its
+   * size: W stays ~1e-26 for a system whose R_0 vanishes on the constraints
+   * (a knife edge) and every step was rejected.  It carries W + 1 instead. */
+  o->work_offset = cfg->work && !strcmp(cfg->method, "bsimp") ? 1.0 : 0.0;
   o->accel = cfg->accel;
   int nc = cfg->nc;
   o->orders = calloc((size_t)nc + 1, sizeof(int));
@@ -192,7 +238,8 @@ nz_ode *nz_ode_alloc(int k, const nz_ode_config *cfg)
   o->last = calloc(2 * ((size_t)k + (size_t)nc), sizeof(double));
   o->A = calloc((size_t)nc * (size_t)k + 1, sizeof(double));
   o->yfail = calloc((size_t)o->dim, sizeof(double));
-  if (!o->orders || !o->linear || !o->involved || !o->last || !o->A || !o->yfail) {
+  o->wscratch = calloc((size_t)o->dim + (size_t)k + (size_t)nc, sizeof(double));
+  if (!o->orders || !o->linear || !o->involved || !o->last || !o->A || !o->yfail || !o->wscratch) {
     nz_ode_free(o);
     return NULL;
   }
@@ -222,6 +269,7 @@ void nz_ode_free(nz_ode *o)
   free(o->last);
   free(o->A);
   free(o->yfail);
+  free(o->wscratch);
   free(o);
 }
 
@@ -238,12 +286,19 @@ static int finish_step(nz_ode *o, int gs, double t, const double *y)
   return o->failure.status ? o->failure.status : NZ_EARG;
 }
 
+static void shift_work(nz_ode *o, double *y, double by)
+{
+  if (o->work) y[2 * o->k] += by;
+}
+
 int nz_ode_step(nz_ode *o, const nz_system *s, double *t, double t1, double *h, double *y)
 {
   gsl_odeiv2_driver *d = o->driver;
   o->s = s;
   o->failure.kind = NZ_ODE_FAIL_NONE;
+  shift_work(o, y, o->work_offset);
   int gs = gsl_odeiv2_evolve_apply(d->e, d->c, d->s, &o->gsys, t, t1, h, y);
+  shift_work(o, y, -o->work_offset);
   return finish_step(o, gs, *t, y);
 }
 
@@ -254,12 +309,18 @@ int nz_ode_step_fixed(nz_ode *o, const nz_system *s, double *t, double h, double
   o->failure.kind = NZ_ODE_FAIL_NONE;
   /* Explicit and implicit one-step methods take the step as it is; the
    * multistep methods read their control through the driver. */
+  shift_work(o, y, o->work_offset);
   int gs = gsl_odeiv2_evolve_apply_fixed_step(d->e, o->multistep ? d->c : NULL, d->s, &o->gsys, t, h, y);
+  shift_work(o, y, -o->work_offset);
   return finish_step(o, gs, *t, y);
 }
 
 void nz_ode_reset(nz_ode *o)
 {
+  /* GSL's reset zeroes the evolve object's counts: keep them here, so that
+   * a run's statistics cover all of it. */
+  o->steps0 += o->driver->e->count;
+  o->rejected0 += o->driver->e->failed_steps;
   gsl_odeiv2_driver_reset(o->driver);
   o->have_last = 0;
 }
@@ -284,8 +345,8 @@ int nz_ode_jacobian_at(nz_ode *o, const nz_system *s, double t, const double *y,
 
 void nz_ode_get_stats(const nz_ode *o, nz_ode_stats *st)
 {
-  st->steps = o->driver->e->count;
-  st->rejected = o->driver->e->failed_steps;
+  st->steps = o->steps0 + o->driver->e->count;
+  st->rejected = o->rejected0 + o->driver->e->failed_steps;
   st->nfev = o->nfev;
   st->njev = o->njev;
 }

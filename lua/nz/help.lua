@@ -147,6 +147,11 @@ Methods (t a number, q, qd, qdd tables of k numbers):
   sys:energy(t, q, qd)       T + V (nil with L only), H = sum qd dL/dqd - L, and
                              whether H is a first integral: {holds, reasons, ...}
   sys:equations(n, t, q, qd [, qdd])  print the terms of (3.1) per coordinate
+  sys:simulate{q0 =, qd0 =, t1 = [, t0, dt, method, rtol, atol, step, h0, events,
+        event_tol, project, baumgarte, monitors, progress, check]}  a trajectory.
+        Each option is checked (which, what it got, what it accepts); a run
+        that will take over a minute or 1e7 steps says so once and goes on;
+        one whose steps stop advancing t stops with the state and M.
   print(sys)                 a summary]] },
   { name = "forms", section = "mechanics", usage = "nz.forms",
     summary = "the names of the forms of the equations sys:residual accepts" },

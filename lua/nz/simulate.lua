@@ -23,21 +23,187 @@ local known = {
 local function level_option(key) return type(key) == "string" and key:match("^q%d+d0$") ~= nil end
 local known_monitors = { energy = true, work = true }
 
-local function fail(sys, msg, ...) error(("simulate '%s': " .. msg):format(sys.name, ...), 3) end
+-- Limits that keep a run finite and its memory bounded.
+M.MAX_POINTS = 1e7        -- output points kept in memory (~300 bytes each)
+M.MAX_FIXED_STEPS = 1e9   -- steps of a fixed-step run
+M.MIN_RTOL = 1e-15        -- below this (~5 eps) no stepper can make progress
+M.PROJECT_TOL = 1e-10     -- project = true projects when the violation exceeds this
+M.PROJECT_MULTISTEP = 100  -- ... times max(rtol, atol) for msadams and msbdf (up to 1e-6)
+-- A long run is announced (once) when the first steps project more than
+-- this many steps or seconds; LONG_RUN.check_steps: when to look first
+-- (then at every doubling), so that the decision counts steps.
+M.LONG_RUN = { steps = 1e7, seconds = 60, check_steps = 2000 }
+-- A run whose last STALL.window steps advanced t by less than STALL.fraction
+-- of the span makes no progress (it would need > window / fraction steps).
+M.STALL = { window = 1000, fraction = 1e-10 }
+
+-- Warnings go to stderr once and into tr.warnings (tests replace M.warn).
+function M.warn(msg) io.stderr:write(msg, "\n") end
+
+-- The first frame outside the library (the user's call): "file:line: ".
+local function is_library(src) return src:find("^@?lua/nz/[%w_]+%.lua$") or src:find("/lua/nz/[%w_]+%.lua$") end
+local function user_where()
+  for level = 2, 50 do
+    local info = debug.getinfo(level, "Sl")
+    if not info then break end
+    if info.currentline > 0 and not is_library(info.source) then return info.short_src .. ":" .. info.currentline .. ": " end
+  end
+  return ""
+end
+
+-- A message with its library location prefixes ("lua/nz/simulate.lua:229: ")
+-- removed; whether what is left starts with some (user's) file:line.
+local function strip_library(msg)
+  repeat
+    local rest = msg:match("^@?lua/nz/[%w_]+%.lua:%d+: (.*)$") or msg:match("^[^:\n]*/lua/nz/[%w_]+%.lua:%d+: (.*)$")
+    if rest then msg = rest end
+  until not rest
+  return msg
+end
+local function located(msg) return msg:find("^[^%s:]+:%d+: ") ~= nil end
+
+local function fail(sys, msg, ...) error(user_where() .. ("simulate '%s': " .. msg):format(sys.name, ...), 0) end
+
+local function show(v)
+  if type(v) == "string" then return ("%q"):format(v) end
+  if type(v) == "table" then return "a table" end
+  return tostring(v)
+end
+
+local function finite(v) return type(v) == "number" and v == v and math.abs(v) ~= math.huge end
 
 local function check_vector(sys, v, what)
   if type(v) ~= "table" or #v ~= sys.k then
-    fail(sys, "'%s' must be a table of %d numbers (one per coordinate: %s)", what, sys.k, table.concat(sys.coords, ", "))
+    fail(sys, "'%s' must be a table of %d numbers (one per coordinate: %s), got %s", what, sys.k,
+      table.concat(sys.coords, ", "), show(v))
   end
   for i = 1, sys.k do
-    if type(v[i]) ~= "number" or v[i] ~= v[i] or math.abs(v[i]) == math.huge then
-      fail(sys, "'%s'[%d] must be a finite number", what, i)
+    if not finite(v[i]) then fail(sys, "'%s'[%d] must be a finite number, got %s", what, i, show(v[i])) end
+  end
+end
+
+-- A positive finite number (nil allowed when optional).
+local function check_positive(sys, cfg, key, what, optional)
+  local v = cfg[key]
+  if v == nil and optional then return end
+  if not finite(v) or not (v > 0) then fail(sys, "'%s' (%s) must be a positive finite number, got %s", key, what, show(v)) end
+end
+
+local function method_names()
+  local names = {}
+  for i, m in ipairs(mech.ode_methods()) do names[i] = m.name end
+  return names
+end
+
+local function is_method(name)
+  for _, m in ipairs(method_names()) do if m == name then return true end end
+  return false
+end
+
+local function check_times(sys, cfg)
+  if not finite(cfg.t0) then fail(sys, "'t0' (the start time) must be a finite number, got %s", show(cfg.t0)) end
+  if not finite(cfg.t1) or not (cfg.t1 > cfg.t0) then
+    fail(sys, "'t1' must be a number greater than t0 = %g (the end time, finite), got %s", cfg.t0, show(cfg.t1))
+  end
+  cfg.dt = cfg.dt or (cfg.t1 - cfg.t0) / cfg.points
+  check_positive(sys, cfg, "dt", "the output spacing")
+  local npoints = (cfg.t1 - cfg.t0) / cfg.dt
+  if npoints > M.MAX_POINTS then
+    fail(sys, "'dt' = %g over [%g, %g] asks for %.3g output points; at most %g are kept in memory: take dt >= %.3g",
+      cfg.dt, cfg.t0, cfg.t1, npoints, M.MAX_POINTS, (cfg.t1 - cfg.t0) / M.MAX_POINTS)
+  end
+end
+
+local function check_stepping(sys, cfg)
+  if type(cfg.method) ~= "string" then
+    fail(sys, "'method' must be the name of a GSL stepper (%s), got %s", table.concat(method_names(), " "), show(cfg.method))
+  end
+  if not is_method(cfg.method) then
+    fail(sys, "unknown method '%s'; GSL's steppers are: %s (option 'method')", cfg.method, table.concat(method_names(), " "))
+  end
+  check_positive(sys, cfg, "rtol", "the relative tolerance")
+  if not (cfg.rtol >= M.MIN_RTOL and cfg.rtol <= 1) then
+    fail(sys, "'rtol' must be between %g and 1 (double precision cannot do better), got %s", M.MIN_RTOL, show(cfg.rtol))
+  end
+  if not finite(cfg.atol) or not (cfg.atol >= 0) then
+    fail(sys, "'atol' (the absolute tolerance) must be a finite number >= 0, got %s", show(cfg.atol))
+  end
+  check_positive(sys, cfg, "h0", "the first step", true)
+  check_positive(sys, cfg, "event_tol", "the tolerance on event times")
+  if cfg.step ~= nil then
+    check_positive(sys, cfg, "step", "a fixed step size")
+    local nsteps = (cfg.t1 - cfg.t0) / cfg.step
+    if nsteps > M.MAX_FIXED_STEPS then
+      fail(sys, "'step' = %g over [%g, %g] means %.3g steps; at most %g: take step >= %.3g (or drop 'step' for adaptive steps)",
+        cfg.step, cfg.t0, cfg.t1, nsteps, M.MAX_FIXED_STEPS, (cfg.t1 - cfg.t0) / M.MAX_FIXED_STEPS)
+    end
+    if cfg.method == "msadams" or cfg.method == "msbdf" then
+      fail(sys, "'step' (a fixed step) does not work with method '%s', which chooses its own steps and order: "
+        .. "drop 'step' and set rtol/atol, or take a one-step method (rk4, rk8pd, rk4imp, ...)", cfg.method)
     end
   end
 end
 
+local function check_monitors(sys, cfg)
+  cfg.monitors = cfg.monitors or {}
+  if type(cfg.monitors) ~= "table" then
+    fail(sys, "'monitors' must be a table such as {energy = true, work = true}, got %s", show(cfg.monitors))
+  end
+  for key in pairs(cfg.monitors) do
+    if not known_monitors[key] then fail(sys, "unknown monitor '%s' (monitors: energy, work)", tostring(key)) end
+  end
+  if cfg.monitors.work then cfg.monitors.energy = true end   -- T + V - work needs T + V
+end
+
+local function check_stabilization(sys, cfg)
+  if cfg.project ~= nil and type(cfg.project) ~= "boolean" then
+    fail(sys, "'project' must be true or false, got %s", show(cfg.project))
+  end
+  if cfg.baumgarte ~= nil and cfg.baumgarte ~= false then
+    local b = cfg.baumgarte
+    if type(b) == "number" then b = { alpha = b, beta = b } end
+    if type(b) ~= "table" or not finite(b.alpha) or not finite(b.beta or b.alpha) then
+      fail(sys, "'baumgarte' must be {alpha = a, beta = b} (or one number for both), got %s", show(cfg.baumgarte))
+    end
+    cfg.alpha, cfg.beta = b.alpha, b.beta or b.alpha
+    if cfg.alpha < 0 or cfg.beta < 0 then
+      fail(sys, "'baumgarte' gains must be >= 0 (a negative gain makes the violation grow), got alpha = %g, beta = %g",
+        cfg.alpha, cfg.beta)
+    end
+  end
+end
+
+local function check_events(sys, cfg)
+  cfg.events = cfg.events or {}
+  if type(cfg.events) ~= "table" then
+    fail(sys, "'events' must be a list of functions or {f = function(t, q, qd) ... end, stop =, direction =, name =} tables, got %s",
+      show(cfg.events))
+  end
+  local events = {}
+  for i, ev in ipairs(cfg.events) do
+    if type(ev) == "function" then ev = { f = ev } end
+    if type(ev) ~= "table" or type(ev.f) ~= "function" then
+      fail(sys, "event %d must be {f = function(t, q, qd) ... end [, stop = true, direction = 1 or -1, name = ...]}, got %s", i, show(ev))
+    end
+    events[i] = { f = ev.f, stop = ev.stop, name = ev.name or ("event " .. i), direction = ev.direction or 0 }
+  end
+  cfg.events = events
+end
+
+-- Options that do nothing for this system: said once per system and option.
+-- They go into the trajectory's warnings every run.
+local warned = setmetatable({}, { __mode = "k" })
+local function warn_once(sys, cfg, key, msg)
+  msg = user_where() .. ("simulate '%s': warning: "):format(sys.name) .. msg
+  cfg.warnings[#cfg.warnings + 1] = msg
+  warned[sys] = warned[sys] or {}
+  if warned[sys][key] then return end
+  warned[sys][key] = true
+  M.warn(msg)
+end
+
 local function validate(sys, o)
-  if type(o) ~= "table" then fail(sys, "a table {q0 = ..., qd0 = ..., t1 = ...} expected") end
+  if type(o) ~= "table" then fail(sys, "a table {q0 = ..., qd0 = ..., t1 = ...} expected, got %s", show(o)) end
   for key in pairs(o) do
     if not known[key] and not level_option(key) then
       local names = {}
@@ -51,37 +217,16 @@ local function validate(sys, o)
   local cfg = {}
   for k, v in pairs(M.defaults) do cfg[k] = v end
   for k, v in pairs(o) do cfg[k] = v end
-  cfg.t0 = cfg.t0 or 0
-  if type(cfg.t1) ~= "number" or not (cfg.t1 > cfg.t0) then fail(sys, "'t1' must be a number greater than t0 = %g", cfg.t0) end
-  cfg.dt = cfg.dt or (cfg.t1 - cfg.t0) / cfg.points
-  if type(cfg.dt) ~= "number" or not (cfg.dt > 0) then fail(sys, "'dt' (the output spacing) must be a positive number") end
-  for _, key in ipairs{ "rtol", "atol" } do
-    if type(cfg[key]) ~= "number" or not (cfg[key] > 0) then fail(sys, "'%s' must be a positive number", key) end
-  end
-  if cfg.step ~= nil and (type(cfg.step) ~= "number" or not (cfg.step > 0)) then
-    fail(sys, "'step' (a fixed step size) must be a positive number")
-  end
-  cfg.monitors = cfg.monitors or {}
-  for key in pairs(cfg.monitors) do
-    if not known_monitors[key] then fail(sys, "unknown monitor '%s' (monitors: energy, work)", tostring(key)) end
-  end
-  if cfg.monitors.work then cfg.monitors.energy = true end   -- T + V - work needs T + V
-  if cfg.baumgarte ~= nil and cfg.baumgarte ~= false then
-    local b = cfg.baumgarte
-    if type(b) == "number" then b = { alpha = b, beta = b } end
-    if type(b) ~= "table" or type(b.alpha) ~= "number" or type(b.beta or b.alpha) ~= "number" then
-      fail(sys, "'baumgarte' must be {alpha = a, beta = b} (or one number for both)")
-    end
-    cfg.alpha, cfg.beta = b.alpha, b.beta or b.alpha
-  end
-  cfg.events = cfg.events or {}
-  for i, ev in ipairs(cfg.events) do
-    if type(ev) == "function" then ev = { f = ev }; cfg.events[i] = ev end
-    if type(ev) ~= "table" or type(ev.f) ~= "function" then
-      fail(sys, "event %d must be {f = function(t, q, qd) ... end [, stop = true, direction = 1 or -1, name = ...]}", i)
-    end
-    ev.name = ev.name or ("event " .. i)
-    ev.direction = ev.direction or 0
+  if cfg.t0 == nil then cfg.t0 = 0 end
+  check_times(sys, cfg)
+  check_stepping(sys, cfg)
+  check_monitors(sys, cfg)
+  check_stabilization(sys, cfg)
+  check_events(sys, cfg)
+  cfg.warnings = {}
+  if sys.nc == 0 then
+    if cfg.project then warn_once(sys, cfg, "project", "'project' does nothing: the system has no constraints") end
+    if cfg.alpha then warn_once(sys, cfg, "baumgarte", "'baumgarte' does nothing: the system has no constraints") end
   end
   return cfg
 end
@@ -152,6 +297,43 @@ local function start_levels(sys, cfg, orders, p, qd0)
   return tail
 end
 
+-- The order of each stepper (msadams and msbdf: their highest), for advice.
+local method_order = { rk2 = 2, rk4 = 4, rkf45 = 5, rkck = 5, rk8pd = 8, rk1imp = 1, rk2imp = 2, rk4imp = 4,
+  bsimp = 6, msadams = 12, msbdf = 5 }
+
+local function duration(seconds)
+  if seconds < 120 then return ("%.0f s"):format(seconds) end
+  if seconds < 7200 then return ("%.0f min"):format(seconds / 60) end
+  if seconds < 2 * 86400 then return ("%.1f h"):format(seconds / 3600) end
+  return ("%.0f days"):format(seconds / 86400)
+end
+
+-- What would be cheaper than cfg: the steps of an order-p method grow like
+-- rtol^(-1/p), so a low order at a tight tolerance is what costs.
+local function cheaper(cfg)
+  local p = method_order[cfg.method] or 4
+  local advice = {}
+  if p < 5 then
+    advice[#advice + 1] = ("a higher-order method (%s is of order %d): rk8pd, or bsimp or msbdf if the system is stiff"):format(cfg.method, p)
+  end
+  if cfg.step then advice[#advice + 1] = "a larger 'step', or adaptive steps (drop 'step')" end
+  advice[#advice + 1] = ("a looser rtol (the steps grow like rtol^(-1/%d) for this method; rtol = %g takes %.2gx fewer steps)")
+    :format(p, cfg.rtol * 1e3, 1e3 ^ (1 / p))
+  return table.concat(advice, ", or ")
+end
+
+-- " at t = ..., q = {...}, qd = {...}" as the engine's messages say it.
+local function num(v)
+  local text = ("%.15g"):format(v)
+  return tonumber(text) == v and text or ("%.17g"):format(v)
+end
+local function nums(v)
+  local parts = {}
+  for i, x in ipairs(v) do parts[i] = num(x) end
+  return "{" .. table.concat(parts, ", ") .. "}"
+end
+local function state_text(t, q, qd) return (" at t = %s, q = %s, qd = %s"):format(num(t), nums(q), nums(qd)) end
+
 local function split(y, k)
   local q, qd = {}, {}
   for i = 1, k do q[i], qd[i] = y[i], y[k + i] end
@@ -189,6 +371,7 @@ function M.simulate(sys, opts)
     work = cfg.monitors.work, orders = orders, linear = linear, alpha = cfg.alpha, beta = cfg.beta, level = p,
   })
   local tr = trajectory.new(sys, cfg)
+  tr.warnings = cfg.warnings
   if cfg.monitors.energy then tr.energy, tr.generalized_energy = {}, {} end
   if cfg.monitors.work then tr.work = {} end
 
@@ -228,22 +411,33 @@ function M.simulate(sys, opts)
     return yy
   end
 
+  -- An event function that raises: its own file:line first (the fault is
+  -- there), then the system, the event, the time and the state.
   local function event_value(ev, t, yy)
     local q, qd = split(yy, k)
-    local v = ev.f(t, q, qd, sys.params)
+    local ok, v = pcall(ev.f, t, q, qd, sys.params)
+    if not ok then
+      if type(v) ~= "string" then error(v, 0) end        -- an error object (an interrupt): as it is
+      local where, what = v:match("^([^%s:]+:%d+: )(.*)$")
+      error(("%ssimulate '%s': event '%s' raised an error%s: %s"):format(where or user_where(), sys.name, ev.name,
+        state_text(t, q, qd), what or v), 0)
+    end
     if type(v) ~= "number" or v ~= v then
-      fail(sys, "event '%s' must return a number, got %s at t = %g", ev.name, tostring(v), t)
+      fail(sys, "event '%s' must return a number, got %s%s", ev.name, show(v), state_text(t, q, qd))
     end
     return v
   end
 
+  -- A sign change over the step, or a step that lands on the zero (an
+  -- event at an output time: g = t - 0.05 with dt = 0.005).
   local function crosses(ev, ga, gb)
-    if ga == 0 or (ga > 0) == (gb > 0) then return false end
+    if ga == 0 or (gb ~= 0 and (ga > 0) == (gb > 0)) then return false end
     return ev.direction == 0 or (ev.direction > 0 and gb > ga) or (ev.direction < 0 and gb < ga)
   end
 
   -- Illinois' variant of regula falsi on [ta, tb]: robust, and superlinear.
-  local function locate(ev, ta, ya, ga, tb, gb)
+  local function locate(ev, ta, ya, ga, tb, gb, yb)
+    if gb == 0 then return tb, yb end
     local tol = cfg.event_tol * math.max(1, math.abs(tb))
     local side = 0
     local tm, ym = tb, nil
@@ -269,8 +463,71 @@ function M.simulate(sys, opts)
 
   local update, done = progress_bar(cfg, cfg.t0, cfg.t1)
   local wall0 = mech.now()
+  local span = cfg.t1 - cfg.t0
+  local nsteps, window_t, next_check, announced = 0, cfg.t0, 16, false
+  local function stalled(tt, advance)
+    local q, qd = split(y, k)
+    local sv = mech.singular_values(sys:mass(tt, q, qd))
+    local sv0 = mech.singular_values(sys:mass(cfg.t0, cfg.q0, qd0))
+    local smin, smax, smin0 = math.huge, 0, math.huge
+    for _, x in ipairs(sv) do smin, smax = math.min(smin, x), math.max(smax, x) end
+    for _, x in ipairs(sv0) do smin0 = math.min(smin0, x) end
+    fail(sys, "the integrator (%s) stopped making progress: the last %d steps advanced t by %.3g%s; "
+      .. "the mass matrix M there has singular values from %.3g to %.3g (condition number %.3g; smallest %.3g at the start): "
+      .. "the motion is singular here (M nearly singular, or a velocity blowing up), or the tolerance is too tight: "
+      .. "check the system near this state, or change the method or the tolerances",
+      cfg.method, M.STALL.window, advance, state_text(tt, q, qd), smin, smax, smax / smin, smin0)
+  end
+
+  local function long_run(tt)
+    local done_frac = (tt - cfg.t0) / span
+    local elapsed = mech.now() - wall0
+    local steps, seconds = nsteps / done_frac, elapsed / done_frac
+    if not ((nsteps >= M.LONG_RUN.check_steps and steps > M.LONG_RUN.steps)
+        or (elapsed >= 1 and seconds > M.LONG_RUN.seconds)) then return false end
+    local msg = ("%ssimulate '%s': warning: this run will take about %.3g steps and %s (t = %.4g of [%g, %g] after %d steps) "
+      .. "with %s at rtol = %g; it goes on (Ctrl-C stops it and keeps what is done): %s"):format(user_where(), sys.name,
+      steps, duration(seconds), tt, cfg.t0, cfg.t1, nsteps, cfg.method, cfg.rtol, cheaper(cfg))
+    tr.warnings[#tr.warnings + 1] = msg
+    done()                                  -- the progress bar's line, if shown
+    M.warn(msg)
+    return true
+  end
+
   local t, h = cfg.t0, cfg.h0 or math.min(cfg.dt, 1e-3)
   local gvals = {}
+
+  -- project = true: back onto the constraints when the violation exceeds a
+  -- tolerance, not after every step.  One-step methods carry nothing from
+  -- step to step; msadams and msbdf carry a history of the state that a
+  -- projection invalidates (they restart at order 1), so they project only
+  -- when the drift exceeds 100 times the run's tolerance: at PROJECT_TOL
+  -- each restart would cause the drift of the next.
+  local multistep = cfg.method == "msadams" or cfg.method == "msbdf"
+  local project_tol = multistep and math.min(1e-6, math.max(M.PROJECT_TOL, M.PROJECT_MULTISTEP * math.max(cfg.rtol, cfg.atol)))
+    or M.PROJECT_TOL
+  tr.projections = cfg.project and sys.nc > 0 and 0 or nil
+  local function project(tt)
+    local q, qd = split(y, k)
+    if constraints.violation(sys, tt, q, qd) <= project_tol then return end
+    local pq, pqd = constraints.project(sys, tt, q, qd)
+    for j = 1, k do y[j], y[k + j] = pq[j], pqd[j] end
+    tr.projections = tr.projections + 1
+    if multistep then mech.ode_reset(ode) end     -- keeps the statistics (src/ode.c)
+  end
+
+  -- Every accepted step: a run that stopped making progress fails with the
+  -- state and the conditioning of M; a run that will take long says so once.
+  local function watch(tt)
+    if nsteps % M.STALL.window == 0 then
+      if tt - window_t < M.STALL.fraction * span then stalled(tt, tt - window_t) end
+      window_t = tt
+    end
+    if nsteps == next_check and not announced then
+      next_check = 2 * next_check
+      announced = long_run(tt)
+    end
+  end
 
   local function run()
     record(t, y)
@@ -291,16 +548,13 @@ function M.simulate(sys, opts)
         else
           t, h, y = mech.ode_step(ode, engine, t, tout, h, y)
         end
-        if cfg.project and sys.nc > 0 then
-          local q, qd = split(y, k)
-          local pq, pqd = constraints.project(sys, t, q, qd)
-          for j = 1, k do y[j], y[k + j] = pq[j], pqd[j] end
-          mech.ode_reset(ode)
-        end
+        if cfg.project and sys.nc > 0 then project(t) end
+        nsteps = nsteps + 1
+        watch(t)
         for e, ev in ipairs(cfg.events) do
           local g = event_value(ev, t, y)
           if crosses(ev, gvals[e], g) then
-            local te, ye = locate(ev, ta, ya, gvals[e], t, g)
+            local te, ye = locate(ev, ta, ya, gvals[e], t, g, y)
             local q, qd = split(ye, k)
             tr.events[#tr.events + 1] = { name = ev.name, t = te, q = q, qd = qd }
             if ev.stop then
@@ -330,10 +584,14 @@ function M.simulate(sys, opts)
       require("nz").last = tr
       return tr
     end
+    -- One location, the user's: the engine's messages come with the
+    -- library's line (lua/nz/simulate.lua:...), which says nothing.
+    msg = strip_library(msg)
+    if not located(msg) then msg = user_where() .. msg end
     tr.status, tr.message = "failed", msg
     require("nz").last = tr
     error(("%s\n(the trajectory computed so far, %d points up to t = %.6g, is kept in nz.last)"):format(
-      msg, #tr.t, tr.t[#tr.t] or cfg.t0), 2)
+      msg, #tr.t, tr.t[#tr.t] or cfg.t0), 0)
   end
   return tr
 end

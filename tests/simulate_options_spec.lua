@@ -1,0 +1,276 @@
+-- simulate_options_spec.lua - sys:simulate never hangs and never lies:
+-- every option is validated (which option, what it got, what it accepts,
+-- the caller's file:line first), failures carry one location, events that
+-- raise say where, project = true keeps the statistics and a multistep
+-- history, the work monitor's Jacobian row, a run that stops making
+-- progress fails with the state, and a long run says so.  Steps are
+-- counted, never wall time.
+local h = require "tests.helpers"
+local nz = h.nz
+local simulate = require "nz.simulate"
+local nz_mech = require("nz.core").mech
+
+local THIS = "tests/simulate_options_spec.lua"
+
+local pendulum = nz.system{ name = "pendulum", coords = { "th" },
+  T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end,
+  V = function(t, q) return -9.81 * nz.cos(q[1]) end }
+
+-- A knife edge on an inclined plane (linear nonholonomic constraint).
+local function knife()
+  return nz.system{ name = "knife edge", coords = { "x", "y", "th" },
+    T = function(t, q, qd) return 0.5 * 1.3 * (qd[1] ^ 2 + qd[2] ^ 2) + 0.5 * 0.2 * qd[3] ^ 2 end,
+    V = function(t, q) return -1.3 * 2.385 * q[1] end,
+    constraints = { function(t, q, qd) return -qd[1] * nz.sin(q[3]) + qd[2] * nz.cos(q[3]) end } }
+end
+
+-- The error of f(...) (which must fail), with the line of this file that called it.
+local function failure(f, ...)
+  local line = debug.getinfo(2, "l").currentline
+  local ok, msg = pcall(f, ...)
+  assert(not ok, "expected an error")
+  return tostring(msg), line
+end
+
+-- Call simulate from this line and return the message: it must start with
+-- this file and line (the user's call), never lua/nz/simulate.lua.
+local function option_error(sys, opts)
+  local ok, msg = pcall(sys.simulate, sys, opts)
+  local line = debug.getinfo(1, "l").currentline - 1
+  assert(not ok, "expected an error for these options")
+  msg = tostring(msg)
+  local prefix = ("%s:%d: simulate '%s': "):format(THIS, line, sys.name)
+  assert(msg:sub(1, #prefix) == prefix, ("expected the message to start with %q, got %q"):format(prefix, msg))
+  assert(not msg:find("lua/nz/", 1, true), "the library's location leaked: " .. msg)
+  return msg
+end
+
+local function contains(msg, ...)
+  for _, s in ipairs{ ... } do
+    assert(msg:find(s, 1, true), ("expected %q in %q"):format(s, msg))
+  end
+end
+
+describe("simulate validates its options", function()
+  local nan = 0 / 0
+  local cases = {
+    { "rtol = atol = 1e-300", { rtol = 1e-300, atol = 1e-300 }, { "'rtol'", "1e-300", "between 1e-15 and 1" } },
+    { "rtol = inf", { rtol = math.huge }, { "'rtol'", "inf", "positive finite" } },
+    { "step = 1e-300", { step = 1e-300 }, { "'step'", "1e-300", "at most 1e+09" } },
+    { "h0 = 0", { h0 = 0 }, { "'h0'", "got 0", "positive finite" } },
+    { "h0 < 0", { h0 = -0.25 }, { "'h0'", "got -0.25" } },
+    { "h0 = NaN", { h0 = nan }, { "'h0'", "nan" } },
+    { "t1 = math.huge", { t1 = math.huge }, { "'t1' must be a number greater than t0 = 0", "finite", "got inf" } },
+    { "dt = 1e-9 over a long span", { t1 = 100, dt = 1e-9 }, { "'dt'", "1e+11 output points", "at most 1e+07", "dt >= 1e-05" } },
+    { "event_tol < 0", { event_tol = -1e-9 }, { "'event_tol'", "-1e-09" } },
+    { "events = 'x'", { events = "x" }, { "'events'", "\"x\"", "list of functions" } },
+    { "method = {}", { method = {} }, { "'method'", "a table", "rk8pd", "msbdf" } },
+    { "method = 'euler'", { method = "euler" }, { "unknown method 'euler'", "rk8pd", "option 'method'" } },
+    { "monitors = 'energy'", { monitors = "energy" }, { "'monitors'", "\"energy\"", "{energy = true, work = true}" } },
+    { "t0 = '0'", { t0 = "0" }, { "'t0'", "\"0\"", "finite number" } },
+    { "t0 = NaN", { t0 = nan }, { "'t0'", "nan" } },
+    { "a fixed step with msadams", { method = "msadams", step = 1e-3 }, { "'step'", "'msadams'", "drop 'step'" } },
+    { "a fixed step with msbdf", { method = "msbdf", step = 1e-3 }, { "'step'", "'msbdf'", "one-step method" } },
+    { "project = 'yes'", { project = "yes" }, { "'project'", "\"yes\"", "true or false" } },
+  }
+  for _, c in ipairs(cases) do
+    it(c[1] .. ": says which option, what it got and what it accepts, from the caller's line", function()
+      local opts = { q0 = { 1 }, t1 = 1 }
+      for k, v in pairs(c[2]) do opts[k] = v end
+      contains(option_error(pendulum, opts), table.unpack(c[3]))
+    end)
+  end
+
+  it("a negative Baumgarte gain is refused (the violation would grow)", function()
+    local sys = knife()
+    local msg = option_error(sys, { q0 = { 0, 0, 0 }, qd0 = { 0, 0, 1.7 }, t1 = 1, baumgarte = { alpha = -2.5, beta = 3 } })
+    contains(msg, "'baumgarte'", "alpha = -2.5", ">= 0")
+  end)
+
+  it("options that do nothing for the system are said once (a warning, not an error)", function()
+    local said = {}
+    local saved = simulate.warn
+    simulate.warn = function(msg) said[#said + 1] = msg end
+    local sys = nz.system{ name = "free particle", coords = { "x" }, T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end }
+    local ok, tr = pcall(sys.simulate, sys, { q0 = { 0.3 }, qd0 = { 1.1 }, t1 = 0.5, project = true, baumgarte = 2 })
+    local tr2 = sys:simulate{ q0 = { 0.3 }, qd0 = { 1.1 }, t1 = 0.5, project = true }
+    simulate.warn = saved
+    assert(ok, tostring(tr))
+    assert.are.equal(2, #said)                  -- project and baumgarte, once each
+    contains(said[1], THIS .. ":", "'project' does nothing", "no constraints")
+    contains(said[2], "'baumgarte' does nothing")
+    assert.are.equal(1, #tr2.warnings)          -- still recorded on the trajectory
+    -- x = x0 + v t: the run itself is unaffected.
+    assert(math.abs(tr.q[#tr.q][1] - (0.3 + 1.1 * 0.5)) <= 1e-12)
+  end)
+end)
+
+describe("simulate's failures name the user's code first", function()
+  it("an event that raises: its own file:line, then the system, the event, the time and the state", function()
+    local line = debug.getinfo(1, "l").currentline + 2
+    local msg = failure(pendulum.simulate, pendulum, { q0 = { 1 }, t1 = 1, events = {
+      { name = "touchdown", f = function(t, q) if t > 0.25 then error("event blew up") end return q[1] + 2 end } } })
+    contains(msg, ("%s:%d: simulate 'pendulum': event 'touchdown' raised an error at t = "):format(THIS, line),
+      ", q = {", ", qd = {", ": event blew up")
+    assert(not msg:find("lua/nz/", 1, true), msg)
+  end)
+
+  it("an event that returns no number says so with the state", function()
+    local msg = option_error(pendulum, { q0 = { 1 }, t1 = 1, events = { function() return "up" end } })
+    contains(msg, "event 'event 1' must return a number, got \"up\" at t = 0, q = {1}, qd = {0}")
+  end)
+
+  it("a function that fails during the run: one location (where the user's function raised), no library prefix", function()
+    local line
+    local sys = nz.system{ name = "breaks", coords = { "x" }, T = function(t, q, qd)
+      if t > 0.5 then line = debug.getinfo(1, "l").currentline; error("T gave up") end
+      return 0.5 * qd[1] ^ 2
+    end }
+    local ok, msg = pcall(sys.simulate, sys, { q0 = { 1 }, qd0 = { 1 }, t1 = 1 })
+    assert(not ok)
+    msg = tostring(msg)
+    contains(msg, ("%s:%d: system 'breaks': T raised an error"):format(THIS, line), "T gave up", "kept in nz.last")
+    assert(not msg:find("lua/nz/", 1, true), msg)
+    local _, prefixes = msg:gsub(THIS .. ":%d+: system", "")
+    assert.are.equal(1, prefixes)
+  end)
+
+  it("an event at an output time (g = t - 0.05 with dt = 0.005) is not missed", function()
+    local tr = pendulum:simulate{ q0 = { 1 }, t1 = 1, dt = 0.005, events = { { f = function(t) return t - 0.05 end, stop = true } } }
+    assert.are.equal("stopped", tr.status)
+    assert(math.abs(tr.t[#tr.t] - 0.05) <= 1e-12)
+  end)
+end)
+
+describe("project = true", function()
+  it("msbdf on a knife edge to t1 = 5 finishes in a few thousand steps and keeps its statistics", function()
+    local sys = knife()
+    -- Before: a projection and a restart at order 1 after every step
+    -- (897,269 right-hand sides for t = 1.6, "1 steps").  Measured now:
+    -- 2,524 steps, 1 projection.
+    local tr = sys:simulate{ q0 = { 0, 0, 0 }, qd0 = { 0, 0, 1.7 }, t1 = 5, method = "msbdf", project = true }
+    assert.are.equal("done", tr.status)
+    assert(tr.stats.steps > 100 and tr.stats.steps < 6000, ("%d steps"):format(tr.stats.steps))
+    assert(tr.projections <= 10, ("%d projections"):format(tr.projections))
+    -- Closed form (G = 2.385, w = 1.7): th = w t, x = G/(2 w^2) sin^2(w t).
+    local t, G, w = tr.t[#tr.t], 2.385, 1.7
+    assert(math.abs(tr.q[#tr.q][1] - G / (2 * w * w) * math.sin(w * t) ^ 2) <= 1e-6)
+    assert(math.abs(tr.q[#tr.q][3] - w * t) <= 1e-6)
+  end)
+
+  it("a one-step method counts every step (a reset never zeroes the statistics)", function()
+    local sys = knife()
+    local with = sys:simulate{ q0 = { 0, 0, 0 }, qd0 = { 0, 0, 1.7 }, t1 = 2, method = "rk4imp", rtol = 1e-12, atol = 1e-14, project = true }
+    assert(with.stats.steps >= 100, ("%d steps"):format(with.stats.steps))   -- dt = 0.01: at least one step per output
+    assert(with.stats.nfev > with.stats.steps)
+  end)
+
+  it("nz_ode_reset keeps steps and rejections", function()
+    local ode = nz_mech.ode_new(pendulum.engine, { method = "rk8pd", orders = {}, linear = {} })
+    local t, hh, y = 0, 1e-3, { 1, 0 }
+    for _ = 1, 5 do t, hh, y = nz_mech.ode_step(ode, pendulum.engine, t, 1, hh, y) end
+    local before = nz_mech.ode_stats(ode).steps
+    assert(before >= 5)
+    nz_mech.ode_reset(ode)
+    for _ = 1, 3 do t, hh, y = nz_mech.ode_step(ode, pendulum.engine, t, 1, hh, y) end
+    assert(nz_mech.ode_stats(ode).steps >= before + 3)
+  end)
+end)
+
+describe("the work monitor's Jacobian row", function()
+  -- Bead on a hoop turning at Omega = w0 + alpha t (T has T0 = m R^2 Omega^2
+  -- sin^2 th / 2): by hand from (9.1), R_0 = m R^2 (Omega alpha sin^2 th
+  -- + Omega^2 sin 2th th'), so
+  --   dR_0/dth  = m R^2 (Omega alpha sin 2th + 2 Omega^2 cos 2th th')
+  --   dR_0/dth' = m R^2 Omega^2 sin 2th
+  --   dR_0/dt   = m R^2 (alpha^2 sin^2 th + 2 Omega alpha sin 2th th').
+  it("bead on a turning hoop: the row of W' = R_0 matches the hand derivation", function()
+    local g, R, m, w0, alpha = 9.81, 0.5, 0.3, 2.0, 0.7
+    local sys = nz.system{ name = "hoop", coords = { "th" },
+      T = function(t, q, qd) return 0.5 * m * R * R * (qd[1] ^ 2 + (w0 + alpha * t) ^ 2 * nz.sin(q[1]) ^ 2) end,
+      V = function(t, q) return -m * g * R * nz.cos(q[1]) end }
+    local t, th, thd = 1.385, 0.7, -1.3
+    local ode = nz_mech.ode_new(sys.engine, { method = "bsimp", orders = {}, linear = {}, work = true })
+    local J, dfdt = nz_mech.ode_jacobian(ode, sys.engine, t, { th, thd, 0.25 })
+    local W = m * R * R
+    local Om = w0 + alpha * t
+    local want = { W * (Om * alpha * math.sin(2 * th) + 2 * Om * Om * math.cos(2 * th) * thd), W * Om * Om * math.sin(2 * th), 0 }
+    -- Central differences inside (h ~ 6e-6): error ~ h^2 |R_0'''| ~ 1e-10.
+    for j = 1, 3 do
+      assert(math.abs(J[3][j] - want[j]) <= 1e-8 * (1 + math.abs(want[j])),
+        ("dR_0/dy_%d = %.12g, by hand %.12g"):format(j, J[3][j], want[j]))
+    end
+    local dRdt = W * (alpha * alpha * math.sin(th) ^ 2 + 2 * Om * alpha * math.sin(2 * th) * thd)
+    assert(math.abs(dfdt[3] - dRdt) <= 1e-8 * (1 + math.abs(dRdt)))
+  end)
+
+  it("knife edge off the constraint: the row matches central differences of sys:reaction_power", function()
+    local sys = knife()
+    local orders, linear = require("nz.constraints").orders(sys)
+    local ode = nz_mech.ode_new(sys.engine, { method = "bsimp", orders = orders, linear = linear, work = true })
+    local t, y = 0.1, { 0.01, 0.002, 0.3, 0.5 * math.cos(0.3) + 0.01, 0.5 * math.sin(0.3), 1.7, 0 }
+    local J = nz_mech.ode_jacobian(ode, sys.engine, t, y)
+    local function R0(yy) return sys:reaction_power(t, { yy[1], yy[2], yy[3] }, { yy[4], yy[5], yy[6] }) end
+    local nonzero = 0
+    for j = 1, 6 do
+      local yp, ym = { table.unpack(y) }, { table.unpack(y) }
+      yp[j], ym[j] = y[j] + 1e-6, y[j] - 1e-6
+      local fd = (R0(yp) - R0(ym)) / 2e-6
+      if math.abs(fd) > 1e-3 then nonzero = nonzero + 1 end
+      assert(math.abs(J[7][j] - fd) <= 1e-7 * (1 + math.abs(fd)), ("dR_0/dy_%d = %.12g, differences %.12g"):format(j, J[7][j], fd))
+    end
+    assert(nonzero >= 3, "the row should not be zero")
+  end)
+
+  it("bsimp with the work monitor on a knife edge: few rejections, T + V - W conserved", function()
+    local sys = knife()
+    -- Before: steps of 1e-7 after the first (bsimp's runaway test weighed
+    -- the change of W ~ 1e-26 by |W|); measured now: 204 steps, 0 rejected.
+    local tr = sys:simulate{ q0 = { 0, 0, 0 }, qd0 = { 0, 0, 1.7 }, t1 = 10, method = "bsimp", monitors = { work = true } }
+    assert(tr.stats.steps < 1000, ("%d steps"):format(tr.stats.steps))
+    assert(tr.stats.rejected <= 0.05 * tr.stats.steps, ("%d of %d rejected"):format(tr.stats.rejected, tr.stats.steps))
+    for i = 1, #tr.t do
+      assert(math.abs(tr.energy[i] - tr.work[i] - tr.energy[1]) <= 1e-8)
+    end
+  end)
+end)
+
+describe("a run that stops making progress", function()
+  -- T = qd^2 (1 + log q) / 2: M = 1 + log q vanishes at q = 1/e, which the
+  -- motion from q = 0.5, qd = -1 reaches in finite time (qd^2 (1 + log q)
+  -- is conserved, so qd blows up).  Steps fall to 1e-15.
+  local sys = nz.system{ name = "singular", coords = { "q" },
+    T = function(t, q, qd) return 0.5 * qd[1] ^ 2 * (1 + nz.log(q[1])) end }
+  for _, method in ipairs{ "rk8pd", "rkf45", "msbdf" } do
+    it(method .. " stops with the time, the state and M's singular values", function()
+      local ok, msg = pcall(sys.simulate, sys, { q0 = { 0.5 }, qd0 = { -1 }, t1 = 10, method = method })
+      assert(not ok, "expected a failure")
+      msg = tostring(msg)
+      contains(msg, THIS .. ":", "simulate 'singular': the integrator (" .. method .. ") stopped making progress",
+        "at t = 0.0907", "q = {0.36788", "singular values from", "smallest 0.307 at the start")
+      -- Steps counted: main ran forever; the window is 1000 steps and
+      -- the collapse takes a few thousand (measured 4,292 to 11,793).
+      assert(nz.last.stats.steps < 30000, ("%d steps"):format(nz.last.stats.steps))
+    end)
+  end
+end)
+
+describe("a long run says so once, and goes on", function()
+  it("rk1imp at rtol 1e-10 on the pendulum: projected steps and a cheaper method, by step count", function()
+    local said = {}
+    local saved = simulate.warn
+    simulate.warn = function(msg) said[#said + 1] = msg end
+    local ok, tr = pcall(pendulum.simulate, pendulum, { q0 = { 1 }, t1 = 100, method = "rk1imp",
+      events = { { f = function(t) return t - 0.01 end, stop = true } } })
+    simulate.warn = saved
+    assert(ok, tostring(tr))
+    assert.are.equal("stopped", tr.status)          -- the run went on until the event
+    -- rk1imp needs ~3.2e5 steps per unit of time at rtol 1e-10 (measured
+    -- 15,887 to t = 0.05): t1 = 100 projects to ~3e7 > 1e7 steps, which
+    -- the check at 2048 steps sees (steps, not the clock; the clock's
+    -- criterion, 60 s, gives the same single message).
+    assert.are.equal(1, #said)
+    contains(said[1], THIS .. ":", "warning: this run will take about", "steps", "rk1imp", "rk8pd", "looser rtol")
+    assert.are.equal(said[1], tr.warnings[1])
+  end)
+end)
