@@ -152,8 +152,9 @@ static void add_top_failure(luaL_Buffer *msg, const nz_accel_report *rep, const 
              "singular (reciprocal condition %.2g), as where the multipliers vanish", p, p, p, p, rep->rcond);
   else
     snprintf(num, sizeof num, "Newton's method on (6.2) and the constraints for (q^(%d), lambda) did not "
-             "converge in %d iterations (residual %.3g, started from %s)", p, rep->iterations, rep->residual,
-             rep->from_guess ? "the last root" : "q^(p) = 0 and least-squares multipliers");
+             "converge in %d iterations (residual %.3g, started from %s%s)", p, rep->iterations, rep->residual,
+             rep->from_guess ? "the last root or the guess" : "q^(p) = 0 and least-squares multipliers",
+             rep->rcond < 1e-13 ? "; the Jacobian is singular at the last iterate and no step reduces the residual" : "");
   luaL_addstring(msg, num);
 }
 

@@ -394,11 +394,20 @@ describe("integration at level 3: a constraint nonlinear in q''' (Hamel's one or
     -- Newton's tolerance 1e-12 relative, then one polishing step: measured 1.8e-15.
     assert(worst <= 1e-13, ("worst residual %.3g"):format(worst))
   end)
-  it("where lambda = 0 (M q3'' = Q3) q''' is not determined: an error naming the state", function()
+  it("where lambda = 0 (M q'' = Q) q''' is not determined: an error naming the state", function()
+    -- Every q''' with q3''' = q1''' q2''' is a root there: the Jacobian at the root is singular.
+    local rest = { Q[1] / M, Q[2] / M, Q[3] / M }
     h.checkerror("the Jacobian of (6.2) and the constraints in (q^(3), lambda) is singular", sys.simulate, sys,
+      { q0 = q0, qd0 = qd0, qdd0 = rest, t1 = 1 })
+    h.checkerror("qdd = {0.538462, -0.307692, 1.53846}: the motion is not determined there", sys.simulate, sys,
+      { q0 = q0, qd0 = qd0, qdd0 = rest, t1 = 1 })
+  end)
+  it("where M q3'' = Q3 but M q1'' != Q1 there is no root: Newton's failure, with the state", function()
+    -- The third row of (6.2) forces lambda = 0, and then the first reads M q1'' = Q1.
+    h.checkerror("Newton's method on (6.2) and the constraints for (q^(3), lambda) did not converge", sys.simulate, sys,
       { q0 = q0, qd0 = qd0, qdd0 = { 0.3, -0.2, Q[3] / M }, t1 = 1 })
-    h.checkerror("qdd = {0.3, -0.2, 1.53846}: the motion is not determined there", sys.simulate, sys,
-      { q0 = q0, qd0 = qd0, qdd0 = { 0.3, -0.2, Q[3] / M }, t1 = 1 })
+    h.checkerror("qdd = {0.3, -0.2, 1.53846}: give Newton a start with simulate{..., guess = {lambda = ..., q3d = ...}}",
+      sys.simulate, sys, { q0 = q0, qd0 = qd0, qdd0 = { 0.3, -0.2, Q[3] / M }, t1 = 1 })
   end)
   it("Newton starts from a guess when given, and says so; a malformed guess is refused", function()
     local tr = sys:simulate{ q0 = q0, qd0 = qd0, qdd0 = qdd0, t1 = 0.5, dt = 0.5, guess = { lambda = { -1 }, q3d = { 0.1, -0.2, 0 } } }
@@ -424,5 +433,43 @@ describe("integration at level 3: a constraint nonlinear in q''' (Hamel's one or
   end)
   it("Tsenov's elimination is refused with the reason", function()
     h.checkerror("Tsenov's elimination does not apply", sys.reduced, sys, 0, q0, qd0)
+  end)
+end)
+
+describe("integration at level 3: two roots, and the branch Newton's start picks", function()
+  -- |q'''|^2 = c for a particle under a constant force Q: A = 2 q''', and (6.2),
+  -- u = M q'' - Q = 2 lambda q''', gives q''' = s sqrt(c) u/|u| with s = sign(lambda):
+  -- two roots.  Then u' = M q''' keeps u's direction e, so q''' = s sqrt(c) e is constant,
+  -- q = q0 + qd0 t + qdd0 t^2/2 + s sqrt(c) e t^3/6 and lambda = s |u| / (2 sqrt c) with
+  -- |u| = |u0| + s M sqrt(c) t (lambda passes through 0 at t = 0.169 for s = -1, smoothly).
+  local M, Q, c = 1.3, { 0.7, -0.4 }, 2.385
+  local sys = nz.system{ name = "jerk circle", coords = { "x", "y" },
+    T = function(t, q, qd) return 0.5 * M * (qd[1] ^ 2 + qd[2] ^ 2) end,
+    Q = function() return { Q[1], Q[2] } end,
+    constraints = { function(t, q, qd, qdd, qddd) return qddd[1] ^ 2 + qddd[2] ^ 2 - c end } }
+  local q0, qd0, qdd0 = { 0.2, -0.1 }, { 0.4, -0.5 }, { 0.3, -0.2 }
+  it("without a guess Newton cannot start (q''' = 0 makes A = 0): the error asks for one", function()
+    h.checkerror("the Jacobian is singular at the last iterate and no step reduces the residual", sys.simulate, sys,
+      { q0 = q0, qd0 = qd0, qdd0 = qdd0, t1 = 1 })
+  end)
+  it("guess lambda > 0 or < 0 selects the branch s, which the run keeps (closed form)", function()
+    local u0 = { M * qdd0[1] - Q[1], M * qdd0[2] - Q[2] }
+    local nu = math.sqrt(u0[1] ^ 2 + u0[2] ^ 2)
+    local e, w = { u0[1] / nu, u0[2] / nu }, math.sqrt(c)
+    for _, s in ipairs{ 1, -1 } do
+      local tr = sys:simulate{ q0 = q0, qd0 = qd0, qdd0 = qdd0, t1 = 0.5, dt = 0.1, guess = { lambda = { 2.385 * s } } }
+      assert.are.equal("guess", tr.branch.from)
+      assert(tr.branch.lambda[1] * s > 0, tr.branch.lambda[1])
+      local worst = 0
+      for n, t in ipairs(tr.t) do
+        for i = 1, 2 do
+          local q = q0[i] + qd0[i] * t + qdd0[i] * t * t / 2 + s * w * e[i] * t ^ 3 / 6
+          worst = math.max(worst, math.abs(tr.q[n][i] - q), math.abs(tr.top[n][i] - s * w * e[i]))
+        end
+        worst = math.max(worst, math.abs(tr.lambda[n][1] - s * (nu + s * M * w * t) / (2 * w)))
+      end
+      -- rk8pd at rtol 1e-10: measured 2.2e-16 (s = 1) and 4.5e-13 (s = -1, through lambda = 0)
+      assert(worst <= 5e-12, ("s = %d: worst error %.3g"):format(s, worst))
+    end
   end)
 end)
