@@ -361,8 +361,9 @@ describe("integration at level 3: a constraint nonlinear in q''' (Hamel's one or
   it("Dolapchiev's rule gives n = 4", function()
     assert.are.equal(4, (sys:rule()))
   end)
-  it("the motion, q'' and lambda follow the hand equations integrated by a plain RK4", function()
-    local tr = sys:simulate{ q0 = q0, qd0 = qd0, qdd0 = qdd0, t1 = 2, dt = 0.25 }
+  it("the motion, q'' and lambda follow the hand equations integrated by a plain RK4 (rk8pd, and bsimp)", function()
+   for _, method in ipairs{ "rk8pd", "bsimp" } do
+    local tr = sys:simulate{ q0 = q0, qd0 = qd0, qdd0 = qdd0, t1 = 2, dt = 0.25, method = method }
     assert.are.equal("done", tr.status)
     assert.are.equal("least squares", tr.branch.from)
     local worst = 0
@@ -377,8 +378,9 @@ describe("integration at level 3: a constraint nonlinear in q''' (Hamel's one or
       worst = math.max(worst, math.abs(tr.lambda[n][1] - lambda))
     end
     -- The hand RK4 at h = 1/400 differs from h = 1/1600 by 3.8e-13 at t = 2;
-    -- rk8pd at rtol 1e-10: measured worst difference 2.8e-12.
-    assert(worst <= 1e-11, ("worst difference %.3g"):format(worst))
+    -- at rtol 1e-10 measured worst differences 2.8e-12 (rk8pd), 4e-13 (bsimp).
+    assert(worst <= 1e-11, ("%s: worst difference %.3g"):format(method, worst))
+   end
   end)
   it("the residuals of every form at n = 4 vanish with the solved q''' and lambda", function()
     local tr = sys:simulate{ q0 = q0, qd0 = qd0, qdd0 = qdd0, t1 = 1, dt = 0.5 }
@@ -470,6 +472,77 @@ describe("integration at level 3: two roots, and the branch Newton's start picks
       end
       -- rk8pd at rtol 1e-10: measured 2.2e-16 (s = 1) and 4.5e-13 (s = -1, through lambda = 0)
       assert(worst <= 5e-12, ("s = %d: worst error %.3g"):format(s, worst))
+    end
+  end)
+end)
+
+describe("implicit steppers at level p >= 3: the Jacobian by central differences", function()
+  local constraints = require "nz.constraints"
+  local function integrator(sys, cfg)
+    local orders, linear = constraints.orders(sys)
+    sys.engine.orders = orders
+    cfg.orders, cfg.linear = orders, linear
+    return mech.ode_new(sys.engine, cfg)
+  end
+  it("the jerk servo's Jacobian is the closed form: a shift, and dfdt = (0, 0, 0, 0, 1, 2, m) cos t / 5", function()
+    -- y = (x, y, x', y', x'', y'', lambda): f = (x', y', x'', y'', sin t/5, 2 sin t/5, m sin t/5).
+    local sys = servo(3)
+    local ode = integrator(sys, { method = "bsimp", level = 3 })
+    local t, y = 0.7, { 0.1, 0.2, 0.3, -0.1, 0.25, 0.4, 0.33 }
+    local J, dfdt = mech.ode_jacobian(ode, sys.engine, t, y)
+    local wy, wt = 0, 0
+    for i = 1, 7 do
+      for j = 1, 7 do wy = math.max(wy, math.abs(J[i][j] - ((i <= 4 and j == i + 2) and 1 or 0))) end
+    end
+    local c = math.cos(t) / 5
+    local want = { 0, 0, 0, 0, c, 2 * c, m * c }
+    for i = 1, 7 do wt = math.max(wt, math.abs(dfdt[i] - want[i])) end
+    -- f is affine in y: exact differences (measured 0); dfdt: h_t = 6e-6 (1 + t), rounding
+    -- eps |f| / h_t and truncation h_t^2 |f'''| / 6, measured 5.5e-12.
+    assert(wy <= 1e-12 and wt <= 5e-11, ("dfdy %.3g, dfdt %.3g"):format(wy, wt))
+  end)
+  it("a nonlinear level-3 Jacobian agrees with central differences at another step (1e-4)", function()
+    local M, Q = 1.3, { 0.7, -0.4, 2.0 }
+    local sys = nz.system{ name = "hamel3", coords = { "q1", "q2", "q3" },
+      T = function(t, q, qd) return 0.5 * M * (qd[1] ^ 2 + qd[2] ^ 2 + qd[3] ^ 2) end,
+      Q = function() return { Q[1], Q[2], Q[3] } end,
+      constraints = { function(t, q, qd, qdd, qddd) return qddd[3] - qddd[1] * qddd[2] end } }
+    local ode = integrator(sys, { method = "bsimp", level = 3, top = true })
+    local t, y = 0.4, { 0.2, -0.1, 0.3, 0.4, -0.5, 0.6, 0.3, -0.2, 0.5 }
+    local J, dfdt = mech.ode_jacobian(ode, sys.engine, t, y)
+    local worst, hh = 0, 1e-4
+    for j = 0, 9 do                    -- j = 0: the time column
+      local yp, ym, tp, tm = { table.unpack(y) }, { table.unpack(y) }, t, t
+      if j == 0 then tp, tm = t + hh, t - hh else yp[j], ym[j] = y[j] + hh, y[j] - hh end
+      local fp, fm = mech.ode_rhs(ode, sys.engine, tp, yp), mech.ode_rhs(ode, sys.engine, tm, ym)
+      for i = 1, 9 do
+        local d = (fp[i] - fm[i]) / (2 * hh)
+        worst = math.max(worst, math.abs((j == 0 and dfdt[i] or J[i][j]) - d))
+      end
+    end
+    -- the columns are of size 1; truncation at h = 1e-4 is h^2 |f'''| / 6: measured 2.0e-9
+    assert(worst <= 1e-8, ("worst difference %.3g"):format(worst))
+  end)
+  it("bsimp and msbdf reproduce the jerk servo's closed form", function()
+    local sys = servo(3)
+    local q0, qd0 = { 0.1, 0.2 }, { 0.3, -0.1 }
+    local _, _, rep = sys:project(0, q0, qd0, { qdd = { 0.2, 0.1 } })
+    local l0 = rep.lambda[1]
+    -- at rtol 1e-10: measured 1.6e-14 (bsimp, 54 steps) and 4.0e-9 (msbdf, 591 steps,
+    -- its variable order stays low on this smooth motion)
+    for method, bound in pairs{ bsimp = 1e-12, msbdf = 2e-8 } do
+      local tr = sys:simulate{ q0 = q0, qd0 = qd0, qdd0 = rep.qdd, t1 = 2.385, dt = 2.385 / 50, method = method }
+      assert.are.equal("done", tr.status)
+      assert(tr.stats.njev > 0, method)
+      local worst = 0
+      for n, t in ipairs(tr.t) do
+        local s = t * t / 2 - 1 + math.cos(t)
+        local lam = l0 + m * (1 - math.cos(t)) / 5
+        local x = q0[1] + qd0[1] * t + (F1 + l0) * t * t / (2 * m) + s / 5
+        local y = q0[2] + qd0[2] * t + (F2 + 2 * l0) * t * t / (2 * m) + 2 * s / 5
+        worst = math.max(worst, math.abs(tr.q[n][1] - x), math.abs(tr.q[n][2] - y), math.abs(tr.lambda[n][1] - lam))
+      end
+      assert(worst <= bound, ("%s: worst error %.3g"):format(method, worst))
     end
   end)
 end)
