@@ -260,6 +260,7 @@ int nz_series_project(const nz_system *s, const int *orders, int p, double t, do
   double *lw = buf, *res = lw + (size_t)(p - 1) * nc, *scratch = res + N, *rhs = scratch + N, *d = rhs + N;
   double *J = d + N, *A = J + (size_t)N * N;
   const double *const *lv = (const double *const *)levels;
+  memcpy(lw, lam, (size_t)(p - 2) * nc * sizeof(double));      /* the multipliers' start */
   for (int l = 2; l < p && !st; l++) {
     double *x = levels[l], *w = lw + (size_t)(l - 2) * nc;
     for (int it = 0;; it++) {

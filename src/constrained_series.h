@@ -71,7 +71,9 @@ int nz_series_initial(const nz_system *s, const int *orders, int p, double t,
 /* Complete a start state: for l = 2..p-1, the smallest change of
  * (q^(l), lambda^(l-2)) that satisfies the equations of level l, by
  * Gauss-Newton steps of minimum norm (one step when they are affine).
- * levels[2..p-1] are updated in place; lam gets (p-2) nc multipliers.
+ * levels[2..p-1] are updated in place; lam ((p-2) nc multipliers) holds
+ * their start (zeros for a fresh start, the state's for a projection along
+ * the motion) and gets the result.
  * NZ_EARG when maxit steps do not bring a level below tol (1 + scale). */
 int nz_series_project(const nz_system *s, const int *orders, int p, double t, double *const *levels,
                       double *lam, double tol, int maxit, int *iterations);

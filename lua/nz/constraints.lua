@@ -533,7 +533,8 @@ function M.level_violation(sys, t, levels, lambdas, p)
 end
 
 -- Complete the higher levels of a start state (p >= 3): given q, qd (already
--- projected) and opts.qdd, opts.q3d, ... (0 when absent), the smallest
+-- projected) and opts.qdd, opts.q3d, ... (0 when absent; opts.lambdas the
+-- multipliers' start, 0 when absent), the smallest
 -- change of each level l = 2..p-1 and its multipliers lambda^(l-2) that
 -- satisfies the equations of that level.
 function M.project_levels(sys, t, q, qd, p, opts, report)
@@ -544,7 +545,8 @@ function M.project_levels(sys, t, q, qd, p, opts, report)
     levels[j + 1] = v
   end
   local tol = opts and opts.tol or M.PROJECT_TOL
-  local out, lambdas, its = mech.series_project(sys.engine, M.orders(sys), p, t, levels, tol, opts and opts.maxit or 50)
+  local out, lambdas, its = mech.series_project(sys.engine, M.orders(sys), p, t, levels, tol, opts and opts.maxit or 50,
+    opts and opts.lambdas)
   if not out then
     error(("system '%s': completing the start state (qdd and higher, with the multipliers) did not converge in %d steps"):format(sys.name, lambdas), 0)
   end

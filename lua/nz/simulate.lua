@@ -116,7 +116,7 @@ end
 -- top: a constraint of order p nonlinear in q^(p); then the state is only
 -- q .. q^(p-1) ((q^(p), lambda) are solved at each time).
 local function start_levels(sys, cfg, orders, p, qd0, top)
-  for key, what in pairs{ work = "the 'work' monitor", alpha = "'baumgarte'", project = "'project'" } do
+  for key, what in pairs{ work = "the 'work' monitor", alpha = "'baumgarte'" } do
     if (key == "work" and cfg.monitors.work) or (key ~= "work" and cfg[key]) then
       fail(sys, "%s is not available with constraints of order %d (the state holds qdd and the multipliers): leave it out", what, p)
     end
@@ -302,6 +302,30 @@ function M.simulate(sys, opts)
     return tb, state_at(ta, ya, tb)
   end
 
+  -- project = true: q, qd onto the constraints of order <= 1 and, at level
+  -- p, q'' .. q^(p-1) (and the multipliers of the state) onto the equations
+  -- of their levels, each the least change from its current value.
+  local function project_state(tt, yy)
+    local q, qd = split(yy, k)
+    local popts, nc = nil, sys.nc
+    if p then
+      popts = { lambdas = {} }
+      for j = 2, p - 1 do popts[constraints.level_name(j)] = { table.unpack(yy, j * k + 1, (j + 1) * k) } end
+      for j = 1, top and 0 or p - 2 do popts.lambdas[j] = { table.unpack(yy, p * k + (j - 1) * nc + 1, p * k + j * nc) } end
+    end
+    local pq, pqd, rep = constraints.project(sys, tt, q, qd, popts)
+    local out = { table.unpack(yy) }
+    for j = 1, k do out[j], out[k + j] = pq[j], pqd[j] end
+    for j = 2, p and p - 1 or 1 do
+      local v = rep[constraints.level_name(j)]
+      for i = 1, k do out[j * k + i] = v[i] end
+    end
+    for j = 1, (p and not top) and p - 2 or 0 do
+      for r = 1, nc do out[p * k + (j - 1) * nc + r] = rep.lambdas[j][r] end
+    end
+    return out
+  end
+
   local update, done = progress_bar(cfg, cfg.t0, cfg.t1)
   local wall0 = mech.now()
   local t, h = cfg.t0, cfg.h0 or math.min(cfg.dt, 1e-3)
@@ -327,9 +351,7 @@ function M.simulate(sys, opts)
           t, h, y = mech.ode_step(ode, engine, t, tout, h, y)
         end
         if cfg.project and sys.nc > 0 then
-          local q, qd = split(y, k)
-          local pq, pqd = constraints.project(sys, t, q, qd)
-          for j = 1, k do y[j], y[k + j] = pq[j], pqd[j] end
+          y = project_state(t, y)
           mech.ode_reset(ode)
         end
         for e, ev in ipairs(cfg.events) do
