@@ -601,3 +601,22 @@ describe("project = true at level p >= 3", function()
     assert(w <= 2e-12, ("worst %.3g"):format(w))
   end)
 end)
+
+describe("level p >= 3: what is refused", function()
+  it("baumgarte and the work monitor, with the reason", function()
+    local sys = servo(3)
+    local o = { q0 = { 0, 0 }, qd0 = { 0, 0 }, qdd0 = { F1 / m, F2 / m }, t1 = 1 }
+    o.baumgarte = 2.385
+    h.checkerror("'baumgarte' is not available with constraints of order 3", sys.simulate, sys, o)
+    o.baumgarte, o.monitors = nil, { work = true }
+    h.checkerror("the 'work' monitor is not available with constraints of order 3", sys.simulate, sys, o)
+  end)
+  it("sys:project says when a level cannot be completed (q1''^2 + 1 = 0 has no real root)", function()
+    local sys = nz.system{ name = "no root", coords = { "q1", "q2", "q3" },
+      T = function(t, q, qd) return 0.5 * (qd[1] ^ 2 + qd[2] ^ 2 + qd[3] ^ 2) end,
+      constraints = { function(t, q, qd, qdd, qddd) return qddd[3] - qddd[1] * qddd[2] end,
+        function(t, q, qd, qdd) return qdd[1] ^ 2 + 1 end } }
+    h.checkerror("completing qdd of the start state did not converge in 5 steps", sys.project, sys, 0,
+      { 0, 0, 0 }, { 0, 0, 0 }, { qdd = { 0.5, 0, 0 }, maxit = 5 })
+  end)
+end)
