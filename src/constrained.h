@@ -71,8 +71,12 @@ typedef enum nz_accel_failure {
   NZ_ACCEL_SINGULAR,        /* [M A^T; A 0] singular or badly conditioned     */
   NZ_ACCEL_NEWTON,          /* Newton did not converge                        */
   NZ_ACCEL_ORDER,           /* a constraint of order > 2                      */
-  NZ_ACCEL_CHECK            /* the solution fails the check, also after the    */
+  NZ_ACCEL_CHECK,           /* the solution fails the check, also after the    */
                             /* constraints were classified again at the state  */
+  NZ_ACCEL_TOP_SINGULAR,    /* level p, a constraint nonlinear in q^(p): the  */
+                            /* Jacobian in (q^(p), lambda) is singular        */
+  NZ_ACCEL_TOP_NEWTON       /* level p: Newton on (6.2) and the constraints   */
+                            /* for (q^(p), lambda) did not converge           */
 } nz_accel_failure;
 
 typedef struct nz_accel_report {

@@ -2,6 +2,7 @@
  *
  * Series are normalized Taylor coefficients along the motion, x[c] =
  * x^(c)/c!, so the c-th derivative of a product is c! sum_j a[j] b[c-j]. */
+#include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -259,6 +260,7 @@ int nz_series_project(const nz_system *s, const int *orders, int p, double t, do
   double *lw = buf, *res = lw + (size_t)(p - 1) * nc, *scratch = res + N, *rhs = scratch + N, *d = rhs + N;
   double *J = d + N, *A = J + (size_t)N * N;
   const double *const *lv = (const double *const *)levels;
+  memcpy(lw, lam, (size_t)(p - 2) * nc * sizeof(double));      /* the multipliers' start */
   for (int l = 2; l < p && !st; l++) {
     double *x = levels[l], *w = lw + (size_t)(l - 2) * nc;
     for (int it = 0;; it++) {
@@ -277,5 +279,189 @@ int nz_series_project(const nz_system *s, const int *orders, int p, double t, do
   }
   memcpy(lam, lw, (size_t)(p - 2) * nc * sizeof(double));
   free(buf);
+  return st;
+}
+
+/* ------------------------------------------------------------------ */
+/* A constraint of order p nonlinear in q^(p) (constrained_series.h)    */
+
+/* d^2 Phi_r / dq^(p)^2 (k x k) at the state: column j from Phi along
+ * q^(p) + s e_j with t and every other slot frozen, tangents on slot p. */
+static int top_hessian(const nz_system *s, int r, int p, double t, const double *const *levels,
+                       int nstate, double *H)
+{
+  int k = s->k, st = NZ_OK;
+  for (int j = 0; j < k && !st; j++) {
+    nz_motion mo;
+    if ((st = nz_motion_init(&mo, k, nz_constraint_levels(s, r), 1, k, t, levels, nstate))) return st;
+    if (p >= mo.nslots) { nz_motion_free(&mo); return NZ_EARG; }
+    mo.t->c[1] = 0.0;
+    for (int a = 0; a < mo.nslots; a++)
+      for (int i = 0; i < k; i++) mo.slot[a][i]->c[1] = 0.0;
+    mo.slot[p][j]->c[1] = 1.0;
+    for (int i = 0; i < k; i++) nz_motion_seed_slot(&mo, i, i, p);
+    st = nz_motion_eval(s, NZ_PIECE_PHI, r, &mo, NULL);
+    if (!st)
+      for (int i = 0; i < k; i++) H[i * k + j] = nz_jet_tangent(mo.out[0], i)[1];
+    nz_motion_free(&mo);
+  }
+  return st;
+}
+
+int nz_top_equations(const nz_system *s, const int *orders, const int *linear, int p, double t,
+                     const double *const *levels, const double *x, double *F, double *J)
+{
+  int k = s->k, nc = s->nc, N = k + nc, st;
+  const double *lv[NZ_MAX_LEVELS];
+  if (p < 3 || p + 1 > NZ_MAX_LEVELS) return NZ_EARG;
+  for (int j = 0; j < p; j++) lv[j] = levels[j];
+  lv[p] = x;                                            /* q^(p): the unknown */
+  double *buf = calloc(2 * (size_t)k + (size_t)p + 2 + (size_t)k * k, sizeof(double));
+  if (!buf) return NZ_ENOMEM;
+  double *a = buf, *phi = a + k, *H = phi + p + 2;
+  if (J) memset(J, 0, (size_t)N * N * sizeof(double));
+  /* M q'' + h - Q: the Nielsen residual at the state's q'' (K = 0). */
+  if ((st = nielsen_series(s, t, lv, 3, 0, F))) goto done;
+  for (int r = 0; r < nc; r++) {
+    int m = orders[r], Kphi = p - m;
+    if ((st = constraint_series(s, r, m, Kphi, 0, t, lv, p + 1, phi, a))) goto done;
+    F[k + r] = nz_factorial(Kphi) * phi[Kphi];     /* Phi_r^(p - m_r) */
+    for (int i = 0; i < k; i++) F[i] -= x[k + r] * a[i];
+    if (!J) continue;
+    /* By (2.1) q^(p) enters Phi_r^(p - m_r) with the coefficient A_r. */
+    for (int i = 0; i < k; i++) {
+      J[i * N + k + r] = -a[i];
+      J[(k + r) * N + i] = a[i];
+    }
+    if (m == p && !linear[r]) {                 /* A_r depends on q^(p) */
+      if ((st = top_hessian(s, r, p, t, lv, p + 1, H))) goto done;
+      for (int i = 0; i < k; i++)
+        for (int j = 0; j < k; j++) J[i * N + j] -= x[k + r] * H[i * k + j];
+    }
+  }
+done:
+  free(buf);
+  return st;
+}
+
+static double max_abs(int n, const double *v)
+{
+  double m = 0.0;
+  for (int i = 0; i < n; i++) m = fmax(m, fabs(v[i]));
+  return m;
+}
+
+/* Newton's start without a guess: q^(p) = 0 and lambda minimizing |G|
+ * with the gradients there (G = r - A^T lambda). */
+static int top_start(const nz_system *s, const int *orders, const int *linear, int p, double t,
+                     const double *const *levels, double *x, double *F, double *J)
+{
+  int k = s->k, nc = s->nc, N = k + nc, st;
+  memset(x, 0, (size_t)N * sizeof(double));
+  if ((st = nz_top_equations(s, orders, linear, p, t, levels, x, F, J))) return st;
+  double *At = malloc((size_t)k * nc * sizeof(double) + 1);
+  if (!At) return NZ_ENOMEM;
+  for (int i = 0; i < k; i++)              /* J's lambda columns hold -A^T */
+    for (int r = 0; r < nc; r++) At[(size_t)i * nc + r] = -J[i * N + k + r];
+  st = nc > 0 ? nz_lstsq(k, nc, At, F, x + k) : NZ_OK;
+  free(At);
+  return st;
+}
+
+int nz_top_solve(const nz_system *s, const int *orders, const int *linear, int p,
+                 const nz_accel_options *opt, double t, const double *const *levels,
+                 const double *guess, double *x, nz_accel_report *rep)
+{
+  int k = s->k, nc = s->nc, N = k + nc, st = NZ_OK;
+  rep->failure = NZ_ACCEL_OK;
+  rep->iterations = 0;
+  rep->residual = 0.0;
+  rep->rank_A = nc;
+  rep->from_guess = guess != NULL;
+  double *buf = calloc(4 * (size_t)N + (size_t)N * N, sizeof(double));
+  if (!buf) return NZ_ENOMEM;
+  double *F = buf, *dx = F + N, *xt = dx + N, *Ft = xt + N, *J = Ft + N;
+  if (guess) memcpy(x, guess, (size_t)N * sizeof(double));
+  else if ((st = top_start(s, orders, linear, p, t, levels, x, F, J))) goto done;
+  /* Damped Newton: halve the step until |F| decreases.  The scale of the
+   * test: the dynamic terms of (6.2) and the size of the unknowns. */
+  for (int it = 0;; it++) {
+    if ((st = nz_top_equations(s, orders, linear, p, t, levels, x, F, J))) goto done;
+    double norm = max_abs(N, F);
+    rep->residual = norm;
+    rep->iterations = it;
+    if (norm <= opt->newton_tol * (1.0 + max_abs(N, x) + max_abs(k, F))) break;
+    if (it >= opt->newton_maxit || !isfinite(norm)) { rep->failure = NZ_ACCEL_TOP_NEWTON; st = NZ_EARG; goto done; }
+    for (int i = 0; i < N; i++) F[i] = -F[i];
+    /* A singular Jacobian at an iterate (the start from q^(p) = 0 often
+     * has one) is not yet a verdict on the root: take the least-squares
+     * step, and give up only when it does not move. */
+    if ((st = nz_solve_svd(N, J, F, dx, &rep->rcond))) goto done;
+    if (!(rep->rcond >= opt->rcond_min) && (st = nz_lstsq(N, N, J, F, dx))) goto done;
+    if (!(max_abs(N, dx) > 0.0)) { rep->failure = NZ_ACCEL_TOP_NEWTON; st = NZ_EARG; goto done; }
+    double step = 1.0;
+    for (int half = 0; half < 30; half++, step *= 0.5) {
+      for (int i = 0; i < N; i++) xt[i] = x[i] + step * dx[i];
+      if ((st = nz_top_equations(s, orders, linear, p, t, levels, xt, Ft, NULL))) goto done;
+      if (max_abs(N, Ft) < norm) break;
+    }
+    memcpy(x, xt, (size_t)N * sizeof(double));
+  }
+  /* At the root: the condition of the Jacobian (a singular one means that
+   * the root is not isolated: q^(p) is not determined, e.g. lambda = 0),
+   * and one more Newton step, which polishes the root. */
+  for (int i = 0; i < N; i++) F[i] = -F[i];
+  if ((st = nz_solve_svd(N, J, F, dx, &rep->rcond))) goto done;
+  if (!(rep->rcond >= opt->rcond_min)) { rep->failure = NZ_ACCEL_TOP_SINGULAR; st = NZ_ESINGULAR; goto done; }
+  for (int i = 0; i < N; i++) x[i] += dx[i];
+  if (rep->A)                                     /* the gradients at the root */
+    for (int r = 0; r < nc; r++) memcpy(rep->A + (size_t)r * k, J + (size_t)(k + r) * N, (size_t)k * sizeof(double));
+done:
+  free(buf);
+  return st;
+}
+
+int nz_top_rhs(const nz_system *s, const int *orders, const int *linear, int p,
+               const nz_accel_options *opt, double t, const double *y, const double *guess,
+               double *f, double *x, nz_accel_report *rep)
+{
+  int k = s->k;
+  const double *levels[NZ_MAX_LEVELS];
+  if (p < 3 || p + 1 > NZ_MAX_LEVELS) return NZ_EARG;
+  for (int j = 0; j < p; j++) levels[j] = y + (size_t)j * k;
+  int st = nz_top_solve(s, orders, linear, p, opt, t, levels, guess, x, rep);
+  if (st) return st;
+  memcpy(f, y + k, (size_t)(p - 1) * k * sizeof(double));          /* q' .. q^(p-1) */
+  memcpy(f + (size_t)(p - 1) * k, x, (size_t)k * sizeof(double));  /* q^(p) */
+  return NZ_OK;
+}
+
+/* ------------------------------------------------------------------ */
+/* Central differences of a right-hand side                              */
+
+int nz_central_jacobian(int dim, double t, const double *y, nz_rhs_fn f, void *ctx,
+                        double *dfdy, double *dfdt, double *work)
+{
+  const double c = cbrt(DBL_EPSILON);
+  double *yy = work, *fa = yy + dim, *fb = fa + dim;
+  int st = NZ_OK;
+  memcpy(yy, y, (size_t)dim * sizeof(double));
+  for (int j = 0; j < dim && !st; j++) {
+    volatile double up = y[j] + c * (1.0 + fabs(y[j]));
+    double hj = up - y[j];                      /* exactly representable */
+    yy[j] = y[j] + hj;
+    if (!(st = f(t, yy, fa, ctx))) {
+      yy[j] = y[j] - hj;
+      st = f(t, yy, fb, ctx);
+    }
+    yy[j] = y[j];
+    for (int i = 0; i < dim && !st; i++) dfdy[(size_t)i * dim + j] = (fa[i] - fb[i]) / (2.0 * hj);
+  }
+  if (!st) {
+    volatile double up = t + c * (1.0 + fabs(t));
+    double ht = up - t;
+    if (!(st = f(t + ht, y, fa, ctx)) && !(st = f(t - ht, y, fb, ctx)))
+      for (int i = 0; i < dim; i++) dfdt[i] = (fa[i] - fb[i]) / (2.0 * ht);
+  }
   return st;
 }

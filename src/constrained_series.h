@@ -71,9 +71,61 @@ int nz_series_initial(const nz_system *s, const int *orders, int p, double t,
 /* Complete a start state: for l = 2..p-1, the smallest change of
  * (q^(l), lambda^(l-2)) that satisfies the equations of level l, by
  * Gauss-Newton steps of minimum norm (one step when they are affine).
- * levels[2..p-1] are updated in place; lam gets (p-2) nc multipliers.
+ * levels[2..p-1] are updated in place; lam ((p-2) nc multipliers) holds
+ * their start (zeros for a fresh start, the state's for a projection along
+ * the motion) and gets the result.
  * NZ_EARG when maxit steps do not bring a level below tol (1 + scale). */
 int nz_series_project(const nz_system *s, const int *orders, int p, double t, double *const *levels,
                       double *lam, double tol, int maxit, int *iterations);
+
+/* ------------------------------------------------------------------ */
+/* A constraint of order p >= 3 NONLINEAR in q^(p)                      */
+/*                                                                      */
+/* Differentiating (6.2) does not close here: A_r = dPhi_r/dq^(p) depends
+ * on q^(p), so (lambda A)^(p-2) involves q^(2p-2).  Instead the state is
+ * y = (q, q', ..., q^(p-1)) (no multipliers) and at each time the square
+ * system, (6.2) undifferentiated and every constraint at level p,
+ *
+ *     G = M q'' + h - Q - sum_r lambda_r A_r(t, q, .., q^(m_r)) = 0     (k rows)
+ *     Phi_r^(p - m_r) = 0                                              (nc rows)
+ *
+ * is solved for x = (q^(p), lambda) by Newton's method with the exact
+ * Jacobian [-sum_r lambda_r H_r, -A^T; A, 0], H_r = d^2 Phi_r/dq^(p)^2
+ * (nonzero only for the constraints of order p nonlinear in q^(p)).  q''
+ * is a state here, so G fixes q^(p) only through lambda_r H_r: the system
+ * is an index-1 DAE where that Jacobian is nonsingular, which needs
+ * lambda_r != 0 (generically).  More than one root can exist: Newton starts
+ * from the caller's guess (the previous step's root keeps the branch), else
+ * from q^(p) = 0 with lambda by least squares from G. */
+
+/* The equations F (k + nc) at x = (q^(p), lambda), and their Jacobian J
+ * ((k + nc)^2, row-major) when J is not NULL.  levels: q .. q^(p-1). */
+int nz_top_equations(const nz_system *s, const int *orders, const int *linear, int p, double t,
+                     const double *const *levels, const double *x, double *F, double *J);
+
+/* Solve for x = (q^(p), lambda) at the state; guess (k + nc) or NULL.
+ * rep: iterations, residual, rcond, from_guess; on failure rep->failure =
+ * NZ_ACCEL_TOP_SINGULAR (NZ_ESINGULAR) or NZ_ACCEL_TOP_NEWTON (NZ_EARG). */
+int nz_top_solve(const nz_system *s, const int *orders, const int *linear, int p,
+                 const nz_accel_options *opt, double t, const double *const *levels,
+                 const double *guess, double *x, nz_accel_report *rep);
+
+/* The right-hand side of y' = f(t, y), y = (q, .., q^(p-1)): f = (q', ..,
+ * q^(p-1), q^(p)); the root (q^(p), lambda) goes to x. */
+int nz_top_rhs(const nz_system *s, const int *orders, const int *linear, int p,
+               const nz_accel_options *opt, double t, const double *y, const double *guess,
+               double *f, double *x, nz_accel_report *rep);
+
+/* ------------------------------------------------------------------ */
+/* The Jacobian of a level-p right-hand side (implicit steppers)         */
+
+/* dfdy (dim x dim, row-major) and dfdt by central differences of f, with
+ * the step h_j = cbrt(eps) (1 + |y_j|) chosen per component (and for t),
+ * rounded so that y_j + h_j - y_j = h_j exactly.  The truncation error is
+ * O(h^2 f''') and the rounding error O(eps |f| / h): about 1e-10 relative
+ * for a smooth f.  f returns an nz status; work: 3 dim doubles. */
+typedef int (*nz_rhs_fn)(double t, const double *y, double *f, void *ctx);
+int nz_central_jacobian(int dim, double t, const double *y, nz_rhs_fn f, void *ctx,
+                        double *dfdy, double *dfdt, double *work);
 
 #endif

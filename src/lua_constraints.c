@@ -159,6 +159,26 @@ static void add_check_failure(luaL_Buffer *msg, const nz_accel_report *rep, cons
   luaL_addstring(msg, num);
 }
 
+/* A constraint of order p nonlinear in q^(p) (constrained_series.h): why
+ * the solve for (q^(p), lambda) failed. */
+static void add_top_failure(luaL_Buffer *msg, const nz_accel_report *rep, const int *orders, int nc)
+{
+  char num[400];
+  int p = 0;
+  for (int r = 0; r < nc; r++)
+    if (orders[r] > p) p = orders[r];
+  if (rep->failure == NZ_ACCEL_TOP_SINGULAR)
+    snprintf(num, sizeof num, "a constraint nonlinear in q^(%d) fixes q^(%d) only through lambda "
+             "d2Phi/dq^(%d)2 in (6.2): the Jacobian of (6.2) and the constraints in (q^(%d), lambda) is "
+             "singular (reciprocal condition %.2g), as where the multipliers vanish", p, p, p, p, rep->rcond);
+  else
+    snprintf(num, sizeof num, "Newton's method on (6.2) and the constraints for (q^(%d), lambda) did not "
+             "converge in %d iterations (residual %.3g, started from %s%s)", p, rep->iterations, rep->residual,
+             rep->from_guess ? "the last root or the guess" : "q^(p) = 0 and least-squares multipliers",
+             rep->rcond < 1e-13 ? "; the Jacobian is singular at the last iterate and no step reduces the residual" : "");
+  luaL_addstring(msg, num);
+}
+
 /* The error of a failed constrained solve: why, where, and what to do. */
 int nz_lua_raise_accel_failure(lua_State *L, int def, const nz_accel_report *rep_, const int *orders,
                                double t, const double *q, const double *qd, int k, int nc)
@@ -198,6 +218,27 @@ int nz_lua_raise_accel_failure(lua_State *L, int def, const nz_accel_report *rep
                                         : "; started from the unconstrained accelerations");
     luaL_addstring(&msg, ": give another start with sys:accel(t, q, qd, {qdd = ..., lambda = ...}), "
                          "or check that the constraints have a real solution here");
+  } else if (rep.failure == NZ_ACCEL_TOP_SINGULAR || rep.failure == NZ_ACCEL_TOP_NEWTON) {
+    add_top_failure(&msg, &rep, orders, nc);
+    nz_lua_add_state(&msg, t, q, qd, k);
+    /* The level state: q'' follows qd in y (ode.c). */
+    snprintf(num, sizeof num, ", qdd = {");
+    luaL_addstring(&msg, num);
+    for (int i = 0; i < k; i++) {
+      snprintf(num, sizeof num, "%s%.6g", i ? ", " : "", qd[k + i]);
+      luaL_addstring(&msg, num);
+    }
+    luaL_addstring(&msg, "}");
+    if (rep.failure == NZ_ACCEL_TOP_SINGULAR)
+      luaL_addstring(&msg, ": the motion is not determined there; start where the multipliers are not zero, "
+                           "or reformulate the constraint");
+    else {
+      int p = 0;
+      for (int r = 0; r < nc; r++) p = orders[r] > p ? orders[r] : p;
+      snprintf(num, sizeof num, ": give Newton a start with simulate{..., guess = {lambda = ..., q%dd = ...}}, "
+               "or check that the constraints have a real solution here", p);
+      luaL_addstring(&msg, num);
+    }
   } else {
     int ninvolved = 0, lone = 0;
     for (int r = 0; r < nc; r++)

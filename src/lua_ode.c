@@ -77,7 +77,16 @@ static int lo_new(lua_State *L)
   cfg.work = lua_toboolean(L, -1);
   lua_pop(L, 1);
   cfg.level = (int)number_field(L, 2, "level", 0.0);
+  lua_getfield(L, 2, "top");
+  cfg.top = lua_toboolean(L, -1);
+  lua_pop(L, 1);
   cfg.nc = nc;
+  lua_getfield(L, 2, "guess");       /* top: Newton's first start (q^(p), lambda) */
+  if (!lua_isnil(L, -1)) {
+    double *g = lua_newuserdatauv(L, ((size_t)k + (size_t)nc + 1) * sizeof(double), 0);
+    nz_lua_read_vector(L, lua_gettop(L) - 1, k + nc, g, "guess", 0, "simulate");
+    cfg.guess = g;                   /* kept on the stack until nz_ode_alloc copies it */
+  }
   int *flags = lua_newuserdatauv(L, 2 * ((size_t)nc + 1) * sizeof(int), 0);
   for (int r = 0; r < nc; r++) {
     lua_getfield(L, 2, "orders");
@@ -205,7 +214,22 @@ static int lo_step_fixed(lua_State *L)
   return 2;
 }
 
-/* ode_accel(ode, def, t, y) -> qdd, lambda */
+/* ode_rhs(ode, def, t, y) -> f: the right-hand side the steppers see */
+static int lo_rhs(lua_State *L)
+{
+  bound_system b;
+  double *y;
+  lua_settop(L, 4);
+  int dim = nz_ode_dim(check_ode(L, 1)->o);
+  ode_box *box = begin_call(L, 4, &b, 4, (size_t)dim, &y);
+  double t = luaL_checknumber(L, 3);
+  int st = nz_ode_rhs(box->o, &b.sys, t, y, y + dim);
+  if (st) return raise_failure(L, box, &b, st);
+  nz_lua_push_vector(L, y + dim, dim);
+  return 1;
+}
+
+/* ode_accel(ode, def, t, y) -> qdd, lambda[, q^(p) of a top integrator] */
 static int lo_accel(lua_State *L)
 {
   bound_system b;
@@ -220,7 +244,10 @@ static int lo_accel(lua_State *L)
   if (st) return raise_failure(L, box, &b, st);
   nz_lua_push_vector(L, y + dim, k);
   nz_lua_push_vector(L, y + dim + k, nc);
-  return 2;
+  const double *root = nz_ode_root(box->o);
+  if (!root) return 2;
+  nz_lua_push_vector(L, root, k);
+  return 3;
 }
 
 /* ode_jacobian(ode, def, t, y) -> dfdy (rows), dfdt: the exact Jacobian the
@@ -305,7 +332,7 @@ static int lo_methods(lua_State *L)
 
 static const luaL_Reg ode_functions[] = {
   { "ode_new", lo_new }, { "ode_step", lo_step }, { "ode_step_fixed", lo_step_fixed },
-  { "ode_accel", lo_accel }, { "ode_reset", lo_reset }, { "ode_jacobian", lo_jacobian }, { "ode_stats", lo_stats },
+  { "ode_accel", lo_accel }, { "ode_rhs", lo_rhs }, { "ode_reset", lo_reset }, { "ode_jacobian", lo_jacobian }, { "ode_stats", lo_stats },
   { "now", lo_now }, { "isatty", lo_isatty }, { "interrupted", lo_interrupted },
   { "ode_methods", lo_methods }, { NULL, NULL }
 };

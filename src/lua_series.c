@@ -106,11 +106,12 @@ static int ls_series_initial(lua_State *L)
   return 2;
 }
 
-/* series_project(def, orders, p, t, levels, tol, maxit) -> levels (p lists),
- * lambdas (p - 2 lists), iterations; nil and a message when it fails */
+/* series_project(def, orders, p, t, levels, tol, maxit[, lambdas]) -> levels
+ * (p lists), lambdas (p - 2 lists), iterations; nil and the iterations when
+ * it fails.  lambdas: the multipliers' start (zeros when absent). */
 static int ls_series_project(lua_State *L)
 {
-  lua_settop(L, 7);
+  lua_settop(L, 8);
   bound_system b;
   nz_lua_bind_system(L, 1, &b);
   int k = b.sys.k, nc = b.sys.nc;
@@ -121,6 +122,12 @@ static int ls_series_project(lua_State *L)
   double tol = luaL_checknumber(L, 6);
   int maxit = (int)luaL_checkinteger(L, 7), its = 0;
   double *lam = lua_newuserdatauv(L, ((size_t)(p - 2) * nc + 1) * sizeof(double), 0);
+  memset(lam, 0, ((size_t)(p - 2) * nc + 1) * sizeof(double));
+  for (int j = 0; j < p - 2 && lua_istable(L, 8); j++) {
+    lua_geti(L, 8, j + 1);
+    if (lua_istable(L, -1)) nz_lua_read_vector(L, lua_gettop(L), nc, lam + (size_t)j * nc, "lambda", 1, "project");
+    lua_pop(L, 1);
+  }
   int st = nz_series_project(&b.sys, orders, p, t, lv, lam, tol, maxit, &its);
   if (st == NZ_EARG) {
     lua_pushnil(L);

@@ -43,6 +43,7 @@ struct nz_ode {
   int k, nc, dim, work, multistep;
   int level;                      /* p >= 3: the state of constrained_series.h; else 0 */
   double work_offset;             /* GSL carries W + work_offset (see nz_ode_alloc) */
+  int top;                        /* level p with a constraint nonlinear in q^(p) */
   const nz_system *s;             /* bound for the current call */
   int *orders, *linear, *involved;
   nz_accel_options accel;
@@ -70,11 +71,43 @@ static int fail(nz_ode *o, nz_ode_failure_kind kind, int status, double t, const
   return GSL_EBADFUNC;
 }
 
+/* Level p, top: the root (q^(p), lambda) at (t, y) from the last root
+ * (which keeps the branch), kept in o->last; f (dim) and lambda (nc) out,
+ * each when not NULL. */
+static int top_solve(nz_ode *o, double t, const double *y, double *f, double *lambda)
+{
+  int k = o->k, nc = o->nc;
+  nz_accel_report rep;
+  memset(&rep, 0, sizeof rep);
+  memset(o->involved, 0, (size_t)nc * sizeof(int));
+  rep.involved = o->involved;
+  rep.A = o->A;
+  double *x = o->last + k + nc, *fs = f;
+  if (!fs && !(fs = malloc((size_t)o->dim * sizeof(double)))) return NZ_ENOMEM;
+  int st = nz_top_rhs(o->s, o->orders, o->linear, o->level, &o->accel, t, y,
+                      o->have_last ? o->last : NULL, fs, x, &rep);
+  if (fs != f) free(fs);
+  if (st == NZ_ESINGULAR || st == NZ_EARG) {
+    o->failure.accel = rep;
+    fail(o, NZ_ODE_FAIL_CONSTRAINTS, st, t, y);
+    return st;
+  }
+  if (st) return st;
+  memcpy(o->last, x, (size_t)(k + nc) * sizeof(double));
+  o->have_last = 1;
+  if (lambda) memcpy(lambda, x + k, (size_t)nc * sizeof(double));
+  return NZ_OK;
+}
+
 /* q'' and lambda into out (k + nc), and A; status of the mechanics. */
 static int accelerations(nz_ode *o, double t, const double *y, double *out)
 {
   int k = o->k, st;
   const double *q = y, *qd = y + k;
+  if (o->top) {                    /* q'' is in the state, lambda solved with q^(p) */
+    memcpy(out, y + 2 * k, (size_t)k * sizeof(double));
+    return top_solve(o, t, y, NULL, out + k);
+  }
   if (o->level) {                  /* q'' and lambda are in the state */
     memcpy(out, y + 2 * k, (size_t)k * sizeof(double));
     memcpy(out + k, y + (size_t)o->level * k, (size_t)o->nc * sizeof(double));
@@ -127,6 +160,10 @@ static int reaction_power(nz_ode *o, double t, const double *y, const double *ac
 /* The right-hand side at level p >= 3 (constrained_series.h). */
 static int level_rhs(nz_ode *o, double t, const double *y, double *f)
 {
+  if (o->top) {
+    int st = top_solve(o, t, y, f, NULL);
+    return !st ? GSL_SUCCESS : o->failure.kind ? GSL_EBADFUNC : fail(o, NZ_ODE_FAIL_FUNCTION, st, t, y);
+  }
   nz_accel_report rep;
   memset(&rep, 0, sizeof rep);
   memset(o->involved, 0, (size_t)o->nc * sizeof(int));
@@ -198,11 +235,29 @@ static int work_row(nz_ode *o, double t, const double *y, double *dfdy, double *
   return GSL_SUCCESS;
 }
 
+/* Level p >= 3: central differences of the right-hand side (no exact
+ * Jacobian through the level-p solve yet; constrained_series.h). */
+static int level_rhs_status(double t, const double *y, double *f, void *ctx)
+{
+  nz_ode *o = ctx;                 /* rhs() counts the evaluation */
+  return rhs(t, y, f, ctx) == GSL_SUCCESS ? NZ_OK : (o->failure.status ? o->failure.status : NZ_EFUNC);
+}
+
+static int level_jacobian(nz_ode *o, double t, const double *y, double *dfdy, double *dfdt)
+{
+  double *work = malloc(3 * (size_t)o->dim * sizeof(double));
+  if (!work) return fail(o, NZ_ODE_FAIL_FUNCTION, NZ_ENOMEM, t, y);
+  int st = nz_central_jacobian(o->dim, t, y, level_rhs_status, o, dfdy, dfdt, work);
+  free(work);
+  if (st) return o->failure.kind ? GSL_EBADFUNC : fail(o, NZ_ODE_FAIL_FUNCTION, st, t, y);
+  return GSL_SUCCESS;
+}
+
 static int jacobian(double t, const double y[], double *dfdy, double dfdt[], void *params)
 {
   nz_ode *o = params;
   o->njev++;
-  if (o->level) return fail(o, NZ_ODE_FAIL_FUNCTION, NZ_EARG, t, y);   /* no exact Jacobian at level p >= 3 */
+  if (o->level) return level_jacobian(o, t, y, dfdy, dfdt);
   nz_accel_options opt = o->accel;
   if (o->have_last) {              /* the same root as the right-hand side */
     opt.guess_qdd = o->last;
@@ -223,7 +278,8 @@ nz_ode *nz_ode_alloc(int k, const nz_ode_config *cfg)
   o->nc = cfg->nc;
   o->work = cfg->work;
   o->level = cfg->level >= 3 ? cfg->level : 0;
-  o->dim = o->level ? nz_series_dim(k, cfg->nc, o->level) : 2 * k + (cfg->work ? 1 : 0);
+  o->top = o->level && cfg->top;
+  o->dim = o->top ? o->level * k : o->level ? nz_series_dim(k, cfg->nc, o->level) : 2 * k + (cfg->work ? 1 : 0);
   o->multistep = is_multistep(cfg->method);
   /* bsimp weighs each component's change by |y_i| (1 when y_i = 0) and
    * rejects a step that changes a component by more than 100 dim times its
@@ -246,6 +302,10 @@ nz_ode *nz_ode_alloc(int k, const nz_ode_config *cfg)
   for (int r = 0; r < nc; r++) {
     o->orders[r] = cfg->orders[r];
     o->linear[r] = cfg->linear[r];
+  }
+  if (o->top && cfg->guess) {
+    memcpy(o->last, cfg->guess, ((size_t)k + (size_t)nc) * sizeof(double));
+    o->have_last = 1;
   }
   o->gsys.function = rhs;
   o->gsys.jacobian = jacobian;
@@ -322,7 +382,17 @@ void nz_ode_reset(nz_ode *o)
   o->steps0 += o->driver->e->count;
   o->rejected0 += o->driver->e->failed_steps;
   gsl_odeiv2_driver_reset(o->driver);
-  o->have_last = 0;
+  if (!o->top) o->have_last = 0;  /* top: the root's branch survives a reset */
+}
+
+const double *nz_ode_root(const nz_ode *o) { return o->top && o->have_last ? o->last : NULL; }
+
+int nz_ode_rhs(nz_ode *o, const nz_system *s, double t, const double *y, double *f)
+{
+  o->s = s;
+  o->failure.kind = NZ_ODE_FAIL_NONE;
+  int gs = rhs(t, y, f, o);
+  return gs == GSL_SUCCESS ? NZ_OK : (o->failure.status ? o->failure.status : NZ_EFUNC);
 }
 
 int nz_ode_accel(nz_ode *o, const nz_system *s, double t, const double *y, double *out)

@@ -6,7 +6,8 @@
  * The caller steps it one adaptive (or fixed) step at a time, so that the
  * output grid, events, projection and monitors stay in the caller's hands
  * (lua/nz/simulate.lua).  Implicit steppers get the exact Jacobian of the
- * first-order system from jets (mech_jacobian.c). */
+ * first-order system from jets (mech_jacobian.c); at level p >= 3, central
+ * differences of the right-hand side (constrained_series.h). */
 #ifndef NZ_ODE_H
 #define NZ_ODE_H
 
@@ -24,7 +25,11 @@ typedef struct nz_ode_config {
   const int *orders, *linear;
   nz_accel_options accel;    /* including Baumgarte's alpha, beta                   */
   int level;                 /* p >= 3: constraints of order >= 3, the state of     */
-                             /* constrained_series.h (no work, no Jacobian); else 0 */
+                             /* constrained_series.h (no work; the Jacobian by      */
+                             /* central differences); else 0                        */
+  int top;                   /* with level: a constraint of order p nonlinear in    */
+                             /* q^(p); y = (q .. q^(p-1)), (q^(p), lambda) solved   */
+  const double *guess;       /* top: Newton's first start (k + nc), or NULL         */
 } nz_ode_config;
 
 /* The stepper names accepted, NULL-terminated. */
@@ -48,7 +53,14 @@ void nz_ode_reset(nz_ode *o);
 /* q'' and lambda at (t, y): out holds k accelerations then nc multipliers. */
 int nz_ode_accel(nz_ode *o, const nz_system *s, double t, const double *y, double *out);
 
-/* The exact Jacobian at (t, y), as the implicit steppers get it. */
+/* The last root (q^(p), lambda) of a top integrator (k + nc), or NULL. */
+const double *nz_ode_root(const nz_ode *o);
+
+/* The right-hand side f(t, y) (dim values), as the steppers get it. */
+int nz_ode_rhs(nz_ode *o, const nz_system *s, double t, const double *y, double *f);
+
+/* The Jacobian at (t, y), as the implicit steppers get it: exact (jets)
+ * at the acceleration level, central differences at level p >= 3. */
 int nz_ode_jacobian_at(nz_ode *o, const nz_system *s, double t, const double *y, double *dfdy,
                        double *dfdt);
 

@@ -170,18 +170,17 @@ describe("integration at level 3: a servo constraint on the jerk", function()
     h.checkerror("the equation of motion (6.2) for 'x' (no multipliers satisfy it with this qdd) is violated",
       sys.simulate, sys, { q0 = q0, qd0 = qd0, qdd0 = { 0.5, 0.5 }, t1 = 1 })
   end)
-  it("a missing qdd0, an implicit method, and qdd0 for a system that has no use for it are refused", function()
+  it("a missing qdd0, and qdd0 for a system that has no use for it are refused", function()
     h.checkerror("constraints of order 3 make qdd part of the state: give 'qdd0' = {...}",
       sys.simulate, sys, { q0 = q0, qd0 = qd0, t1 = 1 })
-    h.checkerror("constraints of order 3 are integrated with explicit methods only",
-      sys.simulate, sys, { q0 = q0, qd0 = qd0, qdd0 = { 0, 0 }, t1 = 1, method = "bsimp" })
     local free = nz.system{ name = "free", coords = { "x" }, T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end }
     h.checkerror("'qdd0' is for constraints of order 3 or more", free.simulate, free, { q0 = { 0 }, qdd0 = { 0 }, t1 = 1 })
   end)
-  it("a nonlinear constraint of order 3 is refused for integration", function()
+  it("a nonlinear constraint of order 3 beside a linear one of order 4 is refused for integration", function()
     local s2 = nz.system{ name = "nl3", coords = { "x", "y" }, T = function(t, q, qd) return 0.5 * (qd[1] ^ 2 + qd[2] ^ 2) end,
-      constraints = { function(t, q, qd, qdd, qddd) return qddd[1] - qddd[2] ^ 2 end } }
-    h.checkerror("constraint 1 is of order 3 and nonlinear in q^(3): its gradient depends on q^(3)",
+      constraints = { function(t, q, qd, qdd, qddd) return qddd[1] - qddd[2] ^ 2 end,
+        function(t, q, qd, qdd, qddd, q4d, p) return q4d[1] + q4d[2] end } }
+    h.checkerror("constraint 2 (order 4, linear in q^(4)) and constraint 1 (order 3, nonlinear in q^(3)) cannot be integrated together",
       s2.simulate, s2, { q0 = { 0, 0 }, qdd0 = { 0, 0 }, t1 = 1 })
   end)
 end)
@@ -319,5 +318,369 @@ describe("integration at level 4 (constant gradient)", function()
       constraints = { function(t, q, qd, qdd, qddd, q4d, p) return q4d[1] + qddd[1] * q4d[2] end } }
     h.checkerror("constraint 1: its gradient dPhi/dq^(m) depends on q''' or higher", s2.simulate, s2,
       { q0 = { 0, 0 }, qd0 = { 0, 0 }, qdd0 = { 0, 0 }, q3d0 = { 0.5, 0 }, t1 = 1 })
+  end)
+end)
+
+describe("integration at level 3: a constraint nonlinear in q''' (Hamel's one order up)", function()
+  -- A particle of mass M under constant forces Q with Phi = q3''' - q1''' q2''':
+  -- A = dPhi/dq''' = (-q2''', -q1''', 1), and (6.2), M q'' - Q = lambda A, gives by hand
+  --   M q1'' = Q1 - lambda q2''',  M q2'' = Q2 - lambda q1''',  M q3'' = Q3 + lambda,
+  -- so lambda = M q3'' - Q3 comes from the state (q'' is part of it), then
+  --   q2''' = (Q1 - M q1'') / lambda,  q1''' = (Q2 - M q2'') / lambda,  q3''' = q1''' q2'''.
+  -- Nothing constrains qdd0 beyond lambda != 0 (M q3'' != Q3).
+  local M, Q = 1.3, { 0.7, -0.4, 2.0 }
+  local function hamel3(extra)
+    local cs = { function(t, q, qd, qdd, qddd) return qddd[3] - qddd[1] * qddd[2] end }
+    if extra then cs[2] = extra end
+    return nz.system{ name = "hamel3", coords = { "q1", "q2", "q3" },
+      T = function(t, q, qd) return 0.5 * M * (qd[1] ^ 2 + qd[2] ^ 2 + qd[3] ^ 2) end,
+      Q = function() return { Q[1], Q[2], Q[3] } end, constraints = cs }
+  end
+  local sys = hamel3()
+  local function jerk(qdd)
+    local lambda = M * qdd[3] - Q[3]
+    local j1, j2 = (Q[2] - M * qdd[2]) / lambda, (Q[1] - M * qdd[1]) / lambda
+    return { j1, j2, j1 * j2 }, lambda
+  end
+  -- A plain RK4 on y = (q, q', q''), written here and sharing no code with nzlua.
+  local function hand_rk4(y, t1, nsteps)
+    local function f(v)
+      local j = jerk({ v[7], v[8], v[9] })
+      return { v[4], v[5], v[6], v[7], v[8], v[9], j[1], j[2], j[3] }
+    end
+    local h = t1 / nsteps
+    for _ = 1, nsteps do
+      local function add(a, b, s) local o = {}; for i = 1, 9 do o[i] = a[i] + s * b[i] end; return o end
+      local k1 = f(y); local k2 = f(add(y, k1, h / 2)); local k3 = f(add(y, k2, h / 2)); local k4 = f(add(y, k3, h))
+      for i = 1, 9 do y[i] = y[i] + h / 6 * (k1[i] + 2 * k2[i] + 2 * k3[i] + k4[i]) end
+    end
+    return y
+  end
+  local q0, qd0, qdd0 = { 0.2, -0.1, 0.3 }, { 0.4, -0.5, 0.6 }, { 0.3, -0.2, 0.5 }
+
+  it("Dolapchiev's rule gives n = 4", function()
+    assert.are.equal(4, (sys:rule()))
+  end)
+  it("the motion, q'' and lambda follow the hand equations integrated by a plain RK4 (rk8pd, and bsimp)", function()
+   for _, method in ipairs{ "rk8pd", "bsimp" } do
+    local tr = sys:simulate{ q0 = q0, qd0 = qd0, qdd0 = qdd0, t1 = 2, dt = 0.25, method = method }
+    assert.are.equal("done", tr.status)
+    assert.are.equal("least squares", tr.branch.from)
+    local worst = 0
+    for n, t in ipairs(tr.t) do
+      local y = { q0[1], q0[2], q0[3], qd0[1], qd0[2], qd0[3], qdd0[1], qdd0[2], qdd0[3] }
+      if t > 0 then y = hand_rk4(y, t, math.floor(t * 400 + 0.5)) end
+      local j, lambda = jerk({ y[7], y[8], y[9] })
+      for i = 1, 3 do
+        worst = math.max(worst, math.abs(tr.q[n][i] - y[i]), math.abs(tr.qd[n][i] - y[3 + i]),
+          math.abs(tr.qdd[n][i] - y[6 + i]), math.abs(tr.top[n][i] - j[i]))
+      end
+      worst = math.max(worst, math.abs(tr.lambda[n][1] - lambda))
+    end
+    -- The hand RK4 at h = 1/400 differs from h = 1/1600 by 3.8e-13 at t = 2;
+    -- at rtol 1e-10 measured worst differences 2.5e-12 (rk8pd), 3.8e-13 (bsimp).
+    assert(worst <= 1e-11, ("%s: worst difference %.3g"):format(method, worst))
+   end
+  end)
+  it("the residuals of every form at n = 4 vanish with the solved q''' and lambda", function()
+    local tr = sys:simulate{ q0 = q0, qd0 = qd0, qdd0 = qdd0, t1 = 1, dt = 0.5 }
+    local worst = 0
+    for n, t in ipairs(tr.t) do
+      for _, form in ipairs{ "generalized", "lagrange", "difference", "euler", "appell", "extremal" } do
+        local r = sys:residual(4, t, tr.q[n], tr.qd[n], tr.qdd[n], tr.lambda[n], { form = form, higher = { tr.top[n] } })
+        for i = 1, 3 do worst = math.max(worst, math.abs(r[i])) end
+      end
+      local c = tr.top[n]
+      worst = math.max(worst, math.abs(c[3] - c[1] * c[2]))
+    end
+    -- Newton's tolerance 1e-12 relative, then one polishing step: measured 1.8e-15.
+    assert(worst <= 1e-13, ("worst residual %.3g"):format(worst))
+  end)
+  it("where lambda = 0 (M q'' = Q) q''' is not determined: an error naming the state", function()
+    -- Every q''' with q3''' = q1''' q2''' is a root there: the Jacobian at the root is singular.
+    local rest = { Q[1] / M, Q[2] / M, Q[3] / M }
+    h.checkerror("the Jacobian of (6.2) and the constraints in (q^(3), lambda) is singular", sys.simulate, sys,
+      { q0 = q0, qd0 = qd0, qdd0 = rest, t1 = 1 })
+    h.checkerror("qdd = {0.538462, -0.307692, 1.53846}: the motion is not determined there", sys.simulate, sys,
+      { q0 = q0, qd0 = qd0, qdd0 = rest, t1 = 1 })
+  end)
+  it("where M q3'' = Q3 but M q1'' != Q1 there is no root: Newton's failure, with the state", function()
+    -- The third row of (6.2) forces lambda = 0, and then the first reads M q1'' = Q1.
+    h.checkerror("Newton's method on (6.2) and the constraints for (q^(3), lambda) did not converge", sys.simulate, sys,
+      { q0 = q0, qd0 = qd0, qdd0 = { 0.3, -0.2, Q[3] / M }, t1 = 1 })
+    h.checkerror("qdd = {0.3, -0.2, 1.53846}: give Newton a start with simulate{..., guess = {lambda = ..., q3d = ...}}",
+      sys.simulate, sys, { q0 = q0, qd0 = qd0, qdd0 = { 0.3, -0.2, Q[3] / M }, t1 = 1 })
+  end)
+  it("Newton starts from a guess when given, and says so; a malformed guess is refused", function()
+    local tr = sys:simulate{ q0 = q0, qd0 = qd0, qdd0 = qdd0, t1 = 0.5, dt = 0.5, guess = { lambda = { -1 }, q3d = { 0.1, -0.2, 0 } } }
+    local j, lambda = jerk(qdd0)
+    assert.are.equal("guess", tr.branch.from)
+    assert(max_diff(tr.branch.q3d, j) <= 1e-14 and math.abs(tr.branch.lambda[1] - lambda) <= 1e-14)
+    h.checkerror("'guess' must be {lambda = {...}, q3d = {...}}", sys.simulate, sys,
+      { q0 = q0, qd0 = qd0, qdd0 = qdd0, t1 = 1, guess = { 1 } })
+  end)
+  it("a holonomic constraint beside it: qdd0 is checked, and sys:project completes it", function()
+    -- q1 = q2 on top: q1'' = q2'' is required at the start (levels 0, 1 by check_state).
+    local s2 = hamel3(function(t, q) return q[1] - q[2] end)
+    local qa, qda = { 0.2, 0.2, 0.3 }, { 0.4, 0.4, 0.6 }
+    h.checkerror("constraint 2 differentiated 2 times is violated by 0.5", s2.simulate, s2,
+      { q0 = qa, qd0 = qda, qdd0 = qdd0, t1 = 1 })
+    local _, _, rep = s2:project(0, qa, qda, { qdd = qdd0 })
+    -- the least change of qdd0 with q1'' = q2'': both move to their mean 0.05
+    assert(max_diff(rep.qdd, { 0.05, 0.05, 0.5 }) <= 1e-12, ("{%.17g, %.17g, %.17g}"):format(rep.qdd[1], rep.qdd[2], rep.qdd[3]))
+    local tr = s2:simulate{ q0 = qa, qd0 = qda, qdd0 = rep.qdd, t1 = 1, dt = 0.25 }
+    for n = 1, #tr.t do
+      assert(math.abs(tr.q[n][1] - tr.q[n][2]) <= 1e-12 and tr.violation[n] <= 1e-12, tr.violation[n])
+    end
+  end)
+  it("Tsenov's elimination is refused with the reason", function()
+    h.checkerror("Tsenov's elimination does not apply", sys.reduced, sys, 0, q0, qd0)
+  end)
+  it("an event q3 = 0.8 is located where the hand RK4 puts q3 = 0.8", function()
+    local tr = sys:simulate{ q0 = q0, qd0 = qd0, qdd0 = qdd0, t1 = 2, dt = 0.5,
+      events = { { f = function(t, q) return q[3] - 0.8 end, stop = true, name = "q3 = 0.8" } } }
+    assert.are.equal("stopped", tr.status)
+    local te = tr.events[1].t
+    local y = hand_rk4({ q0[1], q0[2], q0[3], qd0[1], qd0[2], qd0[3], qdd0[1], qdd0[2], qdd0[3] }, te, 400)
+    -- event_tol 1e-12 on a state accurate to about 1e-12: measured 4.6e-14 (te = 0.6555)
+    assert(math.abs(y[3] - 0.8) <= 1e-12, ("q3(%.15g) = %.15g by hand"):format(te, y[3]))
+  end)
+end)
+
+describe("integration at level 3: two roots, and the branch Newton's start picks", function()
+  -- |q'''|^2 = c for a particle under a constant force Q: A = 2 q''', and (6.2),
+  -- u = M q'' - Q = 2 lambda q''', gives q''' = s sqrt(c) u/|u| with s = sign(lambda):
+  -- two roots.  Then u' = M q''' keeps u's direction e, so q''' = s sqrt(c) e is constant,
+  -- q = q0 + qd0 t + qdd0 t^2/2 + s sqrt(c) e t^3/6 and lambda = s |u| / (2 sqrt c) with
+  -- |u| = |u0| + s M sqrt(c) t (lambda passes through 0 at t = 0.169 for s = -1, smoothly).
+  local M, Q, c = 1.3, { 0.7, -0.4 }, 2.385
+  local sys = nz.system{ name = "jerk circle", coords = { "x", "y" },
+    T = function(t, q, qd) return 0.5 * M * (qd[1] ^ 2 + qd[2] ^ 2) end,
+    Q = function() return { Q[1], Q[2] } end,
+    constraints = { function(t, q, qd, qdd, qddd) return qddd[1] ^ 2 + qddd[2] ^ 2 - c end } }
+  local q0, qd0, qdd0 = { 0.2, -0.1 }, { 0.4, -0.5 }, { 0.3, -0.2 }
+  it("without a guess Newton cannot start (q''' = 0 makes A = 0): the error asks for one", function()
+    h.checkerror("the Jacobian is singular at the last iterate and no step reduces the residual", sys.simulate, sys,
+      { q0 = q0, qd0 = qd0, qdd0 = qdd0, t1 = 1 })
+  end)
+  it("guess lambda > 0 or < 0 selects the branch s, which the run keeps (closed form)", function()
+    local u0 = { M * qdd0[1] - Q[1], M * qdd0[2] - Q[2] }
+    local nu = math.sqrt(u0[1] ^ 2 + u0[2] ^ 2)
+    local e, w = { u0[1] / nu, u0[2] / nu }, math.sqrt(c)
+    for _, s in ipairs{ 1, -1 } do
+      local tr = sys:simulate{ q0 = q0, qd0 = qd0, qdd0 = qdd0, t1 = 0.5, dt = 0.1, guess = { lambda = { 2.385 * s } } }
+      assert.are.equal("guess", tr.branch.from)
+      assert(tr.branch.lambda[1] * s > 0, tr.branch.lambda[1])
+      local worst = 0
+      for n, t in ipairs(tr.t) do
+        for i = 1, 2 do
+          local q = q0[i] + qd0[i] * t + qdd0[i] * t * t / 2 + s * w * e[i] * t ^ 3 / 6
+          worst = math.max(worst, math.abs(tr.q[n][i] - q), math.abs(tr.top[n][i] - s * w * e[i]))
+        end
+        worst = math.max(worst, math.abs(tr.lambda[n][1] - s * (nu + s * M * w * t) / (2 * w)))
+      end
+      -- rk8pd at rtol 1e-10: measured 2.2e-16 (s = 1) and 4.5e-13 (s = -1, through lambda = 0)
+      assert(worst <= 5e-12, ("s = %d: worst error %.3g"):format(s, worst))
+    end
+  end)
+end)
+
+describe("implicit steppers at level p >= 3: the Jacobian by central differences", function()
+  local constraints = require "nz.constraints"
+  local function integrator(sys, cfg)
+    local orders, linear = constraints.orders(sys)
+    sys.engine.orders = orders
+    cfg.orders, cfg.linear = orders, linear
+    return mech.ode_new(sys.engine, cfg)
+  end
+  it("the jerk servo's Jacobian is the closed form: a shift, and dfdt = (0, 0, 0, 0, 1, 2, m) cos t / 5", function()
+    -- y = (x, y, x', y', x'', y'', lambda): f = (x', y', x'', y'', sin t/5, 2 sin t/5, m sin t/5).
+    local sys = servo(3)
+    local ode = integrator(sys, { method = "bsimp", level = 3 })
+    local t, y = 0.7, { 0.1, 0.2, 0.3, -0.1, 0.25, 0.4, 0.33 }
+    local J, dfdt = mech.ode_jacobian(ode, sys.engine, t, y)
+    local wy, wt = 0, 0
+    for i = 1, 7 do
+      for j = 1, 7 do wy = math.max(wy, math.abs(J[i][j] - ((i <= 4 and j == i + 2) and 1 or 0))) end
+    end
+    local c = math.cos(t) / 5
+    local want = { 0, 0, 0, 0, c, 2 * c, m * c }
+    for i = 1, 7 do wt = math.max(wt, math.abs(dfdt[i] - want[i])) end
+    -- f is affine in y: exact differences (measured 0); dfdt: h_t = 6e-6 (1 + t), rounding
+    -- eps |f| / h_t and truncation h_t^2 |f'''| / 6, measured 5.5e-12.
+    assert(wy <= 1e-12 and wt <= 5e-11, ("dfdy %.3g, dfdt %.3g"):format(wy, wt))
+  end)
+  it("a nonlinear level-3 Jacobian agrees with central differences at another step (1e-4)", function()
+    local M, Q = 1.3, { 0.7, -0.4, 2.0 }
+    local sys = nz.system{ name = "hamel3", coords = { "q1", "q2", "q3" },
+      T = function(t, q, qd) return 0.5 * M * (qd[1] ^ 2 + qd[2] ^ 2 + qd[3] ^ 2) end,
+      Q = function() return { Q[1], Q[2], Q[3] } end,
+      constraints = { function(t, q, qd, qdd, qddd) return qddd[3] - qddd[1] * qddd[2] end } }
+    local ode = integrator(sys, { method = "bsimp", level = 3, top = true })
+    local t, y = 0.4, { 0.2, -0.1, 0.3, 0.4, -0.5, 0.6, 0.3, -0.2, 0.5 }
+    local J, dfdt = mech.ode_jacobian(ode, sys.engine, t, y)
+    local worst, hh = 0, 1e-4
+    for j = 0, 9 do                    -- j = 0: the time column
+      local yp, ym, tp, tm = { table.unpack(y) }, { table.unpack(y) }, t, t
+      if j == 0 then tp, tm = t + hh, t - hh else yp[j], ym[j] = y[j] + hh, y[j] - hh end
+      local fp, fm = mech.ode_rhs(ode, sys.engine, tp, yp), mech.ode_rhs(ode, sys.engine, tm, ym)
+      for i = 1, 9 do
+        local d = (fp[i] - fm[i]) / (2 * hh)
+        worst = math.max(worst, math.abs((j == 0 and dfdt[i] or J[i][j]) - d))
+      end
+    end
+    -- the columns are of size 1; truncation at h = 1e-4 is h^2 |f'''| / 6: measured 2.0e-9
+    assert(worst <= 1e-8, ("worst difference %.3g"):format(worst))
+  end)
+  it("bsimp and msbdf reproduce the jerk servo's closed form", function()
+    local sys = servo(3)
+    local q0, qd0 = { 0.1, 0.2 }, { 0.3, -0.1 }
+    local _, _, rep = sys:project(0, q0, qd0, { qdd = { 0.2, 0.1 } })
+    local l0 = rep.lambda[1]
+    -- at rtol 1e-10: measured 1.6e-14 (bsimp, 54 steps) and 4.0e-9 (msbdf, 591 steps,
+    -- its variable order stays low on this smooth motion)
+    for method, bound in pairs{ bsimp = 1e-12, msbdf = 2e-8 } do
+      local tr = sys:simulate{ q0 = q0, qd0 = qd0, qdd0 = rep.qdd, t1 = 2.385, dt = 2.385 / 50, method = method }
+      assert.are.equal("done", tr.status)
+      assert(tr.stats.njev > 0, method)
+      local worst = 0
+      for n, t in ipairs(tr.t) do
+        local s = t * t / 2 - 1 + math.cos(t)
+        local lam = l0 + m * (1 - math.cos(t)) / 5
+        local x = q0[1] + qd0[1] * t + (F1 + l0) * t * t / (2 * m) + s / 5
+        local y = q0[2] + qd0[2] * t + (F2 + 2 * l0) * t * t / (2 * m) + 2 * s / 5
+        worst = math.max(worst, math.abs(tr.q[n][1] - x), math.abs(tr.q[n][2] - y), math.abs(tr.lambda[n][1] - lam))
+      end
+      assert(worst <= bound, ("%s: worst error %.3g"):format(method, worst))
+    end
+  end)
+end)
+
+describe("project = true at level p >= 3", function()
+  -- The jerk servo on the circle x^2 + z^2 = 1 under gravity: no closed form, so the
+  -- checks are the constraints and (6.2) evaluated by hand from tr.q, tr.qd, tr.qdd, tr.lambda.
+  local g = 9.81
+  local sys = nz.system{ name = "servo on a circle", coords = { "x", "y", "z" },
+    T = function(t, q, qd) return 0.5 * m * (qd[1] ^ 2 + qd[2] ^ 2 + qd[3] ^ 2) end,
+    Q = function() return { F1, F2, -m * g } end,
+    constraints = { function(t, q, qd, qdd, qddd) return qddd[1] + 2 * qddd[2] - nz.sin(t) end,
+      function(t, q) return q[1] ^ 2 + q[3] ^ 2 - 1 end } }
+  local function drift(tr)
+    local w = 0
+    for n = 1, #tr.t do
+      local q, qd, a, l = tr.q[n], tr.qd[n], tr.qdd[n], tr.lambda[n]
+      w = math.max(w, math.abs(q[1] ^ 2 + q[3] ^ 2 - 1), math.abs(q[1] * qd[1] + q[3] * qd[3]),
+        math.abs(q[1] * a[1] + qd[1] ^ 2 + q[3] * a[3] + qd[3] ^ 2))
+      -- (6.2): m q'' - Q = lambda1 (1, 2, 0) + lambda2 (2x, 0, 2z)
+      w = math.max(w, math.abs(m * a[1] - F1 - l[1] - 2 * q[1] * l[2]), math.abs(m * a[2] - F2 - 2 * l[1]),
+        math.abs(m * a[3] + m * g - 2 * q[3] * l[2]))
+    end
+    return w
+  end
+  it("holds the circle, its derivatives and (6.2) along 20 s, which drift without it", function()
+    local q0, qd0 = { 1, 0.2, 0 }, { 0, -0.1, 0.3 }
+    local _, _, rep = sys:project(0, q0, qd0, { qdd = { 0.2, 0.1, 0.3 } })
+    local opts = { q0 = q0, qd0 = qd0, qdd0 = rep.qdd, t1 = 20, dt = 1, rtol = 1e-8, atol = 1e-10 }
+    local free = drift(sys:simulate(opts))
+    opts.project = true
+    local held = drift(sys:simulate(opts))
+    -- measured 1.1e-6 without projection; with it the state goes back onto
+    -- the constraints (to 1e-12) whenever its violation exceeds simulate's
+    -- PROJECT_TOL (1e-10): measured 8.6e-11
+    local bound = require("nz.simulate").PROJECT_TOL
+    assert(free > 1e-8 and held <= bound, ("without %.3g, with %.3g"):format(free, held))
+  end)
+  it("with a constraint nonlinear in q''' (top level) it holds the circle too", function()
+    local M, Q = 1.3, { 0.7, -0.4, 2.0 }
+    local s3 = nz.system{ name = "hamel3 on a circle", coords = { "q1", "q2", "q3" },
+      T = function(t, q, qd) return 0.5 * M * (qd[1] ^ 2 + qd[2] ^ 2 + qd[3] ^ 2) end,
+      Q = function() return { Q[1], Q[2], Q[3] } end,
+      constraints = { function(t, q, qd, qdd, qddd) return qddd[3] - qddd[1] * qddd[2] end,
+        function(t, q) return q[1] ^ 2 + q[2] ^ 2 - 1 end } }
+    local q0, qd0 = { 0.6, 0.8, 0.3 }, { 0.4, -0.3, 0.6 }
+    local _, _, rep = s3:project(0, q0, qd0, { qdd = { 0.3, -0.2, 0.5 } })
+    -- the least change of qdd0 onto q1 q1'' + q2 q2'' = -(q1'^2 + q2'^2) = -0.25: the
+    -- residual 0.18 - 0.16 + 0.25 = 0.27 moves (q1'', q2'') by -0.27 (0.6, 0.8)
+    assert(max_diff(rep.qdd, { 0.138, -0.416, 0.5 }) <= 1e-12, ("{%.17g, %.17g}"):format(rep.qdd[1], rep.qdd[2]))
+    local function worst(tr)
+      local w = 0
+      for n = 1, #tr.t do
+        local q, qd, a = tr.q[n], tr.qd[n], tr.qdd[n]
+        w = math.max(w, math.abs(q[1] ^ 2 + q[2] ^ 2 - 1), math.abs(q[1] * qd[1] + q[2] * qd[2]),
+          math.abs(q[1] * a[1] + qd[1] ^ 2 + q[2] * a[2] + qd[2] ^ 2))
+      end
+      return w
+    end
+    -- At rtol 1e-6 the circle drifts past simulate's PROJECT_TOL (1e-10):
+    -- measured 6.2e-10 free, 3.1e-11 with projection (2 projections).
+    local opts = { q0 = q0, qd0 = qd0, qdd0 = rep.qdd, t1 = 1, dt = 0.25, rtol = 1e-6, atol = 1e-8 }
+    local free = worst(s3:simulate(opts))
+    opts.project = true
+    local tr = s3:simulate(opts)
+    local bound = require("nz.simulate").PROJECT_TOL
+    assert(free > bound and worst(tr) <= bound and tr.projections > 0,
+      ("without %.3g, with %.3g after %d projections"):format(free, worst(tr), tr.projections))
+  end)
+end)
+
+describe("level p >= 3: what is refused", function()
+  it("baumgarte and the work monitor, with the reason", function()
+    local sys = servo(3)
+    local o = { q0 = { 0, 0 }, qd0 = { 0, 0 }, qdd0 = { F1 / m, F2 / m }, t1 = 1 }
+    o.baumgarte = 2.385
+    h.checkerror("'baumgarte' is not available with constraints of order 3", sys.simulate, sys, o)
+    o.baumgarte, o.monitors = nil, { work = true }
+    h.checkerror("the 'work' monitor is not available with constraints of order 3", sys.simulate, sys, o)
+  end)
+  it("sys:project says when a level cannot be completed (q1''^2 + 1 = 0 has no real root)", function()
+    local sys = nz.system{ name = "no root", coords = { "q1", "q2", "q3" },
+      T = function(t, q, qd) return 0.5 * (qd[1] ^ 2 + qd[2] ^ 2 + qd[3] ^ 2) end,
+      constraints = { function(t, q, qd, qdd, qddd) return qddd[3] - qddd[1] * qddd[2] end,
+        function(t, q, qd, qdd) return qdd[1] ^ 2 + 1 end } }
+    h.checkerror("completing qdd of the start state did not converge in 5 steps", sys.project, sys, 0,
+      { 0, 0, 0 }, { 0, 0, 0 }, { qdd = { 0.5, 0, 0 }, maxit = 5 })
+  end)
+end)
+
+describe("integration at level 4: a constraint nonlinear in q^(4)", function()
+  -- Phi = q3^(4) - q1^(4) q2^(4) on the particle of the level-3 case: (6.2) by hand gives
+  -- lambda = M q3'' - Q3, q2^(4) = (Q1 - M q1'') / lambda, q1^(4) = (Q2 - M q2'') / lambda;
+  -- the state is (q, q', q'', q''') and the start needs qdd0 and q3d0 only.
+  local M, Q = 1.3, { 0.7, -0.4, 2.0 }
+  local sys = nz.system{ name = "hamel4", coords = { "q1", "q2", "q3" },
+    T = function(t, q, qd) return 0.5 * M * (qd[1] ^ 2 + qd[2] ^ 2 + qd[3] ^ 2) end,
+    Q = function() return { Q[1], Q[2], Q[3] } end,
+    constraints = { function(t, q, qd, qdd, qddd, q4d, p) return q4d[3] - q4d[1] * q4d[2] end } }
+  local function f(v)                  -- v = (q, q', q'', q'''): a plain RK4's right-hand side
+    local lambda = M * v[9] - Q[3]
+    local a1, a2 = (Q[2] - M * v[8]) / lambda, (Q[1] - M * v[7]) / lambda
+    local out = {}
+    for i = 1, 9 do out[i] = v[i + 3] end
+    out[10], out[11], out[12] = a1, a2, a1 * a2
+    return out
+  end
+  it("Dolapchiev's n = 5; the motion follows the hand equations integrated by RK4", function()
+    assert.are.equal(5, (sys:rule()))
+    local y = { 0.2, -0.1, 0.3, 0.4, -0.5, 0.6, 0.3, -0.2, 0.5, 0.1, 0.2, -0.3 }
+    local tr = sys:simulate{ q0 = { y[1], y[2], y[3] }, qd0 = { y[4], y[5], y[6] }, qdd0 = { y[7], y[8], y[9] },
+      q3d0 = { y[10], y[11], y[12] }, t1 = 1, dt = 0.5 }
+    assert(tr.branch.q4d and #tr.branch.q4d == 3)
+    local h4, worst, t = 1 / 800, 0, 0
+    for n = 1, #tr.t do
+      while t < tr.t[n] - 1e-12 do
+        local function add(a, b, s) local o = {}; for i = 1, 12 do o[i] = a[i] + s * b[i] end; return o end
+        local k1 = f(y); local k2 = f(add(y, k1, h4 / 2)); local k3 = f(add(y, k2, h4 / 2)); local k4 = f(add(y, k3, h4))
+        for i = 1, 12 do y[i] = y[i] + h4 / 6 * (k1[i] + 2 * k2[i] + 2 * k3[i] + k4[i]) end
+        t = t + h4
+      end
+      local top = f(y)
+      for i = 1, 3 do
+        worst = math.max(worst, math.abs(tr.q[n][i] - y[i]), math.abs(tr.qdd[n][i] - y[6 + i]),
+          math.abs(tr.higher[n][1][i] - y[9 + i]), math.abs(tr.top[n][i] - top[9 + i]))
+      end
+      worst = math.max(worst, math.abs(tr.lambda[n][1] - (M * y[9] - Q[3])))
+    end
+    -- rk8pd at rtol 1e-10 against RK4 at h = 1/800: measured 1.75e-13
+    assert(worst <= 1e-11, ("worst difference %.3g"):format(worst))
   end)
 end)

@@ -493,8 +493,10 @@ function M.project(sys, t, q, qd, opts)
     for i = 1, sys.k do qd[i] = qd[i] + dv[i] end
     report.velocity_iterations = it
   end
+  local top = sys.nc > 0 and M.top_level(sys)
   local p = sys.nc > 0 and M.level(sys)
-  if p then M.project_levels(sys, t, q, qd, p, opts, report) end
+  if top then M.project_top(sys, t, q, qd, top, opts, report)
+  elseif p then M.project_levels(sys, t, q, qd, p, opts, report) end
   return q, qd, report
 end
 
@@ -551,6 +553,113 @@ function M.level(sys)
   return p, nonlinear
 end
 
+-- Constraints of order >= 3 nonlinear in their top derivative (src/
+-- constrained_series.h, "top"): the level p is the highest such order; the
+-- state is q .. q^(p-1) and (q^(p), lambda) are solved at each time.  nil
+-- when there is none.  Every other constraint must be of order <= p (a
+-- linear one of higher order would need (6.2) differentiated): an error
+-- names the pair otherwise.
+function M.top_level(sys)
+  local p, which
+  for r, c in ipairs(M.classify(sys)) do
+    if c.order >= 3 and not c.linear and c.order > (p or 0) then p, which = c.order, r end
+  end
+  if not p then return nil end
+  for r, c in ipairs(M.classify(sys)) do
+    if c.order > p then
+      error(("system '%s': constraint %d (order %d, linear in q^(%d)) and constraint %d (order %d, nonlinear in "
+        .. "q^(%d)) cannot be integrated together: the nonlinear one is solved with (6.2) undifferentiated at level %d, "
+        .. "the linear one needs (6.2) differentiated %d times"):format(sys.name, r, c.order, c.order, which, p, p, p,
+        c.order - 2), 0)
+    end
+  end
+  return p, which
+end
+
+-- The rows of the constraints at the levels 2..p-1 of a top state (levels
+-- q .. q^(p-1)): the worst |Phi_r^(l - m_r)| for m_r <= l, and where.
+function M.top_rows(sys, t, levels, p)
+  local orders, worst, at = M.orders(sys), 0, nil
+  for l = 2, p - 1 do
+    local res = mech.series_level(sys.engine, orders, l, t, { table.unpack(levels, 1, l + 1) }, nil)
+    for r = 1, sys.nc do
+      if orders[r] <= l and math.abs(res[sys.k + r]) > worst then worst, at = math.abs(res[sys.k + r]), { l = l, r = r } end
+    end
+  end
+  return worst, at
+end
+
+-- A top start state: the constraints at levels 2..p-1 hold within tol
+-- (those of levels 0, 1 are check_state's).  (6.2) puts no condition on
+-- q'' .. q^(p-1): it is solved with q^(p) and lambda at each time.
+function M.check_top_start(sys, t, levels, p, tol)
+  tol = tol or M.CHECK_TOL
+  local worst, at = M.top_rows(sys, t, levels, p)
+  if worst > tol then
+    local orders, given = M.orders(sys), {}
+    for j = 2, p - 1 do given[#given + 1] = M.level_name(j) .. "0" end
+    local d = at.l - orders[at.r]
+    error(("system '%s': the start state at t = %s is inconsistent: constraint %d%s is violated by %.3g (tolerance %.3g): "
+      .. "give %s that satisfy it, e.g. from sys:project(t0, q0, qd0, {qdd = ...})"):format(sys.name, tostring(t), at.r,
+      d == 0 and "" or (" differentiated %d time%s"):format(d, d == 1 and "" or "s"), worst, tol,
+      table.concat(given, ", ")), 0)
+  end
+end
+
+-- Complete a top start state: for l = 2..p-1 the smallest change of q^(l)
+-- that satisfies the constraint rows of that level, by Gauss-Newton steps of
+-- minimum norm (columns by central differences: a row is affine in q^(l)
+-- unless the constraint is of order l and nonlinear there, as Hamel's).
+function M.project_top(sys, t, q, qd, p, opts, report)
+  local k, orders = sys.k, M.orders(sys)
+  local levels = { q, qd }
+  for j = 2, p - 1 do
+    local v = opts and opts[M.level_name(j)]
+    local copy = {}
+    for i = 1, k do copy[i] = v and v[i] or 0 end
+    levels[j + 1] = copy
+  end
+  local tol, maxit = opts and opts.tol or M.PROJECT_TOL, opts and opts.maxit or 50
+  local its = 0
+  for l = 2, p - 1 do
+    local rows = {}
+    for r = 1, sys.nc do if orders[r] <= l then rows[#rows + 1] = r end end
+    local function residual()
+      local res = mech.series_level(sys.engine, orders, l, t, { table.unpack(levels, 1, l + 1) }, nil)
+      local out = {}
+      for n, r in ipairs(rows) do out[n] = res[k + r] end
+      return out
+    end
+    for it = 1, maxit + 1 do
+      local b = residual()
+      if #rows == 0 or max_abs(b) <= tol then break end
+      if it > maxit then
+        error(("system '%s': completing %s of the start state did not converge in %d steps (violation %.3g)"):format(
+          sys.name, M.level_name(l), maxit, max_abs(b)), 0)
+      end
+      local x, J = levels[l + 1], {}
+      for n = 1, #rows do J[n] = {} end
+      for j = 1, k do
+        -- central differences are exact for affine and quadratic rows; a
+        -- wide step keeps rounding (eps / h) near 1e-13
+        local keep, hj = x[j], 1e-3 * (1 + math.abs(x[j]))
+        x[j] = keep + hj
+        local up = residual()
+        x[j] = keep - hj
+        local down = residual()
+        x[j] = keep
+        for n = 1, #rows do J[n][j] = (up[n] - down[n]) / (2 * hj) end
+      end
+      for n = 1, #rows do b[n] = -b[n] end
+      local d = mech.lstsq(J, b)
+      for i = 1, k do x[i] = x[i] + d[i] end
+      its = its + 1
+    end
+    report[M.level_name(l)] = levels[l + 1]
+  end
+  report.level_iterations = its
+end
+
 -- What row `row` (1-based, from series_initial) of level l is, in words.
 local function row_words(sys, orders, l, row)
   if row <= sys.k then
@@ -596,7 +705,8 @@ function M.level_violation(sys, t, levels, lambdas, p)
 end
 
 -- Complete the higher levels of a start state (p >= 3): given q, qd (already
--- projected) and opts.qdd, opts.q3d, ... (0 when absent), the smallest
+-- projected) and opts.qdd, opts.q3d, ... (0 when absent; opts.lambdas the
+-- multipliers' start, 0 when absent), the smallest
 -- change of each level l = 2..p-1 and its multipliers lambda^(l-2) that
 -- satisfies the equations of that level.
 function M.project_levels(sys, t, q, qd, p, opts, report)
@@ -607,7 +717,8 @@ function M.project_levels(sys, t, q, qd, p, opts, report)
     levels[j + 1] = v
   end
   local tol = opts and opts.tol or M.PROJECT_TOL
-  local out, lambdas, its = mech.series_project(sys.engine, M.orders(sys), p, t, levels, tol, opts and opts.maxit or 50)
+  local out, lambdas, its = mech.series_project(sys.engine, M.orders(sys), p, t, levels, tol, opts and opts.maxit or 50,
+    opts and opts.lambdas)
   if not out then
     error(("system '%s': completing the start state (qdd and higher, with the multipliers) did not converge in %d steps"):format(sys.name, lambdas), 0)
   end
@@ -743,6 +854,12 @@ end
 -- multipliers: dK_n*/dq_l^(n) = dK_n/dq_l^(n) + sum_rho dK_n/dq_rho^(n) a_{rho,l}.
 -- With constraints of order p >= 3: q^(p), from the equations of level p.
 function M.reduced(sys, t, q, qd, n, form)
+  local top = M.top_level(sys)
+  if top then
+    error(("system '%s': a constraint of order %d nonlinear in q^(%d) fixes q^(%d) only together with its multiplier: "
+      .. "Tsenov's elimination does not apply; use the multiplier form (sys:residual, sys:simulate)"):format(
+      sys.name, top, top, top), 0)
+  end
   local p = M.level(sys)
   if p then return reduced_level(sys, t, q, qd, p, form) end
   local classes = M.classify(sys)

@@ -139,7 +139,13 @@ Methods (t a number, q, qd, qdd tables of k numbers):
                              their top derivative): the state is q, qd, .., q^(p-1)
                              and lambda, .., lambda^(p-3); (6.2) differentiated
                              p-2 times gives q^(p) and lambda^(p-2).  The start
-                             levels are required and checked; explicit methods
+                             levels are required and checked.  Nonlinear in q^(p):
+                             the state is q .. q^(p-1), and (q^(p), lambda) solve
+                             (6.2) with the constraints by Newton at each time
+                             (needs lambda ~= 0); guess = {lambda =, q3d =} picks
+                             the first root, tr.branch tells it, tr.top[i] = q^(p).
+                             Implicit methods: Jacobian by central differences;
+                             project = true also projects qdd .. and lambda ..
   sys:check_state(t, q, qd [, tol])  error if a constraint is violated
   sys:reaction_power(t, q, qd)   R_0 of (9.1): the power of moving constraints
   sys:mass(t, q [, qd]), sys:bias(t, q, qd), sys:mass_bias(t, q, qd)

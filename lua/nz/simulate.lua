@@ -258,13 +258,10 @@ end
 -- Constraints of order >= 3 (constraints.level): the state is
 -- (q, qd, qdd, .., q^(p-1), lambda, .., lambda^(p-3)) (src/constrained_series.h).
 -- Check what the start needs and return the part of y after q, qd.
-local function start_levels(sys, cfg, orders, p, qd0)
-  for _, m in ipairs(mech.ode_methods()) do
-    if m.name == cfg.method and m.implicit then
-      fail(sys, "constraints of order %d are integrated with explicit methods only (no exact Jacobian at level %d yet); got method '%s': use rk8pd, rkf45, rkck, rk4, rk2 or msadams", p, p, cfg.method)
-    end
-  end
-  for key, what in pairs{ work = "the 'work' monitor", alpha = "'baumgarte'", project = "'project'" } do
+-- top: a constraint of order p nonlinear in q^(p); then the state is only
+-- q .. q^(p-1) ((q^(p), lambda) are solved at each time).
+local function start_levels(sys, cfg, orders, p, qd0, top)
+  for key, what in pairs{ work = "the 'work' monitor", alpha = "'baumgarte'" } do
     if (key == "work" and cfg.monitors.work) or (key ~= "work" and cfg[key]) then
       fail(sys, "%s is not available with constraints of order %d (the state holds qdd and the multipliers): leave it out", what, p)
     end
@@ -283,6 +280,12 @@ local function start_levels(sys, cfg, orders, p, qd0)
     local j = type(key) == "string" and (key == "qdd0" and 2 or tonumber(key:match("^q(%d+)d0$")))
     if j and j >= p then fail(sys, "'%s' is not part of the state (constraints of order %d need levels up to q^(%d))", key, p, p - 1) end
   end
+  local tail = {}
+  for j = 3, p do for i = 1, k do tail[#tail + 1] = levels[j][i] end end
+  if top then
+    if cfg.check ~= false then constraints.check_top_start(sys, cfg.t0, levels, p) end
+    return tail
+  end
   local probe = { table.unpack(levels) }
   probe[p + 1] = {}
   for i = 1, k do probe[p + 1][i] = 0 end
@@ -291,8 +294,6 @@ local function start_levels(sys, cfg, orders, p, qd0)
     fail(sys, "constraint %d: its gradient dPhi/dq^(m) depends on q''' or higher, so (6.2) differentiated %d times needs derivatives above q^(%d) and the motion does not close at level %d; a gradient that depends on q, qd, qdd at most works for any order", bad, p - 2, p, p)
   end
   local lambdas = constraints.start_lambdas(sys, cfg.t0, levels, p, cfg.check == false and math.huge or nil)
-  local tail = {}
-  for j = 3, p do for i = 1, k do tail[#tail + 1] = levels[j][i] end end
   for j = 1, p - 2 do for r = 1, sys.nc do tail[#tail + 1] = lambdas[j][r] end end
   return tail
 end
@@ -334,6 +335,24 @@ local function nums(v)
 end
 local function state_text(t, q, qd) return (" at t = %s, q = %s, qd = %s"):format(num(t), nums(q), nums(qd)) end
 
+-- simulate{guess = {lambda = {...}, q3d = {...}}}: Newton's first start for
+-- (q^(p), lambda) under a constraint nonlinear in q^(p) (q^(p) = 0 if absent).
+local function top_guess(sys, g, p)
+  local name = constraints.level_name(p)
+  if type(g) ~= "table" or type(g.lambda) ~= "table" then
+    fail(sys, "'guess' must be {lambda = {...}, %s = {...}} (Newton's first start for the multipliers and q^(%d))", name, p)
+  end
+  local x = {}
+  for i = 1, sys.k do x[i] = g[name] and g[name][i] or 0 end
+  for r = 1, sys.nc do x[sys.k + r] = g.lambda[r] end
+  for i = 1, sys.k + sys.nc do
+    if type(x[i]) ~= "number" or x[i] ~= x[i] then
+      fail(sys, "'guess' must be {lambda = {%d numbers}, %s = {%d numbers}}", sys.nc, name, sys.k)
+    end
+  end
+  return x
+end
+
 local function split(y, k)
   local q, qd = {}, {}
   for i = 1, k do q[i], qd[i] = y[i], y[k + i] end
@@ -343,15 +362,12 @@ end
 function M.simulate(sys, opts)
   local cfg = validate(sys, opts)
   local k, engine = sys.k, sys.engine
-  local orders, linear, p = {}, {}, nil
+  local orders, linear, p, top = {}, {}, nil, nil
   if sys.nc > 0 then
     orders, linear = constraints.orders(sys, { t = cfg.t0, q = cfg.q0, qd = cfg.qd0 })
-    local nonlinear
-    p, nonlinear = constraints.level(sys)
-    if nonlinear then
-      fail(sys, "constraint %d is of order %d and nonlinear in q^(%d): its gradient depends on q^(%d), so (6.2) closes at no level; integration supports constraints of order 3 or more that are linear in their top derivative",
-        nonlinear, orders[nonlinear], orders[nonlinear], orders[nonlinear])
-    end
+    p = constraints.level(sys)
+    top = constraints.top_level(sys)     -- nonlinear in q^(m), m >= 3: solved, not differentiated
+    if top then p = top end
   end
   if not p then
     for key in pairs(opts) do
@@ -364,11 +380,13 @@ function M.simulate(sys, opts)
   local qd0 = cfg.qd0
   if not qd0 then qd0 = {}; for i = 1, k do qd0[i] = 0 end end   -- at rest
   if sys.nc > 0 and cfg.check ~= false then constraints.check_state(sys, cfg.t0, cfg.q0, qd0) end
-  local tail = p and start_levels(sys, cfg, orders, p, qd0)
+  local tail = p and start_levels(sys, cfg, orders, p, qd0, top)
+  local guess = top and cfg.guess and top_guess(sys, cfg.guess, p)
 
   local ode = mech.ode_new(engine, {
     method = cfg.method, rtol = cfg.rtol, atol = cfg.atol, h0 = cfg.h0 or math.min(cfg.dt, 1e-3),
     work = cfg.monitors.work, orders = orders, linear = linear, alpha = cfg.alpha, beta = cfg.beta, level = p,
+    top = top ~= nil, guess = guess,
   })
   local tr = trajectory.new(sys, cfg)
   tr.warnings = cfg.warnings
@@ -380,18 +398,39 @@ function M.simulate(sys, opts)
   if cfg.monitors.work then y[2 * k + 1] = 0 end
   for _, v in ipairs(tail or {}) do y[#y + 1] = v end
 
+  -- The levels q .. q^(p-1) of a state and, when the multipliers are part
+  -- of it (constraints linear in q^(p), p >= 3), lambda .. lambda^(p-3).
+  local function state_levels(yy)
+    local q, qd = split(yy, k)
+    local levels, lambdas = { q, qd }, {}
+    for j = 2, (p or 2) - 1 do levels[j + 1] = { table.unpack(yy, j * k + 1, (j + 1) * k) } end
+    if p and not top then
+      for j = 1, p - 2 do lambdas[j] = { table.unpack(yy, p * k + (j - 1) * sys.nc + 1, p * k + j * sys.nc) } end
+    end
+    return levels, lambdas
+  end
+
+  -- How far the state is from the constraints: position and velocity level,
+  -- and at level p the equations of the levels the state holds.
+  local function state_violation(t, yy)
+    local levels, lambdas = state_levels(yy)
+    local v = constraints.violation(sys, t, levels[1], levels[2])
+    if top then v = math.max(v, (constraints.top_rows(sys, t, levels, p)))
+    elseif p then v = math.max(v, constraints.level_violation(sys, t, levels, lambdas, p)) end
+    return v
+  end
+
   local function record(t, yy)
     local q, qd = split(yy, k)
-    local qdd, lambda = mech.ode_accel(ode, engine, t, yy)
+    local qdd, lambda, root = mech.ode_accel(ode, engine, t, yy)
     local n = #tr.t + 1
     tr.t[n], tr.q[n], tr.qd[n], tr.qdd[n], tr.lambda[n] = t, q, qd, qdd, lambda
-    if tr.violation then tr.violation[n] = (constraints.violation(sys, t, q, qd)) end
-    if p then                            -- q''' .. q^(p-1) and the multipliers of the state
-      local levels, lambdas = { q, qd }, {}
-      for j = 2, p - 1 do levels[j + 1] = { table.unpack(yy, j * k + 1, (j + 1) * k) } end
-      for j = 1, p - 2 do lambdas[j] = { table.unpack(yy, p * k + (j - 1) * sys.nc + 1, p * k + j * sys.nc) } end
-      if p > 3 then tr.higher = tr.higher or {}; tr.higher[n] = { table.unpack(levels, 4) } end
-      tr.violation[n] = math.max(tr.violation[n], constraints.level_violation(sys, t, levels, lambdas, p))
+    if tr.violation then tr.violation[n] = state_violation(t, yy) end
+    if p and p > 3 then tr.higher = tr.higher or {}; tr.higher[n] = { table.unpack(state_levels(yy), 4) } end
+    if top then                          -- q^(p) solved, and the branch Newton started on
+      tr.top = tr.top or {}
+      tr.top[n] = root
+      tr.branch = tr.branch or { from = guess and "guess" or "least squares", [constraints.level_name(p)] = root, lambda = lambda }
     end
     if tr.energy then tr.energy[n], tr.generalized_energy[n] = sys:energy(t, q, qd) end
     if tr.work then tr.work[n] = yy[2 * k + 1] end
@@ -401,10 +440,19 @@ function M.simulate(sys, opts)
   -- (ta, ya) with an adaptive rk8pd at the run's tolerances: events are
   -- located to tolerance, whatever the method (multistep ones included).
   local locator
+  -- top: the main run's root at (ta, ya), the locator's first Newton start
+  -- (it stays on the run's branch).
+  local function root_at(ta, ya)
+    local _, lambda, root = mech.ode_accel(ode, engine, ta, ya)
+    local g = { table.unpack(root) }
+    for _, v in ipairs(lambda) do g[#g + 1] = v end
+    return g
+  end
   local function state_at(ta, ya, tau)
     locator = locator or mech.ode_new(engine, { method = "rk8pd", rtol = math.min(cfg.rtol, 1e-10),
       atol = math.min(cfg.atol, 1e-12), work = cfg.monitors.work, orders = orders, linear = linear,
-      alpha = cfg.alpha, beta = cfg.beta, h0 = math.max(tau - ta, 1e-12), level = p })
+      alpha = cfg.alpha, beta = cfg.beta, h0 = math.max(tau - ta, 1e-12), level = p, top = top ~= nil,
+      guess = top and root_at(ta, ya) })
     mech.ode_reset(locator)
     local t, h, yy = ta, math.max(tau - ta, 1e-12), ya
     while t < tau do t, h, yy = mech.ode_step(locator, engine, t, tau, h, yy) end
@@ -461,6 +509,30 @@ function M.simulate(sys, opts)
     return tb, state_at(ta, ya, tb)
   end
 
+  -- project = true: q, qd onto the constraints of order <= 1 and, at level
+  -- p, q'' .. q^(p-1) (and the multipliers of the state) onto the equations
+  -- of their levels, each the least change from its current value.
+  local function project_state(tt, yy)
+    local q, qd = split(yy, k)
+    local popts, nc = nil, sys.nc
+    if p then
+      popts = { lambdas = {} }
+      for j = 2, p - 1 do popts[constraints.level_name(j)] = { table.unpack(yy, j * k + 1, (j + 1) * k) } end
+      for j = 1, top and 0 or p - 2 do popts.lambdas[j] = { table.unpack(yy, p * k + (j - 1) * nc + 1, p * k + j * nc) } end
+    end
+    local pq, pqd, rep = constraints.project(sys, tt, q, qd, popts)
+    local out = { table.unpack(yy) }
+    for j = 1, k do out[j], out[k + j] = pq[j], pqd[j] end
+    for j = 2, p and p - 1 or 1 do
+      local v = rep[constraints.level_name(j)]
+      for i = 1, k do out[j * k + i] = v[i] end
+    end
+    for j = 1, (p and not top) and p - 2 or 0 do
+      for r = 1, nc do out[p * k + (j - 1) * nc + r] = rep.lambdas[j][r] end
+    end
+    return out
+  end
+
   local update, done = progress_bar(cfg, cfg.t0, cfg.t1)
   local wall0 = mech.now()
   local span = cfg.t1 - cfg.t0
@@ -508,10 +580,8 @@ function M.simulate(sys, opts)
     or M.PROJECT_TOL
   tr.projections = cfg.project and sys.nc > 0 and 0 or nil
   local function project(tt)
-    local q, qd = split(y, k)
-    if constraints.violation(sys, tt, q, qd) <= project_tol then return end
-    local pq, pqd = constraints.project(sys, tt, q, qd)
-    for j = 1, k do y[j], y[k + j] = pq[j], pqd[j] end
+    if state_violation(tt, y) <= project_tol then return end
+    y = project_state(tt, y)
     tr.projections = tr.projections + 1
     if multistep then mech.ode_reset(ode) end     -- keeps the statistics (src/ode.c)
   end
