@@ -769,6 +769,51 @@ local function partition(A, b, k)
   return dep, ind, a, a0
 end
 
+-- Tsenov's elimination (7.1) once the constraint rows B x = b at the top
+-- level are known: choose dependent components, write x by the independent
+-- ones (x_dep = a x_ind + a0), combine the equations along the admissible
+-- directions, which removes the multipliers, and solve the reduced
+-- equations, affine in x_ind, by probing their columns.  equations(x)
+-- gives the k equations at a full x.  Returns x and the report `info`
+-- completed with the partition and the reduced matrix.
+local function eliminate(sys, B, b, equations, info)
+  local dep, ind, a, a0 = partition(B, b, sys.k)
+  if not dep then error(("system '%s': the constraints are dependent at this state: no set of dependent coordinates"):format(sys.name), 0) end
+  local function full(xi)              -- x from its independent components
+    local x = {}
+    for l, j in ipairs(ind) do x[j] = xi[l] end
+    for r, j in ipairs(dep) do
+      local v = a0[r]
+      for l = 1, #ind do v = v + a[r][l] * xi[l] end
+      x[j] = v
+    end
+    return x
+  end
+  local function reduced_residual(xi)
+    local res, out = equations(full(xi)), {}
+    for l, j in ipairs(ind) do
+      local v = res[j]
+      for r, jr in ipairs(dep) do v = v + res[jr] * a[r][l] end
+      out[l] = v
+    end
+    return out
+  end
+  local l = #ind
+  local base, Mred, neg = {}, {}, {}
+  for i = 1, l do base[i], Mred[i] = 0, {} end
+  local r0 = reduced_residual(base)
+  for c = 1, l do
+    base[c] = 1
+    local rc = reduced_residual(base)
+    base[c] = 0
+    for i = 1, l do Mred[i][c] = rc[i] - r0[i] end
+  end
+  for i = 1, l do neg[i] = -r0[i] end
+  local xi = l > 0 and mech.lstsq(Mred, neg) or {}
+  info.dependent, info.independent, info.a, info.a0, info.matrix, info.rhs = dep, ind, a, a0, Mred, neg
+  return full(xi), info
+end
+
 -- Tsenov's elimination at level p >= 3: the equations of level p
 -- (G^(p-2) = 0 and every Phi_r^(p - m_r) = 0, src/constrained_series.h),
 -- with q^(p) split by the constraint rows into dependent and independent
@@ -807,47 +852,15 @@ local function reduced_level(sys, t, q, qd, p, opts)
     for i = 1, k do Gx[i][j] = rj[i] - r0[i] end
     for r = 1, sys.nc do B[r][j] = rj[k + r] - r0[k + r] end
   end
-  local dep, ind, a, a0 = partition(B, b, k)
-  if not dep then error(("system '%s': the constraints are dependent at this state: no set of dependent coordinates"):format(sys.name), 0) end
-  local function full(qi)
-    local v = {}
-    for l, j in ipairs(ind) do v[j] = qi[l] end
-    for r, j in ipairs(dep) do
-      local s = a0[r]
-      for l = 1, #ind do s = s + a[r][l] * qi[l] end
-      v[j] = s
-    end
-    return v
-  end
-  local function reduced_residual(qi)
-    local v, G = full(qi), {}
+  return eliminate(sys, B, b, function(v)
+    local G = {}
     for i = 1, k do
-      local s = r0[i]
-      for j = 1, k do s = s + Gx[i][j] * v[j] end
-      G[i] = s
+      local g = r0[i]
+      for j = 1, k do g = g + Gx[i][j] * v[j] end
+      G[i] = g
     end
-    local out = {}
-    for l, j in ipairs(ind) do
-      local s = G[j]
-      for r, jr in ipairs(dep) do s = s + G[jr] * a[r][l] end
-      out[l] = s
-    end
-    return out
-  end
-  local l = #ind
-  local base = {}
-  for i = 1, l do base[i] = 0 end
-  local g0, Mred, neg = reduced_residual(base), {}, {}
-  for i = 1, l do Mred[i] = {} end
-  for c = 1, l do
-    base[c] = 1
-    local rc = reduced_residual(base)
-    base[c] = 0
-    for i = 1, l do Mred[i][c] = rc[i] - g0[i] end
-  end
-  for i = 1, l do neg[i] = -g0[i] end
-  local qi = l > 0 and mech.lstsq(Mred, neg) or {}
-  return full(qi), { level = p, dependent = dep, independent = ind, a = a, a0 = a0, matrix = Mred, rhs = neg }
+    return G
+  end, { level = p })
 end
 
 -- Accelerations from the reduced equations (7.1) of order n, without
@@ -873,45 +886,7 @@ function M.reduced(sys, t, q, qd, n, form)
     end
     A[r], b[r] = mech.constraint_row(sys.engine, r, c.order, t, q, qd, zero)
   end
-  local dep, ind, a, a0 = partition(A, b, sys.k)
-  if not dep then error(("system '%s': the constraints are dependent at this state: no set of dependent coordinates"):format(sys.name), 0) end
-  local function full(qi)             -- q'' from the independent accelerations
-    local qdd = {}
-    for l, j in ipairs(ind) do qdd[j] = qi[l] end
-    for r, j in ipairs(dep) do
-      local v = a0[r]
-      for l = 1, #ind do v = v + a[r][l] * qi[l] end
-      qdd[j] = v
-    end
-    return qdd
-  end
-  local function reduced_residual(qi)
-    local res = sys:residual(n, t, q, qd, full(qi), form)
-    local out = {}
-    for l, j in ipairs(ind) do
-      local v = res[j]
-      for r, jr in ipairs(dep) do v = v + res[jr] * a[r][l] end
-      out[l] = v
-    end
-    return out
-  end
-  -- The reduced equations are affine in the independent accelerations.
-  local l = #ind
-  local base = {}
-  for i = 1, l do base[i] = 0 end
-  local r0 = reduced_residual(base)
-  local Mred = {}
-  for i = 1, l do Mred[i] = {} end
-  for c = 1, l do
-    base[c] = 1
-    local rc = reduced_residual(base)
-    base[c] = 0
-    for i = 1, l do Mred[i][c] = rc[i] - r0[i] end
-  end
-  local neg = {}
-  for i = 1, l do neg[i] = -r0[i] end
-  local qi = l > 0 and mech.lstsq(Mred, neg) or {}
-  return full(qi), { dependent = dep, independent = ind, a = a, a0 = a0, matrix = Mred, rhs = neg }
+  return eliminate(sys, A, b, function(qdd) return sys:residual(n, t, q, qd, qdd, form) end, {})
 end
 
 -- ------------------------------------------------------------------ --
