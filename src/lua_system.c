@@ -23,9 +23,14 @@
 static const char *const piece_fields[NZ_PIECE_COUNT] = { "F", "T", "V", "Q", "S", "constraints" };
 
 
-/* Shortest round-trip text of a number, for messages. */
+/* Shortest round-trip text of a number, for messages; NaN and infinities
+ * the same way on every C library (not "-nan"). */
 static void fmt_num(char *buf, size_t n, double v)
 {
+  if (isnan(v) || isinf(v)) {
+    snprintf(buf, n, "%s", isnan(v) ? "NaN" : v > 0 ? "inf" : "-inf");
+    return;
+  }
   snprintf(buf, n, "%.15g", v);
   if (strtod(buf, NULL) != v) snprintf(buf, n, "%.17g", v);
 }

@@ -19,6 +19,9 @@ local MAX_ITEMS = 12
 -- Lua's ".0" mark of an integral float.
 function M.number(v)
   if math.type(v) == "integer" then return tostring(v) end
+  -- the C library says "nan", "-nan" or "inf": the same words everywhere
+  if v ~= v then return "NaN" end
+  if math.abs(v) == math.huge then return v > 0 and "inf" or "-inf" end
   local s = ("%.15g"):format(v)
   if tonumber(s) ~= v then s = ("%.17g"):format(v) end
   if s:match("^%-?%d+$") then s = s .. ".0" end

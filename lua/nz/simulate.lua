@@ -66,6 +66,7 @@ local function fail(sys, msg, ...) error(user_where() .. ("simulate '%s': " .. m
 
 local function show(v)
   if type(v) == "string" then return ("%q"):format(v) end
+  if type(v) == "number" then return require("nz.repl").number(v) end
   if type(v) == "table" then return "a table" end
   return tostring(v)
 end
@@ -190,6 +191,20 @@ local function check_events(sys, cfg)
   cfg.events = events
 end
 
+-- Options that are switches or tables, checked by type (what they do is
+-- checked where they are used).
+local function check_switches(sys, cfg)
+  for _, key in ipairs{ "progress", "check" } do
+    if cfg[key] ~= nil and type(cfg[key]) ~= "boolean" then
+      fail(sys, "'%s' must be true or false, got %s", key, show(cfg[key]))
+    end
+  end
+  if cfg.guess ~= nil and (type(cfg.guess) ~= "table" or getmetatable(cfg.guess) ~= nil) then
+    fail(sys, "'guess' must be a table {lambda = {...}, q3d = {...}} (Newton's first start for the top level), got %s",
+      show(cfg.guess))
+  end
+end
+
 -- Options that do nothing for this system: said once per system and option.
 -- They go into the trajectory's warnings every run.
 local warned = setmetatable({}, { __mode = "k" })
@@ -223,10 +238,20 @@ local function validate(sys, o)
   check_monitors(sys, cfg)
   check_stabilization(sys, cfg)
   check_events(sys, cfg)
+  check_switches(sys, cfg)
   cfg.warnings = {}
   if sys.nc == 0 then
     if cfg.project then warn_once(sys, cfg, "project", "'project' does nothing: the system has no constraints") end
     if cfg.alpha then warn_once(sys, cfg, "baumgarte", "'baumgarte' does nothing: the system has no constraints") end
+  end
+  -- a fixed step takes no error control and no first step
+  if cfg.step ~= nil then
+    for _, key in ipairs{ "rtol", "atol", "h0" } do
+      if o[key] ~= nil then
+        warn_once(sys, cfg, "step+" .. key, ("'%s' does nothing with a fixed 'step' = %s: drop '%s', or drop 'step' for adaptive steps")
+          :format(key, show(cfg.step), key))
+      end
+    end
   end
   return cfg
 end

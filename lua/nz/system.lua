@@ -16,6 +16,82 @@ System.__index = System
 
 local M = { System = System }
 
+-- ------------------------------------------------------------------ --
+-- Arguments of the methods: checked here, before the C mechanics reads  --
+-- them, so that an error is in Lua's own style ("bad argument #2 to      --
+-- 'accel' (...)"), counts the arguments as the user writes them (self    --
+-- not counted) and starts with the user's file:line.                     --
+
+local function is_library(src) return src:find("^@?lua/nz/[%w_]+%.lua$") or src:find("/lua/nz/[%w_]+%.lua$") end
+local function user_where()
+  for level = 3, 50 do
+    local info = debug.getinfo(level, "Sl")
+    if not info then break end
+    if info.currentline > 0 and not is_library(info.source) then return info.short_src .. ":" .. info.currentline .. ": " end
+  end
+  return ""
+end
+
+-- A value as a message shows it (NaN as "NaN" on every C library).
+local function shown(v)
+  if type(v) == "number" then return repl.number(v) end
+  if type(v) == "string" then return ("the string %q"):format(v) end
+  if type(v) == "table" and getmetatable(v) == nil then
+    return #v == 1 and "a table of 1 entry" or ("a table of %d entries"):format(#v)
+  end
+  return type(v)
+end
+
+local function arg_error(fname, i, msg, ...)
+  error(("%sbad argument #%d to '%s' (%s)"):format(user_where(), i, fname, msg:format(...)), 0)
+end
+M.arg_error = arg_error
+
+local function finite(v) return type(v) == "number" and v == v and math.abs(v) ~= math.huge end
+
+local function check_number(fname, i, name, v)
+  if not finite(v) then arg_error(fname, i, "%s: a finite number expected, got %s", name, shown(v)) end
+end
+
+-- A list of n finite numbers (n = the coordinates by default).
+local function check_vector(self, fname, i, name, v, n, what)
+  n = n or self.k
+  if type(v) ~= "table" or getmetatable(v) ~= nil or #v ~= n then
+    arg_error(fname, i, "%s: a table of %d number%s expected (%s), got %s", name, n, n == 1 and "" or "s",
+      what or ("one per coordinate: " .. table.concat(self.coords, ", ")), shown(v))
+  end
+  for j = 1, n do
+    if not finite(v[j]) then arg_error(fname, i, "%s[%d]: a finite number expected, got %s", name, j, shown(v[j])) end
+  end
+end
+
+-- The state t, q, qd of a method, its t being argument `first`.
+local function check_state(self, fname, first, t, q, qd, qd_optional)
+  check_number(fname, first, "t", t)
+  check_vector(self, fname, first + 1, "q", q)
+  if not (qd == nil and qd_optional) then check_vector(self, fname, first + 2, "qd", qd) end
+end
+
+-- An options table with only the given keys; check(key, value) checks each.
+local function check_options(fname, i, opts, keys, check)
+  if opts == nil then return end
+  if type(opts) ~= "table" then arg_error(fname, i, "options: a table expected, got %s", shown(opts)) end
+  for key, v in pairs(opts) do
+    if keys[key] == nil then
+      local names = {}
+      for k in pairs(keys) do names[#names + 1] = k end
+      table.sort(names)
+      arg_error(fname, i, "unknown option '%s' (options: %s)", tostring(key), table.concat(names, ", "))
+    end
+    local ok, want = keys[key](v)
+    if not ok then arg_error(fname, i, "option '%s': %s expected, got %s", tostring(key), want, shown(v)) end
+  end
+end
+
+local function positive(v) return finite(v) and v > 0, "a positive finite number" end
+local function count(v) return finite(v) and v >= 1 and v == math.floor(v), "a whole number >= 1" end
+local function boolean(v) return type(v) == "boolean", "true or false" end
+
 local known_fields = {
   coords = true, T = true, V = true, Q = true, L = true, S = true, params = true,
   name = true, bodies = true, constraints = true, sample = true,
@@ -137,26 +213,42 @@ M.forms = mech.forms()
 -- jets use; 0 when not given: the result does not depend on them).  With
 -- multipliers lambda (one per constraint) the constraint terms of (6.2),
 -- -A^T lambda with A = dPhi/dq^(m), are included.  n = nil: the rule's n.
+-- n (argument #1) of residual and equations: nil for the rule's n.
+local function check_order(fname, n)
+  if n ~= nil and not (type(n) == "number" and n == math.floor(n) and n >= 1 and n <= mech.max_order) then
+    arg_error(fname, 1, "n: an integer order from 1 to %d expected, got %s", mech.max_order, shown(n))
+  end
+end
+
+-- A list of numbers (not an options table): multipliers.
+local function is_list(v) return type(v) == "table" and getmetatable(v) == nil and v[1] ~= nil end
+
 function System:residual(n, t, q, qd, qdd, a6, a7)
-  local lambda, opts = nil, a6
-  if type(a6) == "table" and self.nc > 0 and #a6 == self.nc and type(a6[1]) == "number" then
-    lambda, opts = a6, a7
+  check_order("residual", n)
+  if type(t) ~= "number" then arg_error("residual", 2, "t: a number expected, got %s", shown(t)) end
+  check_state(self, "residual", 2, t, q, qd)
+  if qdd ~= nil then check_vector(self, "residual", 5, "qdd", qdd) end
+  -- argument 6: the multipliers (a list, or nil) or, without them, the form
+  local lambda, opts, oi = nil, a6, 6
+  if is_list(a6) or (a6 == nil and a7 ~= nil) then lambda, opts, oi = a6, a7, 7 end
+  if lambda ~= nil then
+    check_vector(self, "residual", 6, "lambda", lambda, self.nc, "one multiplier per constraint")
   end
   local form, higher = "generalized", nil
   if type(opts) == "string" then form = opts
-  elseif type(opts) == "table" then form, higher = opts.form or form, opts.higher
-  elseif opts ~= nil then error("bad argument #6 to 'residual' (multipliers, a form name or options expected)", 2) end
+  elseif type(opts) == "table" and getmetatable(opts) == nil then
+    check_options("residual", oi, opts, {
+      form = function(v) return type(v) == "string", "a form name" end,
+      higher = function(v) return type(v) == "table", "a list {q3, q4, ...} of derivatives" end,
+    })
+    form, higher = opts.form or form, opts.higher
+    for j, v in ipairs(higher or {}) do check_vector(self, "residual", oi, ("higher[%d]"):format(j), v) end
+  elseif opts ~= nil then
+    arg_error("residual", oi, "%sa form name or options {form =, higher =} expected, got %s",
+      oi == 6 and "multipliers, " or "", shown(opts))
+  end
   if not form_set[form] then
-    error(("bad argument to 'residual' (unknown form '%s'; forms: %s)"):format(
-      tostring(form), table.concat(M.forms, ", ")), 2)
-  end
-  -- n and t are checked here: the C function counts its own arguments.
-  if n ~= nil and not (type(n) == "number" and n == math.floor(n) and n >= 1 and n <= mech.max_order) then
-    error(("bad argument #1 to 'residual' (n: an integer order from 1 to %d expected, got %s)"):format(
-      mech.max_order, type(n) == "number" and repl.number(n) or type(n)), 2)
-  end
-  if type(t) ~= "number" then
-    error(("bad argument #2 to 'residual' (t: a number expected, got %s)"):format(type(t)), 2)
+    arg_error("residual", oi, "unknown form '%s'; forms: %s", tostring(form), table.concat(M.forms, ", "))
   end
   n = n or self:rule()
   local r = mech.residual(self.engine, form, n, t, q, qd, qdd, higher)
@@ -171,21 +263,34 @@ end
 
 -- M(t, q [, qd]) and h(t, q, qd) of M qdd + h = 0 (h includes -Q and dV/dq).
 function System:mass(t, q, qd)
+  check_state(self, "mass", 1, t, q, qd, true)
   local Mm = mech.mass_bias(self.engine, t, q, qd)
   return Mm
 end
 
 function System:bias(t, q, qd)
+  check_state(self, "bias", 1, t, q, qd)
   local _, h = mech.mass_bias(self.engine, t, q, qd)
   return h
 end
 
-function System:mass_bias(t, q, qd) return mech.mass_bias(self.engine, t, q, qd) end
+function System:mass_bias(t, q, qd)
+  check_state(self, "mass_bias", 1, t, q, qd)
+  return mech.mass_bias(self.engine, t, q, qd) end
 
 -- Accelerations, multipliers (one per constraint) and, with constraints, a
 -- report {iterations, residual, rcond, start}.  opts (constraints of second
 -- order nonlinear in qdd): {qdd = guess, lambda = guess, tol =, maxit =}.
 function System:accel(t, q, qd, opts)
+  check_state(self, "accel", 1, t, q, qd)
+  check_options("accel", 4, opts, {
+    tol = positive, maxit = count, check = boolean,
+    rcond_min = function(v) return finite(v) and v >= 0, "a finite number >= 0" end,
+    qdd = function(v) return type(v) == "table", "a table of numbers (a first guess)" end,
+    lambda = function(v) return type(v) == "table", "a table of numbers (a first guess)" end,
+  })
+  if opts and opts.qdd then check_vector(self, "accel", 4, "option 'qdd'", opts.qdd) end
+  if opts and opts.lambda then check_vector(self, "accel", 4, "option 'lambda'", opts.lambda, self.nc, "one per constraint") end
   if self.nc == 0 then return mech.accel(self.engine, t, q, qd), {} end
   local orders, linear = constraints.orders(self, { t = t, q = q, qd = qd })
   return mech.accel_constrained(self.engine, t, q, qd, orders, linear, opts)
@@ -195,12 +300,14 @@ end
 -- generalized energy H = sum qd dL/dqd - L, and whether H is a first
 -- integral here: {holds, explicit_t = dL/dt, homogeneous, reasons}.
 function System:energy(t, q, qd)
+  check_state(self, "energy", 1, t, q, qd)
   local T, V, _, H = mech.energy(self.engine, t, q, qd)
   return T and (T + V) or nil, H, constraints.energy_conditions(self, t, q, qd)
 end
 
 -- The power of the reactions of moving constraints, R_0 of (9.1).
 function System:reaction_power(t, q, qd)
+  check_state(self, "reaction_power", 1, t, q, qd)
   local qdd, lambda = self:accel(t, q, qd)
   return constraints.reaction_power(self, t, q, qd, qdd, lambda)
 end
@@ -216,11 +323,31 @@ end
 function System:rule(opts) return constraints.rule(self, opts) end
 
 -- Accelerations from Tsenov's reduced equations (7.1), without multipliers.
-function System:reduced(t, q, qd, n, form) return constraints.reduced(self, t, q, qd, n or self:rule(), form) end
+function System:reduced(t, q, qd, n, form)
+  check_state(self, "reduced", 1, t, q, qd)
+  if n ~= nil and not (type(n) == "number" and n == math.floor(n) and n >= 1 and n <= mech.max_order) then
+    arg_error("reduced", 4, "n: an integer order from 1 to %d expected, got %s", mech.max_order, shown(n))
+  end
+  if form ~= nil and not form_set[form] and not (type(form) == "table" and getmetatable(form) == nil) then
+    arg_error("reduced", 5, "a form name (%s) or the state's higher levels {qdd =, lambdas =} expected, got %s",
+      table.concat(M.forms, ", "), shown(form))
+  end
+  return constraints.reduced(self, t, q, qd, n or self:rule(), form)
+end
 
-function System:project(t, q, qd, opts) return constraints.project(self, t, q, qd, opts) end
+function System:project(t, q, qd, opts)
+  check_state(self, "project", 1, t, q, qd)
+  if opts ~= nil and (type(opts) ~= "table" or getmetatable(opts) ~= nil) then
+    arg_error("project", 4, "options: a table {tol =, maxit =, qdd =, ...} expected, got %s", shown(opts))
+  end
+  return constraints.project(self, t, q, qd, opts)
+end
 
-function System:check_state(t, q, qd, tol) return constraints.check_state(self, t, q, qd, tol) end
+function System:check_state(t, q, qd, tol)
+  check_state(self, "check_state", 1, t, q, qd)
+  if tol ~= nil then check_number("check_state", 4, "tol", tol) end
+  return constraints.check_state(self, t, q, qd, tol)
+end
 
 -- What a scene shows, in one call (lua/nz/report.lua).
 function System:report(opts) return require("nz.report").report(self, opts) end
@@ -273,11 +400,11 @@ end
 -- The terms of (3.1) of order n at a state, per coordinate.  Without qdd,
 -- the accelerations of the motion are used (the residual is then ~0).
 function System:equations(n, t, q, qd, qdd, opts)
+  check_order("equations", n)
+  check_state(self, "equations", 2, t, q, qd)
+  if qdd ~= nil then check_vector(self, "equations", 5, "qdd", qdd) end
+  check_options("equations", 6, opts, { quiet = boolean })
   n = n or self:rule()
-  t = t or 0
-  if q == nil then error("bad argument to 'equations' (a state t, q, qd is needed)", 2) end
-  qd = qd or {}
-  if #qd == 0 then for i = 1, self.k do qd[i] = 0 end end
   local given = qdd ~= nil
   qdd = qdd or self:accel(t, q, qd)
   local lambda
