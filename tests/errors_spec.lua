@@ -152,13 +152,63 @@ describe("messages name the user's code first", function()
     assert.are.equal(false, ok)
     assert.truthy(err:find("bad argument #1 to 'residual' (n: an integer order from 1 to", 1, true), err)
     assert.truthy(err:find("got 2.5)", 1, true), err)
-    h.checkerror("bad argument #2 to 'residual' (t: a number expected, got string)",
+    h.checkerror("bad argument #2 to 'residual' (t: a number expected, got the string \"0\")",
       pendulum.residual, pendulum, 2, "0", { 0.385 }, { 0 }, { 0 })
     h.checkerror("bad argument #1 to 'residual' (n: an integer order from 1 to",
       pendulum.residual, pendulum, 0, 0, { 0.385 }, { 0 }, { 0 })
     -- a float with an integer value is an order: th'' + g sin th = 0 at rest
     local r = pendulum:residual(2.0, 0, { 0.385 }, { 0 }, { -g * math.sin(0.385) })
     assert(math.abs(r[1]) <= 1e-12, r[1])
+  end)
+  it("every method checks its state in one place: Lua's 'bad argument #i to', the caller's line first", function()
+    local sys = nz.system{ name = "plane", coords = { "x", "y" },
+      T = function(t, q, qd) return 0.5 * 1.7 * (qd[1] ^ 2 + qd[2] ^ 2) end,
+      V = function(t, q) return 1.7 * 2.385 * q[2] end }
+    local q, qd = { 0.385, -1.25 }, { 0.5, 0.75 }
+    -- f's error must start with the line of the call inside f (this file); the
+    -- calls are in parentheses: a tail call leaves no line of f to name
+    local function fails(want, f)
+      local ok, err = pcall(f)
+      assert.are.equal(false, ok)
+      local info = debug.getinfo(f, "S")
+      local line = tonumber(err:match("^" .. SPEC:gsub("%p", "%%%0") .. ":(%d+): "))
+      assert(line and line >= info.linedefined and line <= info.lastlinedefined, err)
+      assert.are.equal(want, (err:gsub("^[^:]+:%d+: ", "", 1)))
+    end
+    local two = "a table of 2 numbers expected (one per coordinate: x, y)"
+    -- qd missing, too long, empty; q too short; a NaN; t a string
+    fails("bad argument #3 to 'accel' (qd: " .. two .. ", got nil)", function()
+      return (sys:accel(0, { 0.385, -1.25 })) end)
+    fails("bad argument #2 to 'accel' (q: " .. two .. ", got a table of 1 entry)", function()
+      return (sys:accel(0, { 0.385 }, qd)) end)
+    fails("bad argument #3 to 'project' (qd: " .. two .. ", got a table of 3 entries)", function()
+      return (sys:project(0, q, { 0.2, 4, 5 })) end)
+    fails("bad argument #4 to 'equations' (qd: " .. two .. ", got a table of 0 entries)", function()
+      return (sys:equations(2, 0, q, {})) end)
+    fails("bad argument #3 to 'mass_bias' (qd[2]: a finite number expected, got NaN)", function()
+      return (sys:mass_bias(0, q, { 0.5, 0 / 0 })) end)
+    fails("bad argument #1 to 'accel' (t: a finite number expected, got the string \"0\")", function()
+      return (sys:accel("0", q, qd)) end)
+    -- each method under its own name
+    for _, name in ipairs{ "bias", "reduced", "energy", "reaction_power", "check_state" } do
+      fails(("bad argument #3 to '%s' (qd: %s, got nil)"):format(name, two), function()
+        return (sys[name](sys, 0.25, q)) end)
+    end
+    fails("bad argument #2 to 'mass' (q: " .. two .. ", got nil)", function()
+      return (sys:mass(0.25)) end)
+    fails("bad argument #3 to 'residual' (q: " .. two .. ", got a table of 1 entry)", function()
+      return (sys:residual(2, 0, { 0.1 }, qd, { 0, 0 })) end)
+    -- options of accel: unknown, mistyped
+    fails("bad argument #4 to 'accel' (unknown option 'bogus' (options: check, lambda, maxit, qdd, rcond_min, tol))",
+      function() return (sys:accel(0, q, qd, { bogus = 1 })) end)
+    fails("bad argument #4 to 'accel' (option 'check': true or false expected, got the string \"no\")",
+      function() return (sys:accel(0, q, qd, { check = "no" })) end)
+    -- without multipliers, argument 7 is still the form
+    fails("bad argument #7 to 'residual' (unknown form 'zzz'; forms: " .. table.concat(nz.forms or require("nz.system").forms, ", ") .. ")",
+      function() return (sys:residual(2, 0, q, qd, { 0, 0 }, nil, "zzz")) end)
+    -- the arguments that pass give the closed form: x'' = 0, y'' = -2.385
+    local a = sys:accel(0, q, qd, { check = true })
+    assert(math.abs(a[1]) <= 1e-15 and math.abs(a[2] + 2.385) <= 1e-14, a[2])
   end)
   it("nz.check with an equation written as a string says so, with the student's line", function()
     local line = here() + 1
@@ -168,5 +218,31 @@ describe("messages name the user's code first", function()
       :format(SPEC, line), err:match("^(.-%)\")"))
     -- the same equation written in Lua passes
     assert.are.equal(true, (nz.check(pendulum, function(t, q, qd, qdd) return { qdd[1] + g * nz.sin(q[1]) } end, { quiet = true })))
+  end)
+  it("nz.check and the operators check their arguments as the methods do", function()
+    local line = here() + 1
+    local ok, err = pcall(function() return (nz.check(pendulum, "th'' + g sin(th)")) end)
+    assert.are.equal(false, ok)
+    assert.are.equal(("%s:%d: bad argument #2 to 'check' (your equations: a function(t, q, qd, qdd) returning 1 expressions "
+      .. "expected, got the string \"th'' + g sin(th)\")"):format(SPEC, line), err)
+    h.checkerror("bad argument #1 to 'check' (a system from nz.system{...} expected, got a table of 0 entries)",
+      nz.check, {}, function() end)
+    h.checkerror("bad argument #3 to 'check' (option 'quiet': true or false expected, got the string \"yes\")",
+      nz.check, pendulum, function(t, q, qd, qdd) return { qdd[1] } end, { quiet = "yes" })
+    h.checkerror("bad argument #3 to 'check' (unknown option 'state' (options: quiet, seed, states, tol))",
+      nz.check, pendulum, function(t, q, qd, qdd) return { qdd[1] } end, { state = 3 })
+    h.checkerror("bad argument #2 to 'nielsen_op' (a function f(t, q, qd) expected, got nil)",
+      nz.nielsen_op, 1, nil, 0, { 0.385 }, { 0 })
+    h.checkerror("bad argument #4 to 'euler_op' (q: a table of numbers expected, got 0.385)",
+      nz.euler_op, 1, function(t, q, qd) return qd[1] ^ 2 end, 0, 0.385, { 0 })
+  end)
+  it("a NaN is written NaN in messages (never -nan, whatever the C library)", function()
+    -- an equation that gives NaN: 0/0 everywhere
+    local ok, text = nz.check(pendulum, function(t, q, qd, qdd) return { 0 / 0 } end, { quiet = true })   -- NaN everywhere
+    assert.are.equal(false, ok)
+    assert.truthy(text:find("should give 0 but gives NaN", 1, true), text)
+    assert.falsy(text:lower():find("-nan", 1, true), text)
+    h.checkerror("bad argument #3 to 'accel' (qd[1]: a finite number expected, got NaN)", pendulum.accel, pendulum, 0, { 0.385 }, { 0 / 0 })
+    h.checkerror("bad argument #3 to 'accel' (qd[1]: a finite number expected, got -inf)", pendulum.accel, pendulum, 0, { 0.385 }, { -math.huge })
   end)
 end)

@@ -59,7 +59,7 @@ describe("simulate validates its options", function()
     { "step = 1e-300", { step = 1e-300 }, { "'step'", "1e-300", "at most 1e+09" } },
     { "h0 = 0", { h0 = 0 }, { "'h0'", "got 0", "positive finite" } },
     { "h0 < 0", { h0 = -0.25 }, { "'h0'", "got -0.25" } },
-    { "h0 = NaN", { h0 = nan }, { "'h0'", "nan" } },
+    { "h0 = NaN", { h0 = nan }, { "'h0'", "got NaN" } },   -- "NaN" on every C library, never "-nan"
     { "t1 = math.huge", { t1 = math.huge }, { "'t1' must be a number greater than t0 = 0", "finite", "got inf" } },
     { "dt = 1e-9 over a long span", { t1 = 100, dt = 1e-9 }, { "'dt'", "1e+11 output points", "at most 1e+07", "dt >= 1e-05" } },
     { "event_tol < 0", { event_tol = -1e-9 }, { "'event_tol'", "-1e-09" } },
@@ -68,10 +68,13 @@ describe("simulate validates its options", function()
     { "method = 'euler'", { method = "euler" }, { "unknown method 'euler'", "rk8pd", "option 'method'" } },
     { "monitors = 'energy'", { monitors = "energy" }, { "'monitors'", "\"energy\"", "{energy = true, work = true}" } },
     { "t0 = '0'", { t0 = "0" }, { "'t0'", "\"0\"", "finite number" } },
-    { "t0 = NaN", { t0 = nan }, { "'t0'", "nan" } },
+    { "t0 = NaN", { t0 = nan }, { "'t0'", "got NaN" } },
     { "a fixed step with msadams", { method = "msadams", step = 1e-3 }, { "'step'", "'msadams'", "drop 'step'" } },
     { "a fixed step with msbdf", { method = "msbdf", step = 1e-3 }, { "'step'", "'msbdf'", "one-step method" } },
     { "project = 'yes'", { project = "yes" }, { "'project'", "\"yes\"", "true or false" } },
+    { "progress = 'yes'", { progress = "yes" }, { "'progress'", "\"yes\"", "true or false" } },
+    { "check = 3", { check = 3 }, { "'check'", "got 3", "true or false" } },
+    { "guess = 5", { guess = 5 }, { "'guess'", "got 5", "{lambda = {...}" } },
   }
   for _, c in ipairs(cases) do
     it(c[1] .. ": says which option, what it got and what it accepts, from the caller's line", function()
@@ -102,6 +105,26 @@ describe("simulate validates its options", function()
     assert.are.equal(1, #tr2.warnings)          -- still recorded on the trajectory
     -- x = x0 + v t: the run itself is unaffected.
     assert(math.abs(tr.q[#tr.q][1] - (0.3 + 1.1 * 0.5)) <= 1e-12)
+  end)
+
+  it("a fixed step with rtol, atol or h0: each does nothing, said once", function()
+    local said = {}
+    local saved = simulate.warn
+    simulate.warn = function(msg) said[#said + 1] = msg end
+    local sys = nz.system{ name = "falling", coords = { "x" }, T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end,
+      V = function(t, q) return 2.385 * q[1] end }
+    local line = debug.getinfo(1, "l").currentline + 1
+    local ok, tr = pcall(sys.simulate, sys, { q0 = { 0.3 }, qd0 = { 1.1 }, t1 = 0.5, step = 0.0625, rtol = 1e-6, atol = 1e-9, h0 = 0.01 })
+    sys:simulate{ q0 = { 0.3 }, qd0 = { 1.1 }, t1 = 0.5, step = 0.0625, rtol = 1e-6 }
+    simulate.warn = saved
+    assert(ok, tostring(tr))
+    assert.are.equal(3, #said)                  -- rtol, atol, h0 once each; not again on the second run
+    for i, key in ipairs{ "rtol", "atol", "h0" } do
+      contains(said[i], ("%s:%d: simulate 'falling': warning: '%s' does nothing with a fixed 'step' = 0.0625"):format(THIS, line, key),
+        "drop 'step' for adaptive steps")
+    end
+    -- x = x0 + v t - g t^2 / 2 (g = 2.385): the run itself is unaffected (rk8pd is exact on a quadratic)
+    assert(math.abs(tr.q[#tr.q][1] - (0.3 + 1.1 * 0.5 - 2.385 * 0.125)) <= 1e-12)
   end)
 end)
 

@@ -17,7 +17,9 @@ local M = {}
 M.STATES = 10
 M.TOL = 1e-8
 
-local function vec(v) local p = {}; for i = 1, #v do p[i] = ("%.6g"):format(v[i]) end; return "{" .. table.concat(p, ", ") .. "}" end
+-- %.6g, with NaN as "NaN" on every C library (not "-nan")
+local function g6(x) return x ~= x and "NaN" or ("%.6g"):format(x) end
+local function vec(v) local p = {}; for i = 1, #v do p[i] = g6(v[i]) end; return "{" .. table.concat(p, ", ") .. "}" end
 
 local generator = require("nz.constraints").generator   -- deterministic draws
 
@@ -58,8 +60,16 @@ local function value(x) return core.isjet(x) and x:value() or x end
 
 -- nz.check(sys, eqs [, {states =, tol =, quiet =}]) -> ok, text
 function M.check(sys, eqs, opts)
+  local args = require("nz.system").args
+  if getmetatable(sys) ~= require("nz.system").System then
+    args.error("check", 1, "a system from nz.system{...} expected, got %s", args.shown(sys))
+  end
+  if type(eqs) ~= "function" then
+    args.error("check", 2, "your equations: a function(t, q, qd, qdd) returning %d expressions expected, got %s", sys.k, args.shown(eqs))
+  end
+  args.options("check", 3, opts, { states = args.count, tol = args.positive, quiet = args.boolean,
+    seed = function(v) return math.type(v) == "integer", "an integer" end })
   opts = opts or {}
-  if type(eqs) ~= "function" then error("check: your equations must be a function(t, q, qd, qdd) returning k expressions", 2) end
   local nstates, tol = opts.states or M.STATES, opts.tol or M.TOL
   local rand = generator(opts.seed or 4711)
   local base = sys.sample or {}
@@ -100,8 +110,8 @@ function M.check(sys, eqs, opts)
         if not (rel <= tol) and ok then
           ok = false
           lines[#lines + 1] = ("Equation %d is wrong: at t = %.6g, q = %s, qd = %s the true accelerations are qdd = %s; "
-            .. "there your equation %d should give 0 but gives %.6g (its terms are of size %.3g).")
-            :format(i, t, vec(q), vec(qd), vec(a), i, value(E[i]), scale)
+            .. "there your equation %d should give 0 but gives %s (its terms are of size %.3g).")
+            :format(i, t, vec(q), vec(qd), vec(a), i, g6(value(E[i])), scale)
         end
       end
       if ok then

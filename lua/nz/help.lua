@@ -122,7 +122,9 @@ Methods (t a number, q, qd, qdd tables of k numbers):
         (report.reclassified counts them), else an error names the
         constraint, the state and the violation.  opts.check = false skips
         the check (to measure its cost).  Singular systems name the
-        constraints involved.
+        constraints involved.  opts: qdd, lambda, tol, maxit, rcond_min,
+        check; any other key is an error.  Every method checks its arguments
+        (t, q, qd: k finite numbers each) and names the one that is wrong.
   sys:constraints()          print and return the classification: order,
                              linear in the top derivative, holonomic,
                              homogeneous in qd (Euler's theorem), evidence
@@ -155,7 +157,8 @@ Methods (t a number, q, qd, qdd tables of k numbers):
   sys:equations(n, t, q, qd [, qdd])  print the terms of (3.1) per coordinate
   sys:simulate{q0 =, qd0 =, t1 = [, t0, dt, method, rtol, atol, step, h0, events,
         event_tol, project, baumgarte, monitors, progress, check]}  a trajectory.
-        Each option is checked (which, what it got, what it accepts); a run
+        Each option is checked (which, what it got, what it accepts); a fixed
+        step with rtol, atol or h0 warns once that they do nothing; a run
         that will take over a minute or 1e7 steps says so once and goes on;
         one whose steps stop advancing t stops with the state and M.
   print(sys)                 a summary]] },

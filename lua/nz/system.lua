@@ -45,7 +45,6 @@ end
 local function arg_error(fname, i, msg, ...)
   error(("%sbad argument #%d to '%s' (%s)"):format(user_where(), i, fname, msg:format(...)), 0)
 end
-M.arg_error = arg_error
 
 local function finite(v) return type(v) == "number" and v == v and math.abs(v) ~= math.huge end
 
@@ -91,6 +90,9 @@ end
 local function positive(v) return finite(v) and v > 0, "a positive finite number" end
 local function count(v) return finite(v) and v >= 1 and v == math.floor(v), "a whole number >= 1" end
 local function boolean(v) return type(v) == "boolean", "true or false" end
+
+-- For the other entry points (nz.check): the same messages.
+M.args = { error = arg_error, options = check_options, shown = shown, positive = positive, count = count, boolean = boolean }
 
 local known_fields = {
   coords = true, T = true, V = true, Q = true, L = true, S = true, params = true,
@@ -459,8 +461,9 @@ end
 -- The operators of §5 on a function f(t, q, qd [, params])             --
 
 local function operator(which, m, f, t, q, qd, qdd, higher)
-  if type(f) ~= "function" then error("bad argument #2 (a function f(t, q, qd) expected)", 3) end
-  if type(q) ~= "table" or #q == 0 then error("bad argument #4 (q: a table of numbers expected)", 3) end
+  local fname = ({ N = "nielsen_op", E = "euler_op", top = "top_coefficient", partial = "partial" })[which]
+  if type(f) ~= "function" then arg_error(fname, 2, "a function f(t, q, qd) expected, got %s", shown(f)) end
+  if type(q) ~= "table" or #q == 0 then arg_error(fname, 4, "q: a table of numbers expected, got %s", shown(q)) end
   local engine = { k = #q, name = "operator", F = { f }, T = {}, V = {}, Q = {}, S = {}, params = {},
     labels = { F = { "f" } } }
   return mech.operator(engine, which, m, t, q, qd, qdd, higher)
