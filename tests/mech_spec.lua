@@ -334,9 +334,11 @@ describe("misuse gets a clear error naming the system and the function", functio
   end)
   it("a state of the wrong size or with a non-number", function()
     local s = sys_with{}
-    h.checkerror("q: 2 numbers expected, one per coordinate, got 3", s.accel, s, 0, { 1, 2, 3 }, qd)
-    h.checkerror("q[2] must be a finite number", s.accel, s, 0, { 1, 0 / 0 }, qd)
-    h.checkerror("qd: a table of 2 numbers expected, got string", s.residual, s, 1, 0, q, "x", { 0, 0 })
+    h.checkerror("bad argument #2 to 'accel' (q: a table of 2 numbers expected (one per coordinate: x, y), got a table of 3 entries)",
+      s.accel, s, 0, { 1, 2, 3 }, qd)
+    h.checkerror("bad argument #2 to 'accel' (q[2]: a finite number expected, got NaN)", s.accel, s, 0, { 1, 0 / 0 }, qd)
+    h.checkerror("bad argument #4 to 'residual' (qd: a table of 2 numbers expected (one per coordinate: x, y), got the string \"x\")",
+      s.residual, s, 1, 0, q, "x", { 0, 0 })
   end)
   it("an order, a form, or Wassmuth's form without particles", function()
     local s = sys_with{}
