@@ -198,14 +198,14 @@ static int kkt_eval(kkt *c, const double *x, double *G, double *J)
   return NZ_OK;
 }
 
-/* Scale [M -A^T; A 0] symmetrically, J <- D J D, and return D in d: the
- * q columns by 1/sqrt(mu) (mu the largest entry of the M block), the
- * multiplier of constraint r by sqrt(mu)/a_r (a_r its largest gradient
- * entry), so that every block is of size 1.  Unscaled, a circle of radius
- * R puts entries of size R beside masses of size 1: the solve's residual,
- * a few eps times the largest entry times the solution, is then of size eps R
- * in (6.2), rounding that the check would take for a violation; scaled,
- * each row's residual is a few eps of its own terms. */
+/* Scale [M -A^T; A 0] symmetrically, J <- D J D, and return D in d: q_i
+ * by 1/sqrt(M_ii) (at least 1e-8 of the largest entry of the M block, for a
+ * singular M), the multiplier of constraint r by 1/a_r, a_r its largest
+ * scaled gradient entry, so that every block is of size 1.  Unscaled, a
+ * circle of radius R puts entries of size R beside masses of size 1: the
+ * solve's residual, a few eps times the largest entry times the solution,
+ * is then of size eps R in (6.2), rounding the check would take for a
+ * violation; scaled, each row's residual is a few eps of its own terms. */
 static void equilibrate(const kkt *c, double *J, double *d)
 {
   int k = c->k, N = c->N;
@@ -213,11 +213,11 @@ static void equilibrate(const kkt *c, double *J, double *d)
   for (int i = 0; i < k; i++)
     for (int j = 0; j < k; j++) mu = fmax(mu, fabs(J[i * N + j]));
   if (!(mu > 0.0 && isfinite(mu))) mu = 1.0;
-  for (int i = 0; i < k; i++) d[i] = 1.0 / sqrt(mu);
+  for (int i = 0; i < k; i++) d[i] = 1.0 / sqrt(fmax(fabs(J[i * N + i]), 1e-8 * mu));
   for (int r = 0; r < c->nc; r++) {
     double a = 0.0;
-    for (int i = 0; i < k; i++) a = fmax(a, fabs(J[(k + r) * N + i]));
-    d[k + r] = a > 0.0 && isfinite(a) ? sqrt(mu) / a : 1.0;
+    for (int i = 0; i < k; i++) a = fmax(a, fabs(J[(k + r) * N + i]) * d[i]);
+    d[k + r] = a > 0.0 && isfinite(a) ? 1.0 / a : 1.0;
   }
   for (int i = 0; i < N; i++)
     for (int j = 0; j < N; j++) J[i * N + j] *= d[i] * d[j];

@@ -550,21 +550,18 @@ local function state_rows(sys, r, order, t, q, qd, f)
 end
 
 -- The largest violation of constraints of order <= 1 at position and
--- velocity level: {value, constraint, level, relative}: value is absolute
--- (what projection drives to zero), relative the largest violation over the
--- size of its row's terms (what a start state is checked by).
+-- velocity level: {value, constraint, level}, absolute (what projection
+-- drives to zero; a start state is checked relative to the terms, below).
 function M.violation(sys, t, q, qd)
-  local worst, which, level, rel = 0, nil, nil, 0
+  local worst, which, level = 0, nil, nil
   for r, c in ipairs(M.classify(sys)) do
     if c.order <= 1 then
-      state_rows(sys, r, c.order, t, q, qd, function(v, size, lev)
+      state_rows(sys, r, c.order, t, q, qd, function(v, _, lev)
         if math.abs(v) > worst then worst, which, level = math.abs(v), r, lev end
-        local x = math.abs(v) > 0 and math.abs(v) / size or 0
-        if x > rel then rel = x end
       end)
     end
   end
-  return worst, which, level, rel
+  return worst, which, level
 end
 
 -- The worst row of the start state relative to its terms:
