@@ -198,6 +198,31 @@ static int kkt_eval(kkt *c, const double *x, double *G, double *J)
   return NZ_OK;
 }
 
+/* Scale [M -A^T; A 0] symmetrically, J <- D J D, and return D in d: q_i
+ * by 1/sqrt(M_ii) (at least 1e-8 of the largest entry of the M block, for a
+ * singular M), the multiplier of constraint r by 1/a_r, a_r its largest
+ * scaled gradient entry, so that every block is of size 1.  Unscaled, a
+ * circle of radius R puts entries of size R beside masses of size 1: the
+ * solve's residual, a few eps times the largest entry times the solution,
+ * is then of size eps R in (6.2), rounding the check would take for a
+ * violation; scaled, each row's residual is a few eps of its own terms. */
+static void equilibrate(const kkt *c, double *J, double *d)
+{
+  int k = c->k, N = c->N;
+  double mu = 0.0;
+  for (int i = 0; i < k; i++)
+    for (int j = 0; j < k; j++) mu = fmax(mu, fabs(J[i * N + j]));
+  if (!(mu > 0.0 && isfinite(mu))) mu = 1.0;
+  for (int i = 0; i < k; i++) d[i] = 1.0 / sqrt(fmax(fabs(J[i * N + i]), 1e-8 * mu));
+  for (int r = 0; r < c->nc; r++) {
+    double a = 0.0;
+    for (int i = 0; i < k; i++) a = fmax(a, fabs(J[(k + r) * N + i]) * d[i]);
+    d[k + r] = a > 0.0 && isfinite(a) ? 1.0 / a : 1.0;
+  }
+  for (int i = 0; i < N; i++)
+    for (int j = 0; j < N; j++) J[i * N + j] *= d[i] * d[j];
+}
+
 /* GSL multiroot callbacks: a failing user function stops the solver with
  * GSL_EBADFUNC and its status is kept (no Lua error crosses GSL's frames). */
 static int gsl_fdf(const gsl_vector *x, void *p, gsl_vector *f, gsl_matrix *J)
@@ -291,9 +316,10 @@ static int solve(kkt *c, const nz_accel_options *opt, double *x, double *G, doub
    * exact), and for the nonlinear case a last step at the root, whose
    * matrix tells the condition of the system and the multipliers' quality. */
   if ((st = kkt_eval(c, x, G, J))) return st;
-  for (int i = 0; i < N; i++) dx[i] = -G[i];
-  memcpy(Jc, dx, (size_t)N * sizeof(double));
-  if ((st = nz_solve_svd(N, J, Jc, dx, &rep->rcond))) return st;
+  equilibrate(c, J, dx);
+  for (int i = 0; i < N; i++) Jc[i] = -G[i] * dx[i];
+  if ((st = nz_solve_svd(N, J, Jc, G, &rep->rcond))) return st;
+  for (int i = 0; i < N; i++) dx[i] *= G[i];
   if (!(rep->rcond >= opt->rcond_min)) {
     rep->failure = NZ_ACCEL_SINGULAR;
     diagnose_dependence(nc, k, c->A, rep);

@@ -307,3 +307,169 @@ describe("a constraint function that fails says what it did", function()
     assert.are.equal(0, typical:constraints{ quiet = true }[1].order)
   end)
 end)
+
+-- A pendulum of length R in Cartesian coordinates, Phi = x^2 + y^2 - R^2:
+-- with R = 1e6 the constraint's terms are of size R^2 = 1e12 beside forces
+-- of size m g, and the solve must leave only rounding in every row.  Closed
+-- form: x = R sin th, y = -R cos th, th'' = -(g/R) sin th, so
+--   x'' = R (cos th th'' - sin th th'^2),  y'' = R (sin th th'' + cos th th'^2),
+-- and (6.2) m q'' = Q + 2 lambda q with the tension m (g cos th + R th'^2)
+-- pointing to the pivot gives lambda = -m (g cos th + R th'^2) / (2 R).
+describe("a pendulum of length 1e6 and 1e-6 with gravity", function()
+  local g, mass = 9.81, 1.7
+  local function pendulum(R)
+    return nz.system{ name = "pendulum R", coords = { "x", "y" },
+      T = function(t, q, qd) return 0.5 * mass * (qd[1] ^ 2 + qd[2] ^ 2) end,
+      V = function(t, q) return mass * g * q[2] end,
+      constraints = { function(t, q) return q[1] ^ 2 + q[2] ^ 2 - R ^ 2 end } }
+  end
+  local function cartesian(R, th, w)
+    return { R * math.sin(th), -R * math.cos(th) }, { R * w * math.cos(th), R * w * math.sin(th) }
+  end
+  -- th'' = -(g/R) sin th by classical RK4 on (th, w): a second path sharing
+  -- no code with the engine.
+  local function theta_at(R, th, w, t1, steps)
+    local hs = t1 / steps
+    local function f(a, b) return b, -(g / R) * math.sin(a) end
+    for _ = 1, steps do
+      local k1a, k1b = f(th, w)
+      local k2a, k2b = f(th + hs / 2 * k1a, w + hs / 2 * k1b)
+      local k3a, k3b = f(th + hs / 2 * k2a, w + hs / 2 * k2b)
+      local k4a, k4b = f(th + hs * k3a, w + hs * k3b)
+      th, w = th + hs / 6 * (k1a + 2 * k2a + 2 * k3a + k4a), w + hs / 6 * (k1b + 2 * k2b + 2 * k3b + k4b)
+    end
+    return th, w
+  end
+  for _, R in ipairs({ 1e6, 1e-6 }) do
+    local th, w = 0.7, 0.385 * math.sqrt(g / R)
+    it(("accel at R = %g matches the closed form"):format(R), function()
+      for _, thw in ipairs({ { th, w }, { -2.385, 0 }, { 0.3, -1.3 * math.sqrt(g / R) } }) do
+        local a, b = thw[1], thw[2]
+        local q, qd = cartesian(R, a, b)
+        local qdd, lambda = pendulum(R):accel(0, q, qd)
+        local acc = -(g / R) * math.sin(a)
+        local want = { R * (math.cos(a) * acc - math.sin(a) * b ^ 2), R * (math.sin(a) * acc + math.cos(a) * b ^ 2) }
+        local lam = -mass * (g * math.cos(a) + R * b ^ 2) / (2 * R)
+        -- rounding: measured 6e-16 g and 7e-16 relative for R = 1e-6 .. 1e8
+        -- (before the solve was scaled, 1e-10 g at R = 1e6 and the check
+        -- refused it); 1e-13 leaves room for other libms
+        for i = 1, 2 do assert(math.abs(qdd[i] - want[i]) <= 1e-13 * g, vec(qdd) .. " want " .. vec(want)) end
+        assert(math.abs(lambda[1] - lam) <= 1e-13 * math.abs(lam), lambda[1] .. " want " .. lam)
+      end
+    end)
+    it(("simulate at R = %g follows th'' = -(g/R) sin th"):format(R), function()
+      local t1 = 0.5 * math.sqrt(R / g)        -- a twelfth of a period
+      local q0, qd0 = cartesian(R, th, w)
+      local tr = pendulum(R):simulate{ q0 = q0, qd0 = qd0, t1 = t1, dt = t1 / 4 }
+      local the, we = theta_at(R, th, w, t1, 2000)
+      local q, qd = cartesian(R, the, we)
+      -- rk8pd at rtol 1e-10 over a twelfth of a period, RK4 with 2000
+      -- steps (error ~ (h w)^4 ~ 1e-15): measured 3e-14 R in position and
+      -- 6e-14 R w in velocity at both scales; 1e-12 leaves room.
+      for i = 1, 2 do
+        assert(math.abs(tr.q[#tr.q][i] - q[i]) <= 1e-12 * R, vec(tr.q[#tr.q]) .. " want " .. vec(q))
+        assert(math.abs(tr.qd[#tr.qd][i] - qd[i]) <= 1e-12 * R * math.abs(w), vec(tr.qd[#tr.qd]) .. " want " .. vec(qd))
+      end
+    end)
+  end
+end)
+
+-- The start-state check is relative to the size of the constraint's terms:
+-- a circle of radius 3e5 has terms of size R^2 = 9e10, and the rounding of
+-- a state on it (x = R sin th to eps R) leaves |Phi| of about eps R^2 = 1e-5,
+-- above any absolute tolerance but 1e-16 of the terms.
+describe("the start-state check, relative to the constraint's terms", function()
+  local g, mass, R = 9.81, 1.7, 3e5
+  local sys = nz.system{ name = "big circle", coords = { "x", "y" },
+    T = function(t, q, qd) return 0.5 * mass * (qd[1] ^ 2 + qd[2] ^ 2) end,
+    V = function(t, q) return mass * g * q[2] end,
+    constraints = { function(t, q) return q[1] ^ 2 + q[2] ^ 2 - R ^ 2 end } }
+  local th, w = 0.7, 0.385 * math.sqrt(g / R)
+  local q0 = { R * math.sin(th), -R * math.cos(th) }
+  local qd0 = { R * w * math.cos(th), R * w * math.sin(th) }
+  it("a start on a circle of radius 3e5 is accepted", function()
+    sys:check_state(0, q0, qd0)
+    local tr = sys:simulate{ q0 = q0, qd0 = qd0, t1 = 1, dt = 0.5 }
+    assert.are.equal("done", tr.status)
+  end)
+  it("a start off the circle by 1e-6 of R is refused at the user's line", function()
+    -- Phi = 2 x dx = 2 R^2 sin^2(th) 1e-6 = 7.5e4, a relative 4e-7 of the
+    -- terms 2 R^2 (well above rounding, 1e-16)
+    local bad = { q0[1] * (1 + 1e-6), q0[2] }
+    local line = debug.getinfo(1, "l").currentline + 1
+    local ok, msg = pcall(sys.simulate, sys, { q0 = bad, t1 = 1 })   -- at rest
+    assert.is_false(ok)
+    local want = ("constraint_checks_spec.lua:%d: system 'big circle': the state at t = 0 violates constraint 1 at position level by "):format(line)
+    assert.truthy(tostring(msg):find(want, 1, true), msg)
+    local phi = bad[1] ^ 2 + bad[2] ^ 2 - R ^ 2
+    assert.truthy(tostring(msg):find(("by %.3g"):format(phi), 1, true), msg)
+    assert.truthy(tostring(msg):find("sys:project", 1, true), msg)
+  end)
+  it("a velocity off the tangent is refused", function()
+    -- Phi' = 2 (x x' + y y') = 2 R^2 w 1e-6 sin(th)cos(th) relative ~1e-6
+    local ok, msg = pcall(sys.simulate, sys, { q0 = q0, qd0 = { qd0[1] * (1 + 1e-6), qd0[2] }, t1 = 1 })
+    assert.is_false(ok)
+    assert.truthy(tostring(msg):find("violates constraint 1 at velocity level", 1, true), msg)
+  end)
+end)
+
+-- Hamel's constraint times a factor that is zero before t = 11: at the
+-- sample states (t within 10 of sys.sample's t) every partial derivative
+-- vanishes; classified at t = 12 it is Hamel's (§10).
+describe("a constraint switched on after the sample states", function()
+  local function late(sample)
+    return nz.system{ name = "late", coords = { "q1", "q2", "q3" }, sample = sample,
+      T = function(t, q, qd) return 0.5 * m * (qd[1] ^ 2 + qd[2] ^ 2 + qd[3] ^ 2) end,
+      Q = function() return { Q[1], Q[2], Q[3] } end,
+      constraints = { function(t, q, qd, qdd) return (t > 11 and t - 11 or 0) * (qdd[3] - qdd[1] * qdd[2]) end } }
+  end
+  it("says its derivatives vanish at the sample states and suggests sample = {t = ...}", function()
+    local sys = late()
+    local line = debug.getinfo(1, "l").currentline + 1
+    local ok, msg = pcall(sys.constraints, sys, { quiet = true })
+    assert.is_false(ok)
+    msg = tostring(msg)
+    local lo, hi = msg:match("at the %d+ sample states %(t from (%S+) to (%S+)%)")
+    assert.truthy(lo, msg)
+    assert(tonumber(hi) < 11, msg)                -- the factor is zero at all of them
+    assert.truthy(msg:find(("^[^:]*constraint_checks_spec.lua:%d: system 'late': constraint 1 depends on no coordinate"):format(line)), msg)
+    assert.truthy(msg:find("switched on elsewhere", 1, true), msg)
+    assert.truthy(msg:find("sample = {t = ..., q = {...}}", 1, true), msg)
+    -- simulate from t = 0 reports it too, at its own line
+    line = debug.getinfo(1, "l").currentline + 1
+    ok, msg = pcall(sys.simulate, late(), { q0 = { 0, 0.31, -0.2 }, t1 = 1 })
+    assert.truthy(tostring(msg):find(("constraint_checks_spec.lua:%d: system 'late'"):format(line), 1, true), msg)
+  end)
+  it("with sample = {t = 12} it is Hamel's, and accel satisfies §10 there", function()
+    local sys = late{ t = 12 }
+    local c = sys:constraints{ quiet = true }[1]
+    assert.are.equal(2, c.order)
+    assert.is_false(c.linear)
+    local qdd, lambda = sys:accel(12.5, q3, qd3)
+    -- Phi = (t - 11) (q3'' - q1'' q2''): the factor s = 1.5
+    local v = hamel_violation(qdd, lambda, 1.5)
+    assert(v <= 1e-12, ("violation %.3g at qdd = %s"):format(v, vec(qdd)))
+  end)
+end)
+
+-- A servo constraint of order 4, x'''' + 2 y'''' = cos t, with (6.2)
+-- m x'' = F1 + lambda, m y'' = F2 + 2 lambda: differentiated once,
+-- m x''' = lambda', m y''' = 2 lambda', so a start needs y''' = 2 x'''.
+describe("a level-4 start with a q3d0 that breaks (6.2) differentiated once", function()
+  it("is refused at the user's line", function()
+    local mass, F1, F2, l0 = 1.7, 0.3, -0.45, 0.385
+    local sys = nz.system{ name = "servo4", coords = { "x", "y" },
+      T = function(t, q, qd) return 0.5 * mass * (qd[1] ^ 2 + qd[2] ^ 2) end,
+      Q = function() return { F1, F2 } end,
+      constraints = { function(t, q, qd, qdd, qddd, q4d, params) return q4d[1] + 2 * q4d[2] - nz.cos(t) end } }
+    local start = { q0 = { -0.3, 0.8 }, qd0 = { 0.05, 0.4 }, qdd0 = { (F1 + l0) / mass, (F2 + 2 * l0) / mass }, t1 = 0.5 }
+    start.q3d0 = { 0.3, 0.6 }                     -- y''' = 2 x''': consistent, runs
+    assert.are.equal("done", sys:simulate(start).status)
+    start.q3d0 = { 0.3, -0.1 }
+    local line = debug.getinfo(1, "l").currentline + 1
+    local ok, msg = pcall(sys.simulate, sys, start)
+    assert.is_false(ok)
+    assert.truthy(tostring(msg):find(("constraint_checks_spec.lua:%d: system 'servo4': the start state at t = 0 is inconsistent: "
+      .. "(6.2) differentiated 1 time"):format(line), 1, true), msg)
+  end)
+end)

@@ -24,7 +24,7 @@ M.MAX_ANCHORS = 8          -- the user's states that add samples near them
 M.TOL = 32 * 2 ^ -52
 M.ZERO = 1e-11             -- a force Jacobian or dL/dt below this counts as zero
 M.PROJECT_TOL = 1e-12      -- projection stops when the violation is below this
-M.CHECK_TOL = 1e-8         -- a start state may violate a constraint by this much
+M.CHECK_TOL = 1e-8         -- a start state may violate a constraint by this much of its terms
 
 local order_words = { [0] = "holonomic (of order 0)", "of first order", "of second order", "of third order" }
 local top_words = { [0] = "the coordinates", "the velocities", "the accelerations", "the third derivatives q'''" }
@@ -215,6 +215,20 @@ local function evaluation_failure(sys, r, failures, tried)
   return ("%s%s could not be evaluated at the sample states: %s"):format(where, prefix, msg)
 end
 
+-- Constraint r's partial derivatives vanish at every sample state: it
+-- constrains nothing there, which may be all it ever does (0 * qd) or a
+-- factor that is zero there and not elsewhere ((t - 11) Phi): say which
+-- states were tried and how to show it one where it acts.
+local function vanishing(sys, r, rows)
+  local lo, hi = math.huge, -math.huge
+  for _, row in ipairs(rows) do lo, hi = math.min(lo, row.state.t), math.max(hi, row.state.t) end
+  return ("%ssystem '%s': constraint %d depends on no coordinate or derivative at the %d sample states "
+    .. "(t from %.3g to %.3g): its partial derivatives vanish there; if it is switched on elsewhere "
+    .. "(a factor in t or q that is zero at these states), give a state where it acts as "
+    .. "sample = {t = ..., q = {...}} in nz.system, else leave it out: it constrains nothing")
+    :format(M.user_where(), sys.name, r, #rows, lo, hi)
+end
+
 -- The highest slot constraint r depends on at one sample state (M.TOL), -1
 -- for none, and S, the size of its largest term.
 local function order_at(row)
@@ -265,8 +279,7 @@ local function classify_one(sys, r)
   for order in pairs(c.orders_seen) do m = math.max(m, order); distinct = distinct + 1 end
   c.order, c.consistent = m, distinct == 1
   if m < 0 then
-    error(("system '%s': constraint %d depends on no coordinate or derivative (its partial "
-      .. "derivatives vanish at %d sample states): it constrains nothing"):format(sys.name, r, #rows), 0)
+    error(vanishing(sys, r, rows), 0)
   end
   -- Linearity in q^(m): the curvature c2 = v^T H v / 2 along a random v of
   -- the size of q^(m), against the size of Phi's terms at that state.
@@ -500,31 +513,82 @@ function M.project(sys, t, q, qd, opts)
   return q, qd, report
 end
 
+-- The first frame outside the library (the user's call): "file:line: ".
+local function is_library(src) return src:find("^@?lua/nz/[%w_]+%.lua$") or src:find("/lua/nz/[%w_]+%.lua$") end
+function M.user_where()
+  for level = 2, 50 do
+    local info = debug.getinfo(level, "Sl")
+    if not info then break end
+    if info.currentline > 0 and not is_library(info.source) then return info.short_src .. ":" .. info.currentline .. ": " end
+  end
+  return ""
+end
+
+-- The rows of constraint r of order <= 1 at position and velocity level
+-- (a holonomic one at both), each with the size of its terms: the sum of
+-- |dPhi/dq^(j)_i q^(j)_i| and |Phi|, as the classification weighs them.
+-- calls f(value, size, level) for each.
+local function state_rows(sys, r, order, t, q, qd, f)
+  local v, partials, dt = mech.constraint_partials(sys.engine, r, t, q, qd)
+  local size = math.abs(v)
+  for j = 1, sys.k do
+    size = size + math.abs(partials[1][j] * q[j])
+    if order == 1 then size = size + math.abs(partials[2][j] * qd[j]) end
+  end
+  f(v, size, order == 0 and "position" or "velocity")
+  if order == 0 then
+    -- Phi' = Phi_t + Phi_q q': its terms, and the position terms' size
+    -- over the time and velocity scales |q'| / |q| cannot be told apart
+    -- from them, so the terms of Phi' alone.
+    local d, dsize = dt, math.abs(dt)
+    for j = 1, sys.k do
+      d = d + partials[1][j] * qd[j]
+      dsize = dsize + math.abs(partials[1][j] * qd[j])
+    end
+    f(d, dsize, "velocity")
+  end
+end
+
 -- The largest violation of constraints of order <= 1 at position and
--- velocity level: {value, constraint, level}.
+-- velocity level: {value, constraint, level}, absolute (what projection
+-- drives to zero; a start state is checked relative to the terms, below).
 function M.violation(sys, t, q, qd)
   local worst, which, level = 0, nil, nil
   for r, c in ipairs(M.classify(sys)) do
     if c.order <= 1 then
-      local v, partials, dt = mech.constraint_partials(sys.engine, r, t, q, qd)
-      if math.abs(v) > worst then worst, which, level = math.abs(v), r, c.order == 0 and "position" or "velocity" end
-      if c.order == 0 then
-        local d = dt
-        for j = 1, sys.k do d = d + partials[1][j] * qd[j] end
-        if math.abs(d) > worst then worst, which, level = math.abs(d), r, "velocity" end
-      end
+      state_rows(sys, r, c.order, t, q, qd, function(v, _, lev)
+        if math.abs(v) > worst then worst, which, level = math.abs(v), r, lev end
+      end)
     end
   end
   return worst, which, level
 end
 
+-- The worst row of the start state relative to its terms:
+-- value, size, constraint, level.
+local function worst_relative(sys, t, q, qd)
+  local best = { rel = -1 }
+  for r, c in ipairs(M.classify(sys)) do
+    if c.order <= 1 then
+      state_rows(sys, r, c.order, t, q, qd, function(v, size, lev)
+        local x = math.abs(v) > 0 and math.abs(v) / size or 0
+        if x > best.rel then best = { rel = x, value = math.abs(v), size = size, r = r, level = lev } end
+      end)
+    end
+  end
+  return best
+end
+
+-- A start state: every constraint of order <= 1 holds at position and
+-- velocity level within tol of the size of its terms (rounding in a
+-- circle of radius 3e5 is 1e-5 absolute, 1e-16 of its terms R^2).
 function M.check_state(sys, t, q, qd, tol)
   tol = tol or M.CHECK_TOL
-  local worst, r, level = M.violation(sys, t, q, qd)
-  if worst > tol then
-    error(("system '%s': the state at t = %s violates constraint %d at %s level by %.3g (tolerance %.3g): "
-      .. "start from a consistent state, e.g. q, qd = sys:project(t, q, qd)"):format(
-      sys.name, tostring(t), r, level, worst, tol), 0)
+  local w = worst_relative(sys, t, q, qd)
+  if w.rel > tol then
+    error(("%ssystem '%s': the state at t = %s violates constraint %d at %s level by %.3g (%.3g of the size of "
+      .. "its terms, %.3g; tolerance %.3g of it): start from a consistent state, e.g. q, qd = sys:project(t, q, qd)")
+      :format(M.user_where(), sys.name, tostring(t), w.r, w.level, w.value, w.rel, w.size, tol), 0)
   end
 end
 
@@ -599,8 +663,8 @@ function M.check_top_start(sys, t, levels, p, tol)
     local orders, given = M.orders(sys), {}
     for j = 2, p - 1 do given[#given + 1] = M.level_name(j) .. "0" end
     local d = at.l - orders[at.r]
-    error(("system '%s': the start state at t = %s is inconsistent: constraint %d%s is violated by %.3g (tolerance %.3g): "
-      .. "give %s that satisfy it, e.g. from sys:project(t0, q0, qd0, {qdd = ...})"):format(sys.name, tostring(t), at.r,
+    error(("%ssystem '%s': the start state at t = %s is inconsistent: constraint %d%s is violated by %.3g (tolerance %.3g): "
+      .. "give %s that satisfy it, e.g. from sys:project(t0, q0, qd0, {qdd = ...})"):format(M.user_where(), sys.name, tostring(t), at.r,
       d == 0 and "" or (" differentiated %d time%s"):format(d, d == 1 and "" or "s"), worst, tol,
       table.concat(given, ", ")), 0)
   end
@@ -680,10 +744,10 @@ function M.start_lambdas(sys, t, levels, p, tol)
   if v.value > (tol or M.CHECK_TOL) then
     local given = {}
     for j = 0, p - 1 do given[#given + 1] = M.level_name(j) .. "0" end
-    error(("system '%s': the start state at t = %s is inconsistent: %s is violated by %.3g (tolerance %.3g, "
+    error(("%ssystem '%s': the start state at t = %s is inconsistent: %s is violated by %.3g (tolerance %.3g, "
       .. "relative to its terms): give %s that satisfy the constraints and (6.2) at levels 0..%d, e.g. "
       .. "from sys:project(t0, q0, qd0, {qdd = ...}) (its report holds qdd and the multipliers)"):format(
-      sys.name, tostring(t), row_words(sys, orders, v.level, v.row), v.value, tol or M.CHECK_TOL,
+      M.user_where(), sys.name, tostring(t), row_words(sys, orders, v.level, v.row), v.value, tol or M.CHECK_TOL,
       table.concat(given, ", "), p - 1), 0)
   end
   return lambdas

@@ -148,7 +148,8 @@ Methods (t a number, q, qd, qdd tables of k numbers):
                              the first root, tr.branch tells it, tr.top[i] = q^(p).
                              Implicit methods: Jacobian by central differences;
                              project = true also projects qdd .. and lambda ..
-  sys:check_state(t, q, qd [, tol])  error if a constraint is violated
+  sys:check_state(t, q, qd [, tol])  error if a constraint is violated by more
+                             than tol (1e-8) of the size of its terms
   sys:reaction_power(t, q, qd)   R_0 of (9.1): the power of moving constraints
   sys:mass(t, q [, qd]), sys:bias(t, q, qd), sys:mass_bias(t, q, qd)
                              M and h of M qdd + h = 0 (h includes -Q + dV/dq)
