@@ -271,6 +271,38 @@ describe("a long run says so once, and goes on", function()
     -- criterion, 60 s, gives the same single message).
     assert.are.equal(1, #said)
     contains(said[1], THIS .. ":", "warning: this run will take about", "steps", "rk1imp", "rk8pd", "looser rtol")
+    assert.is_nil(said[1]:find("larger 'dt'", 1, true))      -- the adaptive steps cost here, not the grid
     assert.are.equal(said[1], tr.warnings[1])
+  end)
+
+  -- The advice follows what drives the step count.  The threshold is
+  -- lowered to 5e4 steps and the clock's criterion switched off, so the
+  -- decision counts steps; each run stops at an event after the check.
+  local function warned_on(opts, t_stop)
+    local said, saved_warn, saved_limits = {}, simulate.warn, simulate.LONG_RUN
+    simulate.warn = function(msg) said[#said + 1] = msg end
+    simulate.LONG_RUN = { steps = 5e4, seconds = math.huge, check_steps = 2000 }
+    opts.q0, opts.events = { 1 }, { { f = function(t) return t - t_stop end, stop = true } }
+    local ok, tr = pcall(pendulum.simulate, pendulum, opts)
+    simulate.warn, simulate.LONG_RUN = saved_warn, saved_limits
+    assert(ok, tostring(tr))
+    assert.are.equal(1, #said)
+    return said[1], tr
+  end
+  it("driven by the output grid (dt = 1e-4 over 10 s, rk8pd): a larger dt, not a looser rtol", function()
+    -- rk8pd at rtol 1e-10 needs ~1e3 steps for 10 s of this pendulum; the
+    -- 1e5 outputs force one step each: ~1e5 projected > 5e4.
+    local msg, tr = warned_on({ t1 = 10, dt = 1e-4, method = "rk8pd" }, 0.3)
+    contains(msg, "the steps are set by the output grid ('dt' = 0.0001", "a larger 'dt'")
+    assert.is_nil(msg:find("looser rtol", 1, true))
+    assert(tr.stats.steps <= 1.5 * 0.3 / 1e-4, tr.stats.steps)        -- one step per output, give or take
+  end)
+  it("fixed steps (step = 1e-3 over 100 s, rk4): a larger step; rtol does nothing", function()
+    -- 100 / 1e-3 = 1e5 fixed steps > 5e4, seen at the check after 2048 steps.
+    local msg, tr = warned_on({ t1 = 100, step = 1e-3, method = "rk4" }, 2.5)
+    contains(msg, "at step = 0.001", "the steps are fixed ('step' = 0.001; rtol does nothing", "a larger 'step'")
+    assert.is_nil(msg:find("looser rtol", 1, true))
+    assert.is_nil(msg:find("rtol = ", 1, true))
+    assert.are.equal(2500, tr.stats.steps)                            -- 2.5 / 1e-3 fixed steps
   end)
 end)

@@ -309,15 +309,26 @@ local function duration(seconds)
   return ("%.0f days"):format(seconds / 86400)
 end
 
--- What would be cheaper than cfg: the steps of an order-p method grow like
--- rtol^(-1/p), so a low order at a tight tolerance is what costs.
-local function cheaper(cfg)
+-- What would make the run cheaper, from what drives its step count: a
+-- fixed `step` (rtol does nothing there), the output grid (every dt is at
+-- least one step, whatever the tolerance), or the adaptive steps, which
+-- for an order-p method grow like rtol^(-1/p): then a low order at a tight
+-- tolerance is what costs.  nsteps: the steps taken up to tt.
+local function cheaper(cfg, nsteps, tt)
+  if cfg.step then
+    return ("the steps are fixed ('step' = %g; rtol does nothing for fixed steps): a larger 'step', "
+      .. "or adaptive steps (drop 'step')"):format(cfg.step)
+  end
+  local outputs = math.floor((tt - cfg.t0) / cfg.dt + 1e-9)
+  if outputs > 0 and nsteps <= 1.5 * outputs then
+    return ("the steps are set by the output grid ('dt' = %g: %d outputs in %d steps; rtol and the method change "
+      .. "nothing): a larger 'dt'"):format(cfg.dt, outputs, nsteps)
+  end
   local p = method_order[cfg.method] or 4
   local advice = {}
   if p < 5 then
     advice[#advice + 1] = ("a higher-order method (%s is of order %d): rk8pd, or bsimp or msbdf if the system is stiff"):format(cfg.method, p)
   end
-  if cfg.step then advice[#advice + 1] = "a larger 'step', or adaptive steps (drop 'step')" end
   advice[#advice + 1] = ("a looser rtol (the steps grow like rtol^(-1/%d) for this method; rtol = %g takes %.2gx fewer steps)")
     :format(p, cfg.rtol * 1e3, 1e3 ^ (1 / p))
   return table.concat(advice, ", or ")
@@ -558,8 +569,9 @@ function M.simulate(sys, opts)
     if not ((nsteps >= M.LONG_RUN.check_steps and steps > M.LONG_RUN.steps)
         or (elapsed >= 1 and seconds > M.LONG_RUN.seconds)) then return false end
     local msg = ("%ssimulate '%s': warning: this run will take about %.3g steps and %s (t = %.4g of [%g, %g] after %d steps) "
-      .. "with %s at rtol = %g; it goes on (Ctrl-C stops it and keeps what is done): %s"):format(user_where(), sys.name,
-      steps, duration(seconds), tt, cfg.t0, cfg.t1, nsteps, cfg.method, cfg.rtol, cheaper(cfg))
+      .. "with %s%s; it goes on (Ctrl-C stops it and keeps what is done); cheaper: %s"):format(user_where(), sys.name,
+      steps, duration(seconds), tt, cfg.t0, cfg.t1, nsteps, cfg.method,
+      cfg.step and (" at step = %g"):format(cfg.step) or (" at rtol = %g"):format(cfg.rtol), cheaper(cfg, nsteps, tt))
     tr.warnings[#tr.warnings + 1] = msg
     done()                                  -- the progress bar's line, if shown
     M.warn(msg)
