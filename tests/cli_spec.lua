@@ -125,10 +125,10 @@ describe("interrupts and failures lose nothing", function()
   it("a script interrupted during simulate keeps the part computed, can save it, and exits 130", function()
     local csv = os.tmpname()
     local name = script(OSCILLATOR .. ([[
-local tr = osc:simulate{ q0 = {1}, t1 = 1e7, dt = 1, rtol = 1e-12 }
+local tr = osc:simulate{ q0 = {1}, t1 = 1e7, dt = 10, rtol = 1e-12 }
 tr:csv("%s")
 print("status " .. tr.status .. " points " .. #tr.t)
-local again = osc:simulate{ q0 = {1}, t1 = 1e7, dt = 1 }
+local again = osc:simulate{ q0 = {1}, t1 = 1e7, dt = 10 }
 print("then " .. again.status .. " points " .. #again.t)
 ]]):format(csv))
     local code, out, err = h.run("timeout --foreground --preserve-status -s INT 2 " .. nzlua .. " " .. name)

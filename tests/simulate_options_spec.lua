@@ -61,7 +61,7 @@ describe("simulate validates its options", function()
     { "h0 < 0", { h0 = -0.25 }, { "'h0'", "got -0.25" } },
     { "h0 = NaN", { h0 = nan }, { "'h0'", "nan" } },
     { "t1 = math.huge", { t1 = math.huge }, { "'t1' must be a number greater than t0 = 0", "finite", "got inf" } },
-    { "dt = 1e-9 over a long span", { t1 = 100, dt = 1e-9 }, { "'dt'", "1e+11 output points", "at most 1e+07", "dt >= 1e-05" } },
+    { "dt = 1e-9 over a long span", { t1 = 100, dt = 1e-9 }, { "'dt'", "1e+11 output points", "at most 1 GB", "dt >= 4.64e-05" } },
     { "event_tol < 0", { event_tol = -1e-9 }, { "'event_tol'", "-1e-09" } },
     { "events = 'x'", { events = "x" }, { "'events'", "\"x\"", "list of functions" } },
     { "method = {}", { method = {} }, { "'method'", "a table", "rk8pd", "msbdf" } },
@@ -304,5 +304,49 @@ describe("a long run says so once, and goes on", function()
     assert.is_nil(msg:find("looser rtol", 1, true))
     assert.is_nil(msg:find("rtol = ", 1, true))
     assert.are.equal(2500, tr.stats.steps)                            -- 2.5 / 1e-3 fixed steps
+  end)
+end)
+
+describe("the output points a run keeps fit in MAX_MEMORY", function()
+  local five = nz.system{ name = "five pendulums", coords = { "a", "b", "c", "d", "e" },
+    T = function(t, q, qd) local s = 0; for i = 1, 5 do s = s + qd[i] ^ 2 end; return 0.5 * s end,
+    V = function(t, q) local s = 0; for i = 1, 5 do s = s - 9.81 * nz.cos(q[i]) end; return s end }
+  -- The estimate bounds what the points really keep, measured by the
+  -- collector (retained bytes after the run), and not by more than 2x.
+  local cases = {
+    { pendulum, { q0 = { 1 }, t1 = 5, dt = 1e-3 } },
+    { pendulum, { q0 = { 1 }, t1 = 5, dt = 1e-3, monitors = { energy = true, work = true } } },
+    { five, { q0 = { 1, 0.3, -0.7, 2.385, 0.1 }, t1 = 5, dt = 1e-3 } },
+  }
+  for i, case in ipairs(cases) do
+    it("case " .. i .. ": the bytes per point estimated bound the bytes measured", function()
+      local sys, opts = case[1], case[2]
+      collectgarbage(); collectgarbage()
+      local before = collectgarbage("count")
+      local tr = sys:simulate(opts)
+      collectgarbage(); collectgarbage()
+      local measured = (collectgarbage("count") - before) * 1024 / #tr.t
+      local estimate = simulate.point_bytes(sys, { monitors = opts.monitors or {} })
+      assert(measured <= estimate and estimate <= 2 * measured, ("measured %.0f, estimated %d"):format(measured, estimate))
+    end)
+  end
+  it("dt = 1e-4 over 1000 s (1e7 points, ~4.6 GB) is refused, with the bound and a dt that fits", function()
+    local ok, msg = pcall(pendulum.simulate, pendulum, { q0 = { 1 }, t1 = 1000, dt = 1e-4 })
+    assert(not ok)
+    -- 1 coordinate: 5 series x 32 + 4 tables x 64 + 3 numbers x 16 = 464 bytes
+    contains(tostring(msg), THIS .. ":", "simulate 'pendulum': 'dt' = 0.0001 over [0, 1000] asks for 1e+07 output points",
+      "of about 464 bytes each (4.64 GB); at most 1 GB are kept in memory", "MAX_MEMORY", "take dt >= 0.000464")
+  end)
+  it("the bound depends on what each point holds (monitors), by MAX_MEMORY", function()
+    local saved = simulate.MAX_MEMORY
+    simulate.MAX_MEMORY = 1e6               -- 2001 points of 464 bytes fit, of 560 (two monitors) do not
+    local ok1, tr = pcall(pendulum.simulate, pendulum, { q0 = { 1 }, t1 = 2.385, dt = 2.385 / 2000 })
+    local ok2, msg = pcall(pendulum.simulate, pendulum, { q0 = { 1 }, t1 = 2.385, dt = 2.385 / 2000,
+      monitors = { energy = true, work = true } })
+    simulate.MAX_MEMORY = saved
+    assert(ok1, tostring(tr))
+    assert.are.equal(2001, #tr.t)
+    assert(not ok2)
+    contains(tostring(msg), "asks for 2e+03 output points of about 560 bytes each")
   end)
 end)

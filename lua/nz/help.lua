@@ -155,7 +155,8 @@ Methods (t a number, q, qd, qdd tables of k numbers):
   sys:equations(n, t, q, qd [, qdd])  print the terms of (3.1) per coordinate
   sys:simulate{q0 =, qd0 =, t1 = [, t0, dt, method, rtol, atol, step, h0, events,
         event_tol, project, baumgarte, monitors, progress, check]}  a trajectory.
-        Each option is checked (which, what it got, what it accepts); a run
+        Each option is checked (which, what it got, what it accepts; the
+        output points must fit in 1 GB, require('nz.simulate').MAX_MEMORY); a run
         that will take over a minute or 1e7 steps says so once (with a larger
         dt or step when the grid or fixed steps set the count) and goes on;
         one whose steps stop advancing t stops with the state and M.
