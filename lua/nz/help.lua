@@ -253,9 +253,10 @@ Ctrl-C during a computation raises this one object, so that code can tell an
 interrupt from an error whatever the error's text says:
   local ok, err = pcall(f)
   if not ok and err == nz.interrupted then ... end
-sys:simulate catches it and returns the part computed (also in nz.last);
-tr:csv leaves the previous file.  A script that Ctrl-C reached exits with
-status 130 (128 + SIGINT), after it has run to its end or to the interrupt.]] },
+sys:simulate catches it and returns the part computed (also in nz.last; a
+partial trajectory, stderr says so); tr:csv leaves the previous file.  In a
+script the next sys:simulate raises nz.interrupted, which stops the script;
+a script that Ctrl-C reached exits with status 130 (128 + SIGINT).]] },
 }
 
 M.entries = entries

@@ -397,6 +397,11 @@ local function split(y, k)
 end
 
 function M.simulate(sys, opts)
+  -- A script that Ctrl-C interrupted during an earlier simulate (which
+  -- returned its partial trajectory) stops here: a later run would
+  -- otherwise stop at once and return a 1-point trajectory as if it were
+  -- the answer.  The session clears the request at every prompt.
+  if mech.interrupted() then error(core.interrupted, 0) end
   local cfg = validate(sys, opts)
   local k, engine = sys.k, sys.engine
   local orders, linear, p, top = {}, {}, nil, nil
@@ -688,7 +693,8 @@ function M.simulate(sys, opts)
   if not ok then
     local msg = tostring(err)
     if rawequal(err, core.interrupted) then     -- by identity: a user's message may say "interrupted!"
-      tr.status, tr.message = "interrupted", ("stopped by Ctrl-C at t = %.6g; the part computed so far is kept"):format(t)
+      tr.status, tr.message = "interrupted", ("stopped by Ctrl-C at t = %.6g; the trajectory is partial "
+        .. "(t1 = %g not reached), the part computed so far is kept"):format(t, cfg.t1)
       io.stderr:write(("simulate '%s': %s (%d points, also in nz.last)\n"):format(sys.name, tr.message, #tr.t))
       require("nz").last = tr
       return tr
