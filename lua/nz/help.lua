@@ -254,9 +254,10 @@ interrupt from an error whatever the error's text says:
   local ok, err = pcall(f)
   if not ok and err == nz.interrupted then ... end
 sys:simulate catches it and returns the part computed (also in nz.last; a
-partial trajectory, stderr says so); tr:csv leaves the previous file (a SIGTERM waits until the file is complete).  In a
-script the next sys:simulate raises nz.interrupted, which stops the script;
-a script that Ctrl-C reached exits with status 130 (128 + SIGINT).]] },
+partial trajectory, stderr says so); tr:csv leaves the previous file (a
+SIGTERM waits until the file is complete).  In a script the next
+sys:simulate raises nz.interrupted, which stops the script; a script that
+Ctrl-C reached exits with status 130 (128 + SIGINT).]] },
 }
 
 M.entries = entries
