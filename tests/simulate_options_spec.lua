@@ -204,23 +204,10 @@ describe("the work monitor's Jacobian row", function()
     assert(math.abs(dfdt[3] - dRdt) <= 1e-8 * (1 + math.abs(dRdt)))
   end)
 
-  it("knife edge off the constraint: the row matches central differences of sys:reaction_power", function()
-    local sys = knife()
-    local orders, linear = require("nz.constraints").orders(sys)
-    local ode = nz_mech.ode_new(sys.engine, { method = "bsimp", orders = orders, linear = linear, work = true })
-    local t, y = 0.1, { 0.01, 0.002, 0.3, 0.5 * math.cos(0.3) + 0.01, 0.5 * math.sin(0.3), 1.7, 0 }
-    local J = nz_mech.ode_jacobian(ode, sys.engine, t, y)
-    local function R0(yy) return sys:reaction_power(t, { yy[1], yy[2], yy[3] }, { yy[4], yy[5], yy[6] }) end
-    local nonzero = 0
-    for j = 1, 6 do
-      local yp, ym = { table.unpack(y) }, { table.unpack(y) }
-      yp[j], ym[j] = y[j] + 1e-6, y[j] - 1e-6
-      local fd = (R0(yp) - R0(ym)) / 2e-6
-      if math.abs(fd) > 1e-3 then nonzero = nonzero + 1 end
-      assert(math.abs(J[7][j] - fd) <= 1e-7 * (1 + math.abs(fd)), ("dR_0/dy_%d = %.12g, differences %.12g"):format(j, J[7][j], fd))
-    end
-    assert(nonzero >= 3, "the row should not be zero")
-  end)
+  -- (A check of the knife edge's row against differences of
+  -- sys:reaction_power compared the engine with itself; the row of a
+  -- constrained system with a nonzero work is exercised by the driven hoop
+  -- in integrator_battery_spec.lua, checked against Jacobi's integral.)
 
   it("bsimp with the work monitor on a knife edge: few rejections, T + V - W conserved", function()
     local sys = knife()
