@@ -5,6 +5,7 @@
  * ("nz.core"), makes the embedded Lua modules require-able through
  * package.preload, and returns what lua/nz/init.lua makes of the core. */
 #include <errno.h>
+#include <signal.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -64,6 +65,42 @@ static int temp_beside(lua_State *L)
   return 1;
 }
 
+/* hold_term(true | false): SIGTERM held while a file is written beside its
+ * target.  A kill then lets the write and the rename finish (the user gets
+ * the complete file, and no temporary file is left behind) and takes effect
+ * at hold_term(false), with the handler that was there before (by default
+ * the process ends with 128 + SIGTERM).  SIGKILL cannot be held. */
+static volatile sig_atomic_t term_pending = 0;
+static struct sigaction term_before;
+static int term_holding = 0;
+
+static void term_hold_handler(int sig)
+{
+  (void)sig;
+  term_pending = 1;
+}
+
+static int hold_term(lua_State *L)
+{
+  int hold = lua_toboolean(L, 1);
+  if (hold && !term_holding) {
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = term_hold_handler;
+    sigemptyset(&sa.sa_mask);
+    term_pending = 0;
+    if (sigaction(SIGTERM, &sa, &term_before) == 0) term_holding = 1;
+  } else if (!hold && term_holding) {
+    sigaction(SIGTERM, &term_before, NULL);
+    term_holding = 0;
+    if (term_pending) {
+      term_pending = 0;
+      raise(SIGTERM);
+    }
+  }
+  return 0;
+}
+
 static int open_core(lua_State *L)
 {
   lua_newtable(L);
@@ -75,6 +112,8 @@ static int open_core(lua_State *L)
   lua_getfield(L, -1, "mech");          /* the library's own services */
   lua_pushcfunction(L, temp_beside);
   lua_setfield(L, -2, "temp_beside");
+  lua_pushcfunction(L, hold_term);
+  lua_setfield(L, -2, "hold_term");
   lua_pop(L, 1);
   nz_lua_push_interrupt(L);       /* nz.interrupted: what Ctrl-C raises */
   lua_setfield(L, -2, "interrupted");

@@ -158,9 +158,11 @@ Methods (t a number, q, qd, qdd tables of k numbers):
   sys:equations(n, t, q, qd [, qdd])  print the terms of (3.1) per coordinate
   sys:simulate{q0 =, qd0 =, t1 = [, t0, dt, method, rtol, atol, step, h0, events,
         event_tol, project, baumgarte, monitors, progress, check]}  a trajectory.
-        Each option is checked (which, what it got, what it accepts); a fixed
-        step with rtol, atol or h0 warns once that they do nothing; a run
-        that will take over a minute or 1e7 steps says so once and goes on;
+        Each option is checked (which, what it got, what it accepts; the
+        output points must fit in 1 GB, require('nz.simulate').MAX_MEMORY); a
+        fixed step with rtol, atol or h0 warns once that they do nothing; a run
+        that will take over a minute or 1e7 steps says so once (with a larger
+        dt or step when the grid or fixed steps set the count) and goes on;
         one whose steps stop advancing t stops with the state and M.
   print(sys)                 a summary]] },
   { name = "forms", section = "mechanics", usage = "nz.forms",
@@ -255,9 +257,11 @@ Ctrl-C during a computation raises this one object, so that code can tell an
 interrupt from an error whatever the error's text says:
   local ok, err = pcall(f)
   if not ok and err == nz.interrupted then ... end
-sys:simulate catches it and returns the part computed (also in nz.last);
-tr:csv leaves the previous file.  A script that Ctrl-C reached exits with
-status 130 (128 + SIGINT), after it has run to its end or to the interrupt.]] },
+sys:simulate catches it and returns the part computed (also in nz.last; a
+partial trajectory, stderr says so); tr:csv leaves the previous file (a
+SIGTERM waits until the file is complete).  In a script the next
+sys:simulate raises nz.interrupted, which stops the script; a script that
+Ctrl-C reached exits with status 130 (128 + SIGINT).]] },
 }
 
 M.entries = entries

@@ -24,7 +24,7 @@ local function level_option(key) return type(key) == "string" and key:match("^q%
 local known_monitors = { energy = true, work = true }
 
 -- Limits that keep a run finite and its memory bounded.
-M.MAX_POINTS = 1e7        -- output points kept in memory (~300 bytes each)
+M.MAX_MEMORY = 1e9        -- bytes of output points kept in memory (see point_bytes)
 M.MAX_FIXED_STEPS = 1e9   -- steps of a fixed-step run
 M.MIN_RTOL = 1e-15        -- below this (~5 eps) no stepper can make progress
 M.PROJECT_TOL = 1e-10     -- project = true projects when the violation exceeds this
@@ -108,11 +108,6 @@ local function check_times(sys, cfg)
   end
   cfg.dt = cfg.dt or (cfg.t1 - cfg.t0) / cfg.points
   check_positive(sys, cfg, "dt", "the output spacing")
-  local npoints = (cfg.t1 - cfg.t0) / cfg.dt
-  if npoints > M.MAX_POINTS then
-    fail(sys, "'dt' = %g over [%g, %g] asks for %.3g output points; at most %g are kept in memory: take dt >= %.3g",
-      cfg.dt, cfg.t0, cfg.t1, npoints, M.MAX_POINTS, (cfg.t1 - cfg.t0) / M.MAX_POINTS)
-  end
 end
 
 local function check_stepping(sys, cfg)
@@ -334,15 +329,26 @@ local function duration(seconds)
   return ("%.0f days"):format(seconds / 86400)
 end
 
--- What would be cheaper than cfg: the steps of an order-p method grow like
--- rtol^(-1/p), so a low order at a tight tolerance is what costs.
-local function cheaper(cfg)
+-- What would make the run cheaper, from what drives its step count: a
+-- fixed `step` (rtol does nothing there), the output grid (every dt is at
+-- least one step, whatever the tolerance), or the adaptive steps, which
+-- for an order-p method grow like rtol^(-1/p): then a low order at a tight
+-- tolerance is what costs.  nsteps: the steps taken up to tt.
+local function cheaper(cfg, nsteps, tt)
+  if cfg.step then
+    return ("the steps are fixed ('step' = %g; rtol does nothing for fixed steps): a larger 'step', "
+      .. "or adaptive steps (drop 'step')"):format(cfg.step)
+  end
+  local outputs = math.floor((tt - cfg.t0) / cfg.dt + 1e-9)
+  if outputs > 0 and nsteps <= 1.5 * outputs then
+    return ("the steps are set by the output grid ('dt' = %g: %d outputs in %d steps; rtol and the method change "
+      .. "nothing): a larger 'dt'"):format(cfg.dt, outputs, nsteps)
+  end
   local p = method_order[cfg.method] or 4
   local advice = {}
   if p < 5 then
     advice[#advice + 1] = ("a higher-order method (%s is of order %d): rk8pd, or bsimp or msbdf if the system is stiff"):format(cfg.method, p)
   end
-  if cfg.step then advice[#advice + 1] = "a larger 'step', or adaptive steps (drop 'step')" end
   advice[#advice + 1] = ("a looser rtol (the steps grow like rtol^(-1/%d) for this method; rtol = %g takes %.2gx fewer steps)")
     :format(p, cfg.rtol * 1e3, 1e3 ^ (1 / p))
   return table.concat(advice, ", or ")
@@ -378,6 +384,37 @@ local function top_guess(sys, g, p)
   return x
 end
 
+-- The bytes one output point keeps (record below): a slot in each series
+-- (t, q, qd, qdd, lambda, and the monitors'), counted twice for the arrays'
+-- doubling, and the tables of q, qd, qdd, lambda, the higher levels and
+-- q^(p), each a 64-byte header and 16 bytes per number rounded up to a power
+-- of two.  Measured (collectgarbage, 10001 points): 410 bytes for a 1-DOF
+-- pendulum (this gives 464), 482 with both monitors (560), 494 for a
+-- constrained 2-DOF one (560), 691 for 5 DOF (800).
+local function pow2(n) local c = n > 0 and 1 or 0; while c < n do c = 2 * c end; return c end
+function M.point_bytes(sys, cfg, p, top)
+  local k, nc = sys.k, sys.nc
+  local series, tables, numbers = 5, 4, 3 * pow2(k) + pow2(nc)
+  if nc > 0 then series = series + 1 end                                  -- violation
+  if cfg.monitors.energy then series = series + 2 end
+  if cfg.monitors.work then series = series + 1 end
+  if p and p > 3 then series, tables, numbers = series + 1, tables + p - 2, numbers + (p - 3) * pow2(k) end
+  if top then series, tables, numbers = series + 1, tables + 1, numbers + pow2(k) end
+  return 32 * series + 64 * tables + 16 * numbers
+end
+
+-- The output points a run keeps must fit in M.MAX_MEMORY bytes.
+local function check_memory(sys, cfg, p, top)
+  local npoints = math.floor((cfg.t1 - cfg.t0) / cfg.dt + 1e-9) + 1
+  local bytes = M.point_bytes(sys, cfg, p, top)
+  if npoints * bytes > M.MAX_MEMORY then
+    fail(sys, "'dt' = %g over [%g, %g] asks for %.3g output points of about %d bytes each (%.3g GB); at most %.3g GB "
+      .. "are kept in memory (require('nz.simulate').MAX_MEMORY): take dt >= %.3g, or a shorter span",
+      cfg.dt, cfg.t0, cfg.t1, npoints, bytes, npoints * bytes / 1e9, M.MAX_MEMORY / 1e9,
+      (cfg.t1 - cfg.t0) / math.floor(M.MAX_MEMORY / bytes - 1))
+  end
+end
+
 local function split(y, k)
   local q, qd = {}, {}
   for i = 1, k do q[i], qd[i] = y[i], y[k + i] end
@@ -385,6 +422,11 @@ local function split(y, k)
 end
 
 function M.simulate(sys, opts)
+  -- A script that Ctrl-C interrupted during an earlier simulate (which
+  -- returned its partial trajectory) stops here: a later run would
+  -- otherwise stop at once and return a 1-point trajectory as if it were
+  -- the answer.  The session clears the request at every prompt.
+  if mech.interrupted() then error(core.interrupted, 0) end
   local cfg = validate(sys, opts)
   local k, engine = sys.k, sys.engine
   local orders, linear, p, top = {}, {}, nil, nil
@@ -402,6 +444,7 @@ function M.simulate(sys, opts)
     end
   end
   engine.orders = orders
+  check_memory(sys, cfg, p, top)
   local qd0 = cfg.qd0
   if not qd0 then qd0 = {}; for i = 1, k do qd0[i] = 0 end end   -- at rest
   if sys.nc > 0 and cfg.check ~= false then constraints.check_state(sys, cfg.t0, cfg.q0, qd0) end
@@ -583,8 +626,9 @@ function M.simulate(sys, opts)
     if not ((nsteps >= M.LONG_RUN.check_steps and steps > M.LONG_RUN.steps)
         or (elapsed >= 1 and seconds > M.LONG_RUN.seconds)) then return false end
     local msg = ("%ssimulate '%s': warning: this run will take about %.3g steps and %s (t = %.4g of [%g, %g] after %d steps) "
-      .. "with %s at rtol = %g; it goes on (Ctrl-C stops it and keeps what is done): %s"):format(user_where(), sys.name,
-      steps, duration(seconds), tt, cfg.t0, cfg.t1, nsteps, cfg.method, cfg.rtol, cheaper(cfg))
+      .. "with %s%s; it goes on (Ctrl-C stops it and keeps what is done); cheaper: %s"):format(user_where(), sys.name,
+      steps, duration(seconds), tt, cfg.t0, cfg.t1, nsteps, cfg.method,
+      cfg.step and (" at step = %g"):format(cfg.step) or (" at rtol = %g"):format(cfg.rtol), cheaper(cfg, nsteps, tt))
     tr.warnings[#tr.warnings + 1] = msg
     done()                                  -- the progress bar's line, if shown
     M.warn(msg)
@@ -674,7 +718,8 @@ function M.simulate(sys, opts)
   if not ok then
     local msg = tostring(err)
     if rawequal(err, core.interrupted) then     -- by identity: a user's message may say "interrupted!"
-      tr.status, tr.message = "interrupted", ("stopped by Ctrl-C at t = %.6g; the part computed so far is kept"):format(t)
+      tr.status, tr.message = "interrupted", ("stopped by Ctrl-C at t = %.6g; the trajectory is partial "
+        .. "(t1 = %g not reached), the part computed so far is kept"):format(t, cfg.t1)
       io.stderr:write(("simulate '%s': %s (%d points, also in nz.last)\n"):format(sys.name, tr.message, #tr.t))
       require("nz").last = tr
       return tr

@@ -121,18 +121,28 @@ end
 
 -- CSV with a header naming every column.  Written to a file beside `file`
 -- and renamed onto it at the end: Ctrl-C or a kill while writing leaves the
--- previous file (or none), never one cut in the middle of a row.
-function Trajectory:csv(file)
-  if type(file) ~= "string" then error(("bad argument #1 to 'csv' (a file name expected, got %s)"):format(type(file)), 2) end
+-- previous file (or none), never one cut in the middle of a row.  Ctrl-C
+-- removes the file beside; SIGTERM is held until the write and the rename
+-- are done (then it ends the process), so it leaves nothing behind either.
+local function write_beside(self, file)
   local tmp, why = core.mech.temp_beside(file)
-  if not tmp then error(("csv: cannot write '%s': %s"):format(file, why), 2) end
+  if not tmp then return false, why end
   local f, err = io.open(tmp, "w")
-  if not f then os.remove(tmp); error(("csv: cannot write '%s': %s"):format(file, err), 2) end
+  if not f then os.remove(tmp); return false, err end
   local ok, failure = pcall(write_csv, self, f)
   f:close()
   if ok then ok, failure = os.rename(tmp, file) end
+  if not ok then os.remove(tmp) end
+  return ok, failure
+end
+
+function Trajectory:csv(file)
+  if type(file) ~= "string" then error(("bad argument #1 to 'csv' (a file name expected, got %s)"):format(type(file)), 2) end
+  core.mech.hold_term(true)
+  local called, ok, failure = pcall(write_beside, self, file)
+  if not called then ok, failure = false, ok end
+  core.mech.hold_term(false)
   if not ok then
-    os.remove(tmp)
     if rawequal(failure, core.interrupted) then error(failure, 0) end   -- Ctrl-C stays Ctrl-C
     error(("csv: cannot write '%s': %s"):format(file, tostring(failure)), 2)
   end
