@@ -134,7 +134,7 @@ local function option_sets(method, problem)
   -- loose: rtol 1e-6 (rk1imp 1e-5); measured at most 4e-5 (rk1imp 7e-4).
   local loose = method == "rk1imp" and 1e-5 or 1e-6
   sets[#sets + 1] = { name = "loose", opts = { rtol = loose, atol = loose * 1e-2 }, bound = loose * (method == "rk1imp" and 1e3 or 2e2) }
-  if not multistep[method] then
+  if not multistep[method] and method ~= "bsimp" then    -- both refuse 'step' (simulate_options_spec)
     -- Fixed steps: h = 1e-3 (2e-4 for first order); error C h^p, measured
     -- C <= 2 (rk1imp; rk2imp 0.3, rk2 0.02) on these problems (the stiff
     -- spring's fast mode is -99.5: h l = 0.1); orders >= 4 reach ~2e-11.
@@ -256,13 +256,11 @@ describe("integrator battery at t1 = 10: pendulum and knife edge #slow", functio
   -- rk1imp: the loose set only (its tight sets, rtol 3e-6, take ~5e4 steps
   -- each here: measured 4,718 on the knife edge at t1 = 1).
   battery(function(method, set)
-    if method == "bsimp" and set.name == "fixed step" then return false end
     return method ~= "rk1imp" or set.name == "loose"
   end, 10, { problems[1], problems[2] })
-  -- Found by this set, left for its own fix: bsimp with step = 1e-3 on the
-  -- knife edge ends 0.82 from the closed form at t1 = 10 without a word
-  -- (the pendulum's is 1.8e-12; at t1 = 1 the knife edge passes).
-  pending("bsimp, fixed step = 1e-3, knife edge at t1 = 10: error 0.82, no error raised (a bug to fix)")
+  -- This set found bsimp with step = 1e-3 ending 0.82 from the knife edge's
+  -- closed form at t1 = 10 without a word: simulate now refuses a fixed step
+  -- with bsimp (tests/simulate_options_spec.lua).
 end)
 
 -- A nonzero work: the bead on a hoop driven at the constant rate W (the

@@ -71,6 +71,7 @@ describe("simulate validates its options", function()
     { "t0 = NaN", { t0 = nan }, { "'t0'", "got NaN" } },
     { "a fixed step with msadams", { method = "msadams", step = 1e-3 }, { "'step'", "'msadams'", "drop 'step'" } },
     { "a fixed step with msbdf", { method = "msbdf", step = 1e-3 }, { "'step'", "'msbdf'", "one-step method" } },
+    { "a fixed step with bsimp", { method = "bsimp", step = 1e-3 }, { "'step'", "'bsimp'", "rk4imp" } },
     { "project = 'yes'", { project = "yes" }, { "'project'", "\"yes\"", "true or false" } },
     { "progress = 'yes'", { progress = "yes" }, { "'progress'", "\"yes\"", "true or false" } },
     { "check = 3", { check = 3 }, { "'check'", "got 3", "true or false" } },

@@ -514,15 +514,7 @@ function M.project(sys, t, q, qd, opts)
 end
 
 -- The first frame outside the library (the user's call): "file:line: ".
-local function is_library(src) return src:find("^@?lua/nz/[%w_]+%.lua$") or src:find("/lua/nz/[%w_]+%.lua$") end
-function M.user_where()
-  for level = 2, 50 do
-    local info = debug.getinfo(level, "Sl")
-    if not info then break end
-    if info.currentline > 0 and not is_library(info.source) then return info.short_src .. ":" .. info.currentline .. ": " end
-  end
-  return ""
-end
+M.user_where = require("nz.where").user_where
 
 -- The rows of constraint r of order <= 1 at position and velocity level
 -- (a holonomic one at both), each with the size of its terms: the sum of

@@ -22,15 +22,7 @@ local M = { System = System }
 -- 'accel' (...)"), counts the arguments as the user writes them (self    --
 -- not counted) and starts with the user's file:line.                     --
 
-local function is_library(src) return src:find("^@?lua/nz/[%w_]+%.lua$") or src:find("/lua/nz/[%w_]+%.lua$") end
-local function user_where()
-  for level = 3, 50 do
-    local info = debug.getinfo(level, "Sl")
-    if not info then break end
-    if info.currentline > 0 and not is_library(info.source) then return info.short_src .. ":" .. info.currentline .. ": " end
-  end
-  return ""
-end
+local user_where = require("nz.where").user_where
 
 -- A value as a message shows it (NaN as "NaN" on every C library).
 local function shown(v)
