@@ -43,6 +43,38 @@ static double **read_level_list(lua_State *L, int idx, int k, int n, const char 
   return lv;
 }
 
+/* The arguments every function here starts with, (def, orders, level, t,
+ * levels): the system bound for this call, the classification's orders, the
+ * level (at least lo) and nlevels = level + extra levels q, qd, ... */
+typedef struct series_call {
+  bound_system b;
+  int k, nc, *orders, level;
+  double t;
+  double **lv;
+} series_call;
+
+static void read_series_call(lua_State *L, series_call *c, int lo, int extra, const char *fname)
+{
+  nz_lua_bind_system(L, 1, &c->b);
+  c->k = c->b.sys.k;
+  c->nc = c->b.sys.nc;
+  c->orders = read_orders(L, 2, c->nc);
+  c->level = check_level(L, 3, lo);
+  c->t = luaL_checknumber(L, 4);
+  c->lv = read_level_list(L, 5, c->k, c->level + extra, fname);
+}
+
+/* Up to n lists of nc multipliers from the optional list at idx into lam
+ * (what is missing stays as the caller set it). */
+static void read_lambda_list(lua_State *L, int idx, double *lam, int n, int nc, const char *fname)
+{
+  for (int j = 0; j < n && lua_istable(L, idx); j++) {
+    lua_geti(L, idx, j + 1);
+    if (lua_istable(L, -1)) nz_lua_read_vector(L, lua_gettop(L), nc, lam + (size_t)j * nc, "lambda", 1, fname);
+    lua_pop(L, 1);
+  }
+}
+
 /* Push n tables of m numbers from v (row-major) as a list. */
 static void push_rows(lua_State *L, const double *v, int n, int m)
 {
@@ -57,23 +89,15 @@ static void push_rows(lua_State *L, const double *v, int n, int m)
 static int ls_series_level(lua_State *L)
 {
   lua_settop(L, 6);
-  bound_system b;
-  nz_lua_bind_system(L, 1, &b);
-  int k = b.sys.k, nc = b.sys.nc;
-  int *orders = read_orders(L, 2, nc);
-  int l = check_level(L, 3, 0);
-  double t = luaL_checknumber(L, 4);
-  double **lv = read_level_list(L, 5, k, l + 1, "series_level");
+  series_call c;
+  read_series_call(L, &c, 0, 1, "series_level");
+  int k = c.k, nc = c.nc, l = c.level;
   double *lam = lua_newuserdatauv(L, ((size_t)(l + 1) * nc + (size_t)k + (size_t)nc + (size_t)nc * k) * sizeof(double), 0);
   double *res = lam + (size_t)(l + 1) * nc, *A = res + k + nc;
   memset(lam, 0, (size_t)(l + 1) * nc * sizeof(double));
-  for (int j = 0; j + 2 <= l && lua_istable(L, 6); j++) {
-    lua_geti(L, 6, j + 1);
-    if (lua_istable(L, -1)) nz_lua_read_vector(L, lua_gettop(L), nc, lam + (size_t)j * nc, "lambda", 1, "series_level");
-    lua_pop(L, 1);
-  }
-  int st = nz_series_level(&b.sys, orders, l, t, (const double *const *)lv, lam, res, A, NULL);
-  if (st) return nz_lua_raise_core(L, &b, st, "series_level");
+  read_lambda_list(L, 6, lam, l - 1, nc, "series_level");      /* lambda .. lambda^(l-2) */
+  int st = nz_series_level(&c.b.sys, c.orders, l, c.t, (const double *const *)c.lv, lam, res, A, NULL);
+  if (st) return nz_lua_raise_core(L, &c.b, st, "series_level");
   nz_lua_push_vector(L, res, k + nc);
   push_rows(L, A, nc, k);
   return 2;
@@ -84,17 +108,13 @@ static int ls_series_level(lua_State *L)
 static int ls_series_initial(lua_State *L)
 {
   lua_settop(L, 5);
-  bound_system b;
-  nz_lua_bind_system(L, 1, &b);
-  int k = b.sys.k, nc = b.sys.nc;
-  int *orders = read_orders(L, 2, nc);
-  int p = check_level(L, 3, 3);
-  double t = luaL_checknumber(L, 4);
-  double **lv = read_level_list(L, 5, k, p, "series_initial");
+  series_call c;
+  read_series_call(L, &c, 3, 0, "series_initial");
+  int nc = c.nc, p = c.level;
   double *lam = lua_newuserdatauv(L, ((size_t)(p - 2) * nc + 1) * sizeof(double), 0);
   nz_series_violation v;
-  int st = nz_series_initial(&b.sys, orders, p, t, (const double *const *)lv, lam, &v);
-  if (st) return nz_lua_raise_core(L, &b, st, "simulate");
+  int st = nz_series_initial(&c.b.sys, c.orders, p, c.t, (const double *const *)c.lv, lam, &v);
+  if (st) return nz_lua_raise_core(L, &c.b, st, "simulate");
   push_rows(L, lam, p - 2, nc);
   lua_createtable(L, 0, 3);
   lua_pushnumber(L, v.value);
@@ -112,32 +132,24 @@ static int ls_series_initial(lua_State *L)
 static int ls_series_project(lua_State *L)
 {
   lua_settop(L, 8);
-  bound_system b;
-  nz_lua_bind_system(L, 1, &b);
-  int k = b.sys.k, nc = b.sys.nc;
-  int *orders = read_orders(L, 2, nc);
-  int p = check_level(L, 3, 3);
-  double t = luaL_checknumber(L, 4);
-  double **lv = read_level_list(L, 5, k, p, "project");
+  series_call c;
+  read_series_call(L, &c, 3, 0, "project");
+  int k = c.k, nc = c.nc, p = c.level;
   double tol = luaL_checknumber(L, 6);
   int maxit = (int)luaL_checkinteger(L, 7), its = 0;
   double *lam = lua_newuserdatauv(L, ((size_t)(p - 2) * nc + 1) * sizeof(double), 0);
   memset(lam, 0, ((size_t)(p - 2) * nc + 1) * sizeof(double));
-  for (int j = 0; j < p - 2 && lua_istable(L, 8); j++) {
-    lua_geti(L, 8, j + 1);
-    if (lua_istable(L, -1)) nz_lua_read_vector(L, lua_gettop(L), nc, lam + (size_t)j * nc, "lambda", 1, "project");
-    lua_pop(L, 1);
-  }
-  int st = nz_series_project(&b.sys, orders, p, t, lv, lam, tol, maxit, &its);
+  read_lambda_list(L, 8, lam, p - 2, nc, "project");
+  int st = nz_series_project(&c.b.sys, c.orders, p, c.t, c.lv, lam, tol, maxit, &its);
   if (st == NZ_EARG) {
     lua_pushnil(L);
     lua_pushinteger(L, its);
     return 2;
   }
-  if (st) return nz_lua_raise_core(L, &b, st, "project");
+  if (st) return nz_lua_raise_core(L, &c.b, st, "project");
   lua_createtable(L, p, 0);
   for (int j = 0; j < p; j++) {
-    nz_lua_push_vector(L, lv[j], k);
+    nz_lua_push_vector(L, c.lv[j], k);
     lua_rawseti(L, -2, j + 1);
   }
   push_rows(L, lam, p - 2, nc);
@@ -150,15 +162,11 @@ static int ls_series_project(lua_State *L)
 static int ls_series_closure(lua_State *L)
 {
   lua_settop(L, 5);
-  bound_system b;
-  nz_lua_bind_system(L, 1, &b);
-  int k = b.sys.k, nc = b.sys.nc, bad;
-  int *orders = read_orders(L, 2, nc);
-  int p = check_level(L, 3, 3);
-  double t = luaL_checknumber(L, 4);
-  double **lv = read_level_list(L, 5, k, p + 1, "simulate");
-  int st = nz_series_closure(&b.sys, orders, p, t, (const double *const *)lv, &bad);
-  if (st) return nz_lua_raise_core(L, &b, st, "simulate");
+  series_call c;
+  read_series_call(L, &c, 3, 1, "simulate");
+  int bad, p = c.level;
+  int st = nz_series_closure(&c.b.sys, c.orders, p, c.t, (const double *const *)c.lv, &bad);
+  if (st) return nz_lua_raise_core(L, &c.b, st, "simulate");
   if (bad < 0) lua_pushnil(L);
   else lua_pushinteger(L, bad + 1);
   return 1;
