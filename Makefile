@@ -24,7 +24,7 @@ RL_LIBS   = $(shell pkg-config --libs readline 2>/dev/null)
 SAN_FLAGS = -O1 -g -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=all
 
 # The numerical core (never includes lua.h), then the Lua binding.
-CORE_SRC  = src/series.c src/jet.c src/interrupt.c src/mech.c src/constrained.c src/constrained_series.c src/mech_jacobian.c src/ode.c src/linalg.c
+CORE_SRC  = src/series.c src/jet.c src/interrupt.c src/mech.c src/constrained.c src/constrained_series.c src/mech_jacobian.c src/ode.c src/linalg.c src/graph.c
 LUA_SRC   = src/lua_jet.c src/lua_system.c src/lua_constraints.c src/lua_series.c src/lua_linalg.c src/lua_ode.c src/lua_special.c src/lua_nz.c
 LUA_MODS  = $(sort $(wildcard lua/nz/*.lua))
 GEN_SRC   = build/gen/embedded_lua.c
@@ -70,6 +70,10 @@ $(B)/test_series: tests/test_series.c $(CORE_OBJ) | $(B)
 	$(CC) $(ALL_CFLAGS) -o $@ $^ $(GSL_LIBS) -lm
 $(B)/asan/test_series: tests/test_series.c $(SAN_CORE) | $(B)/asan
 	$(CC) $(ALL_CFLAGS) $(SAN_FLAGS) -o $@ $^ $(GSL_LIBS) -lm
+$(B)/test_graph: tests/test_graph.c $(CORE_OBJ) | $(B)
+	$(CC) $(ALL_CFLAGS) -o $@ $^ $(GSL_LIBS) -lm
+$(B)/asan/test_graph: tests/test_graph.c $(SAN_CORE) | $(B)/asan
+	$(CC) $(ALL_CFLAGS) $(SAN_FLAGS) -o $@ $^ $(GSL_LIBS) -lm
 $(B)/bench_jet: bench/bench_jet.c $(CORE_OBJ) | $(B)
 	$(CC) $(ALL_CFLAGS) -o $@ $^ $(GSL_LIBS) -lm
 
@@ -80,13 +84,13 @@ demo: deps all
 	$(B)/nzlua examples/demo.lua
 
 # Every test, normal build then sanitized build; one tally line at the end.
-test: deps all $(B)/test_series $(B)/asan/nzlua $(B)/asan/test_series
+test: deps all $(B)/test_series $(B)/test_graph $(B)/asan/nzlua $(B)/asan/test_series $(B)/asan/test_graph
 	@tests/run.sh all
 
-check: deps all $(B)/test_series
+check: deps all $(B)/test_series $(B)/test_graph
 	@tests/run.sh plain
 
-sanitize: deps $(B)/asan/nzlua $(B)/asan/test_series all
+sanitize: deps $(B)/asan/nzlua $(B)/asan/test_series $(B)/asan/test_graph all
 	@tests/run.sh sanitize
 
 bench: deps all $(B)/bench_jet

@@ -1,0 +1,769 @@
+/* test_graph.c - expression graphs (graph.c) in C, without Lua: folding,
+ * sharing and simplification; evaluation on doubles against plain C
+ * formulas (libm) and against the order-0 jets; evaluation on jets against
+ * the same expressions computed directly with nz_jet_* calls; derivatives
+ * built on the graph against central differences and hand derivatives; the
+ * eta-part of nz_graph_eval_jets against the derivative graph; failures.
+ * GSL-style PASS/FAIL lines. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <gsl/gsl_math.h>
+#include <gsl/gsl_test.h>
+#include "graph.h"
+
+/* ------------------------------------------------------------------ */
+/* One expression, three independent evaluations                        */
+
+/* Each test expression is written once against this small interface and
+ * run in three modes: recording a graph (M_GRAPH), computing directly with
+ * nz_jet_* on jets of one shape (M_JET), and plain C with libm (M_C). */
+enum { M_GRAPH, M_JET, M_C };
+static int M;
+static nz_graph *G;
+
+#define JK 12
+#define JD 2
+#define NIN 4
+#define POOL 512
+static nz_jet *jin[NIN], *pool[POOL];
+static int npool, jet_failures;
+static double cin[NIN], jw[8 * (JK + 1)];
+
+typedef struct val {
+  int id;
+  nz_jet *j;
+  double d;
+} val;
+
+static nz_jet *fresh(void)
+{
+  if (npool == POOL) { jet_failures++; npool = 0; }
+  if (!pool[npool]) pool[npool] = nz_jet_alloc(JK, JD);
+  return pool[npool++];
+}
+static val jet_result(nz_jet *z, nz_status st)
+{
+  if (st) jet_failures++;
+  return (val){ -1, z, 0.0 };
+}
+
+static val vin(int i)
+{
+  if (M == M_GRAPH) return (val){ nz_graph_input(G, i), NULL, 0.0 };
+  if (M == M_JET) return (val){ -1, jin[i], 0.0 };
+  return (val){ -1, NULL, cin[i] };
+}
+static val vc(double c)
+{
+  if (M == M_GRAPH) return (val){ nz_graph_const(G, c), NULL, 0.0 };
+  if (M == M_JET) {
+    nz_jet *z = fresh();
+    nz_jet_set_constant(z, c);
+    return (val){ -1, z, 0.0 };
+  }
+  return (val){ -1, NULL, c };
+}
+
+#define BIN(name, gop, jcall, cexpr)                                          \
+  static val name(val a, val b)                                               \
+  {                                                                           \
+    if (M == M_GRAPH) return (val){ nz_graph_op(G, gop, a.id, b.id), NULL, 0 }; \
+    if (M == M_JET) {                                                         \
+      nz_jet *z = fresh();                                                    \
+      return jet_result(z, jcall);                                            \
+    }                                                                         \
+    return (val){ -1, NULL, cexpr };                                          \
+  }
+BIN(vadd, NZ_GOP_ADD, nz_jet_add(z, a.j, b.j), a.d + b.d)
+BIN(vsub, NZ_GOP_SUB, nz_jet_sub(z, a.j, b.j), a.d - b.d)
+BIN(vmul, NZ_GOP_MUL, nz_jet_mul(z, a.j, b.j, jw), a.d * b.d)
+BIN(vdiv, NZ_GOP_DIV, nz_jet_div(z, a.j, b.j, jw), a.d / b.d)
+BIN(vpow, NZ_GOP_POW, nz_jet_pow_jet(z, a.j, b.j, jw), pow(a.d, b.d))
+BIN(vatan2, NZ_GOP_ATAN2, nz_jet_atan2(z, a.j, b.j, jw), atan2(a.d, b.d))
+BIN(vhypot, NZ_GOP_HYPOT, nz_jet_hypot(z, a.j, b.j, jw), hypot(a.d, b.d))
+
+static val vneg(val a)
+{
+  if (M == M_GRAPH) return (val){ nz_graph_op(G, NZ_GOP_NEG, a.id, -1), NULL, 0 };
+  if (M == M_JET) { nz_jet *z = fresh(); return jet_result(z, nz_jet_neg(z, a.j)); }
+  return (val){ -1, NULL, -a.d };
+}
+static val vpowc(val a, double p)
+{
+  if (M == M_GRAPH) return (val){ nz_graph_powc(G, a.id, p), NULL, 0 };
+  if (M == M_JET) { nz_jet *z = fresh(); return jet_result(z, nz_jet_pow(z, a.j, p, jw)); }
+  return (val){ -1, NULL, pow(a.d, p) };
+}
+static double cfn(nz_jet_fn f, double x)
+{
+  switch (f) {
+  case NZ_FN_EXP: return exp(x);
+  case NZ_FN_LOG: return log(x);
+  case NZ_FN_SQRT: return sqrt(x);
+  case NZ_FN_SIN: return sin(x);
+  case NZ_FN_COS: return cos(x);
+  case NZ_FN_TAN: return tan(x);
+  case NZ_FN_ASIN: return asin(x);
+  case NZ_FN_ACOS: return acos(x);
+  case NZ_FN_ATAN: return atan(x);
+  case NZ_FN_SINH: return sinh(x);
+  case NZ_FN_COSH: return cosh(x);
+  case NZ_FN_TANH: return tanh(x);
+  case NZ_FN_ABS: return fabs(x);
+  default: return NAN;
+  }
+}
+static val vfn(nz_jet_fn f, val a)
+{
+  if (M == M_GRAPH) return (val){ nz_graph_fn(G, f, a.id), NULL, 0 };
+  if (M == M_JET) { nz_jet *z = fresh(); return jet_result(z, nz_jet_apply(z, f, a.j, jw)); }
+  return (val){ -1, NULL, cfn(f, a.d) };
+}
+#define SIN(a) vfn(NZ_FN_SIN, a)
+#define COS(a) vfn(NZ_FN_COS, a)
+#define EXP(a) vfn(NZ_FN_EXP, a)
+
+/* Inputs x, y in (0.2, 0.7) (t: inputs 2 and 3 in the pendulum). */
+static val e_rational(void)   /* sin(x) exp(y) / (1 + x^2) */
+{
+  val x = vin(0), y = vin(1);
+  return vdiv(vmul(SIN(x), EXP(y)), vadd(vc(1.0), vpowc(x, 2.0)));
+}
+static val e_logs(void)   /* log(y) + sqrt(x) - cos(x y) */
+{
+  val x = vin(0), y = vin(1);
+  return vsub(vadd(vfn(NZ_FN_LOG, y), vfn(NZ_FN_SQRT, x)), COS(vmul(x, y)));
+}
+static val e_trig(void)   /* tan(x) asin(x) - acos(y) / atan(x + y) */
+{
+  val x = vin(0), y = vin(1);
+  return vsub(vmul(vfn(NZ_FN_TAN, x), vfn(NZ_FN_ASIN, x)),
+              vdiv(vfn(NZ_FN_ACOS, y), vfn(NZ_FN_ATAN, vadd(x, y))));
+}
+static val e_hyper(void)   /* sinh(x) cosh(y) + tanh(x - y) + |x - y| (-y) */
+{
+  val x = vin(0), y = vin(1);
+  return vadd(vadd(vmul(vfn(NZ_FN_SINH, x), vfn(NZ_FN_COSH, y)), vfn(NZ_FN_TANH, vsub(x, y))),
+              vmul(vfn(NZ_FN_ABS, vsub(x, y)), vneg(y)));
+}
+static val e_powers(void)   /* x^y + x^3.5 + hypot(x, y) - atan2(y, x) + x^-2 + y^3 */
+{
+  val x = vin(0), y = vin(1);
+  val s = vadd(vadd(vpow(x, y), vpowc(x, 3.5)), vhypot(x, y));
+  return vadd(vadd(vsub(s, vatan2(y, x)), vpowc(x, -2.0)), vpowc(y, 3.0));
+}
+static val e_henon(void)   /* Henon-Heiles: (x^2 + y^2)/2 + x^2 y - y^3/3 */
+{
+  val x = vin(0), y = vin(1);
+  val r2 = vmul(vadd(vpowc(x, 2.0), vpowc(y, 2.0)), vc(0.5));
+  return vsub(vadd(r2, vmul(vpowc(x, 2.0), y)), vdiv(vpowc(y, 3.0), vc(3.0)));
+}
+/* Double pendulum kinetic energy, angles a1 = x, a2 = y, rates w1, w2:
+ * (m1 + m2)/2 l1^2 w1^2 + m2 l1 l2 w1 w2 cos(a1 - a2) + m2/2 l2^2 w2^2. */
+static val e_pendulum(void)
+{
+  val a1 = vin(0), a2 = vin(1), w1 = vin(2), w2 = vin(3);
+  val m1 = vc(1.3), m2 = vc(0.7), l1 = vc(1.1), l2 = vc(0.9), half = vc(0.5);
+  val t1 = vmul(vmul(vmul(half, vadd(m1, m2)), vpowc(l1, 2.0)), vpowc(w1, 2.0));
+  val t2 = vmul(vmul(vmul(vmul(m2, l1), l2), vmul(w1, w2)), COS(vsub(a1, a2)));
+  val t3 = vmul(vmul(vmul(half, m2), vpowc(l2, 2.0)), vpowc(w2, 2.0));
+  return vadd(vadd(t1, t2), t3);
+}
+
+typedef val (*expr_fn)(void);
+static const struct {
+  const char *name;
+  expr_fn f;
+} exprs[] = {
+  { "sin(x) exp(y) / (1 + x^2)", e_rational },
+  { "log(y) + sqrt(x) - cos(x y)", e_logs },
+  { "tan(x) asin(x) - acos(y) / atan(x + y)", e_trig },
+  { "sinh(x) cosh(y) + tanh(x - y) - |x - y| y", e_hyper },
+  { "x^y + x^3.5 + hypot(x, y) - atan2(y, x) + x^-2 + y^3", e_powers },
+  { "Henon-Heiles potential", e_henon },
+  { "double pendulum kinetic energy", e_pendulum },
+};
+#define NEXPR ((int)(sizeof exprs / sizeof exprs[0]))
+
+static uint64_t rng = 0x2545F4914F6CDD1DULL;
+static double urand(void)   /* xorshift64*, uniform in [0, 1) */
+{
+  rng ^= rng >> 12;
+  rng ^= rng << 25;
+  rng ^= rng >> 27;
+  return (double)((rng * 2685821657736338717ULL) >> 11) / 9007199254740992.0;
+}
+static void random_point(double *x)
+{
+  for (int i = 0; i < NIN; i++) x[i] = 0.2 + 0.5 * urand();
+}
+/* Random jets around x: value series x + 0.3 t + ..., random tangents, the
+ * coefficient of t^k scaled by 0.3^k so that series of functions with a
+ * singularity 0.2 away (sqrt(0.2 + ...)) keep coefficients of order 1. */
+static void random_jets(nz_jet **j, const double *x)
+{
+  for (int i = 0; i < NIN; i++) {
+    int K1 = j[i]->order + 1;
+    for (int d = 0; d <= j[i]->ntan; d++)
+      for (int k = 0; k < K1; k++) j[i]->c[d * K1 + k] = 0.2 * (urand() - 0.5) * pow(0.3, k);
+    j[i]->c[0] = x[i];
+    if (K1 > 1) j[i]->c[1] = 0.3;
+  }
+}
+
+static double rel(double got, double want) { return fabs(got - want) / fmax(fabs(want), 1e-300); }
+/* max |a - b| over the coefficients of b's shape, relative to max |b| */
+static double jet_diff(const nz_jet *a, const nz_jet *b)
+{
+  int n = (b->ntan + 1) * (b->order + 1);
+  double d = 0.0, s = 0.0;
+  for (int k = 0; k < n; k++) {
+    d = fmax(d, fabs(a->c[k] - b->c[k]));
+    s = fmax(s, fabs(b->c[k]));
+  }
+  return s > 0 ? d / s : d;
+}
+
+static int record(int e)
+{
+  M = M_GRAPH;
+  return exprs[e].f().id;
+}
+static double eval1(int root, const double *x, nz_status *st)
+{
+  nz_graph_plan *p = nz_graph_plan_new(G, &root, 1);
+  double out = NAN;
+  *st = p ? nz_graph_eval(p, x, &out) : NZ_ENOMEM;
+  nz_graph_plan_free(p);
+  return out;
+}
+
+/* ------------------------------------------------------------------ */
+/* Building                                                             */
+
+static void check_folding(void)
+{
+  nz_graph *g = nz_graph_new();
+  double v;
+  int c1 = nz_graph_const(g, 0.3), c2 = nz_graph_const(g, 1.2);
+  int s = nz_graph_fn(g, NZ_FN_SIN, c1), e = nz_graph_fn(g, NZ_FN_EXP, c2);
+  int q = nz_graph_op(g, NZ_GOP_ADD, nz_graph_const(g, 1.0), nz_graph_powc(g, c1, 2.0));
+  int r = nz_graph_op(g, NZ_GOP_DIV, nz_graph_op(g, NZ_GOP_MUL, s, e), q);
+  gsl_test(!nz_graph_is_const(g, r, &v) || v != sin(0.3) * exp(1.2) / (1.0 + 0.3 * 0.3),
+           "folding: sin(0.3) exp(1.2) / (1 + 0.3^2) is the C double (%.17g)", v);
+  int h = nz_graph_op(g, NZ_GOP_HYPOT, c1, c2);
+  gsl_test(!nz_graph_is_const(g, h, &v) || rel(v, hypot(0.3, 1.2)) > 2 * GSL_DBL_EPSILON,
+           "folding: hypot(0.3, 1.2) within 2 ulp of libm's hypot");
+  int a2 = nz_graph_op(g, NZ_GOP_ATAN2, c1, nz_graph_const(g, -2.0));
+  gsl_test(!nz_graph_is_const(g, a2, &v) || v != atan2(0.3, -2.0), "folding: atan2(0.3, -2)");
+  int pw = nz_graph_op(g, NZ_GOP_POW, c2, c1);
+  gsl_test(!nz_graph_is_const(g, pw, NULL) || g == NULL,
+           "folding: 1.2^0.3 is a constant");
+  int big = nz_graph_op(g, NZ_GOP_POW, nz_graph_const(g, 2.5), nz_graph_const(g, 1.7));
+  gsl_test(!nz_graph_is_const(g, big, &v) || rel(v, pow(2.5, 1.7)) > 4 * GSL_DBL_EPSILON,
+           "folding: 2.5^1.7 within 4 ulp of libm's pow (%.17g)", v);
+  /* Zeros: 0.0 and -0.0 are distinct constants (atan2 tells them apart). */
+  int pz = nz_graph_const(g, 0.0), nz = nz_graph_const(g, -0.0);
+  int m1 = nz_graph_const(g, -1.0);
+  double ap, an;
+  nz_graph_is_const(g, nz_graph_op(g, NZ_GOP_ATAN2, pz, m1), &ap);
+  nz_graph_is_const(g, nz_graph_op(g, NZ_GOP_ATAN2, nz, m1), &an);
+  gsl_test(pz == nz || ap != M_PI || an != -M_PI,
+           "folding: 0.0 and -0.0 are distinct nodes, atan2(+-0, -1) = +-pi");
+  /* Folding that fails keeps the node (evaluation reports it). */
+  int lg = nz_graph_fn(g, NZ_FN_LOG, m1);
+  int dz = nz_graph_op(g, NZ_GOP_DIV, c1, pz);
+  int ov = nz_graph_fn(g, NZ_FN_EXP, nz_graph_const(g, 800.0));
+  gsl_test(nz_graph_is_const(g, lg, NULL) || nz_graph_nodes(g)[lg].op != NZ_GOP_FN,
+           "folding: log(-1) stays a node");
+  gsl_test(nz_graph_is_const(g, dz, NULL) || nz_graph_nodes(g)[dz].op != NZ_GOP_DIV,
+           "folding: 0.3 / 0 stays a node");
+  gsl_test(nz_graph_is_const(g, ov, NULL), "folding: exp(800) (overflow) stays a node");
+  nz_status st;
+  nz_graph *keep = G;
+  G = g;
+  eval1(lg, NULL, &st);
+  gsl_test(st != NZ_EDOM, "an unfolded log(-1) evaluates to NZ_EDOM");
+  eval1(dz, NULL, &st);
+  gsl_test(st != NZ_EZERODIV, "an unfolded 0.3 / 0 evaluates to NZ_EZERODIV");
+  G = keep;
+  nz_graph_free(g);
+}
+
+static void check_sharing(void)
+{
+  nz_graph *keep = G;
+  G = nz_graph_new();
+  int n0 = 0, same = 1;
+  for (int e = 0; e < NEXPR; e++) {
+    int id = record(e);
+    n0 = nz_graph_size(G);
+    same = same && record(e) == id && nz_graph_size(G) == n0;
+  }
+  gsl_test(!same, "hash-consing: recording each expression twice gives the same node, no growth");
+  gsl_test(nz_graph_ninputs(G) != 4, "ninputs = highest input number + 1 (%d)", nz_graph_ninputs(G));
+  nz_graph *g = nz_graph_new();
+  int x = nz_graph_input(g, 0), y = nz_graph_input(g, 1);
+  int n1 = nz_graph_size(g);
+  gsl_test(nz_graph_op(g, NZ_GOP_ADD, x, y) != nz_graph_op(g, NZ_GOP_ADD, y, x) ||
+               nz_graph_op(g, NZ_GOP_MUL, x, y) != nz_graph_op(g, NZ_GOP_MUL, y, x) ||
+               nz_graph_op(g, NZ_GOP_HYPOT, x, y) != nz_graph_op(g, NZ_GOP_HYPOT, y, x) ||
+               nz_graph_op(g, NZ_GOP_SUB, x, y) == nz_graph_op(g, NZ_GOP_SUB, y, x),
+           "hash-consing: x+y = y+x, xy = yx, hypot symmetric; x-y != y-x");
+  gsl_test(nz_graph_size(g) != n1 + 5, "hash-consing: those built %d nodes (want 5)",
+           nz_graph_size(g) - n1);
+  gsl_test(nz_graph_input(g, 0) != x, "one node per input number");
+  nz_graph_free(g);
+  /* A big graph grows its table many times and still finds every node. */
+  int ids[3000], found = 1;
+  for (int i = 0; i < 3000; i++) ids[i] = nz_graph_const(G, i + 0.5);
+  for (int i = 0; i < 3000; i++) found = found && nz_graph_const(G, i + 0.5) == ids[i];
+  gsl_test(!found, "hash-consing: 3000 constants found again after the table grew");
+  gsl_test(nz_graph_input(G, -1) != -1 || nz_graph_op(G, NZ_GOP_ADD, x, 1 << 30) != -1 ||
+               nz_graph_fn(G, NZ_FN_COUNT, x) != -1 || nz_graph_powc(G, x, NAN) != -1,
+           "bad operands (input -1, unknown node, unknown fn, NaN exponent) return -1");
+  nz_graph_free(G);
+  G = keep;
+}
+
+static void check_simplify(void)
+{
+  nz_graph *g = nz_graph_new();
+  int x = nz_graph_input(g, 0), y = nz_graph_input(g, 1);
+  int zero = nz_graph_const(g, 0.0), one = nz_graph_const(g, 1.0);
+  const nz_gnode *nd;
+  gsl_test(nz_graph_op(g, NZ_GOP_ADD, x, zero) != x || nz_graph_op(g, NZ_GOP_ADD, zero, x) != x,
+           "simplify: x + 0 = 0 + x = x");
+  gsl_test(nz_graph_op(g, NZ_GOP_SUB, x, zero) != x, "simplify: x - 0 = x");
+  int nx = nz_graph_op(g, NZ_GOP_SUB, zero, x);
+  nd = nz_graph_nodes(g);
+  gsl_test(nd[nx].op != NZ_GOP_NEG || nd[nx].a != x, "simplify: 0 - x = neg x");
+  gsl_test(nz_graph_op(g, NZ_GOP_NEG, nx, -1) != x, "simplify: -(-x) = x");
+  gsl_test(nz_graph_op(g, NZ_GOP_MUL, x, one) != x || nz_graph_op(g, NZ_GOP_MUL, one, x) != x,
+           "simplify: x 1 = 1 x = x");
+  gsl_test(nz_graph_op(g, NZ_GOP_MUL, x, zero) != zero || nz_graph_op(g, NZ_GOP_MUL, zero, y) != zero,
+           "simplify: x 0 = 0 y = 0");
+  gsl_test(nz_graph_op(g, NZ_GOP_DIV, x, one) != x, "simplify: x / 1 = x");
+  gsl_test(nz_graph_powc(g, x, 1.0) != x || nz_graph_powc(g, x, 0.0) != one,
+           "simplify: x^1 = x, x^0 = 1");
+  gsl_test(nz_graph_op(g, NZ_GOP_SUB, y, y) != zero, "simplify: y - y = 0");
+  int xx = nz_graph_op(g, NZ_GOP_DIV, x, x);
+  nd = nz_graph_nodes(g);
+  gsl_test(nd[xx].op != NZ_GOP_DIV, "simplify: x / x is kept (x may be 0)");
+  int p2 = nz_graph_op(g, NZ_GOP_POW, x, nz_graph_const(g, 2.0));
+  nd = nz_graph_nodes(g);
+  gsl_test(nd[p2].op != NZ_GOP_POWC || nd[p2].v != 2.0 || p2 != nz_graph_powc(g, x, 2.0),
+           "simplify: x ^ (constant 2) is the node x^2 (POWC)");
+  nz_graph_free(g);
+}
+
+/* ------------------------------------------------------------------ */
+/* Evaluation                                                           */
+
+static void check_doubles(void)
+{
+  double worst_c = 0.0, x[NIN], xs[NIN];
+  int exact = 1, ok = 1;
+  for (int e = 0; e < NEXPR; e++) {
+    int root = record(e);
+    /* A plan over every node so far: each node against its order-0 jet. */
+    int n = nz_graph_size(G), *all = malloc((size_t)n * sizeof *all);
+    for (int i = 0; i < n; i++) all[i] = i;
+    nz_graph_plan *p = nz_graph_plan_new(G, all, n);
+    double *dv = malloc((size_t)n * sizeof *dv);
+    nz_jet **jo = malloc((size_t)n * sizeof *jo), *j0[NIN];
+    for (int i = 0; i < n; i++) jo[i] = nz_jet_alloc(0, 0);
+    for (int i = 0; i < NIN; i++) j0[i] = nz_jet_alloc(0, 0);
+    for (int trial = 0; trial < 20; trial++) {
+      random_point(x);
+      for (int i = 0; i < NIN; i++) j0[i]->c[0] = x[i];
+      ok = ok && nz_graph_eval(p, x, dv) == NZ_OK &&
+           nz_graph_eval_jets(p, (const nz_jet *const *)j0, jo, NULL, NULL) == NZ_OK;
+      for (int i = 0; i < n; i++) exact = exact && dv[i] == jo[i]->c[0];
+      memcpy(cin, x, sizeof cin);
+      memcpy(xs, x, sizeof xs);
+      M = M_C;
+      double want = exprs[e].f().d;
+      nz_status st;
+      double got = eval1(root, xs, &st);
+      ok = ok && st == NZ_OK;
+      worst_c = fmax(worst_c, rel(got, want));
+    }
+    gsl_test(!ok || !exact, "%s: every node on doubles equals its order-0 jet exactly", exprs[e].name);
+    for (int i = 0; i < n; i++) nz_jet_free(jo[i]);
+    for (int i = 0; i < NIN; i++) nz_jet_free(j0[i]);
+    free(jo);
+    free(dv);
+    free(all);
+    nz_graph_plan_free(p);
+  }
+  /* libm's pow and hypot against exp(y log x) and the scaled hypot: a few ulps */
+  gsl_test(!(worst_c <= 1e-14), "7 expressions on doubles equal plain C with libm (worst %.2g)", worst_c);
+}
+
+static void check_jets(void)
+{
+  nz_jet *out[3];
+  out[0] = nz_jet_alloc(JK, JD);
+  out[1] = nz_jet_alloc(JK, JD + 1);   /* one tangent more: zero */
+  out[2] = nz_jet_alloc(JK - 4, 1);    /* lower order, one tangent: truncated */
+  double x[NIN];
+  for (int i = 0; i < NIN; i++) jin[i] = nz_jet_alloc(JK, JD);
+  for (int e = 0; e < NEXPR; e++) {
+    int root = record(e), roots[3] = { root, root, root };
+    nz_graph_plan *p = nz_graph_plan_new(G, roots, 3);
+    double worst = 0.0, extra = 0.0, trunc = 0.0, scale = 0.0;
+    int ok = 1;
+    for (int trial = 0; trial < 5; trial++) {
+      random_point(x);
+      random_jets(jin, x);
+      ok = ok && nz_graph_eval_jets(p, (const nz_jet *const *)jin, out, NULL, NULL) == NZ_OK;
+      M = M_JET;
+      npool = 0;
+      jet_failures = 0;
+      nz_jet *want = exprs[e].f().j;
+      ok = ok && jet_failures == 0;
+      worst = fmax(worst, jet_diff(out[0], want));
+      for (int k = 0; k <= JK; k++) extra = fmax(extra, fabs(nz_jet_tangent(out[1], JD)[k]));
+      for (int k = 0; k <= JK; k++) scale = fmax(scale, fabs(want->c[k]));
+      for (int k = 0; k <= JK - 4; k++) {
+        trunc = fmax(trunc, fabs(out[2]->c[k] - want->c[k]));
+        trunc = fmax(trunc, fabs(nz_jet_tangent(out[2], 0)[k] - nz_jet_tangent(want, 0)[k]));
+      }
+    }
+    gsl_test(!ok || !(worst <= 1e-14),
+             "%s: jets of order %d with %d tangents equal direct nz_jet_* calls (%.2g)",
+             exprs[e].name, JK, JD, worst);
+    gsl_test(extra != 0.0 || !(trunc <= 1e-14 * scale),
+             "%s: outputs of other shapes (an extra tangent is zero, order %d truncates)",
+             exprs[e].name, JK - 4);
+    nz_graph_plan_free(p);
+  }
+  for (int i = 0; i < 3; i++) nz_jet_free(out[i]);
+}
+
+/* ------------------------------------------------------------------ */
+/* Derivatives                                                          */
+
+static void check_derivatives(void)
+{
+  int roots[NEXPR];
+  for (int e = 0; e < NEXPR; e++) roots[e] = record(e);
+  int ni = nz_graph_ninputs(G), one = nz_graph_const(G, 1.0);
+  int *dinput = malloc((size_t)ni * sizeof *dinput);
+  double x[NIN], xp[NIN], xm[NIN];
+  for (int e = 0; e < NEXPR; e++) {
+    int nvar = e == NEXPR - 1 ? 4 : 2, ok = 1;
+    double worst = 0.0;
+    for (int i = 0; i < nvar; i++) {
+      for (int k = 0; k < ni; k++) dinput[k] = k == i ? one : -1;
+      int d = nz_graph_derivative(G, roots[e], dinput);
+      ok = ok && d >= 0;
+      for (int trial = 0; trial < 10 && ok; trial++) {
+        nz_status s1, s2, s3;
+        random_point(x);
+        double h = 1e-5 * (1 + fabs(x[i]));
+        memcpy(xp, x, sizeof x);
+        memcpy(xm, x, sizeof x);
+        xp[i] += h;
+        xm[i] -= h;
+        double fd = (eval1(roots[e], xp, &s1) - eval1(roots[e], xm, &s2)) / (xp[i] - xm[i]);
+        double got = eval1(d, x, &s3);
+        ok = !s1 && !s2 && !s3;
+        worst = fmax(worst, fabs(got - fd) / fmax(1.0, fabs(fd)));
+      }
+    }
+    /* central differences: h^2 f''' / 6 + eps f / h, about 1e-10 here */
+    gsl_test(!ok || !(worst <= 1e-7), "%s: graph derivatives agree with central differences (%.2g)",
+             exprs[e].name, worst);
+  }
+  /* Several roots at once share the work: the same nodes as one by one. */
+  for (int k = 0; k < ni; k++) dinput[k] = k == 0 ? one : -1;
+  int dr[NEXPR], same = 1, n0;
+  gsl_test(nz_graph_derivatives(G, roots, NEXPR, dinput, dr) != 0, "nz_graph_derivatives returns 0");
+  n0 = nz_graph_size(G);
+  for (int e = 0; e < NEXPR; e++) same = same && nz_graph_derivative(G, roots[e], dinput) == dr[e];
+  gsl_test(!same || nz_graph_size(G) != n0,
+           "nz_graph_derivatives gives the nodes of one-by-one derivatives, nothing new built");
+  /* Nothing moves it: the constant 0. */
+  for (int k = 0; k < ni; k++) dinput[k] = -1;
+  double v;
+  int d0 = nz_graph_derivative(G, roots[0], dinput);
+  gsl_test(!nz_graph_is_const(G, d0, &v) || v != 0.0, "derivative with nothing moving is the constant 0");
+  free(dinput);
+
+  /* Hand derivatives, exact: f = x^3 y. */
+  nz_graph *g = nz_graph_new();
+  int xi = nz_graph_input(g, 0), yi = nz_graph_input(g, 1), c1 = nz_graph_const(g, 1.0);
+  int f = nz_graph_op(g, NZ_GOP_MUL, nz_graph_powc(g, xi, 3.0), yi);
+  int dx[2] = { c1, -1 }, dy[2] = { -1, c1 };
+  int fx = nz_graph_derivative(g, f, dx), fxx = nz_graph_derivative(g, fx, dx);
+  int fxy = nz_graph_derivative(g, fx, dy), fxxx = nz_graph_derivative(g, fxx, dx);
+  int fyy = nz_graph_derivative(g, nz_graph_derivative(g, f, dy), dy);
+  int outs[4] = { fx, fxx, fxy, fxxx };
+  nz_graph_plan *p = nz_graph_plan_new(g, outs, 4);
+  double worst = 0.0, got[4];
+  int ok = p != NULL;
+  for (int trial = 0; trial < 20 && ok; trial++) {
+    double a = 4 * urand() - 2, b = 4 * urand() - 2, in[2] = { a, b };
+    double want[4] = { 3 * a * a * b, 6 * a * b, 3 * a * a, 6 * b };
+    ok = nz_graph_eval(p, in, got) == NZ_OK;
+    for (int k = 0; k < 4; k++) worst = fmax(worst, rel(got[k], want[k]));
+  }
+  gsl_test(!ok || !(worst <= 4 * GSL_DBL_EPSILON),
+           "x^3 y: f_x = 3x^2 y, f_xx = 6xy, f_xy = 3x^2, f_xxx = 6y to rounding (%.2g)", worst);
+  gsl_test(!nz_graph_is_const(g, fyy, &v) || v != 0.0, "x^3 y: f_yy is the constant 0");
+  nz_graph_plan_free(p);
+  /* d/dx sin(x) exp(y) = cos(x) exp(y), the same double as C. */
+  int sx = nz_graph_op(g, NZ_GOP_MUL, nz_graph_fn(g, NZ_FN_SIN, xi), nz_graph_fn(g, NZ_FN_EXP, yi));
+  int dsx = nz_graph_derivative(g, sx, dx);
+  nz_graph *keep = G;
+  G = g;
+  nz_status st;
+  double in2[2] = { 0.7, -0.4 };
+  double r = eval1(dsx, in2, &st);
+  G = keep;
+  gsl_test(st || r != cos(0.7) * exp(-0.4), "d/dx sin(x) exp(y) = cos(x) exp(y) exactly");
+  nz_graph_free(g);
+}
+
+/* The eta-part of nz_graph_eval_jets against the derivative graph evaluated
+ * on jets (a different path: nodes built by nz_graph_derivative, evaluated
+ * without din), and against central differences on jets. */
+static void check_eta(void)
+{
+  int roots[NEXPR];
+  for (int e = 0; e < NEXPR; e++) roots[e] = record(e);
+  int dirs[NIN];
+  for (int i = 0; i < NIN; i++) dirs[i] = nz_graph_input(G, NIN + i);
+  int ni = nz_graph_ninputs(G);
+  int *dinput = malloc((size_t)ni * sizeof *dinput);
+  nz_jet *all[2 * NIN], *dj[NIN], *out[1], *dout[1], *ref[1], *lo[1], *hi[1], *xp[NIN], *xm[NIN];
+  for (int i = 0; i < NIN; i++) {
+    jin[i] = all[i] = jin[i] ? jin[i] : nz_jet_alloc(JK, JD);
+    dj[i] = all[NIN + i] = nz_jet_alloc(JK, JD);
+    xp[i] = nz_jet_alloc(JK, JD);
+    xm[i] = nz_jet_alloc(JK, JD);
+  }
+  out[0] = nz_jet_alloc(JK, JD);
+  dout[0] = nz_jet_alloc(JK, JD);
+  ref[0] = nz_jet_alloc(JK, JD);
+  lo[0] = nz_jet_alloc(JK, JD);
+  hi[0] = nz_jet_alloc(JK, JD);
+  double x[NIN];
+  for (int e = 0; e < NEXPR; e++) {
+    for (int still = -1; still < 2; still++) {   /* input `still` does not move */
+      for (int k = 0; k < ni; k++) dinput[k] = k < NIN && k != still ? dirs[k] : -1;
+      int d = nz_graph_derivative(G, roots[e], dinput);
+      nz_graph_plan *pf = nz_graph_plan_new(G, &roots[e], 1), *pd = nz_graph_plan_new(G, &d, 1);
+      const nz_jet *din[NIN];
+      double worst = 0.0, worst_fd = 0.0;
+      int ok = pf && pd;
+      for (int trial = 0; trial < 3 && ok; trial++) {
+        random_point(x);
+        random_jets(jin, x);
+        random_point(x);
+        random_jets(dj, x);
+        for (int i = 0; i < NIN; i++) din[i] = i == still ? NULL : dj[i];
+        ok = nz_graph_eval_jets(pf, (const nz_jet *const *)jin, out, din, dout) == NZ_OK &&
+             nz_graph_eval_jets(pd, (const nz_jet *const *)all, ref, NULL, NULL) == NZ_OK;
+        worst = fmax(worst, jet_diff(dout[0], ref[0]));
+        /* central difference along the direction, coefficientwise */
+        double h = 1e-5;
+        int n = (JD + 1) * (JK + 1);
+        for (int i = 0; i < NIN; i++)
+          for (int k = 0; k < n; k++) {
+            double s = din[i] ? h * din[i]->c[k] : 0.0;
+            xp[i]->c[k] = jin[i]->c[k] + s;
+            xm[i]->c[k] = jin[i]->c[k] - s;
+          }
+        ok = ok && nz_graph_eval_jets(pf, (const nz_jet *const *)xp, hi, NULL, NULL) == NZ_OK &&
+             nz_graph_eval_jets(pf, (const nz_jet *const *)xm, lo, NULL, NULL) == NZ_OK;
+        for (int k = 0; k < n; k++) lo[0]->c[k] = (hi[0]->c[k] - lo[0]->c[k]) / (2 * h);
+        worst_fd = fmax(worst_fd, jet_diff(dout[0], lo[0]));
+      }
+      char which[32] = "every input moves";
+      if (still >= 0) snprintf(which, sizeof which, "input %d still", still);
+      gsl_test(!ok || !(worst <= 1e-13),
+               "%s, %s: eta-part equals the derivative graph on jets (%.2g)", exprs[e].name,
+               which, worst);
+      gsl_test(!ok || !(worst_fd <= 1e-7),
+               "%s, %s: eta-part equals central differences on jets (%.2g)", exprs[e].name,
+               which, worst_fd);
+      nz_graph_plan_free(pf);
+      nz_graph_plan_free(pd);
+    }
+  }
+  for (int i = 0; i < NIN; i++) {
+    nz_jet_free(dj[i]);
+    nz_jet_free(xp[i]);
+    nz_jet_free(xm[i]);
+  }
+  nz_jet_free(out[0]);
+  nz_jet_free(dout[0]);
+  nz_jet_free(ref[0]);
+  nz_jet_free(lo[0]);
+  nz_jet_free(hi[0]);
+  free(dinput);
+}
+
+/* ------------------------------------------------------------------ */
+/* Failures                                                             */
+
+static void expect_failure(nz_graph *g, int root, double xin, double good, nz_status want,
+                           int want_node, nz_gop want_op, double want_operand, const char *what)
+{
+  nz_graph_plan *p = nz_graph_plan_new(g, &root, 1);
+  double in[1] = { xin }, out[1];
+  nz_jet *j = nz_jet_alloc(3, 1), *o = nz_jet_alloc(3, 1);
+  nz_jet_set_variable(j, xin, 0);
+  int node;
+  nz_gop op;
+  nz_jet_fn fn;
+  double operand;
+  nz_status st = nz_graph_eval(p, in, out);
+  nz_graph_plan_failure(p, &node, &op, &fn, &operand);
+  gsl_test(st != want || node != want_node || op != want_op ||
+               !(operand == want_operand || (isnan(operand) && isnan(want_operand))),
+           "%s on doubles: status %d, node %d (%s), operand %g", what, st, node, nz_gop_names[op], operand);
+  const nz_jet *jin1[1] = { j };
+  st = nz_graph_eval_jets(p, jin1, &o, NULL, NULL);
+  nz_graph_plan_failure(p, &node, &op, &fn, &operand);
+  gsl_test(st != want || node != want_node || op != want_op,
+           "%s on jets of order 3: status %d, node %d (%s)", what, st, node, nz_gop_names[op]);
+  /* A later good evaluation clears the failure. */
+  in[0] = good;
+  st = nz_graph_eval(p, in, out);
+  nz_graph_plan_failure(p, &node, NULL, NULL, NULL);
+  gsl_test(st != NZ_OK || node != -1, "%s: then x = %g evaluates, no failure kept", what, good);
+  nz_jet_free(j);
+  nz_jet_free(o);
+  nz_graph_plan_free(p);
+}
+
+static void check_failures(void)
+{
+  nz_graph *g = nz_graph_new();
+  int x = nz_graph_input(g, 0);
+  int lg = nz_graph_fn(g, NZ_FN_LOG, x);
+  int f1 = nz_graph_op(g, NZ_GOP_ADD, nz_graph_fn(g, NZ_FN_SIN, x), lg);
+  expect_failure(g, f1, -1.0, 0.5, NZ_EDOM, lg, NZ_GOP_FN, -1.0, "sin(x) + log(x) at x = -1 is NZ_EDOM at log");
+  int inv = nz_graph_op(g, NZ_GOP_DIV, nz_graph_const(g, 1.0), x);
+  expect_failure(g, inv, 0.0, 0.5, NZ_EZERODIV, inv, NZ_GOP_DIV, 1.0, "1/x at x = 0 is NZ_EZERODIV");
+  int ex = nz_graph_fn(g, NZ_FN_EXP, x);
+  int f2 = nz_graph_fn(g, NZ_FN_LOG, nz_graph_op(g, NZ_GOP_SUB, nz_graph_const(g, 1.0), ex));
+  expect_failure(g, f2, 800.0, -0.5, NZ_ERANGE, ex, NZ_GOP_FN, 800.0,
+                 "log(1 - exp(x)) at x = 800 fails first at exp (NZ_ERANGE), not at log");
+  int sn = nz_graph_fn(g, NZ_FN_SIN, x);
+  int f3 = nz_graph_op(g, NZ_GOP_MUL, sn, x);
+  expect_failure(g, f3, NAN, 0.5, NZ_ENAN, sn, NZ_GOP_FN, NAN, "sin(x) x at x = NaN is NZ_ENAN at sin");
+  int sq = nz_graph_fn(g, NZ_FN_SQRT, x);
+  expect_failure(g, sq, -2.0, 0.5, NZ_EDOM, sq, NZ_GOP_FN, -2.0, "sqrt(-2) is NZ_EDOM");
+  int as = nz_graph_fn(g, NZ_FN_ASIN, x);
+  expect_failure(g, as, 1.5, 0.5, NZ_EDOM, as, NZ_GOP_FN, 1.5, "asin(1.5) is NZ_EDOM");
+  /* sqrt at 0: a value on doubles, singular on jets of order >= 1 (as the jets). */
+  nz_graph_plan *p = nz_graph_plan_new(g, &sq, 1);
+  double in[1] = { 0.0 }, out[1];
+  nz_jet *j = nz_jet_alloc(2, 0), *o = nz_jet_alloc(2, 0);
+  nz_jet_set_variable(j, 0.0, -1);
+  const nz_jet *jj[1] = { j };
+  gsl_test(nz_graph_eval(p, in, out) != NZ_OK || out[0] != 0.0, "sqrt(0) = 0 on doubles");
+  gsl_test(nz_graph_eval_jets(p, jj, &o, NULL, NULL) != NZ_ESING, "sqrt(0 + t) is NZ_ESING on jets");
+  jj[0] = NULL;
+  gsl_test(nz_graph_eval_jets(p, jj, &o, NULL, NULL) != NZ_EDOM, "a used input without a jet is NZ_EDOM");
+  nz_jet_free(j);
+  nz_jet_free(o);
+  nz_graph_plan_free(p);
+  nz_graph_free(g);
+}
+
+/* ------------------------------------------------------------------ */
+/* Plans over part of a graph; timing                                   */
+
+/* A graph of about 1000 nodes, each new node using the previous one (so a
+ * plan on the last needs them all) and a random earlier one: products, half
+ * sums, half differences, and with `sines` a sine every tenth node.  Values
+ * stay in [-1, 1] for inputs there. */
+static int chain_graph(nz_graph *g, int sines, int *ids, int cap)
+{
+  int n = 0, half = nz_graph_const(g, 0.5);
+  for (int i = 0; i < 8; i++) ids[n++] = nz_graph_input(g, i);
+  while (nz_graph_size(g) < 1000 && n < cap) {
+    int a = ids[n - 1], b = ids[(int)(urand() * n)], k = (int)(urand() * 10), z;
+    if (k == 9 && sines) z = nz_graph_fn(g, NZ_FN_SIN, nz_graph_op(g, NZ_GOP_ADD, a, b));
+    else if (k < 4) z = nz_graph_op(g, NZ_GOP_MUL, a, b);
+    else if (k < 7) z = nz_graph_op(g, NZ_GOP_MUL, nz_graph_op(g, NZ_GOP_ADD, a, b), half);
+    else z = nz_graph_op(g, NZ_GOP_MUL, nz_graph_op(g, NZ_GOP_SUB, a, b), half);
+    ids[n++] = z;
+  }
+  return n;
+}
+
+static void time_plan(nz_graph_plan *p, const char *what)
+{
+  double in[8], out[1], sink = 0.0;
+  int reps = 20000;
+  struct timespec t0, t1;
+  for (int i = 0; i < 8; i++) in[i] = 2 * urand() - 1;
+  clock_gettime(CLOCK_MONOTONIC, &t0);
+  for (int r = 0; r < reps; r++) {
+    in[0] = 0.5 + 1e-9 * r;
+    nz_graph_eval(p, in, out);
+    sink += out[0];
+  }
+  clock_gettime(CLOCK_MONOTONIC, &t1);
+  double ns = ((double)(t1.tv_sec - t0.tv_sec) * 1e9 + (double)(t1.tv_nsec - t0.tv_nsec)) / reps;
+  printf("# timing (not a test): %s, %d-node plan on doubles: %.0f ns per evaluation, %.2f ns per node%s\n",
+         what, nz_graph_plan_nodes(p), ns, ns / nz_graph_plan_nodes(p), isfinite(sink) ? "" : " (!)");
+}
+
+static void check_plans_and_time(void)
+{
+  nz_graph *g = nz_graph_new();
+  int ids[1000], n = chain_graph(g, 1, ids, 1000);
+  int last = ids[n - 1], early = ids[20], outs[2] = { last, early };
+  nz_graph_plan *small = nz_graph_plan_new(g, &early, 1);
+  nz_graph_plan *p = nz_graph_plan_new(g, &last, 1);
+  nz_graph_plan *p2 = nz_graph_plan_new(g, outs, 2);
+  gsl_test(!small || nz_graph_plan_nodes(small) > early + 1 || nz_graph_plan_noutputs(p2) != 2,
+           "a plan holds only the nodes its outputs need (%d of %d)", nz_graph_plan_nodes(small),
+           nz_graph_size(g));
+  double in[8], out[2], ref = 0;
+  for (int i = 0; i < 8; i++) in[i] = 2 * urand() - 1;
+  nz_status st = nz_graph_eval(p2, in, out);
+  nz_graph_eval(small, in, &ref);
+  gsl_test(st || out[1] != ref, "two plans over one graph agree on a shared node");
+  time_plan(p, "+ - * and sin");
+  nz_graph_plan_free(small);
+  nz_graph_plan_free(p);
+  nz_graph_plan_free(p2);
+  nz_graph_free(g);
+  g = nz_graph_new();
+  n = chain_graph(g, 0, ids, 1000);
+  p = nz_graph_plan_new(g, &ids[n - 1], 1);
+  time_plan(p, "+ - * only");
+  nz_graph_plan_free(p);
+  nz_graph_free(g);
+}
+
+int main(void)
+{
+  gsl_test_verbose(1);
+  G = nz_graph_new();
+  check_folding();
+  check_sharing();
+  check_simplify();
+  check_doubles();
+  check_jets();
+  check_derivatives();
+  check_eta();
+  check_failures();
+  check_plans_and_time();
+  for (int i = 0; i < NIN; i++) nz_jet_free(jin[i]);
+  for (int i = 0; i < POOL; i++) nz_jet_free(pool[i]);
+  nz_graph_free(G);
+  return gsl_test_summary();
+}
