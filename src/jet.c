@@ -13,7 +13,7 @@
 
 const char *const nz_jet_fn_names[NZ_FN_COUNT] = {
   "exp", "log", "sqrt", "sin", "cos", "tan", "asin", "acos", "atan",
-  "sinh", "cosh", "tanh", "abs"
+  "sinh", "cosh", "tanh", "abs", "sign"
 };
 
 size_t nz_jet_bytes(int order, int ntan)
@@ -244,6 +244,17 @@ nz_status nz_jet_apply(nz_jet *z, nz_jet_fn f, const nz_jet *x, double *w)
   case NZ_FN_ABS:
     if (x0 == 0.0 && smooth) return NZ_ESING;
     return nz_jet_scale(z, x, x0 < 0.0 ? -1.0 : 1.0);
+  case NZ_FN_SIGN: {
+    /* sign(x) = [x > 0] - [x < 0] by the branch rule: the sign of the first
+     * nonzero coefficient.  A step: its derivatives vanish off the jump. */
+    int s = 0;
+    for (int k = 0; k <= K && !s; k++) {
+      if (isnan(x->c[k])) return NZ_ENAN;
+      s = (x->c[k] > 0.0) - (x->c[k] < 0.0);
+    }
+    nz_jet_set_constant(z, (double)s);
+    return NZ_OK;
+  }
   default:
     return NZ_EDOM;
   }
@@ -364,6 +375,52 @@ nz_status nz_jet_hypot(nz_jet *z, const nz_jet *a, const nz_jet *b, double *w)
     if (ad) { nz_series_mul(t, a->c, ad, K); series_axpy(num, 1.0, t, K); }
     if (bd) { nz_series_mul(t, b->c, bd, K); series_axpy(num, 1.0, t, K); }
     nz_series_div(nz_jet_tangent(z, d), num, z->c, K);
+  }
+  return nz_jet_check_finite(z);
+}
+
+/* -1, 0 or +1 as a is below, equal to or above b for t slightly above t0:
+ * the first coefficient (of 0..K) in which the value series differ decides
+ * (the branch rule of jet.h).  2 when a compared coefficient is NaN. */
+static int compare_series(const double *a, const double *b, int K)
+{
+  for (int k = 0; k <= K; k++) {
+    if (isnan(a[k]) || isnan(b[k])) return 2;
+    if (a[k] != b[k]) return a[k] < b[k] ? -1 : 1;
+  }
+  return 0;
+}
+
+nz_status nz_jet_compare(nz_jet *z, nz_cmp op, const nz_jet *a, const nz_jet *b)
+{
+  int r = compare_series(a->c, b->c, z->order), holds;
+  if (r == 2) return NZ_ENAN;
+  switch (op) {
+  case NZ_CMP_LT: holds = r < 0; break;
+  case NZ_CMP_LE: holds = r <= 0; break;
+  case NZ_CMP_GT: holds = r > 0; break;
+  case NZ_CMP_GE: holds = r >= 0; break;
+  case NZ_CMP_EQ: holds = r == 0; break;
+  case NZ_CMP_NE: holds = r != 0; break;
+  default: return NZ_EDOM;
+  }
+  nz_jet_set_constant(z, holds ? 1.0 : 0.0);
+  return NZ_OK;
+}
+
+/* memmove: z may be the chosen operand itself (same shape, same places). */
+nz_status nz_jet_select(nz_jet *z, const nz_jet *c, const nz_jet *a, const nz_jet *b)
+{
+  double c0 = c->c[0];
+  if (isnan(c0)) return NZ_ENAN;
+  const nz_jet *x = c0 != 0.0 ? a : b;
+  int K = z->order, Kx = x->order < K ? x->order : K;
+  size_t n = (size_t)(K + 1) * sizeof(double), nx = (size_t)(Kx + 1) * sizeof(double);
+  for (int d = -1; d < z->ntan; d++) {
+    double *zd = d < 0 ? z->c : nz_jet_tangent(z, d);
+    const double *xd = d < 0 ? x->c : nz_jet_tangent(x, d);
+    if (xd) memmove(zd, xd, nx);
+    if (!xd || nx < n) memset((char *)zd + (xd ? nx : 0), 0, n - (xd ? nx : 0));
   }
   return nz_jet_check_finite(z);
 }

@@ -41,7 +41,9 @@ typedef struct nz_jet {
 typedef enum nz_jet_fn {
   NZ_FN_EXP, NZ_FN_LOG, NZ_FN_SQRT, NZ_FN_SIN, NZ_FN_COS, NZ_FN_TAN,
   NZ_FN_ASIN, NZ_FN_ACOS, NZ_FN_ATAN, NZ_FN_SINH, NZ_FN_COSH, NZ_FN_TANH,
-  NZ_FN_ABS, NZ_FN_COUNT
+  NZ_FN_ABS,
+  NZ_FN_SIGN,   /* -1, 0, +1 by the branch rule of nz_jet_compare; derivatives 0 */
+  NZ_FN_COUNT
 } nz_jet_fn;
 
 extern const char *const nz_jet_fn_names[NZ_FN_COUNT];
@@ -93,5 +95,30 @@ nz_status nz_jet_pow(nz_jet *z, const nz_jet *x, double p, double *w);     /* x^
 nz_status nz_jet_pow_jet(nz_jet *z, const nz_jet *x, const nz_jet *y, double *w);
 nz_status nz_jet_atan2(nz_jet *z, const nz_jet *y, const nz_jet *x, double *w);
 nz_status nz_jet_hypot(nz_jet *z, const nz_jet *a, const nz_jet *b, double *w);
+
+/* Branches that a recorded graph can hold (issue 10): a comparison gives a
+ * number, a selection picks a whole operand, so no C or Lua `if` on a traced
+ * value is needed.
+ *
+ * The branch rule.  Near t0 a series a(t) lies above b(t) for t slightly
+ * greater than t0 when the first coefficient in which they differ is larger
+ * in a: the value series are compared lexicographically, c_0 first, then
+ * c_1, ..., up to z's order.  At a tie in value the series that grows wins,
+ * which is the branch the motion takes for t > t0 (x = t - t0 against 0 at
+ * t0: x > 0 holds).  Series equal in every known coefficient are equal.
+ * Tangent series are not compared: the result of a comparison is a step,
+ * whose derivative is 0 wherever it is defined. */
+typedef enum nz_cmp { NZ_CMP_LT, NZ_CMP_LE, NZ_CMP_GT, NZ_CMP_GE, NZ_CMP_EQ, NZ_CMP_NE } nz_cmp;
+
+/* z = 1 where a op b holds, else 0, as a constant series (every other
+ * coefficient and every tangent 0).  z has the result shape of a and b and
+ * may alias either.  NZ_ENAN when a compared coefficient is NaN. */
+nz_status nz_jet_compare(nz_jet *z, nz_cmp op, const nz_jet *a, const nz_jet *b);
+
+/* z = a when c's value c_0 != 0, else b: the whole jet, tangents included,
+ * in z's shape (z's order must not exceed the chosen operand's; a direction
+ * the chosen operand lacks is zero).  c's value is read first, so z may
+ * alias any operand.  NZ_ENAN when c_0 is NaN. */
+nz_status nz_jet_select(nz_jet *z, const nz_jet *c, const nz_jet *a, const nz_jet *b);
 
 #endif

@@ -15,20 +15,27 @@
 /* ------------------------------------------------------------------ */
 /* Workspace                                                            */
 
+/* Order 0 jets: slots 0..2 carry number operands, 3 a number result, 4 the
+ * condition a branch function passes to nz_jet_select. */
+#define NSCALAR 5
+/* Constant jets shaped like another operand, one per operand of the
+ * three-operand functions (ifelse, clamp). */
+#define NKONST 3
+
 typedef struct jet_workspace {
   double *w;            /* scratch series for the kernels             */
   size_t wlen;
-  nz_jet *scalar[3];    /* order 0 jets that carry plain numbers      */
-  nz_jet *konst;        /* a constant jet shaped like another operand */
-  size_t konst_bytes;
+  nz_jet *scalar[NSCALAR];
+  nz_jet *konst[NKONST];
+  size_t konst_bytes[NKONST];
 } jet_workspace;
 
 static int workspace_gc(lua_State *L)
 {
   jet_workspace *ws = lua_touserdata(L, 1);
   free(ws->w);
-  for (int i = 0; i < 3; i++) nz_jet_free(ws->scalar[i]);
-  free(ws->konst);
+  for (int i = 0; i < NSCALAR; i++) nz_jet_free(ws->scalar[i]);
+  for (int i = 0; i < NKONST; i++) free(ws->konst[i]);
   memset(ws, 0, sizeof *ws);
   return 0;
 }
@@ -51,20 +58,25 @@ static double *work_for(lua_State *L, int order)
   return ws->w;
 }
 
-/* A constant jet of the given shape (valid until the next call). */
-static nz_jet *constant_like(lua_State *L, double v, int order, int ntan)
+/* A constant jet of the given shape in slot s (valid until the next call). */
+static nz_jet *constant_in(lua_State *L, int s, double v, int order, int ntan)
 {
   jet_workspace *ws = get_workspace(L);
   size_t need = nz_jet_bytes(order, ntan);
-  if (ws->konst_bytes < need) {
-    void *p = realloc(ws->konst, need);
+  if (ws->konst_bytes[s] < need) {
+    void *p = realloc(ws->konst[s], need);
     if (!p) luaL_error(L, "not enough memory for a jet of order %d", order);
-    ws->konst = p;
-    ws->konst_bytes = need;
+    ws->konst[s] = p;
+    ws->konst_bytes[s] = need;
   }
-  nz_jet_init(ws->konst, order, ntan);
-  ws->konst->c[0] = v;
-  return ws->konst;
+  nz_jet_init(ws->konst[s], order, ntan);
+  ws->konst[s]->c[0] = v;
+  return ws->konst[s];
+}
+
+static nz_jet *constant_like(lua_State *L, double v, int order, int ntan)
+{
+  return constant_in(L, 0, v, order, ntan);
 }
 
 /* ------------------------------------------------------------------ */
@@ -248,6 +260,7 @@ UNARY(sinh, NZ_FN_SINH)
 UNARY(cosh, NZ_FN_COSH)
 UNARY(tanh, NZ_FN_TANH)
 UNARY(abs, NZ_FN_ABS)
+UNARY(sign, NZ_FN_SIGN)
 
 /* ------------------------------------------------------------------ */
 /* Binary operations: numbers on either side, jets of any shapes        */
@@ -358,6 +371,157 @@ static double value_of(lua_State *L, int idx)
 static int lj_eq(lua_State *L) { lua_pushboolean(L, value_of(L, 1) == value_of(L, 2)); return 1; }
 static int lj_lt(lua_State *L) { lua_pushboolean(L, value_of(L, 1) < value_of(L, 2)); return 1; }
 static int lj_le(lua_State *L) { lua_pushboolean(L, value_of(L, 1) <= value_of(L, 2)); return 1; }
+
+/* ------------------------------------------------------------------ */
+/* Branches that can be recorded: comparisons that return numbers and   */
+/* selections of whole operands (nz_jet_compare, nz_jet_select).        */
+
+/* Up to three operands, numbers or jets, and the result's shape (as in
+ * binary(): the lower order of the jets, a number being exact to every
+ * order, and the most tangents).  given[] keeps the operands as passed, for
+ * the error messages. */
+typedef struct branch_args {
+  int n;
+  nz_jet *x[3];
+  const nz_jet *given[3];
+  int order, ntan;
+  int as_number;   /* every operand that shapes the result is a number */
+} branch_args;
+
+/* Read arguments first..last (at most 3, scalar slots 0..2) as operands;
+ * those from `shape` on decide the result's shape, and a number among them
+ * becomes a constant of that shape's order, so that the branch rule compares
+ * series of the same length.  A Lua boolean is refused with the reason. */
+static void read_branch_args(lua_State *L, int last, int shape, const char *fname, branch_args *o)
+{
+  int isnum[3], njets = 0;
+  o->n = last;
+  o->order = 0;
+  o->ntan = 0;
+  for (int i = 0; i < last; i++) {
+    if (lua_type(L, i + 1) == LUA_TBOOLEAN)
+      luaL_error(L, "bad argument #%d to '%s' (number or jet expected, got boolean): a Lua "
+                 "comparison (x > 0) cannot be recorded; write the condition with nz.gt(x, 0), "
+                 "nz.lt, nz.ge or nz.le", i + 1, fname);
+    o->x[i] = jet_or_scalar(L, i + 1, i, fname);
+    o->given[i] = o->x[i];
+    isnum[i] = !nz_lua_tojet(L, i + 1);
+  }
+  for (int i = shape; i < last; i++) {
+    if (o->x[i]->ntan > o->ntan) o->ntan = o->x[i]->ntan;
+    if (isnum[i]) continue;
+    if (njets == 0 || o->x[i]->order < o->order) o->order = o->x[i]->order;
+    njets++;
+  }
+  o->as_number = njets == 0;
+  if (o->as_number) return;
+  for (int i = 0; i < last; i++)
+    if (isnum[i]) o->x[i] = constant_in(L, i, o->x[i]->c[0], o->order, 0);
+}
+
+/* The result: a new jet of the shape, or the number slot. */
+static nz_jet *branch_result(lua_State *L, const branch_args *o)
+{
+  return o->as_number ? get_workspace(L)->scalar[3] : nz_lua_newjet(L, o->order, o->ntan);
+}
+
+static int branch_failure(lua_State *L, nz_status st, const char *fname, const branch_args *o)
+{
+  return raise_failure(L, st, fname, o->given, o->n, o->given[0]->c[0],
+                       o->n > 1 ? o->given[1]->c[0] : 0.0);
+}
+
+/* A number type written in Lua among the arguments gets the call. */
+static int branch_dispatch(lua_State *L, int nargs, const char *fname)
+{
+  for (int i = 1; i <= nargs; i++)
+    if (lua_type(L, i) == LUA_TTABLE) return dispatch_to_table(L, nargs, fname);
+  return 0;
+}
+
+/* nz.lt(a, b) ... : 1 or 0, a number for numbers, else a constant jet. */
+static int compare_fn(lua_State *L, nz_cmp op, const char *fname)
+{
+  lua_settop(L, 2);
+  if (branch_dispatch(L, 2, fname)) return 1;
+  branch_args o;
+  read_branch_args(L, 2, 0, fname, &o);
+  nz_jet *z = branch_result(L, &o);
+  nz_status st = nz_jet_compare(z, op, o.x[0], o.x[1]);
+  if (st) return branch_failure(L, st, fname, &o);
+  push_result(L, z, o.as_number);
+  return 1;
+}
+
+static int lj_lt_fn(lua_State *L) { return compare_fn(L, NZ_CMP_LT, "lt"); }
+static int lj_le_fn(lua_State *L) { return compare_fn(L, NZ_CMP_LE, "le"); }
+static int lj_gt_fn(lua_State *L) { return compare_fn(L, NZ_CMP_GT, "gt"); }
+static int lj_ge_fn(lua_State *L) { return compare_fn(L, NZ_CMP_GE, "ge"); }
+
+/* nz.ifelse(c, a, b): a where c's value is nonzero, else b.  The result has
+ * the shape of a and b (c only chooses); a number when both are numbers. */
+static int lj_ifelse(lua_State *L)
+{
+  lua_settop(L, 3);
+  if (branch_dispatch(L, 3, "ifelse")) return 1;
+  branch_args o;
+  read_branch_args(L, 3, 1, "ifelse", &o);
+  nz_jet *z = branch_result(L, &o);
+  nz_status st = nz_jet_select(z, o.x[0], o.x[1], o.x[2]);
+  if (st) return branch_failure(L, st, "ifelse", &o);
+  push_result(L, z, o.as_number);
+  return 1;
+}
+
+/* max(a, b) = select(ge(a, b), a, b), min(a, b) = select(le(a, b), a, b):
+ * at a tie in every known coefficient the first operand is returned. */
+static int extremum(lua_State *L, nz_cmp op, const char *fname)
+{
+  lua_settop(L, 2);
+  if (branch_dispatch(L, 2, fname)) return 1;
+  branch_args o;
+  read_branch_args(L, 2, 0, fname, &o);
+  nz_jet *z = branch_result(L, &o);
+  nz_status st = nz_jet_compare(z, op, o.x[0], o.x[1]);
+  if (!st) st = nz_jet_select(z, z, o.x[0], o.x[1]);   /* z may alias the condition */
+  if (st) return branch_failure(L, st, fname, &o);
+  push_result(L, z, o.as_number);
+  return 1;
+}
+
+static int lj_max(lua_State *L) { return extremum(L, NZ_CMP_GE, "max"); }
+static int lj_min(lua_State *L) { return extremum(L, NZ_CMP_LE, "min"); }
+
+/* nz.clamp(x, lo, hi) = min(max(x, lo), hi), lo <= hi: lo where x < lo, hi
+ * where x > hi, else x (x itself at a tie with a bound). */
+static int lj_clamp(lua_State *L)
+{
+  lua_settop(L, 3);
+  if (branch_dispatch(L, 3, "clamp")) return 1;
+  branch_args o;
+  read_branch_args(L, 3, 0, "clamp", &o);
+  nz_jet *z = branch_result(L, &o), *c = get_workspace(L)->scalar[4];
+  nz_jet *x = o.x[0], *lo = o.x[1], *hi = o.x[2];
+  nz_status st = nz_jet_compare(z, NZ_CMP_GT, lo, hi);
+  if (st) return branch_failure(L, st, "clamp", &o);
+  if (z->c[0] != 0.0) {
+    char a[32], b[32];
+    return luaL_error(L, "bad argument #2 to 'clamp' (the lower bound %s is above the upper "
+                      "bound %s, compared as series: clamp(x, lo, hi) needs lo <= hi)",
+                      fmt_num(a, sizeof a, lo->c[0]), fmt_num(b, sizeof b, hi->c[0]));
+  }
+  st = nz_jet_compare(z, NZ_CMP_LT, x, lo);
+  double below = z->c[0];
+  if (!st) st = nz_jet_compare(z, NZ_CMP_GT, x, hi);
+  double above = z->c[0];
+  c->c[0] = below;
+  if (!st) st = nz_jet_select(z, c, lo, x);
+  c->c[0] = above;
+  if (!st) st = nz_jet_select(z, c, hi, z);   /* z may be the operand it keeps */
+  if (st) return branch_failure(L, st, "clamp", &o);
+  push_result(L, z, o.as_number);
+  return 1;
+}
 
 /* ------------------------------------------------------------------ */
 /* Construction                                                         */
@@ -628,7 +792,9 @@ static const luaL_Reg jet_functions[] = {
   { "cos", lj_cos }, { "tan", lj_tan }, { "asin", lj_asin }, { "acos", lj_acos },
   { "atan", lj_atan }, { "atan2", lj_atan2 }, { "sinh", lj_sinh }, { "cosh", lj_cosh },
   { "tanh", lj_tanh }, { "abs", lj_abs }, { "hypot", lj_hypot }, { "pow", lj_pow },
-  { NULL, NULL }
+  { "sign", lj_sign }, { "ifelse", lj_ifelse }, { "lt", lj_lt_fn }, { "le", lj_le_fn },
+  { "gt", lj_gt_fn }, { "ge", lj_ge_fn }, { "max", lj_max }, { "min", lj_min },
+  { "clamp", lj_clamp }, { NULL, NULL }
 };
 
 static void push_workspace(lua_State *L)
@@ -639,7 +805,7 @@ static void push_workspace(lua_State *L)
   lua_pushcfunction(L, workspace_gc);
   lua_setfield(L, -2, "__gc");
   lua_setmetatable(L, -2);
-  for (int i = 0; i < 3; i++)
+  for (int i = 0; i < NSCALAR; i++)
     if (!(ws->scalar[i] = nz_jet_alloc(0, 0))) luaL_error(L, "not enough memory");
 }
 

@@ -5,6 +5,7 @@
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include <gsl/gsl_math.h>
 #include <gsl/gsl_sf_gamma.h>
 #include <gsl/gsl_test.h>
@@ -101,10 +102,74 @@ static void check_central_jacobian(void)
   gsl_test(st || !(worst <= 1e-9), "central-difference Jacobian, step per component (relative error %.2g)", worst);
 }
 
+/* Branches (nz_jet_compare, nz_jet_select, NZ_FN_SIGN) against hand-built
+ * series: u = t - t0 at t0 is 0 in value and grows, so every comparison with
+ * 0 is decided by c_1 (the motion after t0), and a selection is a copy. */
+static void check_branches(void)
+{
+  nz_jet *u = nz_jet_alloc(3, 2), *zero = nz_jet_alloc(3, 0), *r = nz_jet_alloc(3, 2);
+  nz_jet *v = nz_jet_alloc(5, 1), *d = nz_jet_alloc(0, 1), *dz = nz_jet_alloc(0, 1);
+  double ww[8 * 6];
+  nz_jet_set_variable(u, 0.7, 1);    /* tangent 2 seeded */
+  u->c[0] -= 0.7;                    /* u = t - t0: c = {0, 1, 0, 0} */
+  nz_jet_set_constant(zero, 0.0);
+  static const struct { nz_cmp op; double want; const char *name; } cases[] = {
+    { NZ_CMP_LT, 0, "lt" }, { NZ_CMP_LE, 0, "le" }, { NZ_CMP_GT, 1, "gt" },
+    { NZ_CMP_GE, 1, "ge" }, { NZ_CMP_EQ, 0, "eq" }, { NZ_CMP_NE, 1, "ne" },
+  };
+  for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+    int st = nz_jet_compare(r, cases[i].op, u, zero);
+    double rest = 0.0;
+    for (int k = 1; k < 12; k++) rest += fabs(r->c[k]);
+    gsl_test(st || r->c[0] != cases[i].want || rest != 0.0,
+             "compare %s(t - t0, 0) at t0 is %g by c_1, a constant (got %g, rest %g)",
+             cases[i].name, cases[i].want, r->c[0], rest);
+  }
+  /* An order 0 dual number knows only the value: a tie is equality. */
+  nz_jet_set_variable(d, 0.0, 0);
+  nz_jet *zero0 = nz_jet_alloc(0, 0);
+  nz_jet_set_constant(zero0, 0.0);
+  gsl_test(nz_jet_compare(dz, NZ_CMP_EQ, d, zero0) || dz->c[0] != 1.0,
+           "compare eq(dual 0 + eps, 0) is 1: tangents are not compared");
+  /* select: the chosen jet, copied whole into r's shape (order 3 of v's 5,
+   * tangent 2 that v lacks is 0); r may be the condition. */
+  for (int k = 0; k <= 5; k++) { v->c[k] = 1.0 / (k + 1); nz_jet_tangent(v, 0)[k] = k; }
+  nz_jet_set_constant(r, 1.0);
+  int st = nz_jet_select(r, r, v, u), bad = 0;
+  for (int k = 0; k <= 3; k++)
+    bad |= r->c[k] != v->c[k] || nz_jet_tangent(r, 0)[k] != k || nz_jet_tangent(r, 1)[k] != 0.0;
+  gsl_test(st || bad, "select(1, v, u) copies v in the shape (3, 2), the missing tangent 0");
+  nz_jet_set_constant(r, 0.0);
+  st = nz_jet_select(r, r, v, u);
+  bad = 0;
+  for (int k = 0; k <= 3; k++)
+    bad |= r->c[k] != u->c[k] || nz_jet_tangent(r, 1)[k] != nz_jet_tangent(u, 1)[k];
+  gsl_test(st || bad, "select(0, v, u) copies u");
+  /* sign(t0 - t): decided by c_1 = -1, every derivative 0. */
+  nz_jet *m = nz_jet_alloc(3, 2);
+  nz_jet_scale(m, u, -1.0);
+  st = nz_jet_apply(r, NZ_FN_SIGN, m, ww);
+  nz_jet_free(m);
+  double rest = 0.0;
+  for (int k = 1; k < 12; k++) rest += fabs(r->c[k]);
+  gsl_test(st || r->c[0] != -1.0 || rest != 0.0, "sign(t0 - t) at t0 is -1, derivatives 0");
+  gsl_test(strcmp(nz_jet_fn_names[NZ_FN_SIGN], "sign") != 0, "NZ_FN_SIGN is named sign");
+  /* NaN is a status, never a branch. */
+  zero->c[2] = NAN;
+  gsl_test(nz_jet_compare(r, NZ_CMP_GT, u, zero) != NZ_OK, "compare decided at c_1 before a NaN c_2");
+  zero->c[1] = NAN;
+  gsl_test(nz_jet_compare(r, NZ_CMP_GT, u, zero) != NZ_ENAN, "compare meeting a NaN is NZ_ENAN");
+  nz_jet_set_constant(dz, NAN);
+  gsl_test(nz_jet_select(r, dz, u, u) != NZ_ENAN, "select on a NaN condition is NZ_ENAN");
+  nz_jet_free(u); nz_jet_free(zero); nz_jet_free(r); nz_jet_free(v); nz_jet_free(d);
+  nz_jet_free(dz); nz_jet_free(zero0);
+}
+
 int main(void)
 {
   check_central_jacobian();
   gsl_test_verbose(1);
+  check_branches();
   double one[K + 1];
   variable(x, 0.0);
 

@@ -8,6 +8,7 @@ local M = {}
 local sections = {
   { id = "jets", title = "Jets: truncated Taylor series with tangent (dual) directions" },
   { id = "functions", title = "Functions of numbers and jets (numbers give numbers)" },
+  { id = "branches", title = "Branches that can be recorded (instead of a Lua if on a jet)" },
   { id = "mechanics", title = "Mechanical systems and their equations of any order" },
   { id = "scenes", title = "Scenes, effects and the classroom" },
   { id = "operators", title = "Operators on a function f(t, q, qd) (THEORY.md §2, §5)" },
@@ -70,9 +71,67 @@ directions; f(x):tangent(1):value() is then df/dx at 2.]] },
   { name = "cosh", section = "functions", usage = "nz.cosh(x)", summary = "hyperbolic cosine" },
   { name = "tanh", section = "functions", usage = "nz.tanh(x)", summary = "hyperbolic tangent" },
   { name = "abs", section = "functions", usage = "nz.abs(x)",
-    summary = "absolute value (not differentiable at 0)" },
+    summary = "absolute value (not differentiable at 0: see sign, smooth_abs)" },
   { name = "hypot", section = "functions", usage = "nz.hypot(x, y)",
     summary = "sqrt(x^2 + y^2) without overflow" },
+  { name = "ifelse", section = "branches", usage = "nz.ifelse(c, a, b)",
+    summary = "a where c is nonzero, else b: a branch that can be recorded",
+    text = [[
+A Lua `if q[1] > 0 then ... end` on a jet (or on the tracer that records a
+function once as a graph) cannot be recorded: the function then falls back to
+Lua evaluation.  Write the choice as a value instead:
+
+  V = function(t, q) return nz.ifelse(nz.gt(q[1], 0), k1 * q[1]^2, k2 * q[1]^2) end
+
+c is a number or a jet, usually from nz.lt, nz.le, nz.gt, nz.ge; it is true
+when its value is nonzero (a Lua boolean is refused: x > 0 cannot be
+recorded).  The chosen branch is returned whole, tangents included, in the
+shape of a and b together (their lower order, their larger tangent count; a
+number where both are numbers).  Both branches are computed, since they are
+arguments: each must be defined where it is not chosen (clamp the argument of
+a sqrt or log that is only meant for one side).  The derivative is that of
+the branch taken; at the switch the function may jump or kink.]] },
+  { name = "lt", section = "branches", usage = "nz.lt(a, b)",
+    summary = "1 if a < b, else 0 (a number, or a constant jet)",
+    text = [[
+nz.lt, nz.le, nz.gt and nz.ge compare numbers and jets in any mix and return 1
+or 0: a number for numbers, else a constant jet of the result shape (every
+derivative and tangent 0), for nz.ifelse.  Jets are compared as the motion
+goes on just after t0: by value first, and at a tie in value by the first
+coefficient of the Taylor series in which they differ (c_1, then c_2, ...).
+So nz.gt(t - t0, 0) is 1 at t0: the branch taken for t > t0.  Series equal in
+every known coefficient are equal (a dual number knows only its value).
+Tangents are not compared: a comparison is a step, its derivative is 0.]] },
+  { name = "le", section = "branches", usage = "nz.le(a, b)", summary = "1 if a <= b, else 0 (see help(nz.lt))" },
+  { name = "gt", section = "branches", usage = "nz.gt(a, b)", summary = "1 if a > b, else 0 (see help(nz.lt))" },
+  { name = "ge", section = "branches", usage = "nz.ge(a, b)", summary = "1 if a >= b, else 0 (see help(nz.lt))" },
+  { name = "max", section = "branches", usage = "nz.max(a, b)",
+    summary = "the larger of a and b, whole: nz.ifelse(nz.ge(a, b), a, b)",
+    text = [[
+The operand that is larger by the rule of help(nz.lt), returned whole (value
+and tangents), in the shape of both; a at a tie in every known coefficient.
+Its derivative is the larger operand's, which at a crossing is the one that
+is larger just after t0.  Numbers and jets mix as in arithmetic.]] },
+  { name = "min", section = "branches", usage = "nz.min(a, b)",
+    summary = "the smaller of a and b, whole: nz.ifelse(nz.le(a, b), a, b)" },
+  { name = "clamp", section = "branches", usage = "nz.clamp(x, lo, hi)",
+    summary = "lo where x < lo, hi where x > hi, else x (min(max(x, lo), hi), lo <= hi)" },
+  { name = "sign", section = "branches", usage = "nz.sign(x)",
+    summary = "-1, 0 or +1; every derivative 0 (a step, exact away from its jump)",
+    text = [[
+The sign of x by the rule of help(nz.lt): at x = 0 the sign of the first
+nonzero Taylor coefficient, 0 for the zero series.  A step: all derivatives
+and tangents of the result are 0, which is exact everywhere but at the jump.
+nz.sign(x) * x is |x| on the side the motion takes, even at x = 0 where
+nz.abs refuses a jet with derivatives; nz.smooth_abs(x, eps) is smooth there.]] },
+  { name = "smooth_abs", section = "branches", usage = "nz.smooth_abs(x, eps)",
+    summary = "sqrt(x^2 + eps^2) - eps: |x| within eps, smooth at 0 (slope x/sqrt(x^2 + eps^2))",
+    text = [[
+A smooth absolute value: below |x| by at most eps, x^2/(2 eps) near 0, its
+derivative x/sqrt(x^2 + eps^2) continuous.  Use it where a force or an energy
+with |x| must stay differentiable (an integrator with a Jacobian, a Taylor
+series through x = 0).  Built from * + - and sqrt, so it is recorded with no
+node of its own; eps may be a parameter (p.eps), a plain number must be > 0.]] },
   { name = "system", section = "mechanics", usage = "nz.system{coords = {...}, T = f, V = f, Q = f, ...}",
     summary = "define a mechanical system; methods residual, accel, mass, energy, equations",
     text = [[

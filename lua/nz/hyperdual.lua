@@ -68,4 +68,27 @@ function HD.hypot(x, y)
   return make(h, (xv * xd + yv * yd) / h)
 end
 
+-- Branches (nz.ifelse, nz.max, ...).  A comparison looks at v alone and
+-- gives a plain constant (its eta part, the derivative of a step, is 0); a
+-- selection takes v and d from the same branch, so that the eta part is the
+-- derivative of the branch taken.
+local function value_part(x) return (parts(x)) end
+for _, name in ipairs { "lt", "le", "gt", "ge" } do
+  HD[name] = function(a, b) return core[name](value_part(a), value_part(b)) end
+end
+function HD.sign(a) return core.sign(value_part(a)) end
+function HD.ifelse(c, a, b)
+  local cv = value_part(c)
+  local av, ad = parts(a); local bv, bd = parts(b)
+  return make(core.ifelse(cv, av, bv), core.ifelse(cv, ad, bd))
+end
+function HD.max(a, b) return HD.ifelse(HD.ge(a, b), a, b) end
+function HD.min(a, b) return HD.ifelse(HD.le(a, b), a, b) end
+-- The same choices as nz.clamp in C: lo where x < lo, hi where x > hi, else x.
+function HD.clamp(x, lo, hi)
+  local lov, hiv = value_part(lo), value_part(hi)
+  core.clamp(lov, lov, hiv)   -- the check lo <= hi, with C's message
+  return HD.ifelse(HD.lt(x, lo), lo, HD.ifelse(HD.gt(x, hi), hi, x))
+end
+
 return { new = make, is = is_hd, parts = parts }

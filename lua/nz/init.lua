@@ -21,6 +21,7 @@ nz.effects = require "nz.effects"
 nz.scene = require("nz.scene").scene
 nz.check = require("nz.check").check
 nz.rotations = require "nz.rotations"
+nz.smooth_abs = require("nz.branch").smooth_abs
 
 nz.help = require("nz.help").bind(nz)
 
