@@ -292,7 +292,7 @@ local function eigenvalues(K, C) return roots(quartic(K, C)) end
 
 local model = { system = bicycle, params = p, state = state, linearize = linearize, eigenvalues = eigenvalues,
   quartic = quartic, roots = roots, front_contact_height = front_contact_height,
-  front_contact_velocity = front_contact_velocity, frames = frames, omegas = omegas,
+  front_contact_velocity = front_contact_velocity, rear_rolling = rear_rolling, frames = frames, omegas = omegas, bodies = bodies,
   index = { x = X, y = Y, yaw = YAW, lean = LEAN, pitch = PITCH, rear = REAR, steer = STEER, front = FRONT } }
 if ... == "module" then return model end
 
