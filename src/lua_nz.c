@@ -14,6 +14,7 @@
 #include <lauxlib.h>
 #include "embedded.h"
 #include <gsl/gsl_errno.h>
+#include "lua_graph.h"
 #include "lua_jet.h"
 #include "lua_special.h"
 #include "lua_system.h"
@@ -106,6 +107,7 @@ static int open_core(lua_State *L)
   lua_newtable(L);
   nz_lua_open_jet(L);
   nz_lua_open_system(L);
+  nz_lua_open_graph(L);
   nz_lua_open_special(L);
   lua_pushstring(L, NZ_VERSION);
   lua_setfield(L, -2, "version");

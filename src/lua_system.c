@@ -15,6 +15,7 @@
 #include <lauxlib.h>
 #include "constrained.h"
 #include "linalg.h"
+#include "lua_graph.h"
 #include "lua_jet.h"
 #include "lua_ode.h"
 #include "lua_system.h"
@@ -390,6 +391,58 @@ static int lua_eval(void *vctx, nz_piece piece, int index, const nz_jet *t,
   return status;
 }
 
+/* The evaluator of a system with a recording: a compiled piece runs on its
+ * graph in C; a piece that is not compiled, or whose graph fails at this
+ * state (a domain error, say), runs in Lua, which then either gives the
+ * value or raises the error with the user's function and line. */
+static int hybrid_eval(void *vctx, nz_piece piece, int index, const nz_jet *t,
+                       nz_jet *const *const *levels, int nlevels, nz_jet *const *out,
+                       const nz_direction *dir)
+{
+  bound_system *b = vctx;
+  if (nz_compiled_has(b->comp, piece, index) &&
+      nz_compiled_eval(b->comp, piece, index, t, levels, nlevels, out, dir) == NZ_OK)
+    return NZ_OK;
+  return lua_eval(&b->ev, piece, index, t, levels, nlevels, out, dir);
+}
+
+/* Bind the recording at def.compiled, if any: read the parameters' current
+ * values (def.compiled_params lists their names in input order). */
+static void bind_compiled(lua_State *L, int def, bound_system *b)
+{
+  if (lua_getfield(L, def, "compiled") != LUA_TUSERDATA || !(b->comp = nz_lua_tocompiled(L, -1))) {
+    lua_pop(L, 1);
+    return;
+  }
+  lua_pop(L, 1);   /* def keeps it alive */
+  double *pv = nz_compiled_params(b->comp);
+  int np = nz_compiled_nparams(b->comp);
+  if (np > 0) {
+    lua_getfield(L, def, "compiled_params");
+    lua_getfield(L, def, "params");
+    for (int p = 0; p < np; p++) {
+      lua_geti(L, -2, p + 1);
+      lua_gettable(L, -2);
+      int isnum;
+      pv[p] = lua_tonumberx(L, -1, &isnum);
+      if (!isnum) {
+        lua_geti(L, -3, p + 1);
+        luaL_error(L, "system '%s': params.%s must stay a number (its functions were recorded reading it as one), got %s",
+                   nz_lua_system_name(L, def), lua_tostring(L, -1), luaL_typename(L, -2));
+      }
+      lua_pop(L, 1);
+    }
+    lua_pop(L, 2);
+  }
+  b->sys.ev.eval = hybrid_eval;
+  b->sys.ev.ctx = b;
+  if (lua_getfield(L, def, "compiled_mass_bias") == LUA_TBOOLEAN && lua_toboolean(L, -1)) {
+    b->sys.mass_bias = nz_compiled_mass_bias;
+    b->sys.mass_bias_ctx = b->comp;
+  }
+  lua_pop(L, 1);
+}
+
 /* ------------------------------------------------------------------ */
 /* Reading the system and the state                                     */
 
@@ -422,6 +475,7 @@ void nz_lua_bind_system(lua_State *L, int def, bound_system *b)
   b->ev.k = b->sys.k;
   b->sys.ev.eval = lua_eval;
   b->sys.ev.ctx = &b->ev;
+  bind_compiled(L, b->ev.def, b);
 }
 
 const char *nz_lua_system_name(lua_State *L, int def)
@@ -726,6 +780,80 @@ static int ls_energy_terms(lua_State *L)
   return 4;
 }
 
+/* piece(def, name, index, t, levels [, dt, dlevels]) -> outs [, douts]:
+ * one evaluation of a piece ("F", "T", "V", "Q", "S", "constraints";
+ * index 1-based) on jets, through the system's evaluator (its graph, or
+ * Lua), optionally along a state direction.  For tests that compare the
+ * two evaluators (tests/graph_diff_spec.lua).  levels: a list of lists of
+ * k jets; outputs have the lowest order and the most tangents of the
+ * arguments. */
+static const char *const piece_options[] = { "F", "T", "V", "Q", "S", "constraints", NULL };
+
+static void read_jet_levels(lua_State *L, int idx, int k, int nlev, nz_jet ***store)
+{
+  for (int j = 0; j < nlev; j++) {
+    if (lua_geti(L, idx, j + 1) != LUA_TTABLE) luaL_error(L, "piece: level %d must be a list of jets", j + 1);
+    for (int i = 0; i < k; i++) {
+      lua_geti(L, -1, i + 1);
+      store[j][i] = nz_lua_checkjet(L, -1);
+      lua_pop(L, 1);     /* the level table keeps it alive */
+    }
+    lua_pop(L, 1);       /* the levels table keeps the level alive */
+  }
+}
+
+static int ls_piece(lua_State *L)
+{
+  lua_settop(L, 7);
+  bound_system b;
+  nz_lua_bind_system(L, 1, &b);
+  int k = b.sys.k;
+  nz_piece piece = (nz_piece)luaL_checkoption(L, 2, NULL, piece_options);
+  int index = (int)luaL_checkinteger(L, 3) - 1;
+  nz_jet *t = nz_lua_checkjet(L, 4);
+  luaL_checktype(L, 5, LUA_TTABLE);
+  int nlev = (int)luaL_len(L, 5), with_dir = !lua_isnil(L, 6);
+  if (nlev < 1 || nlev > NZ_MAX_LEVELS) return luaL_error(L, "piece: 1 to %d levels expected", NZ_MAX_LEVELS);
+  nz_jet ***lv = lua_newuserdatauv(L, 2 * (size_t)nlev * sizeof(nz_jet **), 0);
+  nz_jet **cells = lua_newuserdatauv(L, 2 * (size_t)nlev * (size_t)k * sizeof(nz_jet *), 0);
+  for (int j = 0; j < 2 * nlev; j++) lv[j] = cells + (size_t)j * (size_t)k;
+  read_jet_levels(L, 5, k, nlev, lv);
+  int order = t->order, ntan = t->ntan;
+  for (int j = 0; j < nlev; j++)
+    for (int i = 0; i < k; i++) {
+      if (lv[j][i]->order < order) order = lv[j][i]->order;
+      if (lv[j][i]->ntan > ntan) ntan = lv[j][i]->ntan;
+    }
+  nz_direction dir = { 0 };
+  if (with_dir) {
+    dir.dt = nz_lua_checkjet(L, 6);
+    luaL_checktype(L, 7, LUA_TTABLE);
+    if ((int)luaL_len(L, 7) != nlev) return luaL_error(L, "piece: dlevels must have as many levels as levels");
+    read_jet_levels(L, 7, k, nlev, lv + nlev);
+  }
+  int nout = piece == NZ_PIECE_Q ? k : 1;
+  lua_createtable(L, nout, 0);
+  int outs = lua_gettop(L);
+  lua_createtable(L, nout, 0);
+  int douts = lua_gettop(L);
+  nz_jet **o = lua_newuserdatauv(L, 2 * (size_t)nout * sizeof(nz_jet *), 0);
+  for (int r = 0; r < nout; r++) {
+    o[r] = nz_lua_newjet(L, order, ntan);
+    lua_rawseti(L, outs, r + 1);
+    o[nout + r] = nz_lua_newjet(L, order, ntan);
+    lua_rawseti(L, douts, r + 1);
+  }
+  dir.dout = o + nout;
+  dir.dlevels = (nz_jet *const *const *)(lv + nlev);
+  int st = b.sys.ev.eval(b.sys.ev.ctx, piece, index, t, (nz_jet *const *const *)lv, nlev, o,
+                         with_dir ? &dir : NULL);
+  if (st) return nz_lua_raise_core(L, &b, st, "piece");
+  lua_pushvalue(L, outs);
+  if (!with_dir) return 1;
+  lua_pushvalue(L, douts);
+  return 2;
+}
+
 /* jet:derivative() lives with the jets; the forms' names are data. */
 static int ls_forms(lua_State *L)
 {
@@ -740,7 +868,7 @@ static int ls_forms(lua_State *L)
 static const luaL_Reg system_functions[] = {
   { "residual", ls_residual }, { "operator", ls_operator }, { "mass_bias", ls_mass_bias },
   { "accel", ls_accel }, { "energy", ls_energy }, { "forms", ls_forms },
-  { "energy_terms", ls_energy_terms }, { NULL, NULL }
+  { "energy_terms", ls_energy_terms }, { "piece", ls_piece }, { NULL, NULL }
 };
 
 void nz_lua_open_system(lua_State *L)

@@ -20,10 +20,13 @@ typedef struct lua_evaluator {
   int interrupted;         /* a user function was stopped by the interrupt */
 } lua_evaluator;
 
-/* A system bound to its definition table for the duration of one call. */
+/* A system bound to its definition table for the duration of one call.
+ * With a recording (def.compiled), the pieces it holds are evaluated on
+ * their graphs in C and the others by the Lua evaluator. */
 typedef struct bound_system {
   nz_system sys;
   lua_evaluator ev;
+  struct nz_compiled *comp;   /* NULL: every piece in Lua */
 } bound_system;
 
 void nz_lua_bind_system(lua_State *L, int def, bound_system *b);

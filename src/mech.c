@@ -463,6 +463,7 @@ int nz_mass_bias(const nz_system *s, double t, const double *q, const double *qd
                  double *h)
 {
   int k = s->k, st;
+  if (s->mass_bias && (st = s->mass_bias(s->mass_bias_ctx, t, q, qd, M, h)) != NZ_EARG) return st;
   double *buf = calloc((size_t)(5 * k), sizeof(double));
   if (!buf) return NZ_ENOMEM;
   double *force = buf, *dFq = buf + k, *dF1 = buf + 2 * k, *qdd = buf + 3 * k, *r0 = buf + 4 * k;

@@ -71,6 +71,11 @@ typedef struct nz_system {
    * fewer than nlevels entries: NZ_CONSTRAINT_SLOTS. */
   const int *levels;
   int nlevels;
+  /* Optional: M and h of nz_mass_bias by a faster path than the jets (the
+   * recorded graphs, mech_graph.c); a return of NZ_EARG means "not here,
+   * take the jets". */
+  int (*mass_bias)(void *ctx, double t, const double *q, const double *qd, double *M, double *h);
+  void *mass_bias_ctx;
 } nz_system;
 
 static inline int nz_system_has(const nz_system *s, nz_piece p) { return (s->has >> p) & 1u; }

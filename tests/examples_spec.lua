@@ -138,6 +138,20 @@ describe("examples", function()
     local out = run("kepler.lua")
     assert(math.abs(number_after(out, "period: simulated") - 2 * math.pi) < 1e-9, out)
   end)
+  it("bicycle.lua: the eigenvalues of the linearized Whipple bicycle are the paper's", function()
+    local out = run("bicycle.lua")
+    local n = 0
+    for line in out:gmatch("[^\n]+") do
+      -- rows of the table: speed, eigenvalues, then the relative difference from the paper
+      if line:match("^%s+%d+%.%d%d%s+%-?%d") then
+        local diff = tonumber(line:match("(%d%.%de%-%d+)"))
+        assert(diff and diff <= 1e-7, line)
+        n = n + 1
+      end
+    end
+    assert(n >= 5, out)
+    assert(number_after(out, "constraint violation: max") < 1e-9, out)
+  end)
   it("heavy_top.lua: the spin about the axis is conserved #slow", function()
     local out = run("heavy_top.lua")
     rule(out, 1)

@@ -8,6 +8,7 @@
 local core = require "nz.core"
 local bodies = require "nz.bodies"
 local constraints = require "nz.constraints"
+local record = require "nz.record"
 local repl = require "nz.repl"
 
 local mech = core.mech
@@ -88,7 +89,7 @@ M.args = { error = arg_error, options = check_options, shown = shown, positive =
 
 local known_fields = {
   coords = true, T = true, V = true, Q = true, L = true, S = true, params = true,
-  name = true, bodies = true, constraints = true, sample = true,
+  name = true, bodies = true, constraints = true, sample = true, compile = true,
 }
 
 -- A function or a list of functions, as a list.
@@ -171,6 +172,9 @@ function M.system(def)
   local Clab = {}
   for i = 1, #C do Clab[i] = ("constraint %d"):format(i) end
   local Clevels = constraints.levels(C, name)
+  if def.compile ~= nil and type(def.compile) ~= "boolean" then
+    error(("nz.system '%s': 'compile' must be true or false"):format(name), 2)
+  end
   if def.sample ~= nil and type(def.sample) ~= "table" then
     error(("nz.system '%s': 'sample' must be a state {t = ..., q = {...}, qd = {...}}"):format(name), 2)
   end
@@ -192,6 +196,9 @@ function M.system(def)
     F = F, T = T, V = V, Q = Q, S = S, constraints = C, constraint_levels = mech.constraint_levels(Clevels),
     labels = { F = Flab, T = lab.T, V = lab.V, Q = lab.Q, S = lab.S, constraints = Clab },
   }
+  -- Record the functions once as graphs evaluated in C (nz/record.lua);
+  -- compile = false keeps every function in Lua.
+  if def.compile ~= false then self.recording = record.compile(self.engine, Clevels) end
   return self
 end
 
@@ -444,9 +451,27 @@ function System:__tostring()
   local params = {}
   for k, v in pairs(self.params) do params[#params + 1] = ("%s = %s"):format(k, tostring(v)) end
   table.sort(params)
-  return ("nz.system '%s': %d coordinate%s (%s); %s%s"):format(self.name, self.k, self.k == 1 and "" or "s",
+  local lines = { ("nz.system '%s': %d coordinate%s (%s); %s%s"):format(self.name, self.k, self.k == 1 and "" or "s",
     table.concat(self.coords, ", "), table.concat(have, ", "),
-    #params > 0 and ("; params {" .. table.concat(params, ", ") .. "}") or "")
+    #params > 0 and ("; params {" .. table.concat(params, ", ") .. "}") or "") }
+  -- One line per function: recorded into the graph (run in C), or in Lua and why.
+  for _, r in ipairs(self.recording or {}) do
+    lines[#lines + 1] = r.compiled and ("  %s: recorded, runs in C"):format(r.label)
+      or ("  %s: runs in Lua: %s"):format(r.label, r.why)
+  end
+  if not self.recording then lines[#lines + 1] = "  every function runs in Lua (compile = false)" end
+  return table.concat(lines, "\n")
+end
+
+-- The recording's figures: nodes in the graph, seconds it took, nodes of the
+-- mass-bias graph (0 until the first accelerations), functions in C and in Lua.
+function System:graph_info()
+  if not self.recording then return { nodes = 0, record_seconds = 0, mass_bias_nodes = 0, compiled = 0, interpreted = 0 } end
+  local info = self.engine.compiled:info()
+  local nc, ni = 0, 0
+  for _, r in ipairs(self.recording) do if r.compiled then nc = nc + 1 else ni = ni + 1 end end
+  return { nodes = info.nodes, record_seconds = self.recording.seconds, mass_bias_nodes = info.mass_bias_nodes,
+    compiled = nc, interpreted = ni }
 end
 
 -- ------------------------------------------------------------------ --

@@ -1,0 +1,276 @@
+-- nz/record.lua - record a system's functions once as an expression graph,
+-- evaluated in C from then on (src/graph.c, src/mech_graph.c).
+--
+-- Each function (T, V, L, Q, each constraint) runs once on tracer values:
+-- t, every derivative slot of every q_i and every named number in params
+-- are graph inputs, and every operation on a tracer adds a node.  What the
+-- graph cannot hold -- a comparison (a Lua branch on the state), math.* on
+-- a traced value, a jet method, text -- stops that function's recording:
+-- it keeps the Lua evaluation, and the reason is kept for print(sys).
+--
+-- A number the function reads from an upvalue or a global is baked into
+-- the graph as a constant; params.x stays an input (change sys.params.x and
+-- the next call sees it).  A recording is then checked against the Lua
+-- function at a sample state; a function whose value depends on anything
+-- but its arguments (a counter, math.random) fails that check and stays in
+-- Lua.
+local core = require "nz.core"
+
+local M = {}
+
+-- Relative agreement a recording must show with its function at the check.
+M.CHECK_TOL = 1e-9
+
+-- ------------------------------------------------------------------ --
+-- Tracers                                                              --
+
+local TR = { __name = "nz.traced" }
+local function is_tr(x) return getmetatable(x) == TR end
+local function wrap(c, id) return setmetatable({ c = c, id = id }, TR) end
+
+-- An operation the graph cannot hold: the recorder's handler turns the
+-- message into the reason, with the user's file:line.
+local function untraceable(msg) error(msg, 0) end
+
+local function kind(x)
+  if core.isjet(x) then return "jet" end
+  return type(x)
+end
+
+local function operand(c, x)
+  if is_tr(x) then return x.id end
+  if type(x) == "number" then return c:const(x) end
+  untraceable(("arithmetic of a traced value with a %s"):format(kind(x)))
+end
+
+-- A number type of its own on the other side (nz/hyperdual.lua) takes the
+-- call, as it does for jets.
+local function foreign(a, b, field)
+  local other = is_tr(a) and b or a
+  if type(other) == "table" and not is_tr(other) then
+    local mt = getmetatable(other)
+    return mt and mt[field]
+  end
+end
+
+local function binop(name, field)
+  return function(a, b)
+    local f = foreign(a, b, field)
+    if f then return f(a, b) end
+    local c = (is_tr(a) and a or b).c
+    return wrap(c, c:op(name, operand(c, a), operand(c, b)))
+  end
+end
+
+TR.__add = binop("add", "__add")
+TR.__sub = binop("sub", "__sub")
+TR.__mul = binop("mul", "__mul")
+TR.__div = binop("div", "__div")
+TR.atan2 = binop("atan2", "atan2")
+TR.hypot = binop("hypot", "hypot")
+local pow = binop("pow", "__pow")
+TR.__pow = function(a, b)
+  if is_tr(a) and type(b) == "number" then return wrap(a.c, a.c:powc(a.id, b)) end
+  return pow(a, b)
+end
+TR.__unm = function(a) return wrap(a.c, a.c:op("neg", a.id)) end
+for _, name in ipairs{ "exp", "log", "sqrt", "sin", "cos", "tan", "asin", "acos", "atan",
+                       "sinh", "cosh", "tanh", "abs" } do
+  TR[name] = function(x) return wrap(x.c, x.c:fn(name, x.id)) end
+end
+
+local BRANCH = "compares a traced value (a Lua branch on the state cannot be recorded): "
+  .. "write it with nz.ifelse, nz.max, nz.min or nz.clamp"
+TR.__lt = function() untraceable(BRANCH) end
+TR.__le = TR.__lt
+TR.__eq = TR.__lt
+TR.__index = function(_, key)
+  untraceable(("reads field '%s' of a traced value (jet methods cannot be recorded)"):format(tostring(key)))
+end
+TR.__newindex = function() untraceable("writes into a traced value") end
+TR.__len = function() untraceable("takes the length of a traced value") end
+TR.__concat = function() untraceable("makes text of a traced value") end
+TR.__call = function() untraceable("calls a traced value") end
+TR.__tostring = TR.__concat
+TR.__idiv = function() untraceable("floor-divides a traced value (not differentiable)") end
+TR.__mod = function() untraceable("takes a traced value modulo (not differentiable)") end
+
+-- ------------------------------------------------------------------ --
+-- Running a function on tracers                                        --
+
+local function library(src) return src:sub(1, 8) == "@lua/nz/" or src == "=[C]" end
+
+-- The reason a recording stopped, with the user's file:line.
+local function handler(e)
+  local where
+  for level = 2, 60 do
+    local info = debug.getinfo(level, "Sl")
+    if not info then break end
+    if info.currentline > 0 and not library(info.source) then
+      where = ("%s:%d"):format(info.short_src, info.currentline)
+      break
+    end
+  end
+  local msg = tostring(e)
+  if where and msg:sub(1, #where + 2) == where .. ": " then msg = msg:sub(#where + 3) end
+  if msg:find("number expected, got table", 1, true) then
+    msg = msg .. " (math.* takes numbers only: use nz.sin, nz.sqrt, nz.abs, ... on the state)"
+  end
+  return where and (msg .. " at " .. where) or msg
+end
+
+local function param_proxy(c, params, index)
+  return setmetatable({}, {
+    __index = function(_, key)
+      local p = index[key]
+      if p then return wrap(c, c:param(p)) end
+      local v = params[key]
+      if v ~= nil then untraceable(("reads params.%s, a %s: only numbers are recorded"):format(tostring(key), type(v))) end
+      return nil
+    end,
+    __newindex = function(_, key) untraceable(("writes params.%s"):format(tostring(key))) end,
+    __pairs = function() untraceable("iterates over params") end,
+  })
+end
+
+-- The node of a returned value, or nil and why.
+local function result_node(c, v)
+  if is_tr(v) then return v.id end
+  if type(v) == "number" then
+    if v ~= v or v == math.huge or v == -math.huge then return nil, "returns a value that is not finite" end
+    return c:const(v)
+  end
+  return nil, ("returns a %s"):format(kind(v))
+end
+
+-- Record f: nodes (1, or k for Q) or nil and the reason.
+local function record_function(c, f, nslots, k, pproxy, is_Q)
+  local args = { wrap(c, c:time()) }
+  for j = 0, nslots - 1 do
+    local level = {}
+    for i = 1, k do level[i] = wrap(c, c:slot(j, i)) end
+    args[j + 2] = level
+  end
+  args[nslots + 2] = pproxy
+  local ok, res = xpcall(f, handler, table.unpack(args, 1, nslots + 2))
+  if not ok then return nil, res end
+  if not is_Q then
+    local id, why = result_node(c, res)
+    if not id then return nil, why end
+    return { id }
+  end
+  if type(res) ~= "table" or getmetatable(res) ~= nil or #res ~= k then
+    return nil, "does not return a list of " .. k .. " forces"
+  end
+  local ids = {}
+  for i = 1, k do
+    local id, why = result_node(c, res[i])
+    if not id then return nil, ("force %d %s"):format(i, why) end
+    ids[i] = id
+  end
+  return ids
+end
+
+-- ------------------------------------------------------------------ --
+-- Checking a recording against its function                           --
+
+-- A state that is not special (no zeros, no symmetries), for slot j of q_i.
+local function sample(j, i) return 0.31 + 0.17 * i - 0.043 * j + 0.011 * i * j end
+local SAMPLE_T = 0.23
+
+local function check(c, f, ids, nslots, k, names, params)
+  local inputs = { [0] = SAMPLE_T }
+  for p, name in ipairs(names) do inputs[p] = params[name] end
+  local np = #names
+  local args = { SAMPLE_T }
+  for j = 0, nslots - 1 do
+    local level = {}
+    for i = 1, k do
+      level[i] = sample(j, i)
+      inputs[1 + np + j * k + (i - 1)] = level[i]
+    end
+    args[j + 2] = level
+  end
+  args[nslots + 2] = params
+  local ok, res = pcall(f, table.unpack(args, 1, nslots + 2))
+  if not ok then return true end     -- no verdict where the function itself fails
+  local got = c:eval(ids, inputs)
+  if not got then return true end
+  local want = #ids == 1 and { res } or res
+  for o = 1, #ids do
+    local a, b = got[o], want[o]
+    if type(b) ~= "number" or math.abs(a - b) > M.CHECK_TOL * math.max(1, math.abs(a), math.abs(b)) then
+      return false, ("gives %s where its recording gives %.17g at a sample state: it depends on something "
+        .. "other than its arguments (a global that changes, math.random, a counter)"):format(tostring(b), a)
+    end
+  end
+  return true
+end
+
+-- ------------------------------------------------------------------ --
+-- A system                                                             --
+
+-- Record what can be recorded of engine (the definition table the C
+-- mechanics reads; lua/nz/system.lua): sets engine.compiled,
+-- engine.compiled_params, engine.compiled_mass_bias, and returns the report
+-- { {label =, compiled =, why =, nodes =}, ..., seconds =, nodes = }.
+function M.compile(engine, levels)
+  local clock = os.clock()
+  local k = engine.k
+  local names = {}
+  for name, v in pairs(engine.params) do
+    if type(name) == "string" and type(v) == "number" then names[#names + 1] = name end
+  end
+  table.sort(names)
+  local index = {}
+  for p, name in ipairs(names) do index[name] = p end
+  local nslots = 2
+  for _, n in ipairs(levels) do nslots = math.max(nslots, n) end
+  local c = core.compiled_new(k, #names, #engine.constraints, nslots)
+  local pproxy = param_proxy(c, engine.params, index)
+
+  local done, report = {}, { seconds = 0 }
+  -- Each function once (T's functions are also F's), with its verdict.
+  local function record(f, label, slots, is_Q)
+    if done[f] then return done[f] end
+    local ids, why = record_function(c, f, slots, k, pproxy, is_Q)
+    if ids then
+      local ok, bad = check(c, f, ids, slots, k, names, engine.params)
+      if not ok then ids, why = nil, bad end
+    end
+    done[f] = { ids = ids, why = why, label = label }
+    report[#report + 1] = { label = label, compiled = ids ~= nil, why = why }
+    return done[f]
+  end
+  -- A piece is compiled when every one of its functions is: the sum of theirs.
+  local function piece(name, list, labels, slots, index1)
+    local sum
+    for fi, f in ipairs(list) do
+      local r = record(f, labels[fi] or name, slots, name == "Q")
+      if not r.ids then return end
+      if not sum then sum = { table.unpack(r.ids) }
+      else for o = 1, #sum do sum[o] = c:op("add", sum[o], r.ids[o]) end end
+    end
+    if sum then c:set_piece(name, index1, sum) end
+    return sum ~= nil
+  end
+  local lab = engine.labels
+  local have = {}
+  have.F = piece("F", engine.F, lab.F, 2, 1)
+  have.T = piece("T", engine.T, lab.T, 2, 1)
+  have.V = piece("V", engine.V, lab.V, 1, 1)
+  have.Q = piece("Q", engine.Q, lab.Q, 2, 1)
+  for r, f in ipairs(engine.constraints) do
+    piece("constraints", { f }, { lab.constraints[r] }, levels[r] or 4, r)
+  end
+  -- M and h from the graphs when every piece they need is recorded.
+  local function ok(name) return #engine[name] == 0 or have[name] end
+  engine.compiled = c
+  engine.compiled_params = names
+  engine.compiled_mass_bias = #engine.F > 0 and ok("F") and ok("V") and ok("Q")
+  report.seconds = os.clock() - clock
+  report.nodes = c:info().nodes
+  return report
+end
+
+return M
