@@ -446,6 +446,66 @@ static void check_jets(void)
   for (int i = 0; i < 3; i++) nz_jet_free(out[i]);
 }
 
+/* Inputs of different shapes: a truncated series is known to the lowest
+ * order, so with y of order 8 and one tangent the result must be the order-12,
+ * two-tangent result cut to order 8 (tangent 1 then only comes from x).  The
+ * same for the eta-part with a direction of order 8 without tangents. */
+static void check_mixed_shapes(void)
+{
+  double x[NIN];
+  nz_jet *full[NIN], *mixed[NIN], *dfull[NIN], *dmixed[NIN], *o12 = nz_jet_alloc(JK, JD),
+         *o8 = nz_jet_alloc(8, JD), *d12 = nz_jet_alloc(JK, JD), *d8 = nz_jet_alloc(8, JD);
+  for (int i = 0; i < NIN; i++) {
+    full[i] = nz_jet_alloc(JK, JD);
+    dfull[i] = nz_jet_alloc(JK, JD);
+    mixed[i] = i == 1 ? nz_jet_alloc(8, 1) : full[i];
+    dmixed[i] = i == 1 ? nz_jet_alloc(8, 0) : dfull[i];
+  }
+  random_point(x);
+  random_jets(full, x);
+  random_point(x);
+  random_jets(dfull, x);
+  /* y's tangent 1 and its direction's tangents are zero in the full jets */
+  for (int k = 0; k <= JK; k++) {
+    nz_jet_tangent(full[1], 1)[k] = 0.0;
+    nz_jet_tangent(dfull[1], 0)[k] = nz_jet_tangent(dfull[1], 1)[k] = 0.0;
+  }
+  for (int d = 0; d <= 1; d++)
+    for (int k = 0; k <= 8; k++) {
+      mixed[1]->c[d * 9 + k] = full[1]->c[d * (JK + 1) + k];
+      if (d == 0) dmixed[1]->c[k] = dfull[1]->c[k];
+    }
+  double worst = 0.0;
+  int ok = 1;
+  for (int e = 0; e < NEXPR; e++) {
+    int root = record(e);
+    nz_graph_plan *p = nz_graph_plan_new(G, &root, 1);
+    ok = ok && nz_graph_eval_jets(p, (const nz_jet *const *)full, &o12, (const nz_jet *const *)dfull, &d12) == NZ_OK &&
+         nz_graph_eval_jets(p, (const nz_jet *const *)mixed, &o8, (const nz_jet *const *)dmixed, &d8) == NZ_OK;
+    for (int d = 0; d <= JD; d++)
+      for (int k = 0; k <= 8; k++) {
+        worst = fmax(worst, rel(o8->c[d * 9 + k], o12->c[d * (JK + 1) + k]) * (o12->c[d * (JK + 1) + k] != 0));
+        worst = fmax(worst, rel(d8->c[d * 9 + k], d12->c[d * (JK + 1) + k]) * (d12->c[d * (JK + 1) + k] != 0));
+        if (o12->c[d * (JK + 1) + k] == 0) worst = fmax(worst, fabs(o8->c[d * 9 + k]));
+        if (d12->c[d * (JK + 1) + k] == 0) worst = fmax(worst, fabs(d8->c[d * 9 + k]));
+      }
+    nz_graph_plan_free(p);
+  }
+  gsl_test(!ok || !(worst <= 1e-15),
+           "inputs of orders 12 and 8 with 2 and 1 tangents: the order-12 results cut to order 8 (%.2g)",
+           worst);
+  for (int i = 0; i < NIN; i++) {
+    if (mixed[i] != full[i]) nz_jet_free(mixed[i]);
+    if (dmixed[i] != dfull[i]) nz_jet_free(dmixed[i]);
+    nz_jet_free(full[i]);
+    nz_jet_free(dfull[i]);
+  }
+  nz_jet_free(o12);
+  nz_jet_free(o8);
+  nz_jet_free(d12);
+  nz_jet_free(d8);
+}
+
 /* ------------------------------------------------------------------ */
 /* Derivatives                                                          */
 
@@ -785,6 +845,7 @@ int main(void)
   check_simplify();
   check_doubles();
   check_jets();
+  check_mixed_shapes();
   check_derivatives();
   check_eta();
   check_failures();
