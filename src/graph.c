@@ -13,7 +13,21 @@
  *
  * Zeros: constants are keyed on their bit pattern, so 0.0 and -0.0 are two
  * nodes (atan2(+-0, -1) = +-pi tells them apart).  Both count as zero for
- * the simplifications; x * 0 gives the node +0.0. */
+ * the simplifications; x * 0 gives the node +0.0.
+ *
+ * Plans number their nodes in slots: inputs, constants, then the computed
+ * nodes sorted by level and opcode (see sched_cmp).  Both evaluators run in
+ * that order, so "the first failing node" is the same node on doubles and on
+ * jets.
+ *
+ * Jet shapes of a call: an input's jet is used as given (by pointer); a
+ * constant is exact to every order (a series c, 0, 0, ... without tangents);
+ * a computed node has the lowest order of its non-constant operands and the
+ * most tangents of all of them.  The eta-part of a node (din/dout) has the
+ * node's order, lowered to that of its operands' eta-parts, and the most
+ * tangents of the node and of those.  Outputs are copied into the shape the
+ * caller set: missing coefficients and tangents are zero, extra ones are
+ * dropped. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
