@@ -834,6 +834,39 @@ static void check_plans_and_time(void)
     time_plan(g, ids, n, shapes[k].what);
     nz_graph_free(g);
   }
+  /* Jets: the double pendulum's T at order 12 with 2 tangents, with and
+   * without a state direction. */
+  int root = record(NEXPR - 1);
+  nz_graph_plan *p = nz_graph_plan_new(G, &root, 1);
+  nz_jet *j[NIN], *dj[NIN], *o = nz_jet_alloc(JK, JD), *d = nz_jet_alloc(JK, JD);
+  double x[NIN];
+  for (int i = 0; i < NIN; i++) {
+    j[i] = nz_jet_alloc(JK, JD);
+    dj[i] = nz_jet_alloc(JK, JD);
+  }
+  random_point(x);
+  random_jets(j, x);
+  random_jets(dj, x);
+  for (int with = 0; with < 2; with++) {
+    double best = 1e300;
+    struct timespec t0, t1;
+    for (int rep = 0; rep < 10; rep++) {
+      clock_gettime(CLOCK_MONOTONIC, &t0);
+      for (int r = 0; r < 200; r++)
+        nz_graph_eval_jets(p, (const nz_jet *const *)j, &o, with ? (const nz_jet *const *)dj : NULL, &d);
+      clock_gettime(CLOCK_MONOTONIC, &t1);
+      best = fmin(best, ((double)(t1.tv_sec - t0.tv_sec) * 1e9 + (double)(t1.tv_nsec - t0.tv_nsec)) / 200);
+    }
+    printf("# timing (not a test): double pendulum T (%d nodes) on jets of order %d with %d tangents%s: %.0f ns\n",
+           nz_graph_plan_nodes(p), JK, JD, with ? " and a state direction" : "", best);
+  }
+  for (int i = 0; i < NIN; i++) {
+    nz_jet_free(j[i]);
+    nz_jet_free(dj[i]);
+  }
+  nz_jet_free(o);
+  nz_jet_free(d);
+  nz_graph_plan_free(p);
 }
 
 int main(void)
