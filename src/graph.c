@@ -13,7 +13,21 @@
  *
  * Zeros: constants are keyed on their bit pattern, so 0.0 and -0.0 are two
  * nodes (atan2(+-0, -1) = +-pi tells them apart).  Both count as zero for
- * the simplifications; x * 0 gives the node +0.0. */
+ * the simplifications; x * 0 gives the node +0.0.
+ *
+ * Plans number their nodes in slots: inputs, constants, then the computed
+ * nodes sorted by level and opcode (see sched_cmp).  Both evaluators run in
+ * that order, so "the first failing node" is the same node on doubles and on
+ * jets.
+ *
+ * Jet shapes of a call: an input's jet is used as given (by pointer); a
+ * constant is exact to every order (a series c, 0, 0, ... without tangents);
+ * a computed node has the lowest order of its non-constant operands and the
+ * most tangents of all of them.  The eta-part of a node (din/dout) has the
+ * node's order, lowered to that of its operands' eta-parts, and the most
+ * tangents of the node and of those.  Outputs are copied into the shape the
+ * caller set: missing coefficients and tangents are zero, extra ones are
+ * dropped. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -250,6 +264,8 @@ static nz_gnode mknode(nz_gop op, int fn, int a, int b, double v)
   return nd;
 }
 
+static int imin(int a, int b) { return a < b ? a : b; }
+static int imax(int a, int b) { return a > b ? a : b; }
 static int valid(const nz_graph *g, int x) { return x >= 0 && x < g->n; }
 
 int nz_graph_is_const(const nz_graph *g, int x, double *v)
@@ -334,7 +350,8 @@ int nz_graph_op(nz_graph *g, nz_gop op, int a, int b)
     if (!nz_graph_is_const(g, a, NULL) && is_const_value(g, b, -1.0)) return build_neg(g, a);
     break;
   case NZ_GOP_POW:
-    if (nz_graph_is_const(g, b, &v) && !nz_graph_is_const(g, a, NULL)) return nz_graph_powc(g, a, v);
+    /* a constant exponent is POWC even for a constant base: (-2)^2 = 4 */
+    if (nz_graph_is_const(g, b, &v)) return nz_graph_powc(g, a, v);
     break;
   case NZ_GOP_ATAN2:
   case NZ_GOP_HYPOT:
@@ -531,6 +548,12 @@ typedef struct grec {
   int32_t op, a, b, k;
 } grec;
 
+/* A run of computed slots with the same opcode, ending before slot `end`
+ * (relative to the first computed slot): one dispatch per run. */
+typedef struct grun {
+  int32_t op, end;
+} grun;
+
 /* The same node for the jet evaluator. */
 typedef struct jrec {
   uint8_t op, fn;
@@ -548,6 +571,8 @@ struct nz_graph_plan {
   int *ids;       /* slot -> node id */
   int *in_num;    /* input slot -> input number */
   grec *recs;
+  int nrun;
+  grun *runs;
   jrec *jrecs;
   double *pv;     /* exponent of each computed node (R_POWC) */
   double *vals;   /* m doubles: the double workspace */
@@ -560,6 +585,7 @@ struct nz_graph_plan {
   nz_jet *T[NTEMP];
   double *w;
   /* Failure of the last evaluation. */
+  int bad_const;   /* a non-finite constant slot, or -1 */
   int fail_node;
   nz_gop fail_op;
   nz_jet_fn fail_fn;
@@ -573,6 +599,7 @@ void nz_graph_plan_free(nz_graph_plan *p)
   free(p->ids);
   free(p->in_num);
   free(p->recs);
+  free(p->runs);
   free(p->jrecs);
   free(p->pv);
   free(p->vals);
@@ -621,6 +648,7 @@ static int plan_alloc(nz_graph_plan *p)
   p->ids = malloc(m * sizeof *p->ids);
   p->in_num = malloc(((size_t)p->nin + 1) * sizeof *p->in_num);
   p->recs = malloc(nr * sizeof *p->recs);
+  p->runs = malloc(nr * sizeof *p->runs);
   p->jrecs = malloc(nr * sizeof *p->jrecs);
   p->pv = malloc(nr * sizeof *p->pv);
   p->vals = malloc(m * sizeof *p->vals);
@@ -632,8 +660,49 @@ static int plan_alloc(nz_graph_plan *p)
   p->ntn = malloc(m * sizeof *p->ntn);
   p->eord = malloc(m * sizeof *p->eord);
   p->entn = malloc(m * sizeof *p->entn);
-  return p->ids && p->in_num && p->recs && p->jrecs && p->pv && p->vals && p->J && p->E &&
+  return p->ids && p->in_num && p->recs && p->runs && p->jrecs && p->pv && p->vals && p->J && p->E &&
          p->W && p->EW && p->ord && p->ntn && p->eord && p->entn ? 0 : -1;
+}
+
+/* Scheduling: computed nodes sorted by level (1 + the highest level of
+ * their operands), then by opcode, then by id.  Any order by level is
+ * topological; within a level, nodes of one opcode come together, so the
+ * double loop dispatches once per run of them and the runs' nodes are
+ * independent (the processor overlaps them). */
+typedef struct sched {
+  int level, key, id;
+} sched;
+
+static int sched_cmp(const void *x, const void *y)
+{
+  const sched *u = x, *w = y;
+  if (u->level != w->level) return u->level < w->level ? -1 : 1;
+  if (u->key != w->key) return u->key < w->key ? -1 : 1;
+  return (u->id > w->id) - (u->id < w->id);
+}
+
+/* Mark what the outputs need; lev[id] = level + 1 for a needed node, 0 for
+ * the others.  Counts the plan's slots. */
+static void plan_mark(nz_graph_plan *p, const nz_graph *g, const int *outputs, int n, int top,
+                      int *lev)
+{
+  for (int id = 0; id <= top; id++) lev[id] = 0;
+  for (int r = 0; r < n; r++) lev[outputs[r]] = 1;
+  for (int id = top; id >= 0; id--) {
+    if (!lev[id]) continue;
+    const nz_gnode *nd = &g->nodes[id];
+    if (has_operand(nd->op)) lev[nd->a] = 1;
+    if (binary_op(nd->op)) lev[nd->b] = 1;
+    if (nd->op == NZ_GOP_INPUT) p->nin++;
+    else if (nd->op == NZ_GOP_CONST) p->ncon++;
+    else p->nrec++;
+    p->m++;
+  }
+  for (int id = 0; id <= top; id++) {
+    const nz_gnode *nd = &g->nodes[id];
+    if (!lev[id] || !has_operand(nd->op)) continue;
+    lev[id] = 1 + imax(lev[nd->a], binary_op(nd->op) ? lev[nd->b] : 0);
+  }
 }
 
 nz_graph_plan *nz_graph_plan_new(const nz_graph *g, const int *outputs, int n)
@@ -649,39 +718,53 @@ nz_graph_plan *nz_graph_plan_new(const nz_graph *g, const int *outputs, int n)
   if (!p || !slot) { free(p); free(slot); return NULL; }
   p->g = g;
   p->fail_node = -1;
+  p->bad_const = -1;
   p->nout = n;
   p->out_slot = malloc(((size_t)n + 1) * sizeof *p->out_slot);
-  /* Mark what the outputs need (slot[] doubles as the mark). */
-  for (int id = 0; id <= top; id++) slot[id] = 0;
-  for (int r = 0; r < n; r++) slot[outputs[r]] = 1;
-  for (int id = top; id >= 0; id--) {
-    if (!slot[id]) continue;
-    const nz_gnode *nd = &g->nodes[id];
-    if (has_operand(nd->op)) slot[nd->a] = 1;
-    if (binary_op(nd->op)) slot[nd->b] = 1;
-    if (nd->op == NZ_GOP_INPUT) p->nin++;
-    else if (nd->op == NZ_GOP_CONST) p->ncon++;
-    else p->nrec++;
-    p->m++;
-  }
+  plan_mark(p, g, outputs, n, top, slot);
   p->base = p->nin + p->ncon;
-  if (!p->out_slot || plan_alloc(p)) { free(slot); nz_graph_plan_free(p); return NULL; }
-  /* Slots: inputs, constants, computed, each in id order (topological). */
-  int si = 0, sc = p->nin, sr = p->base;
+  sched *order = malloc(((size_t)p->nrec + 1) * sizeof *order);
+  if (!order || !p->out_slot || plan_alloc(p)) {
+    free(order);
+    free(slot);
+    nz_graph_plan_free(p);
+    return NULL;
+  }
+  /* Slots: inputs and constants in id order, then computed nodes as
+   * scheduled (slot[] turns from levels into slots as it goes). */
+  int si = 0, sc = p->nin, nr = 0;
   for (int id = 0; id <= top; id++) {
-    if (!slot[id]) { slot[id] = -1; continue; }
     const nz_gnode *nd = &g->nodes[id];
-    int s = nd->op == NZ_GOP_INPUT ? si++ : nd->op == NZ_GOP_CONST ? sc++ : sr++;
+    if (!slot[id]) continue;
+    if (nd->op == NZ_GOP_INPUT) {
+      p->in_num[si] = nd->a;
+      p->ids[si] = id;
+      slot[id] = si++;
+    } else if (nd->op == NZ_GOP_CONST) {
+      p->vals[sc] = nd->v;
+      if (!isfinite(nd->v) && p->bad_const < 0) p->bad_const = sc;
+      p->ids[sc] = id;
+      slot[id] = sc++;
+    } else {
+      grec r = make_grec(nd, 0, 0);
+      order[nr++] = (sched){ slot[id], r.op * 64 + (r.op == R_FN ? r.k : 0), id };
+    }
+  }
+  qsort(order, (size_t)nr, sizeof *order, sched_cmp);
+  for (int i = 0; i < nr; i++) {
+    int id = order[i].id, s = p->base + i;
+    const nz_gnode *nd = &g->nodes[id];
+    int a = slot[nd->a], b = binary_op(nd->op) ? slot[nd->b] : a;
     slot[id] = s;
     p->ids[s] = id;
-    if (nd->op == NZ_GOP_INPUT) { p->in_num[s] = nd->a; continue; }
-    if (nd->op == NZ_GOP_CONST) { p->vals[s] = nd->v; continue; }
-    int a = slot[nd->a], b = binary_op(nd->op) ? slot[nd->b] : a, i = s - p->base;
     p->recs[i] = make_grec(nd, a, b);
     p->jrecs[i] = (jrec){ nd->op, nd->fn, a, b, nd->v };
     p->pv[i] = nd->v;
+    if (p->nrun == 0 || p->runs[p->nrun - 1].op != p->recs[i].op) p->runs[p->nrun++].op = p->recs[i].op;
+    p->runs[p->nrun - 1].end = i + 1;
   }
   for (int r = 0; r < n; r++) p->out_slot[r] = slot[outputs[r]];
+  free(order);
   free(slot);
   return p;
 }
@@ -740,36 +823,44 @@ nz_status nz_graph_eval(nz_graph_plan *p, const double *in, double *out)
   int i, nr = p->nrec;
   nz_status st = NZ_OK;
   p->fail_node = -1;
+  if (p->bad_const >= 0) return plan_fail(p, p->bad_const, d_finite(v[p->bad_const]), v[p->bad_const]);
   for (i = 0; i < p->nin; i++) v[i] = in[p->in_num[i]];
-  /* The hot loop: no finiteness test per node; one pass after it. */
-  for (i = 0; i < nr; i++) {
-    double x = v[r[i].a], y = v[r[i].b], t;
-    switch (r[i].op) {
-    case R_ADD: t = x + y; break;
-    case R_SUB: t = x - y; break;
-    case R_MUL: t = x * y; break;
+  /* The hot loop: one dispatch per run, no finiteness test per node (one
+   * pass after it). */
+  i = 0;
+  for (int q = 0; q < p->nrun; q++) {
+    int e = p->runs[q].end;
+    switch (p->runs[q].op) {
+    case R_ADD: for (; i < e; i++) z[i] = v[r[i].a] + v[r[i].b]; break;
+    case R_SUB: for (; i < e; i++) z[i] = v[r[i].a] - v[r[i].b]; break;
+    case R_MUL: for (; i < e; i++) z[i] = v[r[i].a] * v[r[i].b]; break;
     case R_DIV:
-      if (y == 0.0) { st = NZ_EZERODIV; goto failed; }
-      t = x / y;
+      for (; i < e; i++) {
+        double y = v[r[i].b];
+        if (y == 0.0) { st = NZ_EZERODIV; goto failed; }
+        z[i] = v[r[i].a] / y;
+      }
       break;
-    case R_NEG: t = -x; break;
-    case R_SQR: t = x * x; break;
-    case R_CUBE: t = x * x * x; break;
-    case R_POWI: t = d_powi(x, (unsigned)r[i].k); break;
+    case R_NEG: for (; i < e; i++) z[i] = -v[r[i].a]; break;
+    case R_SQR: for (; i < e; i++) { double x = v[r[i].a]; z[i] = x * x; } break;
+    case R_CUBE: for (; i < e; i++) { double x = v[r[i].a]; z[i] = x * x * x; } break;
+    case R_POWI: for (; i < e; i++) z[i] = d_powi(v[r[i].a], (unsigned)r[i].k); break;
     case R_POWC:
-      if ((st = d_powc(x, pv[i], &t))) goto failed;
+      for (; i < e; i++)
+        if ((st = d_powc(v[r[i].a], pv[i], &z[i]))) goto failed;
       break;
     case R_POW:
-      if ((st = d_pow(x, y, &t))) goto failed;
+      for (; i < e; i++)
+        if ((st = d_pow(v[r[i].a], v[r[i].b], &z[i]))) goto failed;
       break;
     case R_FN:
-      if ((st = d_fn(r[i].k, x, &t))) goto failed;
+      for (; i < e; i++)
+        if ((st = d_fn(r[i].k, v[r[i].a], &z[i]))) goto failed;
       break;
-    case R_ATAN2: t = atan2(x, y); break;
-    case R_HYPOT: t = d_hypot(x, y); break;
+    case R_ATAN2: for (; i < e; i++) z[i] = atan2(v[r[i].a], v[r[i].b]); break;
+    case R_HYPOT: for (; i < e; i++) z[i] = d_hypot(v[r[i].a], v[r[i].b]); break;
     default: st = NZ_EDOM; goto failed;
     }
-    z[i] = t;
   }
   if (!all_finite(z, nr)) {
     int j = first_nonfinite(z, nr);
@@ -999,8 +1090,6 @@ static nz_jet *place(double **at, int order, int ntan)
   return z;
 }
 
-static int imin(int a, int b) { return a < b ? a : b; }
-static int imax(int a, int b) { return a > b ? a : b; }
 
 /* Shapes of this call: inputs as given, constants of the highest order with
  * no tangents (exact to every order), a computed node the lowest order of its
@@ -1052,6 +1141,7 @@ nz_status nz_graph_eval_jets(nz_graph_plan *p, const nz_jet *const *in, nz_jet *
 {
   int eta = din != NULL && dout != NULL, Kmax = -1, Dmax = 0;
   p->fail_node = -1;
+  if (p->bad_const >= 0) return plan_fail(p, p->bad_const, d_finite(p->vals[p->bad_const]), p->vals[p->bad_const]);
   for (int s = 0; s < p->nin; s++) {
     const nz_jet *x = in ? in[p->in_num[s]] : NULL;
     if (!x) return plan_fail(p, s, NZ_EDOM, NAN);   /* a used input has no jet */
