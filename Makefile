@@ -76,7 +76,7 @@ $(B)/bench_jet: bench/bench_jet.c $(CORE_OBJ) | $(B)
 $(B)/henon_c: bench/henon_c.c | $(B)
 	$(CC) $(ALL_CFLAGS) -o $@ $^ $(GSL_LIBS) -lm
 $(B)/pendulum_c: bench/pendulum_c.c | $(B)
-	$(CC) $(ALL_CFLAGS) -o $@ $^ -lm
+	$(CC) $(ALL_CFLAGS) -o $@ $^ $(GSL_LIBS) -lm
 
 $(B) $(B)/obj $(B)/asan $(B)/gen:
 	mkdir -p $@

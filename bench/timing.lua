@@ -69,8 +69,8 @@ function M.graph_line(sys, per_call, what)
   local g = sys:graph_info()
   if type(g) ~= "table" or not g.nodes then return nil end
   local per_node = per_call and g.nodes > 0 and per_call / g.nodes
-  return ("graph: %d nodes, recorded in %.3f ms%s"):format(g.nodes, 1e3 * (g.record_seconds or 0 / 0),
-    per_node and (", %.2f ns per node per %s"):format(1e9 * per_node, what or "call") or "")
+  return ("graph %d nodes, recorded in %.2f ms%s"):format(g.nodes, 1e3 * (g.record_seconds or 0 / 0),
+    per_node and (", %.2f ns/node per %s"):format(1e9 * per_node, what or "call") or "")
 end
 
 -- A time in the unit that suits it, width w.
