@@ -76,6 +76,11 @@ $(B)/asan/test_graph: tests/test_graph.c $(SAN_CORE) | $(B)/asan
 	$(CC) $(ALL_CFLAGS) $(SAN_FLAGS) -o $@ $^ $(GSL_LIBS) -lm
 $(B)/bench_jet: bench/bench_jet.c $(CORE_OBJ) | $(B)
 	$(CC) $(ALL_CFLAGS) -o $@ $^ $(GSL_LIBS) -lm
+# The hand-written C baselines the benchmarks of issue 10 compare against.
+$(B)/henon_c: bench/henon_c.c | $(B)
+	$(CC) $(ALL_CFLAGS) -o $@ $^ $(GSL_LIBS) -lm
+$(B)/pendulum_c: bench/pendulum_c.c | $(B)
+	$(CC) $(ALL_CFLAGS) -o $@ $^ $(GSL_LIBS) -lm
 
 $(B) $(B)/obj $(B)/asan $(B)/gen:
 	mkdir -p $@
@@ -93,7 +98,7 @@ check: deps all $(B)/test_series $(B)/test_graph
 sanitize: deps $(B)/asan/nzlua $(B)/asan/test_series $(B)/asan/test_graph all
 	@tests/run.sh sanitize
 
-bench: deps all $(B)/bench_jet
+bench: deps all $(B)/bench_jet $(B)/henon_c $(B)/pendulum_c
 	@bench/run.sh
 
 # nz.so carries its Lua half inside: one file serves `require "nz"` from any

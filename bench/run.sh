@@ -12,3 +12,13 @@ echo
 build/nzlua bench/scene_cost.lua
 echo
 build/nzlua bench/accel_check.lua
+echo
+# Issue 10: nzlua against hand-written C, measured in the same run.
+build/nzlua bench/henon.lua
+echo
+build/nzlua bench/accel_scaling.lua
+echo
+start=$(date +%s.%N)
+build/nzlua bench/pendulum18.lua
+end=$(date +%s.%N)
+awk -v a="$start" -v b="$end" 'BEGIN { printf "wall time of the whole script from the shell (interpreter start, probe and C baseline included): %.3f s\n", b - a }'
