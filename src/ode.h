@@ -12,6 +12,7 @@
 #define NZ_ODE_H
 
 #include "constrained.h"
+#include "linalg.h"               /* nz_solve_info */
 #include "mech.h"
 
 typedef struct nz_ode nz_ode;
