@@ -37,6 +37,9 @@ M.LONG_RUN = { steps = 1e7, seconds = 60, check_steps = 2000 }
 -- A run whose last STALL.window steps advanced t by less than STALL.fraction
 -- of the span makes no progress (it would need > window / fraction steps).
 M.STALL = { window = 1000, fraction = 1e-10 }
+-- The C loop (src/ode_run.c) returns this often (seconds) while the progress
+-- bar may show, so that the bar moves.
+M.PROGRESS_PAUSE = 0.2
 
 -- Warnings go to stderr once and into tr.warnings (tests replace M.warn).
 function M.warn(msg) io.stderr:write(msg, "\n") end
@@ -742,7 +745,7 @@ function M.simulate(sys, opts)
       stall_window = M.STALL.window, stall_fraction = M.STALL.fraction })
     while true do
       local ok, status, advance = pcall(mech.ode_run, r, engine, not announced and next_check or 0,
-        progress and mech.now() + 0.2 or 0)
+        progress and mech.now() + M.PROGRESS_PAUSE or 0)
       t, y, nsteps = mech.ode_run_state(r)          -- for the messages (the interrupt's t, stalled's state)
       take(r)
       if not ok then error(status, 0) end
@@ -767,7 +770,8 @@ function M.simulate(sys, opts)
   local ok, err = pcall(in_c and run_c or run)
   done()
   local s = mech.ode_stats(ode)
-  tr.stats = { steps = s.steps, rejected = s.rejected, nfev = s.nfev, njev = s.njev, wall = mech.now() - wall0 }
+  tr.stats = { steps = s.steps, rejected = s.rejected, nfev = s.nfev, njev = s.njev, wall = mech.now() - wall0,
+    loop = in_c and "c" or "lua" }
   if not ok then
     local msg = tostring(err)
     if rawequal(err, core.interrupted) then     -- by identity: a user's message may say "interrupted!"
