@@ -12,3 +12,5 @@ echo
 build/nzlua bench/scene_cost.lua
 echo
 build/nzlua bench/accel_check.lua
+echo
+build/nzlua bench/loop_cost.lua
