@@ -300,8 +300,8 @@ static int lo_stats(lua_State *L)
 /* The loop in C (ode_run.h): a userdata "nz.ode_run" that keeps its
  * integrator alive (its user value) and steps it until simulate.lua must
  * act.  A failure or the interrupt is raised exactly as ode_step and
- * ode_accel raise it; the points computed before stay in the run for
- * ode_run_take. */
+ * ode_accel raise it, the points computed before it handed over to the
+ * trajectory first (flush_points below). */
 
 typedef struct run_box {
   nz_run *r;
@@ -356,19 +356,73 @@ static int lo_run_new(lua_State *L)
   return 1;
 }
 
-/* ode_run(run, def, pause_step, pause_wall) -> "done" | "paused" | "full" |
- * "stalled", advance; raises the interrupt and failures. */
+/* The buffered points appended to tr.t, tr.q, tr.qd, tr.qdd, tr.lambda (at
+ * stack index tr, as record() in simulate.lua stores them) and, when pend
+ * is a table, each point's state y and root q^(p) (false when none) to
+ * pend.y[n] and pend.root[n], for what simulate.lua records in Lua; then
+ * the buffer is emptied.  No Lua function runs here, so Ctrl-C's hook
+ * cannot fire in the middle: a point is handed over whole or not at all. */
+static void flush_points(lua_State *L, run_box *rb, int tr, int pend)
+{
+  static const char *const series[] = { "t", "q", "qd", "qdd", "lambda" };
+  int base = lua_gettop(L);
+  for (int j = 0; j < 5; j++) {      /* at base + 1 .. base + 5 */
+    lua_pushstring(L, series[j]);
+    if (lua_rawget(L, tr) != LUA_TTABLE) luaL_error(L, "simulate: tr.%s is not a table", series[j]);
+  }
+  int with_pend = lua_istable(L, pend);
+  if (with_pend) {                   /* at base + 6, base + 7 */
+    lua_getfield(L, pend, "y");
+    lua_getfield(L, pend, "root");
+    luaL_checktype(L, base + 6, LUA_TTABLE);
+    luaL_checktype(L, base + 7, LUA_TTABLE);
+  }
+  int k = rb->ode->k, nc = rb->ode->nc, dim = nz_ode_dim(rb->ode->o), count = nz_run_count(rb->r);
+  lua_Integer first = (lua_Integer)lua_rawlen(L, base + 1) + 1;
+  for (int i = 0; i < count; i++) {
+    double t;
+    const double *y, *acc, *root;
+    nz_run_point(rb->r, i, &t, &y, &acc, &root);
+    lua_Integer n = first + i;
+    if (with_pend) {                 /* first: a point in tr has its y in pend */
+      nz_lua_push_vector(L, y, dim);
+      lua_rawseti(L, base + 6, n);
+      if (root) nz_lua_push_vector(L, root, k);
+      else lua_pushboolean(L, 0);
+      lua_rawseti(L, base + 7, n);
+    }
+    nz_lua_push_vector(L, y, k);
+    nz_lua_push_vector(L, y + k, k);
+    nz_lua_push_vector(L, acc, k);
+    nz_lua_push_vector(L, acc + k, nc);
+    lua_rawseti(L, base + 5, n);
+    lua_rawseti(L, base + 4, n);
+    lua_rawseti(L, base + 3, n);
+    lua_rawseti(L, base + 2, n);
+    lua_pushnumber(L, t);            /* last: #tr.t counts whole points */
+    lua_rawseti(L, base + 1, n);
+  }
+  nz_run_clear(rb->r);
+  lua_settop(L, base);
+}
+
+/* ode_run(run, def, tr, pend, pause_step, pause_wall) -> "done" | "paused" |
+ * "full" | "stalled", advance: steps until simulate.lua must act, hands the
+ * output points over (flush_points) and raises the interrupt and failures
+ * as ode_step does, the points computed before them handed over first. */
 static int lo_run(lua_State *L)
 {
   run_box *rb = check_run(L, 1);
-  lua_Integer pause_step = luaL_optinteger(L, 3, 0);
-  double pause_wall = luaL_optnumber(L, 4, 0.0);
-  lua_settop(L, 2);
+  luaL_checktype(L, 3, LUA_TTABLE);
+  lua_Integer pause_step = luaL_optinteger(L, 5, 0);
+  double pause_wall = luaL_optnumber(L, 6, 0.0);
+  lua_settop(L, 4);
   lua_copy(L, 2, 1);                 /* def first, as raise_failure expects; the caller keeps run */
   bound_system b;
   nz_lua_bind_system(L, 1, &b);
   int st;
   nz_run_status rs = nz_run_advance(rb->r, &b.sys, pause_step > 0 ? (unsigned long)pause_step : 0, pause_wall, &st);
+  flush_points(L, rb, 3, 4);
   switch (rs) {
   case NZ_RUN_INTERRUPTED: return nz_lua_raise_interrupt(L);
   case NZ_RUN_FAILED: return raise_failure(L, rb->ode, &b, st);
@@ -382,58 +436,6 @@ static int lo_run(lua_State *L)
   }
   lua_pushliteral(L, "done");
   return 1;
-}
-
-/* ode_run_take(run, tr, want) -> first, last[, ys, roots]: the buffered
- * points appended to tr.t, tr.q, tr.qd, tr.qdd, tr.lambda (as record() in
- * simulate.lua stores them), the buffer emptied; want: also each point's
- * state y and root q^(p) (false when none), for what the Lua side records. */
-static int lo_run_take(lua_State *L)
-{
-  run_box *rb = check_run(L, 1);
-  luaL_checktype(L, 2, LUA_TTABLE);
-  int want = lua_toboolean(L, 3);
-  lua_settop(L, 2);
-  static const char *const series[] = { "t", "q", "qd", "qdd", "lambda" };
-  for (int j = 0; j < 5; j++) {      /* at 3 .. 7 */
-    if (lua_getfield(L, 2, series[j]) != LUA_TTABLE) return luaL_error(L, "ode_run_take: tr.%s is not a table", series[j]);
-  }
-  int k = rb->ode->k, nc = rb->ode->nc, dim = nz_ode_dim(rb->ode->o), count = nz_run_count(rb->r);
-  lua_Integer first = (lua_Integer)lua_rawlen(L, 3) + 1;
-  if (want) {
-    lua_createtable(L, count, 0);    /* 8: ys */
-    lua_createtable(L, count, 0);    /* 9: roots */
-  }
-  for (int i = 0; i < count; i++) {
-    double t;
-    const double *y, *acc, *root;
-    nz_run_point(rb->r, i, &t, &y, &acc, &root);
-    lua_Integer n = first + i;
-    lua_pushnumber(L, t);
-    lua_rawseti(L, 3, n);
-    nz_lua_push_vector(L, y, k);
-    lua_rawseti(L, 4, n);
-    nz_lua_push_vector(L, y + k, k);
-    lua_rawseti(L, 5, n);
-    nz_lua_push_vector(L, acc, k);
-    lua_rawseti(L, 6, n);
-    nz_lua_push_vector(L, acc + k, nc);
-    lua_rawseti(L, 7, n);
-    if (want) {
-      nz_lua_push_vector(L, y, dim);
-      lua_rawseti(L, 8, i + 1);
-      if (root) nz_lua_push_vector(L, root, k);
-      else lua_pushboolean(L, 0);
-      lua_rawseti(L, 9, i + 1);
-    }
-  }
-  nz_run_clear(rb->r);
-  lua_pushinteger(L, first);
-  lua_pushinteger(L, first + count - 1);
-  if (!want) return 2;
-  lua_pushvalue(L, 8);
-  lua_pushvalue(L, 9);
-  return 4;
 }
 
 /* ode_run_state(run) -> t, y, steps: where the run is. */
@@ -496,7 +498,7 @@ static const luaL_Reg ode_functions[] = {
   { "ode_accel", lo_accel }, { "ode_rhs", lo_rhs }, { "ode_reset", lo_reset }, { "ode_jacobian", lo_jacobian }, { "ode_stats", lo_stats },
   { "now", lo_now }, { "isatty", lo_isatty }, { "interrupted", lo_interrupted },
   { "ode_methods", lo_methods }, { "ode_run_new", lo_run_new }, { "ode_run", lo_run },
-  { "ode_run_take", lo_run_take }, { "ode_run_state", lo_run_state }, { "_set_interrupt", lo_set_interrupt },
+  { "ode_run_state", lo_run_state }, { "_set_interrupt", lo_set_interrupt },
   { NULL, NULL }
 };
 

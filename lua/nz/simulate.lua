@@ -732,22 +732,28 @@ function M.simulate(sys, opts)
   -- long_run looks, every 0.2 s while the progress bar shows, and to stop
   -- (done, stalled, interrupted, failed); each step's arithmetic mirrors
   -- run() above, so both give the same trajectory and statistics to the bit.
-  local function take(r)
-    local first, last, ys, roots = mech.ode_run_take(r, tr, extras)
+  -- The C loop hands its points over to tr at each return (or raise):
+  -- t, q, qd, qdd, lambda, and in pend each point's state and root, from
+  -- which catch_up records the rest.  Ctrl-C's hook may cut catch_up short:
+  -- it is taken up again after the run (cdone: the points done).
+  local crun, cdone = nil, 0
+  local pend = extras and { y = {}, root = {} } or nil
+  local function catch_up()
     if not extras then return end
-    for n = first, last do
-      local i = n - first + 1
-      record_extras(n, tr.t[n], ys[i], tr.lambda[n], roots[i] or nil)
+    for n = cdone + 1, #tr.t do
+      record_extras(n, tr.t[n], pend.y[n], tr.lambda[n], pend.root[n] or nil)
+      pend.y[n], pend.root[n] = nil, nil
+      cdone = n
     end
   end
   local function run_c()
-    local r = mech.ode_run_new(ode, { t0 = cfg.t0, t1 = cfg.t1, dt = cfg.dt, step = cfg.step, h0 = h, y = y,
+    crun = mech.ode_run_new(ode, { t0 = cfg.t0, t1 = cfg.t1, dt = cfg.dt, step = cfg.step, h0 = h, y = y,
       stall_window = M.STALL.window, stall_fraction = M.STALL.fraction })
     while true do
-      local ok, status, advance = pcall(mech.ode_run, r, engine, not announced and next_check or 0,
+      local ok, status, advance = pcall(mech.ode_run, crun, engine, tr, pend, not announced and next_check or 0,
         progress and mech.now() + M.PROGRESS_PAUSE or 0)
-      t, y, nsteps = mech.ode_run_state(r)          -- for the messages (the interrupt's t, stalled's state)
-      take(r)
+      t, y, nsteps = mech.ode_run_state(crun)       -- for the messages (the interrupt's t, stalled's state)
+      catch_up()
       if not ok then error(status, 0) end
       if status == "done" then tr.status = "done"; return end
       if status == "stalled" then stalled(t, advance) end
@@ -768,6 +774,11 @@ function M.simulate(sys, opts)
   end
   if cfg._loop == "lua" then in_c = false end
   local ok, err = pcall(in_c and run_c or run)
+  if crun then                 -- what an interrupt cut short (the hook fires once)
+    t = mech.ode_run_state(crun)
+    local done_ok, done_err = pcall(catch_up)
+    if ok and not done_ok then ok, err = false, done_err end
+  end
   done()
   local s = mech.ode_stats(ode)
   tr.stats = { steps = s.steps, rejected = s.rejected, nfev = s.nfev, njev = s.njev, wall = mech.now() - wall0,
