@@ -3,6 +3,11 @@
 -- output grid, locates events, projects onto the constraints, records the
 -- monitors a scene asked for (and nothing else), shows progress on a
 -- terminal, and keeps what it computed when interrupted or when it fails.
+-- A run without events and without projection goes through the same loop
+-- written in C (src/ode_run.c, run_c below), which returns here only to hand
+-- over output points, draw the progress, warn of a long run, or stop; the
+-- two give the same trajectory to the bit (tests/simulate_loop_spec.lua).
+-- The option _loop = "lua" | "c" forces one: internal, for tests and bench/.
 local core = require "nz.core"
 local constraints = require "nz.constraints"
 local trajectory = require "nz.trajectory"
