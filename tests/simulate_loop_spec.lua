@@ -229,6 +229,20 @@ describe("which loop runs", function()
   end)
 end)
 
+describe("the limits hold for both loops", function()
+  it("the memory cap refuses the same grid with the same message", function()
+    local saved = simulate.MAX_MEMORY
+    simulate.MAX_MEMORY = 1e5                   -- 464 bytes a point (1 DOF): 1001 points do not fit
+    local errs = {}
+    for i, loop in ipairs{ "lua", "c" } do
+      errs[i] = select(2, pcall(pendulum.simulate, pendulum, { q0 = { 1 }, t1 = 1, dt = 0.001, _loop = loop }))
+    end
+    simulate.MAX_MEMORY = saved
+    assert.truthy(tostring(errs[1]):find("are kept in memory (require('nz.simulate').MAX_MEMORY)", 1, true), errs[1])
+    assert.are.equal(errs[1], errs[2])
+  end)
+end)
+
 describe("pauses of the C loop change nothing", function()
   it("a pause after every step (the progress bar's) and the long-run checks (at 16, 32, ... steps)", function()
     -- progress = true makes the C loop return every PROGRESS_PAUSE seconds:
