@@ -22,3 +22,5 @@ start=$(date +%s.%N)
 build/nzlua bench/pendulum18.lua
 end=$(date +%s.%N)
 awk -v a="$start" -v b="$end" 'BEGIN { printf "wall time of the whole script from the shell (interpreter start, probe and C baseline included): %.3f s\n", b - a }'
+echo
+build/nzlua bench/loop_cost.lua

@@ -12,8 +12,10 @@
 #include "lua_ode.h"
 #include "lua_system.h"
 #include "ode.h"
+#include "ode_run.h"
 
 #define NZ_ODE_METATABLE "nz.ode"
+#define NZ_RUN_METATABLE "nz.ode_run"
 
 typedef struct ode_box {
   nz_ode *o;
@@ -294,6 +296,167 @@ static int lo_stats(lua_State *L)
   return 1;
 }
 
+/* ------------------------------------------------------------------ */
+/* The loop in C (ode_run.h): a userdata "nz.ode_run" that keeps its
+ * integrator alive (its user value) and steps it until simulate.lua must
+ * act.  A failure or the interrupt is raised exactly as ode_step and
+ * ode_accel raise it, the points computed before it handed over to the
+ * trajectory first (flush_points below). */
+
+typedef struct run_box {
+  nz_run *r;
+  ode_box *ode;
+} run_box;
+
+static run_box *check_run(lua_State *L, int idx)
+{
+  run_box *rb = luaL_checkudata(L, idx, NZ_RUN_METATABLE);
+  if (!rb->r) luaL_error(L, "this run has been freed");
+  return rb;
+}
+
+static int run_gc(lua_State *L)
+{
+  run_box *rb = luaL_checkudata(L, 1, NZ_RUN_METATABLE);
+  nz_run_free(rb->r);                /* never touches the integrator */
+  rb->r = NULL;
+  return 0;
+}
+
+/* ode_run_new(ode, {t0, t1, dt, step, h0, y, stall_window, stall_fraction
+ * [, capacity]}) -> run */
+static int lo_run_new(lua_State *L)
+{
+  ode_box *ob = check_ode(L, 1);
+  luaL_checktype(L, 2, LUA_TTABLE);
+  nz_run_config c;
+  memset(&c, 0, sizeof c);
+  c.t0 = number_field(L, 2, "t0", 0.0);
+  c.t1 = number_field(L, 2, "t1", 0.0);
+  c.dt = number_field(L, 2, "dt", 0.0);
+  c.step = number_field(L, 2, "step", 0.0);
+  c.h0 = number_field(L, 2, "h0", 1e-3);
+  c.stall_window = (unsigned long)number_field(L, 2, "stall_window", 1000.0);
+  c.stall_fraction = number_field(L, 2, "stall_fraction", 1e-10);
+  c.capacity = (int)number_field(L, 2, "capacity", 1024.0);
+  int dim = nz_ode_dim(ob->o);
+  double *y = lua_newuserdatauv(L, (size_t)dim * sizeof(double), 0);
+  lua_getfield(L, 2, "y");
+  nz_lua_read_vector(L, lua_gettop(L), dim, y, "y", 0, "simulate");
+  lua_pop(L, 1);
+  run_box *rb = lua_newuserdatauv(L, sizeof *rb, 1);
+  memset(rb, 0, sizeof *rb);
+  luaL_setmetatable(L, NZ_RUN_METATABLE);
+  lua_pushvalue(L, 1);
+  lua_setiuservalue(L, -2, 1);
+  rb->ode = ob;
+  if (!(rb->r = nz_run_alloc(ob->o, ob->k, ob->nc, &c, y)))
+    return luaL_error(L, "simulate: the run could not start (no memory, or a bad grid: t0 = %f, t1 = %f, dt = %f, step = %f)",
+                      c.t0, c.t1, c.dt, c.step);
+  return 1;
+}
+
+/* The buffered points appended to tr.t, tr.q, tr.qd, tr.qdd, tr.lambda (at
+ * stack index tr, as record() in simulate.lua stores them) and, when pend
+ * is a table, each point's state y and root q^(p) (false when none) to
+ * pend.y[n] and pend.root[n], for what simulate.lua records in Lua; then
+ * the buffer is emptied.  No Lua function runs here, so Ctrl-C's hook
+ * cannot fire in the middle: a point is handed over whole or not at all. */
+static void flush_points(lua_State *L, run_box *rb, int tr, int pend)
+{
+  static const char *const series[] = { "t", "q", "qd", "qdd", "lambda" };
+  int base = lua_gettop(L);
+  for (int j = 0; j < 5; j++) {      /* at base + 1 .. base + 5 */
+    lua_pushstring(L, series[j]);
+    if (lua_rawget(L, tr) != LUA_TTABLE) luaL_error(L, "simulate: tr.%s is not a table", series[j]);
+  }
+  int with_pend = lua_istable(L, pend);
+  if (with_pend) {                   /* at base + 6, base + 7 */
+    lua_getfield(L, pend, "y");
+    lua_getfield(L, pend, "root");
+    luaL_checktype(L, base + 6, LUA_TTABLE);
+    luaL_checktype(L, base + 7, LUA_TTABLE);
+  }
+  int k = rb->ode->k, nc = rb->ode->nc, dim = nz_ode_dim(rb->ode->o), count = nz_run_count(rb->r);
+  lua_Integer first = (lua_Integer)lua_rawlen(L, base + 1) + 1;
+  for (int i = 0; i < count; i++) {
+    double t;
+    const double *y, *acc, *root;
+    nz_run_point(rb->r, i, &t, &y, &acc, &root);
+    lua_Integer n = first + i;
+    if (with_pend) {                 /* first: a point in tr has its y in pend */
+      nz_lua_push_vector(L, y, dim);
+      lua_rawseti(L, base + 6, n);
+      if (root) nz_lua_push_vector(L, root, k);
+      else lua_pushboolean(L, 0);
+      lua_rawseti(L, base + 7, n);
+    }
+    nz_lua_push_vector(L, y, k);
+    nz_lua_push_vector(L, y + k, k);
+    nz_lua_push_vector(L, acc, k);
+    nz_lua_push_vector(L, acc + k, nc);
+    lua_rawseti(L, base + 5, n);
+    lua_rawseti(L, base + 4, n);
+    lua_rawseti(L, base + 3, n);
+    lua_rawseti(L, base + 2, n);
+    lua_pushnumber(L, t);            /* last: #tr.t counts whole points */
+    lua_rawseti(L, base + 1, n);
+  }
+  nz_run_clear(rb->r);
+  lua_settop(L, base);
+}
+
+/* ode_run(run, def, tr, pend, pause_step, pause_wall) -> "done" | "paused" |
+ * "full" | "stalled", advance: steps until simulate.lua must act, hands the
+ * output points over (flush_points) and raises the interrupt and failures
+ * as ode_step does, the points computed before them handed over first. */
+static int lo_run(lua_State *L)
+{
+  run_box *rb = check_run(L, 1);
+  luaL_checktype(L, 3, LUA_TTABLE);
+  lua_Integer pause_step = luaL_optinteger(L, 5, 0);
+  double pause_wall = luaL_optnumber(L, 6, 0.0);
+  lua_settop(L, 4);
+  lua_copy(L, 2, 1);                 /* def first, as raise_failure expects; the caller keeps run */
+  bound_system b;
+  nz_lua_bind_system(L, 1, &b);
+  int st;
+  nz_run_status rs = nz_run_advance(rb->r, &b.sys, pause_step > 0 ? (unsigned long)pause_step : 0, pause_wall, &st);
+  flush_points(L, rb, 3, 4);
+  switch (rs) {
+  case NZ_RUN_INTERRUPTED: return nz_lua_raise_interrupt(L);
+  case NZ_RUN_FAILED: return raise_failure(L, rb->ode, &b, st);
+  case NZ_RUN_STALLED:
+    lua_pushliteral(L, "stalled");
+    lua_pushnumber(L, nz_run_stall_advance(rb->r));
+    return 2;
+  case NZ_RUN_PAUSED: lua_pushliteral(L, "paused"); return 1;
+  case NZ_RUN_FULL: lua_pushliteral(L, "full"); return 1;
+  case NZ_RUN_DONE: break;
+  }
+  lua_pushliteral(L, "done");
+  return 1;
+}
+
+/* ode_run_state(run) -> t, y, steps: where the run is. */
+static int lo_run_state(lua_State *L)
+{
+  run_box *rb = check_run(L, 1);
+  lua_pushnumber(L, nz_run_time(rb->r));
+  nz_lua_push_vector(L, nz_run_state(rb->r), nz_ode_dim(rb->ode->o));
+  lua_pushinteger(L, (lua_Integer)nz_run_steps(rb->r));
+  return 3;
+}
+
+/* _set_interrupt(flag): request (true) or clear (false) the interrupt, as
+ * Ctrl-C does; for tests only (tests/simulate_loop_spec.lua). */
+static int lo_set_interrupt(lua_State *L)
+{
+  if (lua_toboolean(L, 1)) nz_interrupt_request();
+  else nz_interrupt_clear();
+  return 0;
+}
+
 /* Small services of the loop: a monotonic clock, whether a stream is a
  * terminal (the progress bar), and the Ctrl-C flag that C loops poll. */
 static int lo_now(lua_State *L)
@@ -334,7 +497,9 @@ static const luaL_Reg ode_functions[] = {
   { "ode_new", lo_new }, { "ode_step", lo_step }, { "ode_step_fixed", lo_step_fixed },
   { "ode_accel", lo_accel }, { "ode_rhs", lo_rhs }, { "ode_reset", lo_reset }, { "ode_jacobian", lo_jacobian }, { "ode_stats", lo_stats },
   { "now", lo_now }, { "isatty", lo_isatty }, { "interrupted", lo_interrupted },
-  { "ode_methods", lo_methods }, { NULL, NULL }
+  { "ode_methods", lo_methods }, { "ode_run_new", lo_run_new }, { "ode_run", lo_run },
+  { "ode_run_state", lo_run_state }, { "_set_interrupt", lo_set_interrupt },
+  { NULL, NULL }
 };
 
 /* Add the functions to the table on top of the stack (core.mech). */
@@ -342,6 +507,11 @@ void nz_lua_open_ode(lua_State *L)
 {
   if (luaL_newmetatable(L, NZ_ODE_METATABLE)) {
     lua_pushcfunction(L, ode_gc);
+    lua_setfield(L, -2, "__gc");
+  }
+  lua_pop(L, 1);
+  if (luaL_newmetatable(L, NZ_RUN_METATABLE)) {
+    lua_pushcfunction(L, run_gc);
     lua_setfield(L, -2, "__gc");
   }
   lua_pop(L, 1);

@@ -5,13 +5,15 @@
  *
  * The caller steps it one adaptive (or fixed) step at a time, so that the
  * output grid, events, projection and monitors stay in the caller's hands
- * (lua/nz/simulate.lua).  Implicit steppers get the exact Jacobian of the
+ * (lua/nz/simulate.lua, or the loop in C of ode_run.h when no Lua function
+ * is called per step).  Implicit steppers get the exact Jacobian of the
  * first-order system from jets (mech_jacobian.c); at level p >= 3, central
  * differences of the right-hand side (constrained_series.h). */
 #ifndef NZ_ODE_H
 #define NZ_ODE_H
 
 #include "constrained.h"
+#include "linalg.h"               /* nz_solve_info */
 #include "mech.h"
 
 typedef struct nz_ode nz_ode;

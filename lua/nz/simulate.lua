@@ -3,6 +3,11 @@
 -- output grid, locates events, projects onto the constraints, records the
 -- monitors a scene asked for (and nothing else), shows progress on a
 -- terminal, and keeps what it computed when interrupted or when it fails.
+-- A run without events and without projection goes through the same loop
+-- written in C (src/ode_run.c, run_c below), which returns here only to hand
+-- over output points, draw the progress, warn of a long run, or stop; the
+-- two give the same trajectory to the bit (tests/simulate_loop_spec.lua).
+-- The option _loop = "lua" | "c" forces one: internal, for tests and bench/.
 local core = require "nz.core"
 local constraints = require "nz.constraints"
 local trajectory = require "nz.trajectory"
@@ -18,6 +23,7 @@ local known = {
   q0 = true, qd0 = true, t0 = true, t1 = true, dt = true, method = true, rtol = true, atol = true,
   step = true, events = true, project = true, baumgarte = true, monitors = true, progress = true,
   check = true, h0 = true, event_tol = true, guess = true, qdd0 = true,
+  _loop = true,   -- internal, for tests and bench/loop_cost.lua: "lua" or "c" forces a loop (see M.simulate)
 }
 -- q3d0, q4d0, ...: the start of higher levels (constraints of order >= 3).
 local function level_option(key) return type(key) == "string" and key:match("^q%d+d0$") ~= nil end
@@ -36,6 +42,9 @@ M.LONG_RUN = { steps = 1e7, seconds = 60, check_steps = 2000 }
 -- A run whose last STALL.window steps advanced t by less than STALL.fraction
 -- of the span makes no progress (it would need > window / fraction steps).
 M.STALL = { window = 1000, fraction = 1e-10 }
+-- The C loop (src/ode_run.c) returns this often (seconds) while the progress
+-- bar may show, so that the bar moves.
+M.PROGRESS_PAUSE = 0.2
 
 -- Warnings go to stderr once and into tr.warnings (tests replace M.warn).
 function M.warn(msg) io.stderr:write(msg, "\n") end
@@ -190,6 +199,9 @@ end
 -- Options that are switches or tables, checked by type (what they do is
 -- checked where they are used).
 local function check_switches(sys, cfg)
+  if cfg._loop ~= nil and cfg._loop ~= "lua" and cfg._loop ~= "c" then
+    fail(sys, "'_loop' (internal, for tests) must be \"lua\" or \"c\", got %s", show(cfg._loop))
+  end
   for _, key in ipairs{ "progress", "check" } do
     if cfg[key] ~= nil and type(cfg[key]) ~= "boolean" then
       fail(sys, "'%s' must be true or false, got %s", key, show(cfg[key]))
@@ -218,7 +230,7 @@ local function validate(sys, o)
   for key in pairs(o) do
     if not known[key] and not level_option(key) then
       local names = {}
-      for k in pairs(known) do names[#names + 1] = k end
+      for k in pairs(known) do if k:sub(1, 1) ~= "_" then names[#names + 1] = k end end
       table.sort(names)
       fail(sys, "unknown option '%s' (options: %s)", tostring(key), table.concat(names, ", "))
     end
@@ -256,7 +268,7 @@ end
 local function progress_bar(cfg, t0, t1)
   local enabled = cfg.progress
   if enabled == nil then enabled = mech.isatty(2) end
-  if not enabled then return function() end, function() end end
+  if not enabled then return function() end, function() end, false end
   local start, last = mech.now(), 0
   local shown = false
   -- steps: a function, asked only when the bar is drawn (not on every step).
@@ -273,7 +285,7 @@ local function progress_bar(cfg, t0, t1)
   local function done()
     if shown then io.stderr:write("\r\27[K") end      -- erase the line (a terminal: see above)
   end
-  return update, done
+  return update, done, true
 end
 
 -- Constraints of order >= 3 (constraints.level): the state is
@@ -489,11 +501,10 @@ function M.simulate(sys, opts)
     return v
   end
 
-  local function record(t, yy)
-    local q, qd = split(yy, k)
-    local qdd, lambda, root = mech.ode_accel(ode, engine, t, yy)
-    local n = #tr.t + 1
-    tr.t[n], tr.q[n], tr.qd[n], tr.qdd[n], tr.lambda[n] = t, q, qd, qdd, lambda
+  -- What an output point records besides t, q, qd, qdd, lambda (the C loop
+  -- records those and leaves these to this function).
+  local extras = tr.violation or (p and p > 3) or top or tr.energy or tr.work
+  local function record_extras(n, t, yy, lambda, root)
     if tr.violation then tr.violation[n] = state_violation(t, yy) end
     if p and p > 3 then tr.higher = tr.higher or {}; tr.higher[n] = { table.unpack(state_levels(yy), 4) } end
     if top then                          -- q^(p) solved, and the branch Newton started on
@@ -501,8 +512,16 @@ function M.simulate(sys, opts)
       tr.top[n] = root
       tr.branch = tr.branch or { from = guess and "guess" or "least squares", [constraints.level_name(p)] = root, lambda = lambda }
     end
-    if tr.energy then tr.energy[n], tr.generalized_energy[n] = sys:energy(t, q, qd) end
+    if tr.energy then tr.energy[n], tr.generalized_energy[n] = sys:energy(t, tr.q[n], tr.qd[n]) end
     if tr.work then tr.work[n] = yy[2 * k + 1] end
+  end
+
+  local function record(t, yy)
+    local q, qd = split(yy, k)
+    local qdd, lambda, root = mech.ode_accel(ode, engine, t, yy)
+    local n = #tr.t + 1
+    tr.t[n], tr.q[n], tr.qd[n], tr.qdd[n], tr.lambda[n] = t, q, qd, qdd, lambda
+    if extras then record_extras(n, t, yy, lambda, root) end
   end
 
   -- The state at tau in [ta, tb] of the last step, by integrating again from
@@ -602,7 +621,7 @@ function M.simulate(sys, opts)
     return out
   end
 
-  local update, done = progress_bar(cfg, cfg.t0, cfg.t1)
+  local update, done, progress = progress_bar(cfg, cfg.t0, cfg.t1)
   local wall0 = mech.now()
   local span = cfg.t1 - cfg.t0
   local nsteps, window_t, next_check, announced = 0, cfg.t0, 16, false
@@ -712,10 +731,63 @@ function M.simulate(sys, opts)
     tr.status = "done"
   end
 
-  local ok, err = pcall(run)
+  -- The same loop in C (src/ode_run.c), used when nothing in it calls Lua per
+  -- step: no events, no projection.  It returns here only to hand over the
+  -- output points (every 1024, and at the end), at the step counts where
+  -- long_run looks, every 0.2 s while the progress bar shows, and to stop
+  -- (done, stalled, interrupted, failed); each step's arithmetic mirrors
+  -- run() above, so both give the same trajectory and statistics to the bit.
+  -- The C loop hands its points over to tr at each return (or raise):
+  -- t, q, qd, qdd, lambda, and in pend each point's state and root, from
+  -- which catch_up records the rest.  Ctrl-C's hook may cut catch_up short:
+  -- it is taken up again after the run (cdone: the points done).
+  local crun, cdone = nil, 0
+  local pend = extras and { y = {}, root = {} } or nil
+  local function catch_up()
+    if not extras then return end
+    for n = cdone + 1, #tr.t do
+      record_extras(n, tr.t[n], pend.y[n], tr.lambda[n], pend.root[n] or nil)
+      pend.y[n], pend.root[n] = nil, nil
+      cdone = n
+    end
+  end
+  local function run_c()
+    crun = mech.ode_run_new(ode, { t0 = cfg.t0, t1 = cfg.t1, dt = cfg.dt, step = cfg.step, h0 = h, y = y,
+      stall_window = M.STALL.window, stall_fraction = M.STALL.fraction })
+    while true do
+      local ok, status, advance = pcall(mech.ode_run, crun, engine, tr, pend, not announced and next_check or 0,
+        progress and mech.now() + M.PROGRESS_PAUSE or 0)
+      t, y, nsteps = mech.ode_run_state(crun)       -- for the messages (the interrupt's t, stalled's state)
+      catch_up()
+      if not ok then error(status, 0) end
+      if status == "done" then tr.status = "done"; return end
+      if status == "stalled" then stalled(t, advance) end
+      if status == "paused" then
+        if nsteps == next_check and not announced then  -- watch(t), its second half
+          next_check = 2 * next_check
+          announced = long_run(t)
+        end
+        update(t, function() return mech.ode_stats(ode).steps end)
+      end
+    end
+  end
+
+  -- The C loop when it can do the run; cfg._loop forces one (tests, bench).
+  local in_c = #cfg.events == 0 and not (cfg.project and sys.nc > 0)
+  if cfg._loop == "c" and not in_c then
+    fail(sys, "'_loop' = \"c\": this run needs the Lua loop (it has events or projects onto the constraints)")
+  end
+  if cfg._loop == "lua" then in_c = false end
+  local ok, err = pcall(in_c and run_c or run)
+  if crun then                 -- what an interrupt cut short (the hook fires once)
+    t = mech.ode_run_state(crun)
+    local done_ok, done_err = pcall(catch_up)
+    if ok and not done_ok then ok, err = false, done_err end
+  end
   done()
   local s = mech.ode_stats(ode)
-  tr.stats = { steps = s.steps, rejected = s.rejected, nfev = s.nfev, njev = s.njev, wall = mech.now() - wall0 }
+  tr.stats = { steps = s.steps, rejected = s.rejected, nfev = s.nfev, njev = s.njev, wall = mech.now() - wall0,
+    loop = in_c and "c" or "lua" }
   if not ok then
     local msg = tostring(err)
     if rawequal(err, core.interrupted) then     -- by identity: a user's message may say "interrupted!"

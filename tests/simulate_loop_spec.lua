@@ -1,0 +1,325 @@
+-- simulate_loop_spec.lua - the stepping loop in C (src/ode_run.c) against
+-- the loop in Lua (lua/nz/simulate.lua, run()): two paths that share the
+-- integrator but not the loop (output grid, fixed steps landing on the
+-- output times, accelerations recorded at each point, stall detection,
+-- interrupt, failures).  Each run is made twice, forced through each loop
+-- by the internal option _loop, and everything the trajectory holds must
+-- agree to the bit: times, states, accelerations, multipliers, monitors,
+-- violations, statistics, status, messages and warnings.
+local h = require "tests.helpers"
+local nz = h.nz
+local simulate = require "nz.simulate"
+local mech = require("nz.core").mech
+local systems = require "tests.constraint_systems"
+
+local g = 9.81
+
+-- Numbers compared by their exact bits (%a: 0 and -0 differ, NaN is NaN).
+local function bits(x) return ("%a"):format(x) end
+
+-- The first difference between a and b under path, or nil.
+local function differ(a, b, path)
+  if type(a) ~= type(b) then return ("%s: %s against %s"):format(path, type(a), type(b)) end
+  if type(a) == "number" then
+    if bits(a) ~= bits(b) then return ("%s: %s against %s"):format(path, bits(a), bits(b)) end
+    return nil
+  end
+  if type(a) ~= "table" then
+    if a ~= b then return ("%s: %s against %s"):format(path, tostring(a), tostring(b)) end
+    return nil
+  end
+  for key, v in pairs(a) do
+    local d = differ(v, b[key], path .. "." .. tostring(key))
+    if d then return d end
+  end
+  for key in pairs(b) do
+    if a[key] == nil then return ("%s.%s: only in the second"):format(path, tostring(key)) end
+  end
+  return nil
+end
+
+-- What a trajectory holds, without what may differ by design: the wall
+-- time, the loop's name, and the system (the same object in both).
+local function content(tr)
+  local c = {}
+  for key, v in pairs(tr) do
+    if key ~= "system" and key ~= "stats" then c[key] = v end
+  end
+  if tr.warnings then
+    c.warnings = {}
+    for i, w in ipairs(tr.warnings) do c.warnings[i] = w:gsub("steps and [^%(]*%(", "steps and ... (") end
+  end
+  c.stats = { steps = tr.stats.steps, rejected = tr.stats.rejected, nfev = tr.stats.nfev, njev = tr.stats.njev }
+  return c
+end
+
+local function with_loop(opts, loop)
+  local o = {}
+  for key, v in pairs(opts) do o[key] = v end
+  o._loop = loop
+  return o
+end
+
+-- Runs whose long-run notice depends on steps only: the clock's criterion
+-- (seconds) would make the two runs' warnings differ with the machine's load.
+local function by_steps(f, ...)
+  local saved = simulate.LONG_RUN
+  simulate.LONG_RUN = { steps = saved.steps, seconds = math.huge, check_steps = saved.check_steps }
+  local r = table.pack(pcall(f, ...))
+  simulate.LONG_RUN = saved
+  if not r[1] then error(r[2], 0) end
+  return table.unpack(r, 2, r.n)
+end
+
+-- Run opts through both loops; returns the two trajectories, after checking
+-- that each went through the loop asked for and that they agree to the bit.
+-- (Both runs are made on one line: warnings and messages start with it.)
+local function both(sys, opts)
+  local trs = {}
+  for _, loop in ipairs{ "lua", "c" } do trs[loop] = by_steps(sys.simulate, sys, with_loop(opts, loop)) end
+  local a, b = trs.lua, trs.c
+  assert.are.equal("lua", a.stats.loop)
+  assert.are.equal("c", b.stats.loop)
+  assert(#a.t >= 2, ("only %d points"):format(#a.t))
+  local d = differ(content(a), content(b), "tr")
+  assert(d == nil, d)
+  return a, b
+end
+
+-- Both loops fail (pcall), with the same message, keeping the same part in nz.last.
+local function both_fail(sys, opts)
+  local r = {}
+  for i, loop in ipairs{ "lua", "c" } do r[i] = { pcall(by_steps, sys.simulate, sys, with_loop(opts, loop)) }; r[i][3] = nz.last end
+  local ok1, err1, last1, ok2, err2, last2 = r[1][1], r[1][2], r[1][3], r[2][1], r[2][2], r[2][3]
+  assert.are.equal(false, ok1)
+  assert.are.equal(false, ok2)
+  assert.are.equal(tostring(err1), tostring(err2))
+  assert.are.equal("c", last2.stats.loop)
+  local d = differ(content(last1), content(last2), "nz.last")
+  assert(d == nil, d)
+  return tostring(err1), last1
+end
+
+local pendulum = nz.system{ name = "pendulum", coords = { "th" },
+  T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end,
+  V = function(t, q) return -g * nz.cos(q[1]) end }
+
+-- Two coupled oscillators with a driven term, 2 DOF.
+local coupled = nz.system{ name = "coupled", coords = { "x", "y" },
+  T = function(t, q, qd) return 0.5 * (qd[1] ^ 2 + 2 * qd[2] ^ 2) end,
+  V = function(t, q) return 0.5 * (q[1] ^ 2 + 3 * q[2] ^ 2) + 0.4 * (q[1] - q[2]) ^ 2 - 0.1 * nz.sin(t) * q[1] end }
+
+describe("the comparison itself", function()
+  it("sees one ulp, a sign of zero, a missing point and a different status", function()
+    local a = { t = { 0, 0.5 }, q = { { 1 }, { 0.25 } }, status = "done" }
+    assert.is_nil(differ(a, { t = { 0, 0.5 }, q = { { 1 }, { 0.25 } }, status = "done" }, "tr"))
+    assert.truthy(differ(a, { t = { 0, 0.5 }, q = { { 1 }, { 0.25 + 2 ^ -54 } }, status = "done" }, "tr"))
+    assert.truthy(differ(a, { t = { -0.0, 0.5 }, q = { { 1 }, { 0.25 } }, status = "done" }, "tr"))
+    assert.truthy(differ(a, { t = { 0, 0.5 }, q = { { 1 } }, status = "done" }, "tr"))
+    assert.truthy(differ(a, { t = { 0, 0.5 }, q = { { 1 }, { 0.25 } }, status = "failed" }, "tr"))
+  end)
+end)
+
+describe("the C loop and the Lua loop give the same run, to the bit", function()
+  it("adaptive rk8pd with both monitors on an output grid with dt", function()
+    local _, b = both(pendulum, { q0 = { 1.2 }, t1 = 5, dt = 0.05, monitors = { energy = true } })
+    assert.are.equal(101, #b.t)
+    assert.are.equal(5, b.t[#b.t])                       -- the last point is t1 itself
+  end)
+  it("a grid that does not divide the span, and more points than the C loop buffers (1024)", function()
+    local _, b = both(coupled, { q0 = { 0.3, -0.2 }, qd0 = { 0, 0.1 }, t1 = 3.05, dt = 0.001 })
+    assert.are.equal(3051, #b.t)
+  end)
+  for _, method in ipairs{ "rk2", "rk4", "rkf45", "rkck", "rk8pd", "rk1imp", "rk2imp", "rk4imp", "bsimp", "msadams", "msbdf" } do
+    it(method .. ", adaptive, on two coupled oscillators", function()
+      local low = method == "rk2" or method == "rk1imp" or method == "rk2imp"   -- few steps at a low order
+      both(coupled, { q0 = { 0.3, -0.2 }, qd0 = { 0, 0.1 }, t1 = 1, dt = 0.25, method = method,
+        rtol = low and 1e-5 or 1e-8, atol = low and 1e-7 or 1e-10 })
+    end)
+  end
+  for _, method in ipairs{ "rk4", "rk8pd", "rk2imp", "rk4imp" } do
+    it(method .. " at a fixed step that does not divide dt (the steps land on each output time)", function()
+      local _, b = both(pendulum, { q0 = { 0.7 }, t1 = 2, dt = 0.1, step = 0.03, method = method })
+      -- ceil(0.1 / 0.03) = 4 equal steps per output interval
+      assert.are.equal(80, b.stats.steps)
+    end)
+  end
+  it("a first step h0 and an output grid coarser than the span", function()
+    both(pendulum, { q0 = { 0.7 }, t1 = 1, dt = 3, h0 = 1e-6 })
+  end)
+end)
+
+describe("constrained systems", function()
+  it("a holonomic pendulum in Cartesian coordinates: violation, multipliers (no projection)", function()
+    local s = systems.cartesian_pendulum()
+    math.randomseed(4)
+    local t0, q0, qd0 = s.draw()
+    local a = both(s.sys, { t0 = t0, q0 = q0, qd0 = qd0, t1 = 2, dt = 0.1 })
+    assert(#a.violation == #a.t and #a.lambda[1] == 1)
+  end)
+  it("Baumgarte's stabilization", function()
+    local s = systems.cartesian_pendulum()
+    math.randomseed(5)
+    local t0, q0, qd0 = s.draw()
+    both(s.sys, { t0 = t0, q0 = q0, qd0 = qd0, t1 = 1, dt = 0.1, baumgarte = 5 })
+  end)
+  it("Appell's constraint, nonlinear in the velocities: Newton starts from the last root in both", function()
+    local s = systems.appell()
+    math.randomseed(6)
+    local t0, q0, qd0 = s.draw()
+    both(s.sys, { t0 = t0, q0 = q0, qd0 = qd0, t1 = 1, dt = 0.1 })
+  end)
+  it("a moving constraint with the work monitor, bsimp", function()
+    local m, R, W = 0.3, 0.5, 4.0
+    local hoop = nz.system{ name = "driven hoop", coords = { "th", "ph" },
+      T = function(t, q, qd) return 0.5 * m * R * R * (qd[1] ^ 2 + nz.sin(q[1]) ^ 2 * qd[2] ^ 2) end,
+      V = function(t, q) return -m * g * R * nz.cos(q[1]) end,
+      constraints = { function(t, q) return q[2] - W * t end } }
+    local a = both(hoop, { q0 = { 0.7, 0 }, qd0 = { 0.3, W }, t1 = 1, dt = 0.1, method = "bsimp", monitors = { work = true } })
+    assert(#a.work == #a.t)
+  end)
+  it("a constraint nonlinear in q''' (level 3, q''' solved): the roots and the branch", function()
+    local M, Q = 1.3, { 0.7, -0.4, 2.0 }
+    local sys = nz.system{ name = "hamel3", coords = { "q1", "q2", "q3" },
+      T = function(t, q, qd) return 0.5 * M * (qd[1] ^ 2 + qd[2] ^ 2 + qd[3] ^ 2) end,
+      Q = function() return { Q[1], Q[2], Q[3] } end,
+      constraints = { function(t, q, qd, qdd, qddd) return qddd[3] - qddd[1] * qddd[2] end } }
+    local a = both(sys, { q0 = { 0.2, -0.1, 0.3 }, qd0 = { 0.4, -0.5, 0.6 }, qdd0 = { 0.3, -0.2, 0.5 }, t1 = 1, dt = 0.25 })
+    assert(a.top and #a.top == #a.t and a.branch)
+  end)
+  it("a servo constraint of order 4 (the state holds q'', q''' and the multiplier)", function()
+    local mass, F1, F2, l0 = 1.7, 0.3, -0.45, 0.385
+    local sys = nz.system{ name = "servo4", coords = { "x", "y" },
+      T = function(t, q, qd) return 0.5 * mass * (qd[1] ^ 2 + qd[2] ^ 2) end,
+      Q = function() return { F1, F2 } end,
+      constraints = { function(t, q, qd, qdd, qddd, q4d, params) return q4d[1] + 2 * q4d[2] - nz.cos(t) end } }
+    local a = both(sys, { q0 = { -0.3, 0.8 }, qd0 = { 0.05, 0.4 }, qdd0 = { (F1 + l0) / mass, (F2 + 2 * l0) / mass },
+      q3d0 = { 0.3, 0.6 }, t1 = 0.5, dt = 0.1 })
+    assert(a.higher and #a.higher == #a.t)
+  end)
+  it("project = true needs the Lua loop: taken by default, refused when the C loop is forced", function()
+    local s = systems.cartesian_pendulum()
+    math.randomseed(7)
+    local t0, q0, qd0 = s.draw()
+    local tr = s.sys:simulate{ t0 = t0, q0 = q0, qd0 = qd0, t1 = 0.5, project = true }
+    assert.are.equal("lua", tr.stats.loop)
+    h.checkerror("'_loop' = \"c\": this run needs the Lua loop", s.sys.simulate, s.sys,
+      { t0 = t0, q0 = q0, qd0 = qd0, t1 = 0.5, project = true, _loop = "c" })
+  end)
+end)
+
+describe("which loop runs", function()
+  it("the C loop by default; events take the Lua loop", function()
+    assert.are.equal("c", pendulum:simulate{ q0 = { 1 }, t1 = 0.2 }.stats.loop)
+    local tr = pendulum:simulate{ q0 = { 1 }, t1 = 0.2, events = { function(t) return t - 0.1 end } }
+    assert.are.equal("lua", tr.stats.loop)
+    assert.are.equal(1, #tr.events)
+    h.checkerror("'_loop' = \"c\": this run needs the Lua loop", pendulum.simulate, pendulum,
+      { q0 = { 1 }, t1 = 0.2, events = { function(t) return t - 0.1 end }, _loop = "c" })
+    h.checkerror("'_loop' (internal, for tests) must be \"lua\" or \"c\", got \"fast\"", pendulum.simulate, pendulum,
+      { q0 = { 1 }, t1 = 0.2, _loop = "fast" })
+  end)
+  it("the internal option is not offered among the options", function()
+    local ok, err = pcall(pendulum.simulate, pendulum, { q0 = { 1 }, t1 = 1, nope = 1 })
+    assert.are.equal(false, ok)
+    local list = err:match("unknown option 'nope' %(options: ([^)]*)%)")
+    assert.truthy(list, err)
+    assert.truthy(list:find("q0", 1, true), list)
+    assert.falsy(list:find("_loop", 1, true), list)
+  end)
+end)
+
+describe("the limits hold for both loops", function()
+  it("the memory cap refuses the same grid with the same message", function()
+    local saved = simulate.MAX_MEMORY
+    simulate.MAX_MEMORY = 1e5                   -- 464 bytes a point (1 DOF): 1001 points do not fit
+    local errs = {}
+    for i, loop in ipairs{ "lua", "c" } do
+      errs[i] = select(2, pcall(pendulum.simulate, pendulum, { q0 = { 1 }, t1 = 1, dt = 0.001, _loop = loop }))
+    end
+    simulate.MAX_MEMORY = saved
+    assert.truthy(tostring(errs[1]):find("are kept in memory (require('nz.simulate').MAX_MEMORY)", 1, true), errs[1])
+    assert.are.equal(errs[1], errs[2])
+  end)
+end)
+
+describe("pauses of the C loop change nothing", function()
+  it("a pause after every step (the progress bar's) and the long-run checks (at 16, 32, ... steps)", function()
+    -- progress = true makes the C loop return every PROGRESS_PAUSE seconds:
+    -- 0 returns after every step.  The run stays under the bar's 0.5 s, so
+    -- nothing is drawn.  Whatever the pauses, the run is the same.
+    local said, saved_warn, saved_limits, saved_pause = {}, simulate.warn, simulate.LONG_RUN, simulate.PROGRESS_PAUSE
+    simulate.warn = function(msg) said[#said + 1] = msg end
+    simulate.LONG_RUN = { steps = 50, seconds = math.huge, check_steps = 16 }
+    simulate.PROGRESS_PAUSE = 0
+    local ok, a, b = pcall(both, pendulum, { q0 = { 0.3 }, t1 = 1, dt = 0.1, step = 0.01, method = "rk4", progress = true })
+    simulate.warn, simulate.LONG_RUN, simulate.PROGRESS_PAUSE = saved_warn, saved_limits, saved_pause
+    assert(ok, tostring(a))
+    -- 100 steps projected from the check at 16 steps > 50: said once by each
+    -- loop, in the same words but for the duration, which is measured
+    assert.are.equal(2, #said)
+    local function words(msg) return (msg:gsub("steps and [^%(]*%(", "steps and ... (")) end
+    assert.are.equal(words(said[1]), words(said[2]))
+    assert.truthy(said[2]:find("after 16 steps", 1, true), said[2])
+    assert.are.equal(said[2], b.warnings[1])
+    assert.are.equal(1, #a.warnings)
+  end)
+end)
+
+describe("a run that stops keeps the same part in both loops", function()
+  local hook = function() end
+  local hooked = nz.system{ name = "hooked", coords = { "th" },
+    T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end,
+    V = function(t, q) hook(t, q); return -g * nz.cos(q[1]) end }
+  after_each(function()
+    hook = function() end
+    mech._set_interrupt(false)
+  end)
+
+  it("the interrupt (as Ctrl-C requests it) stops before the next step: status and points", function()
+    local trs = {}
+    for _, loop in ipairs{ "lua", "c" } do
+      local fired = false
+      hook = function(t) if t > 0.5 and not fired then fired = true; mech._set_interrupt(true) end end
+      trs[loop] = by_steps(hooked.simulate, hooked, { q0 = { 0.385 }, t1 = 1, dt = 0.05, _loop = loop })
+      mech._set_interrupt(false)
+    end
+    assert.are.equal("interrupted", trs.c.status)
+    assert(#trs.c.t >= 10 and trs.c.t[#trs.c.t] <= 0.55, ("%d points up to t = %g"):format(#trs.c.t, trs.c.t[#trs.c.t]))
+    local d = differ(content(trs.lua), content(trs.c), "tr")
+    assert(d == nil, d)
+    assert.truthy(trs.c.message:find("stopped by Ctrl-C at t = ", 1, true), trs.c.message)
+  end)
+  it("the interrupt object raised in a user function", function()
+    local trs = {}
+    for _, loop in ipairs{ "lua", "c" } do
+      hook = function(t) if t > 0.5 then error(nz.interrupted) end end
+      trs[loop] = by_steps(hooked.simulate, hooked, { q0 = { 0.385 }, t1 = 1, dt = 0.1, _loop = loop })
+    end
+    assert.are.equal("interrupted", trs.c.status)
+    local d = differ(content(trs.lua), content(trs.c), "tr")
+    assert(d == nil, d)
+  end)
+  it("an error in a user function mid-run: the same message, the same part in nz.last", function()
+    hook = function(t) if t > 0.5 then error("a deliberate failure") end end
+    local msg, last = both_fail(hooked, { q0 = { 0.385 }, t1 = 1, dt = 0.1 })
+    assert.truthy(msg:find("system 'hooked': V raised an error: a deliberate failure at t = ", 1, true), msg)
+    assert.truthy(msg:find("is kept in nz.last", 1, true), msg)
+    assert.are.equal("failed", last.status)
+    assert(#last.t >= 5, #last.t)
+  end)
+  it("a NaN from a user function mid-run (the integrator's failure)", function()
+    hook = function(t) if t > 0.3 then return 0 / 0 end end
+    local nan = nz.system{ name = "nan", coords = { "th" },
+      T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end,
+      V = function(t, q) if t > 0.3 then return q[1] * (0 / 0) end; return -g * nz.cos(q[1]) end }
+    local msg = both_fail(nan, { q0 = { 0.385 }, t1 = 1, dt = 0.1 })
+    assert.truthy(msg:find("system 'nan'", 1, true), msg)
+  end)
+  it("a run that stops making progress: the same message, M's singular values and the state", function()
+    local sys = nz.system{ name = "singular", coords = { "q" },
+      T = function(t, q, qd) return 0.5 * qd[1] ^ 2 * (1 + nz.log(q[1])) end }
+    local msg = both_fail(sys, { q0 = { 0.5 }, qd0 = { -1 }, t1 = 10 })
+    assert.truthy(msg:find("simulate 'singular': the integrator (rk8pd) stopped making progress", 1, true), msg)
+  end)
+end)
