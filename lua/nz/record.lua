@@ -182,7 +182,8 @@ local function handler(e)
   end
   local msg = tostring(e)
   if where and msg:sub(1, #where + 2) == where .. ": " then msg = msg:sub(#where + 3) end
-  if msg:find("number expected, got table", 1, true) then
+  -- math.* on a tracer: "number expected, got nz.traced" (its __name)
+  if msg:find("number expected, got table", 1, true) or msg:find("number expected, got nz.traced", 1, true) then
     msg = msg .. " (math.* takes numbers only: use nz.sin, nz.sqrt, nz.abs, ... on the state)"
   end
   return where and (msg .. " at " .. where) or msg
