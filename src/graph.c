@@ -382,6 +382,8 @@ static int build_neg(nz_graph *g, int a)
   return fold_or_intern(g, mknode(NZ_GOP_NEG, 0, a, -1, 0.0));
 }
 
+static int is_neg(const nz_graph *g, int x) { return g->nodes[x].op == NZ_GOP_NEG; }
+
 /* a + s b (s = +-1) when both are terms of one base, else -1. */
 static int gather(nz_graph *g, int a, int b, double s)
 {
@@ -422,6 +424,18 @@ int nz_graph_op(nz_graph *g, nz_gop op, int a, int b)
     if (op == NZ_GOP_SUB && is_const_value(g, a, 0.0)) return build_neg(g, b);
     int t = gather(g, a, b, op == NZ_GOP_ADD ? 1.0 : -1.0);
     if (t >= 0) return t;
+    /* Negations into the sum, exact: a + (-b) = a - b, (-a) + b = b - a,
+     * a - (-b) = a + b (IEEE defines a - b as a + (-b)). */
+    if (is_neg(g, b)) return nz_graph_op(g, op == NZ_GOP_ADD ? NZ_GOP_SUB : NZ_GOP_ADD, a, g->nodes[b].a);
+    if (op == NZ_GOP_ADD && is_neg(g, a)) return nz_graph_op(g, NZ_GOP_SUB, b, g->nodes[a].a);
+    /* A negative coefficient likewise, exact ((-c) y = -(c y)): a + (c y) =
+     * a - (|c| y), a - (c y) = a + (|c| y); so sums share their terms. */
+    double cb;
+    int yb = nz_graph_is_const(g, b, NULL) ? b : split_term(g, b, &cb);
+    if (yb != b && cb < 0.0) {
+      int t2 = scaled(g, -cb, yb);
+      return t2 < 0 ? -1 : nz_graph_op(g, op == NZ_GOP_ADD ? NZ_GOP_SUB : NZ_GOP_ADD, a, t2);
+    }
     break;
   }
   case NZ_GOP_MUL:
@@ -437,6 +451,16 @@ int nz_graph_op(nz_graph *g, nz_gop op, int a, int b)
       int x = split_term(g, y, &cy);
       nz_graph_is_const(g, k, &v);
       if (x != y && isfinite(v * cy)) return scaled(g, v * cy, x);
+    }
+    /* Constant factors and signs out of a product: (c1 x)(c2 y) = (c1 c2)(x y),
+     * (-x) y = -(x y) (exact), (-x)(-y) = x y (exact). */
+    if (!nz_graph_is_const(g, a, NULL) && !nz_graph_is_const(g, b, NULL)) {
+      double ca, cb;
+      int xa = split_term(g, a, &ca), xb = split_term(g, b, &cb);
+      if ((xa != a || xb != b) && isfinite(ca * cb)) {
+        int xy = nz_graph_op(g, NZ_GOP_MUL, xa, xb), k = nz_graph_const(g, ca * cb);
+        return xy < 0 || k < 0 ? -1 : nz_graph_op(g, NZ_GOP_MUL, k, xy);
+      }
     }
     break;
   case NZ_GOP_DIV:   /* x / x is kept: x may be 0 when evaluated */

@@ -15,10 +15,13 @@
  *     do not grow with every product rule: with c, c1, c2 constants,
  *       (c1 x) + (c2 x) -> (c1 + c2) x,   x + x -> 2 x,   (c x) + x -> (c + 1) x,
  *       (c1 x) - (c2 x) -> (c1 - c2) x,   c1 (c2 x) -> (c1 c2) x,   -(c x) -> (-c) x,
- *     also through a sum: (y + c1 x) + c2 x -> y + (c1 + c2) x (one level).
- *     These are exact in real arithmetic but not in floating point: the
- *     result may differ from the unsimplified expression in the last bit
- *     (unlike folding, which is bit for bit);
+ *       (c1 x)(c2 y) -> (c1 c2)(x y)   (constants move out of products).
+ *     These are exact in real arithmetic, not in floating point: the result
+ *     may differ from the unsimplified expression in the last bit (unlike
+ *     folding, which is bit for bit).  Signs are normalized exactly (IEEE
+ *     negation and a - b = a + (-b) are exact): a + (-b) -> a - b,
+ *     (-a) + b -> b - a, a - (-b) -> a + b, a +- (c y) with c < 0 ->
+ *     a -+ (|c| y), (-x) y -> -(x y), (-x)(-y) -> x y;
  *   - hash-conses: the same (op, fn, operands, constant) is the same node,
  *     with commutative operands (add, mul, hypot) put in a canonical order.
  *
@@ -28,7 +31,7 @@
  *
  * Plain C: never includes lua.h, never prints, never exits.  Functions return
  * an nz_status (jet.h); building returns a node id >= 0, or -1 when memory
- * ran out (the graph is unchanged). */
+ * ran out (the graph stays valid: at most some unused nodes were added). */
 #ifndef NZ_GRAPH_H
 #define NZ_GRAPH_H
 

@@ -438,6 +438,17 @@ static void check_like_terms(void)
   gsl_test(nz_graph_nodes(g)[nxy].op != NZ_GOP_NEG, "like terms: -(x y) stays a negation (no constant)");
   gsl_test(!is_scaled(g, OP(ADD, xy, OP(MUL, xy, K(4.0))), 5.0, xy), "like terms: x y + 4 (x y) = 5 (x y)");
   gsl_test(nz_graph_nodes(g)[OP(ADD, x2, y)].op != NZ_GOP_ADD, "like terms: 2x + y is kept");
+  int y3 = OP(MUL, K(3.0), y), nx = OP(NEG, x, -1), ny = OP(NEG, y, -1);
+  gsl_test(!is_scaled(g, OP(MUL, x2, y3), 6.0, xy) || !is_scaled(g, OP(MUL, x, y3), 3.0, xy),
+           "constants out of products: (2x)(3y) = 6 (x y), x (3y) = 3 (x y)");
+  gsl_test(OP(MUL, nx, y) != nxy || OP(MUL, x, ny) != nxy || OP(MUL, nx, ny) != xy,
+           "signs out of products: (-x) y = x (-y) = -(x y), (-x)(-y) = x y");
+  int d = OP(SUB, x, y), s2 = OP(ADD, x, y);
+  gsl_test(nz_graph_nodes(g)[d].op != NZ_GOP_SUB || OP(ADD, x, ny) != d || OP(ADD, ny, x) != d ||
+           OP(SUB, x, ny) != s2, "signs into sums: x + (-y) = (-y) + x = x - y, x - (-y) = x + y");
+  int y2 = OP(MUL, K(2.0), y), ym2 = OP(MUL, K(-2.0), y);
+  gsl_test(OP(ADD, x, ym2) != OP(SUB, x, y2) || OP(SUB, x, ym2) != OP(ADD, x, y2),
+           "signs into sums: x + (-2y) = x - 2y, x - (-2y) = x + 2y");
   int big = OP(MUL, K(1e308), x), sum = OP(ADD, big, big);
   gsl_test(nz_graph_nodes(g)[sum].op != NZ_GOP_ADD, "like terms: 1e308 x + 1e308 x is kept (the coefficient would overflow)");
   /* A sum of c_l P over l = 1..10 is the one node 55 P. */
@@ -529,7 +540,7 @@ static void check_branches(void)
     double a = 4 * urand() - 2, b = 4 * urand() - 2, xy[2] = { a, b };
     double want[2] = { a > b ? 3 * a * a * b : 0.0, a > b ? a * a * a : 2 * b };
     ok = nz_graph_eval(p, xy, d) == NZ_OK;
-    worst = fmax(worst, fmax(fabs(d[0] - want[0]), fabs(d[1] - want[1])) / fmax(1.0, fabs(want[1])));
+    for (int i = 0; i < 2; i++) worst = fmax(worst, fabs(d[i] - want[i]) / fmax(1.0, fabs(want[i])));
   }
   gsl_test(!ok || !(worst <= 4 * GSL_DBL_EPSILON),
            "d select(x > y, x^3 y, y^2) + sign(x) + [x < y]: f_x, f_y by hand on both sides (%.2g)", worst);
