@@ -1016,8 +1016,12 @@ nz_status nz_graph_eval(nz_graph_plan *p, const double *in, double *out)
       for (; i < e; i++)
         if ((st = d_cmp(r[i].k, v[r[i].a], v[r[i].b], &z[i]))) goto failed;
       break;
-    case R_SELECT:   /* a NaN condition is caught by the pass below */
-      for (; i < e; i++) z[i] = v[r[i].k] != 0.0 ? v[r[i].a] : v[r[i].b];
+    case R_SELECT:   /* a NaN condition (an input, say) fails as nz_jet_select */
+      for (; i < e; i++) {
+        double c = v[r[i].k];
+        if (isnan(c)) { st = NZ_ENAN; goto failed; }
+        z[i] = c != 0.0 ? v[r[i].a] : v[r[i].b];
+      }
       break;
     default: st = NZ_EDOM; goto failed;
     }

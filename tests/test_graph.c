@@ -565,6 +565,14 @@ static void check_branches(void)
   gsl_test(nz_graph_eval(p, in, d) != NZ_ENAN || nz_graph_eval_jets(p, jj, o, NULL, NULL) != NZ_ENAN,
            "select with a NaN condition is NZ_ENAN on doubles and jets");
   nz_graph_plan_free(p);
+  int isel = nz_graph_select(g, y, x, zero);   /* the condition an input that is NaN */
+  p = nz_graph_plan_new(g, &isel, 1);
+  in[1] = NAN;
+  nz_jet_set_constant(yj, NAN);
+  gsl_test(nz_graph_eval(p, in, d) != NZ_ENAN || nz_graph_eval_jets(p, jj, o, NULL, NULL) != NZ_ENAN ||
+           (nz_graph_plan_failure(p, &node, NULL, NULL, NULL), node != isel),
+           "select on an input condition that is NaN is NZ_ENAN at the select, on doubles and jets");
+  nz_graph_plan_free(p);
   nz_jet_free(xj);
   nz_jet_free(yj);
   for (int i = 0; i < 3; i++) nz_jet_free(o[i]);
