@@ -11,6 +11,15 @@
  * functions the double evaluator calls.  They agree as values; only the sign
  * of a zero may differ (a Cauchy sum starts from +0.0).
  *
+ * Like terms (graph.h) are gathered when building: exact in real arithmetic,
+ * not bit for bit, which is why that is a rule of building and not of
+ * folding.
+ *
+ * Branches: cmp gives 1 or 0 and select picks a whole operand; on doubles a
+ * comparison sees values only (a tie is exact equality), on jets it follows
+ * the lexicographic branch rule of nz_jet_compare.  Their derivatives and
+ * eta-parts are 0 (cmp, sign) and the chosen operand's (select).
+ *
  * Zeros: constants are keyed on their bit pattern, so 0.0 and -0.0 are two
  * nodes (atan2(+-0, -1) = +-pi tells them apart).  Both count as zero for
  * the simplifications; x * 0 gives the node +0.0.
@@ -35,7 +44,8 @@
 #include "graph.h"
 
 const char *const nz_gop_names[NZ_GOP_COUNT] = {
-  "const", "input", "add", "sub", "mul", "div", "neg", "powc", "pow", "fn", "atan2", "hypot"
+  "const", "input", "add", "sub", "mul", "div", "neg", "powc", "pow", "fn", "atan2", "hypot",
+  "cmp", "select"
 };
 
 struct nz_graph {
@@ -122,8 +132,27 @@ static inline nz_status d_fn(int fn, double x, double *z)
   case NZ_FN_COSH: *z = cosh(x); break;
   case NZ_FN_TANH: *z = tanh(x); break;
   case NZ_FN_ABS: *z = x < 0.0 ? -x : x; break;
+  case NZ_FN_SIGN: *z = (double)((x > 0.0) - (x < 0.0)); break;   /* nz_jet_apply at order 0 */
   default: return NZ_EDOM;
   }
+  return NZ_OK;
+}
+
+/* a op b on values: nz_jet_compare at order 0 (a tie is exact equality). */
+static inline nz_status d_cmp(int op, double x, double y, double *z)
+{
+  int holds;
+  if (isnan(x) || isnan(y)) return NZ_ENAN;
+  switch (op) {
+  case NZ_CMP_LT: holds = x < y; break;
+  case NZ_CMP_LE: holds = x <= y; break;
+  case NZ_CMP_GT: holds = x > y; break;
+  case NZ_CMP_GE: holds = x >= y; break;
+  case NZ_CMP_EQ: holds = x == y; break;
+  case NZ_CMP_NE: holds = x != y; break;
+  default: return NZ_EDOM;
+  }
+  *z = holds ? 1.0 : 0.0;
   return NZ_OK;
 }
 
@@ -152,7 +181,8 @@ static nz_status scalar_op(const nz_gnode *nd, double x, double y, double *z)
   case NZ_GOP_FN: st = d_fn(nd->fn, x, z); break;
   case NZ_GOP_ATAN2: *z = atan2(x, y); break;
   case NZ_GOP_HYPOT: *z = d_hypot(x, y); break;
-  default: return NZ_EDOM;
+  case NZ_GOP_CMP: st = d_cmp(nd->fn, x, y, z); break;
+  default: return NZ_EDOM;   /* SELECT folds by choosing (nz_graph_select) */
   }
   return st ? st : d_finite(*z);
 }
@@ -199,12 +229,13 @@ static uint64_t node_hash(const nz_gnode *nd)
   memcpy(&vb, &nd->v, sizeof vb);
   uint64_t h = mix64(((uint64_t)nd->op << 8 | nd->fn) ^ 0x9e3779b97f4a7c15ULL);
   h = mix64(h ^ ((uint64_t)(uint32_t)nd->a | (uint64_t)(uint32_t)nd->b << 32));
+  h = mix64(h ^ (uint64_t)(uint32_t)nd->c);
   return mix64(h ^ vb);
 }
 
 static int same_node(const nz_gnode *x, const nz_gnode *y)
 {
-  return x->op == y->op && x->fn == y->fn && x->a == y->a && x->b == y->b &&
+  return x->op == y->op && x->fn == y->fn && x->a == y->a && x->b == y->b && x->c == y->c &&
          memcmp(&x->v, &y->v, sizeof x->v) == 0;
 }
 
@@ -261,6 +292,7 @@ static nz_gnode mknode(nz_gop op, int fn, int a, int b, double v)
   nd.a = a;
   nd.b = b;
   nd.v = v;
+  nd.c = -1;
   return nd;
 }
 
@@ -301,10 +333,66 @@ static int fold_or_intern(nz_graph *g, nz_gnode nd)
   return intern(g, nd);
 }
 
+/* Like terms.  x as coef * base: a product with one constant factor, or the
+ * negation of one, or of anything (coef -1), or x itself (coef 1). */
+static int split_term(const nz_graph *g, int x, double *coef)
+{
+  const nz_gnode *nd = &g->nodes[x];
+  double s = 1.0, c;
+  if (nd->op == NZ_GOP_NEG) {
+    s = -1.0;
+    x = nd->a;
+    nd = &g->nodes[x];
+  }
+  if (nd->op == NZ_GOP_MUL) {
+    /* A product of two constants that overflowed stays unfolded: not a term. */
+    int ka = nz_graph_is_const(g, nd->a, NULL), kb = nz_graph_is_const(g, nd->b, NULL);
+    if (ka != kb) {
+      nz_graph_is_const(g, ka ? nd->a : nd->b, &c);
+      *coef = s * c;
+      return ka ? nd->b : nd->a;
+    }
+  }
+  *coef = s;
+  return x;
+}
+
+static int build_neg(nz_graph *g, int a);
+
+/* c x for a base x of split_term and a finite c. */
+static int scaled(nz_graph *g, double c, int x)
+{
+  if (c == 0.0) return nz_graph_const(g, 0.0);   /* x finite by construction */
+  if (c == 1.0) return x;
+  if (c == -1.0) return build_neg(g, x);
+  int k = nz_graph_const(g, c);
+  if (k < 0) return -1;
+  return fold_or_intern(g, mknode(NZ_GOP_MUL, 0, imin(k, x), imax(k, x), 0.0));
+}
+
 static int build_neg(nz_graph *g, int a)
 {
-  if (g->nodes[a].op == NZ_GOP_NEG) return g->nodes[a].a;   /* -(-x) = x */
+  const nz_gnode *nd = &g->nodes[a];
+  if (nd->op == NZ_GOP_NEG) return nd->a;   /* -(-x) = x */
+  if (nd->op == NZ_GOP_MUL) {   /* -(c x) = (-c) x */
+    double c;
+    int x = split_term(g, a, &c);
+    if (x != a) return scaled(g, -c, x);
+  }
   return fold_or_intern(g, mknode(NZ_GOP_NEG, 0, a, -1, 0.0));
+}
+
+static int is_neg(const nz_graph *g, int x) { return g->nodes[x].op == NZ_GOP_NEG; }
+
+/* a + s b (s = +-1) when both are terms of one base, else -1. */
+static int gather(nz_graph *g, int a, int b, double s)
+{
+  double ca, cb;
+  if (nz_graph_is_const(g, a, NULL) || nz_graph_is_const(g, b, NULL)) return -1;
+  int xa = split_term(g, a, &ca), xb = split_term(g, b, &cb);
+  double c = ca + s * cb;
+  if (xa != xb || !isfinite(c)) return -1;
+  return scaled(g, c, xa);
 }
 
 int nz_graph_powc(nz_graph *g, int a, double p)
@@ -329,14 +417,27 @@ int nz_graph_op(nz_graph *g, nz_gop op, int a, int b)
   if (!valid(g, b)) return -1;
   switch (op) {
   case NZ_GOP_ADD:
-    if (is_const_value(g, a, 0.0)) return b;
+  case NZ_GOP_SUB: {
     if (is_const_value(g, b, 0.0)) return a;
+    if (op == NZ_GOP_ADD && is_const_value(g, a, 0.0)) return b;
+    if (op == NZ_GOP_SUB && a == b) return nz_graph_const(g, 0.0);
+    if (op == NZ_GOP_SUB && is_const_value(g, a, 0.0)) return build_neg(g, b);
+    int t = gather(g, a, b, op == NZ_GOP_ADD ? 1.0 : -1.0);
+    if (t >= 0) return t;
+    /* Negations into the sum, exact: a + (-b) = a - b, (-a) + b = b - a,
+     * a - (-b) = a + b (IEEE defines a - b as a + (-b)). */
+    if (is_neg(g, b)) return nz_graph_op(g, op == NZ_GOP_ADD ? NZ_GOP_SUB : NZ_GOP_ADD, a, g->nodes[b].a);
+    if (op == NZ_GOP_ADD && is_neg(g, a)) return nz_graph_op(g, NZ_GOP_SUB, b, g->nodes[a].a);
+    /* A negative coefficient likewise, exact ((-c) y = -(c y)): a + (c y) =
+     * a - (|c| y), a - (c y) = a + (|c| y); so sums share their terms. */
+    double cb;
+    int yb = nz_graph_is_const(g, b, NULL) ? b : split_term(g, b, &cb);
+    if (yb != b && cb < 0.0) {
+      int t2 = scaled(g, -cb, yb);
+      return t2 < 0 ? -1 : nz_graph_op(g, op == NZ_GOP_ADD ? NZ_GOP_SUB : NZ_GOP_ADD, a, t2);
+    }
     break;
-  case NZ_GOP_SUB:
-    if (is_const_value(g, b, 0.0)) return a;
-    if (a == b) return nz_graph_const(g, 0.0);
-    if (is_const_value(g, a, 0.0)) return build_neg(g, b);
-    break;
+  }
   case NZ_GOP_MUL:
     if (is_const_value(g, a, 1.0)) return b;
     if (is_const_value(g, b, 1.0)) return a;
@@ -344,6 +445,23 @@ int nz_graph_op(nz_graph *g, nz_gop op, int a, int b)
     if (is_const_value(g, a, 0.0) || is_const_value(g, b, 0.0)) return nz_graph_const(g, 0.0);
     if (!nz_graph_is_const(g, a, NULL) && is_const_value(g, b, -1.0)) return build_neg(g, a);
     if (!nz_graph_is_const(g, b, NULL) && is_const_value(g, a, -1.0)) return build_neg(g, b);
+    if (nz_graph_is_const(g, a, NULL) != nz_graph_is_const(g, b, NULL)) {   /* c1 (c2 x) */
+      int k = nz_graph_is_const(g, a, NULL) ? a : b, y = k == a ? b : a;
+      double cy;
+      int x = split_term(g, y, &cy);
+      nz_graph_is_const(g, k, &v);
+      if (x != y && isfinite(v * cy)) return scaled(g, v * cy, x);
+    }
+    /* Constant factors and signs out of a product: (c1 x)(c2 y) = (c1 c2)(x y),
+     * (-x) y = -(x y) (exact), (-x)(-y) = x y (exact). */
+    if (!nz_graph_is_const(g, a, NULL) && !nz_graph_is_const(g, b, NULL)) {
+      double ca, cb;
+      int xa = split_term(g, a, &ca), xb = split_term(g, b, &cb);
+      if ((xa != a || xb != b) && isfinite(ca * cb)) {
+        int xy = nz_graph_op(g, NZ_GOP_MUL, xa, xb), k = nz_graph_const(g, ca * cb);
+        return xy < 0 || k < 0 ? -1 : nz_graph_op(g, NZ_GOP_MUL, k, xy);
+      }
+    }
     break;
   case NZ_GOP_DIV:   /* x / x is kept: x may be 0 when evaluated */
     if (is_const_value(g, b, 1.0)) return a;
@@ -365,6 +483,25 @@ int nz_graph_op(nz_graph *g, nz_gop op, int a, int b)
     b = t;
   }
   return fold_or_intern(g, mknode(op, 0, a, b, 0.0));
+}
+
+int nz_graph_cmp(nz_graph *g, nz_cmp op, int a, int b)
+{
+  if (!valid(g, a) || !valid(g, b) || (int)op < 0 || op > NZ_CMP_NE) return -1;
+  if (a == b)   /* the same series: equal in every coefficient */
+    return nz_graph_const(g, op == NZ_CMP_LE || op == NZ_CMP_GE || op == NZ_CMP_EQ ? 1.0 : 0.0);
+  return fold_or_intern(g, mknode(NZ_GOP_CMP, op, a, b, 0.0));
+}
+
+int nz_graph_select(nz_graph *g, int c, int a, int b)
+{
+  double v;
+  if (!valid(g, c) || !valid(g, a) || !valid(g, b)) return -1;
+  if (nz_graph_is_const(g, c, &v) && !isnan(v)) return v != 0.0 ? a : b;
+  if (a == b) return a;   /* c finite by construction */
+  nz_gnode nd = mknode(NZ_GOP_SELECT, 0, a, b, 0.0);
+  nd.c = c;
+  return intern(g, nd);
 }
 
 /* ------------------------------------------------------------------ */
@@ -440,6 +577,7 @@ static int d_fn_rule(dctx *c, nz_jet_fn fn, int a, int z, int da)
   case NZ_FN_COSH: return d_mul(c, v_fn(c, NZ_FN_SINH, a), da);
   case NZ_FN_TANH: return d_mul(c, v_op(c, NZ_GOP_SUB, v_const(c, 1.0), v_sq(c, z)), da);
   case NZ_FN_ABS: return d_mul(c, v_op(c, NZ_GOP_DIV, a, z), da);   /* a/|a|: 0/0 at 0 */
+  case NZ_FN_SIGN: return DZERO;   /* a step */
   default: c->oom = 1; return DZERO;
   }
 }
@@ -473,6 +611,12 @@ static int d_rule(dctx *c, const nz_gnode *nd, int z, int da, int db)
   }
   case NZ_GOP_HYPOT:   /* (a da + b db) / z */
     return d_div(c, d_add(c, d_mul(c, a, da), d_mul(c, b, db)), z);
+  case NZ_GOP_CMP: return DZERO;   /* a step */
+  case NZ_GOP_SELECT: {   /* the derivative of the branch taken */
+    int x = da == DZERO ? v_const(c, 0.0) : da, y = db == DZERO ? v_const(c, 0.0) : db;
+    if (c->oom) return DZERO;
+    return Dk(c, nz_graph_select(c->g, nd->c, x, y));
+  }
   default: c->oom = 1; return DZERO;
   }
 }
@@ -480,6 +624,7 @@ static int d_rule(dctx *c, const nz_gnode *nd, int z, int da, int db)
 static int has_operand(int op) { return op != NZ_GOP_CONST && op != NZ_GOP_INPUT; }
 static int unary_op(int op) { return op == NZ_GOP_NEG || op == NZ_GOP_POWC || op == NZ_GOP_FN; }
 static int binary_op(int op) { return has_operand(op) && !unary_op(op); }
+static int has_cond(int op) { return op == NZ_GOP_SELECT; }
 
 int nz_graph_derivatives(nz_graph *g, const int *roots, int nroots, const int *dinput, int *droots)
 {
@@ -538,12 +683,13 @@ int nz_graph_derivative(nz_graph *g, int root, const int *dinput)
 /* The double evaluator's opcodes: the graph's, with POWC and FN split. */
 enum {
   R_ADD, R_SUB, R_MUL, R_DIV, R_NEG, R_SQR, R_CUBE, R_POWI, R_POWC, R_POW, R_FN, R_ATAN2,
-  R_HYPOT
+  R_HYPOT, R_CMP, R_SELECT
 };
 
 /* One computed node for the double loop: operand slots (b = a for unary
  * ops, so that reading it is always safe) and an integer parameter (the
- * exponent of R_POWI, the function of R_FN). */
+ * exponent of R_POWI, the function of R_FN, the nz_cmp of R_CMP, the slot
+ * of the condition of R_SELECT). */
 typedef struct grec {
   int32_t op, a, b, k;
 } grec;
@@ -559,6 +705,7 @@ typedef struct jrec {
   uint8_t op, fn;
   int32_t a, b;   /* slots; b = a for unary ops */
   double v;
+  int32_t c;      /* slot of the condition (SELECT), else a */
 } jrec;
 
 #define NTEMP 4
@@ -618,7 +765,7 @@ void nz_graph_plan_free(nz_graph_plan *p)
 int nz_graph_plan_nodes(const nz_graph_plan *p) { return p->m; }
 int nz_graph_plan_noutputs(const nz_graph_plan *p) { return p->nout; }
 
-static grec make_grec(const nz_gnode *nd, int a, int b)
+static grec make_grec(const nz_gnode *nd, int a, int b, int c)
 {
   grec r = { 0, a, b, 0 };
   switch (nd->op) {
@@ -631,6 +778,8 @@ static grec make_grec(const nz_gnode *nd, int a, int b)
   case NZ_GOP_ATAN2: r.op = R_ATAN2; break;
   case NZ_GOP_HYPOT: r.op = R_HYPOT; break;
   case NZ_GOP_FN: r.op = R_FN; r.k = nd->fn; break;
+  case NZ_GOP_CMP: r.op = R_CMP; r.k = nd->fn; break;
+  case NZ_GOP_SELECT: r.op = R_SELECT; r.k = c; break;
   case NZ_GOP_POWC:
     if (nd->v == 2.0) r.op = R_SQR;
     else if (nd->v == 3.0) r.op = R_CUBE;
@@ -693,6 +842,7 @@ static void plan_mark(nz_graph_plan *p, const nz_graph *g, const int *outputs, i
     const nz_gnode *nd = &g->nodes[id];
     if (has_operand(nd->op)) lev[nd->a] = 1;
     if (binary_op(nd->op)) lev[nd->b] = 1;
+    if (has_cond(nd->op)) lev[nd->c] = 1;
     if (nd->op == NZ_GOP_INPUT) p->nin++;
     else if (nd->op == NZ_GOP_CONST) p->ncon++;
     else p->nrec++;
@@ -701,7 +851,8 @@ static void plan_mark(nz_graph_plan *p, const nz_graph *g, const int *outputs, i
   for (int id = 0; id <= top; id++) {
     const nz_gnode *nd = &g->nodes[id];
     if (!lev[id] || !has_operand(nd->op)) continue;
-    lev[id] = 1 + imax(lev[nd->a], binary_op(nd->op) ? lev[nd->b] : 0);
+    lev[id] = 1 + imax(imax(lev[nd->a], binary_op(nd->op) ? lev[nd->b] : 0),
+                       has_cond(nd->op) ? lev[nd->c] : 0);
   }
 }
 
@@ -746,8 +897,9 @@ nz_graph_plan *nz_graph_plan_new(const nz_graph *g, const int *outputs, int n)
       p->ids[sc] = id;
       slot[id] = sc++;
     } else {
-      grec r = make_grec(nd, 0, 0);
-      order[nr++] = (sched){ slot[id], r.op * 64 + (r.op == R_FN ? r.k : 0), id };
+      grec r = make_grec(nd, 0, 0, 0);
+      int sub = r.op == R_FN || r.op == R_CMP ? r.k : 0;
+      order[nr++] = (sched){ slot[id], r.op * 64 + sub, id };
     }
   }
   qsort(order, (size_t)nr, sizeof *order, sched_cmp);
@@ -755,10 +907,11 @@ nz_graph_plan *nz_graph_plan_new(const nz_graph *g, const int *outputs, int n)
     int id = order[i].id, s = p->base + i;
     const nz_gnode *nd = &g->nodes[id];
     int a = slot[nd->a], b = binary_op(nd->op) ? slot[nd->b] : a;
+    int cs = has_cond(nd->op) ? slot[nd->c] : a;
     slot[id] = s;
     p->ids[s] = id;
-    p->recs[i] = make_grec(nd, a, b);
-    p->jrecs[i] = (jrec){ nd->op, nd->fn, a, b, nd->v };
+    p->recs[i] = make_grec(nd, a, b, cs);
+    p->jrecs[i] = (jrec){ nd->op, nd->fn, a, b, nd->v, cs };
     p->pv[i] = nd->v;
     if (p->nrun == 0 || p->runs[p->nrun - 1].op != p->recs[i].op) p->runs[p->nrun++].op = p->recs[i].op;
     p->runs[p->nrun - 1].end = i + 1;
@@ -859,6 +1012,17 @@ nz_status nz_graph_eval(nz_graph_plan *p, const double *in, double *out)
       break;
     case R_ATAN2: for (; i < e; i++) z[i] = atan2(v[r[i].a], v[r[i].b]); break;
     case R_HYPOT: for (; i < e; i++) z[i] = d_hypot(v[r[i].a], v[r[i].b]); break;
+    case R_CMP:
+      for (; i < e; i++)
+        if ((st = d_cmp(r[i].k, v[r[i].a], v[r[i].b], &z[i]))) goto failed;
+      break;
+    case R_SELECT:   /* a NaN condition (an input, say) fails as nz_jet_select */
+      for (; i < e; i++) {
+        double c = v[r[i].k];
+        if (isnan(c)) { st = NZ_ENAN; goto failed; }
+        z[i] = c != 0.0 ? v[r[i].a] : v[r[i].b];
+      }
+      break;
     default: st = NZ_EDOM; goto failed;
     }
   }
@@ -944,6 +1108,8 @@ static nz_status jet_value(nz_graph_plan *p, const jrec *jr, nz_jet *z)
     return nz_jet_apply(z, (nz_jet_fn)jr->fn, A, w);
   case NZ_GOP_ATAN2: return nz_jet_atan2(z, A, B, w);
   case NZ_GOP_HYPOT: return nz_jet_hypot(z, A, B, w);
+  case NZ_GOP_CMP: return nz_jet_compare(z, (nz_cmp)jr->fn, A, B);
+  case NZ_GOP_SELECT: return nz_jet_select(z, p->J[jr->c], A, B);
   default: return NZ_EDOM;
   }
 }
@@ -1001,6 +1167,19 @@ static nz_status eta_fn(nz_graph_plan *p, int s, int fn, nz_jet *Ez, const nz_je
     if (A->c[0] == 0.0) return NZ_ESING;
     return lin_affine(Ez, dA, A->c[0] < 0.0 ? -1.0 : 1.0, 0.0);
   default: return NZ_EDOM;
+  }
+}
+
+/* Copy jet src (NULL: zero) into o, over o's shape: missing coefficients and
+ * tangents are zero, extra ones are dropped. */
+static void copy_out(nz_jet *o, const nz_jet *src)
+{
+  for (int d = -1; d < o->ntan; d++) {
+    double *od = d < 0 ? o->c : nz_jet_tangent(o, d);
+    const double *sd = !src ? NULL : d < 0 ? src->c : nz_jet_tangent(src, d);
+    int k = 0, kc = sd ? imin(o->order, src->order) : -1;
+    for (; k <= kc; k++) od[k] = sd[k];
+    for (; k <= o->order; k++) od[k] = 0.0;
   }
 }
 
@@ -1070,6 +1249,9 @@ static nz_status jet_eta(nz_graph_plan *p, int s, const jrec *jr, nz_jet *Ez)
         return st;
     } else if ((st = dA ? nz_jet_mul(T2, A, dA, w) : nz_jet_mul(T2, B, dB, w))) return st;
     return nz_jet_div(Ez, T2, Z, w);
+  case NZ_GOP_SELECT:   /* the eta-part of the branch taken (NULL: zero) */
+    copy_out(Ez, p->J[jr->c]->c[0] != 0.0 ? dA : dB);
+    return NZ_OK;
   default: return NZ_EDOM;
   }
 }
@@ -1108,11 +1290,13 @@ static size_t plan_shapes(nz_graph_plan *p, int eta, int Kmax, int *Dmax)
     const jrec *jr = &p->jrecs[i];
     int s = p->base + i, a = jr->a, b = jr->b, ka = !is_const_slot(p, a), kb = !is_const_slot(p, b);
     int o = ka && kb ? imin(p->ord[a], p->ord[b]) : ka ? p->ord[a] : kb ? p->ord[b] : Kmax;
+    /* A step (cmp, sign) is a constant series: no tangents, no eta-part. */
+    int step = jr->op == NZ_GOP_CMP || (jr->op == NZ_GOP_FN && jr->fn == NZ_FN_SIGN);
     p->ord[s] = o;
-    p->ntn[s] = imax(p->ntn[a], p->ntn[b]);
+    p->ntn[s] = step ? 0 : imax(p->ntn[a], p->ntn[b]);
     len += jet_doubles(o, p->ntn[s]);
     p->eord[s] = -1;
-    if (!eta) continue;
+    if (!eta || step) continue;
     int ea = p->eord[a] >= 0, eb = !unary_op(jr->op) && p->eord[b] >= 0;
     if (!ea && !eb) continue;
     p->eord[s] = imin(o, imin(ea ? p->eord[a] : o, eb ? p->eord[b] : o));
@@ -1121,19 +1305,6 @@ static size_t plan_shapes(nz_graph_plan *p, int eta, int Kmax, int *Dmax)
     *Dmax = imax(*Dmax, p->entn[s]);
   }
   return len;
-}
-
-/* Copy jet src (NULL: zero) into o, over o's shape: missing coefficients and
- * tangents are zero, extra ones are dropped. */
-static void copy_out(nz_jet *o, const nz_jet *src)
-{
-  for (int d = -1; d < o->ntan; d++) {
-    double *od = d < 0 ? o->c : nz_jet_tangent(o, d);
-    const double *sd = !src ? NULL : d < 0 ? src->c : nz_jet_tangent(src, d);
-    int k = 0, kc = sd ? imin(o->order, src->order) : -1;
-    for (; k <= kc; k++) od[k] = sd[k];
-    for (; k <= o->order; k++) od[k] = 0.0;
-  }
 }
 
 nz_status nz_graph_eval_jets(nz_graph_plan *p, const nz_jet *const *in, nz_jet *const *out,

@@ -10,7 +10,18 @@
  *     with the same jet kernels, so folding and evaluation agree bit for bit);
  *   - simplifies the identities that cost nothing to know: x + 0, x - 0,
  *     0 - x, x * 1, x * 0 (x finite by construction), x / 1, x ^ 1, x ^ 0,
- *     -(-x);
+ *     -(-x), select(c, a, a) = a, cmp(x, x);
+ *   - gathers like terms, so that the graphs the mechanics differentiates
+ *     do not grow with every product rule: with c, c1, c2 constants,
+ *       (c1 x) + (c2 x) -> (c1 + c2) x,   x + x -> 2 x,   (c x) + x -> (c + 1) x,
+ *       (c1 x) - (c2 x) -> (c1 - c2) x,   c1 (c2 x) -> (c1 c2) x,   -(c x) -> (-c) x,
+ *       (c1 x)(c2 y) -> (c1 c2)(x y)   (constants move out of products).
+ *     These are exact in real arithmetic, not in floating point: the result
+ *     may differ from the unsimplified expression in the last bit (unlike
+ *     folding, which is bit for bit).  Signs are normalized exactly (IEEE
+ *     negation and a - b = a + (-b) are exact): a + (-b) -> a - b,
+ *     (-a) + b -> b - a, a - (-b) -> a + b, a +- (c y) with c < 0 ->
+ *     a -+ (|c| y), (-x) y -> -(x y), (-x)(-y) -> x y;
  *   - hash-conses: the same (op, fn, operands, constant) is the same node,
  *     with commutative operands (add, mul, hypot) put in a canonical order.
  *
@@ -20,7 +31,7 @@
  *
  * Plain C: never includes lua.h, never prints, never exits.  Functions return
  * an nz_status (jet.h); building returns a node id >= 0, or -1 when memory
- * ran out (the graph is unchanged). */
+ * ran out (the graph stays valid: at most some unused nodes were added). */
 #ifndef NZ_GRAPH_H
 #define NZ_GRAPH_H
 
@@ -41,6 +52,8 @@ typedef enum nz_gop {
   NZ_GOP_FN,      /* fn(a), fn an nz_jet_fn                      */
   NZ_GOP_ATAN2,   /* atan2(a, b)                                 */
   NZ_GOP_HYPOT,   /* hypot(a, b)                                 */
+  NZ_GOP_CMP,     /* 1 where a fn b holds else 0, fn an nz_cmp   */
+  NZ_GOP_SELECT,  /* a where c != 0, else b                      */
   NZ_GOP_COUNT
 } nz_gop;
 
@@ -48,9 +61,10 @@ extern const char *const nz_gop_names[NZ_GOP_COUNT];
 
 typedef struct nz_gnode {
   uint8_t op;       /* nz_gop                                     */
-  uint8_t fn;       /* nz_jet_fn for NZ_GOP_FN                    */
+  uint8_t fn;       /* nz_jet_fn for NZ_GOP_FN, nz_cmp for NZ_GOP_CMP */
   int32_t a, b;     /* operand node ids (-1 when unused); input number for INPUT */
   double v;         /* constant value (CONST) or exponent (POWC)  */
+  int32_t c;        /* the condition of NZ_GOP_SELECT, else -1    */
 } nz_gnode;
 
 typedef struct nz_graph nz_graph;
@@ -72,6 +86,19 @@ int nz_graph_input(nz_graph *g, int input);
 int nz_graph_op(nz_graph *g, nz_gop op, int a, int b);
 int nz_graph_fn(nz_graph *g, nz_jet_fn fn, int a);
 int nz_graph_powc(nz_graph *g, int a, double p);
+/* Branches without a Lua `if` (jet.h's nz_jet_compare, nz_jet_select).
+ * cmp(op, a, b) is 1 where a op b holds, else 0; its derivative is 0 (a
+ * step).  On jets of order >= 1 the comparison follows the branch rule of
+ * jet.h (the value series compared lexicographically, so a tie in value is
+ * decided by the first coefficient that differs); on doubles, and so in
+ * nz_graph_eval, there are only values, and a tie is exact equality.
+ * select(c, a, b) is a where c != 0, else b, the whole operand (its
+ * derivatives too); with c constant it is that operand itself.  Both
+ * operands are evaluated: select does not protect a failing branch
+ * (select(x > 0, sqrt(x), 0) fails for x < 0, as nz.ifelse does in Lua).
+ * NZ_FN_SIGN (nz_graph_fn) is -1, 0, +1 by the same rule, derivative 0. */
+int nz_graph_cmp(nz_graph *g, nz_cmp op, int a, int b);
+int nz_graph_select(nz_graph *g, int c, int a, int b);
 /* Is node x the constant v? (for callers that simplify further) */
 int nz_graph_is_const(const nz_graph *g, int x, double *v);
 
@@ -81,7 +108,7 @@ int nz_graph_is_const(const nz_graph *g, int x, double *v);
  * Returns the node of the derivative (a constant 0 node when nothing moves
  * it).  Builds through nz_graph_node, so the result is folded and shared.
  * d|x| is sign(x) dx (abs is differentiable away from 0, where the jets
- * refuse it too). */
+ * refuse it too); d cmp = d sign = 0; d select(c, a, b) = select(c, da, db). */
 int nz_graph_derivative(nz_graph *g, int root, const int *dinput);
 /* The same for several roots at once, sharing the work: droots[r] receives
  * the derivative of roots[r].  0 or -1. */

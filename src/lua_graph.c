@@ -2,7 +2,8 @@
  *
  * lua/nz/record.lua runs the user's functions on tracer values; every
  * operation on a tracer calls one of the methods below, which add a node
- * (folded and shared: graph.h) and return its id.  The userdata owns the
+ * (folded and shared: graph.h) and return its id; cmp and select record the
+ * branch functions (nz.gt, nz.ifelse, nz.max, ...).  The userdata owns the
  * nz_compiled (mech_graph.h) and frees it with the collector. */
 #include <lauxlib.h>
 #include <string.h>
@@ -110,6 +111,28 @@ static int lg_fn(lua_State *L)
   for (int f = 0; f < NZ_FN_COUNT; f++)
     if (strcmp(name, nz_jet_fn_names[f]) == 0) return push_node(L, nz_graph_fn(g, (nz_jet_fn)f, a));
   return luaL_error(L, "internal: no function '%s' in the graph", name);
+}
+
+/* cmp(kind, a, b): 1 where a kind b holds, else 0; kind lt le gt ge eq ne. */
+static const char *const cmp_names[] = { "lt", "le", "gt", "ge", "eq", "ne", NULL };
+static const nz_cmp cmp_codes[] = { NZ_CMP_LT, NZ_CMP_LE, NZ_CMP_GT, NZ_CMP_GE, NZ_CMP_EQ, NZ_CMP_NE };
+
+static int lg_cmp(lua_State *L)
+{
+  nz_compiled *c = check(L);
+  nz_graph *g = nz_compiled_graph(c);
+  nz_cmp op = cmp_codes[luaL_checkoption(L, 2, NULL, cmp_names)];
+  int a = check_node(L, g, 3), b = check_node(L, g, 4);
+  return push_node(L, nz_graph_cmp(g, op, a, b));
+}
+
+/* select(c, a, b): a where c != 0, else b. */
+static int lg_select(lua_State *L)
+{
+  nz_compiled *c = check(L);
+  nz_graph *g = nz_compiled_graph(c);
+  int cond = check_node(L, g, 2), a = check_node(L, g, 3), b = check_node(L, g, 4);
+  return push_node(L, nz_graph_select(g, cond, a, b));
 }
 
 static int lg_powc(lua_State *L)
@@ -222,6 +245,7 @@ static int lg_eval(lua_State *L)
 static const luaL_Reg methods[] = {
   { "const", lg_const }, { "slot", lg_slot }, { "time", lg_time }, { "param", lg_param },
   { "op", lg_op }, { "fn", lg_fn }, { "powc", lg_powc }, { "constant", lg_constant },
+  { "cmp", lg_cmp }, { "select", lg_select },
   { "set_piece", lg_set_piece }, { "info", lg_info }, { "piece_nodes", lg_piece_nodes },
   { "eval", lg_eval }, { NULL, NULL }
 };

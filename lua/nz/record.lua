@@ -3,8 +3,10 @@
 --
 -- Each function (T, V, L, Q, each constraint) runs once on tracer values:
 -- t, every derivative slot of every q_i and every named number in params
--- are graph inputs, and every operation on a tracer adds a node.  What the
--- graph cannot hold -- a comparison (a Lua branch on the state), math.* on
+-- are graph inputs, and every operation on a tracer adds a node; the branch
+-- functions (nz.gt, nz.ifelse, nz.max, nz.min, nz.clamp, nz.sign) add
+-- comparison and selection nodes.  What the graph cannot hold -- a Lua
+-- comparison (a Lua branch on the state), math.* on
 -- a traced value, a jet method, text -- stops that function's recording:
 -- it keeps the Lua evaluation, and the reason is kept for print(sys).
 --
@@ -75,12 +77,79 @@ TR.__pow = function(a, b)
 end
 TR.__unm = function(a) return wrap(a.c, a.c:op("neg", a.id)) end
 for _, name in ipairs{ "exp", "log", "sqrt", "sin", "cos", "tan", "asin", "acos", "atan",
-                       "sinh", "cosh", "tanh", "abs" } do
+                       "sinh", "cosh", "tanh", "abs", "sign" } do
   TR[name] = function(x) return wrap(x.c, x.c:fn(name, x.id)) end
 end
 
+-- Branches written without a Lua `if` (nz.lt ... nz.clamp, src/lua_jet.c):
+-- nz.* hands the call to the first table argument whose metatable has the
+-- field, so a tracer may be any of the arguments; the others are numbers.
+-- The same choices as the jets: max and min keep the first operand at a
+-- tie, clamp keeps x at a tie with a bound.
+local function graph_of(...)
+  for i = 1, select("#", ...) do
+    local x = select(i, ...)
+    if is_tr(x) then return x.c end
+  end
+end
+
+local function branch_operand(c, x, fname)
+  if type(x) == "boolean" then
+    untraceable(("nz.%s got a boolean (a Lua comparison such as x > 0 cannot be recorded): "
+      .. "write the condition with nz.gt(x, 0), nz.lt, nz.ge or nz.le"):format(fname))
+  end
+  return operand(c, x)
+end
+
+for _, name in ipairs{ "lt", "le", "gt", "ge" } do
+  TR[name] = function(a, b)
+    local c = graph_of(a, b)
+    return wrap(c, c:cmp(name, branch_operand(c, a, name), branch_operand(c, b, name)))
+  end
+end
+
+-- ifelse(cond, a, b): a where cond ~= 0, else b (a constant cond chooses now).
+local function ifelse(c, cond, a, b, fname)
+  return c:select(branch_operand(c, cond, fname), branch_operand(c, a, fname), branch_operand(c, b, fname))
+end
+
+function TR.ifelse(cond, a, b)
+  local c = graph_of(cond, a, b)
+  return wrap(c, ifelse(c, cond, a, b, "ifelse"))
+end
+
+local function extremum(kind, fname)
+  return function(a, b)
+    local c = graph_of(a, b)
+    local ia, ib = branch_operand(c, a, fname), branch_operand(c, b, fname)
+    return wrap(c, c:select(c:cmp(kind, ia, ib), ia, ib))
+  end
+end
+TR.max = extremum("ge", "max")   -- max(a, b) = select(a >= b, a, b)
+TR.min = extremum("le", "min")   -- min(a, b) = select(a <= b, a, b)
+
+-- clamp(x, lo, hi) = lo where x < lo, hi where x > hi, else x; lo <= hi is
+-- checked now when the bounds are numbers.  Bounds that are traced (params,
+-- the state) would need that check at every evaluation, which a graph does
+-- not make: such a clamp stays in Lua, and min(max(x, lo), hi) records.
+function TR.clamp(x, lo, hi)
+  local c = graph_of(x, lo, hi)
+  local ix, ilo, ihi = branch_operand(c, x, "clamp"), branch_operand(c, lo, "clamp"), branch_operand(c, hi, "clamp")
+  local vlo, vhi = c:constant(ilo), c:constant(ihi)
+  if not (vlo and vhi) then
+    untraceable("nz.clamp with bounds that are traced (params or the state): its check lo <= hi "
+      .. "cannot be recorded; write nz.min(nz.max(x, lo), hi), which records")
+  end
+  if vlo > vhi then
+    untraceable(("nz.clamp: the lower bound %.17g is above the upper bound %.17g (clamp(x, lo, hi) "
+      .. "needs lo <= hi)"):format(vlo, vhi))
+  end
+  local below = c:select(c:cmp("lt", ix, ilo), ilo, ix)
+  return wrap(c, c:select(c:cmp("gt", ix, ihi), ihi, below))
+end
+
 local BRANCH = "compares a traced value (a Lua branch on the state cannot be recorded): "
-  .. "write it with nz.ifelse, nz.max, nz.min or nz.clamp"
+  .. "write it with nz.ifelse and nz.gt/lt/ge/le, nz.max, nz.min, nz.clamp or nz.sign"
 TR.__lt = function() untraceable(BRANCH) end
 TR.__le = TR.__lt
 TR.__eq = TR.__lt
@@ -113,7 +182,8 @@ local function handler(e)
   end
   local msg = tostring(e)
   if where and msg:sub(1, #where + 2) == where .. ": " then msg = msg:sub(#where + 3) end
-  if msg:find("number expected, got table", 1, true) then
+  -- math.* on a tracer: "number expected, got nz.traced" (its __name)
+  if msg:find("number expected, got table", 1, true) or msg:find("number expected, got nz.traced", 1, true) then
     msg = msg .. " (math.* takes numbers only: use nz.sin, nz.sqrt, nz.abs, ... on the state)"
   end
   return where and (msg .. " at " .. where) or msg
