@@ -92,10 +92,13 @@ int nz_constraint_row_along(const nz_system *s, int r, int m, double t, const do
                             int nstate, double alpha, double beta, const nz_state_direction *dir,
                             double *A, double *value, double *dA, double *dvalue)
 {
-  int k = s->k, K = 2 - m;
+  int k = s->k, K = 2 - m, st;
   if (m < 0 || m > 2) return NZ_EARG;
+  if (!dir && s->constraint_row &&
+      (st = s->constraint_row(s->mass_bias_ctx, r, m, t, state, nstate, alpha, beta, A, value)) != NZ_EARG)
+    return st;
   nz_motion mo;
-  int st = nz_motion_init(&mo, k, nz_constraint_levels(s, r), K, k, t, state, nstate);
+  st = nz_motion_init(&mo, k, nz_constraint_levels(s, r), K, k, t, state, nstate);
   if (st) return st;
   if (dir && (st = nz_motion_set_direction(&mo, dir))) { nz_motion_free(&mo); return st; }
   for (int i = 0; i < k; i++) nz_motion_seed_level(&mo, i, i, 2);

@@ -31,34 +31,38 @@ static void eigen_range(int k, const double *A, nz_solve_info *info)
   free(copy);
 }
 
-int nz_solve_spd(int k, double *A, const double *b, double *x, double rcond_min,
-                 nz_solve_info *info)
+size_t nz_solve_spd_work_len(int k) { return (size_t)k * (size_t)k + 3 * (size_t)k; }
+
+int nz_solve_spd_in(int k, double *A, const double *b, double *x, double rcond_min,
+                    nz_solve_info *info, double *work)
 {
   memset(info, 0, sizeof *info);
-  double *orig = malloc((size_t)k * (size_t)k * sizeof(double));
-  double *work = malloc(3 * (size_t)k * sizeof(double));
-  int st = NZ_OK;
-  if (!orig || !work) { st = NZ_ENOMEM; goto done; }
+  double *orig = work, *rwork = work + (size_t)k * (size_t)k;
   memcpy(orig, A, (size_t)k * (size_t)k * sizeof(double));
   gsl_matrix_view m = gsl_matrix_view_array(A, (size_t)k, (size_t)k);
   if (gsl_linalg_cholesky_decomp1(&m.matrix) != GSL_SUCCESS) {
     info->not_spd = 1;
     eigen_range(k, orig, info);
-    st = NZ_ESINGULAR;
-    goto done;
+    return NZ_ESINGULAR;
   }
-  gsl_vector_view wv = gsl_vector_view_array(work, 3 * (size_t)k);
+  gsl_vector_view wv = gsl_vector_view_array(rwork, 3 * (size_t)k);
   gsl_linalg_cholesky_rcond(&m.matrix, &info->rcond, &wv.vector);
   if (!(info->rcond >= rcond_min)) {
     eigen_range(k, orig, info);
-    st = NZ_ESINGULAR;
-    goto done;
+    return NZ_ESINGULAR;
   }
   gsl_vector_const_view bv = gsl_vector_const_view_array(b, (size_t)k);
   gsl_vector_view xv = gsl_vector_view_array(x, (size_t)k);
-  if (gsl_linalg_cholesky_solve(&m.matrix, &bv.vector, &xv.vector) != GSL_SUCCESS) st = NZ_ESINGULAR;
-done:
-  free(orig);
+  if (gsl_linalg_cholesky_solve(&m.matrix, &bv.vector, &xv.vector) != GSL_SUCCESS) return NZ_ESINGULAR;
+  return NZ_OK;
+}
+
+int nz_solve_spd(int k, double *A, const double *b, double *x, double rcond_min,
+                 nz_solve_info *info)
+{
+  double *work = malloc(nz_solve_spd_work_len(k) * sizeof(double));
+  if (!work) return NZ_ENOMEM;
+  int st = nz_solve_spd_in(k, A, b, x, rcond_min, info, work);
   free(work);
   return st;
 }

@@ -19,6 +19,11 @@ typedef struct nz_solve_info {
  * definite, or rcond < rcond_min when it is too badly conditioned. */
 int nz_solve_spd(int k, double *A, const double *b, double *x, double rcond_min,
                  nz_solve_info *info);
+/* The same in the caller's workspace of nz_solve_spd_work_len(k) doubles:
+ * nothing is allocated unless the matrix has to be diagnosed. */
+size_t nz_solve_spd_work_len(int k);
+int nz_solve_spd_in(int k, double *A, const double *b, double *x, double rcond_min,
+                    nz_solve_info *info, double *work);
 
 #include <gsl/gsl_matrix.h>
 #include <gsl/gsl_vector.h>

@@ -6,7 +6,7 @@
 
 #define NZ_COMPILED_METATABLE "nz.compiled"
 
-/* Add core.compiled_new to the table on top. */
+/* Add compiled_new to the table on top (core.mech). */
 void nz_lua_open_graph(lua_State *L);
 /* The compiled system at idx, or NULL. */
 nz_compiled *nz_lua_tocompiled(lua_State *L, int idx);

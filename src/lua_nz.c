@@ -107,7 +107,9 @@ static int open_core(lua_State *L)
   lua_newtable(L);
   nz_lua_open_jet(L);
   nz_lua_open_system(L);
+  lua_getfield(L, -1, "mech");   /* the recorder's constructor is internal: core.mech */
   nz_lua_open_graph(L);
+  lua_pop(L, 1);
   nz_lua_open_special(L);
   lua_pushstring(L, NZ_VERSION);
   lua_setfield(L, -2, "version");

@@ -438,9 +438,11 @@ static void bind_compiled(lua_State *L, int def, bound_system *b)
   b->sys.ev.ctx = b;
   if (lua_getfield(L, def, "compiled_mass_bias") == LUA_TBOOLEAN && lua_toboolean(L, -1)) {
     b->sys.mass_bias = nz_compiled_mass_bias;
-    b->sys.mass_bias_ctx = b->comp;
+    b->sys.accel = nz_compiled_accel;
   }
   lua_pop(L, 1);
+  b->sys.constraint_row = nz_compiled_constraint_row;
+  b->sys.mass_bias_ctx = b->comp;
 }
 
 /* ------------------------------------------------------------------ */

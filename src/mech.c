@@ -559,7 +559,9 @@ int nz_kinetic_parts(const nz_system *s, double t, const double *q, const double
 int nz_accel(const nz_system *s, double t, const double *q, const double *qd, double rcond_min,
              double *qdd, nz_solve_info *info)
 {
-  int k = s->k;
+  int k = s->k, fast;
+  if (s->accel && (fast = s->accel(s->mass_bias_ctx, t, q, qd, rcond_min, qdd, info)) != NZ_EARG)
+    return fast;
   double *buf = malloc(((size_t)k * (size_t)k + 2 * (size_t)k) * sizeof(double));
   if (!buf) return NZ_ENOMEM;
   double *M = buf, *h = M + (size_t)k * k, *rhs = h + k;

@@ -62,6 +62,8 @@ typedef struct nz_evaluator {
  * q'''), and more when they ask for them (nz_system.levels). */
 #define NZ_CONSTRAINT_SLOTS 4
 
+struct nz_solve_info;   /* linalg.h */
+
 typedef struct nz_system {
   int k;
   int nc;                    /* number of constraints */
@@ -75,7 +77,14 @@ typedef struct nz_system {
    * recorded graphs, mech_graph.c); a return of NZ_EARG means "not here,
    * take the jets". */
   int (*mass_bias)(void *ctx, double t, const double *q, const double *qd, double *M, double *h);
-  void *mass_bias_ctx;
+  /* Optional: nz_accel's whole solve the same way (same contract). */
+  int (*accel)(void *ctx, double t, const double *q, const double *qd, double rcond_min,
+               double *qdd, struct nz_solve_info *info);
+  /* Optional: a constraint's row at the acceleration level on doubles
+   * (constrained.h's nz_constraint_row_stabilized; same contract). */
+  int (*constraint_row)(void *ctx, int r, int m, double t, const double *const *state, int nstate,
+                        double alpha, double beta, double *A, double *value);
+  void *mass_bias_ctx;   /* of all three */
 } nz_system;
 
 static inline int nz_system_has(const nz_system *s, nz_piece p) { return (s->has >> p) & 1u; }

@@ -3,6 +3,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include "linalg.h"
 #include "mech_graph.h"
 
 typedef struct compiled_piece {
@@ -25,6 +26,17 @@ struct nz_compiled {
   int mb_built;
   nz_graph_plan *mb_plan;
   double *mb_in, *mb_out;
+  /* nz_compiled_accel's workspace: A (k x k), rhs (k), the solver's. */
+  double *acc_A, *acc_rhs, *acc_work;
+  /* A constant M, inverted once (minv k x k), with its solve info. */
+  int m_const;
+  double *minv;
+  nz_solve_info m_info;
+  /* Constraint rows on doubles: plan of (r, m) at rows[3 r + m] (built = 1,
+   * or -1 when it cannot be built), outputs D^0..D^K Phi then A. */
+  nz_graph_plan **rows;
+  signed char *rows_built;
+  double *row_in, *row_out;
   char failure[160];
 };
 
@@ -43,7 +55,12 @@ nz_compiled *nz_compiled_new(int k, int np, int nc, int nslots)
   c->din = calloc((size_t)c->ninputs, sizeof(nz_jet *));
   c->pjet = calloc((size_t)np + 1, sizeof(nz_jet *));
   c->pcap = -1;
-  if (!c->g || !c->params || !c->phi || !c->in || !c->din || !c->pjet) {
+  c->rows = calloc(3 * (size_t)nc + 1, sizeof(nz_graph_plan *));
+  c->rows_built = calloc(3 * (size_t)nc + 1, 1);
+  c->row_in = calloc((size_t)c->ninputs + 3 + (size_t)k, sizeof(double));
+  if (c->row_in) c->row_out = c->row_in + c->ninputs;
+  if (!c->g || !c->params || !c->phi || !c->in || !c->din || !c->pjet || !c->rows || !c->rows_built ||
+      !c->row_in) {
     nz_compiled_free(c);
     return NULL;
   }
@@ -64,7 +81,13 @@ void nz_compiled_free(nz_compiled *c)
   for (int r = 0; c->phi && r < c->nc; r++) piece_clear(&c->phi[r]);
   for (int p = 0; c->pjet && p < c->np; p++) nz_jet_free(c->pjet[p]);
   nz_graph_plan_free(c->mb_plan);
+  for (int r = 0; c->rows && r < 3 * c->nc; r++) nz_graph_plan_free(c->rows[r]);
+  free(c->rows);
+  free(c->rows_built);
+  free(c->row_in);
   free(c->mb_in);
+  free(c->acc_A);
+  free(c->minv);
   free(c->phi);
   free(c->pjet);
   free(c->in);
@@ -178,7 +201,8 @@ int nz_compiled_eval(void *ctx, nz_piece piece, int index, const nz_jet *t,
 /* ------------------------------------------------------------------ */
 /* Mass matrix and bias, differentiated once                           */
 
-/* Graph nodes of M (k x k) then h (k), into out[k k + k]; -1 on failure. */
+/* Graph nodes of M (k x k), h (k), then F and V (checked, not used), into
+ * out[k k + k + 2]; -1 on failure. */
 static int build_mass_bias(nz_compiled *c, int *out)
 {
   nz_graph *g = c->g;
@@ -230,9 +254,43 @@ static int build_mass_bias(nz_compiled *c, int *out)
     if (h < 0) ok = 0;
     out[k * k + i] = h;
   }
+  /* F and V themselves, evaluated and dropped: the functions must be defined
+   * where their derivatives are used (log x at x < 0 has the derivative 1/x,
+   * but the user's V fails there, and so must we: the jet path then says
+   * where). */
+  out[k * k + k] = F;
+  out[k * k + k + 1] = V >= 0 ? V : zero;
   free(dir);
   free(grad);
   return ok ? 0 : -1;
+}
+
+/* When every entry of M is a constant node, factor M once and keep M^-1
+ * (k solves with unit right-hand sides), so that an acceleration costs a
+ * product.  M stays unknown (m_const = 0) if it is not positive definite:
+ * the general path reports that with the state. */
+static void invert_constant_mass(nz_compiled *c, const int *out)
+{
+  int k = c->k;
+  double *M = c->acc_A, v;
+  for (int e = 0; e < k * k; e++) {
+    if (!nz_graph_is_const(c->g, out[e], &v)) return;
+    M[e] = v;
+  }
+  double *minv = malloc((size_t)k * (size_t)k * sizeof(double));
+  double *A = malloc((size_t)k * (size_t)k * sizeof(double));
+  if (!minv || !A) { free(minv); free(A); return; }
+  int ok = 1;
+  for (int j = 0; j < k && ok; j++) {
+    memcpy(A, M, (size_t)k * (size_t)k * sizeof(double));
+    for (int i = 0; i < k; i++) c->acc_rhs[i] = i == j ? 1.0 : 0.0;
+    /* column j of M^-1, into row j (M^-1 is symmetric) */
+    ok = nz_solve_spd_in(k, A, c->acc_rhs, minv + (size_t)j * (size_t)k, 0.0, &c->m_info, c->acc_work) == NZ_OK;
+  }
+  free(A);
+  if (!ok) { free(minv); return; }
+  c->minv = minv;
+  c->m_const = 1;
 }
 
 static int mass_bias_ready(nz_compiled *c)
@@ -242,29 +300,32 @@ static int mass_bias_ready(nz_compiled *c)
   /* Every piece that enters M and h must be compiled: F (when the system
    * has T or L pieces), V, Q; the caller (the binding) only installs this
    * hook when they are. */
-  int k = c->k, nout = k * k + k;
+  int k = c->k, nout = k * k + k + 2;
   int *out = malloc((size_t)nout * sizeof(int));
   if (!out) return 0;
   if (build_mass_bias(c, out) == 0) {
     c->mb_plan = nz_graph_plan_new(c->g, out, nout);
     c->mb_in = malloc((size_t)(c->ninputs + nout) * sizeof(double));
-    if (c->mb_plan && c->mb_in) {
+    size_t kk = (size_t)k * (size_t)k;
+    c->acc_A = malloc((kk + (size_t)k + nz_solve_spd_work_len(k)) * sizeof(double));
+    if (c->mb_plan && c->mb_in && c->acc_A) {
       c->mb_out = c->mb_in + c->ninputs;
+      c->acc_rhs = c->acc_A + kk;
+      c->acc_work = c->acc_rhs + k;
       c->mb_built = 1;
+      invert_constant_mass(c, out);
     }
   }
   free(out);
   return c->mb_built > 0;
 }
 
-int nz_compiled_mass_bias(void *ctx, double t, const double *q, const double *qd, double *M,
-                          double *h)
+/* M and h at a state into c->mb_out; NZ_EARG when the graphs cannot. */
+static int eval_mass_bias(nz_compiled *c, double t, const double *q, const double *qd)
 {
-  nz_compiled *c = ctx;
   if (!mass_bias_ready(c)) return NZ_EARG;
   int k = c->k;
   double *in = c->mb_in;
-  memset(in, 0, (size_t)c->ninputs * sizeof(double));
   in[0] = t;
   memcpy(in + 1, c->params, (size_t)c->np * sizeof(double));
   memcpy(in + nz_compiled_input_slot(c, 0, 0), q, (size_t)k * sizeof(double));
@@ -275,8 +336,128 @@ int nz_compiled_mass_bias(void *ctx, double t, const double *q, const double *qd
     describe_failure(c, c->mb_plan, st);
     return NZ_EARG;
   }
+  return NZ_OK;
+}
+
+int nz_compiled_mass_bias(void *ctx, double t, const double *q, const double *qd, double *M,
+                          double *h)
+{
+  nz_compiled *c = ctx;
+  int k = c->k, st = eval_mass_bias(c, t, q, qd);
+  if (st) return st;
   memcpy(M, c->mb_out, (size_t)k * (size_t)k * sizeof(double));
-  memcpy(h, c->mb_out + k * k, (size_t)k * sizeof(double));
+  memcpy(h, c->mb_out + (size_t)k * (size_t)k, (size_t)k * sizeof(double));
+  return NZ_OK;
+}
+
+int nz_compiled_accel(void *ctx, double t, const double *q, const double *qd, double rcond_min,
+                      double *qdd, nz_solve_info *info)
+{
+  nz_compiled *c = ctx;
+  int k = c->k, st = eval_mass_bias(c, t, q, qd);
+  if (st) return st;
+  const double *h = c->mb_out + (size_t)k * (size_t)k;
+  if (c->m_const) {
+    if (!(c->m_info.rcond >= rcond_min)) return NZ_EARG;
+    for (int i = 0; i < k; i++) {
+      const double *row = c->minv + (size_t)i * (size_t)k;
+      double s = 0.0;
+      for (int j = 0; j < k; j++) s -= row[j] * h[j];
+      qdd[i] = s;
+    }
+    *info = c->m_info;
+    return NZ_OK;
+  }
+  memcpy(c->acc_A, c->mb_out, (size_t)k * (size_t)k * sizeof(double));
+  for (int i = 0; i < k; i++) c->acc_rhs[i] = -h[i];
+  return nz_solve_spd_in(k, c->acc_A, c->acc_rhs, qdd, rcond_min, info, c->acc_work);
+}
+
+/* The direction of D, the derivative along the motion: t moves by 1 and
+ * slot j of q_i by slot j + 1 (none past the last slot). */
+static int motion_direction(nz_compiled *c, int *dir, int n)
+{
+  for (int a = 0; a < n; a++) dir[a] = -1;
+  if ((dir[0] = nz_graph_const(c->g, 1.0)) < 0) return -1;
+  for (int j = 0; j + 1 < c->nslots; j++)
+    for (int i = 0; i < c->k; i++)
+      if ((dir[nz_compiled_input_slot(c, j, i)] = nz_graph_input(c->g, nz_compiled_input_slot(c, j + 1, i))) < 0)
+        return -1;
+  return 0;
+}
+
+/* Does node root depend on an input numbered lo..hi? */
+static int reads_inputs(const nz_graph *g, int root, int lo, int hi)
+{
+  const nz_gnode *nd = nz_graph_nodes(g);
+  char *need = calloc((size_t)root + 1, 1);
+  int found = 0;
+  if (!need) return 1;
+  need[root] = 1;
+  for (int x = root; x >= 0 && !found; x--) {
+    if (!need[x]) continue;
+    if (nd[x].op == NZ_GOP_INPUT) { found = nd[x].a >= lo && nd[x].a <= hi; continue; }
+    if (nd[x].op == NZ_GOP_CONST) continue;
+    if (nd[x].a >= 0) need[nd[x].a] = 1;
+    if (nd[x].b >= 0) need[nd[x].b] = 1;
+    if (nd[x].c >= 0) need[nd[x].c] = 1;
+  }
+  free(need);
+  return found;
+}
+
+/* Outputs D^0 Phi .. D^K Phi, then dD^K Phi/dq''_i; 0 or -1.  A graph that
+ * reads its last slot cannot be differentiated along the motion here. */
+static int build_row(nz_compiled *c, int r, int m, int *out)
+{
+  int K = 2 - m, k = c->k, n = c->ninputs, ok = 1;
+  int *dir = malloc((size_t)n * sizeof(int));
+  if (!dir) return -1;
+  out[0] = c->phi[r].nodes[0];
+  if (motion_direction(c, dir, n)) ok = 0;
+  /* the last slot has no slot above it: refuse a constraint that reads it */
+  if (ok && reads_inputs(c->g, out[0], nz_compiled_input_slot(c, c->nslots - 1, 0),
+                         nz_compiled_input_slot(c, c->nslots - 1, k - 1)))
+    ok = 0;
+  for (int j = 0; ok && j < K; j++)
+    if ((out[j + 1] = nz_graph_derivative(c->g, out[j], dir)) < 0) ok = 0;
+  for (int i = 0; ok && i < k; i++) {
+    for (int a = 0; a < n; a++) dir[a] = -1;
+    dir[nz_compiled_input_slot(c, 2, i)] = nz_graph_const(c->g, 1.0);
+    if ((out[K + 1 + i] = nz_graph_derivative(c->g, out[K], dir)) < 0) ok = 0;
+  }
+  free(dir);
+  return ok ? 0 : -1;
+}
+
+int nz_compiled_constraint_row(void *ctx, int r, int m, double t, const double *const *state,
+                               int nstate, double alpha, double beta, double *A, double *value)
+{
+  nz_compiled *c = ctx;
+  int k = c->k, K = 2 - m, at = 3 * r + m;
+  if (r < 0 || r >= c->nc || m < 0 || m > 2 || !c->phi[r].n || c->nslots < 3) return NZ_EARG;
+  if (!c->rows_built[at]) {
+    int *out = malloc((size_t)(3 + k) * sizeof(int));
+    c->rows_built[at] = -1;
+    if (out && build_row(c, r, m, out) == 0 && (c->rows[at] = nz_graph_plan_new(c->g, out, K + 1 + k)))
+      c->rows_built[at] = 1;
+    free(out);
+  }
+  if (c->rows_built[at] < 0) return NZ_EARG;
+  double *in = c->row_in, *o = c->row_out;
+  in[0] = t;
+  memcpy(in + 1, c->params, (size_t)c->np * sizeof(double));
+  for (int j = 0; j < c->nslots; j++)
+    for (int i = 0; i < k; i++) in[nz_compiled_input_slot(c, j, i)] = j < nstate ? state[j][i] : 0.0;
+  int st = nz_graph_eval(c->rows[at], in, o);
+  if (st) {
+    describe_failure(c, c->rows[at], st);
+    return NZ_EARG;
+  }
+  *value = o[K];
+  if (m == 0) *value += 2.0 * alpha * o[1] + beta * beta * o[0];
+  if (m == 1) *value += alpha * o[0];
+  if (A) memcpy(A, o + K + 1, (size_t)k * sizeof(double));
   return NZ_OK;
 }
 

@@ -53,6 +53,23 @@ const char *nz_compiled_failure(const nz_compiled *c);
  * which names the user's function and line. */
 int nz_compiled_mass_bias(void *ctx, double t, const double *q, const double *qd, double *M,
                           double *h);
+/* nz_accel on the same graphs (the accel hook of nz_system): M q'' = -h
+ * by Cholesky in a workspace the recording owns; when every entry of M is a
+ * constant (Cartesian coordinates), M is factored once and each call costs
+ * a product with M^-1.  NZ_EARG as nz_compiled_mass_bias, and also when a
+ * constant M is too badly conditioned for rcond_min (the jet path then
+ * reports it). */
+struct nz_solve_info;
+int nz_compiled_accel(void *ctx, double t, const double *q, const double *qd, double rcond_min,
+                      double *qdd, struct nz_solve_info *info);
+/* The row of constraint r of order m at the acceleration level (the
+ * constraint_row hook of nz_system): D^(2-m) Phi with D the derivative
+ * along the motion (t -> 1, slot j -> slot j + 1), built on the graph the
+ * first time it is asked for (r, m), and its gradient in q''.  NZ_EARG when
+ * the constraint is not compiled, the graph has too few slots, or a node
+ * fails: the caller then takes the jets. */
+int nz_compiled_constraint_row(void *ctx, int r, int m, double t, const double *const *state,
+                               int nstate, double alpha, double beta, double *A, double *value);
 /* Nodes of the mass-bias plan (0 before its first use). */
 int nz_compiled_mass_bias_nodes(const nz_compiled *c);
 

@@ -12,16 +12,19 @@ local g = 9.81
 local function here() return debug.getinfo(2, "l").currentline end
 local SPEC = "tests/errors_spec.lua"
 
--- A pendulum whose potential calls `hook(t, q)` first (set per test).
+-- A pendulum whose potential calls `hook(t, q)` first (set per test).  The
+-- hook changes after the system is made, which a recording would not see
+-- (it bakes what V does when the system is made): these systems run in Lua,
+-- whose error paths this file tests; the graph's are tested at the end.
 local hook = function() end
-local pendulum = nz.system{ name = "pendulum", coords = { "th" },
+local pendulum = nz.system{ name = "pendulum", coords = { "th" }, compile = false,
   T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end,
   V = function(t, q) hook(t, q); return -g * nz.cos(q[1]) end }
 
 -- The driven hoop: its implicit integration (bsimp) builds nested duals for
 -- the exact Jacobian, so lua_eval calls the nested-dual constructor.
 local m, R, W = 0.3, 0.5, 4.0
-local hoop = nz.system{ name = "driven hoop", coords = { "th", "ph" },
+local hoop = nz.system{ name = "driven hoop", coords = { "th", "ph" }, compile = false,
   T = function(t, q, qd) return 0.5 * m * R * R * (qd[1] ^ 2 + nz.sin(q[1]) ^ 2 * qd[2] ^ 2) end,
   V = function(t, q) return -m * g * R * nz.cos(q[1]) end,
   constraints = { function(t, q) return q[2] - W * t end } }
@@ -244,5 +247,31 @@ describe("messages name the user's code first", function()
     assert.falsy(text:lower():find("-nan", 1, true), text)
     h.checkerror("bad argument #3 to 'accel' (qd[1]: a finite number expected, got NaN)", pendulum.accel, pendulum, 0, { 0.385 }, { 0 / 0 })
     h.checkerror("bad argument #3 to 'accel' (qd[1]: a finite number expected, got -inf)", pendulum.accel, pendulum, 0, { 0.385 }, { -math.huge })
+  end)
+end)
+
+describe("a recorded function that fails at a state", function()
+  it("hands the evaluation to Lua, whose error names the user's line, the system and the state", function()
+    local line = here() + 2
+    local sys = nz.system{ name = "log well", coords = { "x" },
+      T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end, V = function(t, q) return nz.log(q[1]) end }
+    assert.truthy(tostring(sys):find("V: recorded, runs in C", 1, true), tostring(sys))
+    assert.are.equal(-1 / 0.5, sys:accel(0, { 0.5 }, { 0 })[1])
+    local ok, err = pcall(sys.accel, sys, 0, { -0.5 }, { 0 })
+    assert.are.equal(false, ok)
+    err = tostring(err)
+    assert.are.equal(("%s:%d:"):format(SPEC, line), err:sub(1, #SPEC + #tostring(line) + 2), err)
+    assert.truthy(err:find("system 'log well': V raised an error", 1, true), err)
+    assert.truthy(err:find("q = {-0.5}", 1, true), err)
+  end)
+  it("stops simulate at that time and keeps what was computed", function()
+    local sys = nz.system{ name = "edge", coords = { "x" },
+      T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end, V = function(t, q) return nz.sqrt(1 - q[1]) end }
+    -- x'' = -V' = 1 / (2 sqrt(1 - x)) pushes x towards 1, where sqrt leaves its domain
+    local ok, err = pcall(sys.simulate, sys, { q0 = { 0.5 }, qd0 = { 1 }, t1 = 5, dt = 0.01 })
+    assert.are.equal(false, ok)
+    assert.truthy(tostring(err):find("V raised an error", 1, true), tostring(err))
+    assert.are.equal("failed", nz.last.status)
+    assert.is_true(#nz.last.t > 2)
   end)
 end)

@@ -272,7 +272,8 @@ describe("systems in a session", function()
   end)
   it("prints a summary and the table of terms", function()
     local case = systems.double_pendulum(false)
-    assert.are.equal("nz.system 'double pendulum': 2 coordinates (a, b); T, V", tostring(case.sys))
+    assert.are.equal("nz.system 'double pendulum': 2 coordinates (a, b); T, V\n"
+      .. "  T: recorded, runs in C\n  V: recorded, runs in C", tostring(case.sys))
     local text = case.sys:equations(2, 0, { 0.7, -0.4 }, { 0.3, 1.1 }, nil, { quiet = true })
     assert.truthy(text:find("order n = 2: Tsenov's equations (Gauss's principle)", 1, true), text)
     assert.truthy(text:find("dT^(2)/dq^(2)", 1, true), text)
@@ -350,7 +351,7 @@ describe("misuse gets a clear error naming the system and the function", functio
   end)
   it("a definition with a missing or unknown field", function()
     h.checkerror("nz.system: a table {coords = ..., T = ...} expected", nz.system, 3)
-    h.checkerror("nz.system 'x': unknown field 'Tt' (expected one of L, Q, S, T, V, bodies, constraints, coords, name, params, sample)",
+    h.checkerror("nz.system 'x': unknown field 'Tt' (expected one of L, Q, S, T, V, bodies, compile, constraints, coords, name, params, sample)",
       nz.system, { name = "x", coords = { "a" }, Tt = 1 })
     h.checkerror("'coords' must be a non-empty list of coordinate names", nz.system, { T = function() return 0 end })
     h.checkerror("coordinate 'a' appears twice", nz.system, { coords = { "a", "a" }, T = function() return 0 end })

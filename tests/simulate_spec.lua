@@ -241,10 +241,17 @@ describe("failures keep what was computed", function()
   end)
   it("a mass matrix that degenerates during the run stops it at that time, never NaN", function()
     -- M = 1 - t/2 vanishes at t = 2; the velocity M^-1 p blows up first.
-    local sys = nz.system{ name = "degenerating", coords = { "x" },
-      T = function(t, q, qd) return 0.5 * (1 - t / 2) * qd[1] ^ 2 end }
-    h.checkerror("system 'degenerating': the integrator (rk8pd) could not make a step", sys.simulate, sys, { q0 = { 0 }, qd0 = { 1 }, t1 = 3 })
-    h.checkerror("at t = 1.99999", sys.simulate, sys, { q0 = { 0 }, qd0 = { 1 }, t1 = 3 })
+    -- How the integrator gives up near t = 2 (a step it cannot make, or steps
+    -- that stop advancing t) turns on the last bits of M: in Lua GSL refuses
+    -- a step; on the recorded graph, whose M differs by rounding, the steps
+    -- stall first.  Both stop at t = 1.99999.. with a clear message.
+    for _, compile in ipairs{ false, true } do
+      local sys = nz.system{ name = "degenerating", coords = { "x" }, compile = compile,
+        T = function(t, q, qd) return 0.5 * (1 - t / 2) * qd[1] ^ 2 end }
+      local how = compile and "stopped making progress" or "could not make a step"
+      h.checkerror("'degenerating': the integrator (rk8pd) " .. how, sys.simulate, sys, { q0 = { 0 }, qd0 = { 1 }, t1 = 3 })
+      h.checkerror("at t = 1.99999", sys.simulate, sys, { q0 = { 0 }, qd0 = { 1 }, t1 = 3 })
+    end
   end)
   it("a run that starts where M is singular names the mass matrix and the state", function()
     local sys = nz.system{ name = "degenerate", coords = { "x", "y" },

@@ -171,6 +171,7 @@ local function library(src) return src:sub(1, 8) == "@lua/nz/" or src == "=[C]" 
 
 -- The reason a recording stopped, with the user's file:line.
 local function handler(e)
+  if rawequal(e, core.interrupted) then return e end   -- Ctrl-C stays Ctrl-C
   local where
   for level = 2, 60 do
     local info = debug.getinfo(level, "Sl")
@@ -223,7 +224,10 @@ local function record_function(c, f, nslots, k, pproxy, is_Q)
   end
   args[nslots + 2] = pproxy
   local ok, res = xpcall(f, handler, table.unpack(args, 1, nslots + 2))
-  if not ok then return nil, res end
+  if not ok then
+    if rawequal(res, core.interrupted) then error(res, 0) end
+    return nil, res
+  end
   if not is_Q then
     local id, why = result_node(c, res)
     if not id then return nil, why end
@@ -263,6 +267,7 @@ local function check(c, f, ids, nslots, k, names, params)
   end
   args[nslots + 2] = params
   local ok, res = pcall(f, table.unpack(args, 1, nslots + 2))
+  if not ok and rawequal(res, core.interrupted) then error(res, 0) end
   if not ok then return true end     -- no verdict where the function itself fails
   local got = c:eval(ids, inputs)
   if not got then return true end
@@ -294,9 +299,12 @@ function M.compile(engine, levels)
   table.sort(names)
   local index = {}
   for p, name in ipairs(names) do index[name] = p end
+  -- two slots more than any function reads: the rows of the constraints
+  -- differentiate them twice along the motion (src/mech_graph.c)
   local nslots = 2
   for _, n in ipairs(levels) do nslots = math.max(nslots, n) end
-  local c = core.compiled_new(k, #names, #engine.constraints, nslots)
+  nslots = nslots + 2
+  local c = core.mech.compiled_new(k, #names, #engine.constraints, nslots)
   local pproxy = param_proxy(c, engine.params, index)
 
   local done, report = {}, { seconds = 0 }
