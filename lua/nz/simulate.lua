@@ -754,20 +754,24 @@ function M.simulate(sys, opts)
   local function run_c()
     crun = mech.ode_run_new(ode, { t0 = cfg.t0, t1 = cfg.t1, dt = cfg.dt, step = cfg.step, h0 = h, y = y,
       stall_window = M.STALL.window, stall_fraction = M.STALL.fraction })
+    -- The bar's next drawing time stays put across the returns that hand
+    -- points over ("full"), which may come more often than it.
+    local next_draw = mech.now() + M.PROGRESS_PAUSE
     while true do
       local ok, status, advance = pcall(mech.ode_run, crun, engine, tr, pend, not announced and next_check or 0,
-        progress and mech.now() + M.PROGRESS_PAUSE or 0)
+        progress and next_draw or 0)
       t, y, nsteps = mech.ode_run_state(crun)       -- for the messages (the interrupt's t, stalled's state)
       catch_up()
       if not ok then error(status, 0) end
       if status == "done" then tr.status = "done"; return end
       if status == "stalled" then stalled(t, advance) end
-      if status == "paused" then
-        if nsteps == next_check and not announced then  -- watch(t), its second half
-          next_check = 2 * next_check
-          announced = long_run(t)
-        end
+      if status == "paused" and nsteps == next_check and not announced then  -- watch(t), its second half
+        next_check = 2 * next_check
+        announced = long_run(t)
+      end
+      if progress and mech.now() >= next_draw then
         update(t, function() return mech.ode_stats(ode).steps end)
+        next_draw = mech.now() + M.PROGRESS_PAUSE
       end
     end
   end

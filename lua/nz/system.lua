@@ -9,6 +9,9 @@ local core = require "nz.core"
 local bodies = require "nz.bodies"
 local constraints = require "nz.constraints"
 local record = require "nz.record"
+-- NZ_GRAPH_CHECK=1: check every recording against the Lua evaluator when the
+-- system is made (the test suite runs with it; nz/record.lua).
+local GRAPH_CHECK = os.getenv("NZ_GRAPH_CHECK") == "1"
 local repl = require "nz.repl"
 
 local mech = core.mech
@@ -199,6 +202,7 @@ function M.system(def)
   -- Record the functions once as graphs evaluated in C (nz/record.lua);
   -- compile = false keeps every function in Lua.
   if def.compile ~= false then self.recording = record.compile(self.engine, Clevels) end
+  if GRAPH_CHECK and self.recording then record.diff_check(self.engine, Clevels, name) end
   return self
 end
 
