@@ -56,8 +56,12 @@ extern char **environ;
 #define GEN_VERSION "nzlua-native 1"
 /* Computed nodes per generated function, and the size above which the
  * compiler runs at -O1 (measured: see tests/test_native.c's timing). */
+#ifndef CHUNK
 #define CHUNK 2000
+#endif
+#ifndef BIG_GRAPH
 #define BIG_GRAPH 20000
+#endif
 
 struct nz_native {
   void *dl;
@@ -219,19 +223,18 @@ static void ref(const gen *G, int id, int c, char *s, size_t n)
   else snprintf(s, n, "w[%d]", G->wslot[id]);
 }
 
-/* x^n by the binary powering of graph.c's d_powi, unrolled: statements for
- * the squares, then the product expression into e. */
+/* x^n by the binary powering of graph.c's d_powi, unrolled into
+ * statements: the squares tI_k, the product tI_y; e receives the result. */
 static void emit_powi(gen *G, int id, const char *x, unsigned n, char *e, size_t en)
 {
-  char base[64], t[2048];
-  int k = 0;
+  char base[64];
+  int k = 0, started = 0;
   snprintf(base, sizeof base, "%s", x);
-  e[0] = 0;
   while (n) {
     if (n & 1u) {
-      if (!e[0]) snprintf(t, sizeof t, "%s", base);   /* 1 * base is base */
-      else snprintf(t, sizeof t, "(%s * %s)", e, base);
-      snprintf(e, en, "%s", t);
+      if (!started) sb_printf(G->b, "  double t%d_y = %s;\n", id, base);   /* 1 * base is base */
+      else sb_printf(G->b, "  t%d_y = t%d_y * %s;\n", id, id, base);
+      started = 1;
     }
     n >>= 1;
     if (n) {
@@ -239,12 +242,13 @@ static void emit_powi(gen *G, int id, const char *x, unsigned n, char *e, size_t
       snprintf(base, sizeof base, "t%d_%d", id, k++);
     }
   }
+  snprintf(e, en, "t%d_y", id);
 }
 
 static void emit_node(gen *G, int id, int c, int *acc)
 {
   const nz_gnode *nd = &G->nd[id];
-  char a[64], b[64], e[2200];
+  char a[64], b[64], e[200];
   ref(G, nd->a, c, a, sizeof a);
   if (!unary_op(nd->op)) ref(G, nd->b, c, b, sizeof b);
   else b[0] = 0;
