@@ -46,6 +46,7 @@
 #include <string.h>
 #include <sys/stat.h>
 #include <sys/types.h>
+#include <sys/utsname.h>
 #include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
@@ -59,8 +60,13 @@ extern char **environ;
 #ifndef CHUNK
 #define CHUNK 2000
 #endif
+/* 1: test every node for finiteness (to measure what the strictness rule
+ * saves). */
+#ifndef CHECK_EVERY_NODE
+#define CHECK_EVERY_NODE 0
+#endif
 #ifndef BIG_GRAPH
-#define BIG_GRAPH 20000
+#define BIG_GRAPH 5000
 #endif
 
 struct nz_native {
@@ -327,7 +333,7 @@ static int analyse(gen *G, const int *outputs, int n, char *why, size_t whylen)
   G->nchunks = (k + CHUNK - 1) / CHUNK;
   for (int id = 0; id <= G->top; id++) {
     if (!G->need[id] || !computed(nd[id].op)) continue;
-    if (G->last[id] < 0) G->check[id] = 1;   /* no consumer: an output */
+    if (G->last[id] < 0 || CHECK_EVERY_NODE) G->check[id] = 1;   /* no consumer: an output */
     if (G->last[id] > G->chunk[id]) G->wslot[id] = G->nw++;
     G->ncheck += G->check[id];
   }
@@ -437,7 +443,8 @@ static int compiler_argv(char *buf, size_t n, char **argv, const char *opt)
   if (strlen(cc) >= n) return -1;
   strcpy(buf, cc);
   int k = 0;
-  for (char *s = strtok(buf, " \t"); s; s = strtok(NULL, " \t")) {
+  char *save = NULL;
+  for (char *s = strtok_r(buf, " \t", &save); s; s = strtok_r(NULL, " \t", &save)) {
     if (k == MAXWORDS - 12) return -1;
     argv[k++] = s;
   }
@@ -657,7 +664,11 @@ nz_native *nz_native_compile(const nz_graph *g, const int *outputs, int n, const
     say(why, whylen, "CC is empty or too long a command");
     goto fail;
   }
+  /* The machine too: a cache shared between machines (a network home)
+   * keeps one object per architecture. */
+  struct utsname u;
   uint64_t h = fnv(0xcbf29ce484222325ULL, GEN_VERSION "\n");
+  if (uname(&u) == 0) h = fnv(fnv(h, u.sysname), u.machine);
   for (int i = 0; i < k; i++) h = fnv(fnv(h, argv[i]), " ");
   h = fnv(h, src);
   snprintf(hash, sizeof hash, "%016llx", (unsigned long long)h);

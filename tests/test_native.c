@@ -514,13 +514,13 @@ static void check_cache_dir(void)
 
 /* The graph of test_graph.c's timing: each node uses one of the 16 latest
  * and a random earlier one, + - * and a sine every tenth node. */
-static int wide_graph(nz_graph *g, int size, int *ids, int cap)
+static int wide_graph(nz_graph *g, int size, int sines, int *ids, int cap)
 {
   int n = 0, half = nz_graph_const(g, 0.5);
   for (int i = 0; i < 8; i++) ids[n++] = nz_graph_input(g, i);
   while (nz_graph_size(g) < size && n < cap) {
     int a = ids[n - 1 - irand(n < 16 ? n : 16)], b = ids[irand(n)], k = irand(10), z;
-    if (k == 9) z = nz_graph_fn(g, NZ_FN_SIN, nz_graph_op(g, NZ_GOP_ADD, a, b));
+    if (k == 9 && sines) z = nz_graph_fn(g, NZ_FN_SIN, nz_graph_op(g, NZ_GOP_ADD, a, b));
     else if (k < 4) z = nz_graph_op(g, NZ_GOP_MUL, a, b);
     else if (k < 7) z = nz_graph_op(g, NZ_GOP_MUL, nz_graph_op(g, NZ_GOP_ADD, a, b), half);
     else z = nz_graph_op(g, NZ_GOP_MUL, nz_graph_op(g, NZ_GOP_SUB, a, b), half);
@@ -544,36 +544,122 @@ static double best_ns(nz_graph_plan *p, const nz_native *f, double *in, double *
   return best;
 }
 
+/* The k-link planar pendulum (unit masses and lengths): T, then on the
+ * graph the mass matrix M = d2T/dqd2 and the bias h = (dT/dqd)' - dT/dq at
+ * qdd = 0, the plans the mechanics evaluates.  Inputs q_0..q_k-1 and
+ * qd_0..qd_k-1; outs[] receives M (k^2) then h (k); returns their count. */
+static int pendulum_mh(nz_graph *g, int k, int *outs)
+{
+  int q[32], qd[32], xd = -1, yd = -1, T = nz_graph_const(g, 0.0), half = nz_graph_const(g, 0.5);
+  int one = nz_graph_const(g, 1.0), n = 0, di[64], p[32];
+  for (int i = 0; i < k; i++) {
+    q[i] = nz_graph_input(g, i);
+    qd[i] = nz_graph_input(g, k + i);
+  }
+  for (int i = 0; i < k; i++) {   /* velocity of bob i, then its kinetic energy */
+    int cx = nz_graph_op(g, NZ_GOP_MUL, nz_graph_fn(g, NZ_FN_COS, q[i]), qd[i]);
+    int sy = nz_graph_op(g, NZ_GOP_MUL, nz_graph_fn(g, NZ_FN_SIN, q[i]), qd[i]);
+    xd = xd < 0 ? cx : nz_graph_op(g, NZ_GOP_ADD, xd, cx);
+    yd = yd < 0 ? sy : nz_graph_op(g, NZ_GOP_ADD, yd, sy);
+    int v2 = nz_graph_op(g, NZ_GOP_ADD, nz_graph_powc(g, xd, 2.0), nz_graph_powc(g, yd, 2.0));
+    T = nz_graph_op(g, NZ_GOP_ADD, T, nz_graph_op(g, NZ_GOP_MUL, half, v2));
+  }
+  for (int j = 0; j < k; j++) {   /* p_j = dT/dqd_j */
+    for (int i = 0; i < 2 * k; i++) di[i] = i == k + j ? one : -1;
+    p[j] = nz_graph_derivative(g, T, di);
+  }
+  for (int j = 0; j < k; j++) {
+    for (int i = 0; i < 2 * k; i++) di[i] = i == k + j ? one : -1;
+    nz_graph_derivatives(g, p, k, di, outs + n);   /* column j of M */
+    n += k;
+  }
+  int dp[32], dT[32];
+  for (int i = 0; i < 2 * k; i++) di[i] = i < k ? qd[i] : -1;   /* along q' = qd */
+  nz_graph_derivatives(g, p, k, di, dp);
+  for (int j = 0; j < k; j++) {
+    for (int i = 0; i < 2 * k; i++) di[i] = i == j ? one : -1;
+    dT[j] = nz_graph_derivative(g, T, di);
+    outs[n++] = nz_graph_op(g, NZ_GOP_SUB, dp[j], dT[j]);
+  }
+  return n;
+}
+
+static void check_pendulum(int k)
+{
+  nz_graph *g = nz_graph_new();
+  int outs[32 * 33], n = pendulum_mh(g, k, outs), ok, bad = 0, accepted = 0;
+  nz_graph_plan *p = nz_graph_plan_new(g, outs, n);
+  nz_native *f = compile(g, outs, n);
+  char msg[200];
+  for (int t = 0; f && p && t < 100; t++) {
+    double in[64];
+    for (int i = 0; i < 2 * k; i++) in[i] = 6 * urand() - 3;
+    if (agree(p, f, n, in, &ok, msg, sizeof msg) && !bad++) printf("# %s\n", msg);
+    accepted += ok;
+  }
+  gsl_test(!f || !p || bad || accepted < 100,
+           "%d-link pendulum, M and h (%d nodes): native = interpreter bit for bit at 100 states", k,
+           f ? nz_native_nodes(f) : 0);
+  nz_native_free(f);
+  nz_graph_plan_free(p);
+  nz_graph_free(g);
+}
+
+static void time_pendulum(int k)
+{
+  nz_graph *g = nz_graph_new();
+  int outs[32 * 33], n = pendulum_mh(g, k, outs);
+  nz_graph_plan *p = nz_graph_plan_new(g, outs, n);
+  nz_native *f = compile(g, outs, n);
+  double in[64], out[32 * 33];
+  for (int i = 0; i < 2 * k; i++) in[i] = 2 * urand() - 1;
+  if (f && p) {
+    int nodes = nz_native_nodes(f), reps = 1000000 / nodes + 1;
+    double ti = best_ns(p, NULL, in, out, reps), tn = best_ns(NULL, f, in, out, reps);
+    printf("# timing (not a test): %d-link pendulum M and h, %d computed nodes: compile %.2f s%s; "
+           "interpreter %.0f ns (%.2f ns per node), native %.0f ns (%.2f ns per node, %.1fx)\n",
+           k, nodes, nz_native_compile_seconds(f), nz_native_compile_seconds(f) > 0 ? "" : " (from the cache)", ti, ti / nodes, tn, tn / nodes, ti / tn);
+  }
+  nz_native_free(f);
+  nz_graph_plan_free(p);
+  nz_graph_free(g);
+}
+
+static void time_wide(int size, int sines)
+{
+  nz_graph *g = nz_graph_new();
+  int *ids = malloc((size_t)(size + 8) * sizeof *ids), outs[32];
+  int n = wide_graph(g, size, sines, ids, size + 8);
+  for (int i = 0; i < 32; i++) outs[i] = ids[n - 1 - i];
+  nz_graph_plan *p = nz_graph_plan_new(g, outs, 32);
+  nz_native *f = compile(g, outs, 32);
+  double in[8], out[32];
+  for (int i = 0; i < 8; i++) in[i] = 2 * urand() - 1;
+  if (f && p) {
+    int nodes = nz_native_nodes(f), reps = 2000000 / nodes + 1;
+    double ti = best_ns(p, NULL, in, out, reps), tn = best_ns(NULL, f, in, out, reps);
+    printf("# timing (not a test): graph of %d nodes (+ - *%s), %d computed: compile %.2f s (%.0f us per node); "
+           "interpreter %.2f ns per node, native %.2f ns per node (%.1fx)\n",
+           nz_graph_size(g), sines ? " sin" : "", nodes, nz_native_compile_seconds(f),
+           1e6 * nz_native_compile_seconds(f) / nodes, ti / nodes, tn / nodes, ti / tn);
+  }
+  nz_native_free(f);
+  nz_graph_plan_free(p);
+  nz_graph_free(g);
+  free(ids);
+}
+
 static void time_native(void)
 {
-  static const int sizes[] = { 1000, 5000, 10000, 50000 };
-  int big = getenv("NZLUA_NATIVE_BIG") != NULL;
-  for (int s = 0; s < 4; s++) {
-    if (sizes[s] > 10000 && !big) {
-      printf("# timing: the %d-node compile is skipped (set NZLUA_NATIVE_BIG=1)\n", sizes[s]);
-      continue;
-    }
-    nz_graph *g = nz_graph_new();
-    int *ids = malloc((size_t)(sizes[s] + 8) * sizeof *ids), outs[32];
-    int n = wide_graph(g, sizes[s], ids, sizes[s] + 8);
-    for (int i = 0; i < 32; i++) outs[i] = ids[n - 1 - i];
-    nz_graph_plan *p = nz_graph_plan_new(g, outs, 32);
-    nz_native *f = compile(g, outs, 32);
-    double in[8], out[32];
-    for (int i = 0; i < 8; i++) in[i] = 2 * urand() - 1;
-    if (f && p) {
-      int nodes = nz_native_nodes(f), reps = 2000000 / nodes;
-      double ti = best_ns(p, NULL, in, out, reps), tn = best_ns(NULL, f, in, out, reps);
-      printf("# timing (not a test): %d computed nodes (+ - * sin): compile %.2f s (%.0f us per node); "
-             "interpreter %.2f ns per node, native %.2f ns per node (%.1fx)\n",
-             nodes, nz_native_compile_seconds(f), 1e6 * nz_native_compile_seconds(f) / nodes,
-             ti / nodes, tn / nodes, ti / tn);
-    }
-    nz_native_free(f);
-    nz_graph_plan_free(p);
-    nz_graph_free(g);
-    free(ids);
-  }
+  time_pendulum(4);
+  time_pendulum(8);
+  time_pendulum(16);
+  time_wide(5000, 0);
+  time_wide(5000, 1);
+  time_wide(1000, 1);
+  time_wide(10000, 1);
+  if (getenv("NZLUA_NATIVE_BIG")) time_wide(50000, 1);
+  else printf("# timing: the 50000-node compile is skipped (set NZLUA_NATIVE_BIG=1)\n");
 }
 
 int main(void)
@@ -590,6 +676,7 @@ int main(void)
   check_random(600, 4096, 200);
   check_rewrites();
   check_random(5000, 64, 50);
+  check_pendulum(8);
   if (!SANITIZED) time_native();
   /* Remove the cache of this run. */
   char cmd[128];
