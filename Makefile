@@ -21,10 +21,12 @@ ALL_CFLAGS = -std=c11 -D_GNU_SOURCE -fPIC $(WARN) $(CFLAGS) \
 LUA_LIBS  = $(shell pkg-config --libs lua5.4 2>/dev/null)
 GSL_LIBS  = $(shell pkg-config --libs gsl 2>/dev/null)
 RL_LIBS   = $(shell pkg-config --libs readline 2>/dev/null)
+# dlopen for compiled graphs (in libc since glibc 2.34; harmless there).
+DL_LIBS   = -ldl
 SAN_FLAGS = -O1 -g -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=all
 
 # The numerical core (never includes lua.h), then the Lua binding.
-CORE_SRC  = src/series.c src/jet.c src/interrupt.c src/mech.c src/constrained.c src/constrained_series.c src/mech_jacobian.c src/ode.c src/ode_run.c src/linalg.c src/graph.c src/mech_graph.c
+CORE_SRC  = src/series.c src/jet.c src/interrupt.c src/mech.c src/constrained.c src/constrained_series.c src/mech_jacobian.c src/ode.c src/ode_run.c src/linalg.c src/graph.c src/graph_native.c src/mech_graph.c
 LUA_SRC   = src/lua_jet.c src/lua_system.c src/lua_constraints.c src/lua_series.c src/lua_linalg.c src/lua_ode.c src/lua_special.c src/lua_graph.c src/lua_nz.c
 LUA_MODS  = $(sort $(wildcard lua/nz/*.lua))
 GEN_SRC   = build/gen/embedded_lua.c
@@ -58,29 +60,37 @@ $(B)/asan/embedded_lua.o: $(GEN_SRC) src/embedded.h | $(B)/asan
 	$(CC) $(ALL_CFLAGS) $(SAN_FLAGS) -c -o $@ $<
 
 $(B)/nzlua: $(B)/obj/nzlua.o $(B)/obj/repl_complete.o $(OBJ)
-	$(CC) $(CFLAGS) -o $@ $^ $(LUA_LIBS) $(GSL_LIBS) $(RL_LIBS) -lm
+	$(CC) $(CFLAGS) -o $@ $^ $(LUA_LIBS) $(GSL_LIBS) $(RL_LIBS) $(DL_LIBS) -lm
 # The module links neither liblua (the host provides it) nor readline.
 $(B)/nz.so: $(OBJ)
-	$(CC) $(CFLAGS) -shared -o $@ $^ $(GSL_LIBS) -lm
+	$(CC) $(CFLAGS) -shared -o $@ $^ $(GSL_LIBS) $(DL_LIBS) -lm
 $(B)/asan/nzlua: $(B)/asan/nzlua.o $(B)/asan/repl_complete.o $(SAN_OBJ)
-	$(CC) $(SAN_FLAGS) -o $@ $^ $(LUA_LIBS) $(GSL_LIBS) $(RL_LIBS) -lm
+	$(CC) $(SAN_FLAGS) -o $@ $^ $(LUA_LIBS) $(GSL_LIBS) $(RL_LIBS) $(DL_LIBS) -lm
 
 # C unit tests of the core, GSL-style PASS/FAIL lines.
 $(B)/test_series: tests/test_series.c $(CORE_OBJ) | $(B)
-	$(CC) $(ALL_CFLAGS) -o $@ $^ $(GSL_LIBS) -lm
+	$(CC) $(ALL_CFLAGS) -o $@ $^ $(GSL_LIBS) $(DL_LIBS) -lm
 $(B)/asan/test_series: tests/test_series.c $(SAN_CORE) | $(B)/asan
-	$(CC) $(ALL_CFLAGS) $(SAN_FLAGS) -o $@ $^ $(GSL_LIBS) -lm
+	$(CC) $(ALL_CFLAGS) $(SAN_FLAGS) -o $@ $^ $(GSL_LIBS) $(DL_LIBS) -lm
 $(B)/test_graph: tests/test_graph.c $(CORE_OBJ) | $(B)
-	$(CC) $(ALL_CFLAGS) -o $@ $^ $(GSL_LIBS) -lm
+	$(CC) $(ALL_CFLAGS) -o $@ $^ $(GSL_LIBS) $(DL_LIBS) -lm
 $(B)/asan/test_graph: tests/test_graph.c $(SAN_CORE) | $(B)/asan
-	$(CC) $(ALL_CFLAGS) $(SAN_FLAGS) -o $@ $^ $(GSL_LIBS) -lm
+	$(CC) $(ALL_CFLAGS) $(SAN_FLAGS) -o $@ $^ $(GSL_LIBS) $(DL_LIBS) -lm
+$(B)/test_native: tests/test_native.c $(CORE_OBJ) | $(B)
+	$(CC) $(ALL_CFLAGS) -o $@ $^ $(GSL_LIBS) $(DL_LIBS) -lm
+$(B)/asan/test_native: tests/test_native.c $(SAN_CORE) | $(B)/asan
+	$(CC) $(ALL_CFLAGS) $(SAN_FLAGS) -o $@ $^ $(GSL_LIBS) $(DL_LIBS) -lm
 $(B)/bench_jet: bench/bench_jet.c $(CORE_OBJ) | $(B)
+<<<<<<< HEAD
 	$(CC) $(ALL_CFLAGS) -o $@ $^ $(GSL_LIBS) -lm
 # The hand-written C baselines the benchmarks of issue 10 compare against.
 $(B)/henon_c: bench/henon_c.c | $(B)
 	$(CC) $(ALL_CFLAGS) -o $@ $^ $(GSL_LIBS) -lm
 $(B)/pendulum_c: bench/pendulum_c.c | $(B)
 	$(CC) $(ALL_CFLAGS) -o $@ $^ $(GSL_LIBS) -lm
+=======
+	$(CC) $(ALL_CFLAGS) -o $@ $^ $(GSL_LIBS) $(DL_LIBS) -lm
+>>>>>>> n1
 
 $(B) $(B)/obj $(B)/asan $(B)/gen:
 	mkdir -p $@
@@ -89,13 +99,13 @@ demo: deps all
 	$(B)/nzlua examples/demo.lua
 
 # Every test, normal build then sanitized build; one tally line at the end.
-test: deps all $(B)/test_series $(B)/test_graph $(B)/asan/nzlua $(B)/asan/test_series $(B)/asan/test_graph
+test: deps all $(B)/test_series $(B)/test_graph $(B)/test_native $(B)/asan/nzlua $(B)/asan/test_series $(B)/asan/test_graph $(B)/asan/test_native
 	@tests/run.sh all
 
-check: deps all $(B)/test_series $(B)/test_graph
+check: deps all $(B)/test_series $(B)/test_graph $(B)/test_native
 	@tests/run.sh plain
 
-sanitize: deps $(B)/asan/nzlua $(B)/asan/test_series $(B)/asan/test_graph all
+sanitize: deps $(B)/asan/nzlua $(B)/asan/test_series $(B)/asan/test_graph $(B)/asan/test_native all
 	@tests/run.sh sanitize
 
 bench: deps all $(B)/bench_jet $(B)/henon_c $(B)/pendulum_c

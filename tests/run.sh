@@ -45,6 +45,7 @@ BUSTED="/usr/bin/busted -o TAP --helper=tests/busted_setup.lua"
 if [ "$mode" = plain ] || [ "$mode" = all ]; then
   suite "C core (series, jets)" build/test_series
   suite "C core (expression graphs)" build/test_graph
+  suite "C core (graphs compiled to C)" build/test_native
   suite "Lua specs (lua5.4 + build/nz.so)" env LUA_CPATH="build/?.so;;" NZLUA=build/nzlua \
     lua5.4 $BUSTED $specs
 fi
@@ -53,6 +54,7 @@ if [ "$mode" = sanitize ] || [ "$mode" = all ]; then
   export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
   suite "C core under ASan+UBSan" build/asan/test_series
   suite "Expression graphs under ASan+UBSan" build/asan/test_graph
+  suite "Compiled graphs under ASan+UBSan" build/asan/test_native
   # The long physics runs (#slow) are checked by the plain build; here the
   # point is memory safety and undefined behaviour on every code path.
   suite "Lua specs inside build/asan/nzlua" env NZLUA=build/asan/nzlua \
