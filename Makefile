@@ -81,16 +81,12 @@ $(B)/test_native: tests/test_native.c $(CORE_OBJ) | $(B)
 $(B)/asan/test_native: tests/test_native.c $(SAN_CORE) | $(B)/asan
 	$(CC) $(ALL_CFLAGS) $(SAN_FLAGS) -o $@ $^ $(GSL_LIBS) $(DL_LIBS) -lm
 $(B)/bench_jet: bench/bench_jet.c $(CORE_OBJ) | $(B)
-<<<<<<< HEAD
-	$(CC) $(ALL_CFLAGS) -o $@ $^ $(GSL_LIBS) -lm
+	$(CC) $(ALL_CFLAGS) -o $@ $^ $(GSL_LIBS) $(DL_LIBS) -lm
 # The hand-written C baselines the benchmarks of issue 10 compare against.
 $(B)/henon_c: bench/henon_c.c | $(B)
 	$(CC) $(ALL_CFLAGS) -o $@ $^ $(GSL_LIBS) -lm
 $(B)/pendulum_c: bench/pendulum_c.c | $(B)
 	$(CC) $(ALL_CFLAGS) -o $@ $^ $(GSL_LIBS) -lm
-=======
-	$(CC) $(ALL_CFLAGS) -o $@ $^ $(GSL_LIBS) $(DL_LIBS) -lm
->>>>>>> n1
 
 $(B) $(B)/obj $(B)/asan $(B)/gen:
 	mkdir -p $@
