@@ -195,6 +195,16 @@ static int lg_info(lua_State *L)
   lua_setfield(L, -2, "nodes");
   lua_pushinteger(L, nz_compiled_mass_bias_nodes(c));
   lua_setfield(L, -2, "mass_bias_nodes");
+  double secs;
+  const char *why;
+  lua_pushinteger(L, nz_compiled_native(c, &secs, &why));
+  lua_setfield(L, -2, "native_plans");
+  lua_pushnumber(L, secs);
+  lua_setfield(L, -2, "native_seconds");
+  if (why) {
+    lua_pushstring(L, why);
+    lua_setfield(L, -2, "native_why");
+  }
   return 1;
 }
 
@@ -242,12 +252,21 @@ static int lg_eval(lua_State *L)
   return 1;
 }
 
+/* set_native(true | false | nil): compile the plans on doubles at once,
+ * never, or when they have earned it (mech_graph.h). */
+static int lg_set_native(lua_State *L)
+{
+  nz_compiled *c = check(L);
+  nz_compiled_set_native(c, lua_isnil(L, 2) ? -1 : lua_toboolean(L, 2));
+  return 0;
+}
+
 static const luaL_Reg methods[] = {
   { "const", lg_const }, { "slot", lg_slot }, { "time", lg_time }, { "param", lg_param },
   { "op", lg_op }, { "fn", lg_fn }, { "powc", lg_powc }, { "constant", lg_constant },
   { "cmp", lg_cmp }, { "select", lg_select },
   { "set_piece", lg_set_piece }, { "info", lg_info }, { "piece_nodes", lg_piece_nodes },
-  { "eval", lg_eval }, { NULL, NULL }
+  { "eval", lg_eval }, { "set_native", lg_set_native }, { NULL, NULL }
 };
 
 void nz_lua_open_graph(lua_State *L)

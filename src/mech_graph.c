@@ -3,8 +3,21 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include "graph_native.h"
 #include "linalg.h"
 #include "mech_graph.h"
+
+/* A plan on doubles that runs as machine code once it has earned it
+ * (graph_native.h): after NZ_NATIVE_AFTER node evaluations in auto mode, at
+ * its first use with native on, never with native off or when compiling
+ * fails (the reason is kept for graph_info). */
+typedef struct dplan {
+  nz_graph_plan *plan;
+  int *outs, nout;
+  nz_native *native;
+  double work;          /* nodes interpreted so far */
+  int tried;
+} dplan;
 
 typedef struct compiled_piece {
   int n;                  /* outputs: 0 when the piece is not compiled */
@@ -24,21 +37,86 @@ struct nz_compiled {
   int pcap;
   /* Mass and bias on doubles (built on first use; built = -1 if impossible). */
   int mb_built;
-  nz_graph_plan *mb_plan;
+  dplan *mb_plan;
   double *mb_in, *mb_out;
+  /* Native code: mode (-1 auto, 0 off, 1 on), plans compiled, seconds spent
+   * compiling, and why the last attempt failed. */
+  int native_mode, native_count;
+  double native_seconds;
+  char native_why[200];
   /* nz_compiled_accel's workspace: A (k x k), rhs (k), the solver's. */
   double *acc_A, *acc_rhs, *acc_work;
   /* A constant M, inverted once (minv k x k), with its solve info. */
   int m_const;
   double *minv;
   nz_solve_info m_info;
+  /* With a constant M, q'' = -M^-1 h as a plan of its own (M^-1's entries
+   * are constants of the graph), and F, V checked: one pass per call. */
+  dplan *acc_plan;
+  double *acc_out;
   /* Constraint rows on doubles: plan of (r, m) at rows[3 r + m] (built = 1,
    * or -1 when it cannot be built), outputs D^0..D^K Phi then A. */
-  nz_graph_plan **rows;
+  dplan **rows;
   signed char *rows_built;
   double *row_in, *row_out;
   char failure[160];
 };
+
+static void dplan_free(dplan *d)
+{
+  if (!d) return;
+  nz_graph_plan_free(d->plan);
+  nz_native_free(d->native);
+  free(d->outs);
+  free(d);
+}
+
+static dplan *dplan_new(const nz_graph *g, const int *outs, int n)
+{
+  dplan *d = calloc(1, sizeof *d);
+  if (!d) return NULL;
+  d->outs = malloc((size_t)n * sizeof(int));
+  d->plan = nz_graph_plan_new(g, outs, n);
+  if (!d->outs || !d->plan) { dplan_free(d); return NULL; }
+  memcpy(d->outs, outs, (size_t)n * sizeof(int));
+  d->nout = n;
+  return d;
+}
+
+static void dplan_compile(nz_compiled *c, dplan *d)
+{
+  char dir[1024];
+  d->tried = 1;
+  if (!nz_native_cache_dir(dir, sizeof dir)) {
+    snprintf(c->native_why, sizeof c->native_why, "no cache directory for compiled code");
+    return;
+  }
+  d->native = nz_native_compile(c->g, d->outs, d->nout, dir, c->native_why, sizeof c->native_why);
+  if (d->native) {
+    c->native_count++;
+    c->native_seconds += nz_native_compile_seconds(d->native);
+  }
+}
+
+/* Evaluate on doubles: natively when compiled (its refusal is confirmed by
+ * the interpreter, which names the node), else interpreted. */
+static nz_status dplan_eval(nz_compiled *c, dplan *d, const double *in, double *out)
+{
+  if (!d->tried && (c->native_mode == 1 || (c->native_mode < 0 && d->work >= NZ_NATIVE_AFTER)))
+    dplan_compile(c, d);
+  if (d->native && nz_native_eval(d->native, in, out) == NZ_OK) return NZ_OK;
+  d->work += nz_graph_plan_nodes(d->plan);
+  return nz_graph_eval(d->plan, in, out);
+}
+
+void nz_compiled_set_native(nz_compiled *c, int mode) { c->native_mode = mode < 0 ? -1 : mode > 0; }
+
+int nz_compiled_native(const nz_compiled *c, double *seconds, const char **why)
+{
+  if (seconds) *seconds = c->native_seconds;
+  if (why) *why = c->native_why[0] ? c->native_why : NULL;
+  return c->native_count;
+}
 
 nz_compiled *nz_compiled_new(int k, int np, int nc, int nslots)
 {
@@ -55,7 +133,10 @@ nz_compiled *nz_compiled_new(int k, int np, int nc, int nslots)
   c->din = calloc((size_t)c->ninputs, sizeof(nz_jet *));
   c->pjet = calloc((size_t)np + 1, sizeof(nz_jet *));
   c->pcap = -1;
-  c->rows = calloc(3 * (size_t)nc + 1, sizeof(nz_graph_plan *));
+  c->native_mode = -1;
+  const char *env = getenv("NZLUA_NATIVE");
+  if (env && (env[0] == '0' || env[0] == '1') && env[1] == '\0') c->native_mode = env[0] - '0';
+  c->rows = calloc(3 * (size_t)nc + 1, sizeof(dplan *));
   c->rows_built = calloc(3 * (size_t)nc + 1, 1);
   c->row_in = calloc((size_t)c->ninputs + 3 + (size_t)k, sizeof(double));
   if (c->row_in) c->row_out = c->row_in + c->ninputs;
@@ -80,8 +161,10 @@ void nz_compiled_free(nz_compiled *c)
   for (int p = 0; p < NZ_PIECE_COUNT; p++) piece_clear(&c->piece[p]);
   for (int r = 0; c->phi && r < c->nc; r++) piece_clear(&c->phi[r]);
   for (int p = 0; c->pjet && p < c->np; p++) nz_jet_free(c->pjet[p]);
-  nz_graph_plan_free(c->mb_plan);
-  for (int r = 0; c->rows && r < 3 * c->nc; r++) nz_graph_plan_free(c->rows[r]);
+  dplan_free(c->mb_plan);
+  dplan_free(c->acc_plan);
+  free(c->acc_out);
+  for (int r = 0; c->rows && r < 3 * c->nc; r++) dplan_free(c->rows[r]);
   free(c->rows);
   free(c->rows_built);
   free(c->row_in);
@@ -291,6 +374,25 @@ static void invert_constant_mass(nz_compiled *c, const int *out)
   if (!ok) { free(minv); return; }
   c->minv = minv;
   c->m_const = 1;
+  /* q''_i = -sum_j (M^-1)_ij h_j, then F and V (checked) */
+  int *acc = malloc((size_t)(k + 2) * sizeof(int));
+  c->acc_out = malloc((size_t)(k + 2) * sizeof(double));
+  for (int i = 0; acc && c->acc_out && i < k; i++) {
+    int sum = nz_graph_const(c->g, 0.0);
+    for (int j = 0; j < k && sum >= 0; j++) {
+      int coef = nz_graph_const(c->g, -minv[(size_t)i * (size_t)k + (size_t)j]);
+      int term = coef < 0 ? -1 : nz_graph_op(c->g, NZ_GOP_MUL, coef, out[k * k + j]);
+      sum = term < 0 ? -1 : nz_graph_op(c->g, NZ_GOP_ADD, sum, term);
+    }
+    if (sum < 0) { free(acc); acc = NULL; break; }
+    acc[i] = sum;
+  }
+  if (acc) {
+    acc[k] = out[k * k + k];
+    acc[k + 1] = out[k * k + k + 1];
+    c->acc_plan = dplan_new(c->g, acc, k + 2);
+  }
+  free(acc);
 }
 
 static int mass_bias_ready(nz_compiled *c)
@@ -304,7 +406,7 @@ static int mass_bias_ready(nz_compiled *c)
   int *out = malloc((size_t)nout * sizeof(int));
   if (!out) return 0;
   if (build_mass_bias(c, out) == 0) {
-    c->mb_plan = nz_graph_plan_new(c->g, out, nout);
+    c->mb_plan = dplan_new(c->g, out, nout);
     c->mb_in = malloc((size_t)(c->ninputs + nout) * sizeof(double));
     size_t kk = (size_t)k * (size_t)k;
     c->acc_A = malloc((kk + (size_t)k + nz_solve_spd_work_len(k)) * sizeof(double));
@@ -320,20 +422,29 @@ static int mass_bias_ready(nz_compiled *c)
   return c->mb_built > 0;
 }
 
+/* The inputs t, params, q, q' (slots 0 and 1) of a plan on doubles; the
+ * loops are short (k is small), calls to memcpy would cost more. */
+static void state_inputs(const nz_compiled *c, double *in, double t, const double *q, const double *qd)
+{
+  int k = c->k, base = 1 + c->np;
+  in[0] = t;
+  for (int p = 0; p < c->np; p++) in[1 + p] = c->params[p];
+  for (int i = 0; i < k; i++) {
+    in[base + i] = q[i];
+    in[base + k + i] = qd[i];
+  }
+}
+
 /* M and h at a state into c->mb_out; NZ_EARG when the graphs cannot. */
 static int eval_mass_bias(nz_compiled *c, double t, const double *q, const double *qd)
 {
   if (!mass_bias_ready(c)) return NZ_EARG;
-  int k = c->k;
   double *in = c->mb_in;
-  in[0] = t;
-  memcpy(in + 1, c->params, (size_t)c->np * sizeof(double));
-  memcpy(in + nz_compiled_input_slot(c, 0, 0), q, (size_t)k * sizeof(double));
-  memcpy(in + nz_compiled_input_slot(c, 1, 0), qd, (size_t)k * sizeof(double));
-  int st = nz_graph_eval(c->mb_plan, in, c->mb_out);
+  state_inputs(c, in, t, q, qd);
+  int st = dplan_eval(c, c->mb_plan, in, c->mb_out);
   if (st) {
     /* Let the jet path run: it says which function failed, and where. */
-    describe_failure(c, c->mb_plan, st);
+    describe_failure(c, c->mb_plan->plan, st);
     return NZ_EARG;
   }
   return NZ_OK;
@@ -354,8 +465,15 @@ int nz_compiled_accel(void *ctx, double t, const double *q, const double *qd, do
                       double *qdd, nz_solve_info *info)
 {
   nz_compiled *c = ctx;
-  int k = c->k, st = eval_mass_bias(c, t, q, qd);
-  if (st) return st;
+  int k = c->k, st;
+  if (c->acc_plan && c->m_info.rcond >= rcond_min) {
+    state_inputs(c, c->mb_in, t, q, qd);
+    if (dplan_eval(c, c->acc_plan, c->mb_in, c->acc_out) != NZ_OK) return NZ_EARG;
+    for (int i = 0; i < k; i++) qdd[i] = c->acc_out[i];
+    *info = c->m_info;
+    return NZ_OK;
+  }
+  if ((st = eval_mass_bias(c, t, q, qd))) return st;
   const double *h = c->mb_out + (size_t)k * (size_t)k;
   if (c->m_const) {
     if (!(c->m_info.rcond >= rcond_min)) return NZ_EARG;
@@ -439,7 +557,7 @@ int nz_compiled_constraint_row(void *ctx, int r, int m, double t, const double *
   if (!c->rows_built[at]) {
     int *out = malloc((size_t)(3 + k) * sizeof(int));
     c->rows_built[at] = -1;
-    if (out && build_row(c, r, m, out) == 0 && (c->rows[at] = nz_graph_plan_new(c->g, out, K + 1 + k)))
+    if (out && build_row(c, r, m, out) == 0 && (c->rows[at] = dplan_new(c->g, out, K + 1 + k)))
       c->rows_built[at] = 1;
     free(out);
   }
@@ -449,9 +567,9 @@ int nz_compiled_constraint_row(void *ctx, int r, int m, double t, const double *
   memcpy(in + 1, c->params, (size_t)c->np * sizeof(double));
   for (int j = 0; j < c->nslots; j++)
     for (int i = 0; i < k; i++) in[nz_compiled_input_slot(c, j, i)] = j < nstate ? state[j][i] : 0.0;
-  int st = nz_graph_eval(c->rows[at], in, o);
+  int st = dplan_eval(c, c->rows[at], in, o);
   if (st) {
-    describe_failure(c, c->rows[at], st);
+    describe_failure(c, c->rows[at]->plan, st);
     return NZ_EARG;
   }
   *value = o[K];
@@ -463,5 +581,5 @@ int nz_compiled_constraint_row(void *ctx, int r, int m, double t, const double *
 
 int nz_compiled_mass_bias_nodes(const nz_compiled *c)
 {
-  return c->mb_built > 0 ? nz_graph_plan_nodes(c->mb_plan) : 0;
+  return c->mb_built > 0 ? nz_graph_plan_nodes(c->mb_plan->plan) : 0;
 }

@@ -70,6 +70,16 @@ int nz_compiled_accel(void *ctx, double t, const double *q, const double *qd, do
  * fails: the caller then takes the jets. */
 int nz_compiled_constraint_row(void *ctx, int r, int m, double t, const double *const *state,
                                int nstate, double alpha, double beta, double *A, double *value);
+/* Machine code for the plans on doubles (M and h, constraint rows):
+ * mode 1 compiles each at its first use, 0 never, -1 (the default, or the
+ * environment's NZLUA_NATIVE=0/1) once a plan has interpreted
+ * NZ_NATIVE_AFTER nodes, about 50 ms of work: a short session pays nothing,
+ * a long run compiles once (0.1-1 s, cached on disk by the graph's hash). */
+#define NZ_NATIVE_AFTER 2e7
+void nz_compiled_set_native(nz_compiled *c, int mode);
+/* Plans running natively; seconds spent compiling; why the last attempt
+ * failed (NULL if none did). */
+int nz_compiled_native(const nz_compiled *c, double *seconds, const char **why);
 /* Nodes of the mass-bias plan (0 before its first use). */
 int nz_compiled_mass_bias_nodes(const nz_compiled *c);
 

@@ -351,7 +351,7 @@ describe("misuse gets a clear error naming the system and the function", functio
   end)
   it("a definition with a missing or unknown field", function()
     h.checkerror("nz.system: a table {coords = ..., T = ...} expected", nz.system, 3)
-    h.checkerror("nz.system 'x': unknown field 'Tt' (expected one of L, Q, S, T, V, bodies, compile, constraints, coords, name, params, sample)",
+    h.checkerror("nz.system 'x': unknown field 'Tt' (expected one of L, Q, S, T, V, bodies, compile, constraints, coords, name, native, params, sample)",
       nz.system, { name = "x", coords = { "a" }, Tt = 1 })
     h.checkerror("'coords' must be a non-empty list of coordinate names", nz.system, { T = function() return 0 end })
     h.checkerror("coordinate 'a' appears twice", nz.system, { coords = { "a", "a" }, T = function() return 0 end })

@@ -289,7 +289,7 @@ end
 -- mechanics reads; lua/nz/system.lua): sets engine.compiled,
 -- engine.compiled_params, engine.compiled_mass_bias, and returns the report
 -- { {label =, compiled =, why =, nodes =}, ..., seconds =, nodes = }.
-function M.compile(engine, levels)
+function M.compile(engine, levels, native)
   local clock = os.clock()
   local k = engine.k
   local names = {}
@@ -305,6 +305,7 @@ function M.compile(engine, levels)
   for _, n in ipairs(levels) do nslots = math.max(nslots, n) end
   nslots = nslots + 2
   local c = core.mech.compiled_new(k, #names, #engine.constraints, nslots)
+  if native ~= nil then c:set_native(native) end
   local pproxy = param_proxy(c, engine.params, index)
 
   local done, report = {}, { seconds = 0 }

@@ -92,7 +92,7 @@ M.args = { error = arg_error, options = check_options, shown = shown, positive =
 
 local known_fields = {
   coords = true, T = true, V = true, Q = true, L = true, S = true, params = true,
-  name = true, bodies = true, constraints = true, sample = true, compile = true,
+  name = true, bodies = true, constraints = true, sample = true, compile = true, native = true,
 }
 
 -- A function or a list of functions, as a list.
@@ -175,8 +175,10 @@ function M.system(def)
   local Clab = {}
   for i = 1, #C do Clab[i] = ("constraint %d"):format(i) end
   local Clevels = constraints.levels(C, name)
-  if def.compile ~= nil and type(def.compile) ~= "boolean" then
-    error(("nz.system '%s': 'compile' must be true or false"):format(name), 2)
+  for _, key in ipairs{ "compile", "native" } do
+    if def[key] ~= nil and type(def[key]) ~= "boolean" then
+      error(("nz.system '%s': '%s' must be true or false"):format(name, key), 2)
+    end
   end
   if def.sample ~= nil and type(def.sample) ~= "table" then
     error(("nz.system '%s': 'sample' must be a state {t = ..., q = {...}, qd = {...}}"):format(name), 2)
@@ -201,7 +203,7 @@ function M.system(def)
   }
   -- Record the functions once as graphs evaluated in C (nz/record.lua);
   -- compile = false keeps every function in Lua.
-  if def.compile ~= false then self.recording = record.compile(self.engine, Clevels) end
+  if def.compile ~= false then self.recording = record.compile(self.engine, Clevels, def.native) end
   if GRAPH_CHECK and self.recording then record.diff_check(self.engine, Clevels, name) end
   return self
 end
@@ -475,7 +477,8 @@ function System:graph_info()
   local nc, ni = 0, 0
   for _, r in ipairs(self.recording) do if r.compiled then nc = nc + 1 else ni = ni + 1 end end
   return { nodes = info.nodes, record_seconds = self.recording.seconds, mass_bias_nodes = info.mass_bias_nodes,
-    compiled = nc, interpreted = ni }
+    compiled = nc, interpreted = ni, native_plans = info.native_plans, native_seconds = info.native_seconds,
+    native_why = info.native_why }
 end
 
 -- ------------------------------------------------------------------ --
