@@ -25,9 +25,14 @@ RL_LIBS   = $(shell pkg-config --libs readline 2>/dev/null)
 DL_LIBS   = -ldl
 SAN_FLAGS = -O1 -g -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=all
 
-# The numerical core (never includes lua.h), then the Lua binding.
-CORE_SRC  = src/series.c src/jet.c src/interrupt.c src/mech.c src/constrained.c src/constrained_series.c src/mech_jacobian.c src/ode.c src/ode_run.c src/linalg.c src/graph.c src/graph_native.c src/mech_graph.c
-LUA_SRC   = src/lua_jet.c src/lua_system.c src/lua_constraints.c src/lua_series.c src/lua_linalg.c src/lua_ode.c src/lua_special.c src/lua_graph.c src/lua_nz.c
+# The numerical core (never includes lua.h), one folder per layer, lowest
+# first (docs/architecture.md); then the Lua binding; then the program.
+# Includes are written from src/: #include "jets/jet.h".
+CORE_DIRS = core jets graph mech ode
+CORE_SRC  = $(foreach d,$(CORE_DIRS),$(sort $(wildcard src/$(d)/*.c)))
+LUA_SRC   = $(sort $(wildcard src/lua/*.c))
+APP_SRC   = src/app/nzlua.c src/app/repl_complete.c
+HDRS      = $(wildcard src/*/*.h)
 LUA_MODS  = $(sort $(wildcard lua/nz/*.lua))
 GEN_SRC   = build/gen/embedded_lua.c
 
@@ -50,21 +55,25 @@ deps:
 $(GEN_SRC): tools/embed.lua $(LUA_MODS) | $(B)/gen
 	lua5.4 tools/embed.lua $@ $(LUA_MODS)
 
-$(B)/obj/%.o: src/%.c $(wildcard src/*.h) | $(B)/obj
+# Objects mirror the source folders: src/jets/jet.c -> build/obj/jets/jet.o.
+$(B)/obj/%.o: src/%.c $(HDRS) | $(B)/obj
+	@mkdir -p $(@D)
 	$(CC) $(ALL_CFLAGS) -c -o $@ $<
-$(B)/obj/embedded_lua.o: $(GEN_SRC) src/embedded.h | $(B)/obj
-	$(CC) $(ALL_CFLAGS) -c -o $@ $<
-$(B)/asan/%.o: src/%.c $(wildcard src/*.h) | $(B)/asan
+# The generated file includes "embedded.h" (tools/embed.lua), which lives in src/lua.
+$(B)/obj/embedded_lua.o: $(GEN_SRC) src/lua/embedded.h | $(B)/obj
+	$(CC) $(ALL_CFLAGS) -Isrc/lua -c -o $@ $<
+$(B)/asan/%.o: src/%.c $(HDRS) | $(B)/asan
+	@mkdir -p $(@D)
 	$(CC) $(ALL_CFLAGS) $(SAN_FLAGS) -c -o $@ $<
-$(B)/asan/embedded_lua.o: $(GEN_SRC) src/embedded.h | $(B)/asan
-	$(CC) $(ALL_CFLAGS) $(SAN_FLAGS) -c -o $@ $<
+$(B)/asan/embedded_lua.o: $(GEN_SRC) src/lua/embedded.h | $(B)/asan
+	$(CC) $(ALL_CFLAGS) $(SAN_FLAGS) -Isrc/lua -c -o $@ $<
 
-$(B)/nzlua: $(B)/obj/nzlua.o $(B)/obj/repl_complete.o $(OBJ)
+$(B)/nzlua: $(patsubst src/%.c,$(B)/obj/%.o,$(APP_SRC)) $(OBJ)
 	$(CC) $(CFLAGS) -o $@ $^ $(LUA_LIBS) $(GSL_LIBS) $(RL_LIBS) $(DL_LIBS) -lm
 # The module links neither liblua (the host provides it) nor readline.
 $(B)/nz.so: $(OBJ)
 	$(CC) $(CFLAGS) -shared -o $@ $^ $(GSL_LIBS) $(DL_LIBS) -lm
-$(B)/asan/nzlua: $(B)/asan/nzlua.o $(B)/asan/repl_complete.o $(SAN_OBJ)
+$(B)/asan/nzlua: $(patsubst src/%.c,$(B)/asan/%.o,$(APP_SRC)) $(SAN_OBJ)
 	$(CC) $(SAN_FLAGS) -o $@ $^ $(LUA_LIBS) $(GSL_LIBS) $(RL_LIBS) $(DL_LIBS) -lm
 
 # C unit tests of the core, GSL-style PASS/FAIL lines.

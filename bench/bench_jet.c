@@ -4,7 +4,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <time.h>
-#include "jet.h"
+#include "jets/jet.h"
 
 static double now(void)
 {

@@ -12,7 +12,7 @@
 #include <time.h>
 #include <gsl/gsl_math.h>
 #include <gsl/gsl_test.h>
-#include "graph.h"
+#include "graph/graph.h"
 
 /* ------------------------------------------------------------------ */
 /* One expression, three independent evaluations                        */

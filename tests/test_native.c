@@ -17,7 +17,7 @@
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <gsl/gsl_test.h>
-#include "graph_native.h"
+#include "graph/graph_native.h"
 
 #if defined(__SANITIZE_ADDRESS__)
 #define SANITIZED 1

@@ -9,9 +9,9 @@
 #include <gsl/gsl_math.h>
 #include <gsl/gsl_sf_gamma.h>
 #include <gsl/gsl_test.h>
-#include "constrained_series.h"
-#include "jet.h"
-#include "series.h"
+#include "mech/constrained_series.h"
+#include "jets/jet.h"
+#include "jets/series.h"
 
 #define K 40
 /* Closed-form coefficients below are sums of at most K products of O(1)

@@ -1,0 +1,596 @@
+/* nzlua.c - the nzlua program: an interactive session and a script runner
+ * with the nz module preloaded.
+ *
+ * The design follows the standalone `lua` interpreter (lua.c): all work runs
+ * under lua_pcall of one `pmain`; a message handler turns any error into text
+ * with a traceback; Ctrl-C during a computation only installs a hook that
+ * raises the interrupt object nz.interrupted inside the VM (and sets the
+ * flag that C loops poll), and resets the signal so that a second Ctrl-C
+ * really kills; a line is first
+ * tried as `return <line>` so that an expression prints its value; a syntax
+ * error at <eof> means "keep reading".
+ *
+ * What it adds: readline with the callback interface, so that Ctrl-C at the
+ * prompt discards the pending input instead of ending the session; history
+ * kept across sessions in ~/.nzlua_history (NZLUA_HISTORY overrides), limited
+ * to NZLUA_HISTORY_LINES entries; tab completion; readable printing of values;
+ * tracebacks only for errors that came from inside functions.
+ *
+ * Exit status: 0, 1 when a script (or -e, -l, stdin) failed, and 130
+ * (128 + SIGINT, the shell's convention) when Ctrl-C reached it, whether it
+ * stopped the script or a computation that kept its partial result (simulate
+ * returns the part computed, and the script may save it before it ends). */
+#include <errno.h>
+#include <limits.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/select.h>
+#include <unistd.h>
+
+#include <readline/readline.h>
+#include <readline/history.h>
+
+#include <lua.h>
+#include <lauxlib.h>
+#include <lualib.h>
+
+#include "core/interrupt.h"
+#include "lua/lua_system.h"
+#include "lua/nz.h"
+#include "app/repl_complete.h"
+
+#define NZLUA_PROMPT "nz> "
+#define NZLUA_PROMPT2 "nz>> "
+#define NZLUA_HISTORY_LINES 1000
+#define NZLUA_MAXINPUT 512
+#define NZLUA_EXIT_INTERRUPTED (128 + SIGINT)
+
+static const char *progname = "nzlua";
+static lua_State *globalL = NULL;
+static int interactive_input = 0;   /* stdin is a terminal: use readline */
+static int run_interrupted = 0;     /* Ctrl-C reached a script, -e or -l */
+
+/* ------------------------------------------------------------------ */
+/* Interrupts                                                           */
+
+static void lstop(lua_State *L, lua_Debug *ar)
+{
+  (void)ar;
+  lua_sethook(L, NULL, 0, 0);
+  nz_lua_raise_interrupt(L);
+}
+
+static void laction(int sig)
+{
+  int flag = LUA_MASKCALL | LUA_MASKRET | LUA_MASKLINE | LUA_MASKCOUNT;
+  signal(sig, SIG_DFL);          /* a second Ctrl-C kills the process */
+  nz_interrupt_request();        /* C loops poll this and stop cleanly */
+  lua_sethook(globalL, lstop, flag, 1);
+}
+
+/* ------------------------------------------------------------------ */
+/* Messages                                                             */
+
+static void print_usage(FILE *f)
+{
+  fprintf(f,
+          "usage: %s [options] [script [args]]\n"
+          "Runs a Lua 5.4 script with the nz module (analytical mechanics with Taylor\n"
+          "jets) preloaded, or opens an interactive session when no script is given.\n"
+          "Options:\n"
+          "  -e stat    execute string 'stat'\n"
+          "  -i         enter interactive mode after running the script\n"
+          "  -l mod     require library 'mod' into global 'mod'\n"
+          "  -v         show version information\n"
+          "  -h         show this help\n"
+          "  --         stop handling options\n"
+          "  -          stop handling options and execute stdin\n"
+          "In a session, help() lists what nz offers; Ctrl-C interrupts a\n"
+          "computation, Ctrl-D leaves.\n",
+          progname);
+}
+
+static void l_message(const char *pname, const char *msg)
+{
+  if (pname) fprintf(stderr, "%s: ", pname);
+  fprintf(stderr, "%s\n", msg);
+  fflush(stderr);
+}
+
+/* Message handler: any error object to text, plus a traceback. */
+static int msghandler(lua_State *L)
+{
+  if (nz_lua_is_interrupt(L, 1)) {
+    luaL_traceback(L, L, "interrupted!", 1);
+    return 1;
+  }
+  const char *msg = lua_tostring(L, 1);
+  if (msg == NULL) {
+    if (luaL_callmeta(L, 1, "__tostring") && lua_type(L, -1) == LUA_TSTRING) return 1;
+    msg = lua_pushfstring(L, "(error object is a %s value)", luaL_typename(L, 1));
+  }
+  luaL_traceback(L, L, msg, 1);
+  return 1;
+}
+
+/* In a session, a traceback that shows nothing but the typed chunk and C
+ * frames is noise: keep it only when the error came from inside a function
+ * the user (or a script) wrote. */
+static int traceback_is_deep(const char *msg)
+{
+  const char *tb = strstr(msg, "\nstack traceback:\n");
+  if (!tb) return 0;
+  for (const char *line = strchr(tb + 1, '\n'); line; line = strchr(line + 1, '\n')) {
+    const char *s = line + 1;
+    while (*s == '\t' || *s == ' ') s++;
+    if (!*s) continue;
+    if (strncmp(s, "[C]:", 4) == 0) continue;
+    const char *end = strchr(s, '\n');
+    size_t n = end ? (size_t)(end - s) : strlen(s);
+    if (n >= 13 && memmem(s, n, "in main chunk", 13)) continue;
+    if (memmem(s, n, "(...tail calls...)", 18)) continue;
+    return 1;
+  }
+  return 0;
+}
+
+static int report(lua_State *L, int status, int in_session)
+{
+  if (status != LUA_OK) {
+    const char *msg = lua_tostring(L, -1);
+    if (msg == NULL) msg = "(error object is not a string)";
+    if (in_session && !traceback_is_deep(msg)) {
+      const char *tb = strstr(msg, "\nstack traceback:\n");
+      if (tb) {
+        lua_pushlstring(L, msg, (size_t)(tb - msg));
+        msg = lua_tostring(L, -1);
+      }
+    }
+    l_message(in_session ? NULL : progname, msg);
+    lua_settop(L, 0);
+  }
+  return status;
+}
+
+static int docall(lua_State *L, int narg, int nres)
+{
+  int base = lua_gettop(L) - narg;
+  lua_pushcfunction(L, msghandler);
+  lua_insert(L, base);
+  globalL = L;
+  nz_interrupt_clear();
+  signal(SIGINT, laction);
+  int status = lua_pcall(L, narg, nres, base);
+  signal(SIGINT, SIG_DFL);
+  lua_sethook(L, NULL, 0, 0);   /* a Ctrl-C that came too late to matter */
+  if (nz_interrupt_requested()) run_interrupted = 1;
+  nz_interrupt_clear();
+  lua_remove(L, base);
+  return status;
+}
+
+static void print_version(void)
+{
+  printf("nzlua %s (nz module %s, %s)  analytical mechanics with Taylor jets\n", NZ_VERSION,
+         NZ_VERSION, LUA_RELEASE);
+  fflush(stdout);
+}
+
+/* ------------------------------------------------------------------ */
+/* Running chunks                                                       */
+
+static int dochunk(lua_State *L, int status)
+{
+  if (status == LUA_OK) status = docall(L, 0, 0);
+  return report(L, status, 0);
+}
+
+static int dofile(lua_State *L, const char *name)
+{
+  return dochunk(L, luaL_loadfile(L, name));
+}
+
+static int dostring(lua_State *L, const char *s, const char *name)
+{
+  return dochunk(L, luaL_loadbuffer(L, s, strlen(s), name));
+}
+
+/* -l mod: require it into global mod. */
+static int dolibrary(lua_State *L, const char *name)
+{
+  lua_getglobal(L, "require");
+  lua_pushstring(L, name);
+  int status = docall(L, 1, 1);
+  if (status == LUA_OK) lua_setglobal(L, name);
+  return report(L, status, 0);
+}
+
+static int pushargs(lua_State *L)
+{
+  if (lua_getglobal(L, "arg") != LUA_TTABLE) luaL_error(L, "'arg' is not a table");
+  int n = (int)luaL_len(L, -1);
+  luaL_checkstack(L, n + 3, "too many arguments to script");
+  int i;
+  for (i = 1; i <= n; i++) lua_rawgeti(L, -i, i);
+  lua_remove(L, -i);
+  return n;
+}
+
+static int handle_script(lua_State *L, char **argv)
+{
+  const char *fname = argv[0];
+  if (strcmp(fname, "-") == 0 && strcmp(argv[-1], "--") != 0) fname = NULL;   /* stdin */
+  int status = luaL_loadfile(L, fname);
+  if (status == LUA_OK) {
+    int n = pushargs(L);
+    status = docall(L, n, LUA_MULTRET);
+  }
+  return report(L, status, 0);
+}
+
+/* ------------------------------------------------------------------ */
+/* Reading lines                                                        */
+
+static char *history_path = NULL;
+
+static void history_open(void)
+{
+  const char *env = getenv("NZLUA_HISTORY");
+  const char *home = getenv("HOME");
+  if (env && *env) history_path = strdup(env);
+  else if (home && *home) {
+    size_t n = strlen(home) + sizeof "/.nzlua_history";
+    history_path = malloc(n);
+    if (history_path) snprintf(history_path, n, "%s/.nzlua_history", home);
+  }
+  using_history();
+  stifle_history(NZLUA_HISTORY_LINES);
+  if (!history_path) return;
+  FILE *f = fopen(history_path, "a");   /* append_history needs the file to exist */
+  if (f) fclose(f);
+  read_history(history_path);
+  history_truncate_file(history_path, NZLUA_HISTORY_LINES);
+}
+
+static void history_add(const char *chunk)
+{
+  if (!interactive_input || !*chunk) return;
+  add_history(chunk);
+  if (history_path) append_history(1, history_path);
+}
+
+static void history_close(void)
+{
+  if (history_path) history_truncate_file(history_path, NZLUA_HISTORY_LINES);
+  free(history_path);
+  history_path = NULL;
+}
+
+/* readline's callback interface under select(), so that SIGINT (which
+ * interrupts select) discards the line instead of killing the session. */
+static char *rl_result;
+static int rl_finished;
+static volatile sig_atomic_t prompt_interrupted;
+
+static void on_prompt_sigint(int sig)
+{
+  (void)sig;
+  prompt_interrupted = 1;
+}
+
+static void on_line(char *line)
+{
+  rl_result = line;
+  rl_finished = 1;
+  rl_callback_handler_remove();
+}
+
+enum { READ_OK, READ_EOF, READ_INTERRUPTED };
+
+static int read_interactive(const char *prompt, char **out)
+{
+  struct sigaction sa, old;
+  memset(&sa, 0, sizeof sa);
+  sa.sa_handler = on_prompt_sigint;
+  sigemptyset(&sa.sa_mask);
+  sigaction(SIGINT, &sa, &old);           /* no SA_RESTART: select returns EINTR */
+  prompt_interrupted = 0;
+  rl_finished = 0;
+  rl_result = NULL;
+  int result = READ_OK;
+  rl_callback_handler_install(prompt, on_line);
+  while (!rl_finished) {
+    fd_set fds;
+    int fd = fileno(rl_instream ? rl_instream : stdin);
+    FD_ZERO(&fds);
+    FD_SET(fd, &fds);
+    int r = select(fd + 1, &fds, NULL, NULL, NULL);
+    if (r < 0) {
+      if (errno == EINTR && !prompt_interrupted) continue;
+      rl_free_line_state();
+      rl_callback_sigcleanup();
+      rl_callback_handler_remove();
+      fputs("\n", stdout);
+      result = prompt_interrupted ? READ_INTERRUPTED : READ_EOF;
+      break;
+    }
+    rl_callback_read_char();
+  }
+  sigaction(SIGINT, &old, NULL);
+  if (result == READ_OK && rl_result == NULL) result = READ_EOF;
+  *out = rl_result;
+  return result;
+}
+
+static int read_plain(const char *prompt, char **out)
+{
+  char buf[NZLUA_MAXINPUT];
+  fputs(prompt, stdout);
+  fflush(stdout);
+  if (fgets(buf, sizeof buf, stdin) == NULL) return READ_EOF;
+  size_t n = strlen(buf);
+  if (n > 0 && buf[n - 1] == '\n') buf[n - 1] = '\0';
+  *out = strdup(buf);
+  return *out ? READ_OK : READ_EOF;
+}
+
+/* Push one line of input; returns READ_OK, READ_EOF or READ_INTERRUPTED. */
+static int pushline(lua_State *L, int firstline)
+{
+  const char *prompt = firstline ? NZLUA_PROMPT : NZLUA_PROMPT2;
+  char *line = NULL;
+  int r = interactive_input ? read_interactive(prompt, &line) : read_plain(prompt, &line);
+  if (r != READ_OK) return r;
+  size_t n = strlen(line);
+  if (firstline && line[0] == '=') lua_pushfstring(L, "return %s", line + 1);   /* 5.2 habit */
+  else lua_pushlstring(L, line, n);
+  free(line);
+  return READ_OK;
+}
+
+/* Try the line as an expression whose value prints. */
+static int addreturn(lua_State *L)
+{
+  const char *line = lua_tostring(L, -1);
+  const char *retline = lua_pushfstring(L, "return %s;", line);
+  int status = luaL_loadbuffer(L, retline, strlen(retline), "=stdin");
+  if (status == LUA_OK) {
+    lua_remove(L, -2);
+    history_add(line);
+  } else {
+    lua_pop(L, 2);
+  }
+  return status;
+}
+
+static int incomplete(lua_State *L, int status)
+{
+  static const char eof_mark[] = "<eof>";
+  const size_t marklen = sizeof eof_mark - 1;
+  if (status == LUA_ERRSYNTAX) {
+    size_t lmsg;
+    const char *msg = lua_tolstring(L, -1, &lmsg);
+    if (lmsg >= marklen && strcmp(msg + lmsg - marklen, eof_mark) == 0) {
+      lua_pop(L, 1);
+      return 1;
+    }
+  }
+  return 0;
+}
+
+/* Read more lines while the chunk is incomplete. */
+static int multiline(lua_State *L, int *read_status)
+{
+  for (;;) {
+    size_t len;
+    const char *line = lua_tolstring(L, 1, &len);
+    int status = luaL_loadbuffer(L, line, len, "=stdin");
+    if (!incomplete(L, status)) {
+      history_add(line);
+      *read_status = READ_OK;
+      return status;
+    }
+    int r = pushline(L, 0);
+    if (r != READ_OK) {
+      *read_status = r;
+      return status;
+    }
+    lua_pushliteral(L, "\n");
+    lua_insert(L, -2);
+    lua_concat(L, 3);
+  }
+}
+
+/* Load one complete chunk: LUA_OK or an error status, with *eof set at the
+ * end of input; an interrupted prompt loads nothing and asks again. */
+static int loadline(lua_State *L, int *eof)
+{
+  *eof = 0;
+  for (;;) {
+    lua_settop(L, 0);
+    int r = pushline(L, 1);
+    if (r == READ_EOF) { *eof = 1; return LUA_OK; }
+    if (r == READ_INTERRUPTED) continue;
+    int status = addreturn(L);
+    if (status == LUA_OK) {
+      lua_remove(L, 1);                 /* the line; the chunk stays */
+      return status;
+    }
+    status = multiline(L, &r);
+    if (r == READ_EOF) { *eof = 1; return LUA_OK; }
+    if (r == READ_INTERRUPTED) continue;
+    lua_remove(L, 1);
+    return status;
+  }
+}
+
+/* Print the values left by a chunk with nz.repl's printer. */
+static void print_results(lua_State *L)
+{
+  int n = lua_gettop(L);
+  if (n == 0) return;
+  luaL_checkstack(L, LUA_MINSTACK, "too many results to print");
+  lua_getglobal(L, "require");
+  lua_pushliteral(L, "nz.repl");
+  if (lua_pcall(L, 1, 1, 0) != LUA_OK) {
+    lua_pop(L, 1);
+    lua_getglobal(L, "print");
+  } else {
+    lua_getfield(L, -1, "print");
+    lua_remove(L, -2);
+  }
+  lua_insert(L, 1);
+  if (lua_pcall(L, n, 0, 0) != LUA_OK)
+    l_message(progname, lua_pushfstring(L, "error calling 'print' (%s)", lua_tostring(L, -1)));
+}
+
+static void do_repl(lua_State *L)
+{
+  int eof = 0;
+  run_interrupted = 0;      /* the session decides the exit status now */
+  if (interactive_input) {
+    history_open();
+    nz_complete_install(L);
+  }
+  for (;;) {
+    int status = loadline(L, &eof);
+    if (eof) break;
+    if (status == LUA_OK) status = docall(L, 0, LUA_MULTRET);
+    if (status == LUA_OK) print_results(L);
+    else report(L, status, 1);
+    run_interrupted = 0;
+  }
+  lua_settop(L, 0);
+  fputs("\n", stdout);
+  fflush(stdout);
+  if (interactive_input) history_close();
+}
+
+/* ------------------------------------------------------------------ */
+/* Arguments                                                            */
+
+enum { HAS_ERROR = 1, HAS_I = 2, HAS_V = 4, HAS_E = 8, HAS_H = 16 };
+
+/* Scan options; *first is the index of the script (or argc). */
+static int collectargs(char **argv, int *first)
+{
+  int args = 0;
+  for (int i = 1; argv[i] != NULL; i++) {
+    *first = i;
+    if (argv[i][0] != '-') return args;
+    if (strcmp(argv[i], "--") == 0) { *first = i + 1; return args; }
+    if (strcmp(argv[i], "-") == 0) return args;
+    if (strcmp(argv[i], "--help") == 0 || strcmp(argv[i], "-h") == 0) args |= HAS_H;
+    else if (strcmp(argv[i], "--version") == 0 || strcmp(argv[i], "-v") == 0) args |= HAS_V;
+    else if (strcmp(argv[i], "-i") == 0) args |= HAS_I | HAS_V;
+    else if (strcmp(argv[i], "-e") == 0 || strcmp(argv[i], "-l") == 0) {
+      if (argv[i][1] == 'e') args |= HAS_E;
+      if (argv[i + 1] == NULL || argv[i + 1][0] == '-') { *first = i; return HAS_ERROR; }
+      i++;
+    } else {
+      *first = i;
+      return HAS_ERROR;
+    }
+  }
+  for (*first = 1; argv[*first]; (*first)++) {}
+  return args;
+}
+
+static int runargs(lua_State *L, char **argv, int n)
+{
+  for (int i = 1; i < n; i++) {
+    if (strcmp(argv[i], "-e") == 0) {
+      if (dostring(L, argv[++i], "=(command line)") != LUA_OK) return 0;
+    } else if (strcmp(argv[i], "-l") == 0) {
+      if (dolibrary(L, argv[++i]) != LUA_OK) return 0;
+    }
+  }
+  return 1;
+}
+
+/* arg[0] is the script, arg[1..] its arguments, negative indices the rest. */
+static void createargtable(lua_State *L, char **argv, int argc, int script)
+{
+  if (script == argc) script = 0;
+  int narg = argc - (script + 1);
+  lua_createtable(L, narg, script + 1);
+  for (int i = 0; i < argc; i++) {
+    lua_pushstring(L, argv[i]);
+    lua_rawseti(L, -2, i - script);
+  }
+  lua_setglobal(L, "arg");
+}
+
+/* The session's environment: nz as a global, its functions unprefixed. */
+static void open_nz(lua_State *L)
+{
+  luaL_requiref(L, "nz", luaopen_nz, 1);
+  lua_getglobal(L, "require");
+  lua_pushliteral(L, "nz.repl");
+  lua_call(L, 1, 1);
+  lua_getfield(L, -1, "install_globals");
+  lua_pushglobaltable(L);
+  lua_pushvalue(L, -4);
+  lua_call(L, 2, 0);
+  lua_pop(L, 2);
+}
+
+static int pmain(lua_State *L)
+{
+  int argc = (int)lua_tointeger(L, 1);
+  char **argv = lua_touserdata(L, 2);
+  int script = argc;
+  int args = collectargs(argv, &script);
+  luaL_checkversion(L);
+  if (args == HAS_ERROR) {
+    fprintf(stderr, "%s: unrecognized option or missing argument '%s'\n", progname, argv[script]);
+    print_usage(stderr);
+    return 0;
+  }
+  if (args & HAS_H) {
+    print_usage(stdout);
+    lua_pushboolean(L, 1);
+    return 1;
+  }
+  if (args & HAS_V) print_version();
+  luaL_openlibs(L);
+  open_nz(L);
+  createargtable(L, argv, argc, script);
+  if (!runargs(L, argv, script)) return 0;
+  if (script < argc && handle_script(L, argv + script) != LUA_OK) return 0;
+  if (args & HAS_I) {
+    do_repl(L);
+  } else if (script == argc && !(args & (HAS_E | HAS_V))) {
+    if (isatty(0)) {
+      print_version();
+      do_repl(L);
+    } else if (dofile(L, NULL) != LUA_OK) {
+      return 0;
+    }
+  }
+  lua_pushboolean(L, 1);
+  return 1;
+}
+
+int main(int argc, char **argv)
+{
+  lua_State *L = luaL_newstate();
+  if (L == NULL) {
+    l_message(argv[0], "cannot create state: not enough memory");
+    return EXIT_FAILURE;
+  }
+  interactive_input = isatty(0);
+  rl_catch_signals = 0;
+  lua_gc(L, LUA_GCGEN, 0, 0);
+  lua_pushcfunction(L, pmain);
+  lua_pushinteger(L, argc);
+  lua_pushlightuserdata(L, argv);
+  int status = lua_pcall(L, 2, 1, 0);
+  int result = lua_toboolean(L, -1);
+  report(L, status, 0);
+  lua_close(L);
+  if (run_interrupted) return NZLUA_EXIT_INTERRUPTED;
+  return (result && status == LUA_OK) ? EXIT_SUCCESS : EXIT_FAILURE;
+}

@@ -1,0 +1,1375 @@
+/* graph.c - expression graphs: building (folding, simplification,
+ * hash-consing), forward differentiation on the graph, and plans evaluated on
+ * doubles and on jets (see graph.h).
+ *
+ * One arithmetic, three places.  Folding a constant node, the double
+ * evaluator and the order-0 jet kernels of jet.c must give the same number,
+ * or a folded graph would not be the graph it replaces.  The double formulas
+ * below are therefore written as the order-0 case of the jet kernels (x^n by
+ * the same binary powering as nz_series_powi, x^y as exp(y log x) like
+ * nz_jet_pow_jet, hypot scaled like nz_jet_hypot), and folding calls the very
+ * functions the double evaluator calls.  They agree as values; only the sign
+ * of a zero may differ (a Cauchy sum starts from +0.0).
+ *
+ * Like terms (graph.h) are gathered when building: exact in real arithmetic,
+ * not bit for bit, which is why that is a rule of building and not of
+ * folding.
+ *
+ * Branches: cmp gives 1 or 0 and select picks a whole operand; on doubles a
+ * comparison sees values only (a tie is exact equality), on jets it follows
+ * the lexicographic branch rule of nz_jet_compare.  Their derivatives and
+ * eta-parts are 0 (cmp, sign) and the chosen operand's (select).
+ *
+ * Zeros: constants are keyed on their bit pattern, so 0.0 and -0.0 are two
+ * nodes (atan2(+-0, -1) = +-pi tells them apart).  Both count as zero for
+ * the simplifications; x * 0 gives the node +0.0.
+ *
+ * Plans number their nodes in slots: inputs, constants, then the computed
+ * nodes sorted by level and opcode (see sched_cmp).  Both evaluators run in
+ * that order, so "the first failing node" is the same node on doubles and on
+ * jets.
+ *
+ * Jet shapes of a call: an input's jet is used as given (by pointer); a
+ * constant is exact to every order (a series c, 0, 0, ... without tangents);
+ * a computed node has the lowest order of its non-constant operands and the
+ * most tangents of all of them.  The eta-part of a node (din/dout) has the
+ * node's order, lowered to that of its operands' eta-parts, and the most
+ * tangents of the node and of those.  Outputs are copied into the shape the
+ * caller set: missing coefficients and tangents are zero, extra ones are
+ * dropped. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <limits.h>
+#include "graph/graph.h"
+
+const char *const nz_gop_names[NZ_GOP_COUNT] = {
+  "const", "input", "add", "sub", "mul", "div", "neg", "powc", "pow", "fn", "atan2", "hypot",
+  "cmp", "select"
+};
+
+struct nz_graph {
+  nz_gnode *nodes;
+  int n, cap;
+  int32_t *table;   /* open addressing, node ids, -1 empty; 2 n <= tcap */
+  size_t tcap;      /* a power of two */
+  int ninputs;
+};
+
+/* ------------------------------------------------------------------ */
+/* Scalar kernels: the order-0 jet arithmetic                          */
+
+static int is_small_integer(double p) { return p == floor(p) && fabs(p) <= 1e9; }
+
+/* x^n by binary powering, the order-0 case of nz_series_powi. */
+static inline double d_powi(double x, unsigned n)
+{
+  double y = 1.0, base = x;
+  while (n) {
+    if (n & 1u) y = y * base;
+    n >>= 1;
+    if (n) base = base * base;
+  }
+  return y;
+}
+
+/* x^p, p a constant exponent, with nz_jet_pow's cases at order 0. */
+static inline nz_status d_powc(double x, double p, double *z)
+{
+  int integer = is_small_integer(p);
+  if (p == 0.0) { *z = 1.0; return NZ_OK; }
+  if (integer && p > 0.0) { *z = d_powi(x, (unsigned)p); return NZ_OK; }
+  if (x == 0.0) {
+    if (integer || p < 0.0) return NZ_EZERODIV;
+    *z = 0.0;
+    return NZ_OK;
+  }
+  if (x < 0.0 && !integer) return NZ_EDOM;
+  *z = pow(x, p);
+  return NZ_OK;
+}
+
+/* x^y = exp(y log x), as nz_jet_pow_jet. */
+static inline nz_status d_pow(double x, double y, double *z)
+{
+  if (x < 0.0) return NZ_EDOM;
+  if (x == 0.0) return NZ_ESING;
+  *z = exp(y * log(x));
+  return NZ_OK;
+}
+
+/* hypot scaled by max(|a|, |b|), as nz_jet_hypot. */
+static inline double d_hypot(double a, double b)
+{
+  double s = fmax(fabs(a), fabs(b));
+  if (s == 0.0) return 0.0;
+  double as = a / s, bs = b / s;
+  return sqrt(as * as + bs * bs) * s;
+}
+
+static inline nz_status d_fn(int fn, double x, double *z)
+{
+  switch (fn) {
+  case NZ_FN_EXP: *z = exp(x); break;
+  case NZ_FN_LOG:
+    if (!(x > 0.0)) return NZ_EDOM;
+    *z = log(x);
+    break;
+  case NZ_FN_SQRT:
+    if (x < 0.0) return NZ_EDOM;
+    *z = sqrt(x);
+    break;
+  case NZ_FN_SIN: *z = sin(x); break;
+  case NZ_FN_COS: *z = cos(x); break;
+  case NZ_FN_TAN: *z = tan(x); break;
+  case NZ_FN_ASIN:
+  case NZ_FN_ACOS:
+    if (fabs(x) > 1.0) return NZ_EDOM;
+    *z = fn == NZ_FN_ASIN ? asin(x) : acos(x);
+    break;
+  case NZ_FN_ATAN: *z = atan(x); break;
+  case NZ_FN_SINH: *z = sinh(x); break;
+  case NZ_FN_COSH: *z = cosh(x); break;
+  case NZ_FN_TANH: *z = tanh(x); break;
+  case NZ_FN_ABS: *z = x < 0.0 ? -x : x; break;
+  case NZ_FN_SIGN: *z = (double)((x > 0.0) - (x < 0.0)); break;   /* nz_jet_apply at order 0 */
+  default: return NZ_EDOM;
+  }
+  return NZ_OK;
+}
+
+/* a op b on values: nz_jet_compare at order 0 (a tie is exact equality). */
+static inline nz_status d_cmp(int op, double x, double y, double *z)
+{
+  int holds;
+  if (isnan(x) || isnan(y)) return NZ_ENAN;
+  switch (op) {
+  case NZ_CMP_LT: holds = x < y; break;
+  case NZ_CMP_LE: holds = x <= y; break;
+  case NZ_CMP_GT: holds = x > y; break;
+  case NZ_CMP_GE: holds = x >= y; break;
+  case NZ_CMP_EQ: holds = x == y; break;
+  case NZ_CMP_NE: holds = x != y; break;
+  default: return NZ_EDOM;
+  }
+  *z = holds ? 1.0 : 0.0;
+  return NZ_OK;
+}
+
+static inline nz_status d_finite(double z)
+{
+  if (isinf(z)) return NZ_ERANGE;
+  if (isnan(z)) return NZ_ENAN;
+  return NZ_OK;
+}
+
+/* One node on doubles (folding).  x, y: operand values. */
+static nz_status scalar_op(const nz_gnode *nd, double x, double y, double *z)
+{
+  nz_status st = NZ_OK;
+  switch (nd->op) {
+  case NZ_GOP_ADD: *z = x + y; break;
+  case NZ_GOP_SUB: *z = x - y; break;
+  case NZ_GOP_MUL: *z = x * y; break;
+  case NZ_GOP_DIV:
+    if (y == 0.0) return NZ_EZERODIV;
+    *z = x / y;
+    break;
+  case NZ_GOP_NEG: *z = -x; break;
+  case NZ_GOP_POWC: st = d_powc(x, nd->v, z); break;
+  case NZ_GOP_POW: st = d_pow(x, y, z); break;
+  case NZ_GOP_FN: st = d_fn(nd->fn, x, z); break;
+  case NZ_GOP_ATAN2: *z = atan2(x, y); break;
+  case NZ_GOP_HYPOT: *z = d_hypot(x, y); break;
+  case NZ_GOP_CMP: st = d_cmp(nd->fn, x, y, z); break;
+  default: return NZ_EDOM;   /* SELECT folds by choosing (nz_graph_select) */
+  }
+  return st ? st : d_finite(*z);
+}
+
+/* ------------------------------------------------------------------ */
+/* The graph and hash-consing                                           */
+
+nz_graph *nz_graph_new(void)
+{
+  nz_graph *g = calloc(1, sizeof *g);
+  if (!g) return NULL;
+  g->tcap = 64;
+  g->table = malloc(g->tcap * sizeof *g->table);
+  if (!g->table) { free(g); return NULL; }
+  for (size_t i = 0; i < g->tcap; i++) g->table[i] = -1;
+  return g;
+}
+
+void nz_graph_free(nz_graph *g)
+{
+  if (!g) return;
+  free(g->nodes);
+  free(g->table);
+  free(g);
+}
+
+int nz_graph_size(const nz_graph *g) { return g->n; }
+const nz_gnode *nz_graph_nodes(const nz_graph *g) { return g->nodes; }
+int nz_graph_ninputs(const nz_graph *g) { return g->ninputs; }
+
+static uint64_t mix64(uint64_t h)
+{
+  h ^= h >> 33;
+  h *= 0xff51afd7ed558ccdULL;
+  h ^= h >> 33;
+  h *= 0xc4ceb9fe1a85ec53ULL;
+  h ^= h >> 33;
+  return h;
+}
+
+static uint64_t node_hash(const nz_gnode *nd)
+{
+  uint64_t vb;
+  memcpy(&vb, &nd->v, sizeof vb);
+  uint64_t h = mix64(((uint64_t)nd->op << 8 | nd->fn) ^ 0x9e3779b97f4a7c15ULL);
+  h = mix64(h ^ ((uint64_t)(uint32_t)nd->a | (uint64_t)(uint32_t)nd->b << 32));
+  h = mix64(h ^ (uint64_t)(uint32_t)nd->c);
+  return mix64(h ^ vb);
+}
+
+static int same_node(const nz_gnode *x, const nz_gnode *y)
+{
+  return x->op == y->op && x->fn == y->fn && x->a == y->a && x->b == y->b && x->c == y->c &&
+         memcmp(&x->v, &y->v, sizeof x->v) == 0;
+}
+
+static size_t probe(const nz_graph *g, const nz_gnode *nd)
+{
+  size_t mask = g->tcap - 1, i = (size_t)node_hash(nd) & mask;
+  while (g->table[i] >= 0 && !same_node(&g->nodes[g->table[i]], nd)) i = (i + 1) & mask;
+  return i;
+}
+
+static int grow_table(nz_graph *g)
+{
+  size_t cap = g->tcap * 2;
+  int32_t *t = malloc(cap * sizeof *t);
+  if (!t) return -1;
+  for (size_t i = 0; i < cap; i++) t[i] = -1;
+  free(g->table);
+  g->table = t;
+  g->tcap = cap;
+  for (int id = 0; id < g->n; id++) g->table[probe(g, &g->nodes[id])] = id;
+  return 0;
+}
+
+/* The node nd, shared if it exists.  Storage grows before anything changes,
+ * so running out of memory leaves g as it was. */
+static int intern(nz_graph *g, nz_gnode nd)
+{
+  size_t i = probe(g, &nd);
+  if (g->table[i] >= 0) return g->table[i];
+  if (g->n == INT_MAX) return -1;
+  if (g->n == g->cap) {
+    int cap = g->cap ? (g->cap > INT_MAX / 2 ? INT_MAX : 2 * g->cap) : 64;
+    nz_gnode *nn = realloc(g->nodes, (size_t)cap * sizeof *nn);
+    if (!nn) return -1;
+    g->nodes = nn;
+    g->cap = cap;
+  }
+  if (2 * ((size_t)g->n + 1) > g->tcap) {
+    if (grow_table(g)) return -1;
+    i = probe(g, &nd);
+  }
+  g->nodes[g->n] = nd;
+  g->table[i] = g->n;
+  if (nd.op == NZ_GOP_INPUT && nd.a >= g->ninputs) g->ninputs = nd.a + 1;
+  return g->n++;
+}
+
+static nz_gnode mknode(nz_gop op, int fn, int a, int b, double v)
+{
+  nz_gnode nd;
+  memset(&nd, 0, sizeof nd);
+  nd.op = (uint8_t)op;
+  nd.fn = (uint8_t)fn;
+  nd.a = a;
+  nd.b = b;
+  nd.v = v;
+  nd.c = -1;
+  return nd;
+}
+
+static int imin(int a, int b) { return a < b ? a : b; }
+static int imax(int a, int b) { return a > b ? a : b; }
+static int valid(const nz_graph *g, int x) { return x >= 0 && x < g->n; }
+
+int nz_graph_is_const(const nz_graph *g, int x, double *v)
+{
+  if (!valid(g, x) || g->nodes[x].op != NZ_GOP_CONST) return 0;
+  if (v) *v = g->nodes[x].v;
+  return 1;
+}
+
+static int is_const_value(const nz_graph *g, int x, double v)
+{
+  double c;
+  return nz_graph_is_const(g, x, &c) && c == v;
+}
+
+int nz_graph_const(nz_graph *g, double v) { return intern(g, mknode(NZ_GOP_CONST, 0, -1, -1, v)); }
+
+int nz_graph_input(nz_graph *g, int input)
+{
+  if (input < 0) return -1;
+  return intern(g, mknode(NZ_GOP_INPUT, 0, input, -1, 0.0));
+}
+
+/* Fold nd when its operands are constants and the result is finite and
+ * defined; otherwise record it (evaluation will report the error). */
+static int fold_or_intern(nz_graph *g, nz_gnode nd)
+{
+  double x, y = 0.0, z;
+  int unary = nd.b < 0;
+  if (nz_graph_is_const(g, nd.a, &x) && (unary || nz_graph_is_const(g, nd.b, &y)) &&
+      scalar_op(&nd, x, y, &z) == NZ_OK)
+    return nz_graph_const(g, z);
+  return intern(g, nd);
+}
+
+/* Like terms.  x as coef * base: a product with one constant factor, or the
+ * negation of one, or of anything (coef -1), or x itself (coef 1). */
+static int split_term(const nz_graph *g, int x, double *coef)
+{
+  const nz_gnode *nd = &g->nodes[x];
+  double s = 1.0, c;
+  if (nd->op == NZ_GOP_NEG) {
+    s = -1.0;
+    x = nd->a;
+    nd = &g->nodes[x];
+  }
+  if (nd->op == NZ_GOP_MUL) {
+    /* A product of two constants that overflowed stays unfolded: not a term. */
+    int ka = nz_graph_is_const(g, nd->a, NULL), kb = nz_graph_is_const(g, nd->b, NULL);
+    if (ka != kb) {
+      nz_graph_is_const(g, ka ? nd->a : nd->b, &c);
+      *coef = s * c;
+      return ka ? nd->b : nd->a;
+    }
+  }
+  *coef = s;
+  return x;
+}
+
+static int build_neg(nz_graph *g, int a);
+
+/* c x for a base x of split_term and a finite c. */
+static int scaled(nz_graph *g, double c, int x)
+{
+  if (c == 0.0) return nz_graph_const(g, 0.0);   /* x finite by construction */
+  if (c == 1.0) return x;
+  if (c == -1.0) return build_neg(g, x);
+  int k = nz_graph_const(g, c);
+  if (k < 0) return -1;
+  return fold_or_intern(g, mknode(NZ_GOP_MUL, 0, imin(k, x), imax(k, x), 0.0));
+}
+
+static int build_neg(nz_graph *g, int a)
+{
+  const nz_gnode *nd = &g->nodes[a];
+  if (nd->op == NZ_GOP_NEG) return nd->a;   /* -(-x) = x */
+  if (nd->op == NZ_GOP_MUL) {   /* -(c x) = (-c) x */
+    double c;
+    int x = split_term(g, a, &c);
+    if (x != a) return scaled(g, -c, x);
+  }
+  return fold_or_intern(g, mknode(NZ_GOP_NEG, 0, a, -1, 0.0));
+}
+
+static int is_neg(const nz_graph *g, int x) { return g->nodes[x].op == NZ_GOP_NEG; }
+
+/* a + s b (s = +-1) when both are terms of one base, else -1. */
+static int gather(nz_graph *g, int a, int b, double s)
+{
+  double ca, cb;
+  if (nz_graph_is_const(g, a, NULL) || nz_graph_is_const(g, b, NULL)) return -1;
+  int xa = split_term(g, a, &ca), xb = split_term(g, b, &cb);
+  double c = ca + s * cb;
+  if (xa != xb || !isfinite(c)) return -1;
+  return scaled(g, c, xa);
+}
+
+int nz_graph_powc(nz_graph *g, int a, double p)
+{
+  if (!valid(g, a) || !isfinite(p)) return -1;
+  if (p == 0.0) return nz_graph_const(g, 1.0);   /* as nz_jet_pow: x^0 = 1 */
+  if (p == 1.0) return a;
+  return fold_or_intern(g, mknode(NZ_GOP_POWC, 0, a, -1, p));
+}
+
+int nz_graph_fn(nz_graph *g, nz_jet_fn fn, int a)
+{
+  if (!valid(g, a) || (int)fn < 0 || fn >= NZ_FN_COUNT) return -1;
+  return fold_or_intern(g, mknode(NZ_GOP_FN, fn, a, -1, 0.0));
+}
+
+int nz_graph_op(nz_graph *g, nz_gop op, int a, int b)
+{
+  double v;
+  if (!valid(g, a)) return -1;
+  if (op == NZ_GOP_NEG) return build_neg(g, a);
+  if (!valid(g, b)) return -1;
+  switch (op) {
+  case NZ_GOP_ADD:
+  case NZ_GOP_SUB: {
+    if (is_const_value(g, b, 0.0)) return a;
+    if (op == NZ_GOP_ADD && is_const_value(g, a, 0.0)) return b;
+    if (op == NZ_GOP_SUB && a == b) return nz_graph_const(g, 0.0);
+    if (op == NZ_GOP_SUB && is_const_value(g, a, 0.0)) return build_neg(g, b);
+    int t = gather(g, a, b, op == NZ_GOP_ADD ? 1.0 : -1.0);
+    if (t >= 0) return t;
+    /* Negations into the sum, exact: a + (-b) = a - b, (-a) + b = b - a,
+     * a - (-b) = a + b (IEEE defines a - b as a + (-b)). */
+    if (is_neg(g, b)) return nz_graph_op(g, op == NZ_GOP_ADD ? NZ_GOP_SUB : NZ_GOP_ADD, a, g->nodes[b].a);
+    if (op == NZ_GOP_ADD && is_neg(g, a)) return nz_graph_op(g, NZ_GOP_SUB, b, g->nodes[a].a);
+    /* A negative coefficient likewise, exact ((-c) y = -(c y)): a + (c y) =
+     * a - (|c| y), a - (c y) = a + (|c| y); so sums share their terms. */
+    double cb;
+    int yb = nz_graph_is_const(g, b, NULL) ? b : split_term(g, b, &cb);
+    if (yb != b && cb < 0.0) {
+      int t2 = scaled(g, -cb, yb);
+      return t2 < 0 ? -1 : nz_graph_op(g, op == NZ_GOP_ADD ? NZ_GOP_SUB : NZ_GOP_ADD, a, t2);
+    }
+    break;
+  }
+  case NZ_GOP_MUL:
+    if (is_const_value(g, a, 1.0)) return b;
+    if (is_const_value(g, b, 1.0)) return a;
+    /* x finite by construction (evaluation fails otherwise), so x 0 = 0. */
+    if (is_const_value(g, a, 0.0) || is_const_value(g, b, 0.0)) return nz_graph_const(g, 0.0);
+    if (!nz_graph_is_const(g, a, NULL) && is_const_value(g, b, -1.0)) return build_neg(g, a);
+    if (!nz_graph_is_const(g, b, NULL) && is_const_value(g, a, -1.0)) return build_neg(g, b);
+    if (nz_graph_is_const(g, a, NULL) != nz_graph_is_const(g, b, NULL)) {   /* c1 (c2 x) */
+      int k = nz_graph_is_const(g, a, NULL) ? a : b, y = k == a ? b : a;
+      double cy;
+      int x = split_term(g, y, &cy);
+      nz_graph_is_const(g, k, &v);
+      if (x != y && isfinite(v * cy)) return scaled(g, v * cy, x);
+    }
+    /* Constant factors and signs out of a product: (c1 x)(c2 y) = (c1 c2)(x y),
+     * (-x) y = -(x y) (exact), (-x)(-y) = x y (exact). */
+    if (!nz_graph_is_const(g, a, NULL) && !nz_graph_is_const(g, b, NULL)) {
+      double ca, cb;
+      int xa = split_term(g, a, &ca), xb = split_term(g, b, &cb);
+      if ((xa != a || xb != b) && isfinite(ca * cb)) {
+        int xy = nz_graph_op(g, NZ_GOP_MUL, xa, xb), k = nz_graph_const(g, ca * cb);
+        return xy < 0 || k < 0 ? -1 : nz_graph_op(g, NZ_GOP_MUL, k, xy);
+      }
+    }
+    break;
+  case NZ_GOP_DIV:   /* x / x is kept: x may be 0 when evaluated */
+    if (is_const_value(g, b, 1.0)) return a;
+    if (!nz_graph_is_const(g, a, NULL) && is_const_value(g, b, -1.0)) return build_neg(g, a);
+    break;
+  case NZ_GOP_POW:
+    /* a constant exponent is POWC even for a constant base: (-2)^2 = 4 */
+    if (nz_graph_is_const(g, b, &v)) return nz_graph_powc(g, a, v);
+    break;
+  case NZ_GOP_ATAN2:
+  case NZ_GOP_HYPOT:
+    break;
+  default:
+    return -1;
+  }
+  if ((op == NZ_GOP_ADD || op == NZ_GOP_MUL || op == NZ_GOP_HYPOT) && a > b) {
+    int t = a;
+    a = b;
+    b = t;
+  }
+  return fold_or_intern(g, mknode(op, 0, a, b, 0.0));
+}
+
+int nz_graph_cmp(nz_graph *g, nz_cmp op, int a, int b)
+{
+  if (!valid(g, a) || !valid(g, b) || (int)op < 0 || op > NZ_CMP_NE) return -1;
+  if (a == b)   /* the same series: equal in every coefficient */
+    return nz_graph_const(g, op == NZ_CMP_LE || op == NZ_CMP_GE || op == NZ_CMP_EQ ? 1.0 : 0.0);
+  return fold_or_intern(g, mknode(NZ_GOP_CMP, op, a, b, 0.0));
+}
+
+int nz_graph_select(nz_graph *g, int c, int a, int b)
+{
+  double v;
+  if (!valid(g, c) || !valid(g, a) || !valid(g, b)) return -1;
+  if (nz_graph_is_const(g, c, &v) && !isnan(v)) return v != 0.0 ? a : b;
+  if (a == b) return a;   /* c finite by construction */
+  nz_gnode nd = mknode(NZ_GOP_SELECT, 0, a, b, 0.0);
+  nd.c = c;
+  return intern(g, nd);
+}
+
+/* ------------------------------------------------------------------ */
+/* Forward differentiation on the graph                                 */
+
+/* Derivative node ids; DZERO is an exact zero (nothing moves the node). */
+#define DZERO (-1)
+
+typedef struct dctx {
+  nz_graph *g;
+  int oom;   /* a build failed: the whole derivative fails */
+} dctx;
+
+/* A value node just built (flag a failure). */
+static int V(dctx *c, int id)
+{
+  if (id < 0) c->oom = 1;
+  return id;
+}
+/* A derivative node just built: constant zero becomes DZERO. */
+static int Dk(dctx *c, int id)
+{
+  if (id < 0) { c->oom = 1; return DZERO; }
+  return is_const_value(c->g, id, 0.0) ? DZERO : id;
+}
+static int d_neg(dctx *c, int x) { return x == DZERO ? DZERO : Dk(c, nz_graph_op(c->g, NZ_GOP_NEG, x, -1)); }
+static int d_add(dctx *c, int x, int y)
+{
+  if (x == DZERO) return y;
+  if (y == DZERO) return x;
+  return Dk(c, nz_graph_op(c->g, NZ_GOP_ADD, x, y));
+}
+static int d_sub(dctx *c, int x, int y)
+{
+  if (y == DZERO) return x;
+  if (x == DZERO) return d_neg(c, y);
+  return Dk(c, nz_graph_op(c->g, NZ_GOP_SUB, x, y));
+}
+/* One factor a value node (or a failed build, -1), the other anything. */
+static int d_mul(dctx *c, int x, int y)
+{
+  if (x == DZERO || y == DZERO) return DZERO;
+  return Dk(c, nz_graph_op(c->g, NZ_GOP_MUL, x, y));
+}
+static int d_div(dctx *c, int x, int y)
+{
+  if (x == DZERO || y < 0) return DZERO;
+  return Dk(c, nz_graph_op(c->g, NZ_GOP_DIV, x, y));
+}
+static int v_const(dctx *c, double v) { return V(c, nz_graph_const(c->g, v)); }
+static int v_op(dctx *c, nz_gop op, int a, int b) { return V(c, nz_graph_op(c->g, op, a, b)); }
+static int v_fn(dctx *c, nz_jet_fn fn, int a) { return V(c, nz_graph_fn(c->g, fn, a)); }
+static int v_sq(dctx *c, int a) { return V(c, nz_graph_powc(c->g, a, 2.0)); }
+
+/* d fn(a) = fn'(a) da, z = fn(a). */
+static int d_fn_rule(dctx *c, nz_jet_fn fn, int a, int z, int da)
+{
+  switch (fn) {
+  case NZ_FN_EXP: return d_mul(c, z, da);
+  case NZ_FN_LOG: return d_div(c, da, a);
+  case NZ_FN_SQRT: return d_div(c, da, v_op(c, NZ_GOP_MUL, v_const(c, 2.0), z));
+  case NZ_FN_SIN: return d_mul(c, v_fn(c, NZ_FN_COS, a), da);
+  case NZ_FN_COS: return d_neg(c, d_mul(c, v_fn(c, NZ_FN_SIN, a), da));
+  case NZ_FN_TAN: return d_mul(c, v_op(c, NZ_GOP_ADD, v_const(c, 1.0), v_sq(c, z)), da);
+  case NZ_FN_ASIN:
+  case NZ_FN_ACOS: {
+    int r = v_fn(c, NZ_FN_SQRT, v_op(c, NZ_GOP_SUB, v_const(c, 1.0), v_sq(c, a)));
+    int d = d_div(c, da, r);
+    return fn == NZ_FN_ASIN ? d : d_neg(c, d);
+  }
+  case NZ_FN_ATAN: return d_div(c, da, v_op(c, NZ_GOP_ADD, v_const(c, 1.0), v_sq(c, a)));
+  case NZ_FN_SINH: return d_mul(c, v_fn(c, NZ_FN_COSH, a), da);
+  case NZ_FN_COSH: return d_mul(c, v_fn(c, NZ_FN_SINH, a), da);
+  case NZ_FN_TANH: return d_mul(c, v_op(c, NZ_GOP_SUB, v_const(c, 1.0), v_sq(c, z)), da);
+  case NZ_FN_ABS: return d_mul(c, v_op(c, NZ_GOP_DIV, a, z), da);   /* a/|a|: 0/0 at 0 */
+  case NZ_FN_SIGN: return DZERO;   /* a step */
+  default: c->oom = 1; return DZERO;
+  }
+}
+
+/* The derivative of node z = nd given its operands' derivatives da, db. */
+static int d_rule(dctx *c, const nz_gnode *nd, int z, int da, int db)
+{
+  int a = nd->a, b = nd->b;
+  switch (nd->op) {
+  case NZ_GOP_ADD: return d_add(c, da, db);
+  case NZ_GOP_SUB: return d_sub(c, da, db);
+  case NZ_GOP_NEG: return d_neg(c, da);
+  case NZ_GOP_MUL: return d_add(c, d_mul(c, da, b), d_mul(c, a, db));
+  case NZ_GOP_DIV:   /* (da - z db) / b */
+    return d_div(c, d_sub(c, da, d_mul(c, z, db)), b);
+  case NZ_GOP_POWC: {
+    double p = nd->v;
+    if (p == 1.0) return da;
+    return d_mul(c, v_op(c, NZ_GOP_MUL, v_const(c, p), V(c, nz_graph_powc(c->g, a, p - 1.0))), da);
+  }
+  case NZ_GOP_POW: {   /* z (db log a + b da / a) */
+    int t1 = d_mul(c, db, db == DZERO ? DZERO : v_fn(c, NZ_FN_LOG, a));
+    int t2 = d_div(c, d_mul(c, b, da), a);
+    return d_mul(c, z, d_add(c, t1, t2));
+  }
+  case NZ_GOP_FN: return d_fn_rule(c, (nz_jet_fn)nd->fn, a, z, da);
+  case NZ_GOP_ATAN2: {   /* a = y, b = x: (x dy - y dx) / (x^2 + y^2) */
+    int num = d_sub(c, d_mul(c, b, da), d_mul(c, a, db));
+    if (num == DZERO) return DZERO;
+    return d_div(c, num, v_op(c, NZ_GOP_ADD, v_sq(c, b), v_sq(c, a)));
+  }
+  case NZ_GOP_HYPOT:   /* (a da + b db) / z */
+    return d_div(c, d_add(c, d_mul(c, a, da), d_mul(c, b, db)), z);
+  case NZ_GOP_CMP: return DZERO;   /* a step */
+  case NZ_GOP_SELECT: {   /* the derivative of the branch taken */
+    int x = da == DZERO ? v_const(c, 0.0) : da, y = db == DZERO ? v_const(c, 0.0) : db;
+    if (c->oom) return DZERO;
+    return Dk(c, nz_graph_select(c->g, nd->c, x, y));
+  }
+  default: c->oom = 1; return DZERO;
+  }
+}
+
+static int has_operand(int op) { return op != NZ_GOP_CONST && op != NZ_GOP_INPUT; }
+static int unary_op(int op) { return op == NZ_GOP_NEG || op == NZ_GOP_POWC || op == NZ_GOP_FN; }
+static int binary_op(int op) { return has_operand(op) && !unary_op(op); }
+static int has_cond(int op) { return op == NZ_GOP_SELECT; }
+
+int nz_graph_derivatives(nz_graph *g, const int *roots, int nroots, const int *dinput, int *droots)
+{
+  int n = g->n, top = -1;
+  if (nroots < 0) return -1;
+  for (int r = 0; r < nroots; r++) {
+    if (!valid(g, roots[r])) return -1;
+    if (roots[r] > top) top = roots[r];
+  }
+  for (int i = 0; dinput && i < g->ninputs; i++)
+    if (dinput[i] != -1 && !valid(g, dinput[i])) return -1;
+  char *mark = calloc((size_t)top + 2, 1);
+  int *d = malloc(((size_t)top + 2) * sizeof *d);
+  dctx c = { g, 0 };
+  if (!mark || !d) { free(mark); free(d); return -1; }
+  for (int r = 0; r < nroots; r++) mark[roots[r]] = 1;
+  int lo = top + 1;
+  for (int id = top; id >= 0; id--) {
+    if (!mark[id]) continue;
+    lo = id;
+    const nz_gnode *nd = &g->nodes[id];
+    if (has_operand(nd->op)) mark[nd->a] = 1;
+    if (binary_op(nd->op)) mark[nd->b] = 1;
+  }
+  /* Ids above n are the derivative's own nodes: never revisited. */
+  for (int id = lo; id <= top && id < n && !c.oom; id++) {
+    if (!mark[id]) continue;
+    nz_gnode nd = g->nodes[id];   /* a copy: building may move g->nodes */
+    if (nd.op == NZ_GOP_CONST) { d[id] = DZERO; continue; }
+    if (nd.op == NZ_GOP_INPUT) {
+      int di = dinput && nd.a < g->ninputs ? dinput[nd.a] : -1;
+      d[id] = di < 0 || is_const_value(g, di, 0.0) ? DZERO : di;
+      continue;
+    }
+    int da = d[nd.a], db = binary_op(nd.op) ? d[nd.b] : DZERO;
+    d[id] = da == DZERO && db == DZERO ? DZERO : d_rule(&c, &nd, id, da, db);
+  }
+  for (int r = 0; r < nroots && !c.oom; r++) {
+    int x = d[roots[r]];
+    droots[r] = x == DZERO ? v_const(&c, 0.0) : x;
+  }
+  free(mark);
+  free(d);
+  return c.oom ? -1 : 0;
+}
+
+int nz_graph_derivative(nz_graph *g, int root, const int *dinput)
+{
+  int dr;
+  return nz_graph_derivatives(g, &root, 1, dinput, &dr) ? -1 : dr;
+}
+
+/* ------------------------------------------------------------------ */
+/* Plans                                                                */
+
+/* The double evaluator's opcodes: the graph's, with POWC and FN split. */
+enum {
+  R_ADD, R_SUB, R_MUL, R_DIV, R_NEG, R_SQR, R_CUBE, R_POWI, R_POWC, R_POW, R_FN, R_ATAN2,
+  R_HYPOT, R_CMP, R_SELECT
+};
+
+/* One computed node for the double loop: operand slots (b = a for unary
+ * ops, so that reading it is always safe) and an integer parameter (the
+ * exponent of R_POWI, the function of R_FN, the nz_cmp of R_CMP, the slot
+ * of the condition of R_SELECT). */
+typedef struct grec {
+  int32_t op, a, b, k;
+} grec;
+
+/* A run of computed slots with the same opcode, ending before slot `end`
+ * (relative to the first computed slot): one dispatch per run. */
+typedef struct grun {
+  int32_t op, end;
+} grun;
+
+/* The same node for the jet evaluator. */
+typedef struct jrec {
+  uint8_t op, fn;
+  int32_t a, b;   /* slots; b = a for unary ops */
+  double v;
+  int32_t c;      /* slot of the condition (SELECT), else a */
+} jrec;
+
+#define NTEMP 4
+
+struct nz_graph_plan {
+  const nz_graph *g;
+  int nout, *out_slot;
+  int m;          /* slots: inputs, then constants, then computed nodes */
+  int nin, ncon, base, nrec;
+  int *ids;       /* slot -> node id */
+  int *in_num;    /* input slot -> input number */
+  grec *recs;
+  int nrun;
+  grun *runs;
+  jrec *jrecs;
+  double *pv;     /* exponent of each computed node (R_POWC) */
+  double *vals;   /* m doubles: the double workspace */
+  /* Jet workspace, laid out per call in one arena. */
+  const nz_jet **J, **E;   /* value and eta-part of each slot (E NULL: zero) */
+  nz_jet **W, **EW;        /* the writable jets of computed slots */
+  int *ord, *ntn, *eord, *entn;
+  double *arena;
+  size_t arena_len;
+  nz_jet *T[NTEMP];
+  double *w;
+  /* Failure of the last evaluation. */
+  int bad_const;   /* a non-finite constant slot, or -1 */
+  int fail_node;
+  nz_gop fail_op;
+  nz_jet_fn fail_fn;
+  double fail_operand;
+};
+
+void nz_graph_plan_free(nz_graph_plan *p)
+{
+  if (!p) return;
+  free(p->out_slot);
+  free(p->ids);
+  free(p->in_num);
+  free(p->recs);
+  free(p->runs);
+  free(p->jrecs);
+  free(p->pv);
+  free(p->vals);
+  free(p->J);
+  free(p->E);
+  free(p->W);
+  free(p->EW);
+  free(p->ord);
+  free(p->ntn);
+  free(p->eord);
+  free(p->entn);
+  free(p->arena);
+  free(p);
+}
+
+int nz_graph_plan_nodes(const nz_graph_plan *p) { return p->m; }
+int nz_graph_plan_noutputs(const nz_graph_plan *p) { return p->nout; }
+
+static grec make_grec(const nz_gnode *nd, int a, int b, int c)
+{
+  grec r = { 0, a, b, 0 };
+  switch (nd->op) {
+  case NZ_GOP_ADD: r.op = R_ADD; break;
+  case NZ_GOP_SUB: r.op = R_SUB; break;
+  case NZ_GOP_MUL: r.op = R_MUL; break;
+  case NZ_GOP_DIV: r.op = R_DIV; break;
+  case NZ_GOP_NEG: r.op = R_NEG; break;
+  case NZ_GOP_POW: r.op = R_POW; break;
+  case NZ_GOP_ATAN2: r.op = R_ATAN2; break;
+  case NZ_GOP_HYPOT: r.op = R_HYPOT; break;
+  case NZ_GOP_FN: r.op = R_FN; r.k = nd->fn; break;
+  case NZ_GOP_CMP: r.op = R_CMP; r.k = nd->fn; break;
+  case NZ_GOP_SELECT: r.op = R_SELECT; r.k = c; break;
+  case NZ_GOP_POWC:
+    if (nd->v == 2.0) r.op = R_SQR;
+    else if (nd->v == 3.0) r.op = R_CUBE;
+    else if (nd->v > 0.0 && is_small_integer(nd->v)) { r.op = R_POWI; r.k = (int32_t)nd->v; }
+    else r.op = R_POWC;
+    break;
+  default: break;
+  }
+  return r;
+}
+
+static int plan_alloc(nz_graph_plan *p)
+{
+  size_t m = (size_t)p->m + 1, nr = (size_t)p->nrec + 1;
+  p->ids = malloc(m * sizeof *p->ids);
+  p->in_num = malloc(((size_t)p->nin + 1) * sizeof *p->in_num);
+  p->recs = malloc(nr * sizeof *p->recs);
+  p->runs = malloc(nr * sizeof *p->runs);
+  p->jrecs = malloc(nr * sizeof *p->jrecs);
+  p->pv = malloc(nr * sizeof *p->pv);
+  p->vals = malloc(m * sizeof *p->vals);
+  p->J = malloc(m * sizeof *p->J);
+  p->E = malloc(m * sizeof *p->E);
+  p->W = malloc(m * sizeof *p->W);
+  p->EW = malloc(m * sizeof *p->EW);
+  p->ord = malloc(m * sizeof *p->ord);
+  p->ntn = malloc(m * sizeof *p->ntn);
+  p->eord = malloc(m * sizeof *p->eord);
+  p->entn = malloc(m * sizeof *p->entn);
+  return p->ids && p->in_num && p->recs && p->runs && p->jrecs && p->pv && p->vals && p->J && p->E &&
+         p->W && p->EW && p->ord && p->ntn && p->eord && p->entn ? 0 : -1;
+}
+
+/* Scheduling: computed nodes sorted by level (1 + the highest level of
+ * their operands), then by opcode, then by id.  Any order by level is
+ * topological; within a level, nodes of one opcode come together, so the
+ * double loop dispatches once per run of them and the runs' nodes are
+ * independent (the processor overlaps them). */
+typedef struct sched {
+  int level, key, id;
+} sched;
+
+static int sched_cmp(const void *x, const void *y)
+{
+  const sched *u = x, *w = y;
+  if (u->level != w->level) return u->level < w->level ? -1 : 1;
+  if (u->key != w->key) return u->key < w->key ? -1 : 1;
+  return (u->id > w->id) - (u->id < w->id);
+}
+
+/* Mark what the outputs need; lev[id] = level + 1 for a needed node, 0 for
+ * the others.  Counts the plan's slots. */
+static void plan_mark(nz_graph_plan *p, const nz_graph *g, const int *outputs, int n, int top,
+                      int *lev)
+{
+  for (int id = 0; id <= top; id++) lev[id] = 0;
+  for (int r = 0; r < n; r++) lev[outputs[r]] = 1;
+  for (int id = top; id >= 0; id--) {
+    if (!lev[id]) continue;
+    const nz_gnode *nd = &g->nodes[id];
+    if (has_operand(nd->op)) lev[nd->a] = 1;
+    if (binary_op(nd->op)) lev[nd->b] = 1;
+    if (has_cond(nd->op)) lev[nd->c] = 1;
+    if (nd->op == NZ_GOP_INPUT) p->nin++;
+    else if (nd->op == NZ_GOP_CONST) p->ncon++;
+    else p->nrec++;
+    p->m++;
+  }
+  for (int id = 0; id <= top; id++) {
+    const nz_gnode *nd = &g->nodes[id];
+    if (!lev[id] || !has_operand(nd->op)) continue;
+    lev[id] = 1 + imax(imax(lev[nd->a], binary_op(nd->op) ? lev[nd->b] : 0),
+                       has_cond(nd->op) ? lev[nd->c] : 0);
+  }
+}
+
+nz_graph_plan *nz_graph_plan_new(const nz_graph *g, const int *outputs, int n)
+{
+  int top = -1;
+  if (n < 0) return NULL;
+  for (int r = 0; r < n; r++) {
+    if (!valid(g, outputs[r])) return NULL;
+    if (outputs[r] > top) top = outputs[r];
+  }
+  nz_graph_plan *p = calloc(1, sizeof *p);
+  int *slot = malloc(((size_t)top + 2) * sizeof *slot);
+  if (!p || !slot) { free(p); free(slot); return NULL; }
+  p->g = g;
+  p->fail_node = -1;
+  p->bad_const = -1;
+  p->nout = n;
+  p->out_slot = malloc(((size_t)n + 1) * sizeof *p->out_slot);
+  plan_mark(p, g, outputs, n, top, slot);
+  p->base = p->nin + p->ncon;
+  sched *order = malloc(((size_t)p->nrec + 1) * sizeof *order);
+  if (!order || !p->out_slot || plan_alloc(p)) {
+    free(order);
+    free(slot);
+    nz_graph_plan_free(p);
+    return NULL;
+  }
+  /* Slots: inputs and constants in id order, then computed nodes as
+   * scheduled (slot[] turns from levels into slots as it goes). */
+  int si = 0, sc = p->nin, nr = 0;
+  for (int id = 0; id <= top; id++) {
+    const nz_gnode *nd = &g->nodes[id];
+    if (!slot[id]) continue;
+    if (nd->op == NZ_GOP_INPUT) {
+      p->in_num[si] = nd->a;
+      p->ids[si] = id;
+      slot[id] = si++;
+    } else if (nd->op == NZ_GOP_CONST) {
+      p->vals[sc] = nd->v;
+      if (!isfinite(nd->v) && p->bad_const < 0) p->bad_const = sc;
+      p->ids[sc] = id;
+      slot[id] = sc++;
+    } else {
+      grec r = make_grec(nd, 0, 0, 0);
+      int sub = r.op == R_FN || r.op == R_CMP ? r.k : 0;
+      order[nr++] = (sched){ slot[id], r.op * 64 + sub, id };
+    }
+  }
+  qsort(order, (size_t)nr, sizeof *order, sched_cmp);
+  for (int i = 0; i < nr; i++) {
+    int id = order[i].id, s = p->base + i;
+    const nz_gnode *nd = &g->nodes[id];
+    int a = slot[nd->a], b = binary_op(nd->op) ? slot[nd->b] : a;
+    int cs = has_cond(nd->op) ? slot[nd->c] : a;
+    slot[id] = s;
+    p->ids[s] = id;
+    p->recs[i] = make_grec(nd, a, b, cs);
+    p->jrecs[i] = (jrec){ nd->op, nd->fn, a, b, nd->v, cs };
+    p->pv[i] = nd->v;
+    if (p->nrun == 0 || p->runs[p->nrun - 1].op != p->recs[i].op) p->runs[p->nrun++].op = p->recs[i].op;
+    p->runs[p->nrun - 1].end = i + 1;
+  }
+  for (int r = 0; r < n; r++) p->out_slot[r] = slot[outputs[r]];
+  free(order);
+  free(slot);
+  return p;
+}
+
+void nz_graph_plan_failure(const nz_graph_plan *p, int *node, nz_gop *op, nz_jet_fn *fn,
+                           double *operand)
+{
+  if (node) *node = p->fail_node;
+  if (op) *op = p->fail_op;
+  if (fn) *fn = p->fail_fn;
+  if (operand) *operand = p->fail_operand;
+}
+
+/* Record the failure of slot s; operand: the value of its first operand. */
+static nz_status plan_fail(nz_graph_plan *p, int s, nz_status st, double operand)
+{
+  p->fail_node = p->ids[s];
+  if (s < p->nin) { p->fail_op = NZ_GOP_INPUT; p->fail_fn = 0; }
+  else if (s < p->base) { p->fail_op = NZ_GOP_CONST; p->fail_fn = 0; }
+  else {
+    p->fail_op = (nz_gop)p->jrecs[s - p->base].op;
+    p->fail_fn = (nz_jet_fn)p->jrecs[s - p->base].fn;
+  }
+  p->fail_operand = operand;
+  return st;
+}
+
+/* ------------------------------------------------------------------ */
+/* Evaluation on doubles                                                */
+
+static int all_finite(const double *z, int n)
+{
+  /* Exponent bits all ones = inf or NaN; integer test so it vectorizes. */
+  uint64_t bad = 0;
+  for (int i = 0; i < n; i++) {
+    uint64_t u;
+    memcpy(&u, &z[i], sizeof u);
+    bad |= (~u & 0x7ff0000000000000ULL) == 0;
+  }
+  return !bad;
+}
+
+/* The first non-finite computed slot before i, or -1. */
+static int first_nonfinite(const double *z, int i)
+{
+  for (int j = 0; j < i; j++)
+    if (!isfinite(z[j])) return j;
+  return -1;
+}
+
+nz_status nz_graph_eval(nz_graph_plan *p, const double *in, double *out)
+{
+  double *v = p->vals, *z = v + p->base;
+  const grec *r = p->recs;
+  const double *pv = p->pv;
+  int i, nr = p->nrec;
+  nz_status st = NZ_OK;
+  p->fail_node = -1;
+  if (p->bad_const >= 0) return plan_fail(p, p->bad_const, d_finite(v[p->bad_const]), v[p->bad_const]);
+  for (i = 0; i < p->nin; i++) v[i] = in[p->in_num[i]];
+  /* The hot loop: one dispatch per run, no finiteness test per node (one
+   * pass after it). */
+  i = 0;
+  for (int q = 0; q < p->nrun; q++) {
+    int e = p->runs[q].end;
+    switch (p->runs[q].op) {
+    case R_ADD: for (; i < e; i++) z[i] = v[r[i].a] + v[r[i].b]; break;
+    case R_SUB: for (; i < e; i++) z[i] = v[r[i].a] - v[r[i].b]; break;
+    case R_MUL: for (; i < e; i++) z[i] = v[r[i].a] * v[r[i].b]; break;
+    case R_DIV:
+      for (; i < e; i++) {
+        double y = v[r[i].b];
+        if (y == 0.0) { st = NZ_EZERODIV; goto failed; }
+        z[i] = v[r[i].a] / y;
+      }
+      break;
+    case R_NEG: for (; i < e; i++) z[i] = -v[r[i].a]; break;
+    case R_SQR: for (; i < e; i++) { double x = v[r[i].a]; z[i] = x * x; } break;
+    case R_CUBE: for (; i < e; i++) { double x = v[r[i].a]; z[i] = x * x * x; } break;
+    case R_POWI: for (; i < e; i++) z[i] = d_powi(v[r[i].a], (unsigned)r[i].k); break;
+    case R_POWC:
+      for (; i < e; i++)
+        if ((st = d_powc(v[r[i].a], pv[i], &z[i]))) goto failed;
+      break;
+    case R_POW:
+      for (; i < e; i++)
+        if ((st = d_pow(v[r[i].a], v[r[i].b], &z[i]))) goto failed;
+      break;
+    case R_FN:
+      for (; i < e; i++)
+        if ((st = d_fn(r[i].k, v[r[i].a], &z[i]))) goto failed;
+      break;
+    case R_ATAN2: for (; i < e; i++) z[i] = atan2(v[r[i].a], v[r[i].b]); break;
+    case R_HYPOT: for (; i < e; i++) z[i] = d_hypot(v[r[i].a], v[r[i].b]); break;
+    case R_CMP:
+      for (; i < e; i++)
+        if ((st = d_cmp(r[i].k, v[r[i].a], v[r[i].b], &z[i]))) goto failed;
+      break;
+    case R_SELECT:   /* a NaN condition (an input, say) fails as nz_jet_select */
+      for (; i < e; i++) {
+        double c = v[r[i].k];
+        if (isnan(c)) { st = NZ_ENAN; goto failed; }
+        z[i] = c != 0.0 ? v[r[i].a] : v[r[i].b];
+      }
+      break;
+    default: st = NZ_EDOM; goto failed;
+    }
+  }
+  if (!all_finite(z, nr)) {
+    int j = first_nonfinite(z, nr);
+    return plan_fail(p, p->base + j, d_finite(z[j]), v[r[j].a]);
+  }
+  for (int o = 0; o < p->nout; o++) out[o] = v[p->out_slot[o]];
+  return NZ_OK;
+
+failed: {
+    /* An earlier node that overflowed or gave NaN failed first. */
+    int j = first_nonfinite(z, i);
+    if (j >= 0) return plan_fail(p, p->base + j, d_finite(z[j]), v[r[j].a]);
+    return plan_fail(p, p->base + i, st, v[r[i].a]);
+  }
+}
+
+/* ------------------------------------------------------------------ */
+/* Evaluation on jets                                                   */
+
+/* z = s x + c (c on the constant term), over z's shape: x may have a higher
+ * order and fewer or more tangents (missing ones are zero).  With c = 0 and
+ * the same shapes this is nz_jet_scale, with s = 1 nz_jet_offset. */
+static nz_status lin_affine(nz_jet *z, const nz_jet *x, double s, double c)
+{
+  size_t len = (size_t)z->order + 1;
+  for (int d = -1; d < z->ntan; d++) {
+    double *zd = d < 0 ? z->c : nz_jet_tangent(z, d);
+    const double *xd = d < 0 ? x->c : nz_jet_tangent(x, d);
+    if (!xd) memset(zd, 0, len * sizeof *zd);
+    else for (size_t k = 0; k < len; k++) zd[k] = s * xd[k];
+  }
+  if (c != 0.0) z->c[0] += c;
+  return nz_jet_check_finite(z);
+}
+
+/* z = x / c coefficientwise: nz_jet_div by a constant series. */
+static nz_status lin_div(nz_jet *z, const nz_jet *x, double c)
+{
+  if (c == 0.0) return NZ_EZERODIV;
+  size_t len = (size_t)z->order + 1;
+  for (int d = -1; d < z->ntan; d++) {
+    double *zd = d < 0 ? z->c : nz_jet_tangent(z, d);
+    const double *xd = d < 0 ? x->c : nz_jet_tangent(x, d);
+    if (!xd) memset(zd, 0, len * sizeof *zd);
+    else for (size_t k = 0; k < len; k++) zd[k] = xd[k] / c;
+  }
+  return nz_jet_check_finite(z);
+}
+
+/* |x| = sign(x0) x, as nz_jet_apply (whose nz_jet_scale needs equal shapes). */
+static nz_status jet_abs(nz_jet *z, const nz_jet *x)
+{
+  double x0 = x->c[0];
+  if (x0 == 0.0 && (z->order >= 1 || z->ntan >= 1)) return NZ_ESING;
+  return lin_affine(z, x, x0 < 0.0 ? -1.0 : 1.0, 0.0);
+}
+
+static int is_const_slot(const nz_graph_plan *p, int s) { return s >= p->nin && s < p->base; }
+
+/* The value jet of computed record jr into z. */
+static nz_status jet_value(nz_graph_plan *p, const jrec *jr, nz_jet *z)
+{
+  const nz_jet *A = p->J[jr->a], *B = p->J[jr->b];
+  int ca = is_const_slot(p, jr->a), cb = is_const_slot(p, jr->b);
+  double *w = p->w;
+  switch (jr->op) {
+  case NZ_GOP_ADD: return nz_jet_add(z, A, B);
+  case NZ_GOP_SUB: return nz_jet_sub(z, A, B);
+  case NZ_GOP_MUL:
+    if (ca) return lin_affine(z, B, p->vals[jr->a], 0.0);
+    if (cb) return lin_affine(z, A, p->vals[jr->b], 0.0);
+    return nz_jet_mul(z, A, B, w);
+  case NZ_GOP_DIV:
+    if (cb) return lin_div(z, A, p->vals[jr->b]);
+    return nz_jet_div(z, A, B, w);
+  case NZ_GOP_NEG: return lin_affine(z, A, -1.0, 0.0);
+  case NZ_GOP_POWC: return nz_jet_pow(z, A, jr->v, w);
+  case NZ_GOP_POW: return nz_jet_pow_jet(z, A, B, w);
+  case NZ_GOP_FN:
+    if (jr->fn == NZ_FN_ABS) return jet_abs(z, A);
+    return nz_jet_apply(z, (nz_jet_fn)jr->fn, A, w);
+  case NZ_GOP_ATAN2: return nz_jet_atan2(z, A, B, w);
+  case NZ_GOP_HYPOT: return nz_jet_hypot(z, A, B, w);
+  case NZ_GOP_CMP: return nz_jet_compare(z, (nz_cmp)jr->fn, A, B);
+  case NZ_GOP_SELECT: return nz_jet_select(z, p->J[jr->c], A, B);
+  default: return NZ_EDOM;
+  }
+}
+
+/* A temporary of the eta shape of slot s. */
+static nz_jet *tmp(nz_graph_plan *p, int i, int s)
+{
+  nz_jet *t = p->T[i];
+  t->order = p->eord[s];
+  t->ntan = p->entn[s];
+  return t;
+}
+
+/* The eta-part of fn(a): fn'(a) da, z = fn(a). */
+static nz_status eta_fn(nz_graph_plan *p, int s, int fn, nz_jet *Ez, const nz_jet *A,
+                        const nz_jet *Z, const nz_jet *dA)
+{
+  nz_jet *T0 = tmp(p, 0, s), *T1 = tmp(p, 1, s), *T2 = tmp(p, 2, s);
+  double *w = p->w;
+  nz_status st;
+  switch (fn) {
+  case NZ_FN_EXP: return nz_jet_mul(Ez, Z, dA, w);
+  case NZ_FN_LOG: return nz_jet_div(Ez, dA, A, w);
+  case NZ_FN_SQRT:
+    if ((st = lin_affine(T0, Z, 2.0, 0.0))) return st;
+    return nz_jet_div(Ez, dA, T0, w);
+  case NZ_FN_SIN:
+  case NZ_FN_SINH:
+    if ((st = nz_jet_apply(T0, fn == NZ_FN_SIN ? NZ_FN_COS : NZ_FN_COSH, A, w))) return st;
+    return nz_jet_mul(Ez, T0, dA, w);
+  case NZ_FN_COSH:
+    if ((st = nz_jet_apply(T0, NZ_FN_SINH, A, w))) return st;
+    return nz_jet_mul(Ez, T0, dA, w);
+  case NZ_FN_COS:
+    if ((st = nz_jet_apply(T0, NZ_FN_SIN, A, w)) || (st = nz_jet_mul(T1, T0, dA, w))) return st;
+    return lin_affine(Ez, T1, -1.0, 0.0);
+  case NZ_FN_TAN:
+  case NZ_FN_TANH:   /* (1 +- z^2) da */
+    if ((st = nz_jet_mul(T0, Z, Z, w)) ||
+        (st = lin_affine(T1, T0, fn == NZ_FN_TAN ? 1.0 : -1.0, 1.0)))
+      return st;
+    return nz_jet_mul(Ez, T1, dA, w);
+  case NZ_FN_ATAN:
+    if ((st = nz_jet_mul(T0, A, A, w)) || (st = lin_affine(T1, T0, 1.0, 1.0))) return st;
+    return nz_jet_div(Ez, dA, T1, w);
+  case NZ_FN_ASIN:
+  case NZ_FN_ACOS:   /* +- da / sqrt(1 - a^2) */
+    if ((st = nz_jet_mul(T0, A, A, w)) || (st = lin_affine(T1, T0, -1.0, 1.0)) ||
+        (st = nz_jet_apply(T0, NZ_FN_SQRT, T1, w)))
+      return st;
+    if (fn == NZ_FN_ASIN) return nz_jet_div(Ez, dA, T0, w);
+    if ((st = nz_jet_div(T2, dA, T0, w))) return st;
+    return lin_affine(Ez, T2, -1.0, 0.0);
+  case NZ_FN_ABS:   /* sign(a) da, undefined at 0 */
+    if (A->c[0] == 0.0) return NZ_ESING;
+    return lin_affine(Ez, dA, A->c[0] < 0.0 ? -1.0 : 1.0, 0.0);
+  default: return NZ_EDOM;
+  }
+}
+
+/* Copy jet src (NULL: zero) into o, over o's shape: missing coefficients and
+ * tangents are zero, extra ones are dropped. */
+static void copy_out(nz_jet *o, const nz_jet *src)
+{
+  for (int d = -1; d < o->ntan; d++) {
+    double *od = d < 0 ? o->c : nz_jet_tangent(o, d);
+    const double *sd = !src ? NULL : d < 0 ? src->c : nz_jet_tangent(src, d);
+    int k = 0, kc = sd ? imin(o->order, src->order) : -1;
+    for (; k <= kc; k++) od[k] = sd[k];
+    for (; k <= o->order; k++) od[k] = 0.0;
+  }
+}
+
+/* The eta-part of computed slot s into Ez, by the rules of d_rule on jets. */
+static nz_status jet_eta(nz_graph_plan *p, int s, const jrec *jr, nz_jet *Ez)
+{
+  const nz_jet *A = p->J[jr->a], *B = p->J[jr->b], *Z = p->J[s];
+  const nz_jet *dA = p->E[jr->a], *dB = unary_op(jr->op) ? NULL : p->E[jr->b];
+  int ca = is_const_slot(p, jr->a), cb = is_const_slot(p, jr->b);
+  nz_jet *T0 = tmp(p, 0, s), *T1 = tmp(p, 1, s), *T2 = tmp(p, 2, s), *T3 = tmp(p, 3, s);
+  double *w = p->w;
+  nz_status st;
+  switch (jr->op) {
+  case NZ_GOP_ADD:
+    if (dA && dB) return nz_jet_add(Ez, dA, dB);
+    return lin_affine(Ez, dA ? dA : dB, 1.0, 0.0);
+  case NZ_GOP_SUB:
+    if (dA && dB) return nz_jet_sub(Ez, dA, dB);
+    return dA ? lin_affine(Ez, dA, 1.0, 0.0) : lin_affine(Ez, dB, -1.0, 0.0);
+  case NZ_GOP_NEG: return lin_affine(Ez, dA, -1.0, 0.0);
+  case NZ_GOP_MUL:
+    if (ca) return lin_affine(Ez, dB, p->vals[jr->a], 0.0);
+    if (cb) return lin_affine(Ez, dA, p->vals[jr->b], 0.0);
+    if (!dB) return nz_jet_mul(Ez, dA, B, w);
+    if (!dA) return nz_jet_mul(Ez, A, dB, w);
+    if ((st = nz_jet_mul(T0, dA, B, w)) || (st = nz_jet_mul(T1, A, dB, w))) return st;
+    return nz_jet_add(Ez, T0, T1);
+  case NZ_GOP_DIV:   /* (da - z db) / b */
+    if (cb) return lin_div(Ez, dA, p->vals[jr->b]);
+    if (!dB) return nz_jet_div(Ez, dA, B, w);
+    if ((st = nz_jet_mul(T0, Z, dB, w))) return st;
+    if ((st = dA ? nz_jet_sub(T1, dA, T0) : lin_affine(T1, T0, -1.0, 0.0))) return st;
+    return nz_jet_div(Ez, T1, B, w);
+  case NZ_GOP_POWC:   /* p a^(p-1) da */
+    if ((st = nz_jet_pow(T0, A, jr->v - 1.0, w)) || (st = lin_affine(T1, T0, jr->v, 0.0)))
+      return st;
+    return nz_jet_mul(Ez, T1, dA, w);
+  case NZ_GOP_POW: {   /* z (db log a + b da / a) */
+    const nz_jet *sum;
+    if (dB && ((st = nz_jet_apply(T0, NZ_FN_LOG, A, w)) || (st = nz_jet_mul(T1, dB, T0, w))))
+      return st;
+    if (dA && ((st = nz_jet_div(T0, dA, A, w)) || (st = nz_jet_mul(T2, B, T0, w)))) return st;
+    if (dA && dB) {
+      if ((st = nz_jet_add(T3, T1, T2))) return st;
+      sum = T3;
+    } else sum = dA ? T2 : T1;
+    return nz_jet_mul(Ez, Z, sum, w);
+  }
+  case NZ_GOP_FN: return eta_fn(p, s, jr->fn, Ez, A, Z, dA);
+  case NZ_GOP_ATAN2: {   /* a = y, b = x: (x dy - y dx) / (x^2 + y^2) */
+    if (dA && dB) {
+      if ((st = nz_jet_mul(T0, B, dA, w)) || (st = nz_jet_mul(T1, A, dB, w)) ||
+          (st = nz_jet_sub(T2, T0, T1)))
+        return st;
+    } else if (dA) {
+      if ((st = nz_jet_mul(T2, B, dA, w))) return st;
+    } else if ((st = nz_jet_mul(T1, A, dB, w)) || (st = lin_affine(T2, T1, -1.0, 0.0))) return st;
+    if ((st = nz_jet_mul(T0, A, A, w)) || (st = nz_jet_mul(T1, B, B, w)) ||
+        (st = nz_jet_add(T3, T0, T1)))
+      return st;
+    return nz_jet_div(Ez, T2, T3, w);
+  }
+  case NZ_GOP_HYPOT:   /* (a da + b db) / z */
+    if (dA && dB) {
+      if ((st = nz_jet_mul(T0, A, dA, w)) || (st = nz_jet_mul(T1, B, dB, w)) ||
+          (st = nz_jet_add(T2, T0, T1)))
+        return st;
+    } else if ((st = dA ? nz_jet_mul(T2, A, dA, w) : nz_jet_mul(T2, B, dB, w))) return st;
+    return nz_jet_div(Ez, T2, Z, w);
+  case NZ_GOP_SELECT:   /* the eta-part of the branch taken (NULL: zero) */
+    copy_out(Ez, p->J[jr->c]->c[0] != 0.0 ? dA : dB);
+    return NZ_OK;
+  default: return NZ_EDOM;
+  }
+}
+
+static size_t jet_doubles(int order, int ntan)
+{
+  size_t hdr = (sizeof(nz_jet) + sizeof(double) - 1) / sizeof(double);
+  return hdr + ((size_t)order + 1) * ((size_t)ntan + 1);
+}
+
+/* Place a jet of this shape at *at (a cursor in the arena). */
+static nz_jet *place(double **at, int order, int ntan)
+{
+  nz_jet *z = (nz_jet *)(void *)*at;
+  z->order = order;
+  z->ntan = ntan;
+  *at += jet_doubles(order, ntan);
+  return z;
+}
+
+
+/* Shapes of this call: inputs as given, constants of the highest order with
+ * no tangents (exact to every order), a computed node the lowest order of its
+ * non-constant operands and the most tangents; the eta-part likewise, over
+ * the operands whose eta-part is not zero.  Returns the arena length. */
+static size_t plan_shapes(nz_graph_plan *p, int eta, int Kmax, int *Dmax)
+{
+  size_t len = 0;
+  for (int s = p->nin; s < p->base; s++) {
+    p->ord[s] = Kmax;
+    p->ntn[s] = 0;
+    p->eord[s] = -1;
+    len += jet_doubles(Kmax, 0);
+  }
+  for (int i = 0; i < p->nrec; i++) {
+    const jrec *jr = &p->jrecs[i];
+    int s = p->base + i, a = jr->a, b = jr->b, ka = !is_const_slot(p, a), kb = !is_const_slot(p, b);
+    int o = ka && kb ? imin(p->ord[a], p->ord[b]) : ka ? p->ord[a] : kb ? p->ord[b] : Kmax;
+    /* A step (cmp, sign) is a constant series: no tangents, no eta-part. */
+    int step = jr->op == NZ_GOP_CMP || (jr->op == NZ_GOP_FN && jr->fn == NZ_FN_SIGN);
+    p->ord[s] = o;
+    p->ntn[s] = step ? 0 : imax(p->ntn[a], p->ntn[b]);
+    len += jet_doubles(o, p->ntn[s]);
+    p->eord[s] = -1;
+    if (!eta || step) continue;
+    int ea = p->eord[a] >= 0, eb = !unary_op(jr->op) && p->eord[b] >= 0;
+    if (!ea && !eb) continue;
+    p->eord[s] = imin(o, imin(ea ? p->eord[a] : o, eb ? p->eord[b] : o));
+    p->entn[s] = imax(p->ntn[s], imax(ea ? p->entn[a] : 0, eb ? p->entn[b] : 0));
+    len += jet_doubles(p->eord[s], p->entn[s]);
+    *Dmax = imax(*Dmax, p->entn[s]);
+  }
+  return len;
+}
+
+nz_status nz_graph_eval_jets(nz_graph_plan *p, const nz_jet *const *in, nz_jet *const *out,
+                             const nz_jet *const *din, nz_jet *const *dout)
+{
+  int eta = din != NULL && dout != NULL, Kmax = -1, Dmax = 0;
+  p->fail_node = -1;
+  if (p->bad_const >= 0) return plan_fail(p, p->bad_const, d_finite(p->vals[p->bad_const]), p->vals[p->bad_const]);
+  for (int s = 0; s < p->nin; s++) {
+    const nz_jet *x = in ? in[p->in_num[s]] : NULL;
+    if (!x) return plan_fail(p, s, NZ_EDOM, NAN);   /* a used input has no jet */
+    p->J[s] = x;
+    p->ord[s] = x->order;
+    p->ntn[s] = x->ntan;
+    Kmax = imax(Kmax, x->order);
+    Dmax = imax(Dmax, x->ntan);
+    const nz_jet *e = eta ? din[p->in_num[s]] : NULL;
+    p->E[s] = e;
+    p->eord[s] = e ? e->order : -1;
+    if (e) {
+      p->entn[s] = e->ntan;
+      Dmax = imax(Dmax, e->ntan);
+    }
+  }
+  if (Kmax < 0)   /* no inputs: constant expressions, to the outputs' order */
+    for (int r = 0; r < p->nout; r++) Kmax = imax(Kmax, out[r]->order);
+  if (Kmax < 0) Kmax = 0;
+  size_t len = plan_shapes(p, eta, Kmax, &Dmax);
+  len += NTEMP * jet_doubles(Kmax, Dmax) + nz_jet_work_len(Kmax);
+  if (len > p->arena_len) {
+    free(p->arena);
+    p->arena = malloc(len * sizeof(double));
+    p->arena_len = p->arena ? len : 0;
+    if (!p->arena) return NZ_ENOMEM;
+  }
+  /* Lay the jets out (no allocation from here on). */
+  double *at = p->arena;
+  for (int s = p->nin; s < p->base; s++) {
+    nz_jet *c = place(&at, Kmax, 0);
+    nz_jet_set_constant(c, p->vals[s]);
+    p->J[s] = c;
+    p->E[s] = NULL;
+  }
+  for (int s = p->base; s < p->m; s++) {
+    p->W[s] = place(&at, p->ord[s], p->ntn[s]);
+    p->J[s] = p->W[s];
+    p->EW[s] = p->eord[s] >= 0 ? place(&at, p->eord[s], p->entn[s]) : NULL;
+    p->E[s] = NULL;   /* set once computed */
+  }
+  for (int i = 0; i < NTEMP; i++) p->T[i] = place(&at, Kmax, Dmax);
+  p->w = at;
+  /* Evaluate node by node. */
+  for (int i = 0; i < p->nrec; i++) {
+    const jrec *jr = &p->jrecs[i];
+    int s = p->base + i;
+    nz_status st = jet_value(p, jr, p->W[s]);
+    if (!st && p->EW[s]) {
+      st = jet_eta(p, s, jr, p->EW[s]);
+      p->E[s] = p->EW[s];
+    }
+    if (st) return plan_fail(p, s, st, p->J[jr->a]->c[0]);
+  }
+  for (int r = 0; r < p->nout; r++) {
+    copy_out(out[r], p->J[p->out_slot[r]]);
+    if (eta) copy_out(dout[r], p->E[p->out_slot[r]]);
+  }
+  return NZ_OK;
+}

@@ -1,0 +1,65 @@
+/* graph_native.h - expression graphs compiled to machine code (issue 10).
+ *
+ * The plan interpreter of graph.c costs a few nanoseconds per node; the same
+ * formulas written in C cost a fraction of one.  This module writes C for the
+ * double evaluation of some outputs of a graph (straight-line code, one local
+ * per node, the scalar kernels of graph.c copied in so that the results are
+ * the interpreter's bit for bit), compiles it with the system's C compiler
+ * into a shared object, and loads it back with dlopen.  The object is cached
+ * on disk under a name made of a 64-bit hash of the source and the compiler
+ * command: the same graph compiled again, by this process or another, is
+ * loaded from the cache without running the compiler.  Nothing prunes the
+ * cache (a few kB to a few MB per graph).
+ *
+ * The compiler is $CC if set (words split on blanks, e.g. "ccache gcc"),
+ * else "cc", run with -O2 (-O1 above 5000 nodes: half the compile time, the
+ * same speed; $NZLUA_COPT overrides), -fPIC -shared
+ * -ffp-contract=off -fno-builtin (a fused multiply-add, or sin(atan(x))
+ * rewritten as x / sqrt(1 + x^2), would round differently from the
+ * interpreter); never -ffast-math.  When there is no compiler, the caller
+ * keeps the interpreter: nz_native_compile says why it could not.
+ *
+ * Failures.  nz_native_eval refuses (NZ_EDOM) exactly when nz_graph_eval
+ * fails: some node left its domain or gave an infinity or a NaN, even if a
+ * later node masks it (atan(inf) is finite).  It does not say which node:
+ * the caller re-runs nz_graph_eval to name it.
+ *
+ * Plain C: never includes lua.h, never prints, never exits. */
+#ifndef NZ_GRAPH_NATIVE_H
+#define NZ_GRAPH_NATIVE_H
+
+#include <stddef.h>
+#include "graph/graph.h"
+
+typedef struct nz_native nz_native;
+
+/* Generate C for outputs[0..n-1] of g, compile it into a shared object in
+ * cache_dir (created if missing), or load it from there if it is present.
+ * NULL on any failure (unsupported node, no compiler, compile error, dlopen
+ * failure, unwritable cache), with a one-line reason in why[whylen] (why may
+ * be NULL).  g may change or be freed afterwards: the object keeps nothing
+ * of it. */
+nz_native *nz_native_compile(const nz_graph *g, const int *outputs, int n, const char *cache_dir,
+                             char *why, size_t whylen);
+
+/* Evaluate: in[] as nz_graph_eval's (indexed by input number), out[n].
+ * NZ_OK, or NZ_EDOM when some node left its domain or was not finite (out
+ * is then unspecified).  in and out may overlap.  One nz_native holds a
+ * workspace: two threads must not evaluate the same one at once. */
+nz_status nz_native_eval(const nz_native *f, const double *in, double *out);
+
+void nz_native_free(nz_native *f);   /* NULL is harmless */
+
+/* Seconds the compile took (generation, compiler, loading); 0 when the
+ * object came from the cache. */
+double nz_native_compile_seconds(const nz_native *f);
+/* The shared object's path, and the number of computed nodes it evaluates. */
+const char *nz_native_path(const nz_native *f);
+int nz_native_nodes(const nz_native *f);
+
+/* The cache directory nzlua uses: $NZLUA_CACHE, else $XDG_CACHE_HOME/nzlua,
+ * else $HOME/.cache/nzlua, else /tmp/nzlua-<uid>.  Written into buf[n];
+ * returns buf, or NULL if it does not fit. */
+const char *nz_native_cache_dir(char *buf, size_t n);
+
+#endif

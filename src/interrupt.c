@@ -1,4 +1,0 @@
-/* interrupt.c - the flag of interrupt.h */
-#include "interrupt.h"
-
-volatile sig_atomic_t nz_interrupt_pending = 0;

@@ -1,0 +1,171 @@
+/* series.c - coefficient kernels of truncated Taylor series (see series.h for
+ * the recurrences and the contracts). */
+#include <math.h>
+#include <string.h>
+#include "jets/series.h"
+
+double nz_series_mul_coef(const double *a, const double *b, int k)
+{
+  double s = 0.0;
+  for (int j = 0; j <= k; j++) s += a[j] * b[k - j];
+  return s;
+}
+
+void nz_series_mul(double *z, const double *a, const double *b, int K)
+{
+  for (int k = 0; k <= K; k++) z[k] = nz_series_mul_coef(a, b, k);
+}
+
+double nz_series_div_coef(const double *z, const double *a, const double *b, int k)
+{
+  double s = a[k];
+  for (int j = 0; j < k; j++) s -= z[j] * b[k - j];
+  return s / b[0];
+}
+
+void nz_series_div(double *z, const double *a, const double *b, int K)
+{
+  for (int k = 0; k <= K; k++) z[k] = nz_series_div_coef(z, a, b, k);
+}
+
+double nz_series_exp_coef(const double *y, const double *x, int k)
+{
+  if (k == 0) return exp(x[0]);
+  double s = 0.0;
+  for (int j = 1; j <= k; j++) s += j * x[j] * y[k - j];
+  return s / k;
+}
+
+void nz_series_exp(double *y, const double *x, int K)
+{
+  for (int k = 0; k <= K; k++) y[k] = nz_series_exp_coef(y, x, k);
+}
+
+double nz_series_log_coef(const double *y, const double *x, int k)
+{
+  if (k == 0) return log(x[0]);
+  double s = 0.0;
+  for (int j = 1; j < k; j++) s += j * y[j] * x[k - j];
+  return (x[k] - s / k) / x[0];
+}
+
+void nz_series_log(double *y, const double *x, int K)
+{
+  for (int k = 0; k <= K; k++) y[k] = nz_series_log_coef(y, x, k);
+}
+
+double nz_series_pow_coef(const double *y, const double *x, double a, int k)
+{
+  if (k == 0) return pow(x[0], a);
+  double s = 0.0;
+  for (int j = 0; j < k; j++) s += (a * (k - j) - j) * x[k - j] * y[j];
+  return s / (k * x[0]);
+}
+
+void nz_series_pow(double *y, const double *x, double a, int K)
+{
+  for (int k = 0; k <= K; k++) y[k] = nz_series_pow_coef(y, x, a, k);
+}
+
+void nz_series_powi(double *y, const double *x, unsigned n, int K, double *w)
+{
+  double *base = w, *tmp = w + (K + 1);
+  size_t bytes = (size_t)(K + 1) * sizeof(double);
+  memcpy(base, x, bytes);
+  memset(y, 0, bytes);
+  y[0] = 1.0;
+  while (n) {
+    if (n & 1u) {
+      nz_series_mul(tmp, y, base, K);
+      memcpy(y, tmp, bytes);
+    }
+    n >>= 1;
+    if (n) {
+      nz_series_mul(tmp, base, base, K);
+      memcpy(base, tmp, bytes);
+    }
+  }
+}
+
+double nz_series_sqrt_coef(const double *y, const double *x, int k)
+{
+  if (k == 0) return sqrt(x[0]);
+  double s = 0.0;
+  for (int j = 1; j < k; j++) s += y[j] * y[k - j];
+  return (x[k] - s) / (2.0 * y[0]);
+}
+
+void nz_series_sqrt(double *y, const double *x, int K)
+{
+  for (int k = 0; k <= K; k++) y[k] = nz_series_sqrt_coef(y, x, k);
+}
+
+void nz_series_sincos_coef(double *s, double *c, const double *x, int k, int hyperbolic)
+{
+  if (k == 0) {
+    s[0] = hyperbolic ? sinh(x[0]) : sin(x[0]);
+    c[0] = hyperbolic ? cosh(x[0]) : cos(x[0]);
+    return;
+  }
+  double ss = 0.0, cc = 0.0;
+  for (int j = 1; j <= k; j++) {
+    ss += j * x[j] * c[k - j];
+    cc += j * x[j] * s[k - j];
+  }
+  s[k] = ss / k;
+  c[k] = (hyperbolic ? cc : -cc) / k;
+}
+
+void nz_series_sincos(double *s, double *c, const double *x, int K, int hyperbolic)
+{
+  for (int k = 0; k <= K; k++) nz_series_sincos_coef(s, c, x, k, hyperbolic);
+}
+
+void nz_series_tan_coef(double *t, double *u, const double *x, int k, int hyperbolic)
+{
+  double sign = hyperbolic ? -1.0 : 1.0;
+  if (k == 0) {
+    t[0] = hyperbolic ? tanh(x[0]) : tan(x[0]);
+    u[0] = 1.0 + sign * t[0] * t[0];
+    return;
+  }
+  double s = 0.0;
+  for (int j = 1; j <= k; j++) s += j * x[j] * u[k - j];
+  t[k] = s / k;
+  u[k] = sign * nz_series_mul_coef(t, t, k);
+}
+
+void nz_series_tan(double *t, double *u, const double *x, int K, int hyperbolic)
+{
+  for (int k = 0; k <= K; k++) nz_series_tan_coef(t, u, x, k, hyperbolic);
+}
+
+double nz_series_quadrature_coef(const double *y, const double *x, const double *d,
+                                 double s, int k)
+{
+  double acc = s * k * x[k];
+  for (int j = 1; j < k; j++) acc -= j * y[j] * d[k - j];
+  return acc / (k * d[0]);
+}
+
+void nz_series_quadrature(double *y, const double *x, const double *d, double s, int K)
+{
+  for (int k = 1; k <= K; k++) y[k] = nz_series_quadrature_coef(y, x, d, s, k);
+}
+
+void nz_series_atan2(double *z, const double *y, const double *x, int K, double *w)
+{
+  double *d = w, *xx = w + (K + 1), *yy = w + 2 * (K + 1);
+  nz_series_mul(xx, x, x, K);
+  nz_series_mul(yy, y, y, K);
+  for (int k = 0; k <= K; k++) d[k] = xx[k] + yy[k];
+  z[0] = atan2(y[0], x[0]);
+  for (int k = 1; k <= K; k++) {
+    /* n_{k-1} = sum_{j=0..k-1} x_j (k-j) y_{k-j} - y_j (k-j) x_{k-j} */
+    double n = 0.0;
+    for (int j = 0; j < k; j++) n += (k - j) * (x[j] * y[k - j] - y[j] * x[k - j]);
+    double acc = n;
+    for (int j = 1; j < k; j++) acc -= j * z[j] * d[k - j];
+    z[k] = acc / (k * d[0]);
+  }
+}

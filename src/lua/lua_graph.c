@@ -1,0 +1,283 @@
+/* lua_graph.c - recording a system's functions into a graph, for Lua.
+ *
+ * lua/nz/record.lua runs the user's functions on tracer values; every
+ * operation on a tracer calls one of the methods below, which add a node
+ * (folded and shared: graph.h) and return its id; cmp and select record the
+ * branch functions (nz.gt, nz.ifelse, nz.max, ...).  The userdata owns the
+ * nz_compiled (mech_graph.h) and frees it with the collector. */
+#include <lauxlib.h>
+#include <string.h>
+#include "lua/lua_graph.h"
+
+typedef struct compiled_box { nz_compiled *c; } compiled_box;
+
+nz_compiled *nz_lua_tocompiled(lua_State *L, int idx)
+{
+  compiled_box *b = luaL_testudata(L, idx, NZ_COMPILED_METATABLE);
+  return b ? b->c : NULL;
+}
+
+static nz_compiled *check(lua_State *L)
+{
+  compiled_box *b = luaL_checkudata(L, 1, NZ_COMPILED_METATABLE);
+  if (!b->c) luaL_error(L, "internal: a freed compiled system");
+  return b->c;
+}
+
+/* A node id from Lua: a node of this graph, else an error. */
+static int check_node(lua_State *L, nz_graph *g, int idx)
+{
+  lua_Integer id = luaL_checkinteger(L, idx);
+  if (id < 0 || id >= nz_graph_size(g)) luaL_error(L, "internal: node %d is not in the graph", (int)id);
+  return (int)id;
+}
+
+static int push_node(lua_State *L, int id)
+{
+  if (id < 0) return luaL_error(L, "not enough memory to record the graph");
+  lua_pushinteger(L, id);
+  return 1;
+}
+
+/* compiled_new(k, np, nc, nslots) */
+static int lg_new(lua_State *L)
+{
+  int k = (int)luaL_checkinteger(L, 1), np = (int)luaL_checkinteger(L, 2);
+  int nc = (int)luaL_checkinteger(L, 3), nslots = (int)luaL_checkinteger(L, 4);
+  compiled_box *b = lua_newuserdatauv(L, sizeof *b, 0);
+  b->c = NULL;
+  luaL_setmetatable(L, NZ_COMPILED_METATABLE);
+  if (!(b->c = nz_compiled_new(k, np, nc, nslots))) return luaL_error(L, "not enough memory to record the graph");
+  return 1;
+}
+
+static int lg_gc(lua_State *L)
+{
+  compiled_box *b = luaL_checkudata(L, 1, NZ_COMPILED_METATABLE);
+  nz_compiled_free(b->c);
+  b->c = NULL;
+  return 0;
+}
+
+static int lg_const(lua_State *L)
+{
+  nz_compiled *c = check(L);
+  return push_node(L, nz_graph_const(nz_compiled_graph(c), luaL_checknumber(L, 2)));
+}
+
+/* input(j, i): slot j (0 = q) of coordinate i (1-based); input(0): t;
+ * param(p): parameter p (1-based). */
+static int lg_slot(lua_State *L)
+{
+  nz_compiled *c = check(L);
+  int j = (int)luaL_checkinteger(L, 2), i = (int)luaL_checkinteger(L, 3);
+  return push_node(L, nz_graph_input(nz_compiled_graph(c), nz_compiled_input_slot(c, j, i - 1)));
+}
+
+static int lg_time(lua_State *L)
+{
+  return push_node(L, nz_graph_input(nz_compiled_graph(check(L)), 0));
+}
+
+static int lg_param(lua_State *L)
+{
+  nz_compiled *c = check(L);
+  int p = (int)luaL_checkinteger(L, 2);
+  luaL_argcheck(L, p >= 1 && p <= nz_compiled_nparams(c), 2, "no such parameter");
+  return push_node(L, nz_graph_input(nz_compiled_graph(c), nz_compiled_input_param(p - 1)));
+}
+
+static const char *const op_names[] = { "add", "sub", "mul", "div", "neg", "pow", "atan2", "hypot", NULL };
+static const nz_gop op_codes[] = { NZ_GOP_ADD, NZ_GOP_SUB, NZ_GOP_MUL, NZ_GOP_DIV, NZ_GOP_NEG,
+                                   NZ_GOP_POW, NZ_GOP_ATAN2, NZ_GOP_HYPOT };
+
+/* op(name, a [, b]) */
+static int lg_op(lua_State *L)
+{
+  nz_compiled *c = check(L);
+  nz_graph *g = nz_compiled_graph(c);
+  nz_gop op = op_codes[luaL_checkoption(L, 2, NULL, op_names)];
+  int a = check_node(L, g, 3), b = op == NZ_GOP_NEG ? -1 : check_node(L, g, 4);
+  return push_node(L, nz_graph_op(g, op, a, b));
+}
+
+/* fn(name, a): name one of the jets' unary functions (nz_jet_fn_names). */
+static int lg_fn(lua_State *L)
+{
+  nz_compiled *c = check(L);
+  nz_graph *g = nz_compiled_graph(c);
+  const char *name = luaL_checkstring(L, 2);
+  int a = check_node(L, g, 3);
+  for (int f = 0; f < NZ_FN_COUNT; f++)
+    if (strcmp(name, nz_jet_fn_names[f]) == 0) return push_node(L, nz_graph_fn(g, (nz_jet_fn)f, a));
+  return luaL_error(L, "internal: no function '%s' in the graph", name);
+}
+
+/* cmp(kind, a, b): 1 where a kind b holds, else 0; kind lt le gt ge eq ne. */
+static const char *const cmp_names[] = { "lt", "le", "gt", "ge", "eq", "ne", NULL };
+static const nz_cmp cmp_codes[] = { NZ_CMP_LT, NZ_CMP_LE, NZ_CMP_GT, NZ_CMP_GE, NZ_CMP_EQ, NZ_CMP_NE };
+
+static int lg_cmp(lua_State *L)
+{
+  nz_compiled *c = check(L);
+  nz_graph *g = nz_compiled_graph(c);
+  nz_cmp op = cmp_codes[luaL_checkoption(L, 2, NULL, cmp_names)];
+  int a = check_node(L, g, 3), b = check_node(L, g, 4);
+  return push_node(L, nz_graph_cmp(g, op, a, b));
+}
+
+/* select(c, a, b): a where c != 0, else b. */
+static int lg_select(lua_State *L)
+{
+  nz_compiled *c = check(L);
+  nz_graph *g = nz_compiled_graph(c);
+  int cond = check_node(L, g, 2), a = check_node(L, g, 3), b = check_node(L, g, 4);
+  return push_node(L, nz_graph_select(g, cond, a, b));
+}
+
+static int lg_powc(lua_State *L)
+{
+  nz_compiled *c = check(L);
+  nz_graph *g = nz_compiled_graph(c);
+  int a = check_node(L, g, 2);
+  return push_node(L, nz_graph_powc(g, a, luaL_checknumber(L, 3)));
+}
+
+/* The constant value of a node, or nil. */
+static int lg_constant(lua_State *L)
+{
+  nz_compiled *c = check(L);
+  nz_graph *g = nz_compiled_graph(c);
+  double v;
+  if (nz_graph_is_const(g, check_node(L, g, 2), &v)) lua_pushnumber(L, v);
+  else lua_pushnil(L);
+  return 1;
+}
+
+static const char *const piece_names[] = { "F", "T", "V", "Q", "S", "constraints", NULL };
+
+/* Read a list of node ids at idx into ids (at most n). */
+static int read_nodes(lua_State *L, int idx, nz_graph *g, int *ids, int n)
+{
+  luaL_checktype(L, idx, LUA_TTABLE);
+  int len = (int)luaL_len(L, idx);
+  if (len > n) luaL_error(L, "internal: %d nodes given, at most %d", len, n);
+  for (int o = 0; o < len; o++) {
+    lua_geti(L, idx, o + 1);
+    ids[o] = check_node(L, g, -1);
+    lua_pop(L, 1);
+  }
+  return len;
+}
+
+/* set_piece(piece, index (1-based), {nodes}) */
+static int lg_set_piece(lua_State *L)
+{
+  nz_compiled *c = check(L);
+  nz_graph *g = nz_compiled_graph(c);
+  nz_piece piece = (nz_piece)luaL_checkoption(L, 2, NULL, piece_names);
+  int index = (int)luaL_checkinteger(L, 3) - 1;
+  int n = (int)luaL_len(L, 4);
+  int *ids = lua_newuserdatauv(L, (size_t)(n + 1) * sizeof(int), 0);
+  n = read_nodes(L, 4, g, ids, n);
+  int st = nz_compiled_set_piece(c, piece, index, ids, n);
+  if (st == NZ_ENOMEM) return luaL_error(L, "not enough memory to record the graph");
+  if (st) return luaL_error(L, "internal: piece %s %d: wrong shape", piece_names[piece], index + 1);
+  return 0;
+}
+
+/* info() -> {nodes = graph size, pieces = {F = n, ..., constraints = {..}}, mass_bias = n} */
+static int lg_info(lua_State *L)
+{
+  nz_compiled *c = check(L);
+  lua_createtable(L, 0, 4);
+  lua_pushinteger(L, nz_graph_size(nz_compiled_graph(c)));
+  lua_setfield(L, -2, "nodes");
+  lua_pushinteger(L, nz_compiled_mass_bias_nodes(c));
+  lua_setfield(L, -2, "mass_bias_nodes");
+  double secs;
+  const char *why;
+  lua_pushinteger(L, nz_compiled_native(c, &secs, &why));
+  lua_setfield(L, -2, "native_plans");
+  lua_pushnumber(L, secs);
+  lua_setfield(L, -2, "native_seconds");
+  if (why) {
+    lua_pushstring(L, why);
+    lua_setfield(L, -2, "native_why");
+  }
+  return 1;
+}
+
+/* piece_nodes(piece, index (1-based)) -> nodes its evaluation visits */
+static int lg_piece_nodes(lua_State *L)
+{
+  nz_compiled *c = check(L);
+  nz_piece piece = (nz_piece)luaL_checkoption(L, 2, NULL, piece_names);
+  lua_pushinteger(L, nz_compiled_piece_nodes(c, piece, (int)luaL_optinteger(L, 3, 1) - 1));
+  return 1;
+}
+
+/* eval({nodes}, {inputs by number, 0-based: [0] = t}) -> {values} or nil, message:
+ * the doubles path, for checking a recording against the function. */
+static int lg_eval(lua_State *L)
+{
+  nz_compiled *c = check(L);
+  nz_graph *g = nz_compiled_graph(c);
+  int n = (int)luaL_len(L, 2);
+  int ni = nz_graph_ninputs(g);
+  int *ids = lua_newuserdatauv(L, (size_t)(n + 1) * sizeof(int), 0);
+  double *in = lua_newuserdatauv(L, (size_t)(ni + n + 1) * sizeof(double), 0);
+  double *out = in + ni;
+  n = read_nodes(L, 2, g, ids, n);
+  luaL_checktype(L, 3, LUA_TTABLE);
+  for (int i = 0; i < ni; i++) {
+    lua_geti(L, 3, i);
+    in[i] = lua_tonumber(L, -1);
+    lua_pop(L, 1);
+  }
+  nz_graph_plan *p = nz_graph_plan_new(g, ids, n);
+  if (!p) return luaL_error(L, "not enough memory to evaluate the graph");
+  nz_status st = nz_graph_eval(p, in, out);
+  nz_graph_plan_free(p);
+  if (st) {
+    lua_pushnil(L);
+    lua_pushfstring(L, "status %d", (int)st);
+    return 2;
+  }
+  lua_createtable(L, n, 0);
+  for (int o = 0; o < n; o++) {
+    lua_pushnumber(L, out[o]);
+    lua_rawseti(L, -2, o + 1);
+  }
+  return 1;
+}
+
+/* set_native(true | false | nil): compile the plans on doubles at once,
+ * never, or when they have earned it (mech_graph.h). */
+static int lg_set_native(lua_State *L)
+{
+  nz_compiled *c = check(L);
+  nz_compiled_set_native(c, lua_isnil(L, 2) ? -1 : lua_toboolean(L, 2));
+  return 0;
+}
+
+static const luaL_Reg methods[] = {
+  { "const", lg_const }, { "slot", lg_slot }, { "time", lg_time }, { "param", lg_param },
+  { "op", lg_op }, { "fn", lg_fn }, { "powc", lg_powc }, { "constant", lg_constant },
+  { "cmp", lg_cmp }, { "select", lg_select },
+  { "set_piece", lg_set_piece }, { "info", lg_info }, { "piece_nodes", lg_piece_nodes },
+  { "eval", lg_eval }, { "set_native", lg_set_native }, { NULL, NULL }
+};
+
+void nz_lua_open_graph(lua_State *L)
+{
+  if (luaL_newmetatable(L, NZ_COMPILED_METATABLE)) {
+    lua_pushcfunction(L, lg_gc);
+    lua_setfield(L, -2, "__gc");
+    luaL_newlib(L, methods);
+    lua_setfield(L, -2, "__index");
+  }
+  lua_pop(L, 1);
+  lua_pushcfunction(L, lg_new);
+  lua_setfield(L, -2, "compiled_new");
+}

@@ -1,0 +1,519 @@
+/* lua_ode.c - the integrator (ode.h) for Lua: a userdata "nz.ode" owning a
+ * GSL stepper for one system, stepped by lua/nz/simulate.lua.  Each call
+ * binds the system's definition table again (the evaluator lives for one
+ * call), and a failure is raised after GSL has returned, with the time, the
+ * state and what went wrong. */
+#include <math.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+#include <lauxlib.h>
+#include "core/interrupt.h"
+#include "lua/lua_ode.h"
+#include "lua/lua_system.h"
+#include "ode/ode.h"
+#include "ode/ode_run.h"
+
+#define NZ_ODE_METATABLE "nz.ode"
+#define NZ_RUN_METATABLE "nz.ode_run"
+
+typedef struct ode_box {
+  nz_ode *o;
+  int k, nc;
+  char method[16];
+} ode_box;
+
+static ode_box *check_ode(lua_State *L, int idx)
+{
+  ode_box *b = luaL_checkudata(L, idx, NZ_ODE_METATABLE);
+  if (!b->o) luaL_error(L, "this integrator has been freed");
+  return b;
+}
+
+static int ode_gc(lua_State *L)
+{
+  ode_box *b = luaL_checkudata(L, 1, NZ_ODE_METATABLE);
+  nz_ode_free(b->o);
+  b->o = NULL;
+  return 0;
+}
+
+static double number_field(lua_State *L, int idx, const char *name, double dflt)
+{
+  lua_getfield(L, idx, name);
+  double v = luaL_optnumber(L, -1, dflt);
+  lua_pop(L, 1);
+  return v;
+}
+
+/* ode_new(def, cfg) with cfg = {method, rtol, atol, h0, work, orders,
+ * linear, alpha, beta, newton_tol, newton_maxit} -> ode */
+static int lo_new(lua_State *L)
+{
+  bound_system b;
+  nz_lua_bind_system(L, 1, &b);
+  luaL_checktype(L, 2, LUA_TTABLE);
+  int k = b.sys.k, nc = b.sys.nc;
+  nz_ode_config cfg;
+  memset(&cfg, 0, sizeof cfg);
+  lua_getfield(L, 2, "method");
+  cfg.method = luaL_optstring(L, -1, "rk8pd");
+  int known = 0;
+  for (int i = 0; nz_ode_methods[i]; i++) known |= !strcmp(nz_ode_methods[i], cfg.method);
+  if (!known) {
+    luaL_Buffer msg;
+    luaL_buffinit(L, &msg);
+    lua_pushfstring(L, "unknown method '%s'; GSL's steppers are:", cfg.method);
+    luaL_addvalue(&msg);
+    for (int i = 0; nz_ode_methods[i]; i++) {
+      luaL_addstring(&msg, " ");
+      luaL_addstring(&msg, nz_ode_methods[i]);
+    }
+    luaL_pushresult(&msg);
+    return lua_error(L);
+  }
+  cfg.rtol = number_field(L, 2, "rtol", 1e-10);
+  cfg.atol = number_field(L, 2, "atol", 1e-12);
+  cfg.h0 = number_field(L, 2, "h0", 1e-3);
+  lua_getfield(L, 2, "work");
+  cfg.work = lua_toboolean(L, -1);
+  lua_pop(L, 1);
+  cfg.level = (int)number_field(L, 2, "level", 0.0);
+  lua_getfield(L, 2, "top");
+  cfg.top = lua_toboolean(L, -1);
+  lua_pop(L, 1);
+  cfg.nc = nc;
+  lua_getfield(L, 2, "guess");       /* top: Newton's first start (q^(p), lambda) */
+  if (!lua_isnil(L, -1)) {
+    double *g = lua_newuserdatauv(L, ((size_t)k + (size_t)nc + 1) * sizeof(double), 0);
+    nz_lua_read_vector(L, lua_gettop(L) - 1, k + nc, g, "guess", 0, "simulate");
+    cfg.guess = g;                   /* kept on the stack until nz_ode_alloc copies it */
+  }
+  int *flags = lua_newuserdatauv(L, 2 * ((size_t)nc + 1) * sizeof(int), 0);
+  for (int r = 0; r < nc; r++) {
+    lua_getfield(L, 2, "orders");
+    lua_geti(L, -1, r + 1);
+    flags[r] = (int)luaL_checkinteger(L, -1);
+    lua_getfield(L, 2, "linear");
+    lua_geti(L, -1, r + 1);
+    flags[nc + 1 + r] = lua_toboolean(L, -1);
+    lua_pop(L, 4);
+  }
+  cfg.orders = flags;
+  cfg.linear = flags + nc + 1;
+  nz_accel_options acc = NZ_ACCEL_DEFAULTS;
+  acc.baumgarte_alpha = number_field(L, 2, "alpha", 0.0);
+  acc.baumgarte_beta = number_field(L, 2, "beta", 0.0);
+  acc.newton_tol = number_field(L, 2, "newton_tol", acc.newton_tol);
+  acc.newton_maxit = (int)number_field(L, 2, "newton_maxit", acc.newton_maxit);
+  acc.rcond_min = number_field(L, 2, "rcond_min", acc.rcond_min);
+  lua_getfield(L, 2, "check");              /* false: trust every solve (to measure the check) */
+  acc.skip_check = lua_isboolean(L, -1) && !lua_toboolean(L, -1);
+  lua_pop(L, 1);
+  cfg.accel = acc;
+  ode_box *box = lua_newuserdatauv(L, sizeof *box, 0);
+  memset(box, 0, sizeof *box);
+  luaL_setmetatable(L, NZ_ODE_METATABLE);
+  box->k = k;
+  box->nc = nc;
+  snprintf(box->method, sizeof box->method, "%s", cfg.method);
+  if (!(box->o = nz_ode_alloc(k, &cfg))) return luaL_error(L, "not enough memory for the integrator");
+  return 1;
+}
+
+/* Raise the failure of the last step or evaluation, with time and state. */
+static int raise_failure(lua_State *L, ode_box *box, bound_system *b, int st)
+{
+  const nz_ode_failure *f = nz_ode_last_failure(box->o);
+  int k = box->k;
+  const double *q = f->y, *qd = f->y ? f->y + k : NULL;
+  if (b->ev.interrupted || (f->kind == NZ_ODE_FAIL_FUNCTION && nz_interrupt_requested()))
+    return nz_lua_raise_interrupt(L);
+  switch (f->kind) {
+  case NZ_ODE_FAIL_MASS:
+    return nz_lua_raise_singular_mass(L, 1, f->t, q, qd, k, &f->mass);
+  case NZ_ODE_FAIL_CONSTRAINTS: {
+    int *orders = lua_newuserdatauv(L, ((size_t)box->nc + 1) * sizeof(int), 0);
+    memset(orders, 0, ((size_t)box->nc + 1) * sizeof(int));
+    lua_getfield(L, 1, "orders");          /* the definition keeps the classification */
+    for (int r = 0; r < box->nc && lua_istable(L, -1); r++) {
+      lua_geti(L, -1, r + 1);
+      orders[r] = (int)lua_tointeger(L, -1);
+      lua_pop(L, 1);
+    }
+    return nz_lua_raise_accel_failure(L, 1, &f->accel, orders, f->t, q, qd, k, box->nc);
+  }
+  case NZ_ODE_FAIL_STEP:
+  case NZ_ODE_FAIL_NONFINITE: {
+    luaL_Buffer msg;
+    luaL_buffinit(L, &msg);
+    lua_pushfstring(L, "system '%s': ", nz_lua_system_name(L, 1));
+    luaL_addvalue(&msg);
+    if (f->kind == NZ_ODE_FAIL_STEP)
+      lua_pushfstring(L, "the integrator (%s) could not make a step (GSL status %d): the step "
+                      "size fell below what the tolerance allows, or the motion is singular", box->method, f->status);
+    else
+      lua_pushfstring(L, "the state became NaN or infinite (method %s)", box->method);
+    luaL_addvalue(&msg);
+    nz_lua_add_state(&msg, f->t, q, qd, k);
+    luaL_addstring(&msg, ": check the system near this state, or change the method or the tolerances");
+    luaL_pushresult(&msg);
+    return lua_error(L);
+  }
+  default:
+    return nz_lua_raise_core(L, b, st ? st : NZ_EFUNC, "simulate");
+  }
+}
+
+static void read_y(lua_State *L, int idx, ode_box *box, double *y)
+{
+  nz_lua_read_vector(L, idx, nz_ode_dim(box->o), y, "y", 0, "simulate");
+}
+
+/* The start of every call (ode, def, ...): check the integrator, put def
+ * first (as the binding expects; the caller keeps ode alive), bind it, and
+ * read the state y at idx into scratch with `extra` more doubles. */
+static ode_box *begin_call(lua_State *L, int nargs, bound_system *b, int idx, size_t extra, double **y)
+{
+  lua_settop(L, nargs);
+  ode_box *box = check_ode(L, 1);
+  lua_copy(L, 2, 1);
+  nz_lua_bind_system(L, 1, b);
+  int dim = nz_ode_dim(box->o);
+  *y = lua_newuserdatauv(L, ((size_t)dim + extra) * sizeof(double), 0);
+  read_y(L, idx, box, *y);
+  return box;
+}
+
+/* ode_step(ode, def, t, t1, h, y) -> t, h, y (a new table) */
+static int lo_step(lua_State *L)
+{
+  bound_system b;
+  double *y;
+  ode_box *box = begin_call(L, 6, &b, 6, 0, &y);
+  double t = luaL_checknumber(L, 3), t1 = luaL_checknumber(L, 4), h = luaL_checknumber(L, 5);
+  int dim = nz_ode_dim(box->o);
+  int st = nz_ode_step(box->o, &b.sys, &t, t1, &h, y);
+  if (st) return raise_failure(L, box, &b, st);
+  lua_pushnumber(L, t);
+  lua_pushnumber(L, h);
+  nz_lua_push_vector(L, y, dim);
+  return 3;
+}
+
+/* ode_step_fixed(ode, def, t, h, y) -> t, y */
+static int lo_step_fixed(lua_State *L)
+{
+  bound_system b;
+  double *y;
+  ode_box *box = begin_call(L, 5, &b, 5, 0, &y);
+  double t = luaL_checknumber(L, 3), h = luaL_checknumber(L, 4);
+  int dim = nz_ode_dim(box->o);
+  int st = nz_ode_step_fixed(box->o, &b.sys, &t, h, y);
+  if (st) return raise_failure(L, box, &b, st);
+  lua_pushnumber(L, t);
+  nz_lua_push_vector(L, y, dim);
+  return 2;
+}
+
+/* ode_rhs(ode, def, t, y) -> f: the right-hand side the steppers see */
+static int lo_rhs(lua_State *L)
+{
+  bound_system b;
+  double *y;
+  lua_settop(L, 4);
+  int dim = nz_ode_dim(check_ode(L, 1)->o);
+  ode_box *box = begin_call(L, 4, &b, 4, (size_t)dim, &y);
+  double t = luaL_checknumber(L, 3);
+  int st = nz_ode_rhs(box->o, &b.sys, t, y, y + dim);
+  if (st) return raise_failure(L, box, &b, st);
+  nz_lua_push_vector(L, y + dim, dim);
+  return 1;
+}
+
+/* ode_accel(ode, def, t, y) -> qdd, lambda[, q^(p) of a top integrator] */
+static int lo_accel(lua_State *L)
+{
+  bound_system b;
+  double *y;
+  lua_settop(L, 4);
+  ode_box *box = check_ode(L, 1);
+  int k = box->k, nc = box->nc;
+  box = begin_call(L, 4, &b, 4, (size_t)k + (size_t)nc, &y);
+  double t = luaL_checknumber(L, 3);
+  int dim = nz_ode_dim(box->o);
+  int st = nz_ode_accel(box->o, &b.sys, t, y, y + dim);
+  if (st) return raise_failure(L, box, &b, st);
+  nz_lua_push_vector(L, y + dim, k);
+  nz_lua_push_vector(L, y + dim + k, nc);
+  const double *root = nz_ode_root(box->o);
+  if (!root) return 2;
+  nz_lua_push_vector(L, root, k);
+  return 3;
+}
+
+/* ode_jacobian(ode, def, t, y) -> dfdy (rows), dfdt: the exact Jacobian the
+ * implicit steppers use (exposed for tests and for users who want it). */
+static int lo_jacobian(lua_State *L)
+{
+  bound_system b;
+  double *y;
+  lua_settop(L, 4);
+  int dim = nz_ode_dim(check_ode(L, 1)->o);
+  ode_box *box = begin_call(L, 4, &b, 4, (size_t)dim * (size_t)dim + (size_t)dim, &y);
+  double t = luaL_checknumber(L, 3);
+  double *J = y + dim, *dfdt = J + (size_t)dim * dim;
+  int st = nz_ode_jacobian_at(box->o, &b.sys, t, y, J, dfdt);
+  if (st) return raise_failure(L, box, &b, st);
+  lua_createtable(L, dim, 0);
+  for (int i = 0; i < dim; i++) {
+    nz_lua_push_vector(L, J + (size_t)i * dim, dim);
+    lua_rawseti(L, -2, i + 1);
+  }
+  nz_lua_push_vector(L, dfdt, dim);
+  return 2;
+}
+
+static int lo_reset(lua_State *L)
+{
+  nz_ode_reset(check_ode(L, 1)->o);
+  return 0;
+}
+
+static int lo_stats(lua_State *L)
+{
+  nz_ode_stats st;
+  nz_ode_get_stats(check_ode(L, 1)->o, &st);
+  lua_createtable(L, 0, 4);
+  lua_pushinteger(L, (lua_Integer)st.steps);
+  lua_setfield(L, -2, "steps");
+  lua_pushinteger(L, (lua_Integer)st.rejected);
+  lua_setfield(L, -2, "rejected");
+  lua_pushinteger(L, (lua_Integer)st.nfev);
+  lua_setfield(L, -2, "nfev");
+  lua_pushinteger(L, (lua_Integer)st.njev);
+  lua_setfield(L, -2, "njev");
+  return 1;
+}
+
+/* ------------------------------------------------------------------ */
+/* The loop in C (ode_run.h): a userdata "nz.ode_run" that keeps its
+ * integrator alive (its user value) and steps it until simulate.lua must
+ * act.  A failure or the interrupt is raised exactly as ode_step and
+ * ode_accel raise it, the points computed before it handed over to the
+ * trajectory first (flush_points below). */
+
+typedef struct run_box {
+  nz_run *r;
+  ode_box *ode;
+} run_box;
+
+static run_box *check_run(lua_State *L, int idx)
+{
+  run_box *rb = luaL_checkudata(L, idx, NZ_RUN_METATABLE);
+  if (!rb->r) luaL_error(L, "this run has been freed");
+  return rb;
+}
+
+static int run_gc(lua_State *L)
+{
+  run_box *rb = luaL_checkudata(L, 1, NZ_RUN_METATABLE);
+  nz_run_free(rb->r);                /* never touches the integrator */
+  rb->r = NULL;
+  return 0;
+}
+
+/* ode_run_new(ode, {t0, t1, dt, step, h0, y, stall_window, stall_fraction
+ * [, capacity]}) -> run */
+static int lo_run_new(lua_State *L)
+{
+  ode_box *ob = check_ode(L, 1);
+  luaL_checktype(L, 2, LUA_TTABLE);
+  nz_run_config c;
+  memset(&c, 0, sizeof c);
+  c.t0 = number_field(L, 2, "t0", 0.0);
+  c.t1 = number_field(L, 2, "t1", 0.0);
+  c.dt = number_field(L, 2, "dt", 0.0);
+  c.step = number_field(L, 2, "step", 0.0);
+  c.h0 = number_field(L, 2, "h0", 1e-3);
+  c.stall_window = (unsigned long)number_field(L, 2, "stall_window", 1000.0);
+  c.stall_fraction = number_field(L, 2, "stall_fraction", 1e-10);
+  c.capacity = (int)number_field(L, 2, "capacity", 1024.0);
+  int dim = nz_ode_dim(ob->o);
+  double *y = lua_newuserdatauv(L, (size_t)dim * sizeof(double), 0);
+  lua_getfield(L, 2, "y");
+  nz_lua_read_vector(L, lua_gettop(L), dim, y, "y", 0, "simulate");
+  lua_pop(L, 1);
+  run_box *rb = lua_newuserdatauv(L, sizeof *rb, 1);
+  memset(rb, 0, sizeof *rb);
+  luaL_setmetatable(L, NZ_RUN_METATABLE);
+  lua_pushvalue(L, 1);
+  lua_setiuservalue(L, -2, 1);
+  rb->ode = ob;
+  if (!(rb->r = nz_run_alloc(ob->o, ob->k, ob->nc, &c, y)))
+    return luaL_error(L, "simulate: the run could not start (no memory, or a bad grid: t0 = %f, t1 = %f, dt = %f, step = %f)",
+                      c.t0, c.t1, c.dt, c.step);
+  return 1;
+}
+
+/* The buffered points appended to tr.t, tr.q, tr.qd, tr.qdd, tr.lambda (at
+ * stack index tr, as record() in simulate.lua stores them) and, when pend
+ * is a table, each point's state y and root q^(p) (false when none) to
+ * pend.y[n] and pend.root[n], for what simulate.lua records in Lua; then
+ * the buffer is emptied.  No Lua function runs here, so Ctrl-C's hook
+ * cannot fire in the middle: a point is handed over whole or not at all. */
+static void flush_points(lua_State *L, run_box *rb, int tr, int pend)
+{
+  static const char *const series[] = { "t", "q", "qd", "qdd", "lambda" };
+  int base = lua_gettop(L);
+  for (int j = 0; j < 5; j++) {      /* at base + 1 .. base + 5 */
+    lua_pushstring(L, series[j]);
+    if (lua_rawget(L, tr) != LUA_TTABLE) luaL_error(L, "simulate: tr.%s is not a table", series[j]);
+  }
+  int with_pend = lua_istable(L, pend);
+  if (with_pend) {                   /* at base + 6, base + 7 */
+    lua_getfield(L, pend, "y");
+    lua_getfield(L, pend, "root");
+    luaL_checktype(L, base + 6, LUA_TTABLE);
+    luaL_checktype(L, base + 7, LUA_TTABLE);
+  }
+  int k = rb->ode->k, nc = rb->ode->nc, dim = nz_ode_dim(rb->ode->o), count = nz_run_count(rb->r);
+  lua_Integer first = (lua_Integer)lua_rawlen(L, base + 1) + 1;
+  for (int i = 0; i < count; i++) {
+    double t;
+    const double *y, *acc, *root;
+    nz_run_point(rb->r, i, &t, &y, &acc, &root);
+    lua_Integer n = first + i;
+    if (with_pend) {                 /* first: a point in tr has its y in pend */
+      nz_lua_push_vector(L, y, dim);
+      lua_rawseti(L, base + 6, n);
+      if (root) nz_lua_push_vector(L, root, k);
+      else lua_pushboolean(L, 0);
+      lua_rawseti(L, base + 7, n);
+    }
+    nz_lua_push_vector(L, y, k);
+    nz_lua_push_vector(L, y + k, k);
+    nz_lua_push_vector(L, acc, k);
+    nz_lua_push_vector(L, acc + k, nc);
+    lua_rawseti(L, base + 5, n);
+    lua_rawseti(L, base + 4, n);
+    lua_rawseti(L, base + 3, n);
+    lua_rawseti(L, base + 2, n);
+    lua_pushnumber(L, t);            /* last: #tr.t counts whole points */
+    lua_rawseti(L, base + 1, n);
+  }
+  nz_run_clear(rb->r);
+  lua_settop(L, base);
+}
+
+/* ode_run(run, def, tr, pend, pause_step, pause_wall) -> "done" | "paused" |
+ * "full" | "stalled", advance: steps until simulate.lua must act, hands the
+ * output points over (flush_points) and raises the interrupt and failures
+ * as ode_step does, the points computed before them handed over first. */
+static int lo_run(lua_State *L)
+{
+  run_box *rb = check_run(L, 1);
+  luaL_checktype(L, 3, LUA_TTABLE);
+  lua_Integer pause_step = luaL_optinteger(L, 5, 0);
+  double pause_wall = luaL_optnumber(L, 6, 0.0);
+  lua_settop(L, 4);
+  lua_copy(L, 2, 1);                 /* def first, as raise_failure expects; the caller keeps run */
+  bound_system b;
+  nz_lua_bind_system(L, 1, &b);
+  int st;
+  nz_run_status rs = nz_run_advance(rb->r, &b.sys, pause_step > 0 ? (unsigned long)pause_step : 0, pause_wall, &st);
+  flush_points(L, rb, 3, 4);
+  switch (rs) {
+  case NZ_RUN_INTERRUPTED: return nz_lua_raise_interrupt(L);
+  case NZ_RUN_FAILED: return raise_failure(L, rb->ode, &b, st);
+  case NZ_RUN_STALLED:
+    lua_pushliteral(L, "stalled");
+    lua_pushnumber(L, nz_run_stall_advance(rb->r));
+    return 2;
+  case NZ_RUN_PAUSED: lua_pushliteral(L, "paused"); return 1;
+  case NZ_RUN_FULL: lua_pushliteral(L, "full"); return 1;
+  case NZ_RUN_DONE: break;
+  }
+  lua_pushliteral(L, "done");
+  return 1;
+}
+
+/* ode_run_state(run) -> t, y, steps: where the run is. */
+static int lo_run_state(lua_State *L)
+{
+  run_box *rb = check_run(L, 1);
+  lua_pushnumber(L, nz_run_time(rb->r));
+  nz_lua_push_vector(L, nz_run_state(rb->r), nz_ode_dim(rb->ode->o));
+  lua_pushinteger(L, (lua_Integer)nz_run_steps(rb->r));
+  return 3;
+}
+
+/* _set_interrupt(flag): request (true) or clear (false) the interrupt, as
+ * Ctrl-C does; for tests only (tests/simulate_loop_spec.lua). */
+static int lo_set_interrupt(lua_State *L)
+{
+  if (lua_toboolean(L, 1)) nz_interrupt_request();
+  else nz_interrupt_clear();
+  return 0;
+}
+
+/* Small services of the loop: a monotonic clock, whether a stream is a
+ * terminal (the progress bar), and the Ctrl-C flag that C loops poll. */
+static int lo_now(lua_State *L)
+{
+  struct timespec ts;
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  lua_pushnumber(L, (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec);
+  return 1;
+}
+
+static int lo_isatty(lua_State *L)
+{
+  lua_pushboolean(L, isatty((int)luaL_checkinteger(L, 1)));
+  return 1;
+}
+
+static int lo_interrupted(lua_State *L)
+{
+  lua_pushboolean(L, nz_interrupt_requested());
+  return 1;
+}
+
+static int lo_methods(lua_State *L)
+{
+  lua_newtable(L);
+  for (int i = 0; nz_ode_methods[i]; i++) {
+    lua_createtable(L, 0, 2);
+    lua_pushstring(L, nz_ode_methods[i]);
+    lua_setfield(L, -2, "name");
+    lua_pushboolean(L, nz_ode_is_implicit(nz_ode_methods[i]));
+    lua_setfield(L, -2, "implicit");
+    lua_rawseti(L, -2, i + 1);
+  }
+  return 1;
+}
+
+static const luaL_Reg ode_functions[] = {
+  { "ode_new", lo_new }, { "ode_step", lo_step }, { "ode_step_fixed", lo_step_fixed },
+  { "ode_accel", lo_accel }, { "ode_rhs", lo_rhs }, { "ode_reset", lo_reset }, { "ode_jacobian", lo_jacobian }, { "ode_stats", lo_stats },
+  { "now", lo_now }, { "isatty", lo_isatty }, { "interrupted", lo_interrupted },
+  { "ode_methods", lo_methods }, { "ode_run_new", lo_run_new }, { "ode_run", lo_run },
+  { "ode_run_state", lo_run_state }, { "_set_interrupt", lo_set_interrupt },
+  { NULL, NULL }
+};
+
+/* Add the functions to the table on top of the stack (core.mech). */
+void nz_lua_open_ode(lua_State *L)
+{
+  if (luaL_newmetatable(L, NZ_ODE_METATABLE)) {
+    lua_pushcfunction(L, ode_gc);
+    lua_setfield(L, -2, "__gc");
+  }
+  lua_pop(L, 1);
+  if (luaL_newmetatable(L, NZ_RUN_METATABLE)) {
+    lua_pushcfunction(L, run_gc);
+    lua_setfield(L, -2, "__gc");
+  }
+  lua_pop(L, 1);
+  luaL_setfuncs(L, ode_functions, 0);
+}

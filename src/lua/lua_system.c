@@ -1,0 +1,888 @@
+/* lua_system.c - the mechanics (mech.h) for Lua.
+ *
+ * The Lua class (lua/nz/system.lua) validates a system and hands these
+ * functions its definition table `def`:
+ *   def.k, def.name, def.coords, def.params,
+ *   def.F, def.T, def.V, def.Q, def.S   lists of functions (any may be empty),
+ *   def.labels = {F = {...}, ...}       what to call each function in errors.
+ * The evaluator calls the Lua functions under lua_pcall (a Lua error must
+ * never longjmp through the C core or GSL), keeps the message, and the
+ * binding raises it after the core has returned, with the system, the
+ * function and the state. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <lauxlib.h>
+#include "mech/constrained.h"
+#include "core/linalg.h"
+#include "lua/lua_graph.h"
+#include "lua/lua_jet.h"
+#include "lua/lua_ode.h"
+#include "lua/lua_system.h"
+#include "mech/mech.h"
+
+static const char *const piece_fields[NZ_PIECE_COUNT] = { "F", "T", "V", "Q", "S", "constraints" };
+
+
+/* Shortest round-trip text of a number, for messages; NaN and infinities
+ * the same way on every C library (not "-nan"). */
+static void fmt_num(char *buf, size_t n, double v)
+{
+  if (isnan(v) || isinf(v)) {
+    snprintf(buf, n, "%s", isnan(v) ? "NaN" : v > 0 ? "inf" : "-inf");
+    return;
+  }
+  snprintf(buf, n, "%.15g", v);
+  if (strtod(buf, NULL) != v) snprintf(buf, n, "%.17g", v);
+}
+
+static void append_vector(luaL_Buffer *b, const char *name, nz_jet *const *v, int k)
+{
+  char num[40];
+  luaL_addstring(b, name);
+  luaL_addstring(b, " = {");
+  for (int i = 0; i < k; i++) {
+    fmt_num(num, sizeof num, v[i]->c[0]);
+    if (i) luaL_addstring(b, ", ");
+    luaL_addstring(b, num);
+  }
+  luaL_addstring(b, "}");
+}
+
+/* Keep "LABEL MESSAGE at t = .., q = {..}, qd = {..}" for the binding to
+ * raise (nz_lua_raise_core): in the registry, under the evaluator's address,
+ * as a Lua string of any length, so that a failure nested in user code that
+ * called the mechanics again keeps its root cause whole. */
+static void record_failure(lua_evaluator *ev, nz_piece piece, int index, const nz_jet *t,
+                           nz_jet *const *const *levels, int nlevels, const char *what)
+{
+  lua_State *L = ev->L;
+  luaL_Buffer b;
+  char num[40];
+  luaL_buffinit(L, &b);
+  lua_getfield(L, ev->def, "labels");
+  lua_getfield(L, -1, piece_fields[piece]);
+  lua_geti(L, -1, index);
+  const char *label = lua_tostring(L, -1);
+  lua_pop(L, 3);
+  luaL_addstring(&b, label ? label : piece_fields[piece]);
+  luaL_addstring(&b, " ");
+  luaL_addstring(&b, what);
+  fmt_num(num, sizeof num, t->c[0]);
+  luaL_addstring(&b, " at t = ");
+  luaL_addstring(&b, num);
+  luaL_addstring(&b, ", ");
+  append_vector(&b, "q", levels[0], ev->k);
+  if (nlevels > 1) {
+    luaL_addstring(&b, ", ");
+    append_vector(&b, "qd", levels[1], ev->k);
+  }
+  luaL_pushresult(&b);
+  lua_rawsetp(L, LUA_REGISTRYINDEX, ev);
+}
+
+/* The interrupt: one object per Lua state, kept in the registry, that the
+ * Ctrl-C hook of nzlua and the bindings raise and that everyone recognises
+ * by identity (never by its text: a user's message may say "interrupted!"). */
+static const char interrupt_key = 0;
+
+static int interrupt_tostring(lua_State *L)
+{
+  lua_pushliteral(L, "interrupted!");
+  return 1;
+}
+
+void nz_lua_push_interrupt(lua_State *L)
+{
+  if (lua_rawgetp(L, LUA_REGISTRYINDEX, &interrupt_key) != LUA_TNIL) return;
+  lua_pop(L, 1);
+  lua_newtable(L);
+  lua_createtable(L, 0, 3);
+  lua_pushcfunction(L, interrupt_tostring);
+  lua_setfield(L, -2, "__tostring");
+  lua_pushliteral(L, "nz.interrupted");
+  lua_setfield(L, -2, "__name");
+  lua_pushboolean(L, 0);
+  lua_setfield(L, -2, "__metatable");   /* nobody changes what it prints */
+  lua_setmetatable(L, -2);
+  lua_pushvalue(L, -1);
+  lua_rawsetp(L, LUA_REGISTRYINDEX, &interrupt_key);
+}
+
+int nz_lua_is_interrupt(lua_State *L, int idx)
+{
+  idx = lua_absindex(L, idx);
+  if (lua_type(L, idx) != LUA_TTABLE) return 0;
+  lua_rawgetp(L, LUA_REGISTRYINDEX, &interrupt_key);
+  int same = lua_rawequal(L, idx, -1);
+  lua_pop(L, 1);
+  return same;
+}
+
+int nz_lua_raise_interrupt(lua_State *L)
+{
+  nz_lua_push_interrupt(L);
+  return lua_error(L);
+}
+
+/* Is this chunk one of the nz library's own (the embedded lua/nz/ files)? */
+static int library_source(const char *source)
+{
+  return strncmp(source, "@lua/nz/", 8) == 0;
+}
+
+/* "file:line:" of the innermost frame, from `level` on, that is the user's
+ * Lua code (not C, not the library), or "" when there is none. */
+static void user_location(lua_State *L, int level, char *where, size_t n)
+{
+  lua_Debug ar;
+  where[0] = '\0';
+  for (; lua_getstack(L, level, &ar); level++) {
+    lua_getinfo(L, "Sl", &ar);
+    if (ar.currentline <= 0 || library_source(ar.source)) continue;
+    snprintf(where, n, "%s:%d:", ar.short_src, ar.currentline);
+    return;
+  }
+}
+
+/* Message handler of the calls of user functions: notes where in the
+ * user's code the error happened, in the registry under where_key, for
+ * note_error to read as soon as lua_pcall returns (the error itself is left
+ * as it is).  A light C function: pushing it allocates nothing. */
+static const char where_key = 0;
+
+static int user_error_handler(lua_State *L)
+{
+  char where[sizeof ((lua_evaluator *)0)->where];
+  if (nz_lua_is_interrupt(L, 1)) return 1;
+  user_location(L, 1, where, sizeof where);
+  lua_pushstring(L, where);
+  lua_rawsetp(L, LUA_REGISTRYINDEX, &where_key);
+  return 1;
+}
+
+/* Move what user_error_handler noted into ev->where. */
+static void take_location(lua_evaluator *ev)
+{
+  lua_State *L = ev->L;
+  lua_rawgetp(L, LUA_REGISTRYINDEX, &where_key);
+  const char *where = lua_tostring(L, -1);
+  snprintf(ev->where, sizeof ev->where, "%s", where ? where : "");
+  lua_pop(L, 1);
+  lua_pushnil(L);
+  lua_rawsetp(L, LUA_REGISTRYINDEX, &where_key);
+}
+
+/* The user's message without the "file:line:" that ev->where already says. */
+static const char *strip_location(const lua_evaluator *ev, const char *msg)
+{
+  size_t n = strlen(ev->where);
+  if (n > 0 && strncmp(msg, ev->where, n) == 0 && msg[n] == ' ') return msg + n + 1;
+  return msg;
+}
+
+/* Where a user function was defined ("file:line:"), for a bad result. */
+static void definition_location(lua_State *L, int fn, char *where, size_t n)
+{
+  lua_Debug ar;
+  where[0] = '\0';
+  lua_pushvalue(L, fn);
+  lua_getinfo(L, ">S", &ar);
+  if (ar.linedefined > 0 && !library_source(ar.source))
+    snprintf(where, n, "%s:%d:", ar.short_src, ar.linedefined);
+}
+
+/* out += the value at idx (a number or a jet of at least out's order). */
+static int accumulate(lua_State *L, int idx, nz_jet *out, const char **why)
+{
+  if (lua_type(L, idx) == LUA_TNUMBER) {
+    double v = lua_tonumber(L, idx);
+    if (!isfinite(v)) { *why = "returned a value that is not finite"; return 0; }
+    out->c[0] += v;
+    return 1;
+  }
+  nz_jet *j = nz_lua_tojet(L, idx);
+  if (!j) { *why = "returned something that is neither a number nor a jet"; return 0; }
+  if (j->order < out->order) {
+    *why = "returned a jet of lower order than its arguments (make constants numbers, not jets)";
+    return 0;
+  }
+  int K = out->order;
+  for (int d = -1; d < out->ntan && d < j->ntan; d++) {
+    const double *src = d < 0 ? j->c : nz_jet_tangent(j, d);
+    double *dst = d < 0 ? out->c : nz_jet_tangent(out, d);
+    for (int c = 0; c <= K; c++) {
+      if (!isfinite(src[c])) { *why = "returned a value that is not finite (NaN or inf)"; return 0; }
+      dst[c] += src[c];
+    }
+  }
+  return 1;
+}
+
+static void push_jet_copy(lua_State *L, const nz_jet *j)
+{
+  nz_jet *z = nz_lua_newjet(L, j->order, j->ntan);
+  nz_jet_copy(z, j);
+}
+
+static void push_jet_list(lua_State *L, nz_jet *const *v, int k)
+{
+  lua_createtable(L, k, 0);
+  for (int i = 0; i < k; i++) {
+    push_jet_copy(L, v[i]);
+    lua_rawseti(L, -2, i + 1);
+  }
+}
+
+/* With a direction, an argument is the nested dual number v + eta d
+ * (lua/nz/hyperdual.lua) built by `make` (stack index). */
+static void push_dual_copy(lua_State *L, int make, const nz_jet *v, const nz_jet *d)
+{
+  lua_pushvalue(L, make);
+  push_jet_copy(L, v);
+  push_jet_copy(L, d);
+  lua_call(L, 2, 1);
+}
+
+/* What lua_eval asks of build_arguments. */
+typedef struct eval_call {
+  lua_evaluator *ev;
+  const nz_jet *t;
+  nz_jet *const *const *levels;
+  int nlevels;
+  const nz_direction *dir;
+} eval_call;
+
+/* Pushes the arguments shared by every function of the piece: t, q[, qd,
+ * ...], params.  It runs under
+ * lua_pcall: building them calls Lua (the nested-dual constructor), where
+ * Ctrl-C's hook may raise the interrupt or memory may run out, and no Lua
+ * error may unwind through the C core and GSL frames below lua_eval. */
+static int build_arguments(lua_State *L)
+{
+  const eval_call *c = lua_touserdata(L, 1);
+  lua_evaluator *ev = c->ev;
+  const nz_direction *dir = c->dir;
+  lua_settop(L, 2);                       /* the call, the definition table */
+  luaL_checkstack(L, c->nlevels + 8, "building the arguments of a user function");
+  int make = 0;
+  if (dir) {
+    lua_getglobal(L, "require");
+    lua_pushliteral(L, "nz.hyperdual");
+    lua_call(L, 1, 1);
+    lua_getfield(L, -1, "new");
+    lua_remove(L, -2);
+    make = lua_gettop(L);
+  }
+  if (dir) push_dual_copy(L, make, c->t, dir->dt);
+  else push_jet_copy(L, c->t);
+  for (int lv = 0; lv < c->nlevels; lv++) {
+    if (!dir) {
+      push_jet_list(L, c->levels[lv], ev->k);
+      continue;
+    }
+    lua_createtable(L, ev->k, 0);
+    for (int i = 0; i < ev->k; i++) {
+      push_dual_copy(L, make, c->levels[lv][i], dir->dlevels[lv][i]);
+      lua_rawseti(L, -2, i + 1);
+    }
+  }
+  lua_getfield(L, 2, "params");
+  if (make) lua_remove(L, make);
+  lua_remove(L, 2);
+  lua_remove(L, 1);
+  return lua_gettop(L);
+}
+
+/* Add a result at idx into out (and its eta-part into dout when it is a
+ * nested dual number); 0 and *why on a bad value. */
+static int accumulate_result(lua_State *L, int idx, nz_jet *out, nz_jet *dout, const char **why)
+{
+  if (dout && lua_type(L, idx) == LUA_TTABLE) {
+    lua_getfield(L, idx, "v");
+    lua_getfield(L, idx, "d");
+    int ok = accumulate(L, -2, out, why) && accumulate(L, -1, dout, why);
+    lua_pop(L, 2);
+    return ok;
+  }
+  return accumulate(L, idx, out, why);
+}
+
+/* A call that did not return: the interrupt, or a message to keep. */
+static void note_error(lua_evaluator *ev, const eval_call *c, nz_piece piece, int index,
+                       const char *doing)
+{
+  lua_State *L = ev->L;
+  if (nz_lua_is_interrupt(L, -1)) {
+    ev->interrupted = 1;
+    return;
+  }
+  take_location(ev);
+  const char *msg = lua_tostring(L, -1);
+  lua_pushfstring(L, "%s: %s", doing, msg ? strip_location(ev, msg) : "(error object is not a string)");
+  record_failure(ev, piece, index, c->t, c->levels, c->nlevels, lua_tostring(L, -1));
+}
+
+static int lua_eval(void *vctx, nz_piece piece, int index, const nz_jet *t,
+                    nz_jet *const *const *levels, int nlevels, nz_jet *const *out,
+                    const nz_direction *dir)
+{
+  lua_evaluator *ev = vctx;
+  lua_State *L = ev->L;
+  int top = lua_gettop(L), status = NZ_OK;
+  int nout = piece == NZ_PIECE_Q ? ev->k : 1;
+  const char *why = NULL;
+  for (int o = 0; o < nout; o++) {
+    nz_jet_init(out[o], out[o]->order, out[o]->ntan);
+    if (dir) nz_jet_init(dir->dout[o], out[o]->order, out[o]->ntan);
+  }
+  if (!lua_checkstack(L, 2 * nlevels + 16)) return NZ_ENOMEM;   /* never raise here */
+  eval_call call = { ev, t, levels, nlevels, dir };
+  lua_pushcfunction(L, user_error_handler);
+  lua_pushcfunction(L, build_arguments);
+  lua_pushlightuserdata(L, &call);
+  lua_pushvalue(L, ev->def);
+  if (lua_pcall(L, 2, LUA_MULTRET, top + 1) != LUA_OK) {
+    note_error(ev, &call, piece, index + 1, "could not build the arguments");
+    lua_settop(L, top);
+    return NZ_EFUNC;
+  }
+  int handler = top + 1, argbase = top + 2;
+  int nargs = nlevels + 2;
+
+  lua_getfield(L, ev->def, piece_fields[piece]);
+  int list = lua_gettop(L);
+  lua_Integer first = 1, nf = luaL_len(L, list);
+  if (piece == NZ_PIECE_PHI) first = nf = index + 1;    /* one constraint */
+  for (lua_Integer f = first; f <= nf && status == NZ_OK; f++) {
+    lua_geti(L, list, f);
+    for (int a = 0; a < nargs; a++) lua_pushvalue(L, argbase + a);
+    if (lua_pcall(L, nargs, 1, handler) != LUA_OK) {
+      note_error(ev, &call, piece, (int)f, "raised an error");
+      status = NZ_EFUNC;
+      break;
+    }
+    int res = lua_gettop(L);
+    if (piece == NZ_PIECE_Q) {
+      if (!lua_istable(L, res)) {
+        why = "must return a table of forces, one per coordinate";
+      } else if (luaL_len(L, res) != ev->k) {
+        lua_pushfstring(L, "returned %d forces for %d coordinates", (int)luaL_len(L, res), ev->k);
+        why = lua_tostring(L, -1);
+      } else {
+        for (int o = 0; o < nout && !why; o++) {
+          lua_geti(L, res, o + 1);
+          accumulate_result(L, lua_gettop(L), out[o], dir ? dir->dout[o] : NULL, &why);
+          lua_pop(L, 1);
+        }
+      }
+    } else {
+      accumulate_result(L, res, out[0], dir ? dir->dout[0] : NULL, &why);
+    }
+    if (why) {
+      lua_geti(L, list, f);
+      definition_location(L, lua_gettop(L), ev->where, sizeof ev->where);
+      record_failure(ev, piece, (int)f, t, levels, nlevels, why);
+      status = NZ_EFUNC;
+    }
+    lua_settop(L, list);
+  }
+  lua_settop(L, top);
+  return status;
+}
+
+/* The evaluator of a system with a recording: a compiled piece runs on its
+ * graph in C; a piece that is not compiled, or whose graph fails at this
+ * state (a domain error, say), runs in Lua, which then either gives the
+ * value or raises the error with the user's function and line. */
+static int hybrid_eval(void *vctx, nz_piece piece, int index, const nz_jet *t,
+                       nz_jet *const *const *levels, int nlevels, nz_jet *const *out,
+                       const nz_direction *dir)
+{
+  bound_system *b = vctx;
+  if (nz_compiled_has(b->comp, piece, index) &&
+      nz_compiled_eval(b->comp, piece, index, t, levels, nlevels, out, dir) == NZ_OK)
+    return NZ_OK;
+  return lua_eval(&b->ev, piece, index, t, levels, nlevels, out, dir);
+}
+
+/* Bind the recording at def.compiled, if any: read the parameters' current
+ * values (def.compiled_params lists their names in input order). */
+static void bind_compiled(lua_State *L, int def, bound_system *b)
+{
+  if (lua_getfield(L, def, "compiled") != LUA_TUSERDATA || !(b->comp = nz_lua_tocompiled(L, -1))) {
+    lua_pop(L, 1);
+    return;
+  }
+  lua_pop(L, 1);   /* def keeps it alive */
+  double *pv = nz_compiled_params(b->comp);
+  int np = nz_compiled_nparams(b->comp);
+  if (np > 0) {
+    lua_getfield(L, def, "compiled_params");
+    lua_getfield(L, def, "params");
+    for (int p = 0; p < np; p++) {
+      lua_geti(L, -2, p + 1);
+      lua_gettable(L, -2);
+      int isnum;
+      pv[p] = lua_tonumberx(L, -1, &isnum);
+      if (!isnum) {
+        lua_geti(L, -3, p + 1);
+        luaL_error(L, "system '%s': params.%s must stay a number (its functions were recorded reading it as one), got %s",
+                   nz_lua_system_name(L, def), lua_tostring(L, -1), luaL_typename(L, -2));
+      }
+      lua_pop(L, 1);
+    }
+    lua_pop(L, 2);
+  }
+  b->sys.ev.eval = hybrid_eval;
+  b->sys.ev.ctx = b;
+  if (lua_getfield(L, def, "compiled_mass_bias") == LUA_TBOOLEAN && lua_toboolean(L, -1)) {
+    b->sys.mass_bias = nz_compiled_mass_bias;
+    b->sys.accel = nz_compiled_accel;
+  }
+  lua_pop(L, 1);
+  b->sys.constraint_row = nz_compiled_constraint_row;
+  b->sys.mass_bias_ctx = b->comp;
+}
+
+/* ------------------------------------------------------------------ */
+/* Reading the system and the state                                     */
+
+
+void nz_lua_bind_system(lua_State *L, int def, bound_system *b)
+{
+  memset(b, 0, sizeof *b);
+  luaL_checktype(L, def, LUA_TTABLE);
+  lua_getfield(L, def, "k");
+  b->sys.k = (int)lua_tointeger(L, -1);
+  lua_pop(L, 1);
+  if (b->sys.k < 1) luaL_error(L, "internal: system definition without coordinates");
+  for (int p = 0; p < NZ_PIECE_COUNT; p++) {
+    if (lua_getfield(L, def, piece_fields[p]) == LUA_TTABLE && luaL_len(L, -1) > 0) {
+      b->sys.has |= 1u << p;
+      if (p == NZ_PIECE_PHI) b->sys.nc = (int)luaL_len(L, -1);
+    }
+    lua_pop(L, 1);
+  }
+  /* The slots each constraint asks for (lua/nz/system.lua): an int array
+   * {n, levels...} kept alive by def. */
+  if (lua_getfield(L, def, "constraint_levels") == LUA_TUSERDATA) {
+    const int *lv = lua_touserdata(L, -1);
+    b->sys.nlevels = lv[0];
+    b->sys.levels = lv + 1;
+  }
+  lua_pop(L, 1);
+  b->ev.L = L;
+  b->ev.def = lua_absindex(L, def);
+  b->ev.k = b->sys.k;
+  b->sys.ev.eval = lua_eval;
+  b->sys.ev.ctx = &b->ev;
+  bind_compiled(L, b->ev.def, b);
+}
+
+const char *nz_lua_system_name(lua_State *L, int def)
+{
+  lua_getfield(L, def, "name");
+  const char *name = lua_tostring(L, -1);
+  lua_pop(L, 1);     /* the string stays alive in def */
+  return name ? name : "unnamed";
+}
+
+/* Read k numbers from the table at idx (nil gives zeros when allow_nil). */
+void nz_lua_read_vector(lua_State *L, int idx, int k, double *v, const char *what, int allow_nil,
+                        const char *fname)
+{
+  if (allow_nil && lua_isnoneornil(L, idx)) {
+    memset(v, 0, (size_t)k * sizeof(double));
+    return;
+  }
+  if (!lua_istable(L, idx))
+    luaL_error(L, "bad argument to '%s' (%s: a table of %d numbers expected, got %s)", fname, what,
+               k, luaL_typename(L, idx));
+  if (luaL_len(L, idx) != k)
+    luaL_error(L, "bad argument to '%s' (%s: %d numbers expected, one per coordinate, got %d)",
+               fname, what, k, (int)luaL_len(L, idx));
+  for (int i = 0; i < k; i++) {
+    lua_geti(L, idx, i + 1);
+    int isnum;
+    v[i] = lua_tonumberx(L, -1, &isnum);
+    lua_pop(L, 1);
+    if (!isnum || !isfinite(v[i]))
+      luaL_error(L, "bad argument to '%s' (%s[%d] must be a finite number)", fname, what, i + 1);
+  }
+}
+
+void nz_lua_push_vector(lua_State *L, const double *v, int k)
+{
+  lua_createtable(L, k, 0);
+  for (int i = 0; i < k; i++) {
+    lua_pushnumber(L, v[i]);
+    lua_rawseti(L, -2, i + 1);
+  }
+}
+
+void nz_lua_push_matrix(lua_State *L, const double *M, int k)
+{
+  lua_createtable(L, k, 0);
+  for (int i = 0; i < k; i++) {
+    nz_lua_push_vector(L, M + (size_t)i * (size_t)k, k);
+    lua_rawseti(L, -2, i + 1);
+  }
+}
+
+static void append_numbers(luaL_Buffer *b, const double *v, int k)
+{
+  char num[40];
+  luaL_addchar(b, '{');
+  for (int i = 0; i < k; i++) {
+    fmt_num(num, sizeof num, v[i]);
+    if (i) luaL_addstring(b, ", ");
+    luaL_addstring(b, num);
+  }
+  luaL_addchar(b, '}');
+}
+
+void nz_lua_add_state(luaL_Buffer *msg, double t, const double *q, const double *qd, int k)
+{
+  char num[40];
+  fmt_num(num, sizeof num, t);
+  luaL_addstring(msg, " at t = ");
+  luaL_addstring(msg, num);
+  luaL_addstring(msg, ", q = ");
+  append_numbers(msg, q, k);
+  luaL_addstring(msg, ", qd = ");
+  append_numbers(msg, qd, k);
+}
+
+/* Raise the error of a failed core call, with the system's name; a failed
+ * user function's error starts with the user's file:line. */
+int nz_lua_raise_core(lua_State *L, bound_system *b, int st, const char *fname)
+{
+  const char *name = nz_lua_system_name(L, b->ev.def);
+  if (b->ev.interrupted) return nz_lua_raise_interrupt(L);
+  if (st == NZ_EFUNC) {
+    lua_rawgetp(L, LUA_REGISTRYINDEX, &b->ev);
+    lua_pushnil(L);
+    lua_rawsetp(L, LUA_REGISTRYINDEX, &b->ev);
+    const char *msg = lua_tostring(L, -1);
+    lua_pushfstring(L, "%s%ssystem '%s': %s", b->ev.where, b->ev.where[0] ? " " : "", name,
+                    msg ? msg : "a function failed");
+    return lua_error(L);
+  }
+  if (st == NZ_ENOMEM) return luaL_error(L, "system '%s': not enough memory in '%s'", name, fname);
+  return luaL_error(L, "system '%s': '%s' failed (status %d)", name, fname, st);
+}
+
+/* Arguments (def, ..., t, q, qd, qdd, higher) from `at` on: the state levels. */
+typedef struct state_buf {
+  double *data;
+  const double *levels[NZ_MAX_LEVELS];
+  int n;
+} state_buf;
+
+static void read_state(lua_State *L, int at, int k, state_buf *s, const char *fname)
+{
+  int extra = 0;
+  if (lua_istable(L, at + 3)) extra = (int)luaL_len(L, at + 3);
+  if (extra > NZ_MAX_LEVELS - 3) luaL_error(L, "bad argument to '%s' (too many higher derivatives)", fname);
+  s->n = 3 + extra;
+  s->data = lua_newuserdatauv(L, (size_t)s->n * (size_t)k * sizeof(double), 0);
+  static const char *const names[] = { "q", "qd", "qdd" };
+  for (int j = 0; j < 3; j++) {
+    s->levels[j] = s->data + (size_t)j * (size_t)k;
+    nz_lua_read_vector(L, at + j, k, (double *)s->levels[j], names[j], j == 2, fname);
+  }
+  for (int j = 0; j < extra; j++) {
+    lua_geti(L, at + 3, j + 1);
+    s->levels[3 + j] = s->data + (size_t)(3 + j) * (size_t)k;
+    nz_lua_read_vector(L, lua_gettop(L), k, (double *)s->levels[3 + j], "higher derivative", 0, fname);
+    lua_pop(L, 1);
+  }
+}
+
+static int check_order(lua_State *L, int idx, int lo, const char *fname)
+{
+  lua_Integer n = luaL_checkinteger(L, idx);
+  if (n < lo || n > NZ_MAX_EQ_ORDER)
+    return (int)luaL_error(L, "bad argument #1 to '%s' (order between %d and %d expected, got %I)",
+                           fname, lo, NZ_MAX_EQ_ORDER, (lua_Integer)n);
+  return (int)n;
+}
+
+/* ------------------------------------------------------------------ */
+/* Core functions                                                       */
+
+/* residual(def, form, n, t, q, qd, qdd, higher, want_terms) -> r [, terms] */
+static int ls_residual(lua_State *L)
+{
+  lua_settop(L, 9);   /* optional arguments read as nil, scratch above */
+  bound_system b;
+  nz_lua_bind_system(L, 1, &b);
+  int form = luaL_checkoption(L, 2, NULL, nz_form_names);
+  int n = check_order(L, 3, 1, "residual");
+  double t = luaL_checknumber(L, 4);
+  int k = b.sys.k, want_terms = lua_toboolean(L, 9);
+  state_buf s;
+  read_state(L, 5, k, &s, "residual");
+  double *buf = lua_newuserdatauv(L, 4 * (size_t)k * sizeof(double), 0);
+  nz_terms terms = { buf + k, buf + 2 * k, buf + 3 * k };
+  if (form == NZ_FORM_WASSMUTH && n < 2)
+    return luaL_error(L, "system '%s': Wassmuth's form needs n >= 2 (got %d)", nz_lua_system_name(L, 1), n);
+  if (form == NZ_FORM_WASSMUTH && !nz_system_has(&b.sys, NZ_PIECE_S))
+    return luaL_error(L, "system '%s': Wassmuth's form needs the acceleration energy S: build "
+                      "the system from particles (bodies = {...}) or give S", nz_lua_system_name(L, 1));
+  int st = nz_residual(&b.sys, form, n, t, s.levels, s.n, buf, want_terms ? &terms : NULL);
+  if (st) return nz_lua_raise_core(L, &b, st, "residual");
+  nz_lua_push_vector(L, buf, k);
+  if (!want_terms) return 1;
+  lua_createtable(L, 0, 3);
+  nz_lua_push_vector(L, terms.dFn, k);
+  lua_setfield(L, -2, "dFn");
+  nz_lua_push_vector(L, terms.dFq, k);
+  lua_setfield(L, -2, "dFq");
+  nz_lua_push_vector(L, terms.force, k);
+  lua_setfield(L, -2, "force");
+  return 2;
+}
+
+/* operator(def, which, m, t, q, qd, qdd, higher) with which in N, E, top,
+ * partial (the last accepts m = 0) */
+static int ls_operator(lua_State *L)
+{
+  lua_settop(L, 8);   /* optional arguments read as nil, scratch above */
+  static const char *const which_names[] = { "N", "E", "top", "partial", NULL };
+  bound_system b;
+  nz_lua_bind_system(L, 1, &b);
+  int which = luaL_checkoption(L, 2, NULL, which_names);
+  int m = check_order(L, 3, which == 3 ? 0 : 1, "operator");
+  double t = luaL_checknumber(L, 4);
+  int k = b.sys.k;
+  state_buf s;
+  read_state(L, 5, k, &s, "operator");
+  double *out = lua_newuserdatauv(L, (size_t)k * sizeof(double), 0);
+  int st = which == 0 ? nz_operator_N(&b.sys, m, t, s.levels, s.n, out)
+         : which == 1 ? nz_operator_E(&b.sys, m, t, s.levels, s.n, out)
+         : which == 2 ? nz_top_coefficient(&b.sys, m, t, s.levels, s.n, out)
+                      : nz_partial(&b.sys, m, t, s.levels, s.n, out);
+  if (st) return nz_lua_raise_core(L, &b, st, "operator");
+  nz_lua_push_vector(L, out, k);
+  return 1;
+}
+
+void nz_lua_read_tq_qd(lua_State *L, int k, double *t, double *q, double *qd, const char *fname)
+{
+  *t = luaL_checknumber(L, 2);
+  nz_lua_read_vector(L, 3, k, q, "q", 0, fname);
+  nz_lua_read_vector(L, 4, k, qd, "qd", 1, fname);
+}
+
+/* mass_bias(def, t, q, qd) -> M, h */
+static int ls_mass_bias(lua_State *L)
+{
+  lua_settop(L, 4);   /* optional arguments read as nil, scratch above */
+  bound_system b;
+  nz_lua_bind_system(L, 1, &b);
+  int k = b.sys.k;
+  double t, *buf = lua_newuserdatauv(L, ((size_t)k * (size_t)k + 3 * (size_t)k) * sizeof(double), 0);
+  double *q = buf, *qd = buf + k, *h = buf + 2 * k, *M = buf + 3 * k;
+  nz_lua_read_tq_qd(L, k, &t, q, qd, "mass");
+  int st = nz_mass_bias(&b.sys, t, q, qd, M, h);
+  if (st) return nz_lua_raise_core(L, &b, st, "mass");
+  nz_lua_push_matrix(L, M, k);
+  nz_lua_push_vector(L, h, k);
+  return 2;
+}
+
+/* The error of a singular or indefinite mass matrix, with the state. */
+int nz_lua_raise_singular_mass(lua_State *L, int def, double t, const double *q, const double *qd,
+                               int k, const nz_solve_info *info)
+{
+  luaL_Buffer msg;
+  char num[64];
+  luaL_buffinit(L, &msg);
+  lua_pushfstring(L, "system '%s': the mass matrix M = d2T/dqd2 is %s at t = ", nz_lua_system_name(L, def),
+                  info->not_spd ? "not positive definite" : "singular or badly conditioned");
+  luaL_addvalue(&msg);
+  fmt_num(num, sizeof num, t);
+  luaL_addstring(&msg, num);
+  luaL_addstring(&msg, ", q = ");
+  append_numbers(&msg, q, k);
+  luaL_addstring(&msg, ", qd = ");
+  append_numbers(&msg, qd, k);
+  snprintf(num, sizeof num, " (eigenvalues from %.3g to %.3g", info->eig_min, info->eig_max);
+  luaL_addstring(&msg, num);
+  if (info->eig_min > 0) {
+    snprintf(num, sizeof num, ", condition number %.3g", info->eig_max / info->eig_min);
+    luaL_addstring(&msg, num);
+  } else {
+    luaL_addstring(&msg, ", condition number infinite");
+  }
+  luaL_addstring(&msg, "): check T, or move away from this configuration");
+  luaL_pushresult(&msg);
+  return lua_error(L);
+}
+
+/* accel(def, t, q, qd [, rcond_min]) -> qdd: solves M qdd = -h by Cholesky. */
+static int ls_accel(lua_State *L)
+{
+  lua_settop(L, 5);   /* optional arguments read as nil, scratch above */
+  bound_system b;
+  nz_lua_bind_system(L, 1, &b);
+  int k = b.sys.k;
+  double rcond_min = luaL_optnumber(L, 5, NZ_RCOND_MIN);
+  double t, *buf = lua_newuserdatauv(L, 3 * (size_t)k * sizeof(double), 0);
+  double *q = buf, *qd = buf + k, *qdd = buf + 2 * k;
+  nz_lua_read_tq_qd(L, k, &t, q, qd, "accel");
+  nz_solve_info info;
+  int st = nz_accel(&b.sys, t, q, qd, rcond_min, qdd, &info);
+  if (st == NZ_ESINGULAR) return nz_lua_raise_singular_mass(L, 1, t, q, qd, k, &info);
+  if (st) return nz_lua_raise_core(L, &b, st, "accel");
+  nz_lua_push_vector(L, qdd, k);
+  return 1;
+}
+
+/* energy(def, t, q, qd) -> T (nil without T), V, F, H */
+static int ls_energy(lua_State *L)
+{
+  lua_settop(L, 4);   /* optional arguments read as nil, scratch above */
+  bound_system b;
+  nz_lua_bind_system(L, 1, &b);
+  int k = b.sys.k;
+  double t, T, V, F, H, *buf = lua_newuserdatauv(L, 2 * (size_t)k * sizeof(double), 0);
+  nz_lua_read_tq_qd(L, k, &t, buf, buf + k, "energy");
+  int st = nz_energy(&b.sys, t, buf, buf + k, &T, &V, &F, &H);
+  if (st) return nz_lua_raise_core(L, &b, st, "energy");
+  if (isnan(T)) lua_pushnil(L);
+  else lua_pushnumber(L, T);
+  lua_pushnumber(L, V);
+  lua_pushnumber(L, F);
+  lua_pushnumber(L, H);
+  return 4;
+}
+
+/* energy_terms(def, t, q, qd, qdd) -> dL/dt, T0, T1, d/dt(T1 + 2 T0) */
+static int ls_energy_terms(lua_State *L)
+{
+  lua_settop(L, 5);   /* optional arguments read as nil, scratch above */
+  bound_system b;
+  nz_lua_bind_system(L, 1, &b);
+  int k = b.sys.k;
+  double t = luaL_checknumber(L, 2), dLdt, T0, T1, rate;
+  double *buf = lua_newuserdatauv(L, 3 * (size_t)k * sizeof(double), 0);
+  nz_lua_read_vector(L, 3, k, buf, "q", 0, "energy_terms");
+  nz_lua_read_vector(L, 4, k, buf + k, "qd", 1, "energy_terms");
+  nz_lua_read_vector(L, 5, k, buf + 2 * k, "qdd", 1, "energy_terms");
+  int st = nz_lagrangian_time_partial(&b.sys, t, buf, buf + k, &dLdt);
+  if (!st) st = nz_kinetic_parts(&b.sys, t, buf, buf + k, buf + 2 * k, &T0, &T1, &rate);
+  if (st) return nz_lua_raise_core(L, &b, st, "energy_terms");
+  lua_pushnumber(L, dLdt);
+  lua_pushnumber(L, T0);
+  lua_pushnumber(L, T1);
+  lua_pushnumber(L, rate);
+  return 4;
+}
+
+/* piece(def, name, index, t, levels [, dt, dlevels]) -> outs [, douts]:
+ * one evaluation of a piece ("F", "T", "V", "Q", "S", "constraints";
+ * index 1-based) on jets, through the system's evaluator (its graph, or
+ * Lua), optionally along a state direction.  For tests that compare the
+ * two evaluators (tests/graph_diff_spec.lua).  levels: a list of lists of
+ * k jets; outputs have the lowest order and the most tangents of the
+ * arguments. */
+static const char *const piece_options[] = { "F", "T", "V", "Q", "S", "constraints", NULL };
+
+static void read_jet_levels(lua_State *L, int idx, int k, int nlev, nz_jet ***store)
+{
+  for (int j = 0; j < nlev; j++) {
+    if (lua_geti(L, idx, j + 1) != LUA_TTABLE) luaL_error(L, "piece: level %d must be a list of jets", j + 1);
+    for (int i = 0; i < k; i++) {
+      lua_geti(L, -1, i + 1);
+      store[j][i] = nz_lua_checkjet(L, -1);
+      lua_pop(L, 1);     /* the level table keeps it alive */
+    }
+    lua_pop(L, 1);       /* the levels table keeps the level alive */
+  }
+}
+
+static int ls_piece(lua_State *L)
+{
+  lua_settop(L, 7);
+  bound_system b;
+  nz_lua_bind_system(L, 1, &b);
+  int k = b.sys.k;
+  nz_piece piece = (nz_piece)luaL_checkoption(L, 2, NULL, piece_options);
+  int index = (int)luaL_checkinteger(L, 3) - 1;
+  nz_jet *t = nz_lua_checkjet(L, 4);
+  luaL_checktype(L, 5, LUA_TTABLE);
+  int nlev = (int)luaL_len(L, 5), with_dir = !lua_isnil(L, 6);
+  if (nlev < 1 || nlev > NZ_MAX_LEVELS) return luaL_error(L, "piece: 1 to %d levels expected", NZ_MAX_LEVELS);
+  nz_jet ***lv = lua_newuserdatauv(L, 2 * (size_t)nlev * sizeof(nz_jet **), 0);
+  nz_jet **cells = lua_newuserdatauv(L, 2 * (size_t)nlev * (size_t)k * sizeof(nz_jet *), 0);
+  for (int j = 0; j < 2 * nlev; j++) lv[j] = cells + (size_t)j * (size_t)k;
+  read_jet_levels(L, 5, k, nlev, lv);
+  int order = t->order, ntan = t->ntan;
+  for (int j = 0; j < nlev; j++)
+    for (int i = 0; i < k; i++) {
+      if (lv[j][i]->order < order) order = lv[j][i]->order;
+      if (lv[j][i]->ntan > ntan) ntan = lv[j][i]->ntan;
+    }
+  nz_direction dir = { 0 };
+  if (with_dir) {
+    dir.dt = nz_lua_checkjet(L, 6);
+    luaL_checktype(L, 7, LUA_TTABLE);
+    if ((int)luaL_len(L, 7) != nlev) return luaL_error(L, "piece: dlevels must have as many levels as levels");
+    read_jet_levels(L, 7, k, nlev, lv + nlev);
+  }
+  int nout = piece == NZ_PIECE_Q ? k : 1;
+  lua_createtable(L, nout, 0);
+  int outs = lua_gettop(L);
+  lua_createtable(L, nout, 0);
+  int douts = lua_gettop(L);
+  nz_jet **o = lua_newuserdatauv(L, 2 * (size_t)nout * sizeof(nz_jet *), 0);
+  for (int r = 0; r < nout; r++) {
+    o[r] = nz_lua_newjet(L, order, ntan);
+    lua_rawseti(L, outs, r + 1);
+    o[nout + r] = nz_lua_newjet(L, order, ntan);
+    lua_rawseti(L, douts, r + 1);
+  }
+  dir.dout = o + nout;
+  dir.dlevels = (nz_jet *const *const *)(lv + nlev);
+  int st = b.sys.ev.eval(b.sys.ev.ctx, piece, index, t, (nz_jet *const *const *)lv, nlev, o,
+                         with_dir ? &dir : NULL);
+  if (st) return nz_lua_raise_core(L, &b, st, "piece");
+  lua_pushvalue(L, outs);
+  if (!with_dir) return 1;
+  lua_pushvalue(L, douts);
+  return 2;
+}
+
+/* jet:derivative() lives with the jets; the forms' names are data. */
+static int ls_forms(lua_State *L)
+{
+  lua_createtable(L, NZ_FORM_COUNT, 0);
+  for (int f = 0; f < NZ_FORM_COUNT; f++) {
+    lua_pushstring(L, nz_form_names[f]);
+    lua_rawseti(L, -2, f + 1);
+  }
+  return 1;
+}
+
+static const luaL_Reg system_functions[] = {
+  { "residual", ls_residual }, { "operator", ls_operator }, { "mass_bias", ls_mass_bias },
+  { "accel", ls_accel }, { "energy", ls_energy }, { "forms", ls_forms },
+  { "energy_terms", ls_energy_terms }, { "piece", ls_piece }, { NULL, NULL }
+};
+
+void nz_lua_open_system(lua_State *L)
+{
+  lua_newtable(L);
+  luaL_setfuncs(L, system_functions, 0);
+  nz_lua_open_constraints(L);
+  nz_lua_open_linalg(L);
+  nz_lua_open_ode(L);
+  lua_pushinteger(L, NZ_MAX_EQ_ORDER);
+  lua_setfield(L, -2, "max_order");
+  lua_pushnumber(L, NZ_RCOND_MIN);
+  lua_setfield(L, -2, "rcond_min");
+  lua_setfield(L, -2, "mech");
+}

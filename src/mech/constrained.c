@@ -1,0 +1,565 @@
+/* constrained.c - constraint primitives and constrained accelerations (see
+ * constrained.h).  Linear algebra on GSL: the saddle-point matrix
+ * [M -A^T; A 0] is solved through its SVD, which gives its condition at no
+ * extra cost and, when it is singular, the constraints to blame. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <gsl/gsl_errno.h>
+#include <gsl/gsl_linalg.h>
+#include <gsl/gsl_multiroots.h>
+#include "mech/constrained.h"
+#include "core/linalg.h"
+
+/* ------------------------------------------------------------------ */
+/* Primitives                                                           */
+
+int nz_constraint_partials(const nz_system *s, int r, double t, const double *const *state,
+                           int nstate, double *value, double *dphi, double *dphidt)
+{
+  int k = s->k, L = nz_constraint_levels(s, r), D = L * k + 1;
+  nz_motion mo;
+  int st = nz_motion_init(&mo, k, L, 0, D, t, state, nstate);
+  if (st) return st;
+  nz_jet_free(mo.t);                            /* t carries direction L k */
+  if (!(mo.t = nz_jet_alloc(0, D))) { nz_motion_free(&mo); return NZ_ENOMEM; }
+  nz_jet_set_variable(mo.t, t, L * k);
+  for (int j = 0; j < L; j++)
+    for (int i = 0; i < k; i++) nz_motion_seed_slot(&mo, i, j * k + i, j);
+  st = nz_motion_eval(s, NZ_PIECE_PHI, r, &mo, NULL);
+  if (!st) {
+    *value = mo.out[0]->c[0];
+    for (int d = 0; d < L * k; d++) dphi[d] = nz_jet_tangent(mo.out[0], d)[0];
+    *dphidt = nz_jet_tangent(mo.out[0], L * k)[0];
+  }
+  nz_motion_free(&mo);
+  return st;
+}
+
+/* Make every slot (and t) constant in the series variable. */
+static void freeze(nz_motion *mo)
+{
+  for (int c = 1; c <= mo->K; c++) {
+    mo->t->c[c] = 0.0;
+    for (int j = 0; j < mo->nslots; j++)
+      for (int i = 0; i < mo->k; i++) mo->slot[j][i]->c[c] = 0.0;
+  }
+}
+
+int nz_constraint_curvature(const nz_system *s, int r, int m, double t, const double *const *state,
+                            int nstate, const double *v, double c[3])
+{
+  nz_motion mo;
+  int st = nz_motion_init(&mo, s->k, nz_constraint_levels(s, r), 2, 0, t, state, nstate);
+  if (st) return st;
+  if (m < 0 || m >= mo.nslots) { nz_motion_free(&mo); return NZ_EARG; }
+  freeze(&mo);
+  for (int i = 0; i < s->k; i++) mo.slot[m][i]->c[1] = v[i];
+  st = nz_motion_eval(s, NZ_PIECE_PHI, r, &mo, NULL);
+  if (!st)
+    for (int j = 0; j < 3; j++) c[j] = mo.out[0]->c[j];
+  nz_motion_free(&mo);
+  return st;
+}
+
+int nz_constraint_row(const nz_system *s, int r, int m, double t, const double *const *state,
+                      int nstate, double *A, double *value)
+{
+  return nz_constraint_row_stabilized(s, r, m, t, state, nstate, 0.0, 0.0, A, value);
+}
+
+int nz_constraint_row_stabilized(const nz_system *s, int r, int m, double t,
+                                 const double *const *state, int nstate, double alpha, double beta,
+                                 double *A, double *value)
+{
+  return nz_constraint_row_along(s, r, m, t, state, nstate, alpha, beta, NULL, A, value, NULL, NULL);
+}
+
+/* The row's value and gradient read from one output jet (the value or its
+ * derivative along a direction: the reading is linear). */
+static void read_row(const nz_jet *out, int m, int k, double alpha, double beta, double *A, double *value)
+{
+  int K = 2 - m;
+  const double *c = out->c;
+  double f = nz_factorial(K);
+  *value = f * c[K];
+  if (m == 0) *value += 2.0 * alpha * c[1] + beta * beta * c[0];   /* c: Phi, Phi', Phi''/2 */
+  if (m == 1) *value += alpha * c[0];
+  for (int i = 0; A && i < k; i++) A[i] = f * nz_jet_tangent(out, i)[K];   /* A NULL: the value only */
+}
+
+int nz_constraint_row_along(const nz_system *s, int r, int m, double t, const double *const *state,
+                            int nstate, double alpha, double beta, const nz_state_direction *dir,
+                            double *A, double *value, double *dA, double *dvalue)
+{
+  int k = s->k, K = 2 - m, st;
+  if (m < 0 || m > 2) return NZ_EARG;
+  if (!dir && s->constraint_row &&
+      (st = s->constraint_row(s->mass_bias_ctx, r, m, t, state, nstate, alpha, beta, A, value)) != NZ_EARG)
+    return st;
+  nz_motion mo;
+  st = nz_motion_init(&mo, k, nz_constraint_levels(s, r), K, k, t, state, nstate);
+  if (st) return st;
+  if (dir && (st = nz_motion_set_direction(&mo, dir))) { nz_motion_free(&mo); return st; }
+  for (int i = 0; i < k; i++) nz_motion_seed_level(&mo, i, i, 2);
+  st = nz_motion_eval(s, NZ_PIECE_PHI, r, &mo, NULL);
+  if (!st) {
+    read_row(mo.out[0], m, k, alpha, beta, A, value);
+    if (dir && dA && dvalue) read_row(mo.dout[0], m, k, alpha, beta, dA, dvalue);  /* derivative outputs given with dir */
+  }
+  nz_motion_free(&mo);
+  return st;
+}
+
+/* Column j: q'' + s e_j in the series variable, tangents on q'':
+ * the s-coefficient of tangent i is d^2 Phi / dq''_i dq''_j. */
+int nz_constraint_hessian(const nz_system *s, int r, double t, const double *const *state,
+                          int nstate, double *H)
+{
+  int k = s->k, st = NZ_OK;
+  for (int j = 0; j < k && !st; j++) {
+    nz_motion mo;
+    if ((st = nz_motion_init(&mo, k, nz_constraint_levels(s, r), 1, k, t, state, nstate))) return st;
+    freeze(&mo);
+    mo.slot[2][j]->c[1] = 1.0;
+    for (int i = 0; i < k; i++) nz_motion_seed_slot(&mo, i, i, 2);
+    st = nz_motion_eval(s, NZ_PIECE_PHI, r, &mo, NULL);
+    if (!st)
+      for (int i = 0; i < k; i++) H[i * k + j] = nz_jet_tangent(mo.out[0], i)[1];
+    nz_motion_free(&mo);
+  }
+  return st;
+}
+
+/* Rank of A (nc x k) and the constraints that take part in a dependence:
+ * the left singular vectors of A for zero singular values. */
+static void diagnose_dependence(int nc, int k, const double *A, nz_accel_report *rep)
+{
+  nz_svd d;
+  int transpose = nc <= k;          /* decompose A^T: its V spans constraint space */
+  if (nz_svd_of(&d, nc, k, A, transpose)) return;
+  int C = transpose ? nc : k;
+  double smax = gsl_vector_get(d.S, 0);
+  rep->rank_A = 0;
+  for (int c = 0; c < C; c++)
+    if (gsl_vector_get(d.S, (size_t)c) > 1e-10 * smax) rep->rank_A++;
+  if (rep->involved && transpose)
+    for (int c = rep->rank_A; c < C; c++)
+      for (int r = 0; r < nc; r++)
+        if (fabs(gsl_matrix_get(d.V, (size_t)r, (size_t)c)) > 0.1) rep->involved[r] = 1;
+  nz_svd_free(&d);
+}
+
+/* ------------------------------------------------------------------ */
+/* Accelerations                                                        */
+
+/* Everything needed to evaluate G(q'', lambda) = (M q'' + h - A^T lambda,
+ * Phi rows) and its Jacobian [M - sum lambda_r H_r, -A^T; A, 0]. */
+typedef struct kkt {
+  const nz_system *s;
+  const int *orders, *linear;
+  double alpha, beta;                 /* Baumgarte */
+  double t;
+  const double *q, *qd;
+  int k, nc, N;
+  double *M, *h, *A, *phi, *H, *x;   /* x: the point of the last evaluation */
+  int status;                         /* first failure of a user function  */
+} kkt;
+
+/* Evaluate G (and J if not NULL, N x N row-major) at x. */
+static int kkt_eval(kkt *c, const double *x, double *G, double *J)
+{
+  int k = c->k, nc = c->nc, N = c->N, st;
+  memcpy(c->x, x, (size_t)N * sizeof(double));
+  const double *state[3] = { c->q, c->qd, c->x };
+  for (int r = 0; r < nc; r++)
+    if ((st = nz_constraint_row_stabilized(c->s, r, c->orders[r], c->t, state, 3, c->alpha, c->beta,
+                                           c->A + (size_t)r * k, &c->phi[r])))
+      return st;
+  for (int i = 0; i < k; i++) {
+    double g = c->h[i];
+    for (int j = 0; j < k; j++) g += c->M[i * k + j] * x[j];
+    for (int r = 0; r < nc; r++) g -= c->A[(size_t)r * k + i] * x[k + r];
+    G[i] = g;
+  }
+  for (int r = 0; r < nc; r++) G[k + r] = c->phi[r];
+  if (!J) return NZ_OK;
+  memset(J, 0, (size_t)N * N * sizeof(double));
+  for (int i = 0; i < k; i++)
+    for (int j = 0; j < k; j++) J[i * N + j] = c->M[i * k + j];
+  for (int r = 0; r < nc; r++) {
+    if (c->orders[r] == 2 && !c->linear[r]) {
+      if ((st = nz_constraint_hessian(c->s, r, c->t, state, 3, c->H))) return st;
+      for (int i = 0; i < k; i++)
+        for (int j = 0; j < k; j++) J[i * N + j] -= x[k + r] * c->H[i * k + j];
+    }
+    for (int i = 0; i < k; i++) {
+      J[i * N + k + r] = -c->A[(size_t)r * k + i];
+      J[(k + r) * N + i] = c->A[(size_t)r * k + i];
+    }
+  }
+  return NZ_OK;
+}
+
+/* Scale [M -A^T; A 0] symmetrically, J <- D J D, and return D in d: q_i
+ * by 1/sqrt(M_ii) (at least 1e-8 of the largest entry of the M block, for a
+ * singular M), the multiplier of constraint r by 1/a_r, a_r its largest
+ * scaled gradient entry, so that every block is of size 1.  Unscaled, a
+ * circle of radius R puts entries of size R beside masses of size 1: the
+ * solve's residual, a few eps times the largest entry times the solution,
+ * is then of size eps R in (6.2), rounding the check would take for a
+ * violation; scaled, each row's residual is a few eps of its own terms. */
+static void equilibrate(const kkt *c, double *J, double *d)
+{
+  int k = c->k, N = c->N;
+  double mu = 0.0;
+  for (int i = 0; i < k; i++)
+    for (int j = 0; j < k; j++) mu = fmax(mu, fabs(J[i * N + j]));
+  if (!(mu > 0.0 && isfinite(mu))) mu = 1.0;
+  for (int i = 0; i < k; i++) d[i] = 1.0 / sqrt(fmax(fabs(J[i * N + i]), 1e-8 * mu));
+  for (int r = 0; r < c->nc; r++) {
+    double a = 0.0;
+    for (int i = 0; i < k; i++) a = fmax(a, fabs(J[(k + r) * N + i]) * d[i]);
+    d[k + r] = a > 0.0 && isfinite(a) ? 1.0 / a : 1.0;
+  }
+  for (int i = 0; i < N; i++)
+    for (int j = 0; j < N; j++) J[i * N + j] *= d[i] * d[j];
+}
+
+/* GSL multiroot callbacks: a failing user function stops the solver with
+ * GSL_EBADFUNC and its status is kept (no Lua error crosses GSL's frames). */
+static int gsl_fdf(const gsl_vector *x, void *p, gsl_vector *f, gsl_matrix *J)
+{
+  kkt *c = p;
+  int N = c->N;
+  double *G = f ? f->data : NULL, *Jm = NULL, *scratch = NULL;
+  for (int i = 0; i < N; i++)          /* the solver diverged: never feed NaN to the user */
+    if (!isfinite(gsl_vector_get(x, (size_t)i))) return GSL_EBADFUNC;
+  if (!G) G = scratch = malloc((size_t)N * sizeof(double));
+  if (J) Jm = malloc((size_t)N * N * sizeof(double));
+  int st = (!G || (J && !Jm)) ? NZ_ENOMEM : kkt_eval(c, x->data, G, Jm);
+  if (!st && J)
+    for (int i = 0; i < N; i++)
+      for (int j = 0; j < N; j++) gsl_matrix_set(J, (size_t)i, (size_t)j, Jm[i * N + j]);
+  free(Jm);
+  free(scratch);
+  if (st) { if (!c->status) c->status = st; return GSL_EBADFUNC; }
+  for (int i = 0; f && i < N; i++)
+    if (!isfinite(gsl_vector_get(f, (size_t)i))) return GSL_EBADFUNC;
+  return GSL_SUCCESS;
+}
+static int gsl_f(const gsl_vector *x, void *p, gsl_vector *f) { return gsl_fdf(x, p, f, NULL); }
+static int gsl_df(const gsl_vector *x, void *p, gsl_matrix *J) { return gsl_fdf(x, p, NULL, J); }
+
+/* Powell's hybrid method with the exact Jacobian (GSL hybridsj): Newton's
+ * step where it works, a trust region where plain Newton would cycle. */
+static int solve_nonlinear(kkt *c, double *x, const nz_accel_options *opt, double scale,
+                           nz_accel_report *rep)
+{
+  int N = c->N, st = NZ_OK;
+  gsl_multiroot_function_fdf fn = { gsl_f, gsl_df, gsl_fdf, (size_t)N, c };
+  gsl_multiroot_fdfsolver *solver = gsl_multiroot_fdfsolver_alloc(gsl_multiroot_fdfsolver_hybridsj, (size_t)N);
+  if (!solver) return NZ_ENOMEM;
+  gsl_vector_view xv = gsl_vector_view_array(x, (size_t)N);
+  int gs = gsl_multiroot_fdfsolver_set(solver, &fn, &xv.vector);
+  int it = 0;
+  while (gs == GSL_SUCCESS) {
+    double gmax = 0.0;
+    for (int i = 0; i < N; i++) gmax = fmax(gmax, fabs(gsl_vector_get(solver->f, (size_t)i)));
+    rep->residual = gmax;
+    rep->iterations = it;
+    if (gmax <= opt->newton_tol * scale) break;
+    if (it >= opt->newton_maxit) { gs = GSL_EMAXITER; break; }
+    gs = gsl_multiroot_fdfsolver_iterate(solver);
+    it++;
+  }
+  if (c->status) st = c->status;
+  else if (gs != GSL_SUCCESS) { rep->failure = NZ_ACCEL_NEWTON; st = NZ_EARG; }
+  else memcpy(x, solver->x->data, (size_t)N * sizeof(double));
+  gsl_multiroot_fdfsolver_free(solver);
+  return st;
+}
+
+/* The solve proper, with the classification in c->orders, c->linear: x
+ * (k + nc) on return; G holds G at the point before the last step. */
+static int solve(kkt *c, const nz_accel_options *opt, double *x, double *G, double *J, double *Jc,
+                 double *dx, nz_accel_report *rep)
+{
+  int k = c->k, nc = c->nc, N = c->N, st, nonlinear = 0;
+  size_t kk = (size_t)k * (size_t)k;
+  for (int r = 0; r < nc; r++) {
+    if (c->orders[r] > 2) { rep->failure = NZ_ACCEL_ORDER; return NZ_EARG; }
+    if (c->orders[r] == 2 && !c->linear[r]) nonlinear = 1;
+  }
+  memset(x, 0, (size_t)N * sizeof(double));
+  rep->iterations = 0;
+  rep->residual = 0.0;
+  rep->from_guess = 0;
+  double scale = 1.0;
+  for (int i = 0; i < k; i++) scale = fmax(scale, fabs(c->h[i]));
+
+  if (nonlinear) {
+    /* Start from the caller's guess or the unconstrained accelerations. */
+    if (opt->guess_qdd) {
+      memcpy(x, opt->guess_qdd, (size_t)k * sizeof(double));
+      if (opt->guess_lambda) memcpy(x + k, opt->guess_lambda, (size_t)nc * sizeof(double));
+      rep->from_guess = 1;
+    } else {
+      nz_solve_info info;
+      memcpy(Jc, c->M, kk * sizeof(double));
+      for (int i = 0; i < k; i++) G[i] = -c->h[i];
+      if (nz_solve_spd(k, Jc, G, x, opt->rcond_min, &info)) {
+        rep->failure = NZ_ACCEL_SINGULAR;
+        return NZ_ESINGULAR;
+      }
+    }
+    if ((st = solve_nonlinear(c, x, opt, scale, rep))) return st;
+  }
+  /* The linear solve (all constraints affine in q'': one step from 0 is
+   * exact), and for the nonlinear case a last step at the root, whose
+   * matrix tells the condition of the system and the multipliers' quality. */
+  if ((st = kkt_eval(c, x, G, J))) return st;
+  equilibrate(c, J, dx);
+  for (int i = 0; i < N; i++) Jc[i] = -G[i] * dx[i];
+  if ((st = nz_solve_svd(N, J, Jc, G, &rep->rcond))) return st;
+  for (int i = 0; i < N; i++) dx[i] *= G[i];
+  if (!(rep->rcond >= opt->rcond_min)) {
+    rep->failure = NZ_ACCEL_SINGULAR;
+    diagnose_dependence(nc, k, c->A, rep);
+    return NZ_ESINGULAR;
+  }
+  for (int i = 0; i < N; i++) x[i] += dx[i];
+  return NZ_OK;
+}
+
+/* ------------------------------------------------------------------ */
+/* The check after the solve                                            */
+
+/* Typical size of q^(j) at the state: its largest component, at least 1
+ * (a state at rest must not hide a dependence on the velocities).  Slots
+ * above q'' are not known at the acceleration level: they take the size
+ * of q''. */
+static double slot_size(const double *const *state, int k, int j)
+{
+  double m = 1.0;
+  const double *v = state[j < 2 ? j : 2];
+  for (int i = 0; i < k; i++) m = fmax(m, fabs(v[i]));
+  return m;
+}
+
+/* A fixed weight in [0.6, 1.4] for slot j of q_i: the check differentiates
+ * along one combination of the slots above the order, and a fixed,
+ * irregular one cannot cancel two real dependences except by accident. */
+static double slot_weight(int j, int i, int k) { return 1.0 + 0.4 * sin(1.7 + 2.385 * (j * k + i)); }
+
+/* Constraint r at x: its row's value (and for m = 2 its gradient A, as
+ * kkt_eval) and, in *high, its derivative along the slots above its order
+ * weighted by their sizes: one evaluation.  Below order 2 the row Phi^(2-m)
+ * is affine in q'' with A = dPhi/dq^(m) free of q'' as long as Phi does not
+ * depend on the slots above m, which *high tests: A from the solve stands,
+ * and the evaluation needs a single tangent. */
+static int check_row(kkt *c, int r, const double *const *state, double *high)
+{
+  int k = c->k, m = c->orders[r], K = 2 - m, D = m == 2 ? k + 1 : 1, st;
+  nz_motion mo;
+  if ((st = nz_motion_init(&mo, k, NZ_CONSTRAINT_SLOTS, K, D, c->t, state, 3))) return st;
+  if (m == 2)
+    for (int i = 0; i < k; i++) nz_motion_seed_level(&mo, i, i, 2);
+  for (int j = m + 1; j < NZ_CONSTRAINT_SLOTS; j++) {
+    double sj = slot_size(state, k, j);
+    for (int i = 0; i < k; i++) nz_jet_tangent(mo.slot[j][i], D - 1)[0] += slot_weight(j, i, k) * sj;
+  }
+  st = nz_motion_eval(c->s, NZ_PIECE_PHI, r, &mo, NULL);
+  if (!st) {
+    read_row(mo.out[0], m, k, c->alpha, c->beta, m == 2 ? c->A + (size_t)r * k : NULL, &c->phi[r]);
+    *high = nz_jet_tangent(mo.out[0], D - 1)[0];
+  }
+  nz_motion_free(&mo);
+  return st;
+}
+
+/* Check the solution x: (6.2) and the constraint rows against the sizes of
+ * their terms (phi_prev: the rows before the last step, whose value a0 is a
+ * term), and each constraint's order.  An acceleration counts at least 1 in
+ * the sizes, as in slot_size: terms that cancel at an equilibrium (h = 0 up
+ * to rounding, q'' = 0) must not turn rounding into a failure.  Returns
+ * NZ_OK with *failed = 0 when all pass; otherwise *failed = 1, bad[r] has
+ * bit 1 for a constraint of too low an order, 2 for a constraint row that
+ * fails, 4 when (6.2) fails (every constraint's gradient may have moved),
+ * and rep holds the worst row. */
+static int check_solution(kkt *c, const double *x, const double *phi_prev, int *bad, int *failed,
+                          nz_accel_report *rep)
+{
+  int k = c->k, nc = c->nc, st;
+  const double *state[3] = { c->q, c->qd, x };
+  double worst = 0.0;
+  *failed = 0;
+  memcpy(c->x, x, (size_t)c->N * sizeof(double));
+  for (int r = 0; r < nc; r++) {
+    double high, size = fabs(phi_prev[r]), grad = 0.0;
+    bad[r] = 0;
+    if ((st = check_row(c, r, state, &high))) return st;
+    for (int i = 0; i < k; i++) {
+      size += fabs(c->A[(size_t)r * k + i]) * fmax(fabs(x[i]), 1.0);
+      grad += fabs(c->A[(size_t)r * k + i]);
+    }
+    double top = grad * slot_size(state, k, c->orders[r]);
+    if (fabs(high) > NZ_ACCEL_CHECK_TOL * top) {
+      double rel = top > 0 ? fabs(high) / top : INFINITY;
+      bad[r] |= 1;
+      if (!*failed || rel > worst) {
+        worst = rel;
+        rep->check_row = k + r;
+        rep->check_violation = fabs(high);
+        rep->check_size = top;
+      }
+      *failed = 1;
+    }
+    if (fabs(c->phi[r]) > NZ_ACCEL_CHECK_TOL * size) {
+      bad[r] |= 2;
+      double rel = size > 0 ? fabs(c->phi[r]) / size : INFINITY;
+      if (!*failed || rel > worst) {
+        worst = rel;
+        rep->check_row = k + r;
+        rep->check_violation = fabs(c->phi[r]);
+        rep->check_size = size;
+      }
+      *failed = 1;
+    }
+  }
+  for (int i = 0; i < k; i++) {
+    double g = c->h[i], size = fabs(c->h[i]);
+    for (int j = 0; j < k; j++) {
+      g += c->M[i * k + j] * x[j];
+      size += fabs(c->M[i * k + j]) * fmax(fabs(x[j]), 1.0);
+    }
+    for (int r = 0; r < nc; r++) {
+      g -= c->A[(size_t)r * k + i] * x[k + r];
+      size += fabs(c->A[(size_t)r * k + i] * x[k + r]);
+    }
+    if (fabs(g) > NZ_ACCEL_CHECK_TOL * size) {
+      for (int r = 0; r < nc; r++) bad[r] |= 4;
+      double rel = size > 0 ? fabs(g) / size : INFINITY;
+      if (!*failed || rel > worst) {
+        worst = rel;
+        rep->check_row = i;
+        rep->check_violation = fabs(g);
+        rep->check_size = size;
+      }
+      *failed = 1;
+    }
+  }
+  return NZ_OK;
+}
+
+/* Classify the constraints the check blamed again at this state: the order
+ * from the partial derivatives at (q, q', x), each slot weighted by its
+ * size, as in the check; a second-order constraint is then solved
+ * by Newton (which is exact in one step when it is linear after all).
+ * Returns 1 when some classification changed, 0 when none did; -1 with
+ * rep->check_order set for a constraint of order above 2 here. */
+static int reclassify(kkt *c, const double *x, const int *bad, int *orders, int *linear,
+                      double *dphi, nz_accel_report *rep, int *status)
+{
+  int k = c->k, L = NZ_CONSTRAINT_SLOTS, changed = 0;
+  const double *state[3] = { c->q, c->qd, x };
+  for (int r = 0; r < c->nc; r++) {
+    if (!bad[r]) continue;
+    int m = orders[r];
+    if (bad[r] & 1) {
+      double value, dphidt, size[NZ_CONSTRAINT_SLOTS];
+      if ((*status = nz_constraint_partials(c->s, r, c->t, state, 3, &value, dphi, &dphidt))) return 0;
+      for (int j = 0; j < L; j++) {
+        size[j] = 0.0;
+        for (int i = 0; i < k; i++) size[j] += fabs(dphi[j * k + i]);
+        size[j] *= slot_size(state, k, j);
+      }
+      /* The check's test slot by slot: its weighted sum over the slots
+       * above m exceeded tol x size[m], so one of them exceeds a fraction
+       * of that (the weights are at most 1.4, the slots at most 3). */
+      for (int j = L - 1; j > m; j--)
+        if (size[j] > 0.1 * NZ_ACCEL_CHECK_TOL * size[m]) { m = j; break; }
+      if (m > 2) {
+        rep->check_row = k + r;
+        rep->check_order = m;
+        return -1;
+      }
+    }
+    if (m == 2 && (linear[r] || m != orders[r])) {
+      orders[r] = 2;
+      linear[r] = 0;
+      changed = 1;
+      rep->reclassified++;
+    } else if (m != orders[r]) {
+      orders[r] = m;
+      changed = 1;
+      rep->reclassified++;
+    }
+  }
+  return changed;
+}
+
+int nz_accel_constrained(const nz_system *s, const int *orders, const int *linear, double t,
+                         const double *q, const double *qd, const nz_accel_options *opt,
+                         double *qdd, double *lambda, nz_accel_report *rep)
+{
+  int k = s->k, nc = s->nc, N = k + nc, st = NZ_OK;
+  rep->failure = NZ_ACCEL_OK;
+  rep->iterations = 0;
+  rep->residual = 0.0;
+  rep->rank_A = nc;
+  rep->from_guess = 0;
+  rep->reclassified = 0;
+  rep->check_row = -1;
+  rep->check_order = -1;
+  rep->check_violation = rep->check_size = 0.0;
+  size_t kk = (size_t)k * (size_t)k, NN = (size_t)N * (size_t)N;
+  double *buf = calloc(2 * kk + 2 * NN + (size_t)nc * (size_t)k + 6 * (size_t)N + (size_t)k
+                       + (size_t)NZ_CONSTRAINT_SLOTS * (size_t)k, sizeof(double));
+  int *flags = calloc(3 * (size_t)nc + 1, sizeof(int));
+  if (!buf || !flags) { free(buf); free(flags); return NZ_ENOMEM; }
+  int *ord = flags, *lin = flags + nc, *bad = flags + 2 * nc;
+  memcpy(ord, orders, (size_t)nc * sizeof(int));
+  memcpy(lin, linear, (size_t)nc * sizeof(int));
+  kkt c = { s, ord, lin, opt->baumgarte_alpha, opt->baumgarte_beta, t, q, qd, k, nc, N,
+            NULL, NULL, NULL, NULL, NULL, NULL, NZ_OK };
+  c.M = buf;
+  c.H = c.M + kk;
+  double *J = c.H + kk, *Jc = J + NN;
+  c.A = Jc + NN;
+  double *G = c.A + (size_t)nc * k, *x = G + N, *dx = x + N;
+  c.phi = dx + N;
+  c.x = c.phi + N;
+  c.h = c.x + N;
+  double *phi_prev = c.h + k, *dphi = phi_prev + N;
+
+  if ((st = nz_mass_bias(s, t, q, qd, c.M, c.h))) goto done;
+  if ((st = solve(&c, opt, x, G, J, Jc, dx, rep))) goto done;
+  if (!opt->skip_check) {
+    /* Check; when it fails, classify the blamed constraints again here and
+     * solve once more; a second failure is the caller's error. */
+    for (int pass = 0; pass < 2; pass++) {
+      int failed, changed;
+      memcpy(phi_prev, G + k, (size_t)nc * sizeof(double));
+      if ((st = check_solution(&c, x, phi_prev, bad, &failed, rep)) || !failed) break;
+      changed = pass == 0 ? reclassify(&c, x, bad, ord, lin, dphi, rep, &st) : 0;
+      if (st) break;
+      if (changed <= 0) { rep->failure = NZ_ACCEL_CHECK; st = NZ_EARG; break; }
+      if ((st = solve(&c, opt, x, G, J, Jc, dx, rep))) break;
+    }
+    if (st) goto done;
+  }
+  memcpy(qdd, x, (size_t)k * sizeof(double));
+  memcpy(lambda, x + k, (size_t)nc * sizeof(double));
+  if (rep->A) memcpy(rep->A, c.A, (size_t)nc * (size_t)k * sizeof(double));
+  if (rep->used) memcpy(rep->used, flags, 2 * (size_t)nc * sizeof(int));
+done:
+  free(buf);
+  free(flags);
+  return st;
+}
+
+void nz_constraint_dependence(int nc, int k, const double *A, nz_accel_report *rep)
+{
+  diagnose_dependence(nc, k, A, rep);
+}

@@ -1,0 +1,119 @@
+/* constrained.h - constraints of any order and the motion they allow
+ * (THEORY.md §6-§8).
+ *
+ * A constraint Phi_r(t, q, q', q'', q''', ...) = 0 has an order m (the highest
+ * derivative it depends on) and is linear or not in q^(m); both are found
+ * numerically (lua/nz/constraints.lua) from the primitives below.  At the
+ * acceleration level (§6) a constraint of order m <= 2 is differentiated
+ * 2 - m times, which makes it affine in q'' unless m = 2 and it is nonlinear
+ * there; then (6.2) and Phi = 0 are solved together by Newton's method. */
+#ifndef NZ_CONSTRAINED_H
+#define NZ_CONSTRAINED_H
+
+#include "mech/mech.h"
+
+/* Value, partial derivatives with respect to every slot (dphi[j*k + i] =
+ * dPhi/dq_i^(j), j = 0..nz_constraint_levels(s, r)-1) and dPhi/dt, at the state. */
+int nz_constraint_partials(const nz_system *s, int r, double t, const double *const *state,
+                           int nstate, double *value, double *dphi, double *dphidt);
+
+/* Phi along q^(m) + s v, as a series in s: c[0] + c[1] s + c[2] s^2.
+ * c[2] = v^T H v / 2 vanishes for every v exactly when Phi is affine in q^(m). */
+int nz_constraint_curvature(const nz_system *s, int r, int m, double t, const double *const *state,
+                            int nstate, const double *v, double c[3]);
+
+/* The constraint at the acceleration level: Phi^(2-m) at the state's q'' in
+ * *value, and its gradient A = d Phi^(2-m) / d q'' (= dPhi/dq^(m) by (2.1)). */
+int nz_constraint_row(const nz_system *s, int r, int m, double t, const double *const *state,
+                      int nstate, double *A, double *value);
+/* The same row with Baumgarte's terms added to the value: for m = 0,
+ * Phi'' + 2 alpha Phi' + beta^2 Phi; for m = 1, Phi' + alpha Phi (the
+ * lower coefficients of the same jet give Phi and Phi'). */
+int nz_constraint_row_stabilized(const nz_system *s, int r, int m, double t,
+                                 const double *const *state, int nstate, double alpha, double beta,
+                                 double *A, double *value);
+/* The same, with the derivatives dA and dvalue along a state direction. */
+int nz_constraint_row_along(const nz_system *s, int r, int m, double t, const double *const *state,
+                            int nstate, double alpha, double beta, const nz_state_direction *dir,
+                            double *A, double *value, double *dA, double *dvalue);
+
+/* d^2 Phi / dq''^2 (k x k, row-major) of a second-order constraint. */
+int nz_constraint_hessian(const nz_system *s, int r, double t, const double *const *state,
+                          int nstate, double *H);
+
+typedef struct nz_accel_options {
+  double rcond_min;         /* below this reciprocal condition: singular   */
+  double newton_tol;        /* |G| <= tol (1 + |h|) ends Newton             */
+  int newton_maxit;
+  const double *guess_qdd;  /* Newton's start, or NULL: unconstrained qdd   */
+  const double *guess_lambda;
+  double baumgarte_alpha;   /* Baumgarte stabilization (0, 0: none):           */
+  double baumgarte_beta;    /* Phi'' + 2 alpha Phi' + beta^2 Phi = 0 (holonomic), */
+                            /* Phi' + alpha Phi = 0 (first order)               */
+  int skip_check;           /* 1: trust the solve (only to measure the check's */
+                            /* cost); 0, the default, checks every solution    */
+} nz_accel_options;
+
+#define NZ_ACCEL_DEFAULTS { 1e-13, 1e-12, 50, NULL, NULL, 0.0, 0.0, 0 }
+
+/* The check after every solve: a row of (6.2) or of the constraints fails
+ * when |G| > NZ_ACCEL_CHECK_TOL x (the sum of the sizes of its terms), and a
+ * constraint classified of order m fails when its derivative along the slots
+ * above m, weighted by their typical sizes, exceeds NZ_ACCEL_CHECK_TOL x the
+ * size of its q^(m) terms.  A backward-stable solve leaves relative residuals
+ * of a few k eps (1e-15); 1e-10 leaves five orders for rounding in the
+ * user's terms, and matches the integrator's default rtol: an error the check
+ * lets pass is below what the integration itself commits. */
+#define NZ_ACCEL_CHECK_TOL 1e-10
+
+typedef enum nz_accel_failure {
+  NZ_ACCEL_OK = 0,
+  NZ_ACCEL_SINGULAR,        /* [M A^T; A 0] singular or badly conditioned     */
+  NZ_ACCEL_NEWTON,          /* Newton did not converge                        */
+  NZ_ACCEL_ORDER,           /* a constraint of order > 2                      */
+  NZ_ACCEL_CHECK,           /* the solution fails the check, also after the    */
+                            /* constraints were classified again at the state  */
+  NZ_ACCEL_TOP_SINGULAR,    /* level p, a constraint nonlinear in q^(p): the  */
+                            /* Jacobian in (q^(p), lambda) is singular        */
+  NZ_ACCEL_TOP_NEWTON       /* level p: Newton on (6.2) and the constraints   */
+                            /* for (q^(p), lambda) did not converge           */
+} nz_accel_failure;
+
+typedef struct nz_accel_report {
+  nz_accel_failure failure;
+  int iterations;           /* Newton iterations; 0 for one linear solve      */
+  double residual;          /* max |G| of (6.2) and the constraints at the end */
+  double rcond;             /* sigma_min / sigma_max of the last matrix       */
+  int rank_A;               /* rank of A (constraint gradients)               */
+  int *involved;            /* caller's nc ints: 1 for constraints in a dependence */
+  int from_guess;           /* Newton started from the caller's guess         */
+  double *A;                /* caller's nc x k, or NULL: the gradients A at the end */
+  int reclassified;         /* constraints classified again at this state     */
+  int *used;                /* caller's 2 nc ints, or NULL: the orders, then   */
+                            /* the linear flags, the solution was found with   */
+  /* NZ_ACCEL_CHECK: the row that failed (0..k-1: (6.2) for q_i; k + r:
+   * constraint r), its violation |G| and its size (sum of |terms|); with
+   * check_order >= 0, constraint r depends on q^(check_order) here, above
+   * the order 2 an acceleration-level solve can impose, and the violation
+   * and size are those of its terms above and at its classified order. */
+  int check_row, check_order;
+  double check_violation, check_size;
+} nz_accel_report;
+
+/* Rank of the gradients A (nc x k) into rep->rank_A, and rep->involved[r]
+ * set for the constraints that take part in a dependence. */
+void nz_constraint_dependence(int nc, int k, const double *A, nz_accel_report *rep);
+
+/* Accelerations and multipliers of M q'' + h = A^T lambda with the
+ * constraints closed at the acceleration level.  orders[r] and linear[r]
+ * come from the classification.  Every solution is checked (see
+ * NZ_ACCEL_CHECK_TOL); when the check fails, the constraints it blames are
+ * classified again at this state (order, and linearity in q'') and the
+ * system is solved again, by Newton where a constraint is nonlinear here.
+ * Returns NZ_OK, NZ_ESINGULAR (report says why), or NZ_EARG
+ * (report.failure = NZ_ACCEL_NEWTON / NZ_ACCEL_ORDER / NZ_ACCEL_CHECK). */
+int nz_accel_constrained(const nz_system *s, const int *orders, const int *linear, double t,
+                         const double *q, const double *qd, const nz_accel_options *opt,
+                         double *qdd, double *lambda, nz_accel_report *rep);
+
+#endif

@@ -1,0 +1,211 @@
+/* mech.h - generalized equations of motion of any order (THEORY.md §2-§5, §11).
+ *
+ * Plain C: the mechanics reaches the user's functions only through the
+ * evaluator below ("evaluate this piece on these jets"), so that a faster
+ * evaluator (an expression graph recorded once and run in C) can replace the
+ * Lua callbacks without touching this module.
+ *
+ * Notation: k coordinates; the state is given as derivative levels,
+ * state[j][i] = q_i^(j) (state[0] = q, state[1] = q', state[2] = q'', ...).
+ * A jet of q_i of order K holds a_{i,j} = q_i^(j)/j!; the jet of the velocity
+ * slot holds b_{i,j} = q_i^(j+1)/j! (THEORY.md §3).  The function F is the
+ * kinetic part, T plus any general Lagrangian pieces; V enters every form
+ * through its gradient only, and Q is the non-potential force. */
+#ifndef NZ_MECH_H
+#define NZ_MECH_H
+
+#include "jets/jet.h"
+
+#define NZ_MAX_EQ_ORDER 100     /* highest n of (3.1); n! must stay finite */
+#define NZ_MAX_LEVELS (NZ_MAX_EQ_ORDER + 2)
+
+/* Statuses beyond jet.h's */
+#define NZ_EFUNC 100   /* a user function failed; the evaluator holds the message */
+#define NZ_EARG 101    /* a request the system cannot answer (e.g. no S for Wassmuth) */
+#define NZ_ESINGULAR 102   /* singular or ill-conditioned matrix */
+
+typedef enum nz_piece {
+  NZ_PIECE_F,     /* F(t, q, q'): T and Lagrangian pieces, one output          */
+  NZ_PIECE_T,     /* T alone (energy), one output                               */
+  NZ_PIECE_V,     /* V(t, q), one output                                        */
+  NZ_PIECE_Q,     /* Q(t, q, q'), k outputs                                     */
+  NZ_PIECE_S,     /* S along the motion: receives the q series, one output      */
+  NZ_PIECE_PHI,   /* constraint number `index` (0-based), one output            */
+  NZ_PIECE_COUNT
+} nz_piece;
+
+/* A direction of differentiation with respect to the state (a second,
+ * independent infinitesimal eta on top of the jets' own tangents): the
+ * arguments move by eta dt (t) and eta dlevels[j][i] (slot j of q_i), and
+ * the evaluator adds the eta-part of each output to dout.  This is what the
+ * exact Jacobian of the motion needs (mech_jacobian.c). */
+typedef struct nz_direction {
+  const nz_jet *dt;
+  nz_jet *const *const *dlevels;   /* one per level passed to eval */
+  nz_jet *const *dout;
+} nz_direction;
+
+typedef struct nz_evaluator {
+  /* Evaluate `piece` at the jets t and levels[0..nlevels-1] (levels[j][i] is
+   * the series of the j-th derivative slot of q_i), adding nothing and
+   * writing the outputs into out[0..] (1 jet, or k for NZ_PIECE_Q), whose
+   * shape the caller set.  With dir != NULL, also the derivatives of the
+   * outputs along dir into dir->dout.  Returns NZ_OK, or NZ_EFUNC with the
+   * message kept by the evaluator. */
+  int (*eval)(void *ctx, nz_piece piece, int index, const nz_jet *t,
+              nz_jet *const *const *levels, int nlevels, nz_jet *const *out,
+              const nz_direction *dir);
+  void *ctx;
+} nz_evaluator;
+
+/* Constraints receive at least this many derivative slots (q, q', q'',
+ * q'''), and more when they ask for them (nz_system.levels). */
+#define NZ_CONSTRAINT_SLOTS 4
+
+struct nz_solve_info;   /* linalg.h */
+
+typedef struct nz_system {
+  int k;
+  int nc;                    /* number of constraints */
+  unsigned has;              /* bit (1u << piece) set when the piece exists */
+  nz_evaluator ev;
+  /* Derivative slots constraint r receives (q .. q^(levels[r]-1)); NULL, or
+   * fewer than nlevels entries: NZ_CONSTRAINT_SLOTS. */
+  const int *levels;
+  int nlevels;
+  /* Optional: M and h of nz_mass_bias by a faster path than the jets (the
+   * recorded graphs, mech_graph.c); a return of NZ_EARG means "not here,
+   * take the jets". */
+  int (*mass_bias)(void *ctx, double t, const double *q, const double *qd, double *M, double *h);
+  /* Optional: nz_accel's whole solve the same way (same contract). */
+  int (*accel)(void *ctx, double t, const double *q, const double *qd, double rcond_min,
+               double *qdd, struct nz_solve_info *info);
+  /* Optional: a constraint's row at the acceleration level on doubles
+   * (constrained.h's nz_constraint_row_stabilized; same contract). */
+  int (*constraint_row)(void *ctx, int r, int m, double t, const double *const *state, int nstate,
+                        double alpha, double beta, double *A, double *value);
+  void *mass_bias_ctx;   /* of all three */
+} nz_system;
+
+static inline int nz_system_has(const nz_system *s, nz_piece p) { return (s->has >> p) & 1u; }
+
+/* The slots constraint r receives, and the most any constraint receives. */
+int nz_constraint_levels(const nz_system *s, int r);
+int nz_constraint_levels_max(const nz_system *s);
+
+/* Jets of a motion: slot j of q_i holds q_i^(j+c)/c!, c = 0..K (slot 0 is
+ * q, slot 1 the velocity slot), and t = t0 + (t - t0).  The pieces of the
+ * mechanics (this file and constrained.c) are all evaluations of these. */
+typedef struct nz_motion {
+  int k, K, D, nslots;   /* nslots <= NZ_MAX_LEVELS */
+  nz_jet *t;
+  nz_jet ***slot;        /* nslots arrays of k jets */
+  nz_jet **out;          /* k output jets */
+  /* An optional direction (nz_motion_set_direction): */
+  nz_jet *dt;
+  nz_jet ***dslot;
+  nz_jet **dout;
+} nz_motion;
+
+/* A state direction: dt, and dq, dqd (k values each; q'' and above fixed). */
+typedef struct nz_state_direction {
+  double dt;
+  const double *dq, *dqd;
+} nz_state_direction;
+
+int nz_motion_init(nz_motion *m, int k, int nslots, int K, int D, double t,
+                   const double *const *state, int nstate);
+void nz_motion_free(nz_motion *m);
+/* Make the next evaluations also differentiate along the state direction. */
+int nz_motion_set_direction(nz_motion *m, const nz_state_direction *d);
+/* Seed direction d on q_i^(level) wherever it appears (THEORY.md §3). */
+void nz_motion_seed_level(nz_motion *m, int i, int d, int level);
+/* Seed direction d on slot j of q_i as a whole: a partial derivative with
+ * respect to that argument of the function, along the motion. */
+void nz_motion_seed_slot(nz_motion *m, int i, int d, int j);
+/* Evaluate a piece (constraint `index`); qd, if given, replaces slot 1.
+ * Each piece receives its own slots (F, T, Q: q, q'; V, S: q; constraint r:
+ * nz_constraint_levels); NZ_EARG when the motion has fewer. */
+int nz_motion_eval(const nz_system *s, nz_piece p, int index, nz_motion *m, nz_jet **qd);
+nz_jet **nz_jets_alloc(int k, int K, int D);
+void nz_jets_free(nz_jet **v, int k);
+double nz_factorial(int n);
+
+/* The forms of the equations; all give the same residual (THEORY.md). */
+typedef enum nz_form {
+  NZ_FORM_GENERALIZED,  /* (3.1)  (1/n)(dF^(n)/dq^(n) - (n+1) dF/dq)            */
+  NZ_FORM_LAGRANGE,     /*        d/dt dF/dq' - dF/dq                          */
+  NZ_FORM_DIFFERENCE,   /* (3.2)  n dF^(n)/dq^(n) - (n+1) dF^(n-1)/dq^(n-1)      */
+  NZ_FORM_EULER,        /* (3.3)  n d/dt(dF^(n-1)/dq^(n)) - dF^(n-1)/dq^(n-1)   */
+  NZ_FORM_APPELL,       /* (4.2)  dR_n/dq^(n), R_n = (F^(n) - (n+1) F_0^(n))/n  */
+  NZ_FORM_EXTREMAL,     /* (4.3)  dK_n/dq^(n), K_n = R_n - sum Q q^(n)          */
+  NZ_FORM_WASSMUTH,     /* Wassmuth: dS^(n-2)/dq^(n), particles only, n >= 2   */
+  NZ_FORM_COUNT
+} nz_form;
+
+extern const char *const nz_form_names[NZ_FORM_COUNT];
+
+/* Terms of (3.1) for printing, each k values (any pointer may be NULL). */
+typedef struct nz_terms {
+  double *dFn;     /* dF^(n)/dq^(n)                         */
+  double *dFq;     /* dF/dq                                 */
+  double *force;   /* Q - dV/dq: the whole generalized force */
+} nz_terms;
+
+/* Residual of order n of the chosen form: r = lhs - (Q - dV/dq), k values.
+ * state has nstate levels (at least 3: q, q', q''); levels the jets need
+ * beyond those are taken as 0 (the result does not depend on them). */
+int nz_residual(const nz_system *s, nz_form form, int n, double t, const double *const *state,
+                int nstate, double *r, nz_terms *terms);
+
+/* The operators of §5 on F:  N^m = dF^(m)/dq^(m) - 2 dF^(m-1)/dq^(m-1) and
+ * E^m = d/dt(dF^(m-1)/dq^(m)) - dF^(m-1)/dq^(m-1), k values each. */
+int nz_operator_N(const nz_system *s, int m, double t, const double *const *state, int nstate,
+                  double *out);
+int nz_operator_E(const nz_system *s, int m, double t, const double *const *state, int nstate,
+                  double *out);
+/* dF^(m)/dq^(m) (m >= 0; m = 0 gives dF/dq), by seeding q^(m) (§3). */
+int nz_partial(const nz_system *s, int m, double t, const double *const *state, int nstate,
+               double *out);
+/* dF^(m-1)/dq^(m) at t0, computed by seeding q^(m) (the coefficient of the top
+ * derivative of F^(m-1): THEORY.md §3 says it is dF/dq'). */
+int nz_top_coefficient(const nz_system *s, int m, double t, const double *const *state,
+                       int nstate, double *out);
+
+/* M and h of M q'' + h = 0, where h = r(q'' = 0) includes -Q + dV/dq
+ * (THEORY.md §11): M is k x k row-major. */
+int nz_mass_bias(const nz_system *s, double t, const double *q, const double *qd, double *M,
+                 double *h);
+
+/* dQ_i/dq'_j (k x k, row-major): whether the forces depend on velocities. */
+int nz_force_velocity_jacobian(const nz_system *s, double t, const double *q, const double *qd,
+                               double *J);
+
+/* dL/dt with q and q' held (L = F - V): the explicit time dependence (§9). */
+int nz_lagrangian_time_partial(const nz_system *s, double t, const double *q, const double *qd,
+                               double *dLdt);
+
+/* T = T2 + T1 + T0 by degree in q' (§9; T is the T piece, or F without one):
+ * T0, T1 at the state and d/dt (T1 + 2 T0) along the motion with q''.
+ * T(t, q, s q') is evaluated at s = 0 with a tangent along s. */
+int nz_kinetic_parts(const nz_system *s, double t, const double *q, const double *qd,
+                     const double *qdd, double *T0, double *T1, double *rate);
+
+/* Accelerations of an unconstrained system: M qdd = -h by Cholesky (linalg.h);
+ * NZ_ESINGULAR with info filled when M is not positive definite or its
+ * reciprocal condition is below rcond_min. */
+struct nz_solve_info;
+int nz_accel(const nz_system *s, double t, const double *q, const double *qd, double rcond_min,
+             double *qdd, struct nz_solve_info *info);
+
+/* Nielsen's residual r (n = 1) at state (q, q', q'') and its derivative dr
+ * along the state direction (q'' held): the heart of the Jacobian. */
+int nz_nielsen_residual_along(const nz_system *s, double t, const double *const *state,
+                              const nz_state_direction *dir, double *r, double *dr);
+
+/* Energies: T (NaN when there is no T piece), V (0 without V), F, and the
+ * generalized energy H = sum q' dL/dq' - L with L = F - V. */
+int nz_energy(const nz_system *s, double t, const double *q, const double *qd, double *T,
+              double *V, double *F, double *H);
+
+#endif

@@ -1,0 +1,585 @@
+/* mech_graph.c - a system's recorded pieces behind nz_evaluator, and the
+ * mass matrix and bias derived from them (mech_graph.h). */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include "graph/graph_native.h"
+#include "core/linalg.h"
+#include "mech/mech_graph.h"
+
+/* A plan on doubles that runs as machine code once it has earned it
+ * (graph_native.h): after NZ_NATIVE_AFTER node evaluations in auto mode, at
+ * its first use with native on, never with native off or when compiling
+ * fails (the reason is kept for graph_info). */
+typedef struct dplan {
+  nz_graph_plan *plan;
+  int *outs, nout;
+  nz_native *native;
+  double work;          /* nodes interpreted so far */
+  int tried;
+} dplan;
+
+typedef struct compiled_piece {
+  int n;                  /* outputs: 0 when the piece is not compiled */
+  int *nodes;
+  nz_graph_plan *plan;
+} compiled_piece;
+
+struct nz_compiled {
+  int k, np, nc, nslots, ninputs;
+  nz_graph *g;
+  double *params;                      /* np current values */
+  compiled_piece piece[NZ_PIECE_COUNT];   /* PHI unused: see phi */
+  compiled_piece *phi;                 /* nc constraints */
+  /* Evaluation scratch, sized once: input pointers and parameter jets. */
+  const nz_jet **in, **din;
+  nz_jet **pjet;                       /* np constant jets of order pcap */
+  int pcap;
+  /* Mass and bias on doubles (built on first use; built = -1 if impossible). */
+  int mb_built;
+  dplan *mb_plan;
+  double *mb_in, *mb_out;
+  /* Native code: mode (-1 auto, 0 off, 1 on), plans compiled, seconds spent
+   * compiling, and why the last attempt failed. */
+  int native_mode, native_count;
+  double native_seconds;
+  char native_why[200];
+  /* nz_compiled_accel's workspace: A (k x k), rhs (k), the solver's. */
+  double *acc_A, *acc_rhs, *acc_work;
+  /* A constant M, inverted once (minv k x k), with its solve info. */
+  int m_const;
+  double *minv;
+  nz_solve_info m_info;
+  /* With a constant M, q'' = -M^-1 h as a plan of its own (M^-1's entries
+   * are constants of the graph), and F, V checked: one pass per call. */
+  dplan *acc_plan;
+  double *acc_out;
+  /* Constraint rows on doubles: plan of (r, m) at rows[3 r + m] (built = 1,
+   * or -1 when it cannot be built), outputs D^0..D^K Phi then A. */
+  dplan **rows;
+  signed char *rows_built;
+  double *row_in, *row_out;
+  char failure[160];
+};
+
+static void dplan_free(dplan *d)
+{
+  if (!d) return;
+  nz_graph_plan_free(d->plan);
+  nz_native_free(d->native);
+  free(d->outs);
+  free(d);
+}
+
+static dplan *dplan_new(const nz_graph *g, const int *outs, int n)
+{
+  dplan *d = calloc(1, sizeof *d);
+  if (!d) return NULL;
+  d->outs = malloc((size_t)n * sizeof(int));
+  d->plan = nz_graph_plan_new(g, outs, n);
+  if (!d->outs || !d->plan) { dplan_free(d); return NULL; }
+  memcpy(d->outs, outs, (size_t)n * sizeof(int));
+  d->nout = n;
+  return d;
+}
+
+static void dplan_compile(nz_compiled *c, dplan *d)
+{
+  char dir[1024];
+  d->tried = 1;
+  if (!nz_native_cache_dir(dir, sizeof dir)) {
+    snprintf(c->native_why, sizeof c->native_why, "no cache directory for compiled code");
+    return;
+  }
+  d->native = nz_native_compile(c->g, d->outs, d->nout, dir, c->native_why, sizeof c->native_why);
+  if (d->native) {
+    c->native_count++;
+    c->native_seconds += nz_native_compile_seconds(d->native);
+  }
+}
+
+/* Evaluate on doubles: natively when compiled (its refusal is confirmed by
+ * the interpreter, which names the node), else interpreted. */
+static nz_status dplan_eval(nz_compiled *c, dplan *d, const double *in, double *out)
+{
+  if (!d->tried && (c->native_mode == 1 || (c->native_mode < 0 && d->work >= NZ_NATIVE_AFTER)))
+    dplan_compile(c, d);
+  if (d->native && nz_native_eval(d->native, in, out) == NZ_OK) return NZ_OK;
+  d->work += nz_graph_plan_nodes(d->plan);
+  return nz_graph_eval(d->plan, in, out);
+}
+
+void nz_compiled_set_native(nz_compiled *c, int mode) { c->native_mode = mode < 0 ? -1 : mode > 0; }
+
+int nz_compiled_native(const nz_compiled *c, double *seconds, const char **why)
+{
+  if (seconds) *seconds = c->native_seconds;
+  if (why) *why = c->native_why[0] ? c->native_why : NULL;
+  return c->native_count;
+}
+
+nz_compiled *nz_compiled_new(int k, int np, int nc, int nslots)
+{
+  if (k < 1 || np < 0 || nc < 0) return NULL;
+  if (nslots < 2) nslots = 2;
+  nz_compiled *c = calloc(1, sizeof *c);
+  if (!c) return NULL;
+  c->k = k; c->np = np; c->nc = nc; c->nslots = nslots;
+  c->ninputs = 1 + np + nslots * k;
+  c->g = nz_graph_new();
+  c->params = calloc((size_t)np + 1, sizeof(double));
+  c->phi = calloc((size_t)nc + 1, sizeof(compiled_piece));
+  c->in = calloc((size_t)c->ninputs, sizeof(nz_jet *));
+  c->din = calloc((size_t)c->ninputs, sizeof(nz_jet *));
+  c->pjet = calloc((size_t)np + 1, sizeof(nz_jet *));
+  c->pcap = -1;
+  c->native_mode = -1;
+  const char *env = getenv("NZLUA_NATIVE");
+  if (env && (env[0] == '0' || env[0] == '1') && env[1] == '\0') c->native_mode = env[0] - '0';
+  c->rows = calloc(3 * (size_t)nc + 1, sizeof(dplan *));
+  c->rows_built = calloc(3 * (size_t)nc + 1, 1);
+  c->row_in = calloc((size_t)c->ninputs + 3 + (size_t)k, sizeof(double));
+  if (c->row_in) c->row_out = c->row_in + c->ninputs;
+  if (!c->g || !c->params || !c->phi || !c->in || !c->din || !c->pjet || !c->rows || !c->rows_built ||
+      !c->row_in) {
+    nz_compiled_free(c);
+    return NULL;
+  }
+  return c;
+}
+
+static void piece_clear(compiled_piece *p)
+{
+  free(p->nodes);
+  nz_graph_plan_free(p->plan);
+  memset(p, 0, sizeof *p);
+}
+
+void nz_compiled_free(nz_compiled *c)
+{
+  if (!c) return;
+  for (int p = 0; p < NZ_PIECE_COUNT; p++) piece_clear(&c->piece[p]);
+  for (int r = 0; c->phi && r < c->nc; r++) piece_clear(&c->phi[r]);
+  for (int p = 0; c->pjet && p < c->np; p++) nz_jet_free(c->pjet[p]);
+  dplan_free(c->mb_plan);
+  dplan_free(c->acc_plan);
+  free(c->acc_out);
+  for (int r = 0; c->rows && r < 3 * c->nc; r++) dplan_free(c->rows[r]);
+  free(c->rows);
+  free(c->rows_built);
+  free(c->row_in);
+  free(c->mb_in);
+  free(c->acc_A);
+  free(c->minv);
+  free(c->phi);
+  free(c->pjet);
+  free(c->in);
+  free(c->din);
+  free(c->params);
+  nz_graph_free(c->g);
+  free(c);
+}
+
+nz_graph *nz_compiled_graph(nz_compiled *c) { return c->g; }
+double *nz_compiled_params(nz_compiled *c) { return c->params; }
+int nz_compiled_nparams(const nz_compiled *c) { return c->np; }
+const char *nz_compiled_failure(const nz_compiled *c) { return c->failure; }
+
+int nz_compiled_input_slot(const nz_compiled *c, int j, int i)
+{
+  return 1 + c->np + j * c->k + i;
+}
+
+static compiled_piece *piece_of(const nz_compiled *c, nz_piece piece, int index)
+{
+  if (piece == NZ_PIECE_PHI) return index >= 0 && index < c->nc ? &c->phi[index] : NULL;
+  return piece >= 0 && piece < NZ_PIECE_COUNT ? (compiled_piece *)&c->piece[piece] : NULL;
+}
+
+int nz_compiled_set_piece(nz_compiled *c, nz_piece piece, int index, const int *nodes, int n)
+{
+  compiled_piece *p = piece_of(c, piece, index);
+  if (!p || n != (piece == NZ_PIECE_Q ? c->k : 1)) return NZ_EARG;
+  for (int o = 0; o < n; o++)
+    if (nodes[o] < 0 || nodes[o] >= nz_graph_size(c->g)) return NZ_EARG;
+  if (nz_graph_ninputs(c->g) > c->ninputs) return NZ_EARG;
+  piece_clear(p);
+  p->nodes = malloc((size_t)n * sizeof(int));
+  if (!p->nodes) return NZ_ENOMEM;
+  memcpy(p->nodes, nodes, (size_t)n * sizeof(int));
+  p->plan = nz_graph_plan_new(c->g, nodes, n);
+  if (!p->plan) { piece_clear(p); return NZ_ENOMEM; }
+  p->n = n;
+  return NZ_OK;
+}
+
+int nz_compiled_has(const nz_compiled *c, nz_piece piece, int index)
+{
+  const compiled_piece *p = piece_of(c, piece, index);
+  return p && p->n > 0;
+}
+
+int nz_compiled_piece_nodes(const nz_compiled *c, nz_piece piece, int index)
+{
+  const compiled_piece *p = piece_of(c, piece, index);
+  return p && p->n > 0 ? nz_graph_plan_nodes(p->plan) : 0;
+}
+
+/* The parameters as constant jets of (at least) this order. */
+static int param_jets(nz_compiled *c, int order)
+{
+  if (order > c->pcap) {
+    for (int p = 0; p < c->np; p++) {
+      nz_jet_free(c->pjet[p]);
+      if (!(c->pjet[p] = nz_jet_alloc(order, 0))) return NZ_ENOMEM;
+    }
+    c->pcap = order;
+  }
+  for (int p = 0; p < c->np; p++) {
+    nz_jet_init(c->pjet[p], order, 0);
+    nz_jet_set_constant(c->pjet[p], c->params[p]);
+  }
+  return NZ_OK;
+}
+
+static void describe_failure(nz_compiled *c, const nz_graph_plan *plan, int st)
+{
+  int node;
+  nz_gop op;
+  nz_jet_fn fn;
+  double x;
+  nz_graph_plan_failure(plan, &node, &op, &fn, &x);
+  const char *name = op == NZ_GOP_FN && fn < NZ_FN_COUNT ? nz_jet_fn_names[fn]
+                   : op < NZ_GOP_COUNT ? nz_gop_names[op] : "?";
+  snprintf(c->failure, sizeof c->failure, "%s of %.17g failed (status %d, node %d)", name, x, st,
+           node);
+}
+
+int nz_compiled_eval(void *ctx, nz_piece piece, int index, const nz_jet *t,
+                     nz_jet *const *const *levels, int nlevels, nz_jet *const *out,
+                     const nz_direction *dir)
+{
+  nz_compiled *c = ctx;
+  compiled_piece *p = piece_of(c, piece, index);
+  if (!p || p->n == 0) return NZ_EARG;
+  int st = param_jets(c, t->order);
+  if (st) return st;
+  c->in[0] = t;
+  c->din[0] = dir ? dir->dt : NULL;
+  for (int q = 0; q < c->np; q++) {
+    c->in[1 + q] = c->pjet[q];
+    c->din[1 + q] = NULL;
+  }
+  for (int j = 0; j < c->nslots; j++)
+    for (int i = 0; i < c->k; i++) {
+      int at = nz_compiled_input_slot(c, j, i);
+      c->in[at] = j < nlevels ? levels[j][i] : NULL;
+      c->din[at] = dir && j < nlevels ? dir->dlevels[j][i] : NULL;
+    }
+  st = nz_graph_eval_jets(p->plan, c->in, out, dir ? c->din : NULL, dir ? dir->dout : NULL);
+  if (st) describe_failure(c, p->plan, st);
+  return st;
+}
+
+/* ------------------------------------------------------------------ */
+/* Mass matrix and bias, differentiated once                           */
+
+/* Graph nodes of M (k x k), h (k), then F and V (checked, not used), into
+ * out[k k + k + 2]; -1 on failure. */
+static int build_mass_bias(nz_compiled *c, int *out)
+{
+  nz_graph *g = c->g;
+  int k = c->k, n = nz_graph_ninputs(g) > c->ninputs ? nz_graph_ninputs(g) : c->ninputs;
+  int *dir = malloc((size_t)n * sizeof(int));
+  int *grad = malloc((size_t)(3 * k) * sizeof(int));
+  int ok = dir && grad;
+  int one = nz_graph_const(g, 1.0), zero = nz_graph_const(g, 0.0);
+  if (one < 0 || zero < 0) ok = 0;
+  int F = c->piece[NZ_PIECE_F].n ? c->piece[NZ_PIECE_F].nodes[0] : zero;
+  int *gq = grad, *gqd = grad + k, *tmp = grad + 2 * k;
+  /* dF/dq_i and dF/dq'_i, one seed each */
+  for (int i = 0; ok && i < k; i++)
+    for (int s = 0; s < 2 && ok; s++) {
+      for (int a = 0; a < n; a++) dir[a] = -1;
+      dir[nz_compiled_input_slot(c, s, i)] = one;
+      int d = nz_graph_derivative(g, F, dir);
+      if (d < 0) ok = 0;
+      else (s ? gqd : gq)[i] = d;
+    }
+  /* M_ij = d(dF/dq'_i)/dq'_j */
+  for (int j = 0; ok && j < k; j++) {
+    for (int a = 0; a < n; a++) dir[a] = -1;
+    dir[nz_compiled_input_slot(c, 1, j)] = one;
+    if (nz_graph_derivatives(g, gqd, k, dir, tmp)) ok = 0;
+    for (int i = 0; ok && i < k; i++) out[i * k + j] = tmp[i];
+  }
+  /* d/dt (dF/dq'_i) with q'' = 0: along t -> 1, q -> q' */
+  if (ok) {
+    for (int a = 0; a < n; a++) dir[a] = -1;
+    dir[0] = one;
+    for (int j = 0; j < k; j++) dir[nz_compiled_input_slot(c, 1, j)] = -1;
+    for (int j = 0; j < k && ok; j++)
+      if ((dir[nz_compiled_input_slot(c, 0, j)] = nz_graph_input(g, nz_compiled_input_slot(c, 1, j))) < 0)
+        ok = 0;
+    if (ok && nz_graph_derivatives(g, gqd, k, dir, tmp)) ok = 0;
+  }
+  /* h = d/dt dF/dq' - dF/dq + dV/dq - Q */
+  int V = c->piece[NZ_PIECE_V].n ? c->piece[NZ_PIECE_V].nodes[0] : -1;
+  for (int i = 0; ok && i < k; i++) {
+    int h = nz_graph_op(g, NZ_GOP_SUB, tmp[i], gq[i]);
+    if (V >= 0 && h >= 0) {
+      for (int a = 0; a < n; a++) dir[a] = -1;
+      dir[nz_compiled_input_slot(c, 0, i)] = one;
+      int dV = nz_graph_derivative(g, V, dir);
+      h = dV < 0 ? -1 : nz_graph_op(g, NZ_GOP_ADD, h, dV);
+    }
+    if (c->piece[NZ_PIECE_Q].n && h >= 0) h = nz_graph_op(g, NZ_GOP_SUB, h, c->piece[NZ_PIECE_Q].nodes[i]);
+    if (h < 0) ok = 0;
+    out[k * k + i] = h;
+  }
+  /* F and V themselves, evaluated and dropped: the functions must be defined
+   * where their derivatives are used (log x at x < 0 has the derivative 1/x,
+   * but the user's V fails there, and so must we: the jet path then says
+   * where). */
+  out[k * k + k] = F;
+  out[k * k + k + 1] = V >= 0 ? V : zero;
+  free(dir);
+  free(grad);
+  return ok ? 0 : -1;
+}
+
+/* When every entry of M is a constant node, factor M once and keep M^-1
+ * (k solves with unit right-hand sides), so that an acceleration costs a
+ * product.  M stays unknown (m_const = 0) if it is not positive definite:
+ * the general path reports that with the state. */
+static void invert_constant_mass(nz_compiled *c, const int *out)
+{
+  int k = c->k;
+  double *M = c->acc_A, v;
+  for (int e = 0; e < k * k; e++) {
+    if (!nz_graph_is_const(c->g, out[e], &v)) return;
+    M[e] = v;
+  }
+  double *minv = malloc((size_t)k * (size_t)k * sizeof(double));
+  double *A = malloc((size_t)k * (size_t)k * sizeof(double));
+  if (!minv || !A) { free(minv); free(A); return; }
+  int ok = 1;
+  for (int j = 0; j < k && ok; j++) {
+    memcpy(A, M, (size_t)k * (size_t)k * sizeof(double));
+    for (int i = 0; i < k; i++) c->acc_rhs[i] = i == j ? 1.0 : 0.0;
+    /* column j of M^-1, into row j (M^-1 is symmetric) */
+    ok = nz_solve_spd_in(k, A, c->acc_rhs, minv + (size_t)j * (size_t)k, 0.0, &c->m_info, c->acc_work) == NZ_OK;
+  }
+  free(A);
+  if (!ok) { free(minv); return; }
+  c->minv = minv;
+  c->m_const = 1;
+  /* q''_i = -sum_j (M^-1)_ij h_j, then F and V (checked) */
+  int *acc = malloc((size_t)(k + 2) * sizeof(int));
+  c->acc_out = malloc((size_t)(k + 2) * sizeof(double));
+  for (int i = 0; acc && c->acc_out && i < k; i++) {
+    int sum = nz_graph_const(c->g, 0.0);
+    for (int j = 0; j < k && sum >= 0; j++) {
+      int coef = nz_graph_const(c->g, -minv[(size_t)i * (size_t)k + (size_t)j]);
+      int term = coef < 0 ? -1 : nz_graph_op(c->g, NZ_GOP_MUL, coef, out[k * k + j]);
+      sum = term < 0 ? -1 : nz_graph_op(c->g, NZ_GOP_ADD, sum, term);
+    }
+    if (sum < 0) { free(acc); acc = NULL; break; }
+    acc[i] = sum;
+  }
+  if (acc) {
+    acc[k] = out[k * k + k];
+    acc[k + 1] = out[k * k + k + 1];
+    c->acc_plan = dplan_new(c->g, acc, k + 2);
+  }
+  free(acc);
+}
+
+static int mass_bias_ready(nz_compiled *c)
+{
+  if (c->mb_built) return c->mb_built > 0;
+  c->mb_built = -1;
+  /* Every piece that enters M and h must be compiled: F (when the system
+   * has T or L pieces), V, Q; the caller (the binding) only installs this
+   * hook when they are. */
+  int k = c->k, nout = k * k + k + 2;
+  int *out = malloc((size_t)nout * sizeof(int));
+  if (!out) return 0;
+  if (build_mass_bias(c, out) == 0) {
+    c->mb_plan = dplan_new(c->g, out, nout);
+    c->mb_in = malloc((size_t)(c->ninputs + nout) * sizeof(double));
+    size_t kk = (size_t)k * (size_t)k;
+    c->acc_A = malloc((kk + (size_t)k + nz_solve_spd_work_len(k)) * sizeof(double));
+    if (c->mb_plan && c->mb_in && c->acc_A) {
+      c->mb_out = c->mb_in + c->ninputs;
+      c->acc_rhs = c->acc_A + kk;
+      c->acc_work = c->acc_rhs + k;
+      c->mb_built = 1;
+      invert_constant_mass(c, out);
+    }
+  }
+  free(out);
+  return c->mb_built > 0;
+}
+
+/* The inputs t, params, q, q' (slots 0 and 1) of a plan on doubles; the
+ * loops are short (k is small), calls to memcpy would cost more. */
+static void state_inputs(const nz_compiled *c, double *in, double t, const double *q, const double *qd)
+{
+  int k = c->k, base = 1 + c->np;
+  in[0] = t;
+  for (int p = 0; p < c->np; p++) in[1 + p] = c->params[p];
+  for (int i = 0; i < k; i++) {
+    in[base + i] = q[i];
+    in[base + k + i] = qd[i];
+  }
+}
+
+/* M and h at a state into c->mb_out; NZ_EARG when the graphs cannot. */
+static int eval_mass_bias(nz_compiled *c, double t, const double *q, const double *qd)
+{
+  if (!mass_bias_ready(c)) return NZ_EARG;
+  double *in = c->mb_in;
+  state_inputs(c, in, t, q, qd);
+  int st = dplan_eval(c, c->mb_plan, in, c->mb_out);
+  if (st) {
+    /* Let the jet path run: it says which function failed, and where. */
+    describe_failure(c, c->mb_plan->plan, st);
+    return NZ_EARG;
+  }
+  return NZ_OK;
+}
+
+int nz_compiled_mass_bias(void *ctx, double t, const double *q, const double *qd, double *M,
+                          double *h)
+{
+  nz_compiled *c = ctx;
+  int k = c->k, st = eval_mass_bias(c, t, q, qd);
+  if (st) return st;
+  memcpy(M, c->mb_out, (size_t)k * (size_t)k * sizeof(double));
+  memcpy(h, c->mb_out + (size_t)k * (size_t)k, (size_t)k * sizeof(double));
+  return NZ_OK;
+}
+
+int nz_compiled_accel(void *ctx, double t, const double *q, const double *qd, double rcond_min,
+                      double *qdd, nz_solve_info *info)
+{
+  nz_compiled *c = ctx;
+  int k = c->k, st;
+  if (c->acc_plan && c->m_info.rcond >= rcond_min) {
+    state_inputs(c, c->mb_in, t, q, qd);
+    if (dplan_eval(c, c->acc_plan, c->mb_in, c->acc_out) != NZ_OK) return NZ_EARG;
+    for (int i = 0; i < k; i++) qdd[i] = c->acc_out[i];
+    *info = c->m_info;
+    return NZ_OK;
+  }
+  if ((st = eval_mass_bias(c, t, q, qd))) return st;
+  const double *h = c->mb_out + (size_t)k * (size_t)k;
+  if (c->m_const) {
+    if (!(c->m_info.rcond >= rcond_min)) return NZ_EARG;
+    for (int i = 0; i < k; i++) {
+      const double *row = c->minv + (size_t)i * (size_t)k;
+      double s = 0.0;
+      for (int j = 0; j < k; j++) s -= row[j] * h[j];
+      qdd[i] = s;
+    }
+    *info = c->m_info;
+    return NZ_OK;
+  }
+  memcpy(c->acc_A, c->mb_out, (size_t)k * (size_t)k * sizeof(double));
+  for (int i = 0; i < k; i++) c->acc_rhs[i] = -h[i];
+  return nz_solve_spd_in(k, c->acc_A, c->acc_rhs, qdd, rcond_min, info, c->acc_work);
+}
+
+/* The direction of D, the derivative along the motion: t moves by 1 and
+ * slot j of q_i by slot j + 1 (none past the last slot). */
+static int motion_direction(nz_compiled *c, int *dir, int n)
+{
+  for (int a = 0; a < n; a++) dir[a] = -1;
+  if ((dir[0] = nz_graph_const(c->g, 1.0)) < 0) return -1;
+  for (int j = 0; j + 1 < c->nslots; j++)
+    for (int i = 0; i < c->k; i++)
+      if ((dir[nz_compiled_input_slot(c, j, i)] = nz_graph_input(c->g, nz_compiled_input_slot(c, j + 1, i))) < 0)
+        return -1;
+  return 0;
+}
+
+/* Does node root depend on an input numbered lo..hi? */
+static int reads_inputs(const nz_graph *g, int root, int lo, int hi)
+{
+  const nz_gnode *nd = nz_graph_nodes(g);
+  char *need = calloc((size_t)root + 1, 1);
+  int found = 0;
+  if (!need) return 1;
+  need[root] = 1;
+  for (int x = root; x >= 0 && !found; x--) {
+    if (!need[x]) continue;
+    if (nd[x].op == NZ_GOP_INPUT) { found = nd[x].a >= lo && nd[x].a <= hi; continue; }
+    if (nd[x].op == NZ_GOP_CONST) continue;
+    if (nd[x].a >= 0) need[nd[x].a] = 1;
+    if (nd[x].b >= 0) need[nd[x].b] = 1;
+    if (nd[x].c >= 0) need[nd[x].c] = 1;
+  }
+  free(need);
+  return found;
+}
+
+/* Outputs D^0 Phi .. D^K Phi, then dD^K Phi/dq''_i; 0 or -1.  A graph that
+ * reads its last slot cannot be differentiated along the motion here. */
+static int build_row(nz_compiled *c, int r, int m, int *out)
+{
+  int K = 2 - m, k = c->k, n = c->ninputs, ok = 1;
+  int *dir = malloc((size_t)n * sizeof(int));
+  if (!dir) return -1;
+  out[0] = c->phi[r].nodes[0];
+  if (motion_direction(c, dir, n)) ok = 0;
+  /* the last slot has no slot above it: refuse a constraint that reads it */
+  if (ok && reads_inputs(c->g, out[0], nz_compiled_input_slot(c, c->nslots - 1, 0),
+                         nz_compiled_input_slot(c, c->nslots - 1, k - 1)))
+    ok = 0;
+  for (int j = 0; ok && j < K; j++)
+    if ((out[j + 1] = nz_graph_derivative(c->g, out[j], dir)) < 0) ok = 0;
+  for (int i = 0; ok && i < k; i++) {
+    for (int a = 0; a < n; a++) dir[a] = -1;
+    dir[nz_compiled_input_slot(c, 2, i)] = nz_graph_const(c->g, 1.0);
+    if ((out[K + 1 + i] = nz_graph_derivative(c->g, out[K], dir)) < 0) ok = 0;
+  }
+  free(dir);
+  return ok ? 0 : -1;
+}
+
+int nz_compiled_constraint_row(void *ctx, int r, int m, double t, const double *const *state,
+                               int nstate, double alpha, double beta, double *A, double *value)
+{
+  nz_compiled *c = ctx;
+  int k = c->k, K = 2 - m, at = 3 * r + m;
+  if (r < 0 || r >= c->nc || m < 0 || m > 2 || !c->phi[r].n || c->nslots < 3) return NZ_EARG;
+  if (!c->rows_built[at]) {
+    int *out = malloc((size_t)(3 + k) * sizeof(int));
+    c->rows_built[at] = -1;
+    if (out && build_row(c, r, m, out) == 0 && (c->rows[at] = dplan_new(c->g, out, K + 1 + k)))
+      c->rows_built[at] = 1;
+    free(out);
+  }
+  if (c->rows_built[at] < 0) return NZ_EARG;
+  double *in = c->row_in, *o = c->row_out;
+  in[0] = t;
+  memcpy(in + 1, c->params, (size_t)c->np * sizeof(double));
+  for (int j = 0; j < c->nslots; j++)
+    for (int i = 0; i < k; i++) in[nz_compiled_input_slot(c, j, i)] = j < nstate ? state[j][i] : 0.0;
+  int st = dplan_eval(c, c->rows[at], in, o);
+  if (st) {
+    describe_failure(c, c->rows[at]->plan, st);
+    return NZ_EARG;
+  }
+  *value = o[K];
+  if (m == 0) *value += 2.0 * alpha * o[1] + beta * beta * o[0];
+  if (m == 1) *value += alpha * o[0];
+  if (A) memcpy(A, o + K + 1, (size_t)k * sizeof(double));
+  return NZ_OK;
+}
+
+int nz_compiled_mass_bias_nodes(const nz_compiled *c)
+{
+  return c->mb_built > 0 ? nz_graph_plan_nodes(c->mb_plan->plan) : 0;
+}

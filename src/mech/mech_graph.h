@@ -1,0 +1,86 @@
+/* mech_graph.h - a system's pieces (T, V, Q, constraints, ...) as recorded
+ * expression graphs (graph.h), evaluated in C behind the evaluator interface
+ * of mech.h, and the graphs the mechanics derives from them once: the mass
+ * matrix and the bias of M q'' + h = 0 (THEORY.md §11).
+ *
+ * Inputs of the graph, numbered: 0 is t; 1 .. np the named parameters (in
+ * the order the recorder chose); then slot j of q_i is 1 + np + j k + i.
+ * A parameter is an input, not a constant, so that changing it needs no new
+ * recording: the caller writes the current values into nz_compiled_params
+ * before evaluating.
+ *
+ * Plain C: never includes lua.h. */
+#ifndef NZ_MECH_GRAPH_H
+#define NZ_MECH_GRAPH_H
+
+#include "graph/graph.h"
+#include "mech/mech.h"
+
+typedef struct nz_compiled nz_compiled;
+
+/* k coordinates, np parameters, nc constraints, nslots the most derivative
+ * slots any piece receives (at least 2).  NULL if out of memory. */
+nz_compiled *nz_compiled_new(int k, int np, int nc, int nslots);
+void nz_compiled_free(nz_compiled *c);   /* NULL is harmless */
+
+nz_graph *nz_compiled_graph(nz_compiled *c);
+static inline int nz_compiled_input_param(int p) { return 1 + p; }
+int nz_compiled_input_slot(const nz_compiled *c, int j, int i);
+double *nz_compiled_params(nz_compiled *c);
+int nz_compiled_nparams(const nz_compiled *c);
+
+/* Piece `piece` (constraint number `index`, 0-based) is the n nodes given
+ * (1, or k for NZ_PIECE_Q), summed over all the user's functions of the
+ * piece by the recorder.  NZ_OK, NZ_ENOMEM or NZ_EARG (bad shape). */
+int nz_compiled_set_piece(nz_compiled *c, nz_piece piece, int index, const int *nodes, int n);
+int nz_compiled_has(const nz_compiled *c, nz_piece piece, int index);
+/* Nodes the piece's evaluation visits (0 when not compiled). */
+int nz_compiled_piece_nodes(const nz_compiled *c, nz_piece piece, int index);
+
+/* The evaluator of mech.h on the compiled pieces (ctx is the nz_compiled);
+ * NZ_EARG for a piece that is not compiled, or a jet status (jet.h) from
+ * the node that failed (nz_compiled_failure describes it). */
+int nz_compiled_eval(void *ctx, nz_piece piece, int index, const nz_jet *t,
+                     nz_jet *const *const *levels, int nlevels, nz_jet *const *out,
+                     const nz_direction *dir);
+const char *nz_compiled_failure(const nz_compiled *c);
+
+/* M (k x k, row-major) and h of M q'' + h = 0 on doubles, from graphs of
+ * d2F/dq'dq', d/dt dF/dq' (q'' = 0), dF/dq, dV/dq and Q built by
+ * differentiating the recorded ones the first time (a mass_bias hook of
+ * nz_system).  NZ_EARG when F, V or Q is not compiled, or when a node
+ * fails (a domain error at this state): the caller then takes the jet path,
+ * which names the user's function and line. */
+int nz_compiled_mass_bias(void *ctx, double t, const double *q, const double *qd, double *M,
+                          double *h);
+/* nz_accel on the same graphs (the accel hook of nz_system): M q'' = -h
+ * by Cholesky in a workspace the recording owns; when every entry of M is a
+ * constant (Cartesian coordinates), M is factored once and each call costs
+ * a product with M^-1.  NZ_EARG as nz_compiled_mass_bias, and also when a
+ * constant M is too badly conditioned for rcond_min (the jet path then
+ * reports it). */
+struct nz_solve_info;
+int nz_compiled_accel(void *ctx, double t, const double *q, const double *qd, double rcond_min,
+                      double *qdd, struct nz_solve_info *info);
+/* The row of constraint r of order m at the acceleration level (the
+ * constraint_row hook of nz_system): D^(2-m) Phi with D the derivative
+ * along the motion (t -> 1, slot j -> slot j + 1), built on the graph the
+ * first time it is asked for (r, m), and its gradient in q''.  NZ_EARG when
+ * the constraint is not compiled, the graph has too few slots, or a node
+ * fails: the caller then takes the jets. */
+int nz_compiled_constraint_row(void *ctx, int r, int m, double t, const double *const *state,
+                               int nstate, double alpha, double beta, double *A, double *value);
+/* Machine code for the plans on doubles (M and h, constraint rows):
+ * mode 1 compiles each at its first use, 0 never, -1 (the default, or the
+ * environment's NZLUA_NATIVE=0/1) once a plan has interpreted
+ * NZ_NATIVE_AFTER nodes, about 50 ms of work: a short session pays nothing,
+ * a long run compiles once (0.1-1 s, cached on disk by the graph's hash). */
+#define NZ_NATIVE_AFTER 2e7
+void nz_compiled_set_native(nz_compiled *c, int mode);
+/* Plans running natively; seconds spent compiling; why the last attempt
+ * failed (NULL if none did). */
+int nz_compiled_native(const nz_compiled *c, double *seconds, const char **why);
+/* Nodes of the mass-bias plan (0 before its first use). */
+int nz_compiled_mass_bias_nodes(const nz_compiled *c);
+
+#endif
