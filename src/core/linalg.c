@@ -10,7 +10,7 @@
 #include <gsl/gsl_linalg.h>
 #include <gsl/gsl_vector.h>
 #include "core/linalg.h"
-#include "mech/mech.h"
+#include "core/status.h"
 
 static void eigen_range(int k, const double *A, nz_solve_info *info)
 {

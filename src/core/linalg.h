@@ -2,6 +2,8 @@
 #ifndef NZ_LINALG_H
 #define NZ_LINALG_H
 
+#include "core/status.h"
+
 /* Default for NZ: a matrix whose reciprocal condition number (1-norm
  * estimate) is below this is reported singular rather than solved. */
 #define NZ_RCOND_MIN 1e-13

@@ -37,6 +37,7 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include "core/status.h"
 #include "jets/jet.h"
 
 typedef enum nz_gop {

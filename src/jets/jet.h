@@ -16,20 +16,11 @@
 #define NZ_JET_H
 
 #include <stddef.h>
+#include "core/status.h"   /* nz_status: every status code of the core */
 
 /* Limits, documented in nz.help(nz.jet). */
 #define NZ_JET_MAX_ORDER 1024
 #define NZ_JET_MAX_TANGENTS 1024
-
-typedef enum nz_status {
-  NZ_OK = 0,
-  NZ_EDOM,      /* argument outside the function's domain (log(-1))            */
-  NZ_ESING,     /* defined, but not differentiable there (sqrt(0) with K >= 1) */
-  NZ_EZERODIV,  /* division by a series whose constant term is zero            */
-  NZ_ERANGE,    /* the result overflows (a coefficient is infinite)            */
-  NZ_ENOMEM,
-  NZ_ENAN       /* a coefficient of the result is NaN and none is infinite     */
-} nz_status;
 
 typedef struct nz_jet {
   int order;   /* K: the series hold coefficients 0..K          */

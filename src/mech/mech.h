@@ -14,15 +14,14 @@
 #ifndef NZ_MECH_H
 #define NZ_MECH_H
 
+#include "core/status.h"
 #include "jets/jet.h"
 
 #define NZ_MAX_EQ_ORDER 100     /* highest n of (3.1); n! must stay finite */
 #define NZ_MAX_LEVELS (NZ_MAX_EQ_ORDER + 2)
 
-/* Statuses beyond jet.h's */
-#define NZ_EFUNC 100   /* a user function failed; the evaluator holds the message */
-#define NZ_EARG 101    /* a request the system cannot answer (e.g. no S for Wassmuth) */
-#define NZ_ESINGULAR 102   /* singular or ill-conditioned matrix */
+/* Statuses: NZ_OK, the jet codes and NZ_EFUNC, NZ_EARG, NZ_ESINGULAR are all
+ * in core/status.h. */
 
 typedef enum nz_piece {
   NZ_PIECE_F,     /* F(t, q, q'): T and Lagrangian pieces, one output          */

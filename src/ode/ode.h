@@ -12,6 +12,7 @@
 #ifndef NZ_ODE_H
 #define NZ_ODE_H
 
+#include "core/status.h"
 #include "mech/constrained.h"
 #include "core/linalg.h"               /* nz_solve_info */
 #include "mech/mech.h"
