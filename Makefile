@@ -91,6 +91,8 @@ $(B)/asan/test_native: tests/test_native.c $(SAN_CORE) | $(B)/asan
 	$(CC) $(ALL_CFLAGS) $(SAN_FLAGS) -o $@ $^ $(GSL_LIBS) $(DL_LIBS) -lm
 $(B)/bench_jet: bench/bench_jet.c $(CORE_OBJ) | $(B)
 	$(CC) $(ALL_CFLAGS) -o $@ $^ $(GSL_LIBS) $(DL_LIBS) -lm
+$(B)/bench_motion: bench/bench_motion.c $(CORE_OBJ) | $(B)
+	$(CC) $(ALL_CFLAGS) -o $@ $^ $(GSL_LIBS) $(DL_LIBS) -lm
 # The hand-written C baselines the benchmarks of issue 10 compare against.
 $(B)/henon_c: bench/henon_c.c | $(B)
 	$(CC) $(ALL_CFLAGS) -o $@ $^ $(GSL_LIBS) -lm
@@ -113,7 +115,7 @@ check: deps all $(B)/test_series $(B)/test_graph $(B)/test_native
 sanitize: deps $(B)/asan/nzlua $(B)/asan/test_series $(B)/asan/test_graph $(B)/asan/test_native all
 	@tests/run.sh sanitize
 
-bench: deps all $(B)/bench_jet $(B)/henon_c $(B)/pendulum_c
+bench: deps all $(B)/bench_jet $(B)/bench_motion $(B)/henon_c $(B)/pendulum_c
 	@bench/run.sh
 
 # nz.so carries its Lua half inside: one file serves `require "nz"` from any

@@ -3,6 +3,8 @@
 cd "$(dirname "$0")/.." || exit 1
 build/bench_jet
 echo
+build/bench_motion
+echo
 build/nzlua bench/jet_lua.lua
 echo
 build/nzlua bench/mech.lua

@@ -88,46 +88,64 @@ static void read_row(const nz_jet *out, int m, int k, double alpha, double beta,
   for (int i = 0; A && i < k; i++) A[i] = f * nz_jet_tangent(out, i)[K];   /* A NULL: the value only */
 }
 
-int nz_constraint_row_along(const nz_system *s, int r, int m, double t, const double *const *state,
-                            int nstate, double alpha, double beta, const nz_state_direction *dir,
-                            double *A, double *value, double *dA, double *dvalue)
+/* nz_constraint_row_along in the workspace mo (reset here; the caller
+ * frees it): the Newton solve evaluates the rows again at every iterate. */
+static int row_in(const nz_system *s, nz_motion *mo, int r, int m, double t,
+                  const double *const *state, int nstate, double alpha, double beta,
+                  const nz_state_direction *dir, double *A, double *value, double *dA, double *dvalue)
 {
   int k = s->k, K = 2 - m, st;
   if (m < 0 || m > 2) return NZ_EARG;
   if (!dir && s->constraint_row &&
       (st = s->constraint_row(s->mass_bias_ctx, r, m, t, state, nstate, alpha, beta, A, value)) != NZ_EARG)
     return st;
-  nz_motion mo;
-  st = nz_motion_init(&mo, k, nz_constraint_levels(s, r), K, k, t, state, nstate);
+  st = nz_motion_reset(mo, k, nz_constraint_levels(s, r), K, k, t, state, nstate);
   if (st) return st;
-  if (dir && (st = nz_motion_set_direction(&mo, dir))) { nz_motion_free(&mo); return st; }
-  for (int i = 0; i < k; i++) nz_motion_seed_level(&mo, i, i, 2);
-  st = nz_motion_eval(s, NZ_PIECE_PHI, r, &mo, NULL);
+  if (dir && (st = nz_motion_set_direction(mo, dir))) return st;
+  for (int i = 0; i < k; i++) nz_motion_seed_level(mo, i, i, 2);
+  st = nz_motion_eval(s, NZ_PIECE_PHI, r, mo, NULL);
   if (!st) {
-    read_row(mo.out[0], m, k, alpha, beta, A, value);
-    if (dir && dA && dvalue) read_row(mo.dout[0], m, k, alpha, beta, dA, dvalue);  /* derivative outputs given with dir */
+    read_row(mo->out[0], m, k, alpha, beta, A, value);
+    if (dir && dA && dvalue) read_row(mo->dout[0], m, k, alpha, beta, dA, dvalue);  /* derivative outputs given with dir */
   }
+  return st;
+}
+
+int nz_constraint_row_along(const nz_system *s, int r, int m, double t, const double *const *state,
+                            int nstate, double alpha, double beta, const nz_state_direction *dir,
+                            double *A, double *value, double *dA, double *dvalue)
+{
+  nz_motion mo = { 0 };
+  int st = row_in(s, &mo, r, m, t, state, nstate, alpha, beta, dir, A, value, dA, dvalue);
   nz_motion_free(&mo);
   return st;
 }
 
 /* Column j: q'' + s e_j in the series variable, tangents on q'':
- * the s-coefficient of tangent i is d^2 Phi / dq''_i dq''_j. */
-int nz_constraint_hessian(const nz_system *s, int r, double t, const double *const *state,
-                          int nstate, double *H)
+ * the s-coefficient of tangent i is d^2 Phi / dq''_i dq''_j.  The k
+ * columns share the workspace mo (reset here; the caller frees it). */
+static int hessian_in(const nz_system *s, nz_motion *mo, int r, double t, const double *const *state,
+                      int nstate, double *H)
 {
   int k = s->k, st = NZ_OK;
   for (int j = 0; j < k && !st; j++) {
-    nz_motion mo;
-    if ((st = nz_motion_init(&mo, k, nz_constraint_levels(s, r), 1, k, t, state, nstate))) return st;
-    freeze(&mo);
-    mo.slot[2][j]->c[1] = 1.0;
-    for (int i = 0; i < k; i++) nz_motion_seed_slot(&mo, i, i, 2);
-    st = nz_motion_eval(s, NZ_PIECE_PHI, r, &mo, NULL);
+    if ((st = nz_motion_reset(mo, k, nz_constraint_levels(s, r), 1, k, t, state, nstate))) return st;
+    freeze(mo);
+    mo->slot[2][j]->c[1] = 1.0;
+    for (int i = 0; i < k; i++) nz_motion_seed_slot(mo, i, i, 2);
+    st = nz_motion_eval(s, NZ_PIECE_PHI, r, mo, NULL);
     if (!st)
-      for (int i = 0; i < k; i++) H[i * k + j] = nz_jet_tangent(mo.out[0], i)[1];
-    nz_motion_free(&mo);
+      for (int i = 0; i < k; i++) H[i * k + j] = nz_jet_tangent(mo->out[0], i)[1];
   }
+  return st;
+}
+
+int nz_constraint_hessian(const nz_system *s, int r, double t, const double *const *state,
+                          int nstate, double *H)
+{
+  nz_motion mo = { 0 };
+  int st = hessian_in(s, &mo, r, t, state, nstate, H);
+  nz_motion_free(&mo);
   return st;
 }
 
@@ -164,6 +182,7 @@ typedef struct kkt {
   int k, nc, N;
   double *M, *h, *A, *phi, *H, *x;   /* x: the point of the last evaluation */
   int status;                         /* first failure of a user function  */
+  nz_motion mo;                       /* the jets of every evaluation of the solve */
 } kkt;
 
 /* Evaluate G (and J if not NULL, N x N row-major) at x. */
@@ -173,8 +192,8 @@ static int kkt_eval(kkt *c, const double *x, double *G, double *J)
   memcpy(c->x, x, (size_t)N * sizeof(double));
   const double *state[3] = { c->q, c->qd, c->x };
   for (int r = 0; r < nc; r++)
-    if ((st = nz_constraint_row_stabilized(c->s, r, c->orders[r], c->t, state, 3, c->alpha, c->beta,
-                                           c->A + (size_t)r * k, &c->phi[r])))
+    if ((st = row_in(c->s, &c->mo, r, c->orders[r], c->t, state, 3, c->alpha, c->beta, NULL,
+                     c->A + (size_t)r * k, &c->phi[r], NULL, NULL)))
       return st;
   for (int i = 0; i < k; i++) {
     double g = c->h[i];
@@ -189,7 +208,7 @@ static int kkt_eval(kkt *c, const double *x, double *G, double *J)
     for (int j = 0; j < k; j++) J[i * N + j] = c->M[i * k + j];
   for (int r = 0; r < nc; r++) {
     if (c->orders[r] == 2 && !c->linear[r]) {
-      if ((st = nz_constraint_hessian(c->s, r, c->t, state, 3, c->H))) return st;
+      if ((st = hessian_in(c->s, &c->mo, r, c->t, state, 3, c->H))) return st;
       for (int i = 0; i < k; i++)
         for (int j = 0; j < k; j++) J[i * N + j] -= x[k + r] * c->H[i * k + j];
     }
@@ -361,20 +380,19 @@ static double slot_weight(int j, int i, int k) { return 1.0 + 0.4 * sin(1.7 + 2.
 static int check_row(kkt *c, int r, const double *const *state, double *high)
 {
   int k = c->k, m = c->orders[r], K = 2 - m, D = m == 2 ? k + 1 : 1, st;
-  nz_motion mo;
-  if ((st = nz_motion_init(&mo, k, NZ_CONSTRAINT_SLOTS, K, D, c->t, state, 3))) return st;
+  nz_motion *mo = &c->mo;
+  if ((st = nz_motion_reset(mo, k, NZ_CONSTRAINT_SLOTS, K, D, c->t, state, 3))) return st;
   if (m == 2)
-    for (int i = 0; i < k; i++) nz_motion_seed_level(&mo, i, i, 2);
+    for (int i = 0; i < k; i++) nz_motion_seed_level(mo, i, i, 2);
   for (int j = m + 1; j < NZ_CONSTRAINT_SLOTS; j++) {
     double sj = slot_size(state, k, j);
-    for (int i = 0; i < k; i++) nz_jet_tangent(mo.slot[j][i], D - 1)[0] += slot_weight(j, i, k) * sj;
+    for (int i = 0; i < k; i++) nz_jet_tangent(mo->slot[j][i], D - 1)[0] += slot_weight(j, i, k) * sj;
   }
-  st = nz_motion_eval(c->s, NZ_PIECE_PHI, r, &mo, NULL);
+  st = nz_motion_eval(c->s, NZ_PIECE_PHI, r, mo, NULL);
   if (!st) {
-    read_row(mo.out[0], m, k, c->alpha, c->beta, m == 2 ? c->A + (size_t)r * k : NULL, &c->phi[r]);
-    *high = nz_jet_tangent(mo.out[0], D - 1)[0];
+    read_row(mo->out[0], m, k, c->alpha, c->beta, m == 2 ? c->A + (size_t)r * k : NULL, &c->phi[r]);
+    *high = nz_jet_tangent(mo->out[0], D - 1)[0];
   }
-  nz_motion_free(&mo);
   return st;
 }
 
@@ -522,7 +540,7 @@ int nz_accel_constrained(const nz_system *s, const int *orders, const int *linea
   memcpy(ord, orders, (size_t)nc * sizeof(int));
   memcpy(lin, linear, (size_t)nc * sizeof(int));
   kkt c = { s, ord, lin, opt->baumgarte_alpha, opt->baumgarte_beta, t, q, qd, k, nc, N,
-            NULL, NULL, NULL, NULL, NULL, NULL, NZ_OK };
+            NULL, NULL, NULL, NULL, NULL, NULL, NZ_OK, { 0 } };
   c.M = buf;
   c.H = c.M + kk;
   double *J = c.H + kk, *Jc = J + NN;
@@ -554,6 +572,7 @@ int nz_accel_constrained(const nz_system *s, const int *orders, const int *linea
   if (rep->A) memcpy(rep->A, c.A, (size_t)nc * (size_t)k * sizeof(double));
   if (rep->used) memcpy(rep->used, flags, 2 * (size_t)nc * sizeof(int));
 done:
+  nz_motion_free(&c.mo);
   free(buf);
   free(flags);
   return st;

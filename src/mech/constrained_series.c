@@ -19,10 +19,10 @@ static int nielsen_series(const nz_system *s, double t, const double *const *lev
                           int K, double *r)
 {
   int k = s->k, st = NZ_OK, W = K + 1;
-  nz_motion mo;
+  nz_motion mo = { 0 };
   memset(r, 0, (size_t)k * (size_t)W * sizeof(double));
   if (nz_system_has(s, NZ_PIECE_F)) {
-    if ((st = nz_motion_init(&mo, k, 2, K + 1, 2 * k, t, levels, nstate))) return st;
+    if ((st = nz_motion_reset(&mo, k, 2, K + 1, 2 * k, t, levels, nstate))) goto done;
     for (int i = 0; i < k; i++) {
       nz_motion_seed_slot(&mo, i, i, 1);
       nz_motion_seed_slot(&mo, i, k + i, 0);
@@ -31,25 +31,24 @@ static int nielsen_series(const nz_system *s, double t, const double *const *lev
     for (int i = 0; i < k && !st; i++)
       for (int c = 0; c <= K; c++)
         r[i * W + c] = (c + 1) * nz_jet_tangent(mo.out[0], i)[c + 1] - nz_jet_tangent(mo.out[0], k + i)[c];
-    nz_motion_free(&mo);
-    if (st) return st;
+    if (st) goto done;
   }
   if (nz_system_has(s, NZ_PIECE_Q)) {
-    if ((st = nz_motion_init(&mo, k, 2, K, 0, t, levels, nstate))) return st;
+    if ((st = nz_motion_reset(&mo, k, 2, K, 0, t, levels, nstate))) goto done;
     st = nz_motion_eval(s, NZ_PIECE_Q, 0, &mo, NULL);
     for (int i = 0; i < k && !st; i++)
       for (int c = 0; c <= K; c++) r[i * W + c] -= mo.out[i]->c[c];
-    nz_motion_free(&mo);
-    if (st) return st;
+    if (st) goto done;
   }
   if (nz_system_has(s, NZ_PIECE_V)) {
-    if ((st = nz_motion_init(&mo, k, 2, K, k, t, levels, nstate))) return st;
+    if ((st = nz_motion_reset(&mo, k, 2, K, k, t, levels, nstate))) goto done;
     for (int i = 0; i < k; i++) nz_motion_seed_slot(&mo, i, i, 0);
     st = nz_motion_eval(s, NZ_PIECE_V, 0, &mo, NULL);
     for (int i = 0; i < k && !st; i++)
       for (int c = 0; c <= K; c++) r[i * W + c] += nz_jet_tangent(mo.out[0], i)[c];
-    nz_motion_free(&mo);
   }
+done:
+  nz_motion_free(&mo);
   return st;
 }
 
@@ -291,10 +290,10 @@ static int top_hessian(const nz_system *s, int r, int p, double t, const double 
                        int nstate, double *H)
 {
   int k = s->k, st = NZ_OK;
+  nz_motion mo = { 0 };   /* the k columns share its jets */
   for (int j = 0; j < k && !st; j++) {
-    nz_motion mo;
-    if ((st = nz_motion_init(&mo, k, nz_constraint_levels(s, r), 1, k, t, levels, nstate))) return st;
-    if (p >= mo.nslots) { nz_motion_free(&mo); return NZ_EARG; }
+    if ((st = nz_motion_reset(&mo, k, nz_constraint_levels(s, r), 1, k, t, levels, nstate))) break;
+    if (p >= mo.nslots) { st = NZ_EARG; break; }
     mo.t->c[1] = 0.0;
     for (int a = 0; a < mo.nslots; a++)
       for (int i = 0; i < k; i++) mo.slot[a][i]->c[1] = 0.0;
@@ -303,8 +302,8 @@ static int top_hessian(const nz_system *s, int r, int p, double t, const double 
     st = nz_motion_eval(s, NZ_PIECE_PHI, r, &mo, NULL);
     if (!st)
       for (int i = 0; i < k; i++) H[i * k + j] = nz_jet_tangent(mo.out[0], i)[1];
-    nz_motion_free(&mo);
   }
+  nz_motion_free(&mo);
   return st;
 }
 

@@ -76,17 +76,37 @@ void nz_motion_free(nz_motion *m)
   memset(m, 0, sizeof *m);
 }
 
+/* *z zeroed with shape (K, D): kept when it has that shape already, else
+ * replaced (a caller may have swapped t or out[0] for another shape). */
+static int fit_jet(nz_jet **z, int K, int D)
+{
+  if (*z && (*z)->order == K && (*z)->ntan == D) {
+    nz_jet_init(*z, K, D);
+    return NZ_OK;
+  }
+  nz_jet_free(*z);
+  *z = nz_jet_alloc(K, D);
+  return *z ? NZ_OK : NZ_ENOMEM;
+}
+
+/* k jets of shape (K, D) in *v, allocated when *v is NULL, else fitted. */
+static int fit_jets(nz_jet ***v, int k, int K, int D)
+{
+  if (!*v) return (*v = nz_jets_alloc(k, K, D)) ? NZ_OK : NZ_ENOMEM;
+  for (int i = 0; i < k; i++)
+    if (fit_jet(&(*v)[i], K, D)) return NZ_ENOMEM;
+  return NZ_OK;
+}
+
 /* The direction moves slot j's coefficient c by d(level j + c)/c!, where
  * only levels 0 (q) and 1 (q') move: slot 0 gets dq and dqd (q's series
  * holds q' as its first coefficient), slot 1 gets dqd. */
 int nz_motion_set_direction(nz_motion *m, const nz_state_direction *d)
 {
   int k = m->k;
-  m->dt = nz_jet_alloc(m->K, 0);
-  m->dout = nz_jets_alloc(k, m->K, m->D);
-  m->dslot = calloc((size_t)m->nslots, sizeof *m->dslot);
-  int ok = m->dt && m->dout && m->dslot;
-  for (int j = 0; j < m->nslots && ok; j++) ok = (m->dslot[j] = nz_jets_alloc(k, m->K, m->D)) != NULL;
+  if (!m->dslot && !(m->dslot = calloc((size_t)m->nslots, sizeof *m->dslot))) return NZ_ENOMEM;
+  int ok = !fit_jet(&m->dt, m->K, 0) && !fit_jets(&m->dout, k, m->K, m->D);
+  for (int j = 0; j < m->nslots && ok; j++) ok = !fit_jets(&m->dslot[j], k, m->K, m->D);
   if (!ok) return NZ_ENOMEM;
   m->dt->c[0] = d->dt;
   for (int i = 0; i < k; i++) {
@@ -94,6 +114,7 @@ int nz_motion_set_direction(nz_motion *m, const nz_state_direction *d)
     if (m->K >= 1) m->dslot[0][i]->c[1] = d->dqd[i];
     if (m->nslots > 1) m->dslot[1][i]->c[0] = d->dqd[i];
   }
+  m->dir_on = 1;
   return NZ_OK;
 }
 
@@ -102,21 +123,29 @@ static double level_value(const double *const *state, int nstate, int j, int i)
   return j < nstate && state[j] ? state[j][i] : 0.0;
 }
 
-int nz_motion_init(nz_motion *m, int k, int nslots, int K, int D, double t,
-                   const double *const *state, int nstate)
+/* The jets of m have shape (k, nslots, K, D) and may be refilled in place:
+ * only the shape is compared, the jets t and out are fitted anyway. */
+static int same_shape(const nz_motion *m, int k, int nslots, int K, int D)
 {
-  memset(m, 0, sizeof *m);
-  if (nslots < 1 || nslots > NZ_MAX_LEVELS) return NZ_EARG;
-  m->k = k;
-  m->K = K;
-  m->D = D;
-  m->nslots = nslots;
-  m->t = nz_jet_alloc(K, 0);
-  m->out = nz_jets_alloc(k, K, D);
-  m->slot = calloc((size_t)nslots, sizeof *m->slot);
-  int ok = m->t && m->out && m->slot;
-  for (int j = 0; j < nslots; j++) ok = ok && (m->slot[j] = nz_jets_alloc(k, K, D));
-  if (!ok) { nz_motion_free(m); return NZ_ENOMEM; }
+  return m->slot && m->out && m->k == k && m->nslots == nslots && m->K == K && m->D == D;
+}
+
+int nz_motion_reset(nz_motion *m, int k, int nslots, int K, int D, double t,
+                    const double *const *state, int nstate)
+{
+  if (nslots < 1 || nslots > NZ_MAX_LEVELS || k < 0 || K < 0 || D < 0) return NZ_EARG;
+  if (!same_shape(m, k, nslots, K, D)) {
+    nz_motion_free(m);
+    m->k = k;
+    m->K = K;
+    m->D = D;
+    m->nslots = nslots;
+    if (!(m->slot = calloc((size_t)nslots, sizeof *m->slot))) return NZ_ENOMEM;
+  }
+  m->dir_on = 0;
+  int ok = !fit_jet(&m->t, K, 0) && !fit_jets(&m->out, k, K, D);
+  for (int j = 0; j < nslots && ok; j++) ok = !fit_jets(&m->slot[j], k, K, D);
+  if (!ok) return NZ_ENOMEM;
   nz_jet_set_variable(m->t, t, -1);
   for (int j = 0; j < nslots; j++)
     for (int i = 0; i < k; i++) {
@@ -127,6 +156,15 @@ int nz_motion_init(nz_motion *m, int k, int nslots, int K, int D, double t,
       }
     }
   return NZ_OK;
+}
+
+int nz_motion_init(nz_motion *m, int k, int nslots, int K, int D, double t,
+                   const double *const *state, int nstate)
+{
+  memset(m, 0, sizeof *m);
+  int st = nz_motion_reset(m, k, nslots, K, D, t, state, nstate);
+  if (st) nz_motion_free(m);
+  return st;
 }
 
 /* The same number q^(level) is coefficient level - j of slot j, normalized
@@ -156,7 +194,7 @@ int nz_motion_eval(const nz_system *s, nz_piece p, int index, nz_motion *m, nz_j
   for (int j = 0; j < nlevels; j++) levels[j] = m->slot[j];
   if (qd && nlevels > 1) levels[1] = qd;
   nz_direction dir, *dp = NULL;
-  if (m->dout) {
+  if (m->dir_on) {
     dir.dt = m->dt;
     dir.dlevels = (nz_jet *const *const *)m->dslot;
     dir.dout = m->dout;
@@ -168,106 +206,102 @@ int nz_motion_eval(const nz_system *s, nz_piece p, int index, nz_motion *m, nz_j
 /* ------------------------------------------------------------------ */
 /* Primitives                                                           */
 
+/* Each primitive is one evaluation in the caller's workspace mo (reset
+ * here, freed by the caller), so that a public function making several
+ * evaluations of the same shape (nz_mass_bias: k + 1) allocates once. */
+
 /* dF^(m)/dq^(m) into top (k values) and, if below != NULL,
  * dF^(m-1)/dq^(m-1) into below (m >= 1), from one evaluation. */
-static int top_partials_along(const nz_system *s, nz_piece p, int m, double t,
+static int top_partials_along(const nz_system *s, nz_motion *mo, nz_piece p, int m, double t,
                               const double *const *state, int nstate, double *top, double *below,
                               const nz_state_direction *dir, double *dtop)
 {
-  nz_motion mo;
   int k = s->k, D = below ? 2 * k : k;
-  int st = nz_motion_init(&mo, k, 2, m, D, t, state, nstate);
+  int st = nz_motion_reset(mo, k, 2, m, D, t, state, nstate);
   if (st) return st;
-  if (dir && (st = nz_motion_set_direction(&mo, dir))) { nz_motion_free(&mo); return st; }
+  if (dir && (st = nz_motion_set_direction(mo, dir))) return st;
   for (int i = 0; i < k; i++) {
-    nz_motion_seed_level(&mo, i, i, m);
-    if (below) nz_motion_seed_level(&mo, i, k + i, m - 1);
+    nz_motion_seed_level(mo, i, i, m);
+    if (below) nz_motion_seed_level(mo, i, k + i, m - 1);
   }
-  st = nz_motion_eval(s, p, 0, &mo, NULL);
+  st = nz_motion_eval(s, p, 0, mo, NULL);
   if (!st) {
     double fm = nz_factorial(m), fm1 = m >= 1 ? nz_factorial(m - 1) : 1.0;
     for (int i = 0; i < k; i++) {
-      top[i] = fm * nz_jet_tangent(mo.out[0], i)[m];
-      if (below) below[i] = fm1 * nz_jet_tangent(mo.out[0], k + i)[m - 1];
-      if (dir) dtop[i] = fm * nz_jet_tangent(mo.dout[0], i)[m];
+      top[i] = fm * nz_jet_tangent(mo->out[0], i)[m];
+      if (below) below[i] = fm1 * nz_jet_tangent(mo->out[0], k + i)[m - 1];
+      if (dir) dtop[i] = fm * nz_jet_tangent(mo->dout[0], i)[m];
     }
   }
-  nz_motion_free(&mo);
   return st;
 }
 
-static int top_partials(const nz_system *s, nz_piece p, int m, double t,
+static int top_partials(const nz_system *s, nz_motion *mo, nz_piece p, int m, double t,
                         const double *const *state, int nstate, double *top, double *below)
 {
-  return top_partials_along(s, p, m, t, state, nstate, top, below, NULL, NULL);
+  return top_partials_along(s, mo, p, m, t, state, nstate, top, below, NULL, NULL);
 }
 
 /* d/dt (dF/dq'_i) at t0. */
-static int velocity_rate(const nz_system *s, double t, const double *const *state, int nstate,
-                         double *out)
+static int velocity_rate(const nz_system *s, nz_motion *mo, double t, const double *const *state,
+                         int nstate, double *out)
 {
-  nz_motion mo;
   int k = s->k;
-  int st = nz_motion_init(&mo, k, 2, 1, k, t, state, nstate);
+  int st = nz_motion_reset(mo, k, 2, 1, k, t, state, nstate);
   if (st) return st;
-  for (int i = 0; i < k; i++) nz_motion_seed_slot(&mo, i, i, 1);
-  st = nz_motion_eval(s, NZ_PIECE_F, 0, &mo, NULL);
+  for (int i = 0; i < k; i++) nz_motion_seed_slot(mo, i, i, 1);
+  st = nz_motion_eval(s, NZ_PIECE_F, 0, mo, NULL);
   if (!st)
-    for (int i = 0; i < k; i++) out[i] = nz_jet_tangent(mo.out[0], i)[1];
-  nz_motion_free(&mo);
+    for (int i = 0; i < k; i++) out[i] = nz_jet_tangent(mo->out[0], i)[1];
   return st;
 }
 
 /* dF_0^(n)/dq^(n): the velocity slot is the constant q'(t0) (§4). */
-static int frozen_partial(const nz_system *s, int n, double t, const double *const *state,
-                          int nstate, double *out)
+static int frozen_partial(const nz_system *s, nz_motion *mo, int n, double t,
+                          const double *const *state, int nstate, double *out)
 {
-  nz_motion mo;
   int k = s->k;
-  int st = nz_motion_init(&mo, k, 2, n, k, t, state, nstate);
+  int st = nz_motion_reset(mo, k, 2, n, k, t, state, nstate);
   if (st) return st;
   nz_jet **frozen = nz_jets_alloc(k, n, 0);
-  if (!frozen) { nz_motion_free(&mo); return NZ_ENOMEM; }
+  if (!frozen) return NZ_ENOMEM;
   for (int i = 0; i < k; i++) {
-    frozen[i]->c[0] = mo.slot[1][i]->c[0];
-    nz_motion_seed_level(&mo, i, i, n);
+    frozen[i]->c[0] = mo->slot[1][i]->c[0];
+    nz_motion_seed_level(mo, i, i, n);
   }
-  st = nz_motion_eval(s, NZ_PIECE_F, 0, &mo, frozen);
+  st = nz_motion_eval(s, NZ_PIECE_F, 0, mo, frozen);
   if (!st) {
     double fn = nz_factorial(n);
-    for (int i = 0; i < k; i++) out[i] = fn * nz_jet_tangent(mo.out[0], i)[n];
+    for (int i = 0; i < k; i++) out[i] = fn * nz_jet_tangent(mo->out[0], i)[n];
   }
   nz_jets_free(frozen, k);
-  nz_motion_free(&mo);
   return st;
 }
 
 /* Q - dV/dq at the state (each piece only if present), and with dir its
  * derivative along dir into dforce. */
-static int generalized_force_along(const nz_system *s, double t, const double *const *state,
-                                   int nstate, double *force, const nz_state_direction *dir,
-                                   double *dforce)
+static int generalized_force_along(const nz_system *s, nz_motion *mo, double t,
+                                   const double *const *state, int nstate, double *force,
+                                   const nz_state_direction *dir, double *dforce)
 {
   int k = s->k, st = NZ_OK;
   memset(force, 0, (size_t)k * sizeof(double));
   if (dir) memset(dforce, 0, (size_t)k * sizeof(double));
   if (nz_system_has(s, NZ_PIECE_Q)) {
-    nz_motion mo;
-    if ((st = nz_motion_init(&mo, k, 2, 0, 0, t, state, nstate))) return st;
-    if (dir && (st = nz_motion_set_direction(&mo, dir))) { nz_motion_free(&mo); return st; }
-    st = nz_motion_eval(s, NZ_PIECE_Q, 0, &mo, NULL);
+    if ((st = nz_motion_reset(mo, k, 2, 0, 0, t, state, nstate))) return st;
+    if (dir && (st = nz_motion_set_direction(mo, dir))) return st;
+    st = nz_motion_eval(s, NZ_PIECE_Q, 0, mo, NULL);
     if (!st)
       for (int i = 0; i < k; i++) {
-        force[i] = mo.out[i]->c[0];
-        if (dir) dforce[i] = mo.dout[i]->c[0];
+        force[i] = mo->out[i]->c[0];
+        if (dir) dforce[i] = mo->dout[i]->c[0];
       }
-    nz_motion_free(&mo);
     if (st) return st;
   }
   if (nz_system_has(s, NZ_PIECE_V)) {
     double *dV = malloc(2 * (size_t)k * sizeof(double));
     if (!dV) return NZ_ENOMEM;
-    st = top_partials_along(s, NZ_PIECE_V, 0, t, state, nstate, dV, NULL, dir, dV + k);
+    st = top_partials_along(s, mo, NZ_PIECE_V, 0, t, state, nstate, dV, NULL, dir, dV + k);
     if (!st)
       for (int i = 0; i < k; i++) {
         force[i] -= dV[i];
@@ -278,10 +312,10 @@ static int generalized_force_along(const nz_system *s, double t, const double *c
   return st;
 }
 
-static int generalized_force(const nz_system *s, double t, const double *const *state, int nstate,
-                             double *force)
+static int generalized_force(const nz_system *s, nz_motion *mo, double t, const double *const *state,
+                             int nstate, double *force)
 {
-  return generalized_force_along(s, t, state, nstate, force, NULL, NULL);
+  return generalized_force_along(s, mo, t, state, nstate, force, NULL, NULL);
 }
 
 int nz_nielsen_residual_along(const nz_system *s, double t, const double *const *state,
@@ -291,59 +325,58 @@ int nz_nielsen_residual_along(const nz_system *s, double t, const double *const 
   double *buf = calloc(6 * (size_t)k, sizeof(double));
   if (!buf) return NZ_ENOMEM;
   double *f = buf, *df = f + k, *x = df + k, *dx = x + k, *y = dx + k, *dy = y + k;
-  st = generalized_force_along(s, t, state, 3, f, dir, df);
+  nz_motion mo = { 0 };
+  st = generalized_force_along(s, &mo, t, state, 3, f, dir, df);
   if (!st && nz_system_has(s, NZ_PIECE_F)) {
-    st = top_partials_along(s, NZ_PIECE_F, 1, t, state, 3, x, NULL, dir, dx);
-    if (!st) st = top_partials_along(s, NZ_PIECE_F, 0, t, state, 3, y, NULL, dir, dy);
+    st = top_partials_along(s, &mo, NZ_PIECE_F, 1, t, state, 3, x, NULL, dir, dx);
+    if (!st) st = top_partials_along(s, &mo, NZ_PIECE_F, 0, t, state, 3, y, NULL, dir, dy);
   }
   if (!st)
     for (int i = 0; i < k; i++) {
       r[i] = x[i] - 2.0 * y[i] - f[i];
       dr[i] = dx[i] - 2.0 * dy[i] - df[i];
     }
+  nz_motion_free(&mo);
   free(buf);
   return st;
 }
 
 /* sum_j q_j^(n) dQ_j/dq_i^(n): the part of dK_n/dq^(n) that the forces'
  * dependence on q^(n) adds (nonzero for n = 1 with velocity-dependent Q). */
-static int force_rate_term(const nz_system *s, int n, double t, const double *const *state,
-                           int nstate, double *out)
+static int force_rate_term(const nz_system *s, nz_motion *mo, int n, double t,
+                           const double *const *state, int nstate, double *out)
 {
   int k = s->k;
   memset(out, 0, (size_t)k * sizeof(double));
   if (!nz_system_has(s, NZ_PIECE_Q)) return NZ_OK;
-  nz_motion mo;
-  int st = nz_motion_init(&mo, k, 2, n, k, t, state, nstate);
+  int st = nz_motion_reset(mo, k, 2, n, k, t, state, nstate);
   if (st) return st;
-  for (int i = 0; i < k; i++) nz_motion_seed_level(&mo, i, i, n);
-  st = nz_motion_eval(s, NZ_PIECE_Q, 0, &mo, NULL);
+  for (int i = 0; i < k; i++) nz_motion_seed_level(mo, i, i, n);
+  st = nz_motion_eval(s, NZ_PIECE_Q, 0, mo, NULL);
   if (!st)
     for (int i = 0; i < k; i++)
       for (int j = 0; j < k; j++)
-        out[i] += level_value(state, nstate, n, j) * nz_jet_tangent(mo.out[j], i)[0];
-  nz_motion_free(&mo);
+        out[i] += level_value(state, nstate, n, j) * nz_jet_tangent(mo->out[j], i)[0];
   return st;
 }
 
 /* dS^(n-2)/dq^(n): S receives the q series (Wassmuth, §4). */
-static int acceleration_energy_partial(const nz_system *s, int n, double t,
+static int acceleration_energy_partial(const nz_system *s, nz_motion *mo, int n, double t,
                                        const double *const *state, int nstate, double *out)
 {
-  nz_motion mo;
   int k = s->k;
-  int st = nz_motion_init(&mo, k, 2, n, k, t, state, nstate);
+  int st = nz_motion_reset(mo, k, 2, n, k, t, state, nstate);
   if (st) return st;
-  /* S is built from r'', two orders below the q series. */
-  nz_jet_free(mo.out[0]);
-  if (!(mo.out[0] = nz_jet_alloc(n - 2, k))) { nz_motion_free(&mo); return NZ_ENOMEM; }
-  for (int i = 0; i < k; i++) nz_motion_seed_level(&mo, i, i, n);
-  st = nz_motion_eval(s, NZ_PIECE_S, 0, &mo, NULL);
+  /* S is built from r'', two orders below the q series (the next reset
+   * puts back an output of the motion's shape). */
+  nz_jet_free(mo->out[0]);
+  if (!(mo->out[0] = nz_jet_alloc(n - 2, k))) return NZ_ENOMEM;
+  for (int i = 0; i < k; i++) nz_motion_seed_level(mo, i, i, n);
+  st = nz_motion_eval(s, NZ_PIECE_S, 0, mo, NULL);
   if (!st) {
     double f = nz_factorial(n - 2);
-    for (int i = 0; i < k; i++) out[i] = f * nz_jet_tangent(mo.out[0], i)[n - 2];
+    for (int i = 0; i < k; i++) out[i] = f * nz_jet_tangent(mo->out[0], i)[n - 2];
   }
-  nz_motion_free(&mo);
   return st;
 }
 
@@ -360,13 +393,14 @@ int nz_residual(const nz_system *s, nz_form form, int n, double t, const double 
   if (!a) return NZ_ENOMEM;
   double *force = a, *x = a + k, *y = a + 2 * k, *z = a + 3 * k;
   int hasF = nz_system_has(s, NZ_PIECE_F);
+  nz_motion mo = { 0 };
 
-  st = generalized_force(s, t, state, nstate, force);
+  st = generalized_force(s, &mo, t, state, nstate, force);
   if (st) goto done;
   switch (form) {
   case NZ_FORM_GENERALIZED:   /* x = dF^(n)/dq^(n), y = dF/dq */
-    if (hasF && ((st = top_partials(s, NZ_PIECE_F, n, t, state, nstate, x, NULL)) ||
-                 (st = top_partials(s, NZ_PIECE_F, 0, t, state, nstate, y, NULL)))) goto done;
+    if (hasF && ((st = top_partials(s, &mo, NZ_PIECE_F, n, t, state, nstate, x, NULL)) ||
+                 (st = top_partials(s, &mo, NZ_PIECE_F, 0, t, state, nstate, y, NULL)))) goto done;
     for (int i = 0; i < k; i++) r[i] = (x[i] - (n + 1) * y[i]) / n - force[i];
     if (terms) {
       if (terms->dFn) memcpy(terms->dFn, x, (size_t)k * sizeof(double));
@@ -374,28 +408,28 @@ int nz_residual(const nz_system *s, nz_form form, int n, double t, const double 
     }
     break;
   case NZ_FORM_LAGRANGE:      /* x = d/dt dF/dq', y = dF/dq */
-    if (hasF && ((st = velocity_rate(s, t, state, nstate, x)) ||
-                 (st = top_partials(s, NZ_PIECE_F, 0, t, state, nstate, y, NULL)))) goto done;
+    if (hasF && ((st = velocity_rate(s, &mo, t, state, nstate, x)) ||
+                 (st = top_partials(s, &mo, NZ_PIECE_F, 0, t, state, nstate, y, NULL)))) goto done;
     for (int i = 0; i < k; i++) r[i] = x[i] - y[i] - force[i];
     break;
   case NZ_FORM_DIFFERENCE:    /* x = dF^(n)/dq^(n), y = dF^(n-1)/dq^(n-1) */
-    if (hasF && (st = top_partials(s, NZ_PIECE_F, n, t, state, nstate, x, y))) goto done;
+    if (hasF && (st = top_partials(s, &mo, NZ_PIECE_F, n, t, state, nstate, x, y))) goto done;
     for (int i = 0; i < k; i++) r[i] = n * x[i] - (n + 1) * y[i] - force[i];
     break;
   case NZ_FORM_EULER:         /* x = d/dt dF^(n-1)/dq^(n) = d/dt dF/dq', y = dF^(n-1)/dq^(n-1) */
-    if (hasF && ((st = velocity_rate(s, t, state, nstate, x)) ||
-                 (st = top_partials(s, NZ_PIECE_F, n - 1, t, state, nstate, y, NULL)))) goto done;
+    if (hasF && ((st = velocity_rate(s, &mo, t, state, nstate, x)) ||
+                 (st = top_partials(s, &mo, NZ_PIECE_F, n - 1, t, state, nstate, y, NULL)))) goto done;
     for (int i = 0; i < k; i++) r[i] = n * x[i] - y[i] - force[i];
     break;
   case NZ_FORM_APPELL:
   case NZ_FORM_EXTREMAL:      /* x = dF^(n)/dq^(n), y = dF_0^(n)/dq^(n) */
-    if (hasF && ((st = top_partials(s, NZ_PIECE_F, n, t, state, nstate, x, NULL)) ||
-                 (st = frozen_partial(s, n, t, state, nstate, y)))) goto done;
-    if (form == NZ_FORM_EXTREMAL && (st = force_rate_term(s, n, t, state, nstate, z))) goto done;
+    if (hasF && ((st = top_partials(s, &mo, NZ_PIECE_F, n, t, state, nstate, x, NULL)) ||
+                 (st = frozen_partial(s, &mo, n, t, state, nstate, y)))) goto done;
+    if (form == NZ_FORM_EXTREMAL && (st = force_rate_term(s, &mo, n, t, state, nstate, z))) goto done;
     for (int i = 0; i < k; i++) r[i] = (x[i] - (n + 1) * y[i]) / n - force[i] - z[i];
     break;
   case NZ_FORM_WASSMUTH:
-    if ((st = acceleration_energy_partial(s, n, t, state, nstate, x))) goto done;
+    if ((st = acceleration_energy_partial(s, &mo, n, t, state, nstate, x))) goto done;
     for (int i = 0; i < k; i++) r[i] = x[i] - force[i];
     break;
   default:
@@ -403,6 +437,7 @@ int nz_residual(const nz_system *s, nz_form form, int n, double t, const double 
   }
   if (terms && terms->force) memcpy(terms->force, force, (size_t)k * sizeof(double));
 done:
+  nz_motion_free(&mo);
   free(a);
   return st;
 }
@@ -413,9 +448,11 @@ int nz_operator_N(const nz_system *s, int m, double t, const double *const *stat
   int k = s->k;
   double *below = malloc((size_t)k * sizeof(double));
   if (!below) return NZ_ENOMEM;
-  int st = top_partials(s, NZ_PIECE_F, m, t, state, nstate, out, below);
+  nz_motion mo = { 0 };
+  int st = top_partials(s, &mo, NZ_PIECE_F, m, t, state, nstate, out, below);
   if (!st)
     for (int i = 0; i < k; i++) out[i] -= 2.0 * below[i];
+  nz_motion_free(&mo);
   free(below);
   return st;
 }
@@ -426,10 +463,12 @@ int nz_operator_E(const nz_system *s, int m, double t, const double *const *stat
   int k = s->k;
   double *below = malloc((size_t)k * sizeof(double));
   if (!below) return NZ_ENOMEM;
-  int st = velocity_rate(s, t, state, nstate, out);
-  if (!st) st = top_partials(s, NZ_PIECE_F, m - 1, t, state, nstate, below, NULL);
+  nz_motion mo = { 0 };
+  int st = velocity_rate(s, &mo, t, state, nstate, out);
+  if (!st) st = top_partials(s, &mo, NZ_PIECE_F, m - 1, t, state, nstate, below, NULL);
   if (!st)
     for (int i = 0; i < k; i++) out[i] -= below[i];
+  nz_motion_free(&mo);
   free(below);
   return st;
 }
@@ -437,7 +476,10 @@ int nz_operator_E(const nz_system *s, int m, double t, const double *const *stat
 int nz_partial(const nz_system *s, int m, double t, const double *const *state, int nstate,
                double *out)
 {
-  return top_partials(s, NZ_PIECE_F, m, t, state, nstate, out, NULL);
+  nz_motion mo = { 0 };
+  int st = top_partials(s, &mo, NZ_PIECE_F, m, t, state, nstate, out, NULL);
+  nz_motion_free(&mo);
+  return st;
 }
 
 int nz_top_coefficient(const nz_system *s, int m, double t, const double *const *state,
@@ -468,22 +510,24 @@ int nz_mass_bias(const nz_system *s, double t, const double *q, const double *qd
   if (!buf) return NZ_ENOMEM;
   double *force = buf, *dFq = buf + k, *dF1 = buf + 2 * k, *qdd = buf + 3 * k, *r0 = buf + 4 * k;
   const double *state[3] = { q, qd, qdd };
+  nz_motion mo = { 0 };   /* the k + 1 evaluations of F at order 1 share its jets */
   memset(M, 0, (size_t)k * (size_t)k * sizeof(double));
-  if ((st = generalized_force(s, t, state, 3, force))) goto done;
+  if ((st = generalized_force(s, &mo, t, state, 3, force))) goto done;
   if (nz_system_has(s, NZ_PIECE_F)) {
-    if ((st = top_partials(s, NZ_PIECE_F, 0, t, state, 3, dFq, NULL))) goto done;
-    if ((st = top_partials(s, NZ_PIECE_F, 1, t, state, 3, dF1, NULL))) goto done;
+    if ((st = top_partials(s, &mo, NZ_PIECE_F, 0, t, state, 3, dFq, NULL))) goto done;
+    if ((st = top_partials(s, &mo, NZ_PIECE_F, 1, t, state, 3, dF1, NULL))) goto done;
   }
   for (int i = 0; i < k; i++) h[i] = r0[i] = dF1[i] - 2.0 * dFq[i] - force[i];
   if (nz_system_has(s, NZ_PIECE_F))
     for (int j = 0; j < k; j++) {
       qdd[j] = 1.0;
-      st = top_partials(s, NZ_PIECE_F, 1, t, state, 3, dF1, NULL);
+      st = top_partials(s, &mo, NZ_PIECE_F, 1, t, state, 3, dF1, NULL);
       qdd[j] = 0.0;
       if (st) goto done;
       for (int i = 0; i < k; i++) M[i * k + j] = (dF1[i] - 2.0 * dFq[i] - force[i]) - r0[i];
     }
 done:
+  nz_motion_free(&mo);
   free(buf);
   return st;
 }

@@ -94,16 +94,27 @@ int nz_constraint_levels_max(const nz_system *s);
 
 /* Jets of a motion: slot j of q_i holds q_i^(j+c)/c!, c = 0..K (slot 0 is
  * q, slot 1 the velocity slot), and t = t0 + (t - t0).  The pieces of the
- * mechanics (this file and constrained.c) are all evaluations of these. */
+ * mechanics (this file and constrained.c) are all evaluations of these.
+ *
+ * A motion is a reusable workspace: start from nz_motion mo = { 0 }, call
+ * nz_motion_reset before each evaluation (seed, evaluate, read), and
+ * nz_motion_free once at the end.  Reset keeps the jets when the shape
+ * (k, nslots, K, D) is the one they have and only zeroes and refills them;
+ * it reallocates when the shape changes, and replaces t or an output jet
+ * that a caller swapped for one of another shape.  One workspace serves one
+ * evaluation at a time: an evaluator that re-enters the mechanics gets its
+ * own (each public function of mech.c and constrained.c owns one). */
 typedef struct nz_motion {
   int k, K, D, nslots;   /* nslots <= NZ_MAX_LEVELS */
   nz_jet *t;
   nz_jet ***slot;        /* nslots arrays of k jets */
   nz_jet **out;          /* k output jets */
-  /* An optional direction (nz_motion_set_direction): */
+  /* An optional direction (nz_motion_set_direction), kept allocated across
+   * resets of the same shape; dir_on says whether it is in use. */
   nz_jet *dt;
   nz_jet ***dslot;
   nz_jet **dout;
+  int dir_on;
 } nz_motion;
 
 /* A state direction: dt, and dq, dqd (k values each; q'' and above fixed). */
@@ -112,10 +123,17 @@ typedef struct nz_state_direction {
   const double *dq, *dqd;
 } nz_state_direction;
 
+/* Shape the workspace m (zeroed, or used before) and fill it with the
+ * state; the direction is switched off.  NZ_EARG for a bad shape, NZ_ENOMEM
+ * (m stays freeable either way). */
+int nz_motion_reset(nz_motion *m, int k, int nslots, int K, int D, double t,
+                    const double *const *state, int nstate);
+/* nz_motion_reset on a fresh workspace (m need not be zeroed). */
 int nz_motion_init(nz_motion *m, int k, int nslots, int K, int D, double t,
                    const double *const *state, int nstate);
 void nz_motion_free(nz_motion *m);
-/* Make the next evaluations also differentiate along the state direction. */
+/* Make the next evaluations also differentiate along the state direction
+ * (until the next reset). */
 int nz_motion_set_direction(nz_motion *m, const nz_state_direction *d);
 /* Seed direction d on q_i^(level) wherever it appears (THEORY.md §3). */
 void nz_motion_seed_level(nz_motion *m, int i, int d, int level);
