@@ -37,7 +37,7 @@
 #include <lualib.h>
 
 #include "core/interrupt.h"
-#include "lua/lua_system.h"
+#include "lua/lua_util.h"
 #include "lua/nz.h"
 #include "app/repl_complete.h"
 

@@ -1,11 +1,14 @@
 /* lua_constraints.c - constraints for Lua (constrained.h): the primitives
- * that lua/nz/constraints.lua classifies with, the constrained accelerations,
- * and the errors of a failed constrained solve (shared with the integrator). */
+ * that lua/nz/constraints.lua classifies with and the constrained
+ * accelerations (the error of a failed constrained solve, shared with the
+ * integrator, is nz_lua_raise_accel_failure in lua_util.c). */
 #include <math.h>
 #include <string.h>
 #include <lauxlib.h>
 #include "mech/constrained.h"
+#include "lua/lua_constraints.h"
 #include "lua/lua_system.h"
+#include "lua/lua_util.h"
 
 /* ------------------------------------------------------------------ */
 /* Constraints                                                          */
@@ -138,139 +141,6 @@ static void read_flags(lua_State *L, int idx, int n, int *v, const char *what)
 }
 
 
-/* What the check after the solve found (NZ_ACCEL_CHECK). */
-static void add_check_failure(luaL_Buffer *msg, const nz_accel_report *rep, const int *orders, int k)
-{
-  char num[240];
-  int row = rep->check_row;
-  if (row >= k && rep->check_order > 2)
-    snprintf(num, sizeof num, "constraint %d, classified of order %d, depends on q^(%d) here (its "
-             "terms above order %d are %.3g against %.3g at that order), and accelerations cannot "
-             "impose a constraint of order %d", row - k + 1, orders[row - k], rep->check_order,
-             orders[row - k], rep->check_violation, rep->check_size, rep->check_order);
-  else if (row >= k)
-    snprintf(num, sizeof num, "constraint %d is violated by %.3g (its terms are of size %.3g) after "
-             "the solve, also after classifying it again at this state", row - k + 1,
-             rep->check_violation, rep->check_size);
-  else
-    snprintf(num, sizeof num, "equation (6.2) for coordinate %d is violated by %.3g (its terms are "
-             "of size %.3g) after the solve, also after classifying the constraints again at this "
-             "state", row + 1, rep->check_violation, rep->check_size);
-  luaL_addstring(msg, num);
-}
-
-/* A constraint of order p nonlinear in q^(p) (constrained_series.h): why
- * the solve for (q^(p), lambda) failed. */
-static void add_top_failure(luaL_Buffer *msg, const nz_accel_report *rep, const int *orders, int nc)
-{
-  char num[400];
-  int p = 0;
-  for (int r = 0; r < nc; r++)
-    if (orders[r] > p) p = orders[r];
-  if (rep->failure == NZ_ACCEL_TOP_SINGULAR)
-    snprintf(num, sizeof num, "a constraint nonlinear in q^(%d) fixes q^(%d) only through lambda "
-             "d2Phi/dq^(%d)2 in (6.2): the Jacobian of (6.2) and the constraints in (q^(%d), lambda) is "
-             "singular (reciprocal condition %.2g), as where the multipliers vanish", p, p, p, p, rep->rcond);
-  else
-    snprintf(num, sizeof num, "Newton's method on (6.2) and the constraints for (q^(%d), lambda) did not "
-             "converge in %d iterations (residual %.3g, started from %s%s)", p, rep->iterations, rep->residual,
-             rep->from_guess ? "the last root or the guess" : "q^(p) = 0 and least-squares multipliers",
-             rep->rcond < 1e-13 ? "; the Jacobian is singular at the last iterate and no step reduces the residual" : "");
-  luaL_addstring(msg, num);
-}
-
-/* The error of a failed constrained solve: why, where, and what to do. */
-int nz_lua_raise_accel_failure(lua_State *L, int def, const nz_accel_report *rep_, const int *orders,
-                               double t, const double *q, const double *qd, int k, int nc)
-{
-  nz_accel_report rep = *rep_;
-  const int *involved = rep.involved;
-  luaL_Buffer msg;
-  char num[160];
-  luaL_buffinit(L, &msg);
-  lua_pushfstring(L, "system '%s': ", nz_lua_system_name(L, def));
-  luaL_addvalue(&msg);
-  if (rep.failure == NZ_ACCEL_ORDER) {
-    for (int r = 0; r < nc; r++)
-      if (orders[r] > 2) {
-        snprintf(num, sizeof num, "constraint %d is of order %d", r + 1, orders[r]);
-        luaL_addstring(&msg, num);
-        break;
-      }
-    luaL_addstring(&msg, ": under it q'' is part of the state, not a function of (t, q, qd), so "
-                         "accelerations come from the state: integrate with sys:simulate{..., qdd0 = ...} "
-                         "(residuals, classification and sys:project work)");
-  } else if (rep.failure == NZ_ACCEL_CHECK) {
-    add_check_failure(&msg, &rep, orders, k);
-    nz_lua_add_state(&msg, t, q, qd, k);
-    luaL_addstring(&msg, rep.check_order > 2
-                   ? ": give a state where it has that order as sample = {...} in nz.system, so that "
-                     "it is classified and integrated at its own order, or check the constraint "
-                     "where its order changes"
-                   : ": check that the constraint is smooth here and consistent with its jet "
-                     "(sys:constraints() shows its order and linearity at the sample states)");
-  } else if (rep.failure == NZ_ACCEL_NEWTON) {
-    snprintf(num, sizeof num, "Newton's method on (6.2) and the constraints did not converge in %d "
-             "iterations (residual %.3g)", rep.iterations, rep.residual);
-    luaL_addstring(&msg, num);
-    nz_lua_add_state(&msg, t, q, qd, k);
-    luaL_addstring(&msg, rep.from_guess ? "; started from the guess given"
-                                        : "; started from the unconstrained accelerations");
-    luaL_addstring(&msg, ": give another start with sys:accel(t, q, qd, {qdd = ..., lambda = ...}), "
-                         "or check that the constraints have a real solution here");
-  } else if (rep.failure == NZ_ACCEL_TOP_SINGULAR || rep.failure == NZ_ACCEL_TOP_NEWTON) {
-    add_top_failure(&msg, &rep, orders, nc);
-    nz_lua_add_state(&msg, t, q, qd, k);
-    /* The level state: q'' follows qd in y (ode.c). */
-    snprintf(num, sizeof num, ", qdd = {");
-    luaL_addstring(&msg, num);
-    for (int i = 0; i < k; i++) {
-      snprintf(num, sizeof num, "%s%.6g", i ? ", " : "", qd[k + i]);
-      luaL_addstring(&msg, num);
-    }
-    luaL_addstring(&msg, "}");
-    if (rep.failure == NZ_ACCEL_TOP_SINGULAR)
-      luaL_addstring(&msg, ": the motion is not determined there; start where the multipliers are not zero, "
-                           "or reformulate the constraint");
-    else {
-      int p = 0;
-      for (int r = 0; r < nc; r++) p = orders[r] > p ? orders[r] : p;
-      snprintf(num, sizeof num, ": give Newton a start with simulate{..., guess = {lambda = ..., q%dd = ...}}, "
-               "or check that the constraints have a real solution here", p);
-      luaL_addstring(&msg, num);
-    }
-  } else {
-    int ninvolved = 0, lone = 0;
-    for (int r = 0; r < nc; r++)
-      if (involved[r]) { ninvolved++; lone = r; }
-    if (rep.rank_A < nc && ninvolved == 1) {
-      snprintf(num, sizeof num, "constraint %d has a zero gradient dPhi/dq^(m) here (a singular "
-               "configuration of the constraint)", lone + 1);
-      luaL_addstring(&msg, num);
-    } else if (rep.rank_A < nc) {
-      luaL_addstring(&msg, "dependent constraints: ");
-      int first = 1;
-      for (int r = 0; r < nc; r++)
-        if (involved[r]) {
-          snprintf(num, sizeof num, "%s%d", first ? "constraints " : " and ", r + 1);
-          luaL_addstring(&msg, num);
-          first = 0;
-        }
-      snprintf(num, sizeof num, " (the rank of their gradients A is %d < %d)", rep.rank_A, nc);
-      luaL_addstring(&msg, num);
-    } else {
-      luaL_addstring(&msg, "the mass matrix is singular on the directions the constraints allow");
-    }
-    snprintf(num, sizeof num, ": [M A^T; A 0] is singular or badly conditioned (reciprocal condition %.2g)",
-             rep.rcond);
-    luaL_addstring(&msg, num);
-    nz_lua_add_state(&msg, t, q, qd, k);
-    luaL_addstring(&msg, ": remove a redundant constraint or move away from this configuration");
-  }
-  luaL_pushresult(&msg);
-  return lua_error(L);
-}
-
 /* accel_constrained(def, t, q, qd, orders, linear, opts) -> qdd, lambda, report */
 static int ls_accel_constrained(lua_State *L)
 {
@@ -356,7 +226,6 @@ static const luaL_Reg constraint_functions[] = {
 void nz_lua_open_constraints(lua_State *L)
 {
   luaL_setfuncs(L, constraint_functions, 0);
-  nz_lua_open_series(L);
   lua_pushnumber(L, NZ_ACCEL_CHECK_TOL);      /* what the check promises (tests, help) */
   lua_setfield(L, -2, "accel_check_tol");
 }

@@ -3,7 +3,8 @@
  * values (nz.check's rank test). */
 #include <lauxlib.h>
 #include "core/linalg.h"
-#include "lua/lua_system.h"
+#include "lua/lua_linalg.h"
+#include "lua/lua_util.h"
 
 /* Read the matrix at idx (a list of rows of numbers) into a new userdata
  * with `extra` more doubles after it; sets *m, *n. */

@@ -14,10 +14,15 @@
 #include <lauxlib.h>
 #include "lua/embedded.h"
 #include <gsl/gsl_errno.h>
+#include "lua/lua_constraints.h"
 #include "lua/lua_graph.h"
 #include "lua/lua_jet.h"
+#include "lua/lua_linalg.h"
+#include "lua/lua_ode.h"
+#include "lua/lua_series.h"
 #include "lua/lua_special.h"
 #include "lua/lua_system.h"
+#include "lua/lua_util.h"
 #include "lua/nz.h"
 
 static int load_embedded(lua_State *L)
@@ -106,10 +111,16 @@ static int open_core(lua_State *L)
 {
   lua_newtable(L);
   nz_lua_open_jet(L);
+  /* core.mech: the mechanics and everything built on it; each binding adds
+   * its functions to the table on top, and none registers another. */
+  lua_newtable(L);
   nz_lua_open_system(L);
-  lua_getfield(L, -1, "mech");   /* the recorder's constructor is internal: core.mech */
-  nz_lua_open_graph(L);
-  lua_pop(L, 1);
+  nz_lua_open_constraints(L);
+  nz_lua_open_series(L);
+  nz_lua_open_linalg(L);
+  nz_lua_open_ode(L);
+  nz_lua_open_graph(L);          /* the recorder's constructor is internal */
+  lua_setfield(L, -2, "mech");
   nz_lua_open_special(L);
   lua_pushstring(L, NZ_VERSION);
   lua_setfield(L, -2, "version");

@@ -11,6 +11,7 @@
 #include "core/interrupt.h"
 #include "lua/lua_ode.h"
 #include "lua/lua_system.h"
+#include "lua/lua_util.h"
 #include "ode/ode.h"
 #include "ode/ode_run.h"
 

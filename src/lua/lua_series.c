@@ -6,7 +6,9 @@
 #include <string.h>
 #include <lauxlib.h>
 #include "mech/constrained_series.h"
+#include "lua/lua_series.h"
 #include "lua/lua_system.h"
+#include "lua/lua_util.h"
 
 /* The classification's orders, one per constraint, from the table at idx. */
 static int *read_orders(lua_State *L, int idx, int nc)

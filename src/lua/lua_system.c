@@ -17,24 +17,12 @@
 #include "core/linalg.h"
 #include "lua/lua_graph.h"
 #include "lua/lua_jet.h"
-#include "lua/lua_ode.h"
 #include "lua/lua_system.h"
+#include "lua/lua_util.h"
 #include "mech/mech.h"
 
 static const char *const piece_fields[NZ_PIECE_COUNT] = { "F", "T", "V", "Q", "S", "constraints" };
 
-
-/* Shortest round-trip text of a number, for messages; NaN and infinities
- * the same way on every C library (not "-nan"). */
-static void fmt_num(char *buf, size_t n, double v)
-{
-  if (isnan(v) || isinf(v)) {
-    snprintf(buf, n, "%s", isnan(v) ? "NaN" : v > 0 ? "inf" : "-inf");
-    return;
-  }
-  snprintf(buf, n, "%.15g", v);
-  if (strtod(buf, NULL) != v) snprintf(buf, n, "%.17g", v);
-}
 
 static void append_vector(luaL_Buffer *b, const char *name, nz_jet *const *v, int k)
 {
@@ -42,7 +30,7 @@ static void append_vector(luaL_Buffer *b, const char *name, nz_jet *const *v, in
   luaL_addstring(b, name);
   luaL_addstring(b, " = {");
   for (int i = 0; i < k; i++) {
-    fmt_num(num, sizeof num, v[i]->c[0]);
+    nz_lua_fmt_num(num, sizeof num, v[i]->c[0]);
     if (i) luaL_addstring(b, ", ");
     luaL_addstring(b, num);
   }
@@ -68,7 +56,7 @@ static void record_failure(lua_evaluator *ev, nz_piece piece, int index, const n
   luaL_addstring(&b, label ? label : piece_fields[piece]);
   luaL_addstring(&b, " ");
   luaL_addstring(&b, what);
-  fmt_num(num, sizeof num, t->c[0]);
+  nz_lua_fmt_num(num, sizeof num, t->c[0]);
   luaL_addstring(&b, " at t = ");
   luaL_addstring(&b, num);
   luaL_addstring(&b, ", ");
@@ -79,50 +67,6 @@ static void record_failure(lua_evaluator *ev, nz_piece piece, int index, const n
   }
   luaL_pushresult(&b);
   lua_rawsetp(L, LUA_REGISTRYINDEX, ev);
-}
-
-/* The interrupt: one object per Lua state, kept in the registry, that the
- * Ctrl-C hook of nzlua and the bindings raise and that everyone recognises
- * by identity (never by its text: a user's message may say "interrupted!"). */
-static const char interrupt_key = 0;
-
-static int interrupt_tostring(lua_State *L)
-{
-  lua_pushliteral(L, "interrupted!");
-  return 1;
-}
-
-void nz_lua_push_interrupt(lua_State *L)
-{
-  if (lua_rawgetp(L, LUA_REGISTRYINDEX, &interrupt_key) != LUA_TNIL) return;
-  lua_pop(L, 1);
-  lua_newtable(L);
-  lua_createtable(L, 0, 3);
-  lua_pushcfunction(L, interrupt_tostring);
-  lua_setfield(L, -2, "__tostring");
-  lua_pushliteral(L, "nz.interrupted");
-  lua_setfield(L, -2, "__name");
-  lua_pushboolean(L, 0);
-  lua_setfield(L, -2, "__metatable");   /* nobody changes what it prints */
-  lua_setmetatable(L, -2);
-  lua_pushvalue(L, -1);
-  lua_rawsetp(L, LUA_REGISTRYINDEX, &interrupt_key);
-}
-
-int nz_lua_is_interrupt(lua_State *L, int idx)
-{
-  idx = lua_absindex(L, idx);
-  if (lua_type(L, idx) != LUA_TTABLE) return 0;
-  lua_rawgetp(L, LUA_REGISTRYINDEX, &interrupt_key);
-  int same = lua_rawequal(L, idx, -1);
-  lua_pop(L, 1);
-  return same;
-}
-
-int nz_lua_raise_interrupt(lua_State *L)
-{
-  nz_lua_push_interrupt(L);
-  return lua_error(L);
 }
 
 /* Is this chunk one of the nz library's own (the embedded lua/nz/ files)? */
@@ -480,80 +424,6 @@ void nz_lua_bind_system(lua_State *L, int def, bound_system *b)
   bind_compiled(L, b->ev.def, b);
 }
 
-const char *nz_lua_system_name(lua_State *L, int def)
-{
-  lua_getfield(L, def, "name");
-  const char *name = lua_tostring(L, -1);
-  lua_pop(L, 1);     /* the string stays alive in def */
-  return name ? name : "unnamed";
-}
-
-/* Read k numbers from the table at idx (nil gives zeros when allow_nil). */
-void nz_lua_read_vector(lua_State *L, int idx, int k, double *v, const char *what, int allow_nil,
-                        const char *fname)
-{
-  if (allow_nil && lua_isnoneornil(L, idx)) {
-    memset(v, 0, (size_t)k * sizeof(double));
-    return;
-  }
-  if (!lua_istable(L, idx))
-    luaL_error(L, "bad argument to '%s' (%s: a table of %d numbers expected, got %s)", fname, what,
-               k, luaL_typename(L, idx));
-  if (luaL_len(L, idx) != k)
-    luaL_error(L, "bad argument to '%s' (%s: %d numbers expected, one per coordinate, got %d)",
-               fname, what, k, (int)luaL_len(L, idx));
-  for (int i = 0; i < k; i++) {
-    lua_geti(L, idx, i + 1);
-    int isnum;
-    v[i] = lua_tonumberx(L, -1, &isnum);
-    lua_pop(L, 1);
-    if (!isnum || !isfinite(v[i]))
-      luaL_error(L, "bad argument to '%s' (%s[%d] must be a finite number)", fname, what, i + 1);
-  }
-}
-
-void nz_lua_push_vector(lua_State *L, const double *v, int k)
-{
-  lua_createtable(L, k, 0);
-  for (int i = 0; i < k; i++) {
-    lua_pushnumber(L, v[i]);
-    lua_rawseti(L, -2, i + 1);
-  }
-}
-
-void nz_lua_push_matrix(lua_State *L, const double *M, int k)
-{
-  lua_createtable(L, k, 0);
-  for (int i = 0; i < k; i++) {
-    nz_lua_push_vector(L, M + (size_t)i * (size_t)k, k);
-    lua_rawseti(L, -2, i + 1);
-  }
-}
-
-static void append_numbers(luaL_Buffer *b, const double *v, int k)
-{
-  char num[40];
-  luaL_addchar(b, '{');
-  for (int i = 0; i < k; i++) {
-    fmt_num(num, sizeof num, v[i]);
-    if (i) luaL_addstring(b, ", ");
-    luaL_addstring(b, num);
-  }
-  luaL_addchar(b, '}');
-}
-
-void nz_lua_add_state(luaL_Buffer *msg, double t, const double *q, const double *qd, int k)
-{
-  char num[40];
-  fmt_num(num, sizeof num, t);
-  luaL_addstring(msg, " at t = ");
-  luaL_addstring(msg, num);
-  luaL_addstring(msg, ", q = ");
-  append_numbers(msg, q, k);
-  luaL_addstring(msg, ", qd = ");
-  append_numbers(msg, qd, k);
-}
-
 /* Raise the error of a failed core call, with the system's name; a failed
  * user function's error starts with the user's file:line. */
 int nz_lua_raise_core(lua_State *L, bound_system *b, int st, const char *fname)
@@ -669,13 +539,6 @@ static int ls_operator(lua_State *L)
   return 1;
 }
 
-void nz_lua_read_tq_qd(lua_State *L, int k, double *t, double *q, double *qd, const char *fname)
-{
-  *t = luaL_checknumber(L, 2);
-  nz_lua_read_vector(L, 3, k, q, "q", 0, fname);
-  nz_lua_read_vector(L, 4, k, qd, "qd", 1, fname);
-}
-
 /* mass_bias(def, t, q, qd) -> M, h */
 static int ls_mass_bias(lua_State *L)
 {
@@ -691,35 +554,6 @@ static int ls_mass_bias(lua_State *L)
   nz_lua_push_matrix(L, M, k);
   nz_lua_push_vector(L, h, k);
   return 2;
-}
-
-/* The error of a singular or indefinite mass matrix, with the state. */
-int nz_lua_raise_singular_mass(lua_State *L, int def, double t, const double *q, const double *qd,
-                               int k, const nz_solve_info *info)
-{
-  luaL_Buffer msg;
-  char num[64];
-  luaL_buffinit(L, &msg);
-  lua_pushfstring(L, "system '%s': the mass matrix M = d2T/dqd2 is %s at t = ", nz_lua_system_name(L, def),
-                  info->not_spd ? "not positive definite" : "singular or badly conditioned");
-  luaL_addvalue(&msg);
-  fmt_num(num, sizeof num, t);
-  luaL_addstring(&msg, num);
-  luaL_addstring(&msg, ", q = ");
-  append_numbers(&msg, q, k);
-  luaL_addstring(&msg, ", qd = ");
-  append_numbers(&msg, qd, k);
-  snprintf(num, sizeof num, " (eigenvalues from %.3g to %.3g", info->eig_min, info->eig_max);
-  luaL_addstring(&msg, num);
-  if (info->eig_min > 0) {
-    snprintf(num, sizeof num, ", condition number %.3g", info->eig_max / info->eig_min);
-    luaL_addstring(&msg, num);
-  } else {
-    luaL_addstring(&msg, ", condition number infinite");
-  }
-  luaL_addstring(&msg, "): check T, or move away from this configuration");
-  luaL_pushresult(&msg);
-  return lua_error(L);
 }
 
 /* accel(def, t, q, qd [, rcond_min]) -> qdd: solves M qdd = -h by Cholesky. */
@@ -873,16 +707,13 @@ static const luaL_Reg system_functions[] = {
   { "energy_terms", ls_energy_terms }, { "piece", ls_piece }, { NULL, NULL }
 };
 
+/* Add the functions to the table on top of the stack (core.mech, made by
+ * lua_nz.c, the only registrar). */
 void nz_lua_open_system(lua_State *L)
 {
-  lua_newtable(L);
   luaL_setfuncs(L, system_functions, 0);
-  nz_lua_open_constraints(L);
-  nz_lua_open_linalg(L);
-  nz_lua_open_ode(L);
   lua_pushinteger(L, NZ_MAX_EQ_ORDER);
   lua_setfield(L, -2, "max_order");
   lua_pushnumber(L, NZ_RCOND_MIN);
   lua_setfield(L, -2, "rcond_min");
-  lua_setfield(L, -2, "mech");
 }

@@ -1,0 +1,309 @@
+/* lua_util.c - what every binding shares (lua_util.h): reading arguments,
+ * pushing results, formatting a state into a message, the interrupt object,
+ * and the errors raised with the state.  It calls no other binding, so the
+ * bindings depend on it and never on each other for these. */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+#include <lauxlib.h>
+#include "lua/lua_util.h"
+
+/* Shortest round-trip text of a number, for messages; NaN and infinities
+ * the same way on every C library (not "-nan"). */
+void nz_lua_fmt_num(char *buf, size_t n, double v)
+{
+  if (isnan(v) || isinf(v)) {
+    snprintf(buf, n, "%s", isnan(v) ? "NaN" : v > 0 ? "inf" : "-inf");
+    return;
+  }
+  snprintf(buf, n, "%.15g", v);
+  if (strtod(buf, NULL) != v) snprintf(buf, n, "%.17g", v);
+}
+
+/* The interrupt: one object per Lua state, kept in the registry, that the
+ * Ctrl-C hook of nzlua and the bindings raise and that everyone recognises
+ * by identity (never by its text: a user's message may say "interrupted!"). */
+static const char interrupt_key = 0;
+
+static int interrupt_tostring(lua_State *L)
+{
+  lua_pushliteral(L, "interrupted!");
+  return 1;
+}
+
+void nz_lua_push_interrupt(lua_State *L)
+{
+  if (lua_rawgetp(L, LUA_REGISTRYINDEX, &interrupt_key) != LUA_TNIL) return;
+  lua_pop(L, 1);
+  lua_newtable(L);
+  lua_createtable(L, 0, 3);
+  lua_pushcfunction(L, interrupt_tostring);
+  lua_setfield(L, -2, "__tostring");
+  lua_pushliteral(L, "nz.interrupted");
+  lua_setfield(L, -2, "__name");
+  lua_pushboolean(L, 0);
+  lua_setfield(L, -2, "__metatable");   /* nobody changes what it prints */
+  lua_setmetatable(L, -2);
+  lua_pushvalue(L, -1);
+  lua_rawsetp(L, LUA_REGISTRYINDEX, &interrupt_key);
+}
+
+int nz_lua_is_interrupt(lua_State *L, int idx)
+{
+  idx = lua_absindex(L, idx);
+  if (lua_type(L, idx) != LUA_TTABLE) return 0;
+  lua_rawgetp(L, LUA_REGISTRYINDEX, &interrupt_key);
+  int same = lua_rawequal(L, idx, -1);
+  lua_pop(L, 1);
+  return same;
+}
+
+int nz_lua_raise_interrupt(lua_State *L)
+{
+  nz_lua_push_interrupt(L);
+  return lua_error(L);
+}
+
+const char *nz_lua_system_name(lua_State *L, int def)
+{
+  lua_getfield(L, def, "name");
+  const char *name = lua_tostring(L, -1);
+  lua_pop(L, 1);     /* the string stays alive in def */
+  return name ? name : "unnamed";
+}
+
+/* Read k numbers from the table at idx (nil gives zeros when allow_nil). */
+void nz_lua_read_vector(lua_State *L, int idx, int k, double *v, const char *what, int allow_nil,
+                        const char *fname)
+{
+  if (allow_nil && lua_isnoneornil(L, idx)) {
+    memset(v, 0, (size_t)k * sizeof(double));
+    return;
+  }
+  if (!lua_istable(L, idx))
+    luaL_error(L, "bad argument to '%s' (%s: a table of %d numbers expected, got %s)", fname, what,
+               k, luaL_typename(L, idx));
+  if (luaL_len(L, idx) != k)
+    luaL_error(L, "bad argument to '%s' (%s: %d numbers expected, one per coordinate, got %d)",
+               fname, what, k, (int)luaL_len(L, idx));
+  for (int i = 0; i < k; i++) {
+    lua_geti(L, idx, i + 1);
+    int isnum;
+    v[i] = lua_tonumberx(L, -1, &isnum);
+    lua_pop(L, 1);
+    if (!isnum || !isfinite(v[i]))
+      luaL_error(L, "bad argument to '%s' (%s[%d] must be a finite number)", fname, what, i + 1);
+  }
+}
+
+void nz_lua_push_vector(lua_State *L, const double *v, int k)
+{
+  lua_createtable(L, k, 0);
+  for (int i = 0; i < k; i++) {
+    lua_pushnumber(L, v[i]);
+    lua_rawseti(L, -2, i + 1);
+  }
+}
+
+void nz_lua_push_matrix(lua_State *L, const double *M, int k)
+{
+  lua_createtable(L, k, 0);
+  for (int i = 0; i < k; i++) {
+    nz_lua_push_vector(L, M + (size_t)i * (size_t)k, k);
+    lua_rawseti(L, -2, i + 1);
+  }
+}
+
+static void append_numbers(luaL_Buffer *b, const double *v, int k)
+{
+  char num[40];
+  luaL_addchar(b, '{');
+  for (int i = 0; i < k; i++) {
+    nz_lua_fmt_num(num, sizeof num, v[i]);
+    if (i) luaL_addstring(b, ", ");
+    luaL_addstring(b, num);
+  }
+  luaL_addchar(b, '}');
+}
+
+void nz_lua_add_state(luaL_Buffer *msg, double t, const double *q, const double *qd, int k)
+{
+  char num[40];
+  nz_lua_fmt_num(num, sizeof num, t);
+  luaL_addstring(msg, " at t = ");
+  luaL_addstring(msg, num);
+  luaL_addstring(msg, ", q = ");
+  append_numbers(msg, q, k);
+  luaL_addstring(msg, ", qd = ");
+  append_numbers(msg, qd, k);
+}
+
+void nz_lua_read_tq_qd(lua_State *L, int k, double *t, double *q, double *qd, const char *fname)
+{
+  *t = luaL_checknumber(L, 2);
+  nz_lua_read_vector(L, 3, k, q, "q", 0, fname);
+  nz_lua_read_vector(L, 4, k, qd, "qd", 1, fname);
+}
+
+/* The error of a singular or indefinite mass matrix, with the state. */
+int nz_lua_raise_singular_mass(lua_State *L, int def, double t, const double *q, const double *qd,
+                               int k, const nz_solve_info *info)
+{
+  luaL_Buffer msg;
+  char num[64];
+  luaL_buffinit(L, &msg);
+  lua_pushfstring(L, "system '%s': the mass matrix M = d2T/dqd2 is %s at t = ", nz_lua_system_name(L, def),
+                  info->not_spd ? "not positive definite" : "singular or badly conditioned");
+  luaL_addvalue(&msg);
+  nz_lua_fmt_num(num, sizeof num, t);
+  luaL_addstring(&msg, num);
+  luaL_addstring(&msg, ", q = ");
+  append_numbers(&msg, q, k);
+  luaL_addstring(&msg, ", qd = ");
+  append_numbers(&msg, qd, k);
+  snprintf(num, sizeof num, " (eigenvalues from %.3g to %.3g", info->eig_min, info->eig_max);
+  luaL_addstring(&msg, num);
+  if (info->eig_min > 0) {
+    snprintf(num, sizeof num, ", condition number %.3g", info->eig_max / info->eig_min);
+    luaL_addstring(&msg, num);
+  } else {
+    luaL_addstring(&msg, ", condition number infinite");
+  }
+  luaL_addstring(&msg, "): check T, or move away from this configuration");
+  luaL_pushresult(&msg);
+  return lua_error(L);
+}
+
+/* What the check after the solve found (NZ_ACCEL_CHECK). */
+static void add_check_failure(luaL_Buffer *msg, const nz_accel_report *rep, const int *orders, int k)
+{
+  char num[240];
+  int row = rep->check_row;
+  if (row >= k && rep->check_order > 2)
+    snprintf(num, sizeof num, "constraint %d, classified of order %d, depends on q^(%d) here (its "
+             "terms above order %d are %.3g against %.3g at that order), and accelerations cannot "
+             "impose a constraint of order %d", row - k + 1, orders[row - k], rep->check_order,
+             orders[row - k], rep->check_violation, rep->check_size, rep->check_order);
+  else if (row >= k)
+    snprintf(num, sizeof num, "constraint %d is violated by %.3g (its terms are of size %.3g) after "
+             "the solve, also after classifying it again at this state", row - k + 1,
+             rep->check_violation, rep->check_size);
+  else
+    snprintf(num, sizeof num, "equation (6.2) for coordinate %d is violated by %.3g (its terms are "
+             "of size %.3g) after the solve, also after classifying the constraints again at this "
+             "state", row + 1, rep->check_violation, rep->check_size);
+  luaL_addstring(msg, num);
+}
+
+/* A constraint of order p nonlinear in q^(p) (constrained_series.h): why
+ * the solve for (q^(p), lambda) failed. */
+static void add_top_failure(luaL_Buffer *msg, const nz_accel_report *rep, const int *orders, int nc)
+{
+  char num[400];
+  int p = 0;
+  for (int r = 0; r < nc; r++)
+    if (orders[r] > p) p = orders[r];
+  if (rep->failure == NZ_ACCEL_TOP_SINGULAR)
+    snprintf(num, sizeof num, "a constraint nonlinear in q^(%d) fixes q^(%d) only through lambda "
+             "d2Phi/dq^(%d)2 in (6.2): the Jacobian of (6.2) and the constraints in (q^(%d), lambda) is "
+             "singular (reciprocal condition %.2g), as where the multipliers vanish", p, p, p, p, rep->rcond);
+  else
+    snprintf(num, sizeof num, "Newton's method on (6.2) and the constraints for (q^(%d), lambda) did not "
+             "converge in %d iterations (residual %.3g, started from %s%s)", p, rep->iterations, rep->residual,
+             rep->from_guess ? "the last root or the guess" : "q^(p) = 0 and least-squares multipliers",
+             rep->rcond < 1e-13 ? "; the Jacobian is singular at the last iterate and no step reduces the residual" : "");
+  luaL_addstring(msg, num);
+}
+
+/* The error of a failed constrained solve: why, where, and what to do. */
+int nz_lua_raise_accel_failure(lua_State *L, int def, const nz_accel_report *rep_, const int *orders,
+                               double t, const double *q, const double *qd, int k, int nc)
+{
+  nz_accel_report rep = *rep_;
+  const int *involved = rep.involved;
+  luaL_Buffer msg;
+  char num[160];
+  luaL_buffinit(L, &msg);
+  lua_pushfstring(L, "system '%s': ", nz_lua_system_name(L, def));
+  luaL_addvalue(&msg);
+  if (rep.failure == NZ_ACCEL_ORDER) {
+    for (int r = 0; r < nc; r++)
+      if (orders[r] > 2) {
+        snprintf(num, sizeof num, "constraint %d is of order %d", r + 1, orders[r]);
+        luaL_addstring(&msg, num);
+        break;
+      }
+    luaL_addstring(&msg, ": under it q'' is part of the state, not a function of (t, q, qd), so "
+                         "accelerations come from the state: integrate with sys:simulate{..., qdd0 = ...} "
+                         "(residuals, classification and sys:project work)");
+  } else if (rep.failure == NZ_ACCEL_CHECK) {
+    add_check_failure(&msg, &rep, orders, k);
+    nz_lua_add_state(&msg, t, q, qd, k);
+    luaL_addstring(&msg, rep.check_order > 2
+                   ? ": give a state where it has that order as sample = {...} in nz.system, so that "
+                     "it is classified and integrated at its own order, or check the constraint "
+                     "where its order changes"
+                   : ": check that the constraint is smooth here and consistent with its jet "
+                     "(sys:constraints() shows its order and linearity at the sample states)");
+  } else if (rep.failure == NZ_ACCEL_NEWTON) {
+    snprintf(num, sizeof num, "Newton's method on (6.2) and the constraints did not converge in %d "
+             "iterations (residual %.3g)", rep.iterations, rep.residual);
+    luaL_addstring(&msg, num);
+    nz_lua_add_state(&msg, t, q, qd, k);
+    luaL_addstring(&msg, rep.from_guess ? "; started from the guess given"
+                                        : "; started from the unconstrained accelerations");
+    luaL_addstring(&msg, ": give another start with sys:accel(t, q, qd, {qdd = ..., lambda = ...}), "
+                         "or check that the constraints have a real solution here");
+  } else if (rep.failure == NZ_ACCEL_TOP_SINGULAR || rep.failure == NZ_ACCEL_TOP_NEWTON) {
+    add_top_failure(&msg, &rep, orders, nc);
+    nz_lua_add_state(&msg, t, q, qd, k);
+    /* The level state: q'' follows qd in y (ode.c). */
+    snprintf(num, sizeof num, ", qdd = {");
+    luaL_addstring(&msg, num);
+    for (int i = 0; i < k; i++) {
+      snprintf(num, sizeof num, "%s%.6g", i ? ", " : "", qd[k + i]);
+      luaL_addstring(&msg, num);
+    }
+    luaL_addstring(&msg, "}");
+    if (rep.failure == NZ_ACCEL_TOP_SINGULAR)
+      luaL_addstring(&msg, ": the motion is not determined there; start where the multipliers are not zero, "
+                           "or reformulate the constraint");
+    else {
+      int p = 0;
+      for (int r = 0; r < nc; r++) p = orders[r] > p ? orders[r] : p;
+      snprintf(num, sizeof num, ": give Newton a start with simulate{..., guess = {lambda = ..., q%dd = ...}}, "
+               "or check that the constraints have a real solution here", p);
+      luaL_addstring(&msg, num);
+    }
+  } else {
+    int ninvolved = 0, lone = 0;
+    for (int r = 0; r < nc; r++)
+      if (involved[r]) { ninvolved++; lone = r; }
+    if (rep.rank_A < nc && ninvolved == 1) {
+      snprintf(num, sizeof num, "constraint %d has a zero gradient dPhi/dq^(m) here (a singular "
+               "configuration of the constraint)", lone + 1);
+      luaL_addstring(&msg, num);
+    } else if (rep.rank_A < nc) {
+      luaL_addstring(&msg, "dependent constraints: ");
+      int first = 1;
+      for (int r = 0; r < nc; r++)
+        if (involved[r]) {
+          snprintf(num, sizeof num, "%s%d", first ? "constraints " : " and ", r + 1);
+          luaL_addstring(&msg, num);
+          first = 0;
+        }
+      snprintf(num, sizeof num, " (the rank of their gradients A is %d < %d)", rep.rank_A, nc);
+      luaL_addstring(&msg, num);
+    } else {
+      luaL_addstring(&msg, "the mass matrix is singular on the directions the constraints allow");
+    }
+    snprintf(num, sizeof num, ": [M A^T; A 0] is singular or badly conditioned (reciprocal condition %.2g)",
+             rep.rcond);
+    luaL_addstring(&msg, num);
+    nz_lua_add_state(&msg, t, q, qd, k);
+    luaL_addstring(&msg, ": remove a redundant constraint or move away from this configuration");
+  }
+  luaL_pushresult(&msg);
+  return lua_error(L);
+}
+

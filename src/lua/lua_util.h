@@ -1,0 +1,44 @@
+/* lua_util.h - the helpers every binding shares: reading arguments, pushing
+ * results, a state in a message, the interrupt object, and the errors raised
+ * with the state.  It depends on no other binding (lua_util.c calls none);
+ * the bindings include it rather than each other. */
+#ifndef NZ_LUA_UTIL_H
+#define NZ_LUA_UTIL_H
+#include <stddef.h>
+#include <lua.h>
+#include <lauxlib.h>
+#include "core/linalg.h"         /* nz_solve_info */
+#include "mech/constrained.h"    /* nz_accel_report */
+
+/* Shortest round-trip text of a number; NaN and infinities the same way on
+ * every C library (not "-nan"). */
+void nz_lua_fmt_num(char *buf, size_t n, double v);
+
+/* Arguments and results. */
+/* Read k finite numbers from the table at idx (nil gives zeros if allow_nil). */
+void nz_lua_read_vector(lua_State *L, int idx, int k, double *v, const char *what, int allow_nil,
+                        const char *fname);
+void nz_lua_push_vector(lua_State *L, const double *v, int k);
+void nz_lua_push_matrix(lua_State *L, const double *M, int k);
+/* Arguments 2, 3, 4: t, q, qd (nil qd: zeros). */
+void nz_lua_read_tq_qd(lua_State *L, int k, double *t, double *q, double *qd, const char *fname);
+/* def.name of the definition table at def, or "unnamed". */
+const char *nz_lua_system_name(lua_State *L, int def);
+
+/* " at t = .., q = {..}, qd = {..}" added to a message. */
+void nz_lua_add_state(luaL_Buffer *msg, double t, const double *q, const double *qd, int k);
+
+/* The interrupt object (nz.interrupted): pushed, recognised by identity, raised. */
+void nz_lua_push_interrupt(lua_State *L);
+int nz_lua_is_interrupt(lua_State *L, int idx);
+int nz_lua_raise_interrupt(lua_State *L);
+
+/* Errors raised with the system's name and the state (the failure of a user
+ * function is raised by nz_lua_raise_core, lua_system.h: it reads the Lua
+ * evaluator's record). */
+int nz_lua_raise_singular_mass(lua_State *L, int def, double t, const double *q, const double *qd,
+                               int k, const nz_solve_info *info);
+int nz_lua_raise_accel_failure(lua_State *L, int def, const nz_accel_report *rep, const int *orders,
+                               double t, const double *q, const double *qd, int k, int nc);
+
+#endif
