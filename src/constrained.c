@@ -95,7 +95,8 @@ int nz_constraint_row_along(const nz_system *s, int r, int m, double t, const do
   int k = s->k, K = 2 - m, st;
   if (m < 0 || m > 2) return NZ_EARG;
   if (!dir && s->constraint_row &&
-      (st = s->constraint_row(s->mass_bias_ctx, r, m, t, state, nstate, alpha, beta, A, value)) != NZ_EARG)
+      (st = s->constraint_row(s->mass_bias_ctx, r, m, t, state, nstate, alpha, beta, A, value, NULL, NULL)) !=
+        NZ_EARG)
     return st;
   nz_motion mo;
   st = nz_motion_init(&mo, k, nz_constraint_levels(s, r), K, k, t, state, nstate);
@@ -347,10 +348,6 @@ static double slot_size(const double *const *state, int k, int j)
   return m;
 }
 
-/* A fixed weight in [0.6, 1.4] for slot j of q_i: the check differentiates
- * along one combination of the slots above the order, and a fixed,
- * irregular one cannot cancel two real dependences except by accident. */
-static double slot_weight(int j, int i, int k) { return 1.0 + 0.4 * sin(1.7 + 2.385 * (j * k + i)); }
 
 /* Constraint r at x: its row's value (and for m = 2 its gradient A, as
  * kkt_eval) and, in *high, its derivative along the slots above its order
@@ -361,13 +358,20 @@ static double slot_weight(int j, int i, int k) { return 1.0 + 0.4 * sin(1.7 + 2.
 static int check_row(kkt *c, int r, const double *const *state, double *high)
 {
   int k = c->k, m = c->orders[r], K = 2 - m, D = m == 2 ? k + 1 : 1, st;
+  if (c->s->constraint_row) {
+    double sizes[NZ_CONSTRAINT_SLOTS];
+    for (int j = 0; j < NZ_CONSTRAINT_SLOTS; j++) sizes[j] = slot_size(state, k, j);
+    st = c->s->constraint_row(c->s->mass_bias_ctx, r, m, c->t, state, 3, c->alpha, c->beta,
+                              m == 2 ? c->A + (size_t)r * k : NULL, &c->phi[r], sizes, high);
+    if (st != NZ_EARG) return st;
+  }
   nz_motion mo;
   if ((st = nz_motion_init(&mo, k, NZ_CONSTRAINT_SLOTS, K, D, c->t, state, 3))) return st;
   if (m == 2)
     for (int i = 0; i < k; i++) nz_motion_seed_level(&mo, i, i, 2);
   for (int j = m + 1; j < NZ_CONSTRAINT_SLOTS; j++) {
     double sj = slot_size(state, k, j);
-    for (int i = 0; i < k; i++) nz_jet_tangent(mo.slot[j][i], D - 1)[0] += slot_weight(j, i, k) * sj;
+    for (int i = 0; i < k; i++) nz_jet_tangent(mo.slot[j][i], D - 1)[0] += nz_check_slot_weight(j, i, k) * sj;
   }
   st = nz_motion_eval(c->s, NZ_PIECE_PHI, r, &mo, NULL);
   if (!st) {

@@ -138,7 +138,7 @@ nz_compiled *nz_compiled_new(int k, int np, int nc, int nslots)
   if (env && (env[0] == '0' || env[0] == '1') && env[1] == '\0') c->native_mode = env[0] - '0';
   c->rows = calloc(3 * (size_t)nc + 1, sizeof(dplan *));
   c->rows_built = calloc(3 * (size_t)nc + 1, 1);
-  c->row_in = calloc((size_t)c->ninputs + 3 + (size_t)k, sizeof(double));
+  c->row_in = calloc((size_t)c->ninputs + 3 + (size_t)k + NZ_CONSTRAINT_SLOTS, sizeof(double));
   if (c->row_in) c->row_out = c->row_in + c->ninputs;
   if (!c->g || !c->params || !c->phi || !c->in || !c->din || !c->pjet || !c->rows || !c->rows_built ||
       !c->row_in) {
@@ -544,20 +544,30 @@ static int build_row(nz_compiled *c, int r, int m, int *out)
     dir[nz_compiled_input_slot(c, 2, i)] = nz_graph_const(c->g, 1.0);
     if ((out[K + 1 + i] = nz_graph_derivative(c->g, out[K], dir)) < 0) ok = 0;
   }
+  /* The check's derivatives of Phi along slot j (j > m), weighted by
+   * nz_check_slot_weight: the caller scales them by the slots' sizes. */
+  for (int j = m + 1; ok && j < NZ_CONSTRAINT_SLOTS; j++) {
+    for (int a = 0; a < n; a++) dir[a] = -1;
+    for (int i = 0; i < k && ok; i++)
+      if ((dir[nz_compiled_input_slot(c, j, i)] = nz_graph_const(c->g, nz_check_slot_weight(j, i, k))) < 0) ok = 0;
+    if (ok && (out[K + 1 + k + (j - m - 1)] = nz_graph_derivative(c->g, out[0], dir)) < 0) ok = 0;
+  }
   free(dir);
   return ok ? 0 : -1;
 }
 
 int nz_compiled_constraint_row(void *ctx, int r, int m, double t, const double *const *state,
-                               int nstate, double alpha, double beta, double *A, double *value)
+                               int nstate, double alpha, double beta, double *A, double *value,
+                               const double *slot_sizes, double *high)
 {
   nz_compiled *c = ctx;
-  int k = c->k, K = 2 - m, at = 3 * r + m;
-  if (r < 0 || r >= c->nc || m < 0 || m > 2 || !c->phi[r].n || c->nslots < 3) return NZ_EARG;
+  int k = c->k, K = 2 - m, at = 3 * r + m, nhigh = NZ_CONSTRAINT_SLOTS - 1 - m;
+  if (r < 0 || r >= c->nc || m < 0 || m > 2 || !c->phi[r].n || c->nslots < NZ_CONSTRAINT_SLOTS + 2)
+    return NZ_EARG;
   if (!c->rows_built[at]) {
-    int *out = malloc((size_t)(3 + k) * sizeof(int));
+    int *out = malloc((size_t)(3 + k + NZ_CONSTRAINT_SLOTS) * sizeof(int));
     c->rows_built[at] = -1;
-    if (out && build_row(c, r, m, out) == 0 && (c->rows[at] = dplan_new(c->g, out, K + 1 + k)))
+    if (out && build_row(c, r, m, out) == 0 && (c->rows[at] = dplan_new(c->g, out, K + 1 + k + nhigh)))
       c->rows_built[at] = 1;
     free(out);
   }
@@ -576,6 +586,10 @@ int nz_compiled_constraint_row(void *ctx, int r, int m, double t, const double *
   if (m == 0) *value += 2.0 * alpha * o[1] + beta * beta * o[0];
   if (m == 1) *value += alpha * o[0];
   if (A) memcpy(A, o + K + 1, (size_t)k * sizeof(double));
+  if (high) {
+    *high = 0.0;
+    for (int j = m + 1; j < NZ_CONSTRAINT_SLOTS; j++) *high += slot_sizes[j] * o[K + 1 + k + (j - m - 1)];
+  }
   return NZ_OK;
 }
 

@@ -69,7 +69,8 @@ int nz_compiled_accel(void *ctx, double t, const double *q, const double *qd, do
  * the constraint is not compiled, the graph has too few slots, or a node
  * fails: the caller then takes the jets. */
 int nz_compiled_constraint_row(void *ctx, int r, int m, double t, const double *const *state,
-                               int nstate, double alpha, double beta, double *A, double *value);
+                               int nstate, double alpha, double beta, double *A, double *value,
+                               const double *slot_sizes, double *high);
 /* Machine code for the plans on doubles (M and h, constraint rows):
  * mode 1 compiles each at its first use, 0 never, -1 (the default, or the
  * environment's NZLUA_NATIVE=0/1) once a plan has interpreted
