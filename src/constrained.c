@@ -322,7 +322,7 @@ static int solve(kkt *c, const nz_accel_options *opt, double *x, double *G, doub
   if ((st = kkt_eval(c, x, G, J))) return st;
   equilibrate(c, J, dx);
   for (int i = 0; i < N; i++) Jc[i] = -G[i] * dx[i];
-  if ((st = nz_solve_svd(N, J, Jc, G, &rep->rcond))) return st;
+  if ((st = nz_solve_square(N, J, Jc, G, opt->rcond_min, &rep->rcond))) return st;
   for (int i = 0; i < N; i++) dx[i] *= G[i];
   if (!(rep->rcond >= opt->rcond_min)) {
     rep->failure = NZ_ACCEL_SINGULAR;
