@@ -46,8 +46,16 @@ if [ "$mode" = plain ] || [ "$mode" = all ]; then
   suite "C core (series, jets)" build/test_series
   suite "C core (expression graphs)" build/test_graph
   suite "C core (graphs compiled to C)" build/test_native
+  # NZ_GRAPH_CHECK=1: every system the specs make is checked, when it is
+  # made, against the Lua evaluator (values, jets, state directions); the
+  # compiled code of the plans goes to a fresh cache.
   suite "Lua specs (lua5.4 + build/nz.so)" env LUA_CPATH="build/?.so;;" NZLUA=build/nzlua \
-    lua5.4 $BUSTED $specs
+    NZ_GRAPH_CHECK=1 NZLUA_CACHE="$log/cache" lua5.4 $BUSTED $specs
+  # The same comparisons with every plan on doubles compiled to machine code
+  # at its first use (M and h, the constraint rows, q'' for a constant M).
+  suite "Graphs compiled to machine code (NZLUA_NATIVE=1)" env LUA_CPATH="build/?.so;;" NZLUA=build/nzlua \
+    NZLUA_NATIVE=1 NZLUA_CACHE="$log/cache" lua5.4 $BUSTED tests/graph_diff_spec.lua tests/record_spec.lua \
+    tests/branch_spec.lua tests/constraint_checks_spec.lua
 fi
 if [ "$mode" = sanitize ] || [ "$mode" = all ]; then
   export ASAN_OPTIONS=detect_leaks=1:abort_on_error=0:halt_on_error=1
