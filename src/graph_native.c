@@ -286,7 +286,7 @@ static const char *cmp_name(int op)
 static void emit_node(gen *G, int id, int c, int *acc)
 {
   const nz_gnode *nd = &G->nd[id];
-  char a[64], b[64], k[64], e[200];
+  char a[64], b[64], k[64], e[256];
   ref(G, nd->a, c, a, sizeof a);
   if (!unary_op(nd->op)) ref(G, nd->b, c, b, sizeof b);
   else b[0] = 0;
