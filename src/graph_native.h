@@ -21,7 +21,8 @@
  *
  * Failures.  nz_native_eval refuses (NZ_EDOM) exactly when nz_graph_eval
  * fails: some node left its domain or gave an infinity or a NaN, even if a
- * later node masks it (atan(inf) is finite).  It does not say which node:
+ * later node masks it (atan(inf) is finite) or is the branch a select does
+ * not take (both branches are computed).  It does not say which node:
  * the caller re-runs nz_graph_eval to name it.
  *
  * Plain C: never includes lua.h, never prints, never exits. */
