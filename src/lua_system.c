@@ -243,9 +243,11 @@ static void push_jet_list(lua_State *L, nz_jet *const *v, int k)
 }
 
 /* The testing hook of the arguments along a direction (core.mech.
- * argument_hook): a function called before each dualjet is made, so that
- * tests can raise an error or the interrupt where building the arguments
- * can fail (memory, Ctrl-C's hook).  Testing only. */
+ * argument_hook(f), f = nil to remove it): f() is called before each
+ * dualjet is made, inside the protected call that builds the arguments, so
+ * that tests can raise an error or the interrupt where building them can
+ * fail (running out of memory) and check that nothing unwinds through the
+ * C core.  Testing only. */
 static const char argument_hook_key = 0;
 
 static int ls_argument_hook(lua_State *L)
@@ -277,9 +279,10 @@ typedef struct eval_call {
 } eval_call;
 
 /* Pushes the arguments shared by every function of the piece: t, q[, qd,
- * ...], params.  It runs under lua_pcall: building them allocates (memory
- * may run out) and may call the testing hook, and no Lua error may unwind
- * through the C core and GSL frames below lua_eval. */
+ * ...], params; along a direction, dualjets v + eta d.  It runs under
+ * lua_pcall: building them allocates (memory may run out) and may call the
+ * testing hook, and no Lua error may unwind through the C core and GSL
+ * frames below lua_eval. */
 static int build_arguments(lua_State *L)
 {
   const eval_call *c = lua_touserdata(L, 1);
