@@ -27,7 +27,7 @@ SAN_FLAGS = -O1 -g -fsanitize=address,undefined -fno-omit-frame-pointer -fno-san
 
 # The numerical core (never includes lua.h), then the Lua binding.
 CORE_SRC  = src/series.c src/jet.c src/interrupt.c src/mech.c src/constrained.c src/constrained_series.c src/mech_jacobian.c src/ode.c src/ode_run.c src/linalg.c src/graph.c src/graph_native.c src/mech_graph.c
-LUA_SRC   = src/lua_jet.c src/lua_system.c src/lua_constraints.c src/lua_series.c src/lua_linalg.c src/lua_ode.c src/lua_special.c src/lua_graph.c src/lua_nz.c
+LUA_SRC   = src/lua_jet.c src/lua_dualjet.c src/lua_system.c src/lua_constraints.c src/lua_series.c src/lua_linalg.c src/lua_ode.c src/lua_special.c src/lua_graph.c src/lua_nz.c
 LUA_MODS  = $(sort $(wildcard lua/nz/*.lua))
 GEN_SRC   = build/gen/embedded_lua.c
 

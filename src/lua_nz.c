@@ -14,6 +14,7 @@
 #include <lauxlib.h>
 #include "embedded.h"
 #include <gsl/gsl_errno.h>
+#include "lua_dualjet.h"
 #include "lua_graph.h"
 #include "lua_jet.h"
 #include "lua_special.h"
@@ -107,6 +108,7 @@ static int open_core(lua_State *L)
   lua_newtable(L);
   nz_lua_open_jet(L);
   nz_lua_open_system(L);
+  nz_lua_open_dualjet(L);        /* after the jets (its branches call them) and core.mech */
   lua_getfield(L, -1, "mech");   /* the recorder's constructor is internal: core.mech */
   nz_lua_open_graph(L);
   lua_pop(L, 1);
