@@ -742,6 +742,8 @@ struct nz_graph_plan {
   int ser_cap;          /* the highest order the storage holds, -1 none */
   int ser_K, ser_k;     /* max_order of this evaluation, last coefficient filled */
   int ser_ties;
+  grun *sruns;          /* runs of computed slots with the same series kernel */
+  int nsrun;
   /* Failure of the last evaluation. */
   int bad_const;   /* a non-finite constant slot, or -1 */
   int fail_node;
@@ -774,6 +776,7 @@ void nz_graph_plan_free(nz_graph_plan *p)
   free(p->ser_aux);
   free(p->ser_map);
   free(p->ser);
+  free(p->sruns);
   free(p);
 }
 
@@ -1445,9 +1448,10 @@ static nz_status series_storage(nz_graph_plan *p, int K)
     int top = 0;
     p->ser_aux = malloc(((size_t)p->nrec + 1) * sizeof *p->ser_aux);
     p->srecs = malloc(((size_t)p->nrec + 1) * sizeof *p->srecs);
+    p->sruns = malloc(((size_t)p->nrec + 1) * sizeof *p->sruns);
     for (int s = 0; s < p->m; s++) top = imax(top, p->ids[s]);
     p->ser_map = malloc(((size_t)top + 1) * sizeof *p->ser_map);
-    if (!p->ser_aux || !p->srecs || !p->ser_map) return NZ_ENOMEM;
+    if (!p->ser_aux || !p->srecs || !p->sruns || !p->ser_map) return NZ_ENOMEM;
     int naux = 0;
     for (int i = 0; i < p->nrec; i++) {
       p->ser_aux[i] = naux;
@@ -1602,11 +1606,11 @@ static nz_status series_first(nz_graph_plan *p, int i, int K)
 
 /* Coefficient k of r's series: the recurrences of jet.c, one coefficient at
  * a time (K: the storage's order, the stride of the auxiliary series). */
-static inline void series_coef(const srec *r, int k, int K)
+static inline void series_coef(const srec *r, int op, int k, int K)
 {
   const double *a = r->a, *b = r->b;
   double *z = r->z, *w = r->aux, *w1 = w + K + 1, *w2 = w1 + K + 1, *w3 = w2 + K + 1;
-  switch (r->op) {
+  switch (op) {
   case S_ADD: z[k] = a[k] + b[k]; break;
   case S_SUB: z[k] = a[k] - b[k]; break;
   case S_MUL: z[k] = nz_series_mul_coef(a, b, k); break;
@@ -1642,8 +1646,8 @@ static inline void series_coef(const srec *r, int k, int K)
     w[k] = -nz_series_mul_coef(a, a, k);
     if (k == 0) w[0] += 1.0;
     w1[k] = nz_series_sqrt_coef(w1, w, k);
-    if (k == 0) z[0] = r->op == S_ASIN ? asin(a[0]) : acos(a[0]);
-    else z[k] = nz_series_quadrature_coef(z, a, w1, r->op == S_ASIN ? 1.0 : -1.0, k);
+    if (k == 0) z[0] = op == S_ASIN ? asin(a[0]) : acos(a[0]);
+    else z[k] = nz_series_quadrature_coef(z, a, w1, op == S_ASIN ? 1.0 : -1.0, k);
     break;
   case S_ATAN2:
     w[k] = nz_series_mul_coef(b, b, k) + nz_series_mul_coef(a, a, k);
@@ -1693,10 +1697,17 @@ nz_status nz_graph_series_begin(nz_graph_plan *p, int max_order, const double *i
     double *z = series_of(p, s);
     st = series_first(p, i, max_order);
     if (!st && p->srecs[i].op != S_STEP) {
-      series_coef(&p->srecs[i], 0, p->ser_cap);
+      series_coef(&p->srecs[i], p->srecs[i].op, 0, p->ser_cap);
       st = d_finite(z[0]);
     }
     if (st) return plan_fail(p, s, st, series_of(p, p->jrecs[i].a)[0]);
+  }
+  /* Runs of one kernel (the plan's schedule groups a level's nodes by
+   * opcode): one dispatch per run in nz_graph_series_next. */
+  p->nsrun = 0;
+  for (int i = 0; i < p->nrec; i++) {
+    if (p->nsrun == 0 || p->sruns[p->nsrun - 1].op != p->srecs[i].op) p->sruns[p->nsrun++].op = p->srecs[i].op;
+    p->sruns[p->nsrun - 1].end = i + 1;
   }
   p->ser_k = 0;
   return NZ_OK;
@@ -1709,13 +1720,26 @@ nz_status nz_graph_series_next(nz_graph_plan *p, int k, const double *in_k, doub
   if (p->ser_k < 0 || k < 1 || k > p->ser_k + 1 || k > p->ser_K) return NZ_EDOM;
   p->ser_k = k - 1;   /* coefficient k, if it was filled, is being replaced */
   if ((st = series_inputs(p, in_k, k))) return st;
-  int K = p->ser_cap;
-  for (int i = 0; i < p->nrec; i++) {
-    const srec *r = &p->srecs[i];
-    series_coef(r, k, K);
-    if (!isfinite(r->z[k]))
-      return plan_fail(p, p->base + i, d_finite(r->z[k]), series_of(p, p->jrecs[i].a)[0]);
+  int K = p->ser_cap, i = 0;
+  const srec *R = p->srecs;
+  /* One dispatch per run; series_coef is inlined with a constant kernel. */
+#define RUN(OP) case OP: for (; i < e; i++) series_coef(&R[i], OP, k, K); break;
+  for (int q = 0; q < p->nsrun; q++) {
+    int e = p->sruns[q].end;
+    switch (p->sruns[q].op) {
+      RUN(S_ADD) RUN(S_SUB) RUN(S_MUL) RUN(S_SCALE) RUN(S_DIV) RUN(S_DIVC) RUN(S_SQR)
+      RUN(S_POWI) RUN(S_POWR) RUN(S_POW) RUN(S_EXP) RUN(S_LOG) RUN(S_SQRT) RUN(S_SIN)
+      RUN(S_COS) RUN(S_SINH) RUN(S_COSH) RUN(S_TAN) RUN(S_TANH) RUN(S_ATAN) RUN(S_ASIN)
+      RUN(S_ACOS) RUN(S_ATAN2) RUN(S_HYPOT) RUN(S_STEP) RUN(S_COPY)
+    default: for (; i < e; i++) R[i].z[k] = NAN; break;
+    }
   }
+#undef RUN
+  /* The first non-finite coefficient in slot order: where it appeared (a
+   * NaN or an infinity flows into the later nodes). */
+  for (i = 0; i < p->nrec; i++)
+    if (!isfinite(R[i].z[k]))
+      return plan_fail(p, p->base + i, d_finite(R[i].z[k]), series_of(p, p->jrecs[i].a)[0]);
   p->ser_k = k;
   if (out_k)
     for (int o = 0; o < p->nout; o++) out_k[o] = series_of(p, p->out_slot[o])[k];
