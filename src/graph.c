@@ -29,6 +29,14 @@
  * that order, so "the first failing node" is the same node on doubles and on
  * jets.
  *
+ * Series built order by order (nz_graph_series_*, at the end of this file):
+ * each computed node keeps its series, and the auxiliary series its kernel
+ * needs, in one arena of the plan; begin picks each node's kernel once
+ * coefficient 0 is known (the branch a select takes, the sign of abs, a
+ * constant factor) and checks domains as the jets of that order would; next
+ * runs the coefficient-level kernels of series.c, which are the jets' own
+ * recurrences, so both give the same numbers.
+ *
  * Jet shapes of a call: an input's jet is used as given (by pointer); a
  * constant is exact to every order (a series c, 0, 0, ... without tangents);
  * a computed node has the lowest order of its non-constant operands and the
@@ -1446,12 +1454,23 @@ static nz_status series_storage(nz_graph_plan *p, int K)
 {
   if (p->ser_naux < 0) {
     int top = 0;
-    p->ser_aux = malloc(((size_t)p->nrec + 1) * sizeof *p->ser_aux);
-    p->srecs = malloc(((size_t)p->nrec + 1) * sizeof *p->srecs);
-    p->sruns = malloc(((size_t)p->nrec + 1) * sizeof *p->sruns);
+    size_t nr = (size_t)p->nrec + 1;
     for (int s = 0; s < p->m; s++) top = imax(top, p->ids[s]);
+    p->ser_aux = malloc(nr * sizeof *p->ser_aux);
+    p->srecs = malloc(nr * sizeof *p->srecs);
+    p->sruns = malloc(nr * sizeof *p->sruns);
     p->ser_map = malloc(((size_t)top + 1) * sizeof *p->ser_map);
-    if (!p->ser_aux || !p->srecs || !p->sruns || !p->ser_map) return NZ_ENOMEM;
+    if (!p->ser_aux || !p->srecs || !p->sruns || !p->ser_map) {   /* as if never tried */
+      free(p->ser_aux);
+      free(p->srecs);
+      free(p->sruns);
+      free(p->ser_map);
+      p->ser_aux = NULL;
+      p->srecs = NULL;
+      p->sruns = NULL;
+      p->ser_map = NULL;
+      return NZ_ENOMEM;
+    }
     int naux = 0;
     for (int i = 0; i < p->nrec; i++) {
       p->ser_aux[i] = naux;
@@ -1489,7 +1508,8 @@ static nz_status series_first(nz_graph_plan *p, int i, int K)
   const double *A = series_of(p, jr->a), *B = series_of(p, jr->b);
   double x = A[0], y = B[0];
   int ca = is_const_slot(p, jr->a), cb = is_const_slot(p, jr->b);
-  *r = (srec){ S_COPY, 0, A, B, z, p->ser + ((size_t)p->m + (size_t)p->ser_aux[i]) * ((size_t)p->ser_cap + 1), 0.0 };
+  double *aux = p->ser + ((size_t)p->m + (size_t)p->ser_aux[i]) * ((size_t)p->ser_cap + 1);
+  *r = (srec){ S_COPY, 0, A, B, z, aux, 0.0 };
   switch (jr->op) {
   case NZ_GOP_ADD: r->op = S_ADD; break;
   case NZ_GOP_SUB: r->op = S_SUB; break;
@@ -1683,7 +1703,8 @@ nz_status nz_graph_series_begin(nz_graph_plan *p, int max_order, const double *i
   p->ser_k = -1;
   p->ser_ties = 0;
   if (max_order < 0 || max_order > NZ_JET_MAX_ORDER) return NZ_EDOM;
-  if (p->bad_const >= 0) return plan_fail(p, p->bad_const, d_finite(p->vals[p->bad_const]), p->vals[p->bad_const]);
+  if (p->bad_const >= 0)
+    return plan_fail(p, p->bad_const, d_finite(p->vals[p->bad_const]), p->vals[p->bad_const]);
   if ((st = series_storage(p, max_order))) return st;
   p->ser_K = max_order;
   if ((st = series_inputs(p, in0, 0))) return st;
@@ -1706,7 +1727,8 @@ nz_status nz_graph_series_begin(nz_graph_plan *p, int max_order, const double *i
    * opcode): one dispatch per run in nz_graph_series_next. */
   p->nsrun = 0;
   for (int i = 0; i < p->nrec; i++) {
-    if (p->nsrun == 0 || p->sruns[p->nsrun - 1].op != p->srecs[i].op) p->sruns[p->nsrun++].op = p->srecs[i].op;
+    if (p->nsrun == 0 || p->sruns[p->nsrun - 1].op != p->srecs[i].op)
+      p->sruns[p->nsrun++].op = p->srecs[i].op;
     p->sruns[p->nsrun - 1].end = i + 1;
   }
   p->ser_k = 0;
