@@ -681,8 +681,10 @@ done:
   return rc;
 }
 
-nz_native *nz_native_compile(const nz_graph *g, const int *outputs, int n, const char *cache_dir,
-                             char *why, size_t whylen)
+/* The object for these outputs: from the cache, else compiled (compile = 1)
+ * or NULL (compile = 0). */
+static nz_native *native_get(const nz_graph *g, const int *outputs, int n, const char *cache_dir,
+                             char *why, size_t whylen, int compile)
 {
   double t0 = now();
   char *src = NULL, ccbuf[2048], *argv[MAXWORDS], hash[17], base[32], *so = NULL;
@@ -736,6 +738,10 @@ nz_native *nz_native_compile(const nz_graph *g, const int *outputs, int n, const
     goto fail;
   }
   int cached = access(f->path, R_OK) == 0 && load(f, f->path, hash, NULL, 0) == 0;
+  if (!cached && !compile) {
+    say(why, whylen, "not in the cache");
+    goto fail;
+  }
   if (!cached) {
     if (compile_into(cache_dir, base, src, argv, k, why, whylen)) goto fail;
     if (load(f, f->path, hash, why, whylen)) goto fail;
@@ -748,6 +754,18 @@ fail:
   free(so);
   nz_native_free(f);
   return NULL;
+}
+
+nz_native *nz_native_compile(const nz_graph *g, const int *outputs, int n, const char *cache_dir,
+                             char *why, size_t whylen)
+{
+  return native_get(g, outputs, n, cache_dir, why, whylen, 1);
+}
+
+nz_native *nz_native_load(const nz_graph *g, const int *outputs, int n, const char *cache_dir,
+                          char *why, size_t whylen)
+{
+  return native_get(g, outputs, n, cache_dir, why, whylen, 0);
 }
 
 nz_status nz_native_eval(const nz_native *f, const double *in, double *out)

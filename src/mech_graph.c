@@ -16,6 +16,7 @@ typedef struct dplan {
   int *outs, nout;
   nz_native *native;
   double work;          /* nodes interpreted so far */
+  double earn;          /* ... before compiling pays (auto mode) */
   int tried;
 } dplan;
 
@@ -80,7 +81,24 @@ static dplan *dplan_new(const nz_graph *g, const int *outs, int n)
   if (!d->outs || !d->plan) { dplan_free(d); return NULL; }
   memcpy(d->outs, outs, (size_t)n * sizeof(int));
   d->nout = n;
+  /* Compile once interpreting has cost what compiling would (about
+   * NZ_NATIVE_BASE of node evaluations plus NZ_NATIVE_PER_NODE per node of
+   * the plan): a run pays at most twice what the better choice in hindsight
+   * would have cost. */
+  d->earn = NZ_NATIVE_BASE + NZ_NATIVE_PER_NODE * nz_graph_plan_nodes(d->plan);
   return d;
+}
+
+/* A plan whose object is already in the cache runs natively at once
+ * (auto and on; loading costs microseconds per node). */
+static void dplan_load_cached(nz_compiled *c, dplan *d)
+{
+  char dir[1024], why[200];
+  if (c->native_mode == 0 || !nz_native_cache_dir(dir, sizeof dir)) return;
+  if ((d->native = nz_native_load(c->g, d->outs, d->nout, dir, why, sizeof why))) {
+    d->tried = 1;
+    c->native_count++;
+  }
 }
 
 static void dplan_compile(nz_compiled *c, dplan *d)
@@ -102,7 +120,7 @@ static void dplan_compile(nz_compiled *c, dplan *d)
  * the interpreter, which names the node), else interpreted. */
 static nz_status dplan_eval(nz_compiled *c, dplan *d, const double *in, double *out)
 {
-  if (!d->tried && (c->native_mode == 1 || (c->native_mode < 0 && d->work >= NZ_NATIVE_AFTER)))
+  if (!d->tried && (c->native_mode == 1 || (c->native_mode < 0 && d->work >= d->earn)))
     dplan_compile(c, d);
   if (d->native && nz_native_eval(d->native, in, out) == NZ_OK) return NZ_OK;
   d->work += nz_graph_plan_nodes(d->plan);
@@ -390,7 +408,7 @@ static void invert_constant_mass(nz_compiled *c, const int *out)
   if (acc) {
     acc[k] = out[k * k + k];
     acc[k + 1] = out[k * k + k + 1];
-    c->acc_plan = dplan_new(c->g, acc, k + 2);
+    if ((c->acc_plan = dplan_new(c->g, acc, k + 2))) dplan_load_cached(c, c->acc_plan);
   }
   free(acc);
 }
@@ -406,7 +424,7 @@ static int mass_bias_ready(nz_compiled *c)
   int *out = malloc((size_t)nout * sizeof(int));
   if (!out) return 0;
   if (build_mass_bias(c, out) == 0) {
-    c->mb_plan = dplan_new(c->g, out, nout);
+    if ((c->mb_plan = dplan_new(c->g, out, nout))) dplan_load_cached(c, c->mb_plan);
     c->mb_in = malloc((size_t)(c->ninputs + nout) * sizeof(double));
     size_t kk = (size_t)k * (size_t)k;
     c->acc_A = malloc((kk + (size_t)k + nz_solve_spd_work_len(k)) * sizeof(double));
@@ -567,8 +585,10 @@ int nz_compiled_constraint_row(void *ctx, int r, int m, double t, const double *
   if (!c->rows_built[at]) {
     int *out = malloc((size_t)(3 + k + NZ_CONSTRAINT_SLOTS) * sizeof(int));
     c->rows_built[at] = -1;
-    if (out && build_row(c, r, m, out) == 0 && (c->rows[at] = dplan_new(c->g, out, K + 1 + k + nhigh)))
+    if (out && build_row(c, r, m, out) == 0 && (c->rows[at] = dplan_new(c->g, out, K + 1 + k + nhigh))) {
       c->rows_built[at] = 1;
+      dplan_load_cached(c, c->rows[at]);
+    }
     free(out);
   }
   if (c->rows_built[at] < 0) return NZ_EARG;

@@ -159,7 +159,8 @@ Fields:
   name     a name for messages
   compile  false: run every function in Lua (default: record them in C)
   native   true: compile the recorded plans to machine code at first use;
-           false: never (default: once they have run ~50 ms; NZLUA_NATIVE)
+           false: never (default: once interpreting has cost what compiling
+           would, or at once when cached; NZLUA_NATIVE)
 T, V, Q and L may also be lists of functions whose contributions add up.
 Functions receive jets (see help(nz.jet)): write them with nz.sin, nz.exp, ...
 and plain arithmetic, and return a number or a jet.
