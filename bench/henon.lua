@@ -8,19 +8,25 @@ package.path = root .. "?.lua;" .. package.path
 local nz = rawget(_G, "nz") or require "nz"
 local timing = require "bench.timing"
 
-local sys = nz.system{
-  name = "Henon-Heiles", coords = { "x", "y" },
-  T = function(t, q, qd) return (qd[1]^2 + qd[2]^2) / 2 end,
-  V = function(t, q) local x, y = q[1], q[2]; return (x^2 + y^2) / 2 + x^2 * y - y^3 / 3 end,
-}
+-- The same system twice: its graphs interpreted in C, and compiled to
+-- machine code (native = true; the object is cached after the first run).
+local function henon(native)
+  return nz.system{
+    name = "Henon-Heiles", coords = { "x", "y" }, native = native,
+    T = function(t, q, qd) return (qd[1]^2 + qd[2]^2) / 2 end,
+    V = function(t, q) local x, y = q[1], q[2]; return (x^2 + y^2) / 2 + x^2 * y - y^3 / 3 end,
+  }
+end
+local systems = { interpreted = henon(false), native = henon(true) }
+local sys = systems.interpreted
 local q0, qd0, T1 = { 0, 0.1 }, { 0.5, 0 }, 2000
 local E = (qd0[1]^2 + qd0[2]^2) / 2 + (q0[1]^2 + q0[2]^2) / 2 + q0[1]^2 * q0[2] - q0[2]^3 / 3
 assert(E < 1 / 6, "the start must lie below the escape energy 1/6")
 
 -- The lightest output simulate offers: one output interval (dt = t1), so
 -- the run keeps the start and the end; h0 is simulate's default, min(dt, 1e-3).
-local function run(tol)
-  return sys:simulate{ q0 = q0, qd0 = qd0, t1 = T1, dt = T1, method = "rk8pd", rtol = tol, atol = tol }
+local function run(tol, s)
+  return (s or sys):simulate{ q0 = q0, qd0 = qd0, t1 = T1, dt = T1, method = "rk8pd", rtol = tol, atol = tol }
 end
 
 -- The C baseline's lines: tol seconds steps rejected nfev x y xd yd, then
@@ -55,21 +61,27 @@ end
 
 print(("Henon-Heiles from Lua (nz.system, T and V) against GSL rk8pd with a hand-written C RHS, t = 0..2000, E = %.4f"):format(E))
 print("target (issue 10): ratio nzlua/C within 2x")
-print(("%-6s %11s %11s %8s %5s %8s %8s %6s %6s %9s %9s %10s"):format("tol", "nzlua", "C", "ratio", "runs",
-  "steps nz", "steps C", "rej nz", "rej C", "nfev nz", "nfev C", "|dy| end"))
+print(("%-6s %-11s %11s %11s %8s %5s %8s %8s %6s %6s %9s %9s %10s"):format("tol", "graphs", "nzlua", "C", "ratio",
+  "runs", "steps nz", "steps C", "rej nz", "rej C", "nfev nz", "nfev C", "|dy| end"))
 local notes = {}
+run(1e-12, systems.native)          -- compiles (or loads from the cache) before timing
 for _, tol in ipairs{ 1e-12, 1e-15 } do
-  local tr
-  local t, n = timing.per_call(function() tr = run(tol) end, { sample = 0, budget = 4, samples = 5 })
-  local yz = { tr.q[#tr.q][1], tr.q[#tr.q][2], tr.qd[#tr.qd][1], tr.qd[#tr.qd][2] }
-  local cc = c[tol]
-  local dy = distance(yz, cc.y)
-  print(("%-6.0e %11s %11s %7.1fx %5d %8d %8d %6d %6d %9d %9d %10.2e"):format(tol, timing.fmt(t, 11),
-    timing.fmt(cc.seconds, 11), t / cc.seconds, n, tr.stats.steps, cc.steps, tr.stats.rejected, cc.rejected,
-    tr.stats.nfev, cc.nfev, dy))
-  local g = timing.graph_line(sys, t / tr.stats.nfev, "RHS")
-  if g then notes[#notes + 1] = ("tol %.0e %s"):format(tol, g) end
+  for _, mode in ipairs{ "interpreted", "native" } do
+    local tr
+    local t, n = timing.per_call(function() tr = run(tol, systems[mode]) end, { sample = 0, budget = 4, samples = 5 })
+    local yz = { tr.q[#tr.q][1], tr.q[#tr.q][2], tr.qd[#tr.qd][1], tr.qd[#tr.qd][2] }
+    local cc = c[tol]
+    local dy = distance(yz, cc.y)
+    print(("%-6.0e %-11s %11s %11s %7.1fx %5d %8d %8d %6d %6d %9d %9d %10.2e"):format(tol, mode, timing.fmt(t, 11),
+      timing.fmt(cc.seconds, 11), t / cc.seconds, n, tr.stats.steps, cc.steps, tr.stats.rejected, cc.rejected,
+      tr.stats.nfev, cc.nfev, dy))
+    local g = timing.graph_line(systems[mode], t / tr.stats.nfev, "RHS")
+    if g then notes[#notes + 1] = ("tol %.0e %-11s %s"):format(tol, mode, g) end
+  end
 end
+local gi = systems.native:graph_info()
+notes[#notes + 1] = ("native: %d plans compiled, %.2f s of compiling in this run (0 when loaded from the cache)")
+  :format(gi.native_plans or 0, gi.native_seconds or 0)
 for _, tol in ipairs{ 1e-12, 1e-15 } do
   local u = ulp[tol]
   if u then

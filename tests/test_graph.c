@@ -11,6 +11,8 @@
 #include <string.h>
 #include <time.h>
 #include <gsl/gsl_math.h>
+#include <gsl/gsl_sf_gamma.h>
+#include <gsl/gsl_sf_zeta.h>
 #include <gsl/gsl_test.h>
 #include "graph/graph.h"
 
@@ -891,6 +893,341 @@ static void check_eta(void)
 }
 
 /* ------------------------------------------------------------------ */
+/* Series built order by order                                          */
+
+#define SK 20
+
+/* Coefficients 1..K of the inputs, the jets' own: in[k][i] = ji[i]->c[k]. */
+static void series_run(nz_graph_plan *p, nz_jet *const *ji, int nin, int K, nz_status *st_begin,
+                       nz_status *st_next, int *failed_at)
+{
+  double in[NIN + 1];
+  for (int i = 0; i < nin; i++) in[i] = ji[i]->c[0];
+  *st_next = NZ_OK;
+  *failed_at = -1;
+  *st_begin = nz_graph_series_begin(p, K, in);
+  if (*st_begin) { *failed_at = 0; return; }
+  for (int k = 1; k <= K; k++) {
+    for (int i = 0; i < nin; i++) in[i] = ji[i]->c[k];
+    if ((*st_next = nz_graph_series_next(p, k, in, NULL))) { *failed_at = k; return; }
+  }
+}
+
+/* Every node of the graph so far, built coefficient by coefficient, against
+ * nz_graph_eval_jets on jets of the same order without tangents: the same
+ * recurrences, run order by order instead of node by node. */
+static double series_against_jets(nz_graph *g, nz_jet **ji, int K, int *ok)
+{
+  int n = nz_graph_size(g), *all = malloc((size_t)n * sizeof *all);
+  for (int i = 0; i < n; i++) all[i] = i;
+  nz_graph_plan *p = nz_graph_plan_new(g, all, n);
+  nz_jet **jo = malloc((size_t)n * sizeof *jo);
+  for (int i = 0; i < n; i++) jo[i] = nz_jet_alloc(K, 0);
+  nz_status sb, sn;
+  int at;
+  double worst = 0.0;
+  *ok = *ok && nz_graph_eval_jets(p, (const nz_jet *const *)ji, jo, NULL, NULL) == NZ_OK;
+  series_run(p, ji, NIN, K, &sb, &sn, &at);
+  *ok = *ok && sb == NZ_OK && sn == NZ_OK && nz_graph_series_order(p) == K &&
+        nz_graph_series_ties(p) == 0;
+  for (int r = 0; r < n; r++) {
+    const double *sr = nz_graph_series_node(p, all[r]);
+    for (int k = 0; k <= K; k++) {
+      double got = nz_graph_series_coef(p, r, k), want = jo[r]->c[k];
+      *ok = *ok && sr && sr[k] == got;
+      worst = fmax(worst, want == 0.0 ? fabs(got) : rel(got, want));
+    }
+  }
+  *ok = *ok && isnan(nz_graph_series_coef(p, 0, K + 1)) && isnan(nz_graph_series_coef(p, n, 0));
+  for (int i = 0; i < n; i++) nz_jet_free(jo[i]);
+  free(jo);
+  free(all);
+  nz_graph_plan_free(p);
+  return worst;
+}
+
+static void check_series_jets(void)
+{
+  nz_jet *ji[NIN];
+  double x[NIN];
+  for (int i = 0; i < NIN; i++) ji[i] = nz_jet_alloc(SK, 0);
+  for (int e = 0; e < NEXPR; e++) {
+    double worst = 0.0;
+    int ok = 1;
+    nz_graph *keep = G;   /* a graph of this expression alone */
+    G = nz_graph_new();
+    record(e);
+    for (int trial = 0; trial < 5; trial++) {
+      random_point(x);
+      random_jets(ji, x);
+      worst = fmax(worst, series_against_jets(G, ji, SK, &ok));
+    }
+    nz_graph_free(G);
+    G = keep;
+    gsl_test(!ok || !(worst <= 1e-14),
+             "%s: every node built coefficient by coefficient to order %d equals the jets (%.2g)",
+             exprs[e].name, SK, worst);
+  }
+  /* Integer powers where the power recurrence cannot go (x_0 = 0: binary
+   * powering), real and negative exponents, and x^y, atan2, hypot, abs and
+   * sign of a negative argument, at order 20. */
+  nz_graph *g = nz_graph_new();
+  int xi = nz_graph_input(g, 0), yi = nz_graph_input(g, 1), terms[12], t = 0;
+  static const double pw[] = { 2, 3, 5, 7, 12, 31 };
+  for (int i = 0; i < 6; i++) terms[t++] = nz_graph_powc(g, xi, pw[i]);
+  terms[t++] = nz_graph_powc(g, yi, -3.0);
+  terms[t++] = nz_graph_powc(g, yi, 2.5);
+  terms[t++] = nz_graph_op(g, NZ_GOP_POW, yi, nz_graph_op(g, NZ_GOP_ADD, xi, yi));
+  terms[t++] = nz_graph_op(g, NZ_GOP_ATAN2, xi, nz_graph_op(g, NZ_GOP_NEG, yi, -1));
+  terms[t++] = nz_graph_op(g, NZ_GOP_HYPOT, xi, yi);
+  terms[t++] = nz_graph_op(g, NZ_GOP_MUL, nz_graph_fn(g, NZ_FN_ABS, nz_graph_op(g, NZ_GOP_SUB, xi, yi)),
+                           nz_graph_fn(g, NZ_FN_SIGN, nz_graph_op(g, NZ_GOP_SUB, xi, yi)));
+  double worst = 0.0;
+  int ok = 1;
+  for (int trial = 0; trial < 5; trial++) {
+    random_point(x);
+    random_jets(ji, x);
+    ji[0]->c[0] = 0.0;   /* x_0 = 0 */
+    worst = fmax(worst, series_against_jets(g, ji, SK, &ok));
+  }
+  gsl_test(!ok || !(worst <= 1e-14),
+           "x^n (n to 31) at x_0 = 0, y^-3, y^2.5, y^(x+y), atan2, hypot, |x-y| sign(x-y): coefficient by coefficient equals the jets (%.2g)",
+           worst);
+  /* Storage: grown once, reused for lower orders; a coefficient filled again. */
+  int root = terms[t - 1];
+  nz_graph_plan *p = nz_graph_plan_new(g, &root, 1);
+  double in[2] = { 0.3, 0.6 }, one[2] = { 1.0, 0.5 }, o1, o2;
+  nz_graph_series_begin(p, 20, in);
+  const double *s20 = nz_graph_series_node(p, root);
+  nz_graph_series_begin(p, 8, in);
+  const double *s8 = nz_graph_series_node(p, root);
+  nz_status st1 = nz_graph_series_next(p, 1, one, &o1), st2 = nz_graph_series_next(p, 1, one, &o2);
+  gsl_test(s20 != s8 || st1 || st2 || o1 != o2 || nz_graph_series_order(p) != 1,
+           "series storage is reused for a lower order; coefficient 1 filled twice is the same");
+  gsl_test(nz_graph_series_next(p, 3, one, &o1) != NZ_EDOM || nz_graph_series_next(p, 0, one, &o1) != NZ_EDOM ||
+               nz_graph_series_begin(p, -1, in) != NZ_EDOM || nz_graph_series_next(p, 1, one, &o1) != NZ_EDOM ||
+               nz_graph_series_node(p, root) != NULL,
+           "series: a coefficient out of turn, or next without a begin, is NZ_EDOM");
+  nz_graph_series_begin(p, 2, in);
+  gsl_test(nz_graph_series_next(p, 1, one, &o1) || nz_graph_series_next(p, 2, one, &o1) ||
+               nz_graph_series_next(p, 3, one, &o1) != NZ_EDOM,
+           "series: a coefficient beyond max_order is NZ_EDOM");
+  nz_graph_plan_free(p);
+  /* Ties: sign(x) at x_0 = 0 with x_1 = 1.  The jets break the tie by x_1
+   * (sign 1); the series decides at coefficient 0 (sign 0) and counts it. */
+  int sg = nz_graph_fn(g, NZ_FN_SIGN, xi), gt = nz_graph_cmp(g, NZ_CMP_GT, xi, yi);
+  int outs[2] = { sg, gt };
+  p = nz_graph_plan_new(g, outs, 2);
+  double tie[2] = { 0.0, 0.0 }, off[2] = { 0.25, 0.0 };
+  nz_status sb = nz_graph_series_begin(p, 3, tie);
+  int ties = nz_graph_series_ties(p);
+  double s0 = nz_graph_series_coef(p, 0, 0), c0 = nz_graph_series_coef(p, 1, 0);
+  nz_graph_series_begin(p, 0, tie);
+  int ties0 = nz_graph_series_ties(p);
+  nz_graph_series_begin(p, 3, off);
+  gsl_test(sb || ties != 2 || s0 != 0.0 || c0 != 0.0 || ties0 != 0 || nz_graph_series_ties(p) != 0 ||
+               nz_graph_series_coef(p, 0, 0) != 1.0,
+           "series: sign(x), x > y at a tie in value decide by coefficient 0 and are counted (%d ties)", ties);
+  nz_graph_plan_free(p);
+  nz_graph_free(g);
+  for (int i = 0; i < NIN; i++) nz_jet_free(ji[i]);
+}
+
+/* Failures: the jets' status at the jets' node.  One input x with x_0 =
+ * x0, x_1 = x1, x_k = 0.1 beyond, order 3. */
+static void series_failure(nz_graph *g, int root, double x0, double x1, nz_status want, const char *what)
+{
+  nz_graph_plan *p = nz_graph_plan_new(g, &root, 1);
+  nz_jet *j = nz_jet_alloc(3, 0), *o = nz_jet_alloc(3, 0);
+  j->c[0] = x0;
+  j->c[1] = x1;
+  j->c[2] = j->c[3] = 0.1;
+  nz_jet *ji[1] = { j };
+  int jnode, snode, at;
+  nz_status sj = nz_graph_eval_jets(p, (const nz_jet *const *)ji, &o, NULL, NULL), sb, sn;
+  nz_graph_plan_failure(p, &jnode, NULL, NULL, NULL);
+  series_run(p, ji, 1, 3, &sb, &sn, &at);
+  nz_graph_plan_failure(p, &snode, NULL, NULL, NULL);
+  nz_status ss = sb ? sb : sn;
+  gsl_test(sj != want || ss != want || jnode != snode,
+           "series: %s is status %d at node %d (at coefficient %d), as the jets (%d at node %d)", what, ss,
+           snode, at, sj, jnode);
+  nz_jet_free(j);
+  nz_jet_free(o);
+  nz_graph_plan_free(p);
+}
+
+static void check_series_failures(void)
+{
+  nz_graph *g = nz_graph_new();
+  int x = nz_graph_input(g, 0), one = nz_graph_const(g, 1.0);
+  int sx = nz_graph_fn(g, NZ_FN_SIN, x);
+  series_failure(g, nz_graph_op(g, NZ_GOP_ADD, sx, nz_graph_fn(g, NZ_FN_LOG, x)), -1.0, 1.0, NZ_EDOM, "sin(x) + log(x), x_0 = -1");
+  series_failure(g, nz_graph_fn(g, NZ_FN_LOG, x), 0.0, 1.0, NZ_EDOM, "log(x), x_0 = 0");
+  series_failure(g, nz_graph_fn(g, NZ_FN_SQRT, x), 0.0, 1.0, NZ_ESING, "sqrt(x), x_0 = 0");
+  series_failure(g, nz_graph_fn(g, NZ_FN_SQRT, x), -0.5, 1.0, NZ_EDOM, "sqrt(x), x_0 = -0.5");
+  series_failure(g, nz_graph_op(g, NZ_GOP_DIV, one, x), 0.0, 1.0, NZ_EZERODIV, "1/x, x_0 = 0");
+  series_failure(g, nz_graph_fn(g, NZ_FN_ASIN, x), 1.0, -1.0, NZ_ESING, "asin(x), x_0 = 1");
+  series_failure(g, nz_graph_fn(g, NZ_FN_ACOS, x), 1.5, 0.0, NZ_EDOM, "acos(x), x_0 = 1.5");
+  series_failure(g, nz_graph_fn(g, NZ_FN_ABS, x), 0.0, 1.0, NZ_ESING, "|x|, x_0 = 0");
+  series_failure(g, nz_graph_powc(g, x, 2.5), 0.0, 1.0, NZ_ESING, "x^2.5, x_0 = 0");
+  series_failure(g, nz_graph_powc(g, x, 2.5), -1.0, 1.0, NZ_EDOM, "x^2.5, x_0 = -1");
+  series_failure(g, nz_graph_powc(g, x, -2.0), 0.0, 1.0, NZ_EZERODIV, "x^-2, x_0 = 0");
+  series_failure(g, nz_graph_op(g, NZ_GOP_POW, x, x), 0.0, 1.0, NZ_ESING, "x^x, x_0 = 0");
+  series_failure(g, nz_graph_op(g, NZ_GOP_POW, x, x), -2.0, 1.0, NZ_EDOM, "x^x, x_0 = -2");
+  series_failure(g, nz_graph_op(g, NZ_GOP_ATAN2, x, x), 0.0, 1.0, NZ_ESING, "atan2(x, x), x_0 = 0");
+  series_failure(g, nz_graph_op(g, NZ_GOP_HYPOT, x, sx), 0.0, 1.0, NZ_ESING, "hypot(x, sin x), x_0 = 0");
+  series_failure(g, nz_graph_fn(g, NZ_FN_EXP, x), 700.0, 1e10, NZ_ERANGE, "exp(x), x_0 = 700, x_1 = 1e10");
+  series_failure(g, nz_graph_op(g, NZ_GOP_MUL, sx, x), 0.5, NAN, NZ_ENAN, "sin(x) x, x_1 = NaN");
+  series_failure(g, nz_graph_cmp(g, NZ_CMP_GT, x, one), NAN, 0.0, NZ_ENAN, "x > 1, x_0 = NaN");
+  nz_graph_free(g);
+}
+
+/* The Taylor series of the solution of x' = f(t, x), x(t0) = x0, as the
+ * integrator of the next issue will build it: inputs t (0) and x_i (1 + i),
+ * outputs f_i; x_{k+1} = f_k / (k + 1) from coefficient k of f, which
+ * nz_graph_series_next fills from x_0..x_k.  xs[i (K + 1) + k]. */
+static nz_status taylor(nz_graph *g, const int *f, int n, double t0, const double *x0, int K, double *xs)
+{
+  nz_graph_plan *p = nz_graph_plan_new(g, f, n);
+  double in[8], fk[8];
+  nz_status st = NZ_OK;
+  in[0] = t0;
+  for (int i = 0; i < n; i++) in[1 + i] = xs[i * (K + 1)] = x0[i];
+  for (int k = 0; k < K && !st; k++) {
+    st = k == 0 ? nz_graph_series_begin(p, K - 1, in) : nz_graph_series_next(p, k, in, fk);
+    for (int i = 0; i < n && !st; i++) {
+      double fi = k == 0 ? nz_graph_series_coef(p, i, 0) : fk[i];
+      in[1 + i] = xs[i * (K + 1) + k + 1] = fi / (k + 1);
+    }
+    in[0] = k == 0 ? 1.0 : 0.0;   /* t = t0 + (t - t0) */
+  }
+  nz_graph_plan_free(p);
+  return st;
+}
+
+static double ode_cos(int k) { double d[4] = { cos(0.3), -sin(0.3), -cos(0.3), sin(0.3) }; return d[k % 4] / gsl_sf_fact((unsigned)k); }
+static double ode_log1p(int k) { return k == 0 ? 0.0 : (k % 2 ? 1.0 : -1.0) / k; }
+static double ode_exp_t2(int k) { return k % 2 ? 0.0 : 1.0 / gsl_sf_fact((unsigned)(k / 2)); }
+static double ode_square(int k) { return k == 0 || k == 1 ? 1.0 : k == 2 ? 0.25 : 0.0; }
+static double ode_pow(int k) { return (k + 1) / pow(2.0, k); }
+/* tan t = sum_{m>=1} 2 (4^m - 1) zeta(2m) / pi^(2m) t^(2m-1) (Bernoulli numbers through zeta) */
+static double ode_tan(int k) { return k % 2 == 0 ? 0.0 : 2.0 * (pow(4.0, (k + 1) / 2) - 1.0) * gsl_sf_zeta_int(k + 1) / pow(M_PI, k + 1); }
+
+static void check_series_taylor(void)
+{
+  enum { TK = 30 };
+  nz_graph *g = nz_graph_new();
+  int t = nz_graph_input(g, 0), x = nz_graph_input(g, 1), v = nz_graph_input(g, 2);
+  int one = nz_graph_const(g, 1.0), two = nz_graph_const(g, 2.0);
+  struct { const char *what; int f[2], n; double x0[2]; double (*want)(int); } odes[] = {
+    { "x' = v, v' = -x, x(0) = cos 0.3, v(0) = -sin 0.3: cos(0.3 + t)",
+      { v, nz_graph_op(g, NZ_GOP_NEG, x, -1) }, 2, { cos(0.3), -sin(0.3) }, ode_cos },
+    { "x' = exp(-x), x(0) = 0: log(1 + t)", { nz_graph_fn(g, NZ_FN_EXP, nz_graph_op(g, NZ_GOP_NEG, x, -1)) }, 1, { 0.0 }, ode_log1p },
+    { "x' = 1 / (1 + t), x(0) = 0: log(1 + t)", { nz_graph_op(g, NZ_GOP_DIV, one, nz_graph_op(g, NZ_GOP_ADD, one, t)) }, 1, { 0.0 }, ode_log1p },
+    { "x' = 2 t x, x(0) = 1: exp(t^2)", { nz_graph_op(g, NZ_GOP_MUL, nz_graph_op(g, NZ_GOP_MUL, two, t), x) }, 1, { 1.0 }, ode_exp_t2 },
+    { "x' = sqrt(x), x(0) = 1: (1 + t/2)^2", { nz_graph_fn(g, NZ_FN_SQRT, x) }, 1, { 1.0 }, ode_square },
+    { "x' = x^1.5, x(0) = 1: (1 - t/2)^-2", { nz_graph_powc(g, x, 1.5) }, 1, { 1.0 }, ode_pow },
+    { "x' = 1 + x^2, x(0) = 0: tan t", { nz_graph_op(g, NZ_GOP_ADD, one, nz_graph_powc(g, x, 2.0)) }, 1, { 0.0 }, ode_tan },
+  };
+  double xs[2 * (TK + 1)];
+  for (size_t e = 0; e < sizeof odes / sizeof odes[0]; e++) {
+    nz_status st = taylor(g, odes[e].f, odes[e].n, 0.0, odes[e].x0, TK, xs);
+    double worst = 0.0;
+    for (int k = 0; k <= TK; k++) {
+      double want = odes[e].want(k);
+      worst = fmax(worst, want == 0.0 ? fabs(xs[k]) : rel(xs[k], want));
+    }
+    /* each x_k passes through k recurrences of O(k) terms: a few hundred ulps */
+    gsl_test(st || !(worst <= 1e-13), "Taylor series to order %d by nz_graph_series_next, %s (%.2g)", TK,
+             odes[e].what, worst);
+  }
+  /* x' = -x^2 + sin t, x(0) = 0.5 (no closed form): against Picard's
+   * iteration on whole jets, x <- x(0) + integral of f(t, x), each pass
+   * exact to one order more (nz_graph_eval_jets, no series_next). */
+  int fs = nz_graph_op(g, NZ_GOP_SUB, nz_graph_fn(g, NZ_FN_SIN, t), nz_graph_powc(g, x, 2.0));
+  nz_status st = taylor(g, &fs, 1, 0.0, (double[]){ 0.5 }, TK, xs);
+  nz_graph_plan *p = nz_graph_plan_new(g, &fs, 1);
+  nz_jet *jt = nz_jet_alloc(TK, 0), *jx = nz_jet_alloc(TK, 0), *jf = nz_jet_alloc(TK, 0);
+  const nz_jet *jin3[3] = { jt, jx, NULL };
+  nz_jet_set_variable(jt, 0.0, -1);
+  nz_jet_set_constant(jx, 0.5);
+  for (int pass = 0; pass <= TK && !st; pass++) {
+    st = nz_graph_eval_jets(p, jin3, &jf, NULL, NULL);
+    for (int k = 0; k < TK; k++) jx->c[k + 1] = jf->c[k] / (k + 1);
+  }
+  double worst = 0.0;
+  for (int k = 0; k <= TK; k++) worst = fmax(worst, jx->c[k] == 0.0 ? fabs(xs[k]) : rel(xs[k], jx->c[k]));
+  gsl_test(st || !(worst <= 1e-14),
+           "Taylor series to order %d by nz_graph_series_next, x' = -x^2 + sin t, x(0) = 0.5: Picard's iteration on jets (%.2g)",
+           TK, worst);
+  nz_jet_free(jt);
+  nz_jet_free(jx);
+  nz_jet_free(jf);
+  nz_graph_plan_free(p);
+  nz_graph_free(g);
+}
+
+/* ns per node per coefficient: a wide 50-node plan of + - * and sin, series
+ * to order 20 built coefficient by coefficient, against the same plan on
+ * jets of order 20 (which recompute every order). */
+static void time_series(void)
+{
+  nz_graph *g = nz_graph_new();
+  int ids[64], n = 0, half = nz_graph_const(g, 0.5), outs[4];
+  for (int i = 0; i < 4; i++) ids[n++] = nz_graph_input(g, i);
+  nz_graph_plan *p = NULL;
+  while (!p || nz_graph_plan_nodes(p) < 50) {
+    int a = ids[n - 1 - (int)(urand() * (n < 8 ? n : 8))], b = ids[(int)(urand() * n)], k = (int)(urand() * 10), z;
+    if (k >= 8) z = nz_graph_fn(g, NZ_FN_SIN, nz_graph_op(g, NZ_GOP_ADD, a, b));
+    else if (k < 4) z = nz_graph_op(g, NZ_GOP_MUL, a, b);
+    else if (k < 6) z = nz_graph_op(g, NZ_GOP_MUL, nz_graph_op(g, NZ_GOP_ADD, a, b), half);
+    else z = nz_graph_op(g, NZ_GOP_MUL, nz_graph_op(g, NZ_GOP_SUB, a, b), half);
+    ids[n++] = z;
+    for (int r = 0; r < 4; r++) outs[r] = ids[n - 1 - r];
+    nz_graph_plan_free(p);
+    p = nz_graph_plan_new(g, outs, 4);
+  }
+  enum { TO = 20 };
+  double in[4], ink[4], out[4], sink = 0.0, best = 1e300, bestj = 1e300;
+  nz_jet *ji[4], *jo[4];
+  for (int i = 0; i < 4; i++) {
+    ji[i] = nz_jet_alloc(TO, 0);
+    jo[i] = nz_jet_alloc(TO, 0);
+    for (int k = 0; k <= TO; k++) ji[i]->c[k] = (2 * urand() - 1) * pow(0.5, k);
+    in[i] = ji[i]->c[0];
+  }
+  struct timespec t0, t1;
+  for (int rep = 0; rep < 10; rep++) {
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    for (int r = 0; r < 200; r++) {
+      nz_graph_series_begin(p, TO, in);
+      for (int k = 1; k <= TO; k++) {
+        for (int i = 0; i < 4; i++) ink[i] = ji[i]->c[k];
+        nz_graph_series_next(p, k, ink, out);
+      }
+      sink += out[0];
+    }
+    clock_gettime(CLOCK_MONOTONIC, &t1);
+    best = fmin(best, ((double)(t1.tv_sec - t0.tv_sec) * 1e9 + (double)(t1.tv_nsec - t0.tv_nsec)) / 200);
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    for (int r = 0; r < 200; r++) nz_graph_eval_jets(p, (const nz_jet *const *)ji, jo, NULL, NULL);
+    clock_gettime(CLOCK_MONOTONIC, &t1);
+    bestj = fmin(bestj, ((double)(t1.tv_sec - t0.tv_sec) * 1e9 + (double)(t1.tv_nsec - t0.tv_nsec)) / 200);
+  }
+  int m = nz_graph_plan_nodes(p);
+  printf("# timing (not a test): %d-node plan (+ - * sin), series to order %d coefficient by coefficient: "
+         "%.0f ns, %.2f ns per node per coefficient; the same plan on jets of order %d: %.0f ns%s\n",
+         m, TO, best, best / (m * (TO + 1.0)), TO, bestj, isfinite(sink) ? "" : " (!)");
+  for (int i = 0; i < 4; i++) {
+    nz_jet_free(ji[i]);
+    nz_jet_free(jo[i]);
+  }
+  nz_graph_plan_free(p);
+  nz_graph_free(g);
+}
+
+/* ------------------------------------------------------------------ */
 /* Failures                                                             */
 
 static void expect_failure(nz_graph *g, int root, double xin, double good, nz_status want,
@@ -1104,6 +1441,10 @@ int main(void)
   check_eta();
   check_failures();
   check_plans_and_time();
+  check_series_jets();
+  check_series_failures();
+  check_series_taylor();
+  time_series();
   for (int i = 0; i < NIN; i++) nz_jet_free(jin[i]);
   for (int i = 0; i < POOL; i++) nz_jet_free(pool[i]);
   nz_graph_free(G);

@@ -165,11 +165,60 @@ static void check_branches(void)
   nz_jet_free(dz); nz_jet_free(zero0);
 }
 
+/* The coefficient level of binary powering and of atan2, built order by
+ * order, against closed forms and against the whole-series kernels. */
+static void check_coefficient_level(void)
+{
+  enum { NW = 64 };
+  double *pw = malloc((size_t)NW * (K + 1) * sizeof *pw), whole[K + 1], s[K + 1], c[K + 1];
+  static const unsigned ns[] = { 1, 2, 3, 5, 7, 12, 31 };
+  double worst = 0.0;
+  int exact = 1, work_ok = 1;
+  for (size_t i = 0; i < sizeof ns / sizeof ns[0]; i++) {
+    unsigned n = ns[i];
+    work_ok = work_ok && nz_series_powi_work(n) <= NW;
+    variable(x, 1.0);   /* (1 + t)^n: binomial coefficients */
+    for (int k = 0; k <= K; k++) y[k] = nz_series_powi_coef(pw, x, n, k, K);
+    for (int k = 0; k <= K; k++)
+      worst = fmax(worst, fabs(y[k] - binomial_coef(k, n)) / fmax(fabs(binomial_coef(k, n)), 1.0));
+    nz_series_powi(whole, x, n, K, w);
+    for (int k = 0; k <= K; k++) exact = exact && whole[k] == y[k];
+    variable(x, 0.0);   /* t^n at 0, where the power recurrence cannot go */
+    for (int k = 0; k <= K; k++) y[k] = nz_series_powi_coef(pw, x, n, k, K);
+    for (int k = 0; k <= K; k++) worst = fmax(worst, fabs(y[k] - (k == (int)n)));
+  }
+  gsl_test(!work_ok || !(worst <= TOL),
+           "x^n coefficient by coefficient, n = 1..31: (1 + t)^n binomial, t^n at 0 (%.2g)", worst);
+  gsl_test(!exact, "x^n coefficient by coefficient equals nz_series_powi");
+  /* atan2(r sin(a + t), r cos(a + t)) = a + t for a in (-pi, pi) */
+  static const double as[] = { 0.3, 2.9, -2.0 };
+  worst = 0.0;
+  exact = 1;
+  for (size_t i = 0; i < sizeof as / sizeof as[0]; i++) {
+    variable(x, as[i]);
+    nz_series_sincos(s, c, x, K, 0);
+    for (int k = 0; k <= K; k++) { s[k] *= 1.7; c[k] *= 1.7; }
+    double d[K + 1];
+    for (int k = 0; k <= K; k++) {
+      d[k] = nz_series_mul_coef(c, c, k) + nz_series_mul_coef(s, s, k);
+      z[k] = nz_series_atan2_coef(z, s, c, d, k);
+    }
+    for (int k = 0; k <= K; k++) worst = fmax(worst, fabs(z[k] - x[k]) / fmax(fabs(x[k]), 1.0));
+    nz_series_atan2(whole, s, c, K, w);
+    for (int k = 0; k <= K; k++) exact = exact && whole[k] == z[k];
+  }
+  gsl_test(!(worst <= TOL), "atan2(1.7 sin(a + t), 1.7 cos(a + t)) coefficient by coefficient is a + t (%.2g)",
+           worst);
+  gsl_test(!exact, "atan2 coefficient by coefficient equals nz_series_atan2");
+  free(pw);
+}
+
 int main(void)
 {
   check_central_jacobian();
   gsl_test_verbose(1);
   check_branches();
+  check_coefficient_level();
   double one[K + 1];
   variable(x, 0.0);
 

@@ -158,6 +158,9 @@ Fields:
            sys.params.m and the next call uses it
   name     a name for messages
   compile  false: run every function in Lua (default: record them in C)
+  native   true: compile the recorded plans to machine code at first use;
+           false: never (default: once interpreting has cost what compiling
+           would, or at once when cached; NZLUA_NATIVE)
 T, V, Q and L may also be lists of functions whose contributions add up.
 Functions receive jets (see help(nz.jet)): write them with nz.sin, nz.exp, ...
 and plain arithmetic, and return a number or a jet.
@@ -170,8 +173,8 @@ comparison on the state (write nz.ifelse, nz.max, nz.min, nz.clamp), math.*
 on the state (use nz.sin, ...), a jet method, a non-number parameter, or a
 recording that disagrees with the function at a sample state.  Numbers read
 from upvalues or globals are baked in when the system is made; numbers in
-params stay inputs.  sys:graph_info() gives the graph's size and recording
-time; compile = false keeps everything in Lua.
+params stay inputs.  sys:graph_info() gives the graph's size, the recording
+time and what runs as machine code; compile = false keeps everything in Lua.
 
 Methods (t a number, q, qd, qdd tables of k numbers):
   sys:residual(n, t, q, qd, qdd [, lambda] [, form])  k residuals of order n,

@@ -8,6 +8,7 @@
 #include <gsl/gsl_eigen.h>
 #include <gsl/gsl_errno.h>
 #include <gsl/gsl_linalg.h>
+#include <gsl/gsl_permutation.h>
 #include <gsl/gsl_vector.h>
 #include "core/linalg.h"
 #include "core/status.h"
@@ -134,3 +135,38 @@ int nz_solve_svd(int N, const double *J, const double *rhs, double *x, double *r
   return NZ_OK;
 }
 
+/* Pivoted QR first (about a tenth of the SVD's work at N ~ 13); the SVD
+ * only when the QR's estimate is within a factor NZ_SOLVE_SVD_MARGIN of the
+ * threshold, where the decision must be the SVD's. */
+#define NZ_SOLVE_SVD_MARGIN 1e3
+
+int nz_solve_square(int N, const double *J, const double *rhs, double *x, double rcond_min,
+                    double *rcond)
+{
+  size_t n = (size_t)N;
+  gsl_matrix *QR = gsl_matrix_alloc(n, n);
+  gsl_vector *tau = gsl_vector_alloc(n), *norm = gsl_vector_alloc(n), *work = gsl_vector_alloc(3 * n);
+  gsl_permutation *perm = gsl_permutation_alloc(n);
+  int signum, st = NZ_ENOMEM, fast = 0;
+  if (QR && tau && norm && work && perm) {
+    st = NZ_OK;
+    memcpy(QR->data, J, n * n * sizeof(double));          /* row-major, tda = n */
+    double r = 0.0;
+    if (gsl_linalg_QRPT_decomp(QR, tau, perm, &signum, norm) == GSL_SUCCESS &&
+        gsl_linalg_QRPT_rcond(QR, &r, work) == GSL_SUCCESS && r >= NZ_SOLVE_SVD_MARGIN * rcond_min) {
+      gsl_vector_const_view bv = gsl_vector_const_view_array(rhs, n);
+      gsl_vector_view xv = gsl_vector_view_array(x, n);
+      if (gsl_linalg_QRPT_solve(QR, tau, perm, &bv.vector, &xv.vector) == GSL_SUCCESS) {
+        *rcond = r;
+        fast = 1;
+      }
+    }
+  }
+  gsl_matrix_free(QR);
+  gsl_vector_free(tau);
+  gsl_vector_free(norm);
+  gsl_vector_free(work);
+  gsl_permutation_free(perm);
+  if (st || fast) return st;
+  return nz_solve_svd(N, J, rhs, x, rcond);
+}

@@ -47,5 +47,11 @@ int nz_lstsq(int m, int n, const double *A, const double *b, double *x);
 /* Solve the square N x N system J x = rhs through its SVD; *rcond is
  * s_min / s_max (x is left untouched when s_min = 0). */
 int nz_solve_svd(int N, const double *J, const double *rhs, double *x, double *rcond);
+/* The same decision for less: pivoted QR with GSL's 1-norm estimate of the
+ * reciprocal condition; the SVD (as above) when that estimate comes within
+ * a factor 1e3 of rcond_min, so that a matrix is declared singular by the
+ * SVD's s_min / s_max only. */
+int nz_solve_square(int N, const double *J, const double *rhs, double *x, double rcond_min,
+                    double *rcond);
 
 #endif

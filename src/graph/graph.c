@@ -29,6 +29,14 @@
  * that order, so "the first failing node" is the same node on doubles and on
  * jets.
  *
+ * Series built order by order (nz_graph_series_*, at the end of this file):
+ * each computed node keeps its series, and the auxiliary series its kernel
+ * needs, in one arena of the plan; begin picks each node's kernel once
+ * coefficient 0 is known (the branch a select takes, the sign of abs, a
+ * constant factor) and checks domains as the jets of that order would; next
+ * runs the coefficient-level kernels of series.c, which are the jets' own
+ * recurrences, so both give the same numbers.
+ *
  * Jet shapes of a call: an input's jet is used as given (by pointer); a
  * constant is exact to every order (a series c, 0, 0, ... without tangents);
  * a computed node has the lowest order of its non-constant operands and the
@@ -42,6 +50,7 @@
 #include <string.h>
 #include <limits.h>
 #include "graph/graph.h"
+#include "jets/series.h"
 
 const char *const nz_gop_names[NZ_GOP_COUNT] = {
   "const", "input", "add", "sub", "mul", "div", "neg", "powc", "pow", "fn", "atan2", "hypot",
@@ -731,6 +740,18 @@ struct nz_graph_plan {
   size_t arena_len;
   nz_jet *T[NTEMP];
   double *w;
+  /* Series built order by order (nz_graph_series_*, at the end of this file). */
+  struct srec *srecs;   /* per computed slot */
+  int *ser_aux;         /* first auxiliary series of each computed slot */
+  int ser_naux;         /* auxiliary series in all; -1 before the first begin */
+  int *ser_map;         /* node id -> slot, -1 for nodes outside the plan */
+  int ser_top;          /* highest node id of the plan */
+  double *ser;          /* (m + ser_naux) series of ser_cap + 1 coefficients */
+  int ser_cap;          /* the highest order the storage holds, -1 none */
+  int ser_K, ser_k;     /* max_order of this evaluation, last coefficient filled */
+  int ser_ties;
+  grun *sruns;          /* runs of computed slots with the same series kernel */
+  int nsrun;
   /* Failure of the last evaluation. */
   int bad_const;   /* a non-finite constant slot, or -1 */
   int fail_node;
@@ -759,6 +780,11 @@ void nz_graph_plan_free(nz_graph_plan *p)
   free(p->eord);
   free(p->entn);
   free(p->arena);
+  free(p->srecs);
+  free(p->ser_aux);
+  free(p->ser_map);
+  free(p->ser);
+  free(p->sruns);
   free(p);
 }
 
@@ -870,6 +896,9 @@ nz_graph_plan *nz_graph_plan_new(const nz_graph *g, const int *outputs, int n)
   p->g = g;
   p->fail_node = -1;
   p->bad_const = -1;
+  p->ser_naux = -1;
+  p->ser_cap = -1;
+  p->ser_k = -1;
   p->nout = n;
   p->out_slot = malloc(((size_t)n + 1) * sizeof *p->out_slot);
   plan_mark(p, g, outputs, n, top, slot);
@@ -1372,4 +1401,386 @@ nz_status nz_graph_eval_jets(nz_graph_plan *p, const nz_jet *const *in, nz_jet *
     if (eta) copy_out(dout[r], p->E[p->out_slot[r]]);
   }
   return NZ_OK;
+}
+
+/* ------------------------------------------------------------------ */
+/* Series built order by order                                          */
+
+/* The series kernels of a computed slot, chosen at begin once coefficient 0
+ * is known (a select's branch, the sign of abs, a constant factor). */
+enum {
+  S_ADD, S_SUB, S_MUL, S_SCALE, S_DIV, S_DIVC, S_SQR, S_POWI, S_POWR, S_POW, S_EXP, S_LOG,
+  S_SQRT, S_SIN, S_COS, S_SINH, S_COSH, S_TAN, S_TANH, S_ATAN, S_ASIN, S_ACOS, S_ATAN2,
+  S_HYPOT, S_STEP, S_COPY
+};
+
+/* One computed slot: z = its series, a and b its operands' (b = a for unary
+ * ops; a = the chosen operand for S_COPY), aux its auxiliary series; v a
+ * constant factor (S_SCALE: also -1 for neg, +-1 for abs), divisor (S_DIVC),
+ * exponent (S_POWR) or scale (S_HYPOT); n the exponent of S_POWI. */
+typedef struct srec {
+  int op;
+  unsigned n;
+  const double *a, *b;
+  double *z, *aux;
+  double v;
+} srec;
+
+/* Auxiliary series a graph node needs (an upper bound over the kernels
+ * begin may choose for it). */
+static int series_aux_count(const jrec *jr)
+{
+  switch (jr->op) {
+  case NZ_GOP_POWC:
+    return jr->v > 0.0 && is_small_integer(jr->v) ? nz_series_powi_work((unsigned)jr->v) : 0;
+  case NZ_GOP_POW: return 2;      /* log x, y log x */
+  case NZ_GOP_ATAN2: return 1;    /* x^2 + y^2 */
+  case NZ_GOP_HYPOT: return 4;    /* a/s, b/s, (a/s)^2 + (b/s)^2, its root */
+  case NZ_GOP_FN:
+    switch (jr->fn) {
+    case NZ_FN_SIN: case NZ_FN_COS: case NZ_FN_SINH: case NZ_FN_COSH:
+    case NZ_FN_TAN: case NZ_FN_TANH: case NZ_FN_ATAN:
+      return 1;                   /* the companion, 1 +- t^2, 1 + x^2 */
+    case NZ_FN_ASIN: case NZ_FN_ACOS:
+      return 2;                   /* 1 - x^2, its root */
+    default: return 0;
+    }
+  default: return 0;
+  }
+}
+
+/* The layout (once per plan) and storage for order K (grown, never shrunk). */
+static nz_status series_storage(nz_graph_plan *p, int K)
+{
+  if (p->ser_naux < 0) {
+    int top = 0;
+    size_t nr = (size_t)p->nrec + 1;
+    for (int s = 0; s < p->m; s++) top = imax(top, p->ids[s]);
+    p->ser_aux = malloc(nr * sizeof *p->ser_aux);
+    p->srecs = malloc(nr * sizeof *p->srecs);
+    p->sruns = malloc(nr * sizeof *p->sruns);
+    p->ser_map = malloc(((size_t)top + 1) * sizeof *p->ser_map);
+    if (!p->ser_aux || !p->srecs || !p->sruns || !p->ser_map) {   /* as if never tried */
+      free(p->ser_aux);
+      free(p->srecs);
+      free(p->sruns);
+      free(p->ser_map);
+      p->ser_aux = NULL;
+      p->srecs = NULL;
+      p->sruns = NULL;
+      p->ser_map = NULL;
+      return NZ_ENOMEM;
+    }
+    int naux = 0;
+    for (int i = 0; i < p->nrec; i++) {
+      p->ser_aux[i] = naux;
+      naux += series_aux_count(&p->jrecs[i]);
+    }
+    for (int id = 0; id <= top; id++) p->ser_map[id] = -1;
+    for (int s = 0; s < p->m; s++) p->ser_map[p->ids[s]] = s;
+    p->ser_top = top;
+    p->ser_naux = naux;
+  }
+  if (K > p->ser_cap) {
+    size_t len = ((size_t)p->m + (size_t)p->ser_naux) * ((size_t)K + 1);
+    double *ser = malloc((len ? len : 1) * sizeof *ser);
+    if (!ser) return NZ_ENOMEM;
+    free(p->ser);
+    p->ser = ser;
+    p->ser_cap = K;
+  }
+  return NZ_OK;
+}
+
+static double *series_of(const nz_graph_plan *p, int s)
+{
+  return p->ser + (size_t)s * ((size_t)p->ser_cap + 1);
+}
+
+/* Coefficient 0 of computed slot s = base + i, with the jets' domain checks
+ * for order K (smooth: K >= 1 asks for derivatives), and its kernel. */
+static nz_status series_first(nz_graph_plan *p, int i, int K)
+{
+  const jrec *jr = &p->jrecs[i];
+  srec *r = &p->srecs[i];
+  int s = p->base + i, smooth = K >= 1;
+  double *z = series_of(p, s);
+  const double *A = series_of(p, jr->a), *B = series_of(p, jr->b);
+  double x = A[0], y = B[0];
+  int ca = is_const_slot(p, jr->a), cb = is_const_slot(p, jr->b);
+  double *aux = p->ser + ((size_t)p->m + (size_t)p->ser_aux[i]) * ((size_t)p->ser_cap + 1);
+  *r = (srec){ S_COPY, 0, A, B, z, aux, 0.0 };
+  switch (jr->op) {
+  case NZ_GOP_ADD: r->op = S_ADD; break;
+  case NZ_GOP_SUB: r->op = S_SUB; break;
+  case NZ_GOP_NEG: r->op = S_SCALE; r->v = -1.0; break;
+  case NZ_GOP_MUL:   /* a constant factor scales, as lin_affine in the jets */
+    if (ca || cb) {
+      r->op = S_SCALE;
+      r->v = ca ? x : y;
+      r->a = ca ? B : A;
+    } else r->op = S_MUL;
+    break;
+  case NZ_GOP_DIV:
+    if (y == 0.0) return NZ_EZERODIV;
+    r->op = cb ? S_DIVC : S_DIV;
+    r->v = y;
+    break;
+  case NZ_GOP_POWC: {
+    double pw = jr->v;
+    int integer = is_small_integer(pw);
+    if (pw == 0.0) { r->op = S_STEP; z[0] = 1.0; return NZ_OK; }
+    if (integer && pw > 0.0) {
+      r->n = (unsigned)pw;
+      r->op = r->n == 1 ? S_COPY : r->n == 2 ? S_SQR : S_POWI;
+      break;
+    }
+    if (x == 0.0) {   /* nz_jet_pow's order of checks */
+      if (integer || (!smooth && pw < 0.0)) return NZ_EZERODIV;
+      if (smooth) return NZ_ESING;
+      r->op = S_STEP;
+      z[0] = 0.0;
+      return NZ_OK;
+    }
+    if (x < 0.0 && !integer) return NZ_EDOM;
+    r->op = S_POWR;
+    r->v = pw;
+    break;
+  }
+  case NZ_GOP_POW:
+    if (x < 0.0) return NZ_EDOM;
+    if (x == 0.0) return NZ_ESING;
+    r->op = S_POW;
+    break;
+  case NZ_GOP_ATAN2:
+    if (x == 0.0 && y == 0.0 && smooth) return NZ_ESING;
+    r->op = S_ATAN2;
+    break;
+  case NZ_GOP_HYPOT:
+    r->v = fmax(fabs(x), fabs(y));
+    if (r->v == 0.0) {
+      if (smooth) return NZ_ESING;
+      r->op = S_STEP;
+      z[0] = 0.0;
+      return NZ_OK;
+    }
+    r->op = S_HYPOT;
+    break;
+  case NZ_GOP_CMP: {
+    nz_status st = d_cmp(jr->fn, x, y, &z[0]);
+    if (st) return st;
+    p->ser_ties += smooth && x == y;
+    r->op = S_STEP;
+    return NZ_OK;
+  }
+  case NZ_GOP_SELECT: {
+    double c = series_of(p, jr->c)[0];
+    if (isnan(c)) return NZ_ENAN;
+    r->a = c != 0.0 ? A : B;
+    r->op = S_COPY;
+    break;
+  }
+  case NZ_GOP_FN:
+    switch (jr->fn) {
+    case NZ_FN_EXP: r->op = S_EXP; break;
+    case NZ_FN_LOG:
+      if (!(x > 0.0)) return NZ_EDOM;
+      r->op = S_LOG;
+      break;
+    case NZ_FN_SQRT:
+      if (x < 0.0) return NZ_EDOM;
+      if (x == 0.0 && smooth) return NZ_ESING;
+      r->op = S_SQRT;
+      break;
+    case NZ_FN_SIN: r->op = S_SIN; break;
+    case NZ_FN_COS: r->op = S_COS; break;
+    case NZ_FN_SINH: r->op = S_SINH; break;
+    case NZ_FN_COSH: r->op = S_COSH; break;
+    case NZ_FN_TAN: r->op = S_TAN; break;
+    case NZ_FN_TANH: r->op = S_TANH; break;
+    case NZ_FN_ATAN: r->op = S_ATAN; break;
+    case NZ_FN_ASIN:
+    case NZ_FN_ACOS:
+      if (fabs(x) > 1.0) return NZ_EDOM;
+      if (fabs(x) == 1.0 && smooth) return NZ_ESING;
+      r->op = jr->fn == NZ_FN_ASIN ? S_ASIN : S_ACOS;
+      break;
+    case NZ_FN_ABS:
+      if (x == 0.0 && smooth) return NZ_ESING;
+      r->op = S_SCALE;
+      r->v = x < 0.0 ? -1.0 : 1.0;
+      break;
+    case NZ_FN_SIGN:
+      if (isnan(x)) return NZ_ENAN;
+      z[0] = (double)((x > 0.0) - (x < 0.0));
+      p->ser_ties += smooth && x == 0.0;
+      r->op = S_STEP;
+      return NZ_OK;
+    default: return NZ_EDOM;
+    }
+    break;
+  default: return NZ_EDOM;
+  }
+  return NZ_OK;
+}
+
+/* Coefficient k of r's series: the recurrences of jet.c, one coefficient at
+ * a time (K: the storage's order, the stride of the auxiliary series). */
+static inline void series_coef(const srec *r, int op, int k, int K)
+{
+  const double *a = r->a, *b = r->b;
+  double *z = r->z, *w = r->aux, *w1 = w + K + 1, *w2 = w1 + K + 1, *w3 = w2 + K + 1;
+  switch (op) {
+  case S_ADD: z[k] = a[k] + b[k]; break;
+  case S_SUB: z[k] = a[k] - b[k]; break;
+  case S_MUL: z[k] = nz_series_mul_coef(a, b, k); break;
+  case S_SCALE: z[k] = r->v * a[k]; break;
+  case S_DIV: z[k] = nz_series_div_coef(z, a, b, k); break;
+  case S_DIVC: z[k] = a[k] / r->v; break;
+  case S_SQR: z[k] = nz_series_mul_coef(a, a, k); break;
+  case S_POWI: z[k] = nz_series_powi_coef(w, a, r->n, k, K); break;
+  case S_POWR: z[k] = nz_series_pow_coef(z, a, r->v, k); break;
+  case S_POW:   /* exp(y log x) */
+    w[k] = nz_series_log_coef(w, a, k);
+    w1[k] = nz_series_mul_coef(b, w, k);
+    z[k] = nz_series_exp_coef(z, w1, k);
+    break;
+  case S_EXP: z[k] = nz_series_exp_coef(z, a, k); break;
+  case S_LOG: z[k] = nz_series_log_coef(z, a, k); break;
+  case S_SQRT: z[k] = nz_series_sqrt_coef(z, a, k); break;
+  case S_SIN: nz_series_sincos_coef(z, w, a, k, 0); break;
+  case S_COS: nz_series_sincos_coef(w, z, a, k, 0); break;
+  case S_SINH: nz_series_sincos_coef(z, w, a, k, 1); break;
+  case S_COSH: nz_series_sincos_coef(w, z, a, k, 1); break;
+  case S_TAN: nz_series_tan_coef(z, w, a, k, 0); break;
+  case S_TANH: nz_series_tan_coef(z, w, a, k, 1); break;
+  case S_ATAN:   /* y' (1 + x^2) = x' */
+    w[k] = nz_series_mul_coef(a, a, k);
+    if (k == 0) {
+      w[0] += 1.0;
+      z[0] = atan(a[0]);
+    } else z[k] = nz_series_quadrature_coef(z, a, w, 1.0, k);
+    break;
+  case S_ASIN:
+  case S_ACOS:   /* y' sqrt(1 - x^2) = +-x' */
+    w[k] = -nz_series_mul_coef(a, a, k);
+    if (k == 0) w[0] += 1.0;
+    w1[k] = nz_series_sqrt_coef(w1, w, k);
+    if (k == 0) z[0] = op == S_ASIN ? asin(a[0]) : acos(a[0]);
+    else z[k] = nz_series_quadrature_coef(z, a, w1, op == S_ASIN ? 1.0 : -1.0, k);
+    break;
+  case S_ATAN2:
+    w[k] = nz_series_mul_coef(b, b, k) + nz_series_mul_coef(a, a, k);
+    z[k] = nz_series_atan2_coef(z, a, b, w, k);
+    break;
+  case S_HYPOT:   /* s sqrt((a/s)^2 + (b/s)^2), s = max(|a_0|, |b_0|) */
+    w[k] = a[k] / r->v;
+    w1[k] = b[k] / r->v;
+    w2[k] = nz_series_mul_coef(w, w, k) + nz_series_mul_coef(w1, w1, k);
+    w3[k] = nz_series_sqrt_coef(w3, w2, k);
+    z[k] = w3[k] * r->v;
+    break;
+  case S_STEP: if (k > 0) z[k] = 0.0; break;
+  case S_COPY: z[k] = a[k]; break;
+  default: z[k] = NAN; break;
+  }
+}
+
+/* Coefficient k of the inputs (NULL in: a used input without a value). */
+static nz_status series_inputs(nz_graph_plan *p, const double *in, int k)
+{
+  for (int s = 0; s < p->nin; s++) {
+    if (!in) return plan_fail(p, s, NZ_EDOM, NAN);
+    series_of(p, s)[k] = in[p->in_num[s]];
+  }
+  return NZ_OK;
+}
+
+nz_status nz_graph_series_begin(nz_graph_plan *p, int max_order, const double *in0)
+{
+  nz_status st;
+  p->fail_node = -1;
+  p->ser_k = -1;
+  p->ser_ties = 0;
+  if (max_order < 0 || max_order > NZ_JET_MAX_ORDER) return NZ_EDOM;
+  if (p->bad_const >= 0)
+    return plan_fail(p, p->bad_const, d_finite(p->vals[p->bad_const]), p->vals[p->bad_const]);
+  if ((st = series_storage(p, max_order))) return st;
+  p->ser_K = max_order;
+  if ((st = series_inputs(p, in0, 0))) return st;
+  for (int s = p->nin; s < p->base; s++) {   /* constants: exact to every order */
+    double *c = series_of(p, s);
+    c[0] = p->vals[s];
+    for (int k = 1; k <= max_order; k++) c[k] = 0.0;
+  }
+  for (int i = 0; i < p->nrec; i++) {
+    int s = p->base + i;
+    double *z = series_of(p, s);
+    st = series_first(p, i, max_order);
+    if (!st && p->srecs[i].op != S_STEP) {
+      series_coef(&p->srecs[i], p->srecs[i].op, 0, p->ser_cap);
+      st = d_finite(z[0]);
+    }
+    if (st) return plan_fail(p, s, st, series_of(p, p->jrecs[i].a)[0]);
+  }
+  /* Runs of one kernel (the plan's schedule groups a level's nodes by
+   * opcode): one dispatch per run in nz_graph_series_next. */
+  p->nsrun = 0;
+  for (int i = 0; i < p->nrec; i++) {
+    if (p->nsrun == 0 || p->sruns[p->nsrun - 1].op != p->srecs[i].op)
+      p->sruns[p->nsrun++].op = p->srecs[i].op;
+    p->sruns[p->nsrun - 1].end = i + 1;
+  }
+  p->ser_k = 0;
+  return NZ_OK;
+}
+
+nz_status nz_graph_series_next(nz_graph_plan *p, int k, const double *in_k, double *out_k)
+{
+  nz_status st;
+  p->fail_node = -1;
+  if (p->ser_k < 0 || k < 1 || k > p->ser_k + 1 || k > p->ser_K) return NZ_EDOM;
+  p->ser_k = k - 1;   /* coefficient k, if it was filled, is being replaced */
+  if ((st = series_inputs(p, in_k, k))) return st;
+  int K = p->ser_cap, i = 0;
+  const srec *R = p->srecs;
+  /* One dispatch per run; series_coef is inlined with a constant kernel. */
+#define RUN(OP) case OP: for (; i < e; i++) series_coef(&R[i], OP, k, K); break;
+  for (int q = 0; q < p->nsrun; q++) {
+    int e = p->sruns[q].end;
+    switch (p->sruns[q].op) {
+      RUN(S_ADD) RUN(S_SUB) RUN(S_MUL) RUN(S_SCALE) RUN(S_DIV) RUN(S_DIVC) RUN(S_SQR)
+      RUN(S_POWI) RUN(S_POWR) RUN(S_POW) RUN(S_EXP) RUN(S_LOG) RUN(S_SQRT) RUN(S_SIN)
+      RUN(S_COS) RUN(S_SINH) RUN(S_COSH) RUN(S_TAN) RUN(S_TANH) RUN(S_ATAN) RUN(S_ASIN)
+      RUN(S_ACOS) RUN(S_ATAN2) RUN(S_HYPOT) RUN(S_STEP) RUN(S_COPY)
+    default: for (; i < e; i++) R[i].z[k] = NAN; break;
+    }
+  }
+#undef RUN
+  /* The first non-finite coefficient in slot order: where it appeared (a
+   * NaN or an infinity flows into the later nodes). */
+  for (i = 0; i < p->nrec; i++)
+    if (!isfinite(R[i].z[k]))
+      return plan_fail(p, p->base + i, d_finite(R[i].z[k]), series_of(p, p->jrecs[i].a)[0]);
+  p->ser_k = k;
+  if (out_k)
+    for (int o = 0; o < p->nout; o++) out_k[o] = series_of(p, p->out_slot[o])[k];
+  return NZ_OK;
+}
+
+int nz_graph_series_order(const nz_graph_plan *p) { return p->ser_k; }
+
+int nz_graph_series_ties(const nz_graph_plan *p) { return p->ser_ties; }
+
+double nz_graph_series_coef(const nz_graph_plan *p, int r, int j)
+{
+  if (r < 0 || r >= p->nout || j < 0 || j > p->ser_k) return NAN;
+  return series_of(p, p->out_slot[r])[j];
+}
+
+const double *nz_graph_series_node(const nz_graph_plan *p, int node)
+{
+  if (p->ser_k < 0 || node < 0 || node > p->ser_top) return NULL;
+  int s = p->ser_map[node];
+  return s < 0 ? NULL : series_of(p, s);
 }

@@ -147,6 +147,58 @@ nz_status nz_graph_eval(nz_graph_plan *p, const double *in, double *out);
 nz_status nz_graph_eval_jets(nz_graph_plan *p, const nz_jet *const *in, nz_jet *const *out,
                              const nz_jet *const *din, nz_jet *const *dout);
 
+/* Series built order by order (the Taylor integrator's way: THEORY.md §11).
+ * A Taylor integrator for x' = f(t, x) knows x_0..x_k and needs coefficient
+ * k of f(t, x(t)) (then x_{k+1} = f_k / (k + 1)), without recomputing lower
+ * orders.  The plan keeps a series of max_order + 1 coefficients per node
+ * (and per auxiliary series some kernels need: the cosine beside a sine,
+ * 1 + x^2 beside atan, the partial powers of x^n, ...), allocated at the
+ * first nz_graph_series_begin and reused while max_order does not grow.
+ * Every node fills coefficient k with the coefficient-level kernels of
+ * series.h (nz_series_<f>_coef), from coefficients 0..k of its operands and
+ * 0..k-1 of itself: the very recurrences the jets run, so the coefficients
+ * equal those of nz_graph_eval_jets on jets of order max_order without
+ * tangents (up to the sign of a zero).
+ *
+ * Failures are the jets' statuses, found where they appear: domain checks
+ * (log of a series with c_0 <= 0: NZ_EDOM; sqrt, asin, acos, abs, x^p, x^y,
+ * atan2, hypot at their singular points: NZ_ESING when max_order >= 1, as
+ * the jets of order >= 1; division by c_0 = 0: NZ_EZERODIV) at begin, an
+ * infinite or NaN coefficient (NZ_ERANGE, NZ_ENAN) at the coefficient where
+ * it appears.  The failing node is kept for nz_graph_plan_failure.  (The
+ * jets compute each node to the full order before the next, so when two
+ * nodes fail at different orders the jets may name the other one.)
+ *
+ * Branches are decided once, at begin, from coefficient 0, as nz_graph_eval
+ * decides them on doubles: cmp and sign compare values (a tie is exact
+ * equality), select keeps the operand its condition's c_0 chose for every
+ * later coefficient.  The jets break a tie in value by the later
+ * coefficients (the lexicographic rule of jet.h), which a series built
+ * order by order does not know yet when coefficient 0 is needed; so the two
+ * agree except at an exact tie, and nz_graph_series_ties says how many
+ * comparisons met one (an integrator can step off the tie and restart). */
+
+/* Start: coefficient 0 of every node from the inputs' values in0[i] (by
+ * input number, as nz_graph_eval), for series up to max_order (0..
+ * NZ_JET_MAX_ORDER; else NZ_EDOM).  NZ_ENOMEM if the storage cannot grow. */
+nz_status nz_graph_series_begin(nz_graph_plan *p, int max_order, const double *in0);
+/* Given coefficient k of every input (in_k[i], i by input number), fill
+ * coefficient k of every node and return the outputs' coefficient k in
+ * out_k (NULL: not wanted).  k runs 1, 2, ... in order; 1 <= k <= the last
+ * coefficient filled + 1 and k <= max_order, else NZ_EDOM (a k already
+ * filled is filled again from the new in_k, and later ones are dropped). */
+nz_status nz_graph_series_next(nz_graph_plan *p, int k, const double *in_k, double *out_k);
+/* The last coefficient filled (0 after begin), -1 before a successful begin. */
+int nz_graph_series_order(const nz_graph_plan *p);
+/* Coefficient j (0..nz_graph_series_order) of output r; NAN outside. */
+double nz_graph_series_coef(const nz_graph_plan *p, int r, int j);
+/* The series of node id `node` (coefficients 0..nz_graph_series_order), or
+ * NULL for a node the plan does not evaluate or before begin. */
+const double *nz_graph_series_node(const nz_graph_plan *p, int node);
+/* The number of cmp and sign nodes whose operands tied in value at the last
+ * begin with max_order >= 1 (see above: where series and jets may differ). */
+int nz_graph_series_ties(const nz_graph_plan *p);
+
 /* The node that failed in the last evaluation, its operation and the value
  * of its first operand (for messages). */
 void nz_graph_plan_failure(const nz_graph_plan *p, int *node, nz_gop *op, nz_jet_fn *fn,

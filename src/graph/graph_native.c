@@ -6,7 +6,10 @@
  * graph's (topological) order; inputs read as in[k], constants written as
  * exact hexadecimal literals.  Each formula is the interpreter's (graph.c):
  * x^n by the same binary powering unrolled, x^y = exp(y log x), hypot scaled
- * by max(|a|, |b|), |x| as x < 0 ? -x : x, libm for the rest; compiled with
+ * by max(|a|, |b|), |x| as x < 0 ? -x : x, sign(x) as [x > 0] - [x < 0]
+ * (so sign(-0) = +0 and sign(NaN) = 0, as the interpreter), cmp as 1.0 or
+ * 0.0, select as a choice of values (both branches computed, as the
+ * interpreter does), libm for the rest; compiled with
  * -ffp-contract=off and without -ffast-math, so the values are the
  * interpreter's bit for bit.  Also with -fno-builtin: otherwise the compiler
  * rewrites sin(atan(x)) as x / sqrt(x^2 + 1) or pow(x, -1) as 1 / x, which
@@ -14,14 +17,17 @@
  *
  * Refusing what the interpreter refuses, cheaply.  Every domain error gives
  * a NaN or an infinity here (log(0) = -inf, sqrt(-1) = NaN, 1/0 = inf; the
- * helpers return NaN where libm would not, as pow(0, y)), so "the
- * interpreter fails" is "some computed node is not finite".  Testing every
+ * helpers return NaN where libm would not, as pow(0, y), a comparison with
+ * a NaN operand, a select with a NaN condition), so "the interpreter fails"
+ * is "some computed node is not finite".  Testing every
  * node would cost about as much as computing it; but most operations are
  * strict (a non-finite operand gives a non-finite result: inf + x, inf * 0,
  * sin(inf), sqrt(-inf)), and a node whose every consumer is strict needs no
  * test of its own: its consumers inherit the failure.  So only nodes with no
  * consumer (outputs) or with a consumer that may mask them (atan, tanh, exp,
- * a denominator, atan2, hypot, sign, non-integer powers) are tested, as
+ * a denominator, atan2, hypot, sign, non-integer powers, comparisons, the
+ * branches of a select: the one not taken is masked, yet the interpreter
+ * refuses its failure) are tested, as
  * c += t * 0.0 into four independent sums: t * 0 is +-0 when t is finite and
  * NaN otherwise.  The result is refused when a sum is not zero.
  *
@@ -54,7 +60,7 @@
 
 extern char **environ;
 
-#define GEN_VERSION "nzlua-native 1"
+#define GEN_VERSION "nzlua-native 2"
 /* Computed nodes per generated function, and the size above which the
  * compiler runs at -O1 (measured: see tests/test_native.c's timing). */
 #ifndef CHUNK
@@ -122,10 +128,13 @@ static void sb_printf(sbuf *b, const char *fmt, ...)
 static int is_small_integer(double p) { return p == floor(p) && fabs(p) <= 1e9; }
 static int unary_op(int op) { return op == NZ_GOP_NEG || op == NZ_GOP_POWC || op == NZ_GOP_FN; }
 static int computed(int op) { return op != NZ_GOP_CONST && op != NZ_GOP_INPUT; }
+/* Operands of a computed node: a; a, b; or a, b and the condition c. */
+static int noperands(int op) { return unary_op(op) ? 1 : op == NZ_GOP_SELECT ? 3 : 2; }
+static int operand(const nz_gnode *nd, int pos) { return pos == 0 ? nd->a : pos == 1 ? nd->b : nd->c; }
 
-/* Does a non-finite operand `pos` (0: a, 1: b) always give a non-finite
- * result?  (see the header comment) */
-static int strict(const nz_gnode *nd, int pos)
+/* Does a non-finite operand `pos` (0: a, 1: b, 2: c), node o, always give a
+ * non-finite result?  (see the header comment) */
+static int strict(const nz_gnode *nd, int pos, const nz_gnode *o)
 {
   switch (nd->op) {
   case NZ_GOP_ADD:
@@ -139,9 +148,15 @@ static int strict(const nz_gnode *nd, int pos)
     case NZ_FN_LOG: case NZ_FN_SQRT: case NZ_FN_SIN: case NZ_FN_COS: case NZ_FN_TAN:
     case NZ_FN_ASIN: case NZ_FN_ACOS: case NZ_FN_SINH: case NZ_FN_COSH: case NZ_FN_ABS:
       return 1;
-    default: return 0;   /* exp(-inf) = 0, atan(inf), tanh(inf), sign(inf) finite */
+    default: return 0;   /* exp(-inf) = 0, atan(inf), tanh(inf), sign(inf), sign(NaN) finite */
     }
-  default: return 0;   /* pow, atan2, hypot(NaN, 0) = 0 */
+  case NZ_GOP_SELECT:
+    /* A branch is not strict: the other one may be taken (and a failing
+     * branch not taken must still be refused, as the interpreter does).
+     * The condition: select(inf, a, b) = a, but a comparison is never
+     * infinite, only NaN, and a NaN condition gives NaN. */
+    return pos == 2 && o->op == NZ_GOP_CMP;
+  default: return 0;   /* pow, atan2, hypot(NaN, 0) = 0, cmp(inf, 0) = 1 */
   }
 }
 
@@ -175,6 +190,8 @@ static int supported(const nz_gnode *nd)
   case NZ_GOP_HYPOT:
     return 1;
   case NZ_GOP_FN: return fn_name(nd->fn) != NULL;
+  case NZ_GOP_CMP: return nd->fn <= NZ_CMP_NE;
+  case NZ_GOP_SELECT: return 1;
   default: return 0;
   }
 }
@@ -186,8 +203,16 @@ static const char helpers[] =
   "#if defined(__GNUC__)\n#define NZN_NOINLINE __attribute__((noinline))\n"
   "#else\n#define NZN_NOINLINE\n#endif\n"
   "static inline double nzn_abs(double x) { return x < 0.0 ? -x : x; }\n"
-  "static inline double nzn_sign(double x)\n"
-  "{ return x > 0.0 ? 1.0 : x < 0.0 ? -1.0 : x == 0.0 ? 0.0 : x; }\n"
+  /* sign(NaN) = 0 and sign(-0) = +0, as graph.c's d_fn */
+  "static inline double nzn_sign(double x) { return (double)((x > 0.0) - (x < 0.0)); }\n"
+  /* graph.c's d_cmp: NaN for a NaN operand (the interpreter refuses it) */
+  "#define NZN_CMP(name, op) static inline double name(double a, double b)\\\n"
+  "{ return a != a || b != b ? NAN : a op b ? 1.0 : 0.0; }\n"
+  "NZN_CMP(nzn_lt, <)\nNZN_CMP(nzn_le, <=)\nNZN_CMP(nzn_gt, >)\n"
+  "NZN_CMP(nzn_ge, >=)\nNZN_CMP(nzn_eq, ==)\nNZN_CMP(nzn_ne, !=)\n"
+  /* graph.c's R_SELECT: a NaN condition fails */
+  "static inline double nzn_select(double c, double a, double b)\n"
+  "{ return c != c ? NAN : c != 0.0 ? a : b; }\n"
   "static inline double nzn_hypot(double a, double b)\n{\n"
   "  double s = __builtin_fmax(__builtin_fabs(a), __builtin_fabs(b));\n"
   "  if (s == 0.0) return 0.0;\n"
@@ -251,13 +276,22 @@ static void emit_powi(gen *G, int id, const char *x, unsigned n, char *e, size_t
   snprintf(e, en, "t%d_y", id);
 }
 
+/* The C function of each nz_cmp (nd->fn checked by supported()). */
+static const char *cmp_name(int op)
+{
+  static const char *const names[] = { "nzn_lt", "nzn_le", "nzn_gt", "nzn_ge", "nzn_eq", "nzn_ne" };
+  return names[op];
+}
+
 static void emit_node(gen *G, int id, int c, int *acc)
 {
   const nz_gnode *nd = &G->nd[id];
-  char a[64], b[64], e[200];
+  char a[64], b[64], k[64], e[256];
   ref(G, nd->a, c, a, sizeof a);
   if (!unary_op(nd->op)) ref(G, nd->b, c, b, sizeof b);
   else b[0] = 0;
+  if (nd->op == NZ_GOP_SELECT) ref(G, nd->c, c, k, sizeof k);
+  else k[0] = 0;
   switch (nd->op) {
   case NZ_GOP_ADD: snprintf(e, sizeof e, "%s + %s", a, b); break;
   case NZ_GOP_SUB: snprintf(e, sizeof e, "%s - %s", a, b); break;
@@ -268,6 +302,8 @@ static void emit_node(gen *G, int id, int c, int *acc)
   case NZ_GOP_ATAN2: snprintf(e, sizeof e, "atan2(%s, %s)", a, b); break;
   case NZ_GOP_HYPOT: snprintf(e, sizeof e, "nzn_hypot(%s, %s)", a, b); break;
   case NZ_GOP_FN: snprintf(e, sizeof e, "%s(%s)", fn_name(nd->fn), a); break;
+  case NZ_GOP_CMP: snprintf(e, sizeof e, "%s(%s, %s)", cmp_name(nd->fn), a, b); break;
+  case NZ_GOP_SELECT: snprintf(e, sizeof e, "nzn_select(%s, %s, %s)", k, a, b); break;
   case NZ_GOP_POWC: {
     double p = nd->v;
     char pl[64];
@@ -310,8 +346,7 @@ static int analyse(gen *G, const int *outputs, int n, char *why, size_t whylen)
       return -1;
     }
     if (!computed(nd[id].op)) continue;
-    G->need[nd[id].a] = 1;
-    if (!unary_op(nd[id].op)) G->need[nd[id].b] = 1;
+    for (int pos = 0; pos < noperands(nd[id].op); pos++) G->need[operand(&nd[id], pos)] = 1;
   }
   int k = 0;
   for (int id = 0; id <= G->top; id++) {
@@ -322,10 +357,10 @@ static int analyse(gen *G, const int *outputs, int n, char *why, size_t whylen)
     if (nd[id].op == NZ_GOP_CONST && !isfinite(nd[id].v)) G->bad_const = 1;
     if (!computed(nd[id].op)) continue;
     G->chunk[id] = k++ / CHUNK;
-    for (int pos = 0; pos < (unary_op(nd[id].op) ? 1 : 2); pos++) {
-      int o = pos ? nd[id].b : nd[id].a;
+    for (int pos = 0; pos < noperands(nd[id].op); pos++) {
+      int o = operand(&nd[id], pos);
       if (!computed(nd[o].op)) continue;
-      if (!strict(&nd[id], pos)) G->check[o] = 1;
+      if (!strict(&nd[id], pos, &nd[o])) G->check[o] = 1;
       G->last[o] = G->chunk[id];
     }
   }
@@ -646,8 +681,10 @@ done:
   return rc;
 }
 
-nz_native *nz_native_compile(const nz_graph *g, const int *outputs, int n, const char *cache_dir,
-                             char *why, size_t whylen)
+/* The object for these outputs: from the cache, else compiled (compile = 1)
+ * or NULL (compile = 0). */
+static nz_native *native_get(const nz_graph *g, const int *outputs, int n, const char *cache_dir,
+                             char *why, size_t whylen, int compile)
 {
   double t0 = now();
   char *src = NULL, ccbuf[2048], *argv[MAXWORDS], hash[17], base[32], *so = NULL;
@@ -701,6 +738,10 @@ nz_native *nz_native_compile(const nz_graph *g, const int *outputs, int n, const
     goto fail;
   }
   int cached = access(f->path, R_OK) == 0 && load(f, f->path, hash, NULL, 0) == 0;
+  if (!cached && !compile) {
+    say(why, whylen, "not in the cache");
+    goto fail;
+  }
   if (!cached) {
     if (compile_into(cache_dir, base, src, argv, k, why, whylen)) goto fail;
     if (load(f, f->path, hash, why, whylen)) goto fail;
@@ -713,6 +754,18 @@ fail:
   free(so);
   nz_native_free(f);
   return NULL;
+}
+
+nz_native *nz_native_compile(const nz_graph *g, const int *outputs, int n, const char *cache_dir,
+                             char *why, size_t whylen)
+{
+  return native_get(g, outputs, n, cache_dir, why, whylen, 1);
+}
+
+nz_native *nz_native_load(const nz_graph *g, const int *outputs, int n, const char *cache_dir,
+                          char *why, size_t whylen)
+{
+  return native_get(g, outputs, n, cache_dir, why, whylen, 0);
 }
 
 nz_status nz_native_eval(const nz_native *f, const double *in, double *out)

@@ -21,7 +21,8 @@
  *
  * Failures.  nz_native_eval refuses (NZ_EDOM) exactly when nz_graph_eval
  * fails: some node left its domain or gave an infinity or a NaN, even if a
- * later node masks it (atan(inf) is finite).  It does not say which node:
+ * later node masks it (atan(inf) is finite) or is the branch a select does
+ * not take (both branches are computed).  It does not say which node:
  * the caller re-runs nz_graph_eval to name it.
  *
  * Plain C: never includes lua.h, never prints, never exits. */
@@ -46,6 +47,11 @@ nz_native *nz_native_compile(const nz_graph *g, const int *outputs, int n, const
  * NZ_OK, or NZ_EDOM when some node left its domain or was not finite (out
  * is then unspecified).  in and out may overlap.  One nz_native holds a
  * workspace: two threads must not evaluate the same one at once. */
+/* The same object if it is already in the cache, else NULL without compiling
+ * (the cost of generating the source and hashing it: microseconds per node). */
+nz_native *nz_native_load(const nz_graph *g, const int *outputs, int n, const char *cache_dir,
+                          char *why, size_t whylen);
+
 nz_status nz_native_eval(const nz_native *f, const double *in, double *out);
 
 void nz_native_free(nz_native *f);   /* NULL is harmless */

@@ -87,6 +87,44 @@ void nz_series_powi(double *y, const double *x, unsigned n, int K, double *w)
   }
 }
 
+int nz_series_powi_work(unsigned n)
+{
+  int count = 0, y_is_one = 1;
+  while (n) {
+    if (n & 1u) {
+      count += !y_is_one;
+      y_is_one = 0;
+    }
+    n >>= 1;
+    if (n) count++;
+  }
+  return count;
+}
+
+/* The loop of nz_series_powi, each product into the next series of w. */
+double nz_series_powi_coef(double *w, const double *x, unsigned n, int k, int K)
+{
+  const double *base = x, *y = NULL;
+  size_t stride = (size_t)K + 1;
+  if (n == 0) return k == 0 ? 1.0 : 0.0;
+  while (n) {
+    if (n & 1u) {
+      if (y) {
+        w[k] = nz_series_mul_coef(y, base, k);
+        y = w;
+        w += stride;
+      } else y = base;
+    }
+    n >>= 1;
+    if (n) {
+      w[k] = nz_series_mul_coef(base, base, k);
+      base = w;
+      w += stride;
+    }
+  }
+  return y[k];
+}
+
 double nz_series_sqrt_coef(const double *y, const double *x, int k)
 {
   if (k == 0) return sqrt(x[0]);
@@ -153,19 +191,23 @@ void nz_series_quadrature(double *y, const double *x, const double *d, double s,
   for (int k = 1; k <= K; k++) y[k] = nz_series_quadrature_coef(y, x, d, s, k);
 }
 
+double nz_series_atan2_coef(const double *z, const double *y, const double *x, const double *d,
+                            int k)
+{
+  if (k == 0) return atan2(y[0], x[0]);
+  /* n_{k-1} = sum_{j=0..k-1} x_j (k-j) y_{k-j} - y_j (k-j) x_{k-j} */
+  double n = 0.0;
+  for (int j = 0; j < k; j++) n += (k - j) * (x[j] * y[k - j] - y[j] * x[k - j]);
+  double acc = n;
+  for (int j = 1; j < k; j++) acc -= j * z[j] * d[k - j];
+  return acc / (k * d[0]);
+}
+
 void nz_series_atan2(double *z, const double *y, const double *x, int K, double *w)
 {
   double *d = w, *xx = w + (K + 1), *yy = w + 2 * (K + 1);
   nz_series_mul(xx, x, x, K);
   nz_series_mul(yy, y, y, K);
   for (int k = 0; k <= K; k++) d[k] = xx[k] + yy[k];
-  z[0] = atan2(y[0], x[0]);
-  for (int k = 1; k <= K; k++) {
-    /* n_{k-1} = sum_{j=0..k-1} x_j (k-j) y_{k-j} - y_j (k-j) x_{k-j} */
-    double n = 0.0;
-    for (int j = 0; j < k; j++) n += (k - j) * (x[j] * y[k - j] - y[j] * x[k - j]);
-    double acc = n;
-    for (int j = 1; j < k; j++) acc -= j * z[j] * d[k - j];
-    z[k] = acc / (k * d[0]);
-  }
+  for (int k = 0; k <= K; k++) z[k] = nz_series_atan2_coef(z, y, x, d, k);
 }

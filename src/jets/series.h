@@ -43,6 +43,16 @@ void nz_series_pow(double *y, const double *x, double a, int K);
 /* y = x^n, n >= 0 integer, by binary powering with Cauchy products; valid even
  * when x_0 = 0.  w: workspace of 2 (K+1) doubles. */
 void nz_series_powi(double *y, const double *x, unsigned n, int K, double *w);
+/* The same at the coefficient level, for a series built order by order: the
+ * binary powering's squares and partial products are series of their own,
+ * nz_series_powi_work(n) of them, each of K + 1 coefficients, laid one after
+ * the other in w and kept between calls.  nz_series_powi_coef fills their
+ * coefficient k (each a Cauchy product of series known to k) and returns
+ * y_k; call it for k = 0, 1, ... in order (k <= K).  Valid at x_0 = 0.  The
+ * first partial product 1 * base is not formed (y is base), so the result
+ * equals nz_series_powi's up to the sign of a zero. */
+int nz_series_powi_work(unsigned n);
+double nz_series_powi_coef(double *w, const double *x, unsigned n, int k, int K);
 
 /* y = sqrt(x):  y^2 = x  =>  y_k = (x_k - sum_{j=1..k-1} y_j y_{k-j}) / (2 y_0).
  * Needs x_0 > 0 when K >= 1. */
@@ -73,5 +83,9 @@ void nz_series_quadrature(double *y, const double *x, const double *d, double s,
  * k z_k d_0 = n_{k-1} - sum_{j=1..k-1} j z_j d_{k-j}.  w: 3 (K+1) doubles;
  * on return w[0..K] holds d. */
 void nz_series_atan2(double *z, const double *y, const double *x, int K, double *w);
+/* Its coefficient level: z_k from z_0..z_{k-1}, x and y to k, and the series
+ * d = x^2 + y^2 to k - 1 (the caller keeps d: d_k = (x x)_k + (y y)_k). */
+double nz_series_atan2_coef(const double *z, const double *y, const double *x, const double *d,
+                            int k);
 
 #endif

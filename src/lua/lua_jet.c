@@ -205,6 +205,12 @@ static int raise_failure(lua_State *L, nz_status st, const char *fname, const nz
   return raise_status(L, st, fname, v, v2);
 }
 
+int nz_lua_jet_raise(lua_State *L, nz_status st, const char *fname, const nz_jet *const *ops,
+                     int nops, double v, double v2)
+{
+  return raise_failure(L, st, fname, ops, nops, v, v2);
+}
+
 /* Push the result: a number when every operand was a number. */
 static void push_result(lua_State *L, nz_jet *z, int as_number)
 {
@@ -214,19 +220,38 @@ static void push_result(lua_State *L, nz_jet *z, int as_number)
 /* ------------------------------------------------------------------ */
 /* Other number types                                                   */
 
-/* A table argument whose metatable has a field named `name` (sin, atan2,
- * __add, ...) is a number type written in Lua (lua/nz/hyperdual.lua): the
- * call goes to that field.  Returns 1 and leaves the results if it did. */
+/* Another number type among the arguments takes the call: a table whose
+ * metatable has a field named `name` (sin, atan2, __add, ...) is a number
+ * type written in Lua (lua/nz/hyperdual.lua, the recorder's tracers); a full
+ * userdata other than a jet with that field is one written in C (the state
+ * direction's "nz.dualjet", src/lua_dualjet.c).  Tables come first: a nested
+ * dual number whose parts are dualjets is the outer type.  Returns 1 and
+ * leaves the result if it dispatched. */
+int nz_lua_dispatch(lua_State *L, int nargs, const char *name, int userdata)
+{
+  for (int pass = 0; pass < 1 + (userdata != 0); pass++)
+    for (int i = 1; i <= nargs; i++) {
+      int t = lua_type(L, i);
+      if (pass == 0 ? t != LUA_TTABLE : (t != LUA_TUSERDATA || nz_lua_tojet(L, i))) continue;
+      if (luaL_getmetafield(L, i, name) == LUA_TNIL) continue;
+      lua_insert(L, 1);
+      lua_call(L, nargs, 1);
+      return 1;
+    }
+  return 0;
+}
+
+/* Is argument i of another number type (a table, or a userdata that is not
+ * a jet)? */
+static int foreign(lua_State *L, int i)
+{
+  int t = lua_type(L, i);
+  return t == LUA_TTABLE || (t == LUA_TUSERDATA && !nz_lua_tojet(L, i));
+}
+
 static int dispatch_to_table(lua_State *L, int nargs, const char *name)
 {
-  for (int i = 1; i <= nargs; i++) {
-    if (lua_type(L, i) != LUA_TTABLE) continue;
-    if (luaL_getmetafield(L, i, name) == LUA_TNIL) continue;
-    lua_insert(L, 1);
-    lua_call(L, nargs, 1);
-    return 1;
-  }
-  return 0;
+  return nz_lua_dispatch(L, nargs, name, 1);
 }
 
 /* ------------------------------------------------------------------ */
@@ -236,7 +261,7 @@ static int unary(lua_State *L, nz_jet_fn f)
 {
   const char *fname = nz_jet_fn_names[f];
   lua_settop(L, 1);
-  if (lua_type(L, 1) == LUA_TTABLE && dispatch_to_table(L, 1, fname)) return 1;
+  if (foreign(L, 1) && dispatch_to_table(L, 1, fname)) return 1;
   int as_number = lua_type(L, 1) == LUA_TNUMBER;
   nz_jet *x = jet_or_scalar(L, 1, 0, fname);
   nz_jet *z = as_number ? get_workspace(L)->scalar[2] : nz_lua_newjet(L, x->order, x->ntan);
@@ -274,8 +299,7 @@ static int binary(lua_State *L, binop op)
 {
   const char *fname = binop_names[op];
   lua_settop(L, 2);
-  if ((lua_type(L, 1) == LUA_TTABLE || lua_type(L, 2) == LUA_TTABLE) &&
-      dispatch_to_table(L, 2, binop_fields[op]))
+  if ((foreign(L, 1) || foreign(L, 2)) && dispatch_to_table(L, 2, binop_fields[op]))
     return 1;
   int na = lua_type(L, 1) == LUA_TNUMBER, nb = lua_type(L, 2) == LUA_TNUMBER;
   nz_jet *a = jet_or_scalar(L, 1, 0, fname);
@@ -368,9 +392,32 @@ static double value_of(lua_State *L, int idx)
   }
   return luaL_checknumber(L, idx);
 }
-static int lj_eq(lua_State *L) { lua_pushboolean(L, value_of(L, 1) == value_of(L, 2)); return 1; }
-static int lj_lt(lua_State *L) { lua_pushboolean(L, value_of(L, 1) < value_of(L, 2)); return 1; }
-static int lj_le(lua_State *L) { lua_pushboolean(L, value_of(L, 1) <= value_of(L, 2)); return 1; }
+/* A number type written in C (a dualjet) compares itself. */
+static int compare_dispatch(lua_State *L, const char *field)
+{
+  lua_settop(L, 2);
+  for (int i = 1; i <= 2; i++)
+    if (lua_type(L, i) == LUA_TUSERDATA && !nz_lua_tojet(L, i)) return nz_lua_dispatch(L, 2, field, 1);
+  return 0;
+}
+static int lj_eq(lua_State *L)
+{
+  if (compare_dispatch(L, "__eq")) return 1;
+  lua_pushboolean(L, value_of(L, 1) == value_of(L, 2));
+  return 1;
+}
+static int lj_lt(lua_State *L)
+{
+  if (compare_dispatch(L, "__lt")) return 1;
+  lua_pushboolean(L, value_of(L, 1) < value_of(L, 2));
+  return 1;
+}
+static int lj_le(lua_State *L)
+{
+  if (compare_dispatch(L, "__le")) return 1;
+  lua_pushboolean(L, value_of(L, 1) <= value_of(L, 2));
+  return 1;
+}
 
 /* ------------------------------------------------------------------ */
 /* Branches that can be recorded: comparisons that return numbers and   */
@@ -431,11 +478,11 @@ static int branch_failure(lua_State *L, nz_status st, const char *fname, const b
                        o->n > 1 ? o->given[1]->c[0] : 0.0);
 }
 
-/* A number type written in Lua among the arguments gets the call. */
+/* Another number type among the arguments gets the call. */
 static int branch_dispatch(lua_State *L, int nargs, const char *fname)
 {
   for (int i = 1; i <= nargs; i++)
-    if (lua_type(L, i) == LUA_TTABLE) return dispatch_to_table(L, nargs, fname);
+    if (foreign(L, i)) return dispatch_to_table(L, nargs, fname);
   return 0;
 }
 

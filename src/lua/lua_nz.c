@@ -15,6 +15,7 @@
 #include "lua/embedded.h"
 #include <gsl/gsl_errno.h>
 #include "lua/lua_constraints.h"
+#include "lua/lua_dualjet.h"
 #include "lua/lua_graph.h"
 #include "lua/lua_jet.h"
 #include "lua/lua_linalg.h"
@@ -121,6 +122,7 @@ static int open_core(lua_State *L)
   nz_lua_open_ode(L);
   nz_lua_open_graph(L);          /* the recorder's constructor is internal */
   lua_setfield(L, -2, "mech");
+  nz_lua_open_dualjet(L);        /* after the jets (its branches call them) and core.mech */
   nz_lua_open_special(L);
   lua_pushstring(L, NZ_VERSION);
   lua_setfield(L, -2, "version");

@@ -15,6 +15,7 @@
 #include <lauxlib.h>
 #include "mech/constrained.h"
 #include "core/linalg.h"
+#include "lua/lua_dualjet.h"
 #include "lua/lua_graph.h"
 #include "lua/lua_jet.h"
 #include "lua/lua_system.h"
@@ -136,6 +137,26 @@ static void definition_location(lua_State *L, int fn, char *where, size_t n)
     snprintf(where, n, "%s:%d:", ar.short_src, ar.linedefined);
 }
 
+/* out += j (a jet of at least out's order; an eta-part may be of lower
+ * order: its missing coefficients are zero, as the graph's are). */
+static int accumulate_jet(const nz_jet *j, nz_jet *out, int eta, const char **why)
+{
+  if (j->order < out->order && !eta) {
+    *why = "returned a jet of lower order than its arguments (make constants numbers, not jets)";
+    return 0;
+  }
+  int K = j->order < out->order ? j->order : out->order;
+  for (int d = -1; d < out->ntan && d < j->ntan; d++) {
+    const double *src = d < 0 ? j->c : nz_jet_tangent(j, d);
+    double *dst = d < 0 ? out->c : nz_jet_tangent(out, d);
+    for (int c = 0; c <= K; c++) {
+      if (!isfinite(src[c])) { *why = "returned a value that is not finite (NaN or inf)"; return 0; }
+      dst[c] += src[c];
+    }
+  }
+  return 1;
+}
+
 /* out += the value at idx (a number or a jet of at least out's order). */
 static int accumulate(lua_State *L, int idx, nz_jet *out, const char **why)
 {
@@ -147,20 +168,7 @@ static int accumulate(lua_State *L, int idx, nz_jet *out, const char **why)
   }
   nz_jet *j = nz_lua_tojet(L, idx);
   if (!j) { *why = "returned something that is neither a number nor a jet"; return 0; }
-  if (j->order < out->order) {
-    *why = "returned a jet of lower order than its arguments (make constants numbers, not jets)";
-    return 0;
-  }
-  int K = out->order;
-  for (int d = -1; d < out->ntan && d < j->ntan; d++) {
-    const double *src = d < 0 ? j->c : nz_jet_tangent(j, d);
-    double *dst = d < 0 ? out->c : nz_jet_tangent(out, d);
-    for (int c = 0; c <= K; c++) {
-      if (!isfinite(src[c])) { *why = "returned a value that is not finite (NaN or inf)"; return 0; }
-      dst[c] += src[c];
-    }
-  }
-  return 1;
+  return accumulate_jet(j, out, 0, why);
 }
 
 static void push_jet_copy(lua_State *L, const nz_jet *j)
@@ -178,14 +186,31 @@ static void push_jet_list(lua_State *L, nz_jet *const *v, int k)
   }
 }
 
-/* With a direction, an argument is the nested dual number v + eta d
- * (lua/nz/hyperdual.lua) built by `make` (stack index). */
-static void push_dual_copy(lua_State *L, int make, const nz_jet *v, const nz_jet *d)
+/* The testing hook of the arguments along a direction (core.mech.
+ * argument_hook(f), f = nil to remove it): f() is called before each
+ * dualjet is made, inside the protected call that builds the arguments, so
+ * that tests can raise an error or the interrupt where building them can
+ * fail (running out of memory) and check that nothing unwinds through the
+ * C core.  Testing only. */
+static const char argument_hook_key = 0;
+
+static int ls_argument_hook(lua_State *L)
 {
-  lua_pushvalue(L, make);
-  push_jet_copy(L, v);
-  push_jet_copy(L, d);
-  lua_call(L, 2, 1);
+  lua_settop(L, 1);
+  if (!lua_isnil(L, 1)) luaL_checktype(L, 1, LUA_TFUNCTION);
+  lua_rawsetp(L, LUA_REGISTRYINDEX, &argument_hook_key);
+  return 0;
+}
+
+/* With a direction, an argument is the dualjet v + eta d (lua_dualjet.c);
+ * `hook` (stack index, 0: none) is called first. */
+static void push_dual_copy(lua_State *L, int hook, const nz_jet *v, const nz_jet *d)
+{
+  if (hook) {
+    lua_pushvalue(L, hook);
+    lua_call(L, 0, 0);
+  }
+  nz_lua_push_dualjet(L, v, d);
 }
 
 /* What lua_eval asks of build_arguments. */
@@ -198,10 +223,10 @@ typedef struct eval_call {
 } eval_call;
 
 /* Pushes the arguments shared by every function of the piece: t, q[, qd,
- * ...], params.  It runs under
- * lua_pcall: building them calls Lua (the nested-dual constructor), where
- * Ctrl-C's hook may raise the interrupt or memory may run out, and no Lua
- * error may unwind through the C core and GSL frames below lua_eval. */
+ * ...], params; along a direction, dualjets v + eta d.  It runs under
+ * lua_pcall: building them allocates (memory may run out) and may call the
+ * testing hook, and no Lua error may unwind through the C core and GSL
+ * frames below lua_eval. */
 static int build_arguments(lua_State *L)
 {
   const eval_call *c = lua_touserdata(L, 1);
@@ -209,16 +234,10 @@ static int build_arguments(lua_State *L)
   const nz_direction *dir = c->dir;
   lua_settop(L, 2);                       /* the call, the definition table */
   luaL_checkstack(L, c->nlevels + 8, "building the arguments of a user function");
-  int make = 0;
-  if (dir) {
-    lua_getglobal(L, "require");
-    lua_pushliteral(L, "nz.hyperdual");
-    lua_call(L, 1, 1);
-    lua_getfield(L, -1, "new");
-    lua_remove(L, -2);
-    make = lua_gettop(L);
-  }
-  if (dir) push_dual_copy(L, make, c->t, dir->dt);
+  int hook = 0;
+  if (dir && lua_rawgetp(L, LUA_REGISTRYINDEX, &argument_hook_key) != LUA_TNIL) hook = lua_gettop(L);
+  else if (dir) lua_pop(L, 1);
+  if (dir) push_dual_copy(L, hook, c->t, dir->dt);
   else push_jet_copy(L, c->t);
   for (int lv = 0; lv < c->nlevels; lv++) {
     if (!dir) {
@@ -227,28 +246,25 @@ static int build_arguments(lua_State *L)
     }
     lua_createtable(L, ev->k, 0);
     for (int i = 0; i < ev->k; i++) {
-      push_dual_copy(L, make, c->levels[lv][i], dir->dlevels[lv][i]);
+      push_dual_copy(L, hook, c->levels[lv][i], dir->dlevels[lv][i]);
       lua_rawseti(L, -2, i + 1);
     }
   }
   lua_getfield(L, 2, "params");
-  if (make) lua_remove(L, make);
+  if (hook) lua_remove(L, hook);
   lua_remove(L, 2);
   lua_remove(L, 1);
   return lua_gettop(L);
 }
 
-/* Add a result at idx into out (and its eta-part into dout when it is a
- * nested dual number); 0 and *why on a bad value. */
+/* Add a result at idx into out and, along a direction, its eta-part into
+ * dout: a dualjet's d, zero for a number or a jet; 0 and *why on a bad
+ * value. */
 static int accumulate_result(lua_State *L, int idx, nz_jet *out, nz_jet *dout, const char **why)
 {
-  if (dout && lua_type(L, idx) == LUA_TTABLE) {
-    lua_getfield(L, idx, "v");
-    lua_getfield(L, idx, "d");
-    int ok = accumulate(L, -2, out, why) && accumulate(L, -1, dout, why);
-    lua_pop(L, 2);
-    return ok;
-  }
+  const nz_jet *v, *d;
+  if (dout && nz_lua_todualjet(L, idx, &v, &d))
+    return accumulate_jet(v, out, 0, why) && accumulate_jet(d, dout, 1, why);
   return accumulate(L, idx, out, why);
 }
 
@@ -704,7 +720,8 @@ static int ls_forms(lua_State *L)
 static const luaL_Reg system_functions[] = {
   { "residual", ls_residual }, { "operator", ls_operator }, { "mass_bias", ls_mass_bias },
   { "accel", ls_accel }, { "energy", ls_energy }, { "forms", ls_forms },
-  { "energy_terms", ls_energy_terms }, { "piece", ls_piece }, { NULL, NULL }
+  { "energy_terms", ls_energy_terms }, { "piece", ls_piece }, { "argument_hook", ls_argument_hook },
+  { NULL, NULL }
 };
 
 /* Add the functions to the table on top of the stack (core.mech, made by

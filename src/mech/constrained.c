@@ -97,7 +97,8 @@ static int row_in(const nz_system *s, nz_motion *mo, int r, int m, double t,
   int k = s->k, K = 2 - m, st;
   if (m < 0 || m > 2) return NZ_EARG;
   if (!dir && s->constraint_row &&
-      (st = s->constraint_row(s->mass_bias_ctx, r, m, t, state, nstate, alpha, beta, A, value)) != NZ_EARG)
+      (st = s->constraint_row(s->mass_bias_ctx, r, m, t, state, nstate, alpha, beta, A, value, NULL, NULL)) !=
+        NZ_EARG)
     return st;
   st = nz_motion_reset(mo, k, nz_constraint_levels(s, r), K, k, t, state, nstate);
   if (st) return st;
@@ -340,7 +341,7 @@ static int solve(kkt *c, const nz_accel_options *opt, double *x, double *G, doub
   if ((st = kkt_eval(c, x, G, J))) return st;
   equilibrate(c, J, dx);
   for (int i = 0; i < N; i++) Jc[i] = -G[i] * dx[i];
-  if ((st = nz_solve_svd(N, J, Jc, G, &rep->rcond))) return st;
+  if ((st = nz_solve_square(N, J, Jc, G, opt->rcond_min, &rep->rcond))) return st;
   for (int i = 0; i < N; i++) dx[i] *= G[i];
   if (!(rep->rcond >= opt->rcond_min)) {
     rep->failure = NZ_ACCEL_SINGULAR;
@@ -366,10 +367,6 @@ static double slot_size(const double *const *state, int k, int j)
   return m;
 }
 
-/* A fixed weight in [0.6, 1.4] for slot j of q_i: the check differentiates
- * along one combination of the slots above the order, and a fixed,
- * irregular one cannot cancel two real dependences except by accident. */
-static double slot_weight(int j, int i, int k) { return 1.0 + 0.4 * sin(1.7 + 2.385 * (j * k + i)); }
 
 /* Constraint r at x: its row's value (and for m = 2 its gradient A, as
  * kkt_eval) and, in *high, its derivative along the slots above its order
@@ -380,13 +377,20 @@ static double slot_weight(int j, int i, int k) { return 1.0 + 0.4 * sin(1.7 + 2.
 static int check_row(kkt *c, int r, const double *const *state, double *high)
 {
   int k = c->k, m = c->orders[r], K = 2 - m, D = m == 2 ? k + 1 : 1, st;
+  if (c->s->constraint_row) {
+    double sizes[NZ_CONSTRAINT_SLOTS];
+    for (int j = 0; j < NZ_CONSTRAINT_SLOTS; j++) sizes[j] = slot_size(state, k, j);
+    st = c->s->constraint_row(c->s->mass_bias_ctx, r, m, c->t, state, 3, c->alpha, c->beta,
+                              m == 2 ? c->A + (size_t)r * k : NULL, &c->phi[r], sizes, high);
+    if (st != NZ_EARG) return st;
+  }
   nz_motion *mo = &c->mo;
   if ((st = nz_motion_reset(mo, k, NZ_CONSTRAINT_SLOTS, K, D, c->t, state, 3))) return st;
   if (m == 2)
     for (int i = 0; i < k; i++) nz_motion_seed_level(mo, i, i, 2);
   for (int j = m + 1; j < NZ_CONSTRAINT_SLOTS; j++) {
     double sj = slot_size(state, k, j);
-    for (int i = 0; i < k; i++) nz_jet_tangent(mo->slot[j][i], D - 1)[0] += slot_weight(j, i, k) * sj;
+    for (int i = 0; i < k; i++) nz_jet_tangent(mo->slot[j][i], D - 1)[0] += nz_check_slot_weight(j, i, k) * sj;
   }
   st = nz_motion_eval(c->s, NZ_PIECE_PHI, r, mo, NULL);
   if (!st) {

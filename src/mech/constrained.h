@@ -83,7 +83,9 @@ typedef struct nz_accel_report {
   nz_accel_failure failure;
   int iterations;           /* Newton iterations; 0 for one linear solve      */
   double residual;          /* max |G| of (6.2) and the constraints at the end */
-  double rcond;             /* sigma_min / sigma_max of the last matrix       */
+  double rcond;             /* of the last (equilibrated) matrix: pivoted QR's  */
+                            /* 1-norm estimate, or sigma_min / sigma_max near   */
+                            /* the threshold (nz_solve_square)                 */
   int rank_A;               /* rank of A (constraint gradients)               */
   int *involved;            /* caller's nc ints: 1 for constraints in a dependence */
   int from_guess;           /* Newton started from the caller's guess         */

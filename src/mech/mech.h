@@ -61,6 +61,13 @@ typedef struct nz_evaluator {
  * q'''), and more when they ask for them (nz_system.levels). */
 #define NZ_CONSTRAINT_SLOTS 4
 
+/* The check after a constrained solve differentiates a constraint along one
+ * fixed combination of the slots above its order: weight of slot j of q_i, in
+ * [0.6, 1.4], irregular so that two real dependences cannot cancel except by
+ * accident (constrained.c; the recorded rows use the same, mech_graph.c). */
+#include <math.h>
+static inline double nz_check_slot_weight(int j, int i, int k) { return 1.0 + 0.4 * sin(1.7 + 2.385 * (j * k + i)); }
+
 struct nz_solve_info;   /* linalg.h */
 
 typedef struct nz_system {
@@ -80,9 +87,12 @@ typedef struct nz_system {
   int (*accel)(void *ctx, double t, const double *q, const double *qd, double rcond_min,
                double *qdd, struct nz_solve_info *info);
   /* Optional: a constraint's row at the acceleration level on doubles
-   * (constrained.h's nz_constraint_row_stabilized; same contract). */
+   * (constrained.h's nz_constraint_row_stabilized; same contract); with
+   * high != NULL also the derivative of Phi along the slots above m, slot j
+   * weighted by nz_check_slot_weight and slot_sizes[j] (the check's). */
   int (*constraint_row)(void *ctx, int r, int m, double t, const double *const *state, int nstate,
-                        double alpha, double beta, double *A, double *value);
+                        double alpha, double beta, double *A, double *value,
+                        const double *slot_sizes, double *high);
   void *mass_bias_ctx;   /* of all three */
 } nz_system;
 

@@ -16,6 +16,7 @@ typedef struct dplan {
   int *outs, nout;
   nz_native *native;
   double work;          /* nodes interpreted so far */
+  double earn;          /* ... before compiling pays (auto mode) */
   int tried;
 } dplan;
 
@@ -80,7 +81,24 @@ static dplan *dplan_new(const nz_graph *g, const int *outs, int n)
   if (!d->outs || !d->plan) { dplan_free(d); return NULL; }
   memcpy(d->outs, outs, (size_t)n * sizeof(int));
   d->nout = n;
+  /* Compile once interpreting has cost what compiling would (about
+   * NZ_NATIVE_BASE of node evaluations plus NZ_NATIVE_PER_NODE per node of
+   * the plan): a run pays at most twice what the better choice in hindsight
+   * would have cost. */
+  d->earn = NZ_NATIVE_BASE + NZ_NATIVE_PER_NODE * nz_graph_plan_nodes(d->plan);
   return d;
+}
+
+/* A plan whose object is already in the cache runs natively at once
+ * (auto and on; loading costs microseconds per node). */
+static void dplan_load_cached(nz_compiled *c, dplan *d)
+{
+  char dir[1024], why[200];
+  if (c->native_mode == 0 || !nz_native_cache_dir(dir, sizeof dir)) return;
+  if ((d->native = nz_native_load(c->g, d->outs, d->nout, dir, why, sizeof why))) {
+    d->tried = 1;
+    c->native_count++;
+  }
 }
 
 static void dplan_compile(nz_compiled *c, dplan *d)
@@ -102,7 +120,7 @@ static void dplan_compile(nz_compiled *c, dplan *d)
  * the interpreter, which names the node), else interpreted. */
 static nz_status dplan_eval(nz_compiled *c, dplan *d, const double *in, double *out)
 {
-  if (!d->tried && (c->native_mode == 1 || (c->native_mode < 0 && d->work >= NZ_NATIVE_AFTER)))
+  if (!d->tried && (c->native_mode == 1 || (c->native_mode < 0 && d->work >= d->earn)))
     dplan_compile(c, d);
   if (d->native && nz_native_eval(d->native, in, out) == NZ_OK) return NZ_OK;
   d->work += nz_graph_plan_nodes(d->plan);
@@ -138,7 +156,7 @@ nz_compiled *nz_compiled_new(int k, int np, int nc, int nslots)
   if (env && (env[0] == '0' || env[0] == '1') && env[1] == '\0') c->native_mode = env[0] - '0';
   c->rows = calloc(3 * (size_t)nc + 1, sizeof(dplan *));
   c->rows_built = calloc(3 * (size_t)nc + 1, 1);
-  c->row_in = calloc((size_t)c->ninputs + 3 + (size_t)k, sizeof(double));
+  c->row_in = calloc((size_t)c->ninputs + 3 + (size_t)k + NZ_CONSTRAINT_SLOTS, sizeof(double));
   if (c->row_in) c->row_out = c->row_in + c->ninputs;
   if (!c->g || !c->params || !c->phi || !c->in || !c->din || !c->pjet || !c->rows || !c->rows_built ||
       !c->row_in) {
@@ -390,7 +408,7 @@ static void invert_constant_mass(nz_compiled *c, const int *out)
   if (acc) {
     acc[k] = out[k * k + k];
     acc[k + 1] = out[k * k + k + 1];
-    c->acc_plan = dplan_new(c->g, acc, k + 2);
+    if ((c->acc_plan = dplan_new(c->g, acc, k + 2))) dplan_load_cached(c, c->acc_plan);
   }
   free(acc);
 }
@@ -406,7 +424,7 @@ static int mass_bias_ready(nz_compiled *c)
   int *out = malloc((size_t)nout * sizeof(int));
   if (!out) return 0;
   if (build_mass_bias(c, out) == 0) {
-    c->mb_plan = dplan_new(c->g, out, nout);
+    if ((c->mb_plan = dplan_new(c->g, out, nout))) dplan_load_cached(c, c->mb_plan);
     c->mb_in = malloc((size_t)(c->ninputs + nout) * sizeof(double));
     size_t kk = (size_t)k * (size_t)k;
     c->acc_A = malloc((kk + (size_t)k + nz_solve_spd_work_len(k)) * sizeof(double));
@@ -544,21 +562,33 @@ static int build_row(nz_compiled *c, int r, int m, int *out)
     dir[nz_compiled_input_slot(c, 2, i)] = nz_graph_const(c->g, 1.0);
     if ((out[K + 1 + i] = nz_graph_derivative(c->g, out[K], dir)) < 0) ok = 0;
   }
+  /* The check's derivatives of Phi along slot j (j > m), weighted by
+   * nz_check_slot_weight: the caller scales them by the slots' sizes. */
+  for (int j = m + 1; ok && j < NZ_CONSTRAINT_SLOTS; j++) {
+    for (int a = 0; a < n; a++) dir[a] = -1;
+    for (int i = 0; i < k && ok; i++)
+      if ((dir[nz_compiled_input_slot(c, j, i)] = nz_graph_const(c->g, nz_check_slot_weight(j, i, k))) < 0) ok = 0;
+    if (ok && (out[K + 1 + k + (j - m - 1)] = nz_graph_derivative(c->g, out[0], dir)) < 0) ok = 0;
+  }
   free(dir);
   return ok ? 0 : -1;
 }
 
 int nz_compiled_constraint_row(void *ctx, int r, int m, double t, const double *const *state,
-                               int nstate, double alpha, double beta, double *A, double *value)
+                               int nstate, double alpha, double beta, double *A, double *value,
+                               const double *slot_sizes, double *high)
 {
   nz_compiled *c = ctx;
-  int k = c->k, K = 2 - m, at = 3 * r + m;
-  if (r < 0 || r >= c->nc || m < 0 || m > 2 || !c->phi[r].n || c->nslots < 3) return NZ_EARG;
+  int k = c->k, K = 2 - m, at = 3 * r + m, nhigh = NZ_CONSTRAINT_SLOTS - 1 - m;
+  if (r < 0 || r >= c->nc || m < 0 || m > 2 || !c->phi[r].n || c->nslots < NZ_CONSTRAINT_SLOTS + 2)
+    return NZ_EARG;
   if (!c->rows_built[at]) {
-    int *out = malloc((size_t)(3 + k) * sizeof(int));
+    int *out = malloc((size_t)(3 + k + NZ_CONSTRAINT_SLOTS) * sizeof(int));
     c->rows_built[at] = -1;
-    if (out && build_row(c, r, m, out) == 0 && (c->rows[at] = dplan_new(c->g, out, K + 1 + k)))
+    if (out && build_row(c, r, m, out) == 0 && (c->rows[at] = dplan_new(c->g, out, K + 1 + k + nhigh))) {
       c->rows_built[at] = 1;
+      dplan_load_cached(c, c->rows[at]);
+    }
     free(out);
   }
   if (c->rows_built[at] < 0) return NZ_EARG;
@@ -576,6 +606,10 @@ int nz_compiled_constraint_row(void *ctx, int r, int m, double t, const double *
   if (m == 0) *value += 2.0 * alpha * o[1] + beta * beta * o[0];
   if (m == 1) *value += alpha * o[0];
   if (A) memcpy(A, o + K + 1, (size_t)k * sizeof(double));
+  if (high) {
+    *high = 0.0;
+    for (int j = m + 1; j < NZ_CONSTRAINT_SLOTS; j++) *high += slot_sizes[j] * o[K + 1 + k + (j - m - 1)];
+  }
   return NZ_OK;
 }
 

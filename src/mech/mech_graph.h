@@ -69,13 +69,17 @@ int nz_compiled_accel(void *ctx, double t, const double *q, const double *qd, do
  * the constraint is not compiled, the graph has too few slots, or a node
  * fails: the caller then takes the jets. */
 int nz_compiled_constraint_row(void *ctx, int r, int m, double t, const double *const *state,
-                               int nstate, double alpha, double beta, double *A, double *value);
+                               int nstate, double alpha, double beta, double *A, double *value,
+                               const double *slot_sizes, double *high);
 /* Machine code for the plans on doubles (M and h, constraint rows):
  * mode 1 compiles each at its first use, 0 never, -1 (the default, or the
- * environment's NZLUA_NATIVE=0/1) once a plan has interpreted
- * NZ_NATIVE_AFTER nodes, about 50 ms of work: a short session pays nothing,
- * a long run compiles once (0.1-1 s, cached on disk by the graph's hash). */
-#define NZ_NATIVE_AFTER 2e7
+ * environment's NZLUA_NATIVE=0/1) once interpreting the plan has cost about
+ * what compiling it would: NZ_NATIVE_BASE + NZ_NATIVE_PER_NODE x its nodes
+ * node evaluations (at ~3 ns each: 0.05 s + 0.25 ms per node, the measured
+ * cost of compiling).  An object already in the cache (by the graph's hash)
+ * is loaded at once, except in mode 0. */
+#define NZ_NATIVE_BASE 1.7e7
+#define NZ_NATIVE_PER_NODE 8e4
 void nz_compiled_set_native(nz_compiled *c, int mode);
 /* Plans running natively; seconds spent compiling; why the last attempt
  * failed (NULL if none did). */

@@ -1,0 +1,690 @@
+/* lua_dualjet.c - numbers v + eta d along a state direction (see
+ * lua_dualjet.h), for the Lua evaluator of the exact Jacobian.
+ *
+ * Why in C: the direction used to be a Lua table type (lua/nz/hyperdual.lua)
+ * whose every operation went C -> Lua -> C and allocated three objects.  A
+ * dualjet is one userdata holding both jets, and each operation is one call.
+ *
+ * The arithmetic is that of the graph evaluator (src/graph/graph.c, jet_eta and
+ * eta_fn): the same formulas in the same order, so that the two evaluators
+ * of a system agree along a direction as they agree on values.
+ *   (v + eta d) op (w + eta e): add, sub linear; mul v w + eta (d w + v e);
+ *   div z = v / w, eta (d - z e) / w; f(v + eta d) = f(v) + eta f'(v) d;
+ *   comparisons and sign look at v alone (a step: no eta-part); a selection
+ *   takes v and d from the same operand.
+ * Shapes: the value part has the shape a jet operation gives (the lowest
+ * order of the operands that are not numbers, the most tangents); the
+ * eta-part has that order lowered to the operands' eta-parts' and the most
+ * tangents of all (a number or a plain jet has eta-part zero).
+ *
+ * Another number type written in Lua among the operands (a nested dual
+ * number of nz/hyperdual.lua whose parts are dualjets) is the outer type:
+ * it takes the call. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <lauxlib.h>
+#include "lua/lua_dualjet.h"
+#include "lua/lua_jet.h"
+
+typedef struct dualjet {
+  nz_jet *v;   /* value part, stored right after this header */
+  nz_jet *d;   /* eta-part, stored after v                    */
+} dualjet;
+
+static int imin(int a, int b) { return a < b ? a : b; }
+static int imax(int a, int b) { return a > b ? a : b; }
+
+/* ------------------------------------------------------------------ */
+/* Workspace (upvalue 1; upvalue 2 is the core module)                   */
+
+#define NSCALAR 2   /* order 0 jets carrying number operands             */
+#define NKONST 2    /* a number operand as a constant of the result's order */
+#define NTEMP 4     /* temporaries of the eta-part's shape              */
+
+typedef struct slot {
+  nz_jet *j;
+  size_t bytes;
+} slot;
+
+typedef struct dual_ws {
+  double *w;
+  size_t wlen;
+  slot scalar[NSCALAR], konst[NKONST], tmp[NTEMP];
+} dual_ws;
+
+static int workspace_gc(lua_State *L)
+{
+  dual_ws *ws = lua_touserdata(L, 1);
+  free(ws->w);
+  for (int i = 0; i < NSCALAR; i++) free(ws->scalar[i].j);
+  for (int i = 0; i < NKONST; i++) free(ws->konst[i].j);
+  for (int i = 0; i < NTEMP; i++) free(ws->tmp[i].j);
+  memset(ws, 0, sizeof *ws);
+  return 0;
+}
+
+static dual_ws *get_ws(lua_State *L) { return lua_touserdata(L, lua_upvalueindex(1)); }
+
+static double *work_for(lua_State *L, int order)
+{
+  dual_ws *ws = get_ws(L);
+  size_t need = nz_jet_work_len(order);
+  if (ws->wlen < need) {
+    double *p = realloc(ws->w, need * sizeof(double));
+    if (!p) luaL_error(L, "not enough memory for a jet workspace of order %d", order);
+    ws->w = p;
+    ws->wlen = need;
+  }
+  return ws->w;
+}
+
+/* The jet of slot s shaped (order, ntan); its coefficients are not set. */
+static nz_jet *shaped(lua_State *L, slot *s, int order, int ntan)
+{
+  size_t need = nz_jet_bytes(order, ntan);
+  if (s->bytes < need) {
+    void *p = realloc(s->j, need);
+    if (!p) luaL_error(L, "not enough memory for a jet of order %d", order);
+    s->j = p;
+    s->bytes = need;
+  }
+  s->j->order = order;
+  s->j->ntan = ntan;
+  return s->j;
+}
+
+static nz_jet *tmp(lua_State *L, int i, const nz_jet *like)
+{
+  return shaped(L, &get_ws(L)->tmp[i], like->order, like->ntan);
+}
+
+/* The number v as a constant series of that order (exact to every order). */
+static nz_jet *constant(lua_State *L, int s, double v, int order)
+{
+  nz_jet *c = shaped(L, &get_ws(L)->konst[s], order, 0);
+  nz_jet_set_constant(c, v);
+  return c;
+}
+
+/* ------------------------------------------------------------------ */
+/* Making and reading dualjets                                           */
+
+static dualjet *new_dual(lua_State *L, int vo, int vn, int eo, int en)
+{
+  size_t hv = nz_jet_bytes(vo, vn);   /* a multiple of sizeof(double) */
+  dualjet *x = lua_newuserdatauv(L, sizeof *x + hv + nz_jet_bytes(eo, en), 0);
+  x->v = (nz_jet *)(void *)(x + 1);
+  x->d = (nz_jet *)(void *)((char *)(x + 1) + hv);
+  nz_jet_init(x->v, vo, vn);
+  nz_jet_init(x->d, eo, en);
+  luaL_setmetatable(L, NZ_DUALJET_METATABLE);
+  return x;
+}
+
+static dualjet *todual(lua_State *L, int idx) { return luaL_testudata(L, idx, NZ_DUALJET_METATABLE); }
+
+int nz_lua_todualjet(lua_State *L, int idx, const nz_jet **v, const nz_jet **d)
+{
+  dualjet *x = todual(L, idx);
+  if (!x) return 0;
+  *v = x->v;
+  *d = x->d;
+  return 1;
+}
+
+/* Copy jet src (NULL: zero) into o over o's shape: missing coefficients and
+ * tangents are zero, extra ones dropped (graph.c's copy_out). */
+static void copy_out(nz_jet *o, const nz_jet *src)
+{
+  for (int d = -1; d < o->ntan; d++) {
+    double *od = d < 0 ? o->c : nz_jet_tangent(o, d);
+    const double *sd = !src ? NULL : d < 0 ? src->c : nz_jet_tangent(src, d);
+    int k = 0, kc = sd ? imin(o->order, src->order) : -1;
+    for (; k <= kc; k++) od[k] = sd[k];
+    for (; k <= o->order; k++) od[k] = 0.0;
+  }
+}
+
+void nz_lua_push_dualjet(lua_State *L, const nz_jet *v, const nz_jet *d)
+{
+  dualjet *x = new_dual(L, v->order, v->ntan, d ? d->order : v->order, d ? d->ntan : v->ntan);
+  nz_jet_copy(x->v, v);
+  copy_out(x->d, d);
+}
+
+/* An operand: a dualjet's parts, a jet (eta-part zero) or a number (an
+ * order 0 jet in a scalar slot). */
+typedef struct operand {
+  const nz_jet *v, *d;   /* d NULL: zero */
+  int num;
+} operand;
+
+static void read_operand(lua_State *L, int idx, int s, const char *fname, operand *o)
+{
+  dualjet *x = todual(L, idx);
+  o->num = 0;
+  if (x) {
+    o->v = x->v;
+    o->d = x->d;
+    return;
+  }
+  o->d = NULL;
+  if ((o->v = nz_lua_tojet(L, idx))) return;
+  int isnum;
+  double v = lua_tonumberx(L, idx, &isnum);
+  if (!isnum)
+    luaL_error(L, "bad argument #%d to '%s' (number, jet or dualjet expected, got %s)", idx, fname,
+               luaL_typename(L, idx));
+  nz_jet *c = shaped(L, &get_ws(L)->scalar[s], 0, 0);
+  c->c[0] = v;
+  o->v = c;
+  o->num = 1;
+}
+
+/* ------------------------------------------------------------------ */
+/* Linear kernels over any shapes (graph.c's lin_affine and lin_div)     */
+
+static nz_status affine(nz_jet *z, const nz_jet *x, double s, double c)
+{
+  size_t len = (size_t)z->order + 1;
+  for (int d = -1; d < z->ntan; d++) {
+    double *zd = d < 0 ? z->c : nz_jet_tangent(z, d);
+    const double *xd = d < 0 ? x->c : nz_jet_tangent(x, d);
+    if (!xd) memset(zd, 0, len * sizeof *zd);
+    else for (size_t k = 0; k < len; k++) zd[k] = s * xd[k];
+  }
+  if (c != 0.0) z->c[0] += c;
+  return nz_jet_check_finite(z);
+}
+
+static nz_status divide(nz_jet *z, const nz_jet *x, double c)
+{
+  if (c == 0.0) return NZ_EZERODIV;
+  size_t len = (size_t)z->order + 1;
+  for (int d = -1; d < z->ntan; d++) {
+    double *zd = d < 0 ? z->c : nz_jet_tangent(z, d);
+    const double *xd = d < 0 ? x->c : nz_jet_tangent(x, d);
+    if (!xd) memset(zd, 0, len * sizeof *zd);
+    else for (size_t k = 0; k < len; k++) zd[k] = xd[k] / c;
+  }
+  return nz_jet_check_finite(z);
+}
+
+/* ------------------------------------------------------------------ */
+/* Unary functions: f(v + eta d) = f(v) + eta f'(v) d                   */
+
+/* The eta-part of fn(a) into Ez, z = fn(a): graph.c's eta_fn. */
+static nz_status eta_fn(lua_State *L, nz_jet_fn fn, nz_jet *Ez, const nz_jet *A, const nz_jet *Z,
+                        const nz_jet *dA, double *w)
+{
+  nz_jet *T0 = tmp(L, 0, Ez), *T1 = tmp(L, 1, Ez), *T2 = tmp(L, 2, Ez);
+  nz_status st;
+  switch (fn) {
+  case NZ_FN_EXP: return nz_jet_mul(Ez, Z, dA, w);
+  case NZ_FN_LOG: return nz_jet_div(Ez, dA, A, w);
+  case NZ_FN_SQRT:
+    if ((st = affine(T0, Z, 2.0, 0.0))) return st;
+    return nz_jet_div(Ez, dA, T0, w);
+  case NZ_FN_SIN:
+  case NZ_FN_SINH:
+    if ((st = nz_jet_apply(T0, fn == NZ_FN_SIN ? NZ_FN_COS : NZ_FN_COSH, A, w))) return st;
+    return nz_jet_mul(Ez, T0, dA, w);
+  case NZ_FN_COSH:
+    if ((st = nz_jet_apply(T0, NZ_FN_SINH, A, w))) return st;
+    return nz_jet_mul(Ez, T0, dA, w);
+  case NZ_FN_COS:
+    if ((st = nz_jet_apply(T0, NZ_FN_SIN, A, w)) || (st = nz_jet_mul(T1, T0, dA, w))) return st;
+    return affine(Ez, T1, -1.0, 0.0);
+  case NZ_FN_TAN:
+  case NZ_FN_TANH:   /* (1 +- z^2) da */
+    if ((st = nz_jet_mul(T0, Z, Z, w)) || (st = affine(T1, T0, fn == NZ_FN_TAN ? 1.0 : -1.0, 1.0)))
+      return st;
+    return nz_jet_mul(Ez, T1, dA, w);
+  case NZ_FN_ATAN:
+    if ((st = nz_jet_mul(T0, A, A, w)) || (st = affine(T1, T0, 1.0, 1.0))) return st;
+    return nz_jet_div(Ez, dA, T1, w);
+  case NZ_FN_ASIN:
+  case NZ_FN_ACOS:   /* +- da / sqrt(1 - a^2) */
+    if ((st = nz_jet_mul(T0, A, A, w)) || (st = affine(T1, T0, -1.0, 1.0)) ||
+        (st = nz_jet_apply(T0, NZ_FN_SQRT, T1, w)))
+      return st;
+    if (fn == NZ_FN_ASIN) return nz_jet_div(Ez, dA, T0, w);
+    if ((st = nz_jet_div(T2, dA, T0, w))) return st;
+    return affine(Ez, T2, -1.0, 0.0);
+  case NZ_FN_ABS:   /* sign(a) da, undefined at 0 */
+    if (A->c[0] == 0.0) return NZ_ESING;
+    return affine(Ez, dA, A->c[0] < 0.0 ? -1.0 : 1.0, 0.0);
+  default: return NZ_EDOM;
+  }
+}
+
+static int raise1(lua_State *L, nz_status st, const char *fname, const nz_jet *a)
+{
+  return nz_lua_jet_raise(L, st, fname, (const nz_jet *const[]){ a }, 1, a->c[0], 0.0);
+}
+
+static int unary(lua_State *L, nz_jet_fn f)
+{
+  const char *fname = nz_jet_fn_names[f];
+  lua_settop(L, 1);
+  if (lua_type(L, 1) == LUA_TTABLE && nz_lua_dispatch(L, 1, fname, 0)) return 1;
+  dualjet *x = luaL_checkudata(L, 1, NZ_DUALJET_METATABLE);
+  const nz_jet *A = x->v, *dA = x->d;
+  double *w = work_for(L, A->order);
+  nz_status st;
+  if (f == NZ_FN_SIGN) {   /* a step: a plain jet, as the jets give it */
+    st = nz_jet_apply(nz_lua_newjet(L, A->order, A->ntan), f, A, w);
+    return st ? raise1(L, st, fname, A) : 1;
+  }
+  dualjet *z = new_dual(L, A->order, A->ntan, imin(A->order, dA->order), imax(A->ntan, dA->ntan));
+  if ((st = nz_jet_apply(z->v, f, A, w)) || (st = eta_fn(L, f, z->d, A, z->v, dA, w)))
+    return raise1(L, st, fname, A);
+  return 1;
+}
+
+#define UNARY(name, FN) static int dj_##name(lua_State *L) { return unary(L, FN); }
+UNARY(exp, NZ_FN_EXP)
+UNARY(log, NZ_FN_LOG)
+UNARY(sqrt, NZ_FN_SQRT)
+UNARY(sin, NZ_FN_SIN)
+UNARY(cos, NZ_FN_COS)
+UNARY(tan, NZ_FN_TAN)
+UNARY(asin, NZ_FN_ASIN)
+UNARY(acos, NZ_FN_ACOS)
+UNARY(atan, NZ_FN_ATAN)
+UNARY(sinh, NZ_FN_SINH)
+UNARY(cosh, NZ_FN_COSH)
+UNARY(tanh, NZ_FN_TANH)
+UNARY(abs, NZ_FN_ABS)
+UNARY(sign, NZ_FN_SIGN)
+
+static int dj_unm(lua_State *L)
+{
+  dualjet *x = luaL_checkudata(L, 1, NZ_DUALJET_METATABLE);
+  dualjet *z = new_dual(L, x->v->order, x->v->ntan, x->d->order, x->d->ntan);
+  (void)affine(z->v, x->v, -1.0, 0.0);   /* finite operands stay finite */
+  (void)affine(z->d, x->d, -1.0, 0.0);
+  return 1;
+}
+
+/* ------------------------------------------------------------------ */
+/* Binary operations: numbers, jets and dualjets in any order            */
+
+typedef enum { OP_ADD, OP_SUB, OP_MUL, OP_DIV, OP_POW, OP_ATAN2, OP_HYPOT } binop;
+/* The jets' names in messages, and the fields other number types answer to. */
+static const char *const binop_names[] = { "add", "sub", "mul", "division", "pow", "atan2", "hypot" };
+static const char *const binop_fields[] = { "__add", "__sub", "__mul", "__div", "__pow", "atan2", "hypot" };
+
+/* The value part, as the jets compute it (lua_jet.c's binary): a number
+ * operand by a cheaper exact path where there is one, else as a constant
+ * of the result's order.  A and B are the operands as used (the constants
+ * the eta-part needs too). */
+static nz_status value_binary(binop op, nz_jet *z, const nz_jet *A, const nz_jet *B, int na, int nb,
+                              double *w)
+{
+  double av = A->c[0], bv = B->c[0];
+  nz_status st;
+  switch (op) {
+  case OP_ADD: return na ? nz_jet_offset(z, B, av) : nb ? nz_jet_offset(z, A, bv) : nz_jet_add(z, A, B);
+  case OP_SUB:
+    if (nb) return nz_jet_offset(z, A, -bv);
+    if (!na) return nz_jet_sub(z, A, B);
+    if ((st = nz_jet_neg(z, B))) return st;
+    z->c[0] += av;
+    return nz_jet_check_finite(z);
+  case OP_MUL: return na ? nz_jet_scale(z, B, av) : nb ? nz_jet_scale(z, A, bv) : nz_jet_mul(z, A, B, w);
+  case OP_DIV:
+    if (nb && !na) return bv == 0.0 ? NZ_EZERODIV : nz_jet_scale(z, A, 1.0 / bv);
+    return nz_jet_div(z, A, B, w);
+  case OP_POW: return nb ? nz_jet_pow(z, A, bv, w) : nz_jet_pow_jet(z, A, B, w);
+  case OP_ATAN2: return nz_jet_atan2(z, A, B, w);
+  case OP_HYPOT: return nz_jet_hypot(z, A, B, w);
+  default: return NZ_EDOM;
+  }
+}
+
+/* The eta-part into Ez: graph.c's jet_eta, a number being a constant. */
+static nz_status eta_binary(lua_State *L, binop op, nz_jet *Ez, const nz_jet *A, const nz_jet *B,
+                            const nz_jet *Z, const nz_jet *dA, const nz_jet *dB, int na, int nb,
+                            double *w)
+{
+  nz_jet *T0 = tmp(L, 0, Ez), *T1 = tmp(L, 1, Ez), *T2 = tmp(L, 2, Ez), *T3 = tmp(L, 3, Ez);
+  nz_status st;
+  if (!dA && !dB) return affine(Ez, A, 0.0, 0.0);   /* zero */
+  switch (op) {
+  case OP_ADD:
+    if (dA && dB) return nz_jet_add(Ez, dA, dB);
+    return affine(Ez, dA ? dA : dB, 1.0, 0.0);
+  case OP_SUB:
+    if (dA && dB) return nz_jet_sub(Ez, dA, dB);
+    return dA ? affine(Ez, dA, 1.0, 0.0) : affine(Ez, dB, -1.0, 0.0);
+  case OP_MUL:
+    if (na) return affine(Ez, dB, A->c[0], 0.0);
+    if (nb) return affine(Ez, dA, B->c[0], 0.0);
+    if (!dB) return nz_jet_mul(Ez, dA, B, w);
+    if (!dA) return nz_jet_mul(Ez, A, dB, w);
+    if ((st = nz_jet_mul(T0, dA, B, w)) || (st = nz_jet_mul(T1, A, dB, w))) return st;
+    return nz_jet_add(Ez, T0, T1);
+  case OP_DIV:   /* (da - z db) / b */
+    if (nb) return divide(Ez, dA, B->c[0]);
+    if (!dB) return nz_jet_div(Ez, dA, B, w);
+    if ((st = nz_jet_mul(T0, Z, dB, w))) return st;
+    if ((st = dA ? nz_jet_sub(T1, dA, T0) : affine(T1, T0, -1.0, 0.0))) return st;
+    return nz_jet_div(Ez, T1, B, w);
+  case OP_POW:
+    if (nb) {   /* p a^(p-1) da; a^0 is the constant 1 */
+      double p = B->c[0];
+      if (p == 0.0) return affine(Ez, dA, 0.0, 0.0);
+      if ((st = nz_jet_pow(T0, A, p - 1.0, w)) || (st = affine(T1, T0, p, 0.0))) return st;
+      return nz_jet_mul(Ez, T1, dA, w);
+    } else {   /* z (db log a + b da / a) */
+      const nz_jet *sum;
+      if (dB && ((st = nz_jet_apply(T0, NZ_FN_LOG, A, w)) || (st = nz_jet_mul(T1, dB, T0, w))))
+        return st;
+      if (dA && ((st = nz_jet_div(T0, dA, A, w)) || (st = nz_jet_mul(T2, B, T0, w)))) return st;
+      if (dA && dB) {
+        if ((st = nz_jet_add(T3, T1, T2))) return st;
+        sum = T3;
+      } else sum = dA ? T2 : T1;
+      return nz_jet_mul(Ez, Z, sum, w);
+    }
+  case OP_ATAN2:   /* a = y, b = x: (x dy - y dx) / (x^2 + y^2) */
+    if (dA && dB) {
+      if ((st = nz_jet_mul(T0, B, dA, w)) || (st = nz_jet_mul(T1, A, dB, w)) ||
+          (st = nz_jet_sub(T2, T0, T1)))
+        return st;
+    } else if (dA) {
+      if ((st = nz_jet_mul(T2, B, dA, w))) return st;
+    } else if ((st = nz_jet_mul(T1, A, dB, w)) || (st = affine(T2, T1, -1.0, 0.0))) return st;
+    if ((st = nz_jet_mul(T0, A, A, w)) || (st = nz_jet_mul(T1, B, B, w)) ||
+        (st = nz_jet_add(T3, T0, T1)))
+      return st;
+    return nz_jet_div(Ez, T2, T3, w);
+  case OP_HYPOT:   /* (a da + b db) / z */
+    if (dA && dB) {
+      if ((st = nz_jet_mul(T0, A, dA, w)) || (st = nz_jet_mul(T1, B, dB, w)) ||
+          (st = nz_jet_add(T2, T0, T1)))
+        return st;
+    } else if ((st = dA ? nz_jet_mul(T2, A, dA, w) : nz_jet_mul(T2, B, dB, w))) return st;
+    return nz_jet_div(Ez, T2, Z, w);
+  default: return NZ_EDOM;
+  }
+}
+
+static int binary(lua_State *L, binop op)
+{
+  const char *fname = binop_names[op];
+  lua_settop(L, 2);
+  if ((lua_type(L, 1) == LUA_TTABLE || lua_type(L, 2) == LUA_TTABLE) &&
+      nz_lua_dispatch(L, 2, binop_fields[op], 0))
+    return 1;
+  operand a, b;
+  read_operand(L, 1, 0, fname, &a);
+  read_operand(L, 2, 1, fname, &b);
+  const nz_jet *const given[2] = { a.v, b.v };   /* for the messages */
+  /* Shapes: a number is exact to every order; a missing eta-part is zero. */
+  int order = a.num && b.num ? 0 : a.num ? b.v->order : b.num ? a.v->order : imin(a.v->order, b.v->order);
+  int ntan = imax(a.v->ntan, b.v->ntan), eo = order, en = ntan;
+  if (a.d) { eo = imin(eo, a.d->order); en = imax(en, a.d->ntan); }
+  if (b.d) { eo = imin(eo, b.d->order); en = imax(en, b.d->ntan); }
+  dualjet *z = new_dual(L, order, ntan, eo, en);
+  double *w = work_for(L, order);
+  const nz_jet *A = a.v, *B = b.v;
+  double av = A->c[0], bv = B->c[0];
+  if (a.num && !b.num && (op == OP_DIV || op == OP_POW || op == OP_ATAN2 || op == OP_HYPOT))
+    A = constant(L, 0, av, order);
+  if (b.num && !a.num && (op == OP_ATAN2 || op == OP_HYPOT)) B = constant(L, 1, bv, order);
+  if (op == OP_DIV) av = bv;   /* the jets report the divisor's value */
+  nz_status st = value_binary(op, z->v, A, B, a.num, b.num, w);
+  if (!st) st = eta_binary(L, op, z->d, A, B, z->v, a.d, b.d, a.num, b.num, w);
+  if (st) return nz_lua_jet_raise(L, st, fname, given, 2, av, bv);
+  return 1;
+}
+
+static int dj_add(lua_State *L) { return binary(L, OP_ADD); }
+static int dj_sub(lua_State *L) { return binary(L, OP_SUB); }
+static int dj_mul(lua_State *L) { return binary(L, OP_MUL); }
+static int dj_div(lua_State *L) { return binary(L, OP_DIV); }
+static int dj_pow(lua_State *L) { return binary(L, OP_POW); }
+static int dj_atan2(lua_State *L) { return binary(L, OP_ATAN2); }
+static int dj_hypot(lua_State *L) { return binary(L, OP_HYPOT); }
+
+/* ------------------------------------------------------------------ */
+/* Comparisons and branches: on the value parts                         */
+
+/* The value of a number, jet or dualjet (its v's constant term). */
+static double value_at(lua_State *L, int idx)
+{
+  dualjet *x = todual(L, idx);
+  if (x) return x->v->c[0];
+  nz_jet *j = nz_lua_tojet(L, idx);
+  if (j) return j->c[0];
+  return luaL_checknumber(L, idx);
+}
+
+typedef enum { CMP_EQ, CMP_LT, CMP_LE } cmpop;
+static const char *const cmp_fields[] = { "__eq", "__lt", "__le" };
+
+static int compare(lua_State *L, cmpop op)
+{
+  lua_settop(L, 2);
+  if ((lua_type(L, 1) == LUA_TTABLE || lua_type(L, 2) == LUA_TTABLE) &&
+      nz_lua_dispatch(L, 2, cmp_fields[op], 0))
+    return 1;
+  double a = value_at(L, 1), b = value_at(L, 2);
+  lua_pushboolean(L, op == CMP_EQ ? a == b : op == CMP_LT ? a < b : a <= b);
+  return 1;
+}
+
+static int dj_eq(lua_State *L) { return compare(L, CMP_EQ); }
+static int dj_lt(lua_State *L) { return compare(L, CMP_LT); }
+static int dj_le(lua_State *L) { return compare(L, CMP_LE); }
+
+/* Push argument idx with a dualjet replaced by its value part (a new jet). */
+static void push_value(lua_State *L, int idx)
+{
+  dualjet *x = todual(L, idx);
+  if (!x) {
+    lua_pushvalue(L, idx);
+    return;
+  }
+  nz_jet_copy(nz_lua_newjet(L, x->v->order, x->v->ntan), x->v);
+}
+
+/* Push the jets' function `name` (core module) applied to the value parts
+ * of arguments idx[0..n-1]: the jets' branch rule and their messages. */
+static void call_jets(lua_State *L, const char *name, int n, const int *idx)
+{
+  lua_getfield(L, lua_upvalueindex(2), name);
+  for (int i = 0; i < n; i++) push_value(L, idx[i]);
+  lua_call(L, n, 1);
+}
+
+/* Is the condition at idx (checked by the jets' call already) true? */
+static int holds(lua_State *L, int idx)
+{
+  if (lua_type(L, idx) == LUA_TNUMBER) return lua_tonumber(L, idx) != 0.0;
+  return value_at(L, idx) != 0.0;
+}
+
+/* The value of a selection is on top; make it a dualjet whose eta-part is
+ * that of the operand chosen (zero for a number or a jet) when one of the
+ * candidates cand[0..n-1] is a dualjet, over the eta shape of those. */
+static int selection(lua_State *L, int chosen, const int *cand, int n)
+{
+  nz_jet *r = nz_lua_tojet(L, -1);
+  if (!r) return 1;
+  int eo = r->order, en = r->ntan, any = 0;
+  for (int i = 0; i < n; i++) {
+    dualjet *x = todual(L, cand[i]);
+    if (!x) continue;
+    any = 1;
+    eo = imin(eo, x->d->order);
+    en = imax(en, x->d->ntan);
+  }
+  if (!any) return 1;
+  dualjet *c = todual(L, chosen), *z = new_dual(L, r->order, r->ntan, eo, en);
+  nz_jet_copy(z->v, r);
+  copy_out(z->d, c ? c->d : NULL);
+  return 1;
+}
+
+static int branch_dispatch(lua_State *L, int n, const char *fname)
+{
+  lua_settop(L, n);
+  for (int i = 1; i <= n; i++)
+    if (lua_type(L, i) == LUA_TTABLE) return nz_lua_dispatch(L, n, fname, 0);
+  return 0;
+}
+
+/* lt, le, gt, ge: 1 or 0 by the jets' branch rule on the value parts. */
+static int comparison(lua_State *L, const char *fname)
+{
+  if (branch_dispatch(L, 2, fname)) return 1;
+  call_jets(L, fname, 2, (const int[]){ 1, 2 });
+  return 1;
+}
+
+static int dj_lt_fn(lua_State *L) { return comparison(L, "lt"); }
+static int dj_le_fn(lua_State *L) { return comparison(L, "le"); }
+static int dj_gt_fn(lua_State *L) { return comparison(L, "gt"); }
+static int dj_ge_fn(lua_State *L) { return comparison(L, "ge"); }
+
+static int dj_ifelse(lua_State *L)
+{
+  if (branch_dispatch(L, 3, "ifelse")) return 1;
+  call_jets(L, "ifelse", 3, (const int[]){ 1, 2, 3 });
+  return selection(L, holds(L, 1) ? 2 : 3, (const int[]){ 2, 3 }, 2);
+}
+
+/* max = ifelse(ge(a, b), a, b), min = ifelse(le(a, b), a, b). */
+static int extremum(lua_State *L, const char *fname, const char *cmp)
+{
+  if (branch_dispatch(L, 2, fname)) return 1;
+  call_jets(L, cmp, 2, (const int[]){ 1, 2 });
+  int first = holds(L, 3);
+  lua_pop(L, 1);
+  call_jets(L, fname, 2, (const int[]){ 1, 2 });
+  return selection(L, first ? 1 : 2, (const int[]){ 1, 2 }, 2);
+}
+
+static int dj_max(lua_State *L) { return extremum(L, "max", "ge"); }
+static int dj_min(lua_State *L) { return extremum(L, "min", "le"); }
+
+/* clamp(x, lo, hi): lo where x < lo, hi where x > hi, else x.  The jets'
+ * clamp checks lo <= hi and gives the value; the operand chosen follows
+ * from the comparisons of x with each bound (as the graph records it). */
+static int dj_clamp(lua_State *L)
+{
+  if (branch_dispatch(L, 3, "clamp")) return 1;
+  call_jets(L, "lt", 2, (const int[]){ 1, 2 });
+  int below = holds(L, 4);
+  lua_pop(L, 1);
+  call_jets(L, "gt", 2, (const int[]){ 1, 3 });
+  int above = holds(L, 4);
+  lua_pop(L, 1);
+  call_jets(L, "clamp", 3, (const int[]){ 1, 2, 3 });
+  return selection(L, above ? 3 : below ? 2 : 1, (const int[]){ 1, 2, 3 }, 3);
+}
+
+/* ------------------------------------------------------------------ */
+/* Methods, printing, construction (for tests)                          */
+
+static void push_jet_of(lua_State *L, const nz_jet *j)
+{
+  nz_jet_copy(nz_lua_newjet(L, j->order, j->ntan), j);
+}
+
+/* x:parts() -> v, d as jets (copies). */
+static int dj_parts(lua_State *L)
+{
+  dualjet *x = luaL_checkudata(L, 1, NZ_DUALJET_METATABLE);
+  push_jet_of(L, x->v);
+  push_jet_of(L, x->d);
+  return 2;
+}
+
+static int dj_value(lua_State *L)
+{
+  lua_pushnumber(L, ((dualjet *)luaL_checkudata(L, 1, NZ_DUALJET_METATABLE))->v->c[0]);
+  return 1;
+}
+
+static int dj_tostring(lua_State *L)
+{
+  dualjet *x = luaL_checkudata(L, 1, NZ_DUALJET_METATABLE);
+  push_jet_of(L, x->v);
+  const char *v = luaL_tolstring(L, -1, NULL);
+  push_jet_of(L, x->d);
+  const char *d = luaL_tolstring(L, -1, NULL);
+  lua_pushfstring(L, "dualjet(%s + eta %s)", v, d);
+  return 1;
+}
+
+/* A number or a jet at idx as a jet (a number: order 0 in scalar slot s). */
+static const nz_jet *jet_arg(lua_State *L, int idx, int s)
+{
+  operand o;
+  read_operand(L, idx, s, "dualjet", &o);
+  if (o.d) luaL_argerror(L, idx, "number or jet expected, got a dualjet");
+  return o.v;
+}
+
+/* core.mech.dualjet(v, d): v + eta d (a testing aid; the engine makes the
+ * arguments of a function evaluated along a state direction itself). */
+static int dj_new(lua_State *L)
+{
+  const nz_jet *v = jet_arg(L, 1, 0), *d = jet_arg(L, 2, 1);
+  nz_lua_push_dualjet(L, v, d);
+  return 1;
+}
+
+static const luaL_Reg dual_meta[] = {
+  { "__add", dj_add }, { "__sub", dj_sub }, { "__mul", dj_mul }, { "__div", dj_div },
+  { "__pow", dj_pow }, { "__unm", dj_unm }, { "__eq", dj_eq }, { "__lt", dj_lt }, { "__le", dj_le },
+  { "__tostring", dj_tostring },
+  /* the fields nz.sin(x), ..., nz.clamp(x, lo, hi) dispatch to */
+  { "exp", dj_exp }, { "log", dj_log }, { "sqrt", dj_sqrt }, { "sin", dj_sin }, { "cos", dj_cos },
+  { "tan", dj_tan }, { "asin", dj_asin }, { "acos", dj_acos }, { "atan", dj_atan },
+  { "sinh", dj_sinh }, { "cosh", dj_cosh }, { "tanh", dj_tanh }, { "abs", dj_abs },
+  { "sign", dj_sign }, { "atan2", dj_atan2 }, { "hypot", dj_hypot }, { "lt", dj_lt_fn },
+  { "le", dj_le_fn }, { "gt", dj_gt_fn }, { "ge", dj_ge_fn }, { "ifelse", dj_ifelse },
+  { "max", dj_max }, { "min", dj_min }, { "clamp", dj_clamp }, { NULL, NULL }
+};
+
+static const luaL_Reg dual_methods[] = { { "parts", dj_parts }, { "value", dj_value }, { NULL, NULL } };
+
+static void push_workspace(lua_State *L)
+{
+  dual_ws *ws = lua_newuserdatauv(L, sizeof *ws, 0);
+  memset(ws, 0, sizeof *ws);
+  lua_createtable(L, 0, 1);
+  lua_pushcfunction(L, workspace_gc);
+  lua_setfield(L, -2, "__gc");
+  lua_setmetatable(L, -2);
+}
+
+void nz_lua_open_dualjet(lua_State *L)
+{
+  int core = lua_gettop(L);
+  push_workspace(L);
+  int ws = lua_gettop(L);
+  if (luaL_newmetatable(L, NZ_DUALJET_METATABLE)) {
+    lua_pushvalue(L, ws);
+    lua_pushvalue(L, core);
+    luaL_setfuncs(L, dual_meta, 2);
+    lua_newtable(L);
+    lua_pushvalue(L, ws);
+    lua_pushvalue(L, core);
+    luaL_setfuncs(L, dual_methods, 2);
+    lua_setfield(L, -2, "__index");
+  }
+  lua_pop(L, 1);
+  lua_getfield(L, core, "mech");
+  lua_pushvalue(L, ws);
+  lua_pushvalue(L, core);
+  lua_pushcclosure(L, dj_new, 2);
+  lua_setfield(L, -2, "dualjet");
+  lua_settop(L, core);
+}
