@@ -4,6 +4,7 @@
  * bindings depend on it and never on each other for these. */
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <lauxlib.h>
 #include "lua/lua_util.h"
