@@ -11,21 +11,9 @@ package.path = root .. "?.lua;" .. package.path
 local nz = rawget(_G, "nz") or require "nz"
 local timing = require "bench.timing"
 
--- The n-link planar pendulum of bench/mech.lua: k particles, each hanging
--- from the previous by a link of 0.5, absolute angles.
-local function chain(k, native)
-  local bodies = { gravity = { 0, -9.81, 0 } }
-  for i = 1, k do
-    bodies[i] = { mass = 1 + 0.1 * i, pos = function(t, q)
-      local x, y = 0, 0
-      for j = 1, i do x = x + 0.5 * nz.sin(q[j]); y = y - 0.5 * nz.cos(q[j]) end
-      return { x, y, 0 }
-    end }
-  end
-  local coords = {}
-  for i = 1, k do coords[i] = "th" .. i end
-  return nz.system{ name = ("%d-link pendulum"):format(k), coords = coords, bodies = bodies, native = native }
-end
+-- The n-link pendulum of bench/mech.lua (bench/chain.lua).
+local chain_of = require "bench.chain"
+local function chain(k, native) return chain_of(k, { native = native }) end
 
 -- The state of bench/pendulum_c.c.
 local function state(k)

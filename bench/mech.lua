@@ -1,23 +1,14 @@
 -- mech.lua - the cost of the generalized equations: sys:residual and
 -- sys:accel against the number of coordinates k (an n-link pendulum built
 -- from particles) and against the order n.  Prints tables (make bench).
+local root = (arg and arg[0] or ""):match("^(.-)bench/[^/]*$") or ""
+package.path = root .. "?.lua;" .. package.path
 local nz = rawget(_G, "nz") or require "nz"
 local clock = os.clock
 
--- An n-link planar pendulum: k particles, each hanging from the previous.
-local function chain(k)
-  local bodies = { gravity = { 0, -9.81, 0 } }
-  for i = 1, k do
-    bodies[i] = { mass = 1 + 0.1 * i, pos = function(t, q)
-      local x, y = 0, 0
-      for j = 1, i do x = x + 0.5 * nz.sin(q[j]); y = y - 0.5 * nz.cos(q[j]) end
-      return { x, y, 0 }
-    end }
-  end
-  local coords = {}
-  for i = 1, k do coords[i] = "th" .. i end
-  return nz.system{ name = ("%d-link pendulum"):format(k), coords = coords, bodies = bodies }
-end
+-- An n-link planar pendulum: k particles, each hanging from the previous
+-- (bench/chain.lua).
+local chain = require "bench.chain"
 
 local function state(k)
   local q, qd, qdd = {}, {}, {}

@@ -21,20 +21,8 @@ local wall_start = timing.now()
 local K, T1, TOL, PROBE, LIMIT = math.tointeger(tonumber(arg and arg[1]) or 18), 1.0, 1e-10, 0.05, 60
 assert(K and K >= 1 and K <= 32, "bench/pendulum18.lua [links]: links must be an integer 1..32")
 
--- The n-link pendulum of bench/mech.lua, written the same way.
-local function chain(k)
-  local bodies = { gravity = { 0, -9.81, 0 } }
-  for i = 1, k do
-    bodies[i] = { mass = 1 + 0.1 * i, pos = function(t, q)
-      local x, y = 0, 0
-      for j = 1, i do x = x + 0.5 * nz.sin(q[j]); y = y - 0.5 * nz.cos(q[j]) end
-      return { x, y, 0 }
-    end }
-  end
-  local coords = {}
-  for i = 1, k do coords[i] = "th" .. i end
-  return nz.system{ name = ("%d-link pendulum"):format(k), coords = coords, bodies = bodies }
-end
+-- The n-link pendulum of bench/mech.lua (bench/chain.lua).
+local chain = require "bench.chain"
 
 -- Both clocks around f: CPU seconds, wall seconds, f's result.
 local function timed(f)

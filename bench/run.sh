@@ -20,6 +20,8 @@ build/nzlua bench/henon.lua
 echo
 build/nzlua bench/accel_scaling.lua
 echo
+build/nzlua bench/bicycle.lua
+echo
 start=$(date +%s.%N)
 build/nzlua bench/pendulum18.lua
 end=$(date +%s.%N)
