@@ -202,20 +202,7 @@ static int unary(lua_State *L, nz_jet_fn f)
 }
 
 #define UNARY(name, FN) static int dj_##name(lua_State *L) { return unary(L, FN); }
-UNARY(exp, NZ_FN_EXP)
-UNARY(log, NZ_FN_LOG)
-UNARY(sqrt, NZ_FN_SQRT)
-UNARY(sin, NZ_FN_SIN)
-UNARY(cos, NZ_FN_COS)
-UNARY(tan, NZ_FN_TAN)
-UNARY(asin, NZ_FN_ASIN)
-UNARY(acos, NZ_FN_ACOS)
-UNARY(atan, NZ_FN_ATAN)
-UNARY(sinh, NZ_FN_SINH)
-UNARY(cosh, NZ_FN_COSH)
-UNARY(tanh, NZ_FN_TANH)
-UNARY(abs, NZ_FN_ABS)
-UNARY(sign, NZ_FN_SIGN)
+NZ_LUA_JET_UNARY(UNARY)
 
 static int dj_unm(lua_State *L)
 {
@@ -229,35 +216,30 @@ static int dj_unm(lua_State *L)
 /* ------------------------------------------------------------------ */
 /* Binary operations: numbers, jets and dualjets in any order            */
 
-typedef enum { OP_ADD, OP_SUB, OP_MUL, OP_DIV, OP_POW, OP_ATAN2, OP_HYPOT } binop;
-/* The jets' names in messages, and the fields other number types answer to. */
-static const char *const binop_names[] = { "add", "sub", "mul", "division", "pow", "atan2", "hypot" };
-static const char *const binop_fields[] = { "__add", "__sub", "__mul", "__div", "__pow", "atan2", "hypot" };
-
 /* The value part, as the jets compute it (lua_jet.c's binary): a number
  * operand by a cheaper exact path where there is one, else as a constant
  * of the result's order.  A and B are the operands as used (the constants
  * the eta-part needs too). */
-static nz_status value_binary(binop op, nz_jet *z, const nz_jet *A, const nz_jet *B, int na, int nb,
-                              double *w)
+static nz_status value_binary(nz_lua_binop op, nz_jet *z, const nz_jet *A, const nz_jet *B,
+                              int na, int nb, double *w)
 {
   double av = A->c[0], bv = B->c[0];
   nz_status st;
   switch (op) {
-  case OP_ADD: return na ? nz_jet_offset(z, B, av) : nb ? nz_jet_offset(z, A, bv) : nz_jet_add(z, A, B);
-  case OP_SUB:
+  case NZ_OP_ADD: return na ? nz_jet_offset(z, B, av) : nb ? nz_jet_offset(z, A, bv) : nz_jet_add(z, A, B);
+  case NZ_OP_SUB:
     if (nb) return nz_jet_offset(z, A, -bv);
     if (!na) return nz_jet_sub(z, A, B);
     if ((st = nz_jet_neg(z, B))) return st;
     z->c[0] += av;
     return nz_jet_check_finite(z);
-  case OP_MUL: return na ? nz_jet_scale(z, B, av) : nb ? nz_jet_scale(z, A, bv) : nz_jet_mul(z, A, B, w);
-  case OP_DIV:
+  case NZ_OP_MUL: return na ? nz_jet_scale(z, B, av) : nb ? nz_jet_scale(z, A, bv) : nz_jet_mul(z, A, B, w);
+  case NZ_OP_DIV:
     if (nb && !na) return bv == 0.0 ? NZ_EZERODIV : nz_jet_scale(z, A, 1.0 / bv);
     return nz_jet_div(z, A, B, w);
-  case OP_POW: return nb ? nz_jet_pow(z, A, bv, w) : nz_jet_pow_jet(z, A, B, w);
-  case OP_ATAN2: return nz_jet_atan2(z, A, B, w);
-  case OP_HYPOT: return nz_jet_hypot(z, A, B, w);
+  case NZ_OP_POW: return nb ? nz_jet_pow(z, A, bv, w) : nz_jet_pow_jet(z, A, B, w);
+  case NZ_OP_ATAN2: return nz_jet_atan2(z, A, B, w);
+  case NZ_OP_HYPOT: return nz_jet_hypot(z, A, B, w);
   default: return NZ_EDOM;
   }
 }
@@ -267,22 +249,22 @@ static const nz_eta_op binop_eta[] = { NZ_ETA_ADD, NZ_ETA_SUB, NZ_ETA_MUL, NZ_ET
                                        NZ_ETA_POW, NZ_ETA_ATAN2, NZ_ETA_HYPOT };
 
 /* The eta-part into Ez by the jets' rules, a number being a constant. */
-static nz_status eta_binary(lua_State *L, binop op, nz_jet *Ez, const nz_jet *A, const nz_jet *B,
-                            const nz_jet *Z, const nz_jet *dA, const nz_jet *dB, int na, int nb,
-                            double *w)
+static nz_status eta_binary(lua_State *L, nz_lua_binop op, nz_jet *Ez, const nz_jet *A,
+                            const nz_jet *B, const nz_jet *Z, const nz_jet *dA, const nz_jet *dB,
+                            int na, int nb, double *w)
 {
   nz_jet *T[NTEMP];
   nz_eta_args e = { binop_eta[op], NZ_FN_EXP, B->c[0], A, B, Z, dA, dB, na, nb };
-  if (op == OP_POW && nb) e.op = NZ_ETA_POWC;
+  if (op == NZ_OP_POW && nb) e.op = NZ_ETA_POWC;
   return nz_jet_eta(Ez, &e, temps(L, Ez, T), w);
 }
 
-static int binary(lua_State *L, binop op)
+static int binary(lua_State *L, nz_lua_binop op)
 {
-  const char *fname = binop_names[op];
+  const char *fname = nz_lua_binop_names[op];
   lua_settop(L, 2);
   if ((lua_type(L, 1) == LUA_TTABLE || lua_type(L, 2) == LUA_TTABLE) &&
-      nz_lua_dispatch(L, 2, binop_fields[op], 0))
+      nz_lua_dispatch(L, 2, nz_lua_binop_fields[op], 0))
     return 1;
   operand a, b;
   read_operand(L, 1, 0, fname, &a);
@@ -297,23 +279,19 @@ static int binary(lua_State *L, binop op)
   double *w = work_for(L, order);
   const nz_jet *A = a.v, *B = b.v;
   double av = A->c[0], bv = B->c[0];
-  if (a.num && !b.num && (op == OP_DIV || op == OP_POW || op == OP_ATAN2 || op == OP_HYPOT))
+  if (a.num && !b.num &&
+      (op == NZ_OP_DIV || op == NZ_OP_POW || op == NZ_OP_ATAN2 || op == NZ_OP_HYPOT))
     A = constant(L, 0, av, order);
-  if (b.num && !a.num && (op == OP_ATAN2 || op == OP_HYPOT)) B = constant(L, 1, bv, order);
-  if (op == OP_DIV) av = bv;   /* the jets report the divisor's value */
+  if (b.num && !a.num && (op == NZ_OP_ATAN2 || op == NZ_OP_HYPOT)) B = constant(L, 1, bv, order);
+  if (op == NZ_OP_DIV) av = bv;   /* the jets report the divisor's value */
   nz_status st = value_binary(op, z->v, A, B, a.num, b.num, w);
   if (!st) st = eta_binary(L, op, z->d, A, B, z->v, a.d, b.d, a.num, b.num, w);
   if (st) return nz_lua_jet_raise(L, st, fname, given, 2, av, bv);
   return 1;
 }
 
-static int dj_add(lua_State *L) { return binary(L, OP_ADD); }
-static int dj_sub(lua_State *L) { return binary(L, OP_SUB); }
-static int dj_mul(lua_State *L) { return binary(L, OP_MUL); }
-static int dj_div(lua_State *L) { return binary(L, OP_DIV); }
-static int dj_pow(lua_State *L) { return binary(L, OP_POW); }
-static int dj_atan2(lua_State *L) { return binary(L, OP_ATAN2); }
-static int dj_hypot(lua_State *L) { return binary(L, OP_HYPOT); }
+#define BINARY(name, OP) static int dj_##name(lua_State *L) { return binary(L, OP); }
+NZ_LUA_JET_BINARY(BINARY)
 
 /* ------------------------------------------------------------------ */
 /* Comparisons and branches: on the value parts                         */

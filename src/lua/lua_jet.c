@@ -272,34 +272,20 @@ static int unary(lua_State *L, nz_jet_fn f)
 }
 
 #define UNARY(name, FN) static int lj_##name(lua_State *L) { return unary(L, FN); }
-UNARY(exp, NZ_FN_EXP)
-UNARY(log, NZ_FN_LOG)
-UNARY(sqrt, NZ_FN_SQRT)
-UNARY(sin, NZ_FN_SIN)
-UNARY(cos, NZ_FN_COS)
-UNARY(tan, NZ_FN_TAN)
-UNARY(asin, NZ_FN_ASIN)
-UNARY(acos, NZ_FN_ACOS)
-UNARY(atan, NZ_FN_ATAN)
-UNARY(sinh, NZ_FN_SINH)
-UNARY(cosh, NZ_FN_COSH)
-UNARY(tanh, NZ_FN_TANH)
-UNARY(abs, NZ_FN_ABS)
-UNARY(sign, NZ_FN_SIGN)
+NZ_LUA_JET_UNARY(UNARY)
 
 /* ------------------------------------------------------------------ */
 /* Binary operations: numbers on either side, jets of any shapes        */
 
-typedef enum { OP_ADD, OP_SUB, OP_MUL, OP_DIV, OP_POW, OP_ATAN2, OP_HYPOT } binop;
-static const char *const binop_names[] = { "add", "sub", "mul", "division", "pow", "atan2", "hypot" };
-/* What a Lua number type calls the operation (its metatable field). */
-static const char *const binop_fields[] = { "__add", "__sub", "__mul", "__div", "__pow", "atan2", "hypot" };
+const char *const nz_lua_binop_names[] = { "add", "sub", "mul", "division", "pow", "atan2", "hypot" };
+const char *const nz_lua_binop_fields[] = { "__add", "__sub", "__mul", "__div", "__pow", "atan2",
+                                            "hypot" };
 
-static int binary(lua_State *L, binop op)
+static int binary(lua_State *L, nz_lua_binop op)
 {
-  const char *fname = binop_names[op];
+  const char *fname = nz_lua_binop_names[op];
   lua_settop(L, 2);
-  if ((foreign(L, 1) || foreign(L, 2)) && dispatch_to_table(L, 2, binop_fields[op]))
+  if ((foreign(L, 1) || foreign(L, 2)) && dispatch_to_table(L, 2, nz_lua_binop_fields[op]))
     return 1;
   int na = lua_type(L, 1) == LUA_TNUMBER, nb = lua_type(L, 2) == LUA_TNUMBER;
   nz_jet *a = jet_or_scalar(L, 1, 0, fname);
@@ -318,10 +304,10 @@ static int binary(lua_State *L, binop op)
   /* A number operand becomes a constant of the other operand's shape, except
    * where a cheaper exact path exists (x + s, s x, x / s, x^s). */
   switch (op) {
-  case OP_ADD:
+  case NZ_OP_ADD:
     st = na ? nz_jet_offset(z, b, av) : nb ? nz_jet_offset(z, a, bv) : nz_jet_add(z, a, b);
     break;
-  case OP_SUB:
+  case NZ_OP_SUB:
     if (nb) st = nz_jet_offset(z, a, -bv);
     else if (na) {
       st = nz_jet_neg(z, b);
@@ -329,10 +315,10 @@ static int binary(lua_State *L, binop op)
     }
     else st = nz_jet_sub(z, a, b);
     break;
-  case OP_MUL:
+  case NZ_OP_MUL:
     st = na ? nz_jet_scale(z, b, av) : nb ? nz_jet_scale(z, a, bv) : nz_jet_mul(z, a, b, w);
     break;
-  case OP_DIV:
+  case NZ_OP_DIV:
     if (nb && !na) st = bv == 0.0 ? NZ_EZERODIV : nz_jet_scale(z, a, 1.0 / bv);
     else {
       if (na && !nb) a = constant_like(L, av, order, 0);
@@ -341,18 +327,18 @@ static int binary(lua_State *L, binop op)
     bv = b->c[0];
     av = bv;   /* report the divisor's value */
     break;
-  case OP_POW:
+  case NZ_OP_POW:
     if (nb) st = nz_jet_pow(z, a, bv, w);
     else {
       if (na) a = constant_like(L, av, order, 0);
       st = nz_jet_pow_jet(z, a, b, w);
     }
     break;
-  case OP_ATAN2:
-  case OP_HYPOT:
+  case NZ_OP_ATAN2:
+  case NZ_OP_HYPOT:
     if (na && !nb) a = constant_like(L, av, order, 0);
     if (nb && !na) b = constant_like(L, bv, order, 0);
-    st = op == OP_ATAN2 ? nz_jet_atan2(z, a, b, w) : nz_jet_hypot(z, a, b, w);
+    st = op == NZ_OP_ATAN2 ? nz_jet_atan2(z, a, b, w) : nz_jet_hypot(z, a, b, w);
     break;
   default:
     st = NZ_EDOM;
@@ -362,13 +348,8 @@ static int binary(lua_State *L, binop op)
   return 1;
 }
 
-static int lj_add(lua_State *L) { return binary(L, OP_ADD); }
-static int lj_sub(lua_State *L) { return binary(L, OP_SUB); }
-static int lj_mul(lua_State *L) { return binary(L, OP_MUL); }
-static int lj_div(lua_State *L) { return binary(L, OP_DIV); }
-static int lj_pow(lua_State *L) { return binary(L, OP_POW); }
-static int lj_atan2(lua_State *L) { return binary(L, OP_ATAN2); }
-static int lj_hypot(lua_State *L) { return binary(L, OP_HYPOT); }
+#define BINARY(name, OP) static int lj_##name(lua_State *L) { return binary(L, OP); }
+NZ_LUA_JET_BINARY(BINARY)
 
 static int lj_unm(lua_State *L)
 {
