@@ -467,8 +467,9 @@ static int branch_dispatch(lua_State *L, int nargs, const char *fname)
   return 0;
 }
 
-/* nz.lt(a, b) ... : 1 or 0, a number for numbers, else a constant jet. */
-static int compare_fn(lua_State *L, nz_cmp op, const char *fname)
+/* a op b on arguments 1 and 2: 1 or 0, a number for numbers, else a
+ * constant jet; with pick, the operand it selects (a where it holds). */
+static int compare_args(lua_State *L, nz_cmp op, const char *fname, int pick)
 {
   lua_settop(L, 2);
   if (branch_dispatch(L, 2, fname)) return 1;
@@ -476,15 +477,16 @@ static int compare_fn(lua_State *L, nz_cmp op, const char *fname)
   read_branch_args(L, 2, 0, fname, &o);
   nz_jet *z = branch_result(L, &o);
   nz_status st = nz_jet_compare(z, op, o.x[0], o.x[1]);
+  if (!st && pick) st = nz_jet_select(z, z, o.x[0], o.x[1]);   /* z may alias the condition */
   if (st) return branch_failure(L, st, fname, &o);
   push_result(L, z, o.as_number);
   return 1;
 }
 
-static int lj_lt_fn(lua_State *L) { return compare_fn(L, NZ_CMP_LT, "lt"); }
-static int lj_le_fn(lua_State *L) { return compare_fn(L, NZ_CMP_LE, "le"); }
-static int lj_gt_fn(lua_State *L) { return compare_fn(L, NZ_CMP_GT, "gt"); }
-static int lj_ge_fn(lua_State *L) { return compare_fn(L, NZ_CMP_GE, "ge"); }
+static int lj_lt_fn(lua_State *L) { return compare_args(L, NZ_CMP_LT, "lt", 0); }
+static int lj_le_fn(lua_State *L) { return compare_args(L, NZ_CMP_LE, "le", 0); }
+static int lj_gt_fn(lua_State *L) { return compare_args(L, NZ_CMP_GT, "gt", 0); }
+static int lj_ge_fn(lua_State *L) { return compare_args(L, NZ_CMP_GE, "ge", 0); }
 
 /* nz.ifelse(c, a, b): a where c's value is nonzero, else b.  The result has
  * the shape of a and b (c only chooses); a number when both are numbers. */
@@ -503,22 +505,8 @@ static int lj_ifelse(lua_State *L)
 
 /* max(a, b) = select(ge(a, b), a, b), min(a, b) = select(le(a, b), a, b):
  * at a tie in every known coefficient the first operand is returned. */
-static int extremum(lua_State *L, nz_cmp op, const char *fname)
-{
-  lua_settop(L, 2);
-  if (branch_dispatch(L, 2, fname)) return 1;
-  branch_args o;
-  read_branch_args(L, 2, 0, fname, &o);
-  nz_jet *z = branch_result(L, &o);
-  nz_status st = nz_jet_compare(z, op, o.x[0], o.x[1]);
-  if (!st) st = nz_jet_select(z, z, o.x[0], o.x[1]);   /* z may alias the condition */
-  if (st) return branch_failure(L, st, fname, &o);
-  push_result(L, z, o.as_number);
-  return 1;
-}
-
-static int lj_max(lua_State *L) { return extremum(L, NZ_CMP_GE, "max"); }
-static int lj_min(lua_State *L) { return extremum(L, NZ_CMP_LE, "min"); }
+static int lj_max(lua_State *L) { return compare_args(L, NZ_CMP_GE, "max", 1); }
+static int lj_min(lua_State *L) { return compare_args(L, NZ_CMP_LE, "min", 1); }
 
 /* nz.clamp(x, lo, hi) = min(max(x, lo), hi), lo <= hi: lo where x < lo, hi
  * where x > hi, else x (x itself at a tie with a bound). */
