@@ -70,29 +70,13 @@ static dual_ws *get_ws(lua_State *L) { return lua_touserdata(L, lua_upvalueindex
 static double *work_for(lua_State *L, int order)
 {
   dual_ws *ws = get_ws(L);
-  size_t need = nz_jet_work_len(order);
-  if (ws->wlen < need) {
-    double *p = realloc(ws->w, need * sizeof(double));
-    if (!p) luaL_error(L, "not enough memory for a jet workspace of order %d", order);
-    ws->w = p;
-    ws->wlen = need;
-  }
-  return ws->w;
+  return nz_lua_jet_work(L, &ws->w, &ws->wlen, order);
 }
 
 /* The jet of slot s shaped (order, ntan); its coefficients are not set. */
 static nz_jet *shaped(lua_State *L, slot *s, int order, int ntan)
 {
-  size_t need = nz_jet_bytes(order, ntan);
-  if (s->bytes < need) {
-    void *p = realloc(s->j, need);
-    if (!p) luaL_error(L, "not enough memory for a jet of order %d", order);
-    s->j = p;
-    s->bytes = need;
-  }
-  s->j->order = order;
-  s->j->ntan = ntan;
-  return s->j;
+  return nz_lua_jet_room(L, &s->j, &s->bytes, order, ntan);
 }
 
 /* The temporaries of nz_jet_eta, with room for the shape of `like`. */

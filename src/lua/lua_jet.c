@@ -45,33 +45,46 @@ static jet_workspace *get_workspace(lua_State *L)
   return lua_touserdata(L, lua_upvalueindex(1));
 }
 
+double *nz_lua_jet_work(lua_State *L, double **w, size_t *wlen, int order)
+{
+  size_t need = nz_jet_work_len(order);
+  if (*wlen < need) {
+    double *p = realloc(*w, need * sizeof(double));
+    if (!p) luaL_error(L, "not enough memory for a jet workspace of order %d", order);
+    *w = p;
+    *wlen = need;
+  }
+  return *w;
+}
+
+nz_jet *nz_lua_jet_room(lua_State *L, nz_jet **j, size_t *bytes, int order, int ntan)
+{
+  size_t need = nz_jet_bytes(order, ntan);
+  if (*bytes < need) {
+    void *p = realloc(*j, need);
+    if (!p) luaL_error(L, "not enough memory for a jet of order %d", order);
+    *j = p;
+    *bytes = need;
+  }
+  (*j)->order = order;
+  (*j)->ntan = ntan;
+  return *j;
+}
+
 static double *work_for(lua_State *L, int order)
 {
   jet_workspace *ws = get_workspace(L);
-  size_t need = nz_jet_work_len(order);
-  if (ws->wlen < need) {
-    double *p = realloc(ws->w, need * sizeof(double));
-    if (!p) luaL_error(L, "not enough memory for a jet workspace of order %d", order);
-    ws->w = p;
-    ws->wlen = need;
-  }
-  return ws->w;
+  return nz_lua_jet_work(L, &ws->w, &ws->wlen, order);
 }
 
 /* A constant jet of the given shape in slot s (valid until the next call). */
 static nz_jet *constant_in(lua_State *L, int s, double v, int order, int ntan)
 {
   jet_workspace *ws = get_workspace(L);
-  size_t need = nz_jet_bytes(order, ntan);
-  if (ws->konst_bytes[s] < need) {
-    void *p = realloc(ws->konst[s], need);
-    if (!p) luaL_error(L, "not enough memory for a jet of order %d", order);
-    ws->konst[s] = p;
-    ws->konst_bytes[s] = need;
-  }
-  nz_jet_init(ws->konst[s], order, ntan);
-  ws->konst[s]->c[0] = v;
-  return ws->konst[s];
+  nz_jet *c = nz_lua_jet_room(L, &ws->konst[s], &ws->konst_bytes[s], order, ntan);
+  nz_jet_init(c, order, ntan);
+  c->c[0] = v;
+  return c;
 }
 
 static nz_jet *constant_like(lua_State *L, double v, int order, int ntan)

@@ -16,6 +16,13 @@ nz_jet *nz_lua_tojet(lua_State *L, int idx);        /* NULL if not a jet */
 /* Push a new zeroed jet of that shape and return it. */
 nz_jet *nz_lua_newjet(lua_State *L, int order, int ntan);
 
+/* Workspaces a binding keeps between calls, grown on demand (a Lua error
+ * "not enough memory ..." if they cannot be).  nz_lua_jet_work: *w of *wlen
+ * doubles, for the kernels of jets of that order.  nz_lua_jet_room: *j of
+ * *bytes, shaped (order, ntan), its coefficients not set. */
+double *nz_lua_jet_work(lua_State *L, double **w, size_t *wlen, int order);
+nz_jet *nz_lua_jet_room(lua_State *L, nz_jet **j, size_t *bytes, int order, int ntan);
+
 /* The call of a function or metamethod `name` on nargs arguments (stack
  * 1..nargs) handed to another number type among them: a table whose
  * metatable has the field, else (when userdata != 0) a full userdata other
