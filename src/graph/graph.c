@@ -818,26 +818,18 @@ static grec make_grec(const nz_gnode *nd, int a, int b, int c)
   return r;
 }
 
+/* The plan's arrays (p comes from calloc: on failure those not allocated
+ * are NULL, and nz_graph_plan_free frees the others). */
 static int plan_alloc(nz_graph_plan *p)
 {
-  size_t m = (size_t)p->m + 1, nr = (size_t)p->nrec + 1;
-  p->ids = malloc(m * sizeof *p->ids);
-  p->in_num = malloc(((size_t)p->nin + 1) * sizeof *p->in_num);
-  p->recs = malloc(nr * sizeof *p->recs);
-  p->runs = malloc(nr * sizeof *p->runs);
-  p->jrecs = malloc(nr * sizeof *p->jrecs);
-  p->pv = malloc(nr * sizeof *p->pv);
-  p->vals = malloc(m * sizeof *p->vals);
-  p->J = malloc(m * sizeof *p->J);
-  p->E = malloc(m * sizeof *p->E);
-  p->W = malloc(m * sizeof *p->W);
-  p->EW = malloc(m * sizeof *p->EW);
-  p->ord = malloc(m * sizeof *p->ord);
-  p->ntn = malloc(m * sizeof *p->ntn);
-  p->eord = malloc(m * sizeof *p->eord);
-  p->entn = malloc(m * sizeof *p->entn);
-  return p->ids && p->in_num && p->recs && p->runs && p->jrecs && p->pv && p->vals && p->J && p->E &&
-         p->W && p->EW && p->ord && p->ntn && p->eord && p->entn ? 0 : -1;
+  size_t m = (size_t)p->m + 1, nr = (size_t)p->nrec + 1, ni = (size_t)p->nin + 1;
+#define ALLOC(f, n) ((p->f = malloc((n) * sizeof *p->f)) != NULL)
+  int ok = ALLOC(ids, m) && ALLOC(in_num, ni) && ALLOC(recs, nr) && ALLOC(runs, nr) &&
+           ALLOC(jrecs, nr) && ALLOC(pv, nr) && ALLOC(vals, m) && ALLOC(J, m) && ALLOC(E, m) &&
+           ALLOC(W, m) && ALLOC(EW, m) && ALLOC(ord, m) && ALLOC(ntn, m) && ALLOC(eord, m) &&
+           ALLOC(entn, m);
+#undef ALLOC
+  return ok ? 0 : -1;
 }
 
 /* Scheduling: computed nodes sorted by level (1 + the highest level of
