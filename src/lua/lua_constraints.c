@@ -204,12 +204,9 @@ static int ls_accel_constrained(lua_State *L)
 /* force_velocity_jacobian(def, t, q, qd) -> dQ/dqd */
 static int ls_force_velocity_jacobian(lua_State *L)
 {
-  lua_settop(L, 4);   /* optional arguments read as nil, scratch above */
   bound_system b;
-  nz_lua_bind_system(L, 1, &b);
+  double t, *buf = nz_lua_bind_tq_qd(L, 4, &b, 0, 1, &t, "force_velocity_jacobian");
   int k = b.sys.k;
-  double t, *buf = lua_newuserdatauv(L, (2 * (size_t)k + (size_t)k * k) * sizeof(double), 0);
-  nz_lua_read_tq_qd(L, k, &t, buf, buf + k, "force_velocity_jacobian");
   int st = nz_force_velocity_jacobian(&b.sys, t, buf, buf + k, buf + 2 * k);
   if (st) return nz_lua_raise_core(L, &b, st, "force_velocity_jacobian");
   nz_lua_push_matrix(L, buf + 2 * k, k);
