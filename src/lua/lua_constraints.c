@@ -24,14 +24,17 @@ static int check_constraint(lua_State *L, bound_system *b, int idx)
 
 /* Read the levels constraint r receives: q, qd, qdd, qddd at `at` .. at+3,
  * then the table `higher` at at+4 (or at+5 when skip: the direction sits
- * between) for q^(4), q^(5), ... (nil or missing: zeros).  data holds
- * nlev * k doubles. */
-static void read_levels(lua_State *L, int at, int k, int nlev, double *data, const double **levels,
-                        int higher, const char *fname)
+ * between) for q^(4), q^(5), ... (nil or missing: zeros).  They go into a
+ * new buffer *data of (nlev + extra) vectors of k (extra left for the
+ * caller), pointed at by the array returned; both stay on the stack. */
+static const double **read_levels(lua_State *L, int at, int k, int nlev, int extra, int higher,
+                                  const char *fname, double **data)
 {
   static const char *const names[] = { "q", "qd", "qdd", "qddd" };
+  *data = lua_newuserdatauv(L, ((size_t)nlev + (size_t)extra) * (size_t)k * sizeof(double), 0);
+  const double **levels = lua_newuserdatauv(L, (size_t)nlev * sizeof *levels, 0);
   for (int j = 0; j < nlev; j++) {
-    double *v = data + (size_t)j * (size_t)k;
+    double *v = *data + (size_t)j * (size_t)k;
     levels[j] = v;
     if (j < NZ_CONSTRAINT_SLOTS) {
       nz_lua_read_vector(L, at + j, k, v, names[j], j > 0, fname);
@@ -42,6 +45,7 @@ static void read_levels(lua_State *L, int at, int k, int nlev, double *data, con
     nz_lua_read_vector(L, lua_gettop(L), k, v, "higher derivative", 1, fname);
     lua_pop(L, 1);
   }
+  return levels;
 }
 
 /* constraint_levels(list) -> an array of ints for def.constraint_levels:
@@ -70,10 +74,8 @@ static int ls_constraint_partials(lua_State *L)
   bound_system b;
   nz_lua_bind_system(L, 1, &b);
   int r = check_constraint(L, &b, 2), k = b.sys.k, S = nz_constraint_levels(&b.sys, r);
-  double t = luaL_checknumber(L, 3), value, dphidt;
-  double *data = lua_newuserdatauv(L, 2 * (size_t)S * (size_t)k * sizeof(double), 0);
-  const double **levels = lua_newuserdatauv(L, (size_t)S * sizeof *levels, 0);
-  read_levels(L, 4, k, S, data, levels, 8, "constraint_partials");
+  double t = luaL_checknumber(L, 3), value, dphidt, *data;
+  const double **levels = read_levels(L, 4, k, S, S, 8, "constraint_partials", &data);
   double *dphi = data + (size_t)S * k;
   int st = nz_constraint_partials(&b.sys, r, t, levels, S, &value, dphi, &dphidt);
   if (st) return nz_lua_raise_core(L, &b, st, "constraint_partials");
@@ -96,10 +98,8 @@ static int ls_constraint_curvature(lua_State *L)
   int r = check_constraint(L, &b, 2), k = b.sys.k, S = nz_constraint_levels(&b.sys, r);
   int m = (int)luaL_checkinteger(L, 3);
   luaL_argcheck(L, m >= 0 && m < S, 3, "a slot the constraint receives expected");
-  double t = luaL_checknumber(L, 4), c[3];
-  double *data = lua_newuserdatauv(L, ((size_t)S + 1) * (size_t)k * sizeof(double), 0);
-  const double **levels = lua_newuserdatauv(L, (size_t)S * sizeof *levels, 0);
-  read_levels(L, 5, k, S, data, levels, 10, "constraint_curvature");
+  double t = luaL_checknumber(L, 4), c[3], *data;
+  const double **levels = read_levels(L, 5, k, S, 1, 10, "constraint_curvature", &data);
   nz_lua_read_vector(L, 9, k, data + (size_t)S * k, "direction", 0, "constraint_curvature");
   int st = nz_constraint_curvature(&b.sys, r, m, t, levels, S, data + (size_t)S * k, c);
   if (st) return nz_lua_raise_core(L, &b, st, "constraint_curvature");
