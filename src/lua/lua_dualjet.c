@@ -482,20 +482,10 @@ static const luaL_Reg dual_meta[] = {
 
 static const luaL_Reg dual_methods[] = { { "parts", dj_parts }, { "value", dj_value }, { NULL, NULL } };
 
-static void push_workspace(lua_State *L)
-{
-  dual_ws *ws = lua_newuserdatauv(L, sizeof *ws, 0);
-  memset(ws, 0, sizeof *ws);
-  lua_createtable(L, 0, 1);
-  lua_pushcfunction(L, workspace_gc);
-  lua_setfield(L, -2, "__gc");
-  lua_setmetatable(L, -2);
-}
-
 void nz_lua_open_dualjet(lua_State *L)
 {
   int core = lua_gettop(L);
-  push_workspace(L);
+  nz_lua_push_workspace(L, sizeof(dual_ws), workspace_gc);
   int ws = lua_gettop(L);
   if (luaL_newmetatable(L, NZ_DUALJET_METATABLE)) {
     lua_pushvalue(L, ws);

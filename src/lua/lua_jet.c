@@ -826,14 +826,20 @@ static const luaL_Reg jet_functions[] = {
   { "clamp", lj_clamp }, { NULL, NULL }
 };
 
-static void push_workspace(lua_State *L)
+void *nz_lua_push_workspace(lua_State *L, size_t size, lua_CFunction gc)
 {
-  jet_workspace *ws = lua_newuserdatauv(L, sizeof *ws, 0);
-  memset(ws, 0, sizeof *ws);
+  void *ws = lua_newuserdatauv(L, size, 0);
+  memset(ws, 0, size);
   lua_createtable(L, 0, 1);
-  lua_pushcfunction(L, workspace_gc);
+  lua_pushcfunction(L, gc);
   lua_setfield(L, -2, "__gc");
   lua_setmetatable(L, -2);
+  return ws;
+}
+
+static void push_workspace(lua_State *L)
+{
+  jet_workspace *ws = nz_lua_push_workspace(L, sizeof *ws, workspace_gc);
   for (int i = 0; i < NSCALAR; i++)
     if (!(ws->scalar[i] = nz_jet_alloc(0, 0))) luaL_error(L, "not enough memory");
 }

@@ -16,10 +16,14 @@ nz_jet *nz_lua_tojet(lua_State *L, int idx);        /* NULL if not a jet */
 /* Push a new zeroed jet of that shape and return it. */
 nz_jet *nz_lua_newjet(lua_State *L, int order, int ntan);
 
-/* Workspaces a binding keeps between calls, grown on demand (a Lua error
- * "not enough memory ..." if they cannot be).  nz_lua_jet_work: *w of *wlen
- * doubles, for the kernels of jets of that order.  nz_lua_jet_room: *j of
- * *bytes, shaped (order, ntan), its coefficients not set. */
+/* Workspaces a binding keeps between calls (lua_jet.c, lua_dualjet.c).
+ * nz_lua_push_workspace pushes a zeroed userdata of that size whose
+ * metatable's __gc is gc (which frees what it points to).  The buffers in it
+ * grow on demand (a Lua error "not enough memory ..." if they cannot):
+ * nz_lua_jet_work: *w of *wlen doubles, for the kernels of jets of that
+ * order; nz_lua_jet_room: *j of *bytes, shaped (order, ntan), its
+ * coefficients not set. */
+void *nz_lua_push_workspace(lua_State *L, size_t size, lua_CFunction gc);
 double *nz_lua_jet_work(lua_State *L, double **w, size_t *wlen, int order);
 nz_jet *nz_lua_jet_room(lua_State *L, nz_jet **j, size_t *bytes, int order, int ntan);
 
