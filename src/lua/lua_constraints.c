@@ -13,9 +13,14 @@
 /* ------------------------------------------------------------------ */
 /* Constraints                                                          */
 
-static int check_constraint(lua_State *L, bound_system *b, int idx)
+/* The head of a binding f(def, r, ...) of nargs arguments (those missing
+ * read as nil): bind the system at 1 and return constraint r (argument 2)
+ * 0-based. */
+static int bind_constraint(lua_State *L, int nargs, bound_system *b)
 {
-  lua_Integer r = luaL_checkinteger(L, idx);
+  lua_settop(L, nargs);   /* optional arguments read as nil, scratch above */
+  nz_lua_bind_system(L, 1, b);
+  lua_Integer r = luaL_checkinteger(L, 2);
   if (r < 1 || r > b->sys.nc)
     return (int)luaL_error(L, "system '%s': no constraint %I (it has %d)", nz_lua_system_name(L, 1),
                            (lua_Integer)r, b->sys.nc);
@@ -70,10 +75,8 @@ static int ls_constraint_levels(lua_State *L)
  * {dq, dqd, dqdd, dqddd, ...} (one per slot the constraint receives), dphidt */
 static int ls_constraint_partials(lua_State *L)
 {
-  lua_settop(L, 8);   /* optional arguments read as nil, scratch above */
   bound_system b;
-  nz_lua_bind_system(L, 1, &b);
-  int r = check_constraint(L, &b, 2), k = b.sys.k, S = nz_constraint_levels(&b.sys, r);
+  int r = bind_constraint(L, 8, &b), k = b.sys.k, S = nz_constraint_levels(&b.sys, r);
   double t = luaL_checknumber(L, 3), value, dphidt, *data;
   const double **levels = read_levels(L, 4, k, S, S, 8, "constraint_partials", &data);
   double *dphi = data + (size_t)S * k;
@@ -92,10 +95,8 @@ static int ls_constraint_partials(lua_State *L)
 /* constraint_curvature(def, r, m, t, q, qd, qdd, qddd, v, higher) -> c0, c1, c2 */
 static int ls_constraint_curvature(lua_State *L)
 {
-  lua_settop(L, 10);   /* optional arguments read as nil, scratch above */
   bound_system b;
-  nz_lua_bind_system(L, 1, &b);
-  int r = check_constraint(L, &b, 2), k = b.sys.k, S = nz_constraint_levels(&b.sys, r);
+  int r = bind_constraint(L, 10, &b), k = b.sys.k, S = nz_constraint_levels(&b.sys, r);
   int m = (int)luaL_checkinteger(L, 3);
   luaL_argcheck(L, m >= 0 && m < S, 3, "a slot the constraint receives expected");
   double t = luaL_checknumber(L, 4), c[3], *data;
@@ -110,10 +111,8 @@ static int ls_constraint_curvature(lua_State *L)
 /* constraint_row(def, r, m, t, q, qd, qdd) -> A, value: the acceleration level */
 static int ls_constraint_row(lua_State *L)
 {
-  lua_settop(L, 7);   /* optional arguments read as nil, scratch above */
   bound_system b;
-  nz_lua_bind_system(L, 1, &b);
-  int r = check_constraint(L, &b, 2), k = b.sys.k;
+  int r = bind_constraint(L, 7, &b), k = b.sys.k;
   int m = (int)luaL_checkinteger(L, 3);
   luaL_argcheck(L, m >= 0 && m <= 2, 3, "order between 0 and 2 expected");
   double t = luaL_checknumber(L, 4), value;
