@@ -15,6 +15,7 @@
 #include <gsl/gsl_sf_zeta.h>
 #include <gsl/gsl_test.h>
 #include "graph/graph.h"
+#include "test_util.h"
 
 /* ------------------------------------------------------------------ */
 /* One expression, three independent evaluations                        */
@@ -231,13 +232,7 @@ static const struct {
 #define E_PENDULUM 6   /* exprs[6], e_pendulum: four inputs */
 
 static uint64_t rng = 0x2545F4914F6CDD1DULL;
-static double urand(void)   /* xorshift64*, uniform in [0, 1) */
-{
-  rng ^= rng >> 12;
-  rng ^= rng << 25;
-  rng ^= rng >> 27;
-  return (double)((rng * 2685821657736338717ULL) >> 11) / 9007199254740992.0;
-}
+static double urand(void) { return test_urand(&rng); }
 static void random_point(double *x)
 {
   for (int i = 0; i < NIN; i++) x[i] = 0.2 + 0.5 * urand();
@@ -1316,24 +1311,10 @@ static void check_failures(void)
 /* ------------------------------------------------------------------ */
 /* Plans over part of a graph; timing                                   */
 
-/* A graph of about 1000 nodes, each new node using one of the `spread`
- * latest (spread 1: a chain, every node waits for the previous one) and a
- * random earlier one: products, half sums, half differences, and with
- * `sines` a sine every tenth node.  Values stay in [-1, 1] for inputs there. */
+/* A random graph of about 1000 nodes (test_util.h). */
 static int chain_graph(nz_graph *g, int sines, int spread, int *ids, int cap)
 {
-  int n = 0, half = nz_graph_const(g, 0.5);
-  for (int i = 0; i < 8; i++) ids[n++] = nz_graph_input(g, i);
-  while (nz_graph_size(g) < 1000 && n < cap) {
-    int a = ids[n - 1 - (int)(urand() * (n < spread ? n : spread))];
-    int b = ids[(int)(urand() * n)], k = (int)(urand() * 10), z;
-    if (k == 9 && sines) z = nz_graph_fn(g, NZ_FN_SIN, nz_graph_op(g, NZ_GOP_ADD, a, b));
-    else if (k < 4) z = nz_graph_op(g, NZ_GOP_MUL, a, b);
-    else if (k < 7) z = nz_graph_op(g, NZ_GOP_MUL, nz_graph_op(g, NZ_GOP_ADD, a, b), half);
-    else z = nz_graph_op(g, NZ_GOP_MUL, nz_graph_op(g, NZ_GOP_SUB, a, b), half);
-    ids[n++] = z;
-  }
-  return n;
+  return test_random_graph(g, &rng, 1000, sines, spread, ids, cap);
 }
 
 static void time_plan(nz_graph *g, const int *ids, int n, const char *what)

@@ -18,6 +18,7 @@
 #include <sys/wait.h>
 #include <gsl/gsl_test.h>
 #include "graph/graph_native.h"
+#include "test_util.h"
 
 #if defined(__SANITIZE_ADDRESS__)
 #define SANITIZED 1
@@ -34,13 +35,7 @@ static char cache[64];   /* a fresh directory per run: every first compile compi
 static char why[600];
 
 static uint64_t rng = 0x9E3779B97F4A7C15ULL;
-static double urand(void)   /* xorshift64*, uniform in [0, 1) */
-{
-  rng ^= rng >> 12;
-  rng ^= rng << 25;
-  rng ^= rng >> 27;
-  return (double)((rng * 2685821657736338717ULL) >> 11) / 9007199254740992.0;
-}
+static double urand(void) { return test_urand(&rng); }
 static int irand(int n) { return (int)(urand() * n); }
 
 static double seconds(void)
@@ -513,21 +508,11 @@ static void check_cache_dir(void)
 /* ------------------------------------------------------------------ */
 /* Timing (not tests)                                                   */
 
-/* The graph of test_graph.c's timing: each node uses one of the 16 latest
- * and a random earlier one, + - * and a sine every tenth node. */
+/* The graph of test_graph.c's timing (test_util.h): each node uses one of
+ * the 16 latest and a random earlier one, + - * and a sine every tenth node. */
 static int wide_graph(nz_graph *g, int size, int sines, int *ids, int cap)
 {
-  int n = 0, half = nz_graph_const(g, 0.5);
-  for (int i = 0; i < 8; i++) ids[n++] = nz_graph_input(g, i);
-  while (nz_graph_size(g) < size && n < cap) {
-    int a = ids[n - 1 - irand(n < 16 ? n : 16)], b = ids[irand(n)], k = irand(10), z;
-    if (k == 9 && sines) z = nz_graph_fn(g, NZ_FN_SIN, nz_graph_op(g, NZ_GOP_ADD, a, b));
-    else if (k < 4) z = nz_graph_op(g, NZ_GOP_MUL, a, b);
-    else if (k < 7) z = nz_graph_op(g, NZ_GOP_MUL, nz_graph_op(g, NZ_GOP_ADD, a, b), half);
-    else z = nz_graph_op(g, NZ_GOP_MUL, nz_graph_op(g, NZ_GOP_SUB, a, b), half);
-    ids[n++] = z;
-  }
-  return n;
+  return test_random_graph(g, &rng, size, sines, 16, ids, cap);
 }
 
 static double best_ns(nz_graph_plan *p, const nz_native *f, double *in, double *out, int reps)

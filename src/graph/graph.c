@@ -51,6 +51,7 @@
 #include <limits.h>
 #include "graph/graph.h"
 #include "jets/series.h"
+#include "jets/jet_eta.h"
 
 const char *const nz_gop_names[NZ_GOP_COUNT] = {
   "const", "input", "add", "sub", "mul", "div", "neg", "powc", "pow", "fn", "atan2", "hypot",
@@ -817,26 +818,18 @@ static grec make_grec(const nz_gnode *nd, int a, int b, int c)
   return r;
 }
 
+/* The plan's arrays (p comes from calloc: on failure those not allocated
+ * are NULL, and nz_graph_plan_free frees the others). */
 static int plan_alloc(nz_graph_plan *p)
 {
-  size_t m = (size_t)p->m + 1, nr = (size_t)p->nrec + 1;
-  p->ids = malloc(m * sizeof *p->ids);
-  p->in_num = malloc(((size_t)p->nin + 1) * sizeof *p->in_num);
-  p->recs = malloc(nr * sizeof *p->recs);
-  p->runs = malloc(nr * sizeof *p->runs);
-  p->jrecs = malloc(nr * sizeof *p->jrecs);
-  p->pv = malloc(nr * sizeof *p->pv);
-  p->vals = malloc(m * sizeof *p->vals);
-  p->J = malloc(m * sizeof *p->J);
-  p->E = malloc(m * sizeof *p->E);
-  p->W = malloc(m * sizeof *p->W);
-  p->EW = malloc(m * sizeof *p->EW);
-  p->ord = malloc(m * sizeof *p->ord);
-  p->ntn = malloc(m * sizeof *p->ntn);
-  p->eord = malloc(m * sizeof *p->eord);
-  p->entn = malloc(m * sizeof *p->entn);
-  return p->ids && p->in_num && p->recs && p->runs && p->jrecs && p->pv && p->vals && p->J && p->E &&
-         p->W && p->EW && p->ord && p->ntn && p->eord && p->entn ? 0 : -1;
+  size_t m = (size_t)p->m + 1, nr = (size_t)p->nrec + 1, ni = (size_t)p->nin + 1;
+#define ALLOC(f, n) ((p->f = malloc((n) * sizeof *p->f)) != NULL)
+  int ok = ALLOC(ids, m) && ALLOC(in_num, ni) && ALLOC(recs, nr) && ALLOC(runs, nr) &&
+           ALLOC(jrecs, nr) && ALLOC(pv, nr) && ALLOC(vals, m) && ALLOC(J, m) && ALLOC(E, m) &&
+           ALLOC(W, m) && ALLOC(EW, m) && ALLOC(ord, m) && ALLOC(ntn, m) && ALLOC(eord, m) &&
+           ALLOC(entn, m);
+#undef ALLOC
+  return ok ? 0 : -1;
 }
 
 /* Scheduling: computed nodes sorted by level (1 + the highest level of
@@ -1073,42 +1066,12 @@ failed: {
 /* ------------------------------------------------------------------ */
 /* Evaluation on jets                                                   */
 
-/* z = s x + c (c on the constant term), over z's shape: x may have a higher
- * order and fewer or more tangents (missing ones are zero).  With c = 0 and
- * the same shapes this is nz_jet_scale, with s = 1 nz_jet_offset. */
-static nz_status lin_affine(nz_jet *z, const nz_jet *x, double s, double c)
-{
-  size_t len = (size_t)z->order + 1;
-  for (int d = -1; d < z->ntan; d++) {
-    double *zd = d < 0 ? z->c : nz_jet_tangent(z, d);
-    const double *xd = d < 0 ? x->c : nz_jet_tangent(x, d);
-    if (!xd) memset(zd, 0, len * sizeof *zd);
-    else for (size_t k = 0; k < len; k++) zd[k] = s * xd[k];
-  }
-  if (c != 0.0) z->c[0] += c;
-  return nz_jet_check_finite(z);
-}
-
-/* z = x / c coefficientwise: nz_jet_div by a constant series. */
-static nz_status lin_div(nz_jet *z, const nz_jet *x, double c)
-{
-  if (c == 0.0) return NZ_EZERODIV;
-  size_t len = (size_t)z->order + 1;
-  for (int d = -1; d < z->ntan; d++) {
-    double *zd = d < 0 ? z->c : nz_jet_tangent(z, d);
-    const double *xd = d < 0 ? x->c : nz_jet_tangent(x, d);
-    if (!xd) memset(zd, 0, len * sizeof *zd);
-    else for (size_t k = 0; k < len; k++) zd[k] = xd[k] / c;
-  }
-  return nz_jet_check_finite(z);
-}
-
 /* |x| = sign(x0) x, as nz_jet_apply (whose nz_jet_scale needs equal shapes). */
 static nz_status jet_abs(nz_jet *z, const nz_jet *x)
 {
   double x0 = x->c[0];
   if (x0 == 0.0 && (z->order >= 1 || z->ntan >= 1)) return NZ_ESING;
-  return lin_affine(z, x, x0 < 0.0 ? -1.0 : 1.0, 0.0);
+  return nz_jet_affine(z, x, x0 < 0.0 ? -1.0 : 1.0, 0.0);
 }
 
 static int is_const_slot(const nz_graph_plan *p, int s) { return s >= p->nin && s < p->base; }
@@ -1123,13 +1086,13 @@ static nz_status jet_value(nz_graph_plan *p, const jrec *jr, nz_jet *z)
   case NZ_GOP_ADD: return nz_jet_add(z, A, B);
   case NZ_GOP_SUB: return nz_jet_sub(z, A, B);
   case NZ_GOP_MUL:
-    if (ca) return lin_affine(z, B, p->vals[jr->a], 0.0);
-    if (cb) return lin_affine(z, A, p->vals[jr->b], 0.0);
+    if (ca) return nz_jet_affine(z, B, p->vals[jr->a], 0.0);
+    if (cb) return nz_jet_affine(z, A, p->vals[jr->b], 0.0);
     return nz_jet_mul(z, A, B, w);
   case NZ_GOP_DIV:
-    if (cb) return lin_div(z, A, p->vals[jr->b]);
+    if (cb) return nz_jet_div_const(z, A, p->vals[jr->b]);
     return nz_jet_div(z, A, B, w);
-  case NZ_GOP_NEG: return lin_affine(z, A, -1.0, 0.0);
+  case NZ_GOP_NEG: return nz_jet_affine(z, A, -1.0, 0.0);
   case NZ_GOP_POWC: return nz_jet_pow(z, A, jr->v, w);
   case NZ_GOP_POW: return nz_jet_pow_jet(z, A, B, w);
   case NZ_GOP_FN:
@@ -1143,146 +1106,26 @@ static nz_status jet_value(nz_graph_plan *p, const jrec *jr, nz_jet *z)
   }
 }
 
-/* A temporary of the eta shape of slot s. */
-static nz_jet *tmp(nz_graph_plan *p, int i, int s)
-{
-  nz_jet *t = p->T[i];
-  t->order = p->eord[s];
-  t->ntan = p->entn[s];
-  return t;
-}
+/* The jets' eta rule of each operation (CONST, INPUT and CMP have none). */
+static const nz_eta_op gop_eta[NZ_GOP_COUNT] = {
+  [NZ_GOP_ADD] = NZ_ETA_ADD, [NZ_GOP_SUB] = NZ_ETA_SUB, [NZ_GOP_MUL] = NZ_ETA_MUL,
+  [NZ_GOP_DIV] = NZ_ETA_DIV, [NZ_GOP_NEG] = NZ_ETA_NEG, [NZ_GOP_POWC] = NZ_ETA_POWC,
+  [NZ_GOP_POW] = NZ_ETA_POW, [NZ_GOP_FN] = NZ_ETA_FN, [NZ_GOP_ATAN2] = NZ_ETA_ATAN2,
+  [NZ_GOP_HYPOT] = NZ_ETA_HYPOT,
+};
 
-/* The eta-part of fn(a): fn'(a) da, z = fn(a). */
-static nz_status eta_fn(nz_graph_plan *p, int s, int fn, nz_jet *Ez, const nz_jet *A,
-                        const nz_jet *Z, const nz_jet *dA)
-{
-  nz_jet *T0 = tmp(p, 0, s), *T1 = tmp(p, 1, s), *T2 = tmp(p, 2, s);
-  double *w = p->w;
-  nz_status st;
-  switch (fn) {
-  case NZ_FN_EXP: return nz_jet_mul(Ez, Z, dA, w);
-  case NZ_FN_LOG: return nz_jet_div(Ez, dA, A, w);
-  case NZ_FN_SQRT:
-    if ((st = lin_affine(T0, Z, 2.0, 0.0))) return st;
-    return nz_jet_div(Ez, dA, T0, w);
-  case NZ_FN_SIN:
-  case NZ_FN_SINH:
-    if ((st = nz_jet_apply(T0, fn == NZ_FN_SIN ? NZ_FN_COS : NZ_FN_COSH, A, w))) return st;
-    return nz_jet_mul(Ez, T0, dA, w);
-  case NZ_FN_COSH:
-    if ((st = nz_jet_apply(T0, NZ_FN_SINH, A, w))) return st;
-    return nz_jet_mul(Ez, T0, dA, w);
-  case NZ_FN_COS:
-    if ((st = nz_jet_apply(T0, NZ_FN_SIN, A, w)) || (st = nz_jet_mul(T1, T0, dA, w))) return st;
-    return lin_affine(Ez, T1, -1.0, 0.0);
-  case NZ_FN_TAN:
-  case NZ_FN_TANH:   /* (1 +- z^2) da */
-    if ((st = nz_jet_mul(T0, Z, Z, w)) ||
-        (st = lin_affine(T1, T0, fn == NZ_FN_TAN ? 1.0 : -1.0, 1.0)))
-      return st;
-    return nz_jet_mul(Ez, T1, dA, w);
-  case NZ_FN_ATAN:
-    if ((st = nz_jet_mul(T0, A, A, w)) || (st = lin_affine(T1, T0, 1.0, 1.0))) return st;
-    return nz_jet_div(Ez, dA, T1, w);
-  case NZ_FN_ASIN:
-  case NZ_FN_ACOS:   /* +- da / sqrt(1 - a^2) */
-    if ((st = nz_jet_mul(T0, A, A, w)) || (st = lin_affine(T1, T0, -1.0, 1.0)) ||
-        (st = nz_jet_apply(T0, NZ_FN_SQRT, T1, w)))
-      return st;
-    if (fn == NZ_FN_ASIN) return nz_jet_div(Ez, dA, T0, w);
-    if ((st = nz_jet_div(T2, dA, T0, w))) return st;
-    return lin_affine(Ez, T2, -1.0, 0.0);
-  case NZ_FN_ABS:   /* sign(a) da, undefined at 0 */
-    if (A->c[0] == 0.0) return NZ_ESING;
-    return lin_affine(Ez, dA, A->c[0] < 0.0 ? -1.0 : 1.0, 0.0);
-  default: return NZ_EDOM;
-  }
-}
-
-/* Copy jet src (NULL: zero) into o, over o's shape: missing coefficients and
- * tangents are zero, extra ones are dropped. */
-static void copy_out(nz_jet *o, const nz_jet *src)
-{
-  for (int d = -1; d < o->ntan; d++) {
-    double *od = d < 0 ? o->c : nz_jet_tangent(o, d);
-    const double *sd = !src ? NULL : d < 0 ? src->c : nz_jet_tangent(src, d);
-    int k = 0, kc = sd ? imin(o->order, src->order) : -1;
-    for (; k <= kc; k++) od[k] = sd[k];
-    for (; k <= o->order; k++) od[k] = 0.0;
-  }
-}
-
-/* The eta-part of computed slot s into Ez, by the rules of d_rule on jets. */
+/* The eta-part of computed slot s into Ez, by the rules of d_rule on jets
+ * (jets/jet_eta.c); a constant slot scales or divides by its value. */
 static nz_status jet_eta(nz_graph_plan *p, int s, const jrec *jr, nz_jet *Ez)
 {
-  const nz_jet *A = p->J[jr->a], *B = p->J[jr->b], *Z = p->J[s];
   const nz_jet *dA = p->E[jr->a], *dB = unary_op(jr->op) ? NULL : p->E[jr->b];
-  int ca = is_const_slot(p, jr->a), cb = is_const_slot(p, jr->b);
-  nz_jet *T0 = tmp(p, 0, s), *T1 = tmp(p, 1, s), *T2 = tmp(p, 2, s), *T3 = tmp(p, 3, s);
-  double *w = p->w;
-  nz_status st;
-  switch (jr->op) {
-  case NZ_GOP_ADD:
-    if (dA && dB) return nz_jet_add(Ez, dA, dB);
-    return lin_affine(Ez, dA ? dA : dB, 1.0, 0.0);
-  case NZ_GOP_SUB:
-    if (dA && dB) return nz_jet_sub(Ez, dA, dB);
-    return dA ? lin_affine(Ez, dA, 1.0, 0.0) : lin_affine(Ez, dB, -1.0, 0.0);
-  case NZ_GOP_NEG: return lin_affine(Ez, dA, -1.0, 0.0);
-  case NZ_GOP_MUL:
-    if (ca) return lin_affine(Ez, dB, p->vals[jr->a], 0.0);
-    if (cb) return lin_affine(Ez, dA, p->vals[jr->b], 0.0);
-    if (!dB) return nz_jet_mul(Ez, dA, B, w);
-    if (!dA) return nz_jet_mul(Ez, A, dB, w);
-    if ((st = nz_jet_mul(T0, dA, B, w)) || (st = nz_jet_mul(T1, A, dB, w))) return st;
-    return nz_jet_add(Ez, T0, T1);
-  case NZ_GOP_DIV:   /* (da - z db) / b */
-    if (cb) return lin_div(Ez, dA, p->vals[jr->b]);
-    if (!dB) return nz_jet_div(Ez, dA, B, w);
-    if ((st = nz_jet_mul(T0, Z, dB, w))) return st;
-    if ((st = dA ? nz_jet_sub(T1, dA, T0) : lin_affine(T1, T0, -1.0, 0.0))) return st;
-    return nz_jet_div(Ez, T1, B, w);
-  case NZ_GOP_POWC:   /* p a^(p-1) da */
-    if ((st = nz_jet_pow(T0, A, jr->v - 1.0, w)) || (st = lin_affine(T1, T0, jr->v, 0.0)))
-      return st;
-    return nz_jet_mul(Ez, T1, dA, w);
-  case NZ_GOP_POW: {   /* z (db log a + b da / a) */
-    const nz_jet *sum;
-    if (dB && ((st = nz_jet_apply(T0, NZ_FN_LOG, A, w)) || (st = nz_jet_mul(T1, dB, T0, w))))
-      return st;
-    if (dA && ((st = nz_jet_div(T0, dA, A, w)) || (st = nz_jet_mul(T2, B, T0, w)))) return st;
-    if (dA && dB) {
-      if ((st = nz_jet_add(T3, T1, T2))) return st;
-      sum = T3;
-    } else sum = dA ? T2 : T1;
-    return nz_jet_mul(Ez, Z, sum, w);
-  }
-  case NZ_GOP_FN: return eta_fn(p, s, jr->fn, Ez, A, Z, dA);
-  case NZ_GOP_ATAN2: {   /* a = y, b = x: (x dy - y dx) / (x^2 + y^2) */
-    if (dA && dB) {
-      if ((st = nz_jet_mul(T0, B, dA, w)) || (st = nz_jet_mul(T1, A, dB, w)) ||
-          (st = nz_jet_sub(T2, T0, T1)))
-        return st;
-    } else if (dA) {
-      if ((st = nz_jet_mul(T2, B, dA, w))) return st;
-    } else if ((st = nz_jet_mul(T1, A, dB, w)) || (st = lin_affine(T2, T1, -1.0, 0.0))) return st;
-    if ((st = nz_jet_mul(T0, A, A, w)) || (st = nz_jet_mul(T1, B, B, w)) ||
-        (st = nz_jet_add(T3, T0, T1)))
-      return st;
-    return nz_jet_div(Ez, T2, T3, w);
-  }
-  case NZ_GOP_HYPOT:   /* (a da + b db) / z */
-    if (dA && dB) {
-      if ((st = nz_jet_mul(T0, A, dA, w)) || (st = nz_jet_mul(T1, B, dB, w)) ||
-          (st = nz_jet_add(T2, T0, T1)))
-        return st;
-    } else if ((st = dA ? nz_jet_mul(T2, A, dA, w) : nz_jet_mul(T2, B, dB, w))) return st;
-    return nz_jet_div(Ez, T2, Z, w);
-  case NZ_GOP_SELECT:   /* the eta-part of the branch taken (NULL: zero) */
-    copy_out(Ez, p->J[jr->c]->c[0] != 0.0 ? dA : dB);
+  if (jr->op == NZ_GOP_SELECT) {   /* the eta-part of the branch taken (NULL: zero) */
+    nz_jet_copy_fit(Ez, p->J[jr->c]->c[0] != 0.0 ? dA : dB);
     return NZ_OK;
-  default: return NZ_EDOM;
   }
+  nz_eta_args x = { gop_eta[jr->op], (nz_jet_fn)jr->fn, jr->v, p->J[jr->a], p->J[jr->b], p->J[s],
+                    dA, dB, is_const_slot(p, jr->a), is_const_slot(p, jr->b) };
+  return nz_jet_eta(Ez, &x, p->T, p->w);
 }
 
 static size_t jet_doubles(int order, int ntan)
@@ -1397,8 +1240,8 @@ nz_status nz_graph_eval_jets(nz_graph_plan *p, const nz_jet *const *in, nz_jet *
     if (st) return plan_fail(p, s, st, p->J[jr->a]->c[0]);
   }
   for (int r = 0; r < p->nout; r++) {
-    copy_out(out[r], p->J[p->out_slot[r]]);
-    if (eta) copy_out(dout[r], p->E[p->out_slot[r]]);
+    nz_jet_copy_fit(out[r], p->J[p->out_slot[r]]);
+    if (eta) nz_jet_copy_fit(dout[r], p->E[p->out_slot[r]]);
   }
   return NZ_OK;
 }
@@ -1514,7 +1357,7 @@ static nz_status series_first(nz_graph_plan *p, int i, int K)
   case NZ_GOP_ADD: r->op = S_ADD; break;
   case NZ_GOP_SUB: r->op = S_SUB; break;
   case NZ_GOP_NEG: r->op = S_SCALE; r->v = -1.0; break;
-  case NZ_GOP_MUL:   /* a constant factor scales, as lin_affine in the jets */
+  case NZ_GOP_MUL:   /* a constant factor scales, as nz_jet_affine in the jets */
     if (ca || cb) {
       r->op = S_SCALE;
       r->v = ca ? x : y;

@@ -13,9 +13,14 @@
 /* ------------------------------------------------------------------ */
 /* Constraints                                                          */
 
-static int check_constraint(lua_State *L, bound_system *b, int idx)
+/* The head of a binding f(def, r, ...) of nargs arguments (those missing
+ * read as nil): bind the system at 1 and return constraint r (argument 2)
+ * 0-based. */
+static int bind_constraint(lua_State *L, int nargs, bound_system *b)
 {
-  lua_Integer r = luaL_checkinteger(L, idx);
+  lua_settop(L, nargs);   /* optional arguments read as nil, scratch above */
+  nz_lua_bind_system(L, 1, b);
+  lua_Integer r = luaL_checkinteger(L, 2);
   if (r < 1 || r > b->sys.nc)
     return (int)luaL_error(L, "system '%s': no constraint %I (it has %d)", nz_lua_system_name(L, 1),
                            (lua_Integer)r, b->sys.nc);
@@ -24,14 +29,17 @@ static int check_constraint(lua_State *L, bound_system *b, int idx)
 
 /* Read the levels constraint r receives: q, qd, qdd, qddd at `at` .. at+3,
  * then the table `higher` at at+4 (or at+5 when skip: the direction sits
- * between) for q^(4), q^(5), ... (nil or missing: zeros).  data holds
- * nlev * k doubles. */
-static void read_levels(lua_State *L, int at, int k, int nlev, double *data, const double **levels,
-                        int higher, const char *fname)
+ * between) for q^(4), q^(5), ... (nil or missing: zeros).  They go into a
+ * new buffer *data of (nlev + extra) vectors of k (extra left for the
+ * caller), pointed at by the array returned; both stay on the stack. */
+static const double **read_levels(lua_State *L, int at, int k, int nlev, int extra, int higher,
+                                  const char *fname, double **data)
 {
   static const char *const names[] = { "q", "qd", "qdd", "qddd" };
+  *data = lua_newuserdatauv(L, ((size_t)nlev + (size_t)extra) * (size_t)k * sizeof(double), 0);
+  const double **levels = lua_newuserdatauv(L, (size_t)nlev * sizeof *levels, 0);
   for (int j = 0; j < nlev; j++) {
-    double *v = data + (size_t)j * (size_t)k;
+    double *v = *data + (size_t)j * (size_t)k;
     levels[j] = v;
     if (j < NZ_CONSTRAINT_SLOTS) {
       nz_lua_read_vector(L, at + j, k, v, names[j], j > 0, fname);
@@ -42,6 +50,7 @@ static void read_levels(lua_State *L, int at, int k, int nlev, double *data, con
     nz_lua_read_vector(L, lua_gettop(L), k, v, "higher derivative", 1, fname);
     lua_pop(L, 1);
   }
+  return levels;
 }
 
 /* constraint_levels(list) -> an array of ints for def.constraint_levels:
@@ -66,14 +75,10 @@ static int ls_constraint_levels(lua_State *L)
  * {dq, dqd, dqdd, dqddd, ...} (one per slot the constraint receives), dphidt */
 static int ls_constraint_partials(lua_State *L)
 {
-  lua_settop(L, 8);   /* optional arguments read as nil, scratch above */
   bound_system b;
-  nz_lua_bind_system(L, 1, &b);
-  int r = check_constraint(L, &b, 2), k = b.sys.k, S = nz_constraint_levels(&b.sys, r);
-  double t = luaL_checknumber(L, 3), value, dphidt;
-  double *data = lua_newuserdatauv(L, 2 * (size_t)S * (size_t)k * sizeof(double), 0);
-  const double **levels = lua_newuserdatauv(L, (size_t)S * sizeof *levels, 0);
-  read_levels(L, 4, k, S, data, levels, 8, "constraint_partials");
+  int r = bind_constraint(L, 8, &b), k = b.sys.k, S = nz_constraint_levels(&b.sys, r);
+  double t = luaL_checknumber(L, 3), value, dphidt, *data;
+  const double **levels = read_levels(L, 4, k, S, S, 8, "constraint_partials", &data);
   double *dphi = data + (size_t)S * k;
   int st = nz_constraint_partials(&b.sys, r, t, levels, S, &value, dphi, &dphidt);
   if (st) return nz_lua_raise_core(L, &b, st, "constraint_partials");
@@ -90,16 +95,12 @@ static int ls_constraint_partials(lua_State *L)
 /* constraint_curvature(def, r, m, t, q, qd, qdd, qddd, v, higher) -> c0, c1, c2 */
 static int ls_constraint_curvature(lua_State *L)
 {
-  lua_settop(L, 10);   /* optional arguments read as nil, scratch above */
   bound_system b;
-  nz_lua_bind_system(L, 1, &b);
-  int r = check_constraint(L, &b, 2), k = b.sys.k, S = nz_constraint_levels(&b.sys, r);
+  int r = bind_constraint(L, 10, &b), k = b.sys.k, S = nz_constraint_levels(&b.sys, r);
   int m = (int)luaL_checkinteger(L, 3);
   luaL_argcheck(L, m >= 0 && m < S, 3, "a slot the constraint receives expected");
-  double t = luaL_checknumber(L, 4), c[3];
-  double *data = lua_newuserdatauv(L, ((size_t)S + 1) * (size_t)k * sizeof(double), 0);
-  const double **levels = lua_newuserdatauv(L, (size_t)S * sizeof *levels, 0);
-  read_levels(L, 5, k, S, data, levels, 10, "constraint_curvature");
+  double t = luaL_checknumber(L, 4), c[3], *data;
+  const double **levels = read_levels(L, 5, k, S, 1, 10, "constraint_curvature", &data);
   nz_lua_read_vector(L, 9, k, data + (size_t)S * k, "direction", 0, "constraint_curvature");
   int st = nz_constraint_curvature(&b.sys, r, m, t, levels, S, data + (size_t)S * k, c);
   if (st) return nz_lua_raise_core(L, &b, st, "constraint_curvature");
@@ -110,10 +111,8 @@ static int ls_constraint_curvature(lua_State *L)
 /* constraint_row(def, r, m, t, q, qd, qdd) -> A, value: the acceleration level */
 static int ls_constraint_row(lua_State *L)
 {
-  lua_settop(L, 7);   /* optional arguments read as nil, scratch above */
   bound_system b;
-  nz_lua_bind_system(L, 1, &b);
-  int r = check_constraint(L, &b, 2), k = b.sys.k;
+  int r = bind_constraint(L, 7, &b), k = b.sys.k;
   int m = (int)luaL_checkinteger(L, 3);
   luaL_argcheck(L, m >= 0 && m <= 2, 3, "order between 0 and 2 expected");
   double t = luaL_checknumber(L, 4), value;
@@ -204,12 +203,9 @@ static int ls_accel_constrained(lua_State *L)
 /* force_velocity_jacobian(def, t, q, qd) -> dQ/dqd */
 static int ls_force_velocity_jacobian(lua_State *L)
 {
-  lua_settop(L, 4);   /* optional arguments read as nil, scratch above */
   bound_system b;
-  nz_lua_bind_system(L, 1, &b);
+  double t, *buf = nz_lua_bind_tq_qd(L, 4, &b, 0, 1, &t, "force_velocity_jacobian");
   int k = b.sys.k;
-  double t, *buf = lua_newuserdatauv(L, (2 * (size_t)k + (size_t)k * k) * sizeof(double), 0);
-  nz_lua_read_tq_qd(L, k, &t, buf, buf + k, "force_velocity_jacobian");
   int st = nz_force_velocity_jacobian(&b.sys, t, buf, buf + k, buf + 2 * k);
   if (st) return nz_lua_raise_core(L, &b, st, "force_velocity_jacobian");
   nz_lua_push_matrix(L, buf + 2 * k, k);

@@ -5,9 +5,9 @@
  * whose every operation went C -> Lua -> C and allocated three objects.  A
  * dualjet is one userdata holding both jets, and each operation is one call.
  *
- * The arithmetic is that of the graph evaluator (src/graph/graph.c, jet_eta and
- * eta_fn): the same formulas in the same order, so that the two evaluators
- * of a system agree along a direction as they agree on values.
+ * The eta-parts are the jets' rules (src/jets/jet_eta.c, nz_jet_eta), which
+ * the graph evaluator (src/graph/graph.c) calls too, so that the two
+ * evaluators of a system agree along a direction as they agree on values.
  *   (v + eta d) op (w + eta e): add, sub linear; mul v w + eta (d w + v e);
  *   div z = v / w, eta (d - z e) / w; f(v + eta d) = f(v) + eta f'(v) d;
  *   comparisons and sign look at v alone (a step: no eta-part); a selection
@@ -24,6 +24,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <lauxlib.h>
+#include "jets/jet_eta.h"
 #include "lua/lua_dualjet.h"
 #include "lua/lua_jet.h"
 
@@ -69,34 +70,20 @@ static dual_ws *get_ws(lua_State *L) { return lua_touserdata(L, lua_upvalueindex
 static double *work_for(lua_State *L, int order)
 {
   dual_ws *ws = get_ws(L);
-  size_t need = nz_jet_work_len(order);
-  if (ws->wlen < need) {
-    double *p = realloc(ws->w, need * sizeof(double));
-    if (!p) luaL_error(L, "not enough memory for a jet workspace of order %d", order);
-    ws->w = p;
-    ws->wlen = need;
-  }
-  return ws->w;
+  return nz_lua_jet_work(L, &ws->w, &ws->wlen, order);
 }
 
 /* The jet of slot s shaped (order, ntan); its coefficients are not set. */
 static nz_jet *shaped(lua_State *L, slot *s, int order, int ntan)
 {
-  size_t need = nz_jet_bytes(order, ntan);
-  if (s->bytes < need) {
-    void *p = realloc(s->j, need);
-    if (!p) luaL_error(L, "not enough memory for a jet of order %d", order);
-    s->j = p;
-    s->bytes = need;
-  }
-  s->j->order = order;
-  s->j->ntan = ntan;
-  return s->j;
+  return nz_lua_jet_room(L, &s->j, &s->bytes, order, ntan);
 }
 
-static nz_jet *tmp(lua_State *L, int i, const nz_jet *like)
+/* The temporaries of nz_jet_eta, with room for the shape of `like`. */
+static nz_jet *const *temps(lua_State *L, const nz_jet *like, nz_jet *T[NTEMP])
 {
-  return shaped(L, &get_ws(L)->tmp[i], like->order, like->ntan);
+  for (int i = 0; i < NTEMP; i++) T[i] = shaped(L, &get_ws(L)->tmp[i], like->order, like->ntan);
+  return T;
 }
 
 /* The number v as a constant series of that order (exact to every order). */
@@ -133,24 +120,11 @@ int nz_lua_todualjet(lua_State *L, int idx, const nz_jet **v, const nz_jet **d)
   return 1;
 }
 
-/* Copy jet src (NULL: zero) into o over o's shape: missing coefficients and
- * tangents are zero, extra ones dropped (graph.c's copy_out). */
-static void copy_out(nz_jet *o, const nz_jet *src)
-{
-  for (int d = -1; d < o->ntan; d++) {
-    double *od = d < 0 ? o->c : nz_jet_tangent(o, d);
-    const double *sd = !src ? NULL : d < 0 ? src->c : nz_jet_tangent(src, d);
-    int k = 0, kc = sd ? imin(o->order, src->order) : -1;
-    for (; k <= kc; k++) od[k] = sd[k];
-    for (; k <= o->order; k++) od[k] = 0.0;
-  }
-}
-
 void nz_lua_push_dualjet(lua_State *L, const nz_jet *v, const nz_jet *d)
 {
   dualjet *x = new_dual(L, v->order, v->ntan, d ? d->order : v->order, d ? d->ntan : v->ntan);
   nz_jet_copy(x->v, v);
-  copy_out(x->d, d);
+  nz_jet_copy_fit(x->d, d);
 }
 
 /* An operand: a dualjet's parts, a jet (eta-part zero) or a number (an
@@ -183,81 +157,7 @@ static void read_operand(lua_State *L, int idx, int s, const char *fname, operan
 }
 
 /* ------------------------------------------------------------------ */
-/* Linear kernels over any shapes (graph.c's lin_affine and lin_div)     */
-
-static nz_status affine(nz_jet *z, const nz_jet *x, double s, double c)
-{
-  size_t len = (size_t)z->order + 1;
-  for (int d = -1; d < z->ntan; d++) {
-    double *zd = d < 0 ? z->c : nz_jet_tangent(z, d);
-    const double *xd = d < 0 ? x->c : nz_jet_tangent(x, d);
-    if (!xd) memset(zd, 0, len * sizeof *zd);
-    else for (size_t k = 0; k < len; k++) zd[k] = s * xd[k];
-  }
-  if (c != 0.0) z->c[0] += c;
-  return nz_jet_check_finite(z);
-}
-
-static nz_status divide(nz_jet *z, const nz_jet *x, double c)
-{
-  if (c == 0.0) return NZ_EZERODIV;
-  size_t len = (size_t)z->order + 1;
-  for (int d = -1; d < z->ntan; d++) {
-    double *zd = d < 0 ? z->c : nz_jet_tangent(z, d);
-    const double *xd = d < 0 ? x->c : nz_jet_tangent(x, d);
-    if (!xd) memset(zd, 0, len * sizeof *zd);
-    else for (size_t k = 0; k < len; k++) zd[k] = xd[k] / c;
-  }
-  return nz_jet_check_finite(z);
-}
-
-/* ------------------------------------------------------------------ */
 /* Unary functions: f(v + eta d) = f(v) + eta f'(v) d                   */
-
-/* The eta-part of fn(a) into Ez, z = fn(a): graph.c's eta_fn. */
-static nz_status eta_fn(lua_State *L, nz_jet_fn fn, nz_jet *Ez, const nz_jet *A, const nz_jet *Z,
-                        const nz_jet *dA, double *w)
-{
-  nz_jet *T0 = tmp(L, 0, Ez), *T1 = tmp(L, 1, Ez), *T2 = tmp(L, 2, Ez);
-  nz_status st;
-  switch (fn) {
-  case NZ_FN_EXP: return nz_jet_mul(Ez, Z, dA, w);
-  case NZ_FN_LOG: return nz_jet_div(Ez, dA, A, w);
-  case NZ_FN_SQRT:
-    if ((st = affine(T0, Z, 2.0, 0.0))) return st;
-    return nz_jet_div(Ez, dA, T0, w);
-  case NZ_FN_SIN:
-  case NZ_FN_SINH:
-    if ((st = nz_jet_apply(T0, fn == NZ_FN_SIN ? NZ_FN_COS : NZ_FN_COSH, A, w))) return st;
-    return nz_jet_mul(Ez, T0, dA, w);
-  case NZ_FN_COSH:
-    if ((st = nz_jet_apply(T0, NZ_FN_SINH, A, w))) return st;
-    return nz_jet_mul(Ez, T0, dA, w);
-  case NZ_FN_COS:
-    if ((st = nz_jet_apply(T0, NZ_FN_SIN, A, w)) || (st = nz_jet_mul(T1, T0, dA, w))) return st;
-    return affine(Ez, T1, -1.0, 0.0);
-  case NZ_FN_TAN:
-  case NZ_FN_TANH:   /* (1 +- z^2) da */
-    if ((st = nz_jet_mul(T0, Z, Z, w)) || (st = affine(T1, T0, fn == NZ_FN_TAN ? 1.0 : -1.0, 1.0)))
-      return st;
-    return nz_jet_mul(Ez, T1, dA, w);
-  case NZ_FN_ATAN:
-    if ((st = nz_jet_mul(T0, A, A, w)) || (st = affine(T1, T0, 1.0, 1.0))) return st;
-    return nz_jet_div(Ez, dA, T1, w);
-  case NZ_FN_ASIN:
-  case NZ_FN_ACOS:   /* +- da / sqrt(1 - a^2) */
-    if ((st = nz_jet_mul(T0, A, A, w)) || (st = affine(T1, T0, -1.0, 1.0)) ||
-        (st = nz_jet_apply(T0, NZ_FN_SQRT, T1, w)))
-      return st;
-    if (fn == NZ_FN_ASIN) return nz_jet_div(Ez, dA, T0, w);
-    if ((st = nz_jet_div(T2, dA, T0, w))) return st;
-    return affine(Ez, T2, -1.0, 0.0);
-  case NZ_FN_ABS:   /* sign(a) da, undefined at 0 */
-    if (A->c[0] == 0.0) return NZ_ESING;
-    return affine(Ez, dA, A->c[0] < 0.0 ? -1.0 : 1.0, 0.0);
-  default: return NZ_EDOM;
-  }
-}
 
 static int raise1(lua_State *L, nz_status st, const char *fname, const nz_jet *a)
 {
@@ -278,146 +178,77 @@ static int unary(lua_State *L, nz_jet_fn f)
     return st ? raise1(L, st, fname, A) : 1;
   }
   dualjet *z = new_dual(L, A->order, A->ntan, imin(A->order, dA->order), imax(A->ntan, dA->ntan));
-  if ((st = nz_jet_apply(z->v, f, A, w)) || (st = eta_fn(L, f, z->d, A, z->v, dA, w)))
+  nz_jet *T[NTEMP];
+  nz_eta_args e = { NZ_ETA_FN, f, 0.0, A, A, z->v, dA, NULL, 0, 0 };
+  if ((st = nz_jet_apply(z->v, f, A, w)) || (st = nz_jet_eta(z->d, &e, temps(L, z->d, T), w)))
     return raise1(L, st, fname, A);
   return 1;
 }
 
 #define UNARY(name, FN) static int dj_##name(lua_State *L) { return unary(L, FN); }
-UNARY(exp, NZ_FN_EXP)
-UNARY(log, NZ_FN_LOG)
-UNARY(sqrt, NZ_FN_SQRT)
-UNARY(sin, NZ_FN_SIN)
-UNARY(cos, NZ_FN_COS)
-UNARY(tan, NZ_FN_TAN)
-UNARY(asin, NZ_FN_ASIN)
-UNARY(acos, NZ_FN_ACOS)
-UNARY(atan, NZ_FN_ATAN)
-UNARY(sinh, NZ_FN_SINH)
-UNARY(cosh, NZ_FN_COSH)
-UNARY(tanh, NZ_FN_TANH)
-UNARY(abs, NZ_FN_ABS)
-UNARY(sign, NZ_FN_SIGN)
+NZ_LUA_JET_UNARY(UNARY)
 
 static int dj_unm(lua_State *L)
 {
   dualjet *x = luaL_checkudata(L, 1, NZ_DUALJET_METATABLE);
   dualjet *z = new_dual(L, x->v->order, x->v->ntan, x->d->order, x->d->ntan);
-  (void)affine(z->v, x->v, -1.0, 0.0);   /* finite operands stay finite */
-  (void)affine(z->d, x->d, -1.0, 0.0);
+  (void)nz_jet_affine(z->v, x->v, -1.0, 0.0);   /* finite operands stay finite */
+  (void)nz_jet_affine(z->d, x->d, -1.0, 0.0);
   return 1;
 }
 
 /* ------------------------------------------------------------------ */
 /* Binary operations: numbers, jets and dualjets in any order            */
 
-typedef enum { OP_ADD, OP_SUB, OP_MUL, OP_DIV, OP_POW, OP_ATAN2, OP_HYPOT } binop;
-/* The jets' names in messages, and the fields other number types answer to. */
-static const char *const binop_names[] = { "add", "sub", "mul", "division", "pow", "atan2", "hypot" };
-static const char *const binop_fields[] = { "__add", "__sub", "__mul", "__div", "__pow", "atan2", "hypot" };
-
 /* The value part, as the jets compute it (lua_jet.c's binary): a number
  * operand by a cheaper exact path where there is one, else as a constant
  * of the result's order.  A and B are the operands as used (the constants
  * the eta-part needs too). */
-static nz_status value_binary(binop op, nz_jet *z, const nz_jet *A, const nz_jet *B, int na, int nb,
-                              double *w)
+static nz_status value_binary(nz_lua_binop op, nz_jet *z, const nz_jet *A, const nz_jet *B,
+                              int na, int nb, double *w)
 {
   double av = A->c[0], bv = B->c[0];
   nz_status st;
   switch (op) {
-  case OP_ADD: return na ? nz_jet_offset(z, B, av) : nb ? nz_jet_offset(z, A, bv) : nz_jet_add(z, A, B);
-  case OP_SUB:
+  case NZ_OP_ADD: return na ? nz_jet_offset(z, B, av) : nb ? nz_jet_offset(z, A, bv) : nz_jet_add(z, A, B);
+  case NZ_OP_SUB:
     if (nb) return nz_jet_offset(z, A, -bv);
     if (!na) return nz_jet_sub(z, A, B);
     if ((st = nz_jet_neg(z, B))) return st;
     z->c[0] += av;
     return nz_jet_check_finite(z);
-  case OP_MUL: return na ? nz_jet_scale(z, B, av) : nb ? nz_jet_scale(z, A, bv) : nz_jet_mul(z, A, B, w);
-  case OP_DIV:
+  case NZ_OP_MUL: return na ? nz_jet_scale(z, B, av) : nb ? nz_jet_scale(z, A, bv) : nz_jet_mul(z, A, B, w);
+  case NZ_OP_DIV:
     if (nb && !na) return bv == 0.0 ? NZ_EZERODIV : nz_jet_scale(z, A, 1.0 / bv);
     return nz_jet_div(z, A, B, w);
-  case OP_POW: return nb ? nz_jet_pow(z, A, bv, w) : nz_jet_pow_jet(z, A, B, w);
-  case OP_ATAN2: return nz_jet_atan2(z, A, B, w);
-  case OP_HYPOT: return nz_jet_hypot(z, A, B, w);
+  case NZ_OP_POW: return nb ? nz_jet_pow(z, A, bv, w) : nz_jet_pow_jet(z, A, B, w);
+  case NZ_OP_ATAN2: return nz_jet_atan2(z, A, B, w);
+  case NZ_OP_HYPOT: return nz_jet_hypot(z, A, B, w);
   default: return NZ_EDOM;
   }
 }
 
-/* The eta-part into Ez: graph.c's jet_eta, a number being a constant. */
-static nz_status eta_binary(lua_State *L, binop op, nz_jet *Ez, const nz_jet *A, const nz_jet *B,
-                            const nz_jet *Z, const nz_jet *dA, const nz_jet *dB, int na, int nb,
-                            double *w)
+/* The eta rule of each operation; a number exponent makes pow a powc. */
+static const nz_eta_op binop_eta[] = { NZ_ETA_ADD, NZ_ETA_SUB, NZ_ETA_MUL, NZ_ETA_DIV,
+                                       NZ_ETA_POW, NZ_ETA_ATAN2, NZ_ETA_HYPOT };
+
+/* The eta-part into Ez by the jets' rules, a number being a constant. */
+static nz_status eta_binary(lua_State *L, nz_lua_binop op, nz_jet *Ez, const nz_jet *A,
+                            const nz_jet *B, const nz_jet *Z, const nz_jet *dA, const nz_jet *dB,
+                            int na, int nb, double *w)
 {
-  nz_jet *T0 = tmp(L, 0, Ez), *T1 = tmp(L, 1, Ez), *T2 = tmp(L, 2, Ez), *T3 = tmp(L, 3, Ez);
-  nz_status st;
-  if (!dA && !dB) return affine(Ez, A, 0.0, 0.0);   /* zero */
-  switch (op) {
-  case OP_ADD:
-    if (dA && dB) return nz_jet_add(Ez, dA, dB);
-    return affine(Ez, dA ? dA : dB, 1.0, 0.0);
-  case OP_SUB:
-    if (dA && dB) return nz_jet_sub(Ez, dA, dB);
-    return dA ? affine(Ez, dA, 1.0, 0.0) : affine(Ez, dB, -1.0, 0.0);
-  case OP_MUL:
-    if (na) return affine(Ez, dB, A->c[0], 0.0);
-    if (nb) return affine(Ez, dA, B->c[0], 0.0);
-    if (!dB) return nz_jet_mul(Ez, dA, B, w);
-    if (!dA) return nz_jet_mul(Ez, A, dB, w);
-    if ((st = nz_jet_mul(T0, dA, B, w)) || (st = nz_jet_mul(T1, A, dB, w))) return st;
-    return nz_jet_add(Ez, T0, T1);
-  case OP_DIV:   /* (da - z db) / b */
-    if (nb) return divide(Ez, dA, B->c[0]);
-    if (!dB) return nz_jet_div(Ez, dA, B, w);
-    if ((st = nz_jet_mul(T0, Z, dB, w))) return st;
-    if ((st = dA ? nz_jet_sub(T1, dA, T0) : affine(T1, T0, -1.0, 0.0))) return st;
-    return nz_jet_div(Ez, T1, B, w);
-  case OP_POW:
-    if (nb) {   /* p a^(p-1) da; a^0 is the constant 1 */
-      double p = B->c[0];
-      if (p == 0.0) return affine(Ez, dA, 0.0, 0.0);
-      if ((st = nz_jet_pow(T0, A, p - 1.0, w)) || (st = affine(T1, T0, p, 0.0))) return st;
-      return nz_jet_mul(Ez, T1, dA, w);
-    } else {   /* z (db log a + b da / a) */
-      const nz_jet *sum;
-      if (dB && ((st = nz_jet_apply(T0, NZ_FN_LOG, A, w)) || (st = nz_jet_mul(T1, dB, T0, w))))
-        return st;
-      if (dA && ((st = nz_jet_div(T0, dA, A, w)) || (st = nz_jet_mul(T2, B, T0, w)))) return st;
-      if (dA && dB) {
-        if ((st = nz_jet_add(T3, T1, T2))) return st;
-        sum = T3;
-      } else sum = dA ? T2 : T1;
-      return nz_jet_mul(Ez, Z, sum, w);
-    }
-  case OP_ATAN2:   /* a = y, b = x: (x dy - y dx) / (x^2 + y^2) */
-    if (dA && dB) {
-      if ((st = nz_jet_mul(T0, B, dA, w)) || (st = nz_jet_mul(T1, A, dB, w)) ||
-          (st = nz_jet_sub(T2, T0, T1)))
-        return st;
-    } else if (dA) {
-      if ((st = nz_jet_mul(T2, B, dA, w))) return st;
-    } else if ((st = nz_jet_mul(T1, A, dB, w)) || (st = affine(T2, T1, -1.0, 0.0))) return st;
-    if ((st = nz_jet_mul(T0, A, A, w)) || (st = nz_jet_mul(T1, B, B, w)) ||
-        (st = nz_jet_add(T3, T0, T1)))
-      return st;
-    return nz_jet_div(Ez, T2, T3, w);
-  case OP_HYPOT:   /* (a da + b db) / z */
-    if (dA && dB) {
-      if ((st = nz_jet_mul(T0, A, dA, w)) || (st = nz_jet_mul(T1, B, dB, w)) ||
-          (st = nz_jet_add(T2, T0, T1)))
-        return st;
-    } else if ((st = dA ? nz_jet_mul(T2, A, dA, w) : nz_jet_mul(T2, B, dB, w))) return st;
-    return nz_jet_div(Ez, T2, Z, w);
-  default: return NZ_EDOM;
-  }
+  nz_jet *T[NTEMP];
+  nz_eta_args e = { binop_eta[op], NZ_FN_EXP, B->c[0], A, B, Z, dA, dB, na, nb };
+  if (op == NZ_OP_POW && nb) e.op = NZ_ETA_POWC;
+  return nz_jet_eta(Ez, &e, temps(L, Ez, T), w);
 }
 
-static int binary(lua_State *L, binop op)
+static int binary(lua_State *L, nz_lua_binop op)
 {
-  const char *fname = binop_names[op];
+  const char *fname = nz_lua_binop_names[op];
   lua_settop(L, 2);
   if ((lua_type(L, 1) == LUA_TTABLE || lua_type(L, 2) == LUA_TTABLE) &&
-      nz_lua_dispatch(L, 2, binop_fields[op], 0))
+      nz_lua_dispatch(L, 2, nz_lua_binop_fields[op], 0))
     return 1;
   operand a, b;
   read_operand(L, 1, 0, fname, &a);
@@ -432,23 +263,19 @@ static int binary(lua_State *L, binop op)
   double *w = work_for(L, order);
   const nz_jet *A = a.v, *B = b.v;
   double av = A->c[0], bv = B->c[0];
-  if (a.num && !b.num && (op == OP_DIV || op == OP_POW || op == OP_ATAN2 || op == OP_HYPOT))
+  if (a.num && !b.num &&
+      (op == NZ_OP_DIV || op == NZ_OP_POW || op == NZ_OP_ATAN2 || op == NZ_OP_HYPOT))
     A = constant(L, 0, av, order);
-  if (b.num && !a.num && (op == OP_ATAN2 || op == OP_HYPOT)) B = constant(L, 1, bv, order);
-  if (op == OP_DIV) av = bv;   /* the jets report the divisor's value */
+  if (b.num && !a.num && (op == NZ_OP_ATAN2 || op == NZ_OP_HYPOT)) B = constant(L, 1, bv, order);
+  if (op == NZ_OP_DIV) av = bv;   /* the jets report the divisor's value */
   nz_status st = value_binary(op, z->v, A, B, a.num, b.num, w);
   if (!st) st = eta_binary(L, op, z->d, A, B, z->v, a.d, b.d, a.num, b.num, w);
   if (st) return nz_lua_jet_raise(L, st, fname, given, 2, av, bv);
   return 1;
 }
 
-static int dj_add(lua_State *L) { return binary(L, OP_ADD); }
-static int dj_sub(lua_State *L) { return binary(L, OP_SUB); }
-static int dj_mul(lua_State *L) { return binary(L, OP_MUL); }
-static int dj_div(lua_State *L) { return binary(L, OP_DIV); }
-static int dj_pow(lua_State *L) { return binary(L, OP_POW); }
-static int dj_atan2(lua_State *L) { return binary(L, OP_ATAN2); }
-static int dj_hypot(lua_State *L) { return binary(L, OP_HYPOT); }
+#define BINARY(name, OP) static int dj_##name(lua_State *L) { return binary(L, OP); }
+NZ_LUA_JET_BINARY(BINARY)
 
 /* ------------------------------------------------------------------ */
 /* Comparisons and branches: on the value parts                         */
@@ -526,7 +353,7 @@ static int selection(lua_State *L, int chosen, const int *cand, int n)
   if (!any) return 1;
   dualjet *c = todual(L, chosen), *z = new_dual(L, r->order, r->ntan, eo, en);
   nz_jet_copy(z->v, r);
-  copy_out(z->d, c ? c->d : NULL);
+  nz_jet_copy_fit(z->d, c ? c->d : NULL);
   return 1;
 }
 
@@ -655,20 +482,10 @@ static const luaL_Reg dual_meta[] = {
 
 static const luaL_Reg dual_methods[] = { { "parts", dj_parts }, { "value", dj_value }, { NULL, NULL } };
 
-static void push_workspace(lua_State *L)
-{
-  dual_ws *ws = lua_newuserdatauv(L, sizeof *ws, 0);
-  memset(ws, 0, sizeof *ws);
-  lua_createtable(L, 0, 1);
-  lua_pushcfunction(L, workspace_gc);
-  lua_setfield(L, -2, "__gc");
-  lua_setmetatable(L, -2);
-}
-
 void nz_lua_open_dualjet(lua_State *L)
 {
   int core = lua_gettop(L);
-  push_workspace(L);
+  nz_lua_push_workspace(L, sizeof(dual_ws), workspace_gc);
   int ws = lua_gettop(L);
   if (luaL_newmetatable(L, NZ_DUALJET_METATABLE)) {
     lua_pushvalue(L, ws);

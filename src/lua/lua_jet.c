@@ -45,33 +45,46 @@ static jet_workspace *get_workspace(lua_State *L)
   return lua_touserdata(L, lua_upvalueindex(1));
 }
 
+double *nz_lua_jet_work(lua_State *L, double **w, size_t *wlen, int order)
+{
+  size_t need = nz_jet_work_len(order);
+  if (*wlen < need) {
+    double *p = realloc(*w, need * sizeof(double));
+    if (!p) luaL_error(L, "not enough memory for a jet workspace of order %d", order);
+    *w = p;
+    *wlen = need;
+  }
+  return *w;
+}
+
+nz_jet *nz_lua_jet_room(lua_State *L, nz_jet **j, size_t *bytes, int order, int ntan)
+{
+  size_t need = nz_jet_bytes(order, ntan);
+  if (*bytes < need) {
+    void *p = realloc(*j, need);
+    if (!p) luaL_error(L, "not enough memory for a jet of order %d", order);
+    *j = p;
+    *bytes = need;
+  }
+  (*j)->order = order;
+  (*j)->ntan = ntan;
+  return *j;
+}
+
 static double *work_for(lua_State *L, int order)
 {
   jet_workspace *ws = get_workspace(L);
-  size_t need = nz_jet_work_len(order);
-  if (ws->wlen < need) {
-    double *p = realloc(ws->w, need * sizeof(double));
-    if (!p) luaL_error(L, "not enough memory for a jet workspace of order %d", order);
-    ws->w = p;
-    ws->wlen = need;
-  }
-  return ws->w;
+  return nz_lua_jet_work(L, &ws->w, &ws->wlen, order);
 }
 
 /* A constant jet of the given shape in slot s (valid until the next call). */
 static nz_jet *constant_in(lua_State *L, int s, double v, int order, int ntan)
 {
   jet_workspace *ws = get_workspace(L);
-  size_t need = nz_jet_bytes(order, ntan);
-  if (ws->konst_bytes[s] < need) {
-    void *p = realloc(ws->konst[s], need);
-    if (!p) luaL_error(L, "not enough memory for a jet of order %d", order);
-    ws->konst[s] = p;
-    ws->konst_bytes[s] = need;
-  }
-  nz_jet_init(ws->konst[s], order, ntan);
-  ws->konst[s]->c[0] = v;
-  return ws->konst[s];
+  nz_jet *c = nz_lua_jet_room(L, &ws->konst[s], &ws->konst_bytes[s], order, ntan);
+  nz_jet_init(c, order, ntan);
+  c->c[0] = v;
+  return c;
 }
 
 static nz_jet *constant_like(lua_State *L, double v, int order, int ntan)
@@ -272,34 +285,20 @@ static int unary(lua_State *L, nz_jet_fn f)
 }
 
 #define UNARY(name, FN) static int lj_##name(lua_State *L) { return unary(L, FN); }
-UNARY(exp, NZ_FN_EXP)
-UNARY(log, NZ_FN_LOG)
-UNARY(sqrt, NZ_FN_SQRT)
-UNARY(sin, NZ_FN_SIN)
-UNARY(cos, NZ_FN_COS)
-UNARY(tan, NZ_FN_TAN)
-UNARY(asin, NZ_FN_ASIN)
-UNARY(acos, NZ_FN_ACOS)
-UNARY(atan, NZ_FN_ATAN)
-UNARY(sinh, NZ_FN_SINH)
-UNARY(cosh, NZ_FN_COSH)
-UNARY(tanh, NZ_FN_TANH)
-UNARY(abs, NZ_FN_ABS)
-UNARY(sign, NZ_FN_SIGN)
+NZ_LUA_JET_UNARY(UNARY)
 
 /* ------------------------------------------------------------------ */
 /* Binary operations: numbers on either side, jets of any shapes        */
 
-typedef enum { OP_ADD, OP_SUB, OP_MUL, OP_DIV, OP_POW, OP_ATAN2, OP_HYPOT } binop;
-static const char *const binop_names[] = { "add", "sub", "mul", "division", "pow", "atan2", "hypot" };
-/* What a Lua number type calls the operation (its metatable field). */
-static const char *const binop_fields[] = { "__add", "__sub", "__mul", "__div", "__pow", "atan2", "hypot" };
+const char *const nz_lua_binop_names[] = { "add", "sub", "mul", "division", "pow", "atan2", "hypot" };
+const char *const nz_lua_binop_fields[] = { "__add", "__sub", "__mul", "__div", "__pow", "atan2",
+                                            "hypot" };
 
-static int binary(lua_State *L, binop op)
+static int binary(lua_State *L, nz_lua_binop op)
 {
-  const char *fname = binop_names[op];
+  const char *fname = nz_lua_binop_names[op];
   lua_settop(L, 2);
-  if ((foreign(L, 1) || foreign(L, 2)) && dispatch_to_table(L, 2, binop_fields[op]))
+  if ((foreign(L, 1) || foreign(L, 2)) && dispatch_to_table(L, 2, nz_lua_binop_fields[op]))
     return 1;
   int na = lua_type(L, 1) == LUA_TNUMBER, nb = lua_type(L, 2) == LUA_TNUMBER;
   nz_jet *a = jet_or_scalar(L, 1, 0, fname);
@@ -318,10 +317,10 @@ static int binary(lua_State *L, binop op)
   /* A number operand becomes a constant of the other operand's shape, except
    * where a cheaper exact path exists (x + s, s x, x / s, x^s). */
   switch (op) {
-  case OP_ADD:
+  case NZ_OP_ADD:
     st = na ? nz_jet_offset(z, b, av) : nb ? nz_jet_offset(z, a, bv) : nz_jet_add(z, a, b);
     break;
-  case OP_SUB:
+  case NZ_OP_SUB:
     if (nb) st = nz_jet_offset(z, a, -bv);
     else if (na) {
       st = nz_jet_neg(z, b);
@@ -329,10 +328,10 @@ static int binary(lua_State *L, binop op)
     }
     else st = nz_jet_sub(z, a, b);
     break;
-  case OP_MUL:
+  case NZ_OP_MUL:
     st = na ? nz_jet_scale(z, b, av) : nb ? nz_jet_scale(z, a, bv) : nz_jet_mul(z, a, b, w);
     break;
-  case OP_DIV:
+  case NZ_OP_DIV:
     if (nb && !na) st = bv == 0.0 ? NZ_EZERODIV : nz_jet_scale(z, a, 1.0 / bv);
     else {
       if (na && !nb) a = constant_like(L, av, order, 0);
@@ -341,18 +340,18 @@ static int binary(lua_State *L, binop op)
     bv = b->c[0];
     av = bv;   /* report the divisor's value */
     break;
-  case OP_POW:
+  case NZ_OP_POW:
     if (nb) st = nz_jet_pow(z, a, bv, w);
     else {
       if (na) a = constant_like(L, av, order, 0);
       st = nz_jet_pow_jet(z, a, b, w);
     }
     break;
-  case OP_ATAN2:
-  case OP_HYPOT:
+  case NZ_OP_ATAN2:
+  case NZ_OP_HYPOT:
     if (na && !nb) a = constant_like(L, av, order, 0);
     if (nb && !na) b = constant_like(L, bv, order, 0);
-    st = op == OP_ATAN2 ? nz_jet_atan2(z, a, b, w) : nz_jet_hypot(z, a, b, w);
+    st = op == NZ_OP_ATAN2 ? nz_jet_atan2(z, a, b, w) : nz_jet_hypot(z, a, b, w);
     break;
   default:
     st = NZ_EDOM;
@@ -362,13 +361,8 @@ static int binary(lua_State *L, binop op)
   return 1;
 }
 
-static int lj_add(lua_State *L) { return binary(L, OP_ADD); }
-static int lj_sub(lua_State *L) { return binary(L, OP_SUB); }
-static int lj_mul(lua_State *L) { return binary(L, OP_MUL); }
-static int lj_div(lua_State *L) { return binary(L, OP_DIV); }
-static int lj_pow(lua_State *L) { return binary(L, OP_POW); }
-static int lj_atan2(lua_State *L) { return binary(L, OP_ATAN2); }
-static int lj_hypot(lua_State *L) { return binary(L, OP_HYPOT); }
+#define BINARY(name, OP) static int lj_##name(lua_State *L) { return binary(L, OP); }
+NZ_LUA_JET_BINARY(BINARY)
 
 static int lj_unm(lua_State *L)
 {
@@ -486,8 +480,9 @@ static int branch_dispatch(lua_State *L, int nargs, const char *fname)
   return 0;
 }
 
-/* nz.lt(a, b) ... : 1 or 0, a number for numbers, else a constant jet. */
-static int compare_fn(lua_State *L, nz_cmp op, const char *fname)
+/* a op b on arguments 1 and 2: 1 or 0, a number for numbers, else a
+ * constant jet; with pick, the operand it selects (a where it holds). */
+static int compare_args(lua_State *L, nz_cmp op, const char *fname, int pick)
 {
   lua_settop(L, 2);
   if (branch_dispatch(L, 2, fname)) return 1;
@@ -495,15 +490,16 @@ static int compare_fn(lua_State *L, nz_cmp op, const char *fname)
   read_branch_args(L, 2, 0, fname, &o);
   nz_jet *z = branch_result(L, &o);
   nz_status st = nz_jet_compare(z, op, o.x[0], o.x[1]);
+  if (!st && pick) st = nz_jet_select(z, z, o.x[0], o.x[1]);   /* z may alias the condition */
   if (st) return branch_failure(L, st, fname, &o);
   push_result(L, z, o.as_number);
   return 1;
 }
 
-static int lj_lt_fn(lua_State *L) { return compare_fn(L, NZ_CMP_LT, "lt"); }
-static int lj_le_fn(lua_State *L) { return compare_fn(L, NZ_CMP_LE, "le"); }
-static int lj_gt_fn(lua_State *L) { return compare_fn(L, NZ_CMP_GT, "gt"); }
-static int lj_ge_fn(lua_State *L) { return compare_fn(L, NZ_CMP_GE, "ge"); }
+static int lj_lt_fn(lua_State *L) { return compare_args(L, NZ_CMP_LT, "lt", 0); }
+static int lj_le_fn(lua_State *L) { return compare_args(L, NZ_CMP_LE, "le", 0); }
+static int lj_gt_fn(lua_State *L) { return compare_args(L, NZ_CMP_GT, "gt", 0); }
+static int lj_ge_fn(lua_State *L) { return compare_args(L, NZ_CMP_GE, "ge", 0); }
 
 /* nz.ifelse(c, a, b): a where c's value is nonzero, else b.  The result has
  * the shape of a and b (c only chooses); a number when both are numbers. */
@@ -522,22 +518,8 @@ static int lj_ifelse(lua_State *L)
 
 /* max(a, b) = select(ge(a, b), a, b), min(a, b) = select(le(a, b), a, b):
  * at a tie in every known coefficient the first operand is returned. */
-static int extremum(lua_State *L, nz_cmp op, const char *fname)
-{
-  lua_settop(L, 2);
-  if (branch_dispatch(L, 2, fname)) return 1;
-  branch_args o;
-  read_branch_args(L, 2, 0, fname, &o);
-  nz_jet *z = branch_result(L, &o);
-  nz_status st = nz_jet_compare(z, op, o.x[0], o.x[1]);
-  if (!st) st = nz_jet_select(z, z, o.x[0], o.x[1]);   /* z may alias the condition */
-  if (st) return branch_failure(L, st, fname, &o);
-  push_result(L, z, o.as_number);
-  return 1;
-}
-
-static int lj_max(lua_State *L) { return extremum(L, NZ_CMP_GE, "max"); }
-static int lj_min(lua_State *L) { return extremum(L, NZ_CMP_LE, "min"); }
+static int lj_max(lua_State *L) { return compare_args(L, NZ_CMP_GE, "max", 1); }
+static int lj_min(lua_State *L) { return compare_args(L, NZ_CMP_LE, "min", 1); }
 
 /* nz.clamp(x, lo, hi) = min(max(x, lo), hi), lo <= hi: lo where x < lo, hi
  * where x > hi, else x (x itself at a tie with a bound). */
@@ -844,14 +826,20 @@ static const luaL_Reg jet_functions[] = {
   { "clamp", lj_clamp }, { NULL, NULL }
 };
 
-static void push_workspace(lua_State *L)
+void *nz_lua_push_workspace(lua_State *L, size_t size, lua_CFunction gc)
 {
-  jet_workspace *ws = lua_newuserdatauv(L, sizeof *ws, 0);
-  memset(ws, 0, sizeof *ws);
+  void *ws = lua_newuserdatauv(L, size, 0);
+  memset(ws, 0, size);
   lua_createtable(L, 0, 1);
-  lua_pushcfunction(L, workspace_gc);
+  lua_pushcfunction(L, gc);
   lua_setfield(L, -2, "__gc");
   lua_setmetatable(L, -2);
+  return ws;
+}
+
+static void push_workspace(lua_State *L)
+{
+  jet_workspace *ws = nz_lua_push_workspace(L, sizeof *ws, workspace_gc);
   for (int i = 0; i < NSCALAR; i++)
     if (!(ws->scalar[i] = nz_jet_alloc(0, 0))) luaL_error(L, "not enough memory");
 }

@@ -498,6 +498,17 @@ static int check_order(lua_State *L, int idx, int lo, const char *fname)
 /* ------------------------------------------------------------------ */
 /* Core functions                                                       */
 
+double *nz_lua_bind_tq_qd(lua_State *L, int nargs, bound_system *b, int nvec, int nmat, double *t,
+                          const char *fname)
+{
+  lua_settop(L, nargs);   /* optional arguments read as nil, scratch above */
+  nz_lua_bind_system(L, 1, b);
+  size_t k = (size_t)b->sys.k;
+  double *buf = lua_newuserdatauv(L, ((2 + (size_t)nvec) * k + (size_t)nmat * k * k) * sizeof(double), 0);
+  nz_lua_read_tq_qd(L, b->sys.k, t, buf, buf + k, fname);
+  return buf;
+}
+
 /* residual(def, form, n, t, q, qd, qdd, higher, want_terms) -> r [, terms] */
 static int ls_residual(lua_State *L)
 {
@@ -558,13 +569,10 @@ static int ls_operator(lua_State *L)
 /* mass_bias(def, t, q, qd) -> M, h */
 static int ls_mass_bias(lua_State *L)
 {
-  lua_settop(L, 4);   /* optional arguments read as nil, scratch above */
   bound_system b;
-  nz_lua_bind_system(L, 1, &b);
+  double t, *q = nz_lua_bind_tq_qd(L, 4, &b, 1, 1, &t, "mass");
   int k = b.sys.k;
-  double t, *buf = lua_newuserdatauv(L, ((size_t)k * (size_t)k + 3 * (size_t)k) * sizeof(double), 0);
-  double *q = buf, *qd = buf + k, *h = buf + 2 * k, *M = buf + 3 * k;
-  nz_lua_read_tq_qd(L, k, &t, q, qd, "mass");
+  double *qd = q + k, *h = q + 2 * k, *M = q + 3 * k;
   int st = nz_mass_bias(&b.sys, t, q, qd, M, h);
   if (st) return nz_lua_raise_core(L, &b, st, "mass");
   nz_lua_push_matrix(L, M, k);
@@ -575,14 +583,10 @@ static int ls_mass_bias(lua_State *L)
 /* accel(def, t, q, qd [, rcond_min]) -> qdd: solves M qdd = -h by Cholesky. */
 static int ls_accel(lua_State *L)
 {
-  lua_settop(L, 5);   /* optional arguments read as nil, scratch above */
   bound_system b;
-  nz_lua_bind_system(L, 1, &b);
+  double t, *q = nz_lua_bind_tq_qd(L, 5, &b, 1, 0, &t, "accel");
   int k = b.sys.k;
-  double rcond_min = luaL_optnumber(L, 5, NZ_RCOND_MIN);
-  double t, *buf = lua_newuserdatauv(L, 3 * (size_t)k * sizeof(double), 0);
-  double *q = buf, *qd = buf + k, *qdd = buf + 2 * k;
-  nz_lua_read_tq_qd(L, k, &t, q, qd, "accel");
+  double *qd = q + k, *qdd = q + 2 * k, rcond_min = luaL_optnumber(L, 5, NZ_RCOND_MIN);
   nz_solve_info info;
   int st = nz_accel(&b.sys, t, q, qd, rcond_min, qdd, &info);
   if (st == NZ_ESINGULAR) return nz_lua_raise_singular_mass(L, 1, t, q, qd, k, &info);
@@ -594,12 +598,9 @@ static int ls_accel(lua_State *L)
 /* energy(def, t, q, qd) -> T (nil without T), V, F, H */
 static int ls_energy(lua_State *L)
 {
-  lua_settop(L, 4);   /* optional arguments read as nil, scratch above */
   bound_system b;
-  nz_lua_bind_system(L, 1, &b);
+  double t, T, V, F, H, *buf = nz_lua_bind_tq_qd(L, 4, &b, 0, 0, &t, "energy");
   int k = b.sys.k;
-  double t, T, V, F, H, *buf = lua_newuserdatauv(L, 2 * (size_t)k * sizeof(double), 0);
-  nz_lua_read_tq_qd(L, k, &t, buf, buf + k, "energy");
   int st = nz_energy(&b.sys, t, buf, buf + k, &T, &V, &F, &H);
   if (st) return nz_lua_raise_core(L, &b, st, "energy");
   if (isnan(T)) lua_pushnil(L);
@@ -613,14 +614,9 @@ static int ls_energy(lua_State *L)
 /* energy_terms(def, t, q, qd, qdd) -> dL/dt, T0, T1, d/dt(T1 + 2 T0) */
 static int ls_energy_terms(lua_State *L)
 {
-  lua_settop(L, 5);   /* optional arguments read as nil, scratch above */
   bound_system b;
-  nz_lua_bind_system(L, 1, &b);
+  double t, dLdt, T0, T1, rate, *buf = nz_lua_bind_tq_qd(L, 5, &b, 1, 0, &t, "energy_terms");
   int k = b.sys.k;
-  double t = luaL_checknumber(L, 2), dLdt, T0, T1, rate;
-  double *buf = lua_newuserdatauv(L, 3 * (size_t)k * sizeof(double), 0);
-  nz_lua_read_vector(L, 3, k, buf, "q", 0, "energy_terms");
-  nz_lua_read_vector(L, 4, k, buf + k, "qd", 1, "energy_terms");
   nz_lua_read_vector(L, 5, k, buf + 2 * k, "qdd", 1, "energy_terms");
   int st = nz_lagrangian_time_partial(&b.sys, t, buf, buf + k, &dLdt);
   if (!st) st = nz_kinetic_parts(&b.sys, t, buf, buf + k, buf + 2 * k, &T0, &T1, &rate);

@@ -31,6 +31,12 @@ typedef struct bound_system {
 } bound_system;
 
 void nz_lua_bind_system(lua_State *L, int def, bound_system *b);
+/* The head of a binding f(def, t, q, qd, ...) of nargs arguments (those
+ * missing read as nil): bind the system at 1 and read t, q, qd (2, 3, 4)
+ * into a new buffer left on the stack, q then qd, with room after them for
+ * nvec more vectors and then nmat matrices of the system's size. */
+double *nz_lua_bind_tq_qd(lua_State *L, int nargs, bound_system *b, int nvec, int nmat, double *t,
+                          const char *fname);
 /* Raise the error of a failed core call, with the system's name; a failed
  * user function's error (kept by the evaluator) starts with the user's
  * file:line. */
