@@ -81,14 +81,14 @@ $(B)/test_series: tests/test_series.c $(CORE_OBJ) | $(B)
 	$(CC) $(ALL_CFLAGS) -o $@ $^ $(GSL_LIBS) $(DL_LIBS) -lm
 $(B)/asan/test_series: tests/test_series.c $(SAN_CORE) | $(B)/asan
 	$(CC) $(ALL_CFLAGS) $(SAN_FLAGS) -o $@ $^ $(GSL_LIBS) $(DL_LIBS) -lm
-$(B)/test_graph: tests/test_graph.c $(CORE_OBJ) | $(B)
-	$(CC) $(ALL_CFLAGS) -o $@ $^ $(GSL_LIBS) $(DL_LIBS) -lm
-$(B)/asan/test_graph: tests/test_graph.c $(SAN_CORE) | $(B)/asan
-	$(CC) $(ALL_CFLAGS) $(SAN_FLAGS) -o $@ $^ $(GSL_LIBS) $(DL_LIBS) -lm
-$(B)/test_native: tests/test_native.c $(CORE_OBJ) | $(B)
-	$(CC) $(ALL_CFLAGS) -o $@ $^ $(GSL_LIBS) $(DL_LIBS) -lm
-$(B)/asan/test_native: tests/test_native.c $(SAN_CORE) | $(B)/asan
-	$(CC) $(ALL_CFLAGS) $(SAN_FLAGS) -o $@ $^ $(GSL_LIBS) $(DL_LIBS) -lm
+$(B)/test_graph: tests/test_graph.c tests/test_util.h $(CORE_OBJ) | $(B)
+	$(CC) $(ALL_CFLAGS) -o $@ $(filter-out %.h,$^) $(GSL_LIBS) $(DL_LIBS) -lm
+$(B)/asan/test_graph: tests/test_graph.c tests/test_util.h $(SAN_CORE) | $(B)/asan
+	$(CC) $(ALL_CFLAGS) $(SAN_FLAGS) -o $@ $(filter-out %.h,$^) $(GSL_LIBS) $(DL_LIBS) -lm
+$(B)/test_native: tests/test_native.c tests/test_util.h $(CORE_OBJ) | $(B)
+	$(CC) $(ALL_CFLAGS) -o $@ $(filter-out %.h,$^) $(GSL_LIBS) $(DL_LIBS) -lm
+$(B)/asan/test_native: tests/test_native.c tests/test_util.h $(SAN_CORE) | $(B)/asan
+	$(CC) $(ALL_CFLAGS) $(SAN_FLAGS) -o $@ $(filter-out %.h,$^) $(GSL_LIBS) $(DL_LIBS) -lm
 $(B)/bench_jet: bench/bench_jet.c $(CORE_OBJ) | $(B)
 	$(CC) $(ALL_CFLAGS) -o $@ $^ $(GSL_LIBS) $(DL_LIBS) -lm
 $(B)/bench_motion: bench/bench_motion.c $(CORE_OBJ) | $(B)

@@ -1,8 +1,8 @@
 -- dualjet_spec.lua - the state direction of the Lua evaluator (userdata
--- "nz.dualjet", src/lua_dualjet.c): numbers v + eta d over jets.
+-- "nz.dualjet", src/lua/lua_dualjet.c): numbers v + eta d over jets.
 --
 -- Checked against what shares no code with it: the recorded graph's
--- eta-part (src/graph.c: the same system with and without compile = false),
+-- eta-part (src/graph/graph.c: the same system with and without compile = false),
 -- central differences of the jets' own evaluation along the direction, the
 -- rules written out with plain jets, and the exact Jacobian of an implicit
 -- integration on the recorded path.

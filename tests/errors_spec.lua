@@ -23,7 +23,7 @@ local pendulum = nz.system{ name = "pendulum", coords = { "th" }, compile = fals
 
 -- The driven hoop: its implicit integration (bsimp) evaluates its functions
 -- along state directions for the exact Jacobian, so lua_eval builds dualjet
--- arguments (src/lua_dualjet.c).
+-- arguments (src/lua/lua_dualjet.c).
 local m, R, W = 0.3, 0.5, 4.0
 local hoop = nz.system{ name = "driven hoop", coords = { "th", "ph" }, compile = false,
   T = function(t, q, qd) return 0.5 * m * R * R * (qd[1] ^ 2 + nz.sin(q[1]) ^ 2 * qd[2] ^ 2) end,

@@ -1,7 +1,7 @@
 -- higher_order_spec.lua - constraints of order 3 and more (THEORY.md §6, §8):
 -- the derivative slots a constraint declares, classification and
 -- Dolapchiev's rule, the residuals of every form, and the motion integrated
--- at level p >= 3 (state q, qd, qdd, ..., lambda, ...; src/constrained_series.c)
+-- at level p >= 3 (state q, qd, qdd, ..., lambda, ...; src/mech/constrained_series.c)
 -- against closed forms derived by hand below, with the start state checked
 -- and completed by sys:project.
 local h = require "tests.helpers"

@@ -1,4 +1,4 @@
--- simulate_loop_spec.lua - the stepping loop in C (src/ode_run.c) against
+-- simulate_loop_spec.lua - the stepping loop in C (src/ode/ode_run.c) against
 -- the loop in Lua (lua/nz/simulate.lua, run()): two paths that share the
 -- integrator but not the loop (output grid, fixed steps landing on the
 -- output times, accelerations recorded at each point, stall detection,

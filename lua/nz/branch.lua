@@ -1,6 +1,6 @@
 -- nz/branch.lua - branches written without a Lua `if`, in Lua.
 --
--- The comparisons, ifelse, max, min, clamp and sign are in C (src/lua_jet.c,
+-- The comparisons, ifelse, max, min, clamp and sign are in C (src/lua/lua_jet.c,
 -- nz_jet_compare and nz_jet_select); what is here is built from the
 -- operations every number type has (+ - * and sqrt), so that a recorded
 -- graph holds it without a node of its own.

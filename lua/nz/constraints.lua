@@ -586,7 +586,7 @@ end
 
 -- ------------------------------------------------------------------ --
 -- Constraints of order 3 and more: the motion at level p               --
--- (src/constrained_series.h)                                           --
+-- (src/mech/constrained_series.h)                                           --
 
 -- The name of the start option and of the report field for level j.
 function M.level_name(j)
@@ -871,7 +871,7 @@ local function eliminate(sys, B, b, equations, info)
 end
 
 -- Tsenov's elimination at level p >= 3: the equations of level p
--- (G^(p-2) = 0 and every Phi_r^(p - m_r) = 0, src/constrained_series.h),
+-- (G^(p-2) = 0 and every Phi_r^(p - m_r) = 0, src/mech/constrained_series.h),
 -- with q^(p) split by the constraint rows into dependent and independent
 -- components and G^(p-2) combined along the admissible directions, which
 -- removes lambda^(p-2) (its coefficient in G is A^T, in the rows A, by (2.1)).

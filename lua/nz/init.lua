@@ -1,5 +1,5 @@
 -- nz/init.lua - assembles the nz module from the C core and the Lua parts.
--- Receives nothing: the C core is required as "nz.core" (see src/lua_nz.c).
+-- Receives nothing: the C core is required as "nz.core" (see src/lua/lua_nz.c).
 local core = require "nz.core"
 
 local nz = {}

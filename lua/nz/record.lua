@@ -1,5 +1,5 @@
 -- nz/record.lua - record a system's functions once as an expression graph,
--- evaluated in C from then on (src/graph.c, src/mech_graph.c).
+-- evaluated in C from then on (src/graph/graph.c, src/mech/mech_graph.c).
 --
 -- Each function (T, V, L, Q, each constraint) runs once on tracer values:
 -- t, every derivative slot of every q_i and every named number in params
@@ -81,7 +81,7 @@ for _, name in ipairs{ "exp", "log", "sqrt", "sin", "cos", "tan", "asin", "acos"
   TR[name] = function(x) return wrap(x.c, x.c:fn(name, x.id)) end
 end
 
--- Branches written without a Lua `if` (nz.lt ... nz.clamp, src/lua_jet.c):
+-- Branches written without a Lua `if` (nz.lt ... nz.clamp, src/lua/lua_jet.c):
 -- nz.* hands the call to the first table argument whose metatable has the
 -- field, so a tracer may be any of the arguments; the others are numbers.
 -- The same choices as the jets: max and min keep the first operand at a
@@ -300,7 +300,7 @@ function M.compile(engine, levels, native)
   local index = {}
   for p, name in ipairs(names) do index[name] = p end
   -- two slots more than any function reads: the rows of the constraints
-  -- differentiate them twice along the motion (src/mech_graph.c)
+  -- differentiate them twice along the motion (src/mech/mech_graph.c)
   local nslots = 2
   for _, n in ipairs(levels) do nslots = math.max(nslots, n) end
   nslots = nslots + 2

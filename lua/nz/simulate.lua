@@ -1,10 +1,10 @@
 -- nz/simulate.lua - sys:simulate{...}: integrate the motion with a GSL
--- stepper (src/ode.c), one step at a time, so that this loop decides the
+-- stepper (src/ode/ode.c), one step at a time, so that this loop decides the
 -- output grid, locates events, projects onto the constraints, records the
 -- monitors a scene asked for (and nothing else), shows progress on a
 -- terminal, and keeps what it computed when interrupted or when it fails.
 -- A run without events and without projection goes through the same loop
--- written in C (src/ode_run.c, run_c below), which returns here only to hand
+-- written in C (src/ode/ode_run.c, run_c below), which returns here only to hand
 -- over output points, draw the progress, warn of a long run, or stop; the
 -- two give the same trajectory to the bit (tests/simulate_loop_spec.lua).
 -- The option _loop = "lua" | "c" forces one: internal, for tests and bench/.
@@ -42,7 +42,7 @@ M.LONG_RUN = { steps = 1e7, seconds = 60, check_steps = 2000 }
 -- A run whose last STALL.window steps advanced t by less than STALL.fraction
 -- of the span makes no progress (it would need > window / fraction steps).
 M.STALL = { window = 1000, fraction = 1e-10 }
--- The C loop (src/ode_run.c) returns this often (seconds) while the progress
+-- The C loop (src/ode/ode_run.c) returns this often (seconds) while the progress
 -- bar may show, so that the bar moves.
 M.PROGRESS_PAUSE = 0.2
 
@@ -289,7 +289,7 @@ local function progress_bar(cfg, t0, t1)
 end
 
 -- Constraints of order >= 3 (constraints.level): the state is
--- (q, qd, qdd, .., q^(p-1), lambda, .., lambda^(p-3)) (src/constrained_series.h).
+-- (q, qd, qdd, .., q^(p-1), lambda, .., lambda^(p-3)) (src/mech/constrained_series.h).
 -- Check what the start needs and return the part of y after q, qd.
 -- top: a constraint of order p nonlinear in q^(p); then the state is only
 -- q .. q^(p-1) ((q^(p), lambda) are solved at each time).
@@ -672,7 +672,7 @@ function M.simulate(sys, opts)
     if state_violation(tt, y) <= project_tol then return end
     y = project_state(tt, y)
     tr.projections = tr.projections + 1
-    if multistep then mech.ode_reset(ode) end     -- keeps the statistics (src/ode.c)
+    if multistep then mech.ode_reset(ode) end     -- keeps the statistics (src/ode/ode.c)
   end
 
   -- Every accepted step: a run that stopped making progress fails with the
@@ -731,7 +731,7 @@ function M.simulate(sys, opts)
     tr.status = "done"
   end
 
-  -- The same loop in C (src/ode_run.c), used when nothing in it calls Lua per
+  -- The same loop in C (src/ode/ode_run.c), used when nothing in it calls Lua per
   -- step: no events, no projection.  It returns here only to hand over the
   -- output points (every 1024, and at the end), at the step counts where
   -- long_run looks, every 0.2 s while the progress bar shows, and to stop
