@@ -288,14 +288,17 @@ function System:mass_bias(t, q, qd)
 -- Accelerations, multipliers (one per constraint) and, with constraints, a
 -- report {iterations, residual, rcond, start}.  opts (constraints of second
 -- order nonlinear in qdd): {qdd = guess, lambda = guess, tol =, maxit =}.
+-- (made once: accel is called on every step of a user's own loop)
+local ACCEL_OPTIONS = {
+  tol = positive, maxit = count, check = boolean,
+  rcond_min = function(v) return finite(v) and v >= 0, "a finite number >= 0" end,
+  qdd = function(v) return type(v) == "table", "a table of numbers (a first guess)" end,
+  lambda = function(v) return type(v) == "table", "a table of numbers (a first guess)" end,
+}
+
 function System:accel(t, q, qd, opts)
   check_state(self, "accel", 1, t, q, qd)
-  check_options("accel", 4, opts, {
-    tol = positive, maxit = count, check = boolean,
-    rcond_min = function(v) return finite(v) and v >= 0, "a finite number >= 0" end,
-    qdd = function(v) return type(v) == "table", "a table of numbers (a first guess)" end,
-    lambda = function(v) return type(v) == "table", "a table of numbers (a first guess)" end,
-  })
+  check_options("accel", 4, opts, ACCEL_OPTIONS)
   if opts and opts.qdd then check_vector(self, "accel", 4, "option 'qdd'", opts.qdd) end
   if opts and opts.lambda then check_vector(self, "accel", 4, "option 'lambda'", opts.lambda, self.nc, "one per constraint") end
   if self.nc == 0 then return mech.accel(self.engine, t, q, qd), {} end
