@@ -8,9 +8,10 @@
 #include "mech/mech_graph.h"
 
 /* A plan on doubles that runs as machine code once it has earned it
- * (graph_native.h): after NZ_NATIVE_AFTER node evaluations in auto mode, at
- * its first use with native on, never with native off or when compiling
- * fails (the reason is kept for graph_info). */
+ * (graph_native.h): in auto mode once interpreting has cost what compiling
+ * would (earn, below) or at once when its object is cached, at its first use
+ * with native on, never with native off or when compiling fails (the reason
+ * is kept for graph_info). */
 typedef struct dplan {
   nz_graph_plan *plan;
   int *outs, nout;
@@ -47,13 +48,11 @@ struct nz_compiled {
   char native_why[200];
   /* nz_compiled_accel's workspace: A (k x k), rhs (k), the solver's. */
   double *acc_A, *acc_rhs, *acc_work;
-  /* A constant M, inverted once (minv k x k), with its solve info. */
-  int m_const;
-  double *minv;
-  nz_solve_info m_info;
   /* With a constant M, q'' = -M^-1 h as a plan of its own (M^-1's entries
-   * are constants of the graph), and F, V checked: one pass per call. */
+   * are constants of the graph), and F, V checked: one pass per call;
+   * m_info is the solve info of the one factorization of M. */
   dplan *acc_plan;
+  nz_solve_info m_info;
   double *acc_out;
   /* Constraint rows on doubles: plan of (r, m) at rows[3 r + m] (built = 1,
    * or -1 when it cannot be built), outputs D^0..D^K Phi then A. */
@@ -188,7 +187,6 @@ void nz_compiled_free(nz_compiled *c)
   free(c->row_in);
   free(c->mb_in);
   free(c->acc_A);
-  free(c->minv);
   free(c->phi);
   free(c->pjet);
   free(c->in);
@@ -302,12 +300,18 @@ int nz_compiled_eval(void *ctx, nz_piece piece, int index, const nz_jet *t,
 /* ------------------------------------------------------------------ */
 /* Mass matrix and bias, differentiated once                           */
 
+/* A direction in which no input moves (dinput of nz_graph_derivative). */
+static void no_motion(int *dir, int n)
+{
+  for (int a = 0; a < n; a++) dir[a] = -1;
+}
+
 /* Graph nodes of M (k x k), h (k), then F and V (checked, not used), into
  * out[k k + k + 2]; -1 on failure. */
 static int build_mass_bias(nz_compiled *c, int *out)
 {
   nz_graph *g = c->g;
-  int k = c->k, n = nz_graph_ninputs(g) > c->ninputs ? nz_graph_ninputs(g) : c->ninputs;
+  int k = c->k, n = c->ninputs;   /* nz_compiled_set_piece keeps the graph's inputs within */
   int *dir = malloc((size_t)n * sizeof(int));
   int *grad = malloc((size_t)(3 * k) * sizeof(int));
   int ok = dir && grad;
@@ -318,7 +322,7 @@ static int build_mass_bias(nz_compiled *c, int *out)
   /* dF/dq_i and dF/dq'_i, one seed each */
   for (int i = 0; ok && i < k; i++)
     for (int s = 0; s < 2 && ok; s++) {
-      for (int a = 0; a < n; a++) dir[a] = -1;
+      no_motion(dir, n);
       dir[nz_compiled_input_slot(c, s, i)] = one;
       int d = nz_graph_derivative(g, F, dir);
       if (d < 0) ok = 0;
@@ -326,14 +330,14 @@ static int build_mass_bias(nz_compiled *c, int *out)
     }
   /* M_ij = d(dF/dq'_i)/dq'_j */
   for (int j = 0; ok && j < k; j++) {
-    for (int a = 0; a < n; a++) dir[a] = -1;
+    no_motion(dir, n);
     dir[nz_compiled_input_slot(c, 1, j)] = one;
     if (nz_graph_derivatives(g, gqd, k, dir, tmp)) ok = 0;
     for (int i = 0; ok && i < k; i++) out[i * k + j] = tmp[i];
   }
   /* d/dt (dF/dq'_i) with q'' = 0: along t -> 1, q -> q' */
   if (ok) {
-    for (int a = 0; a < n; a++) dir[a] = -1;
+    no_motion(dir, n);
     dir[0] = one;
     for (int j = 0; j < k; j++) dir[nz_compiled_input_slot(c, 1, j)] = -1;
     for (int j = 0; j < k && ok; j++)
@@ -346,7 +350,7 @@ static int build_mass_bias(nz_compiled *c, int *out)
   for (int i = 0; ok && i < k; i++) {
     int h = nz_graph_op(g, NZ_GOP_SUB, tmp[i], gq[i]);
     if (V >= 0 && h >= 0) {
-      for (int a = 0; a < n; a++) dir[a] = -1;
+      no_motion(dir, n);
       dir[nz_compiled_input_slot(c, 0, i)] = one;
       int dV = nz_graph_derivative(g, V, dir);
       h = dV < 0 ? -1 : nz_graph_op(g, NZ_GOP_ADD, h, dV);
@@ -366,10 +370,10 @@ static int build_mass_bias(nz_compiled *c, int *out)
   return ok ? 0 : -1;
 }
 
-/* When every entry of M is a constant node, factor M once and keep M^-1
- * (k solves with unit right-hand sides), so that an acceleration costs a
- * product.  M stays unknown (m_const = 0) if it is not positive definite:
- * the general path reports that with the state. */
+/* When every entry of M is a constant node, factor M once and build
+ * q'' = -M^-1 h as a plan (M^-1 by k solves with unit right-hand sides), so
+ * that an acceleration costs one pass.  No plan if M is not positive
+ * definite: the general path reports that with the state. */
 static void invert_constant_mass(nz_compiled *c, const int *out)
 {
   int k = c->k;
@@ -389,13 +393,11 @@ static void invert_constant_mass(nz_compiled *c, const int *out)
     ok = nz_solve_spd_in(k, A, c->acc_rhs, minv + (size_t)j * (size_t)k, 0.0, &c->m_info, c->acc_work) == NZ_OK;
   }
   free(A);
-  if (!ok) { free(minv); return; }
-  c->minv = minv;
-  c->m_const = 1;
   /* q''_i = -sum_j (M^-1)_ij h_j, then F and V (checked) */
-  int *acc = malloc((size_t)(k + 2) * sizeof(int));
-  c->acc_out = malloc((size_t)(k + 2) * sizeof(double));
-  for (int i = 0; acc && c->acc_out && i < k; i++) {
+  int *acc = ok ? malloc((size_t)(k + 2) * sizeof(int)) : NULL;
+  c->acc_out = acc ? malloc((size_t)(k + 2) * sizeof(double)) : NULL;
+  if (!c->acc_out) { free(acc); acc = NULL; }
+  for (int i = 0; acc && i < k; i++) {
     int sum = nz_graph_const(c->g, 0.0);
     for (int j = 0; j < k && sum >= 0; j++) {
       int coef = nz_graph_const(c->g, -minv[(size_t)i * (size_t)k + (size_t)j]);
@@ -411,6 +413,7 @@ static void invert_constant_mass(nz_compiled *c, const int *out)
     if ((c->acc_plan = dplan_new(c->g, acc, k + 2))) dplan_load_cached(c, c->acc_plan);
   }
   free(acc);
+  free(minv);
 }
 
 static int mass_bias_ready(nz_compiled *c)
@@ -440,17 +443,26 @@ static int mass_bias_ready(nz_compiled *c)
   return c->mb_built > 0;
 }
 
-/* The inputs t, params, q, q' (slots 0 and 1) of a plan on doubles; the
- * loops are short (k is small), calls to memcpy would cost more. */
-static void state_inputs(const nz_compiled *c, double *in, double t, const double *q, const double *qd)
+/* The inputs of a plan on doubles: t, params, and slots 0 .. nfill-1 (those
+ * past the state's nstate levels 0); the loops are short (k is small),
+ * calls to memcpy would cost more. */
+static void fill_inputs(const nz_compiled *c, double *in, double t, const double *const *state,
+                        int nstate, int nfill)
 {
-  int k = c->k, base = 1 + c->np;
+  int k = c->k;
   in[0] = t;
   for (int p = 0; p < c->np; p++) in[1 + p] = c->params[p];
-  for (int i = 0; i < k; i++) {
-    in[base + i] = q[i];
-    in[base + k + i] = qd[i];
+  for (int j = 0; j < nfill; j++) {
+    double *slot = in + nz_compiled_input_slot(c, j, 0);
+    for (int i = 0; i < k; i++) slot[i] = j < nstate ? state[j][i] : 0.0;
   }
+}
+
+/* t, params, q and q' (the inputs M, h and q'' read). */
+static void state_inputs(const nz_compiled *c, double *in, double t, const double *q, const double *qd)
+{
+  const double *state[2] = { q, qd };
+  fill_inputs(c, in, t, state, 2, 2);
 }
 
 /* M and h at a state into c->mb_out; NZ_EARG when the graphs cannot. */
@@ -484,7 +496,10 @@ int nz_compiled_accel(void *ctx, double t, const double *q, const double *qd, do
 {
   nz_compiled *c = ctx;
   int k = c->k, st;
-  if (c->acc_plan && c->m_info.rcond >= rcond_min) {
+  if (!mass_bias_ready(c)) return NZ_EARG;
+  if (c->acc_plan) {
+    /* a constant M too badly conditioned: the jet path reports it */
+    if (!(c->m_info.rcond >= rcond_min)) return NZ_EARG;
     state_inputs(c, c->mb_in, t, q, qd);
     if (dplan_eval(c, c->acc_plan, c->mb_in, c->acc_out) != NZ_OK) return NZ_EARG;
     for (int i = 0; i < k; i++) qdd[i] = c->acc_out[i];
@@ -493,17 +508,6 @@ int nz_compiled_accel(void *ctx, double t, const double *q, const double *qd, do
   }
   if ((st = eval_mass_bias(c, t, q, qd))) return st;
   const double *h = c->mb_out + (size_t)k * (size_t)k;
-  if (c->m_const) {
-    if (!(c->m_info.rcond >= rcond_min)) return NZ_EARG;
-    for (int i = 0; i < k; i++) {
-      const double *row = c->minv + (size_t)i * (size_t)k;
-      double s = 0.0;
-      for (int j = 0; j < k; j++) s -= row[j] * h[j];
-      qdd[i] = s;
-    }
-    *info = c->m_info;
-    return NZ_OK;
-  }
   memcpy(c->acc_A, c->mb_out, (size_t)k * (size_t)k * sizeof(double));
   for (int i = 0; i < k; i++) c->acc_rhs[i] = -h[i];
   return nz_solve_spd_in(k, c->acc_A, c->acc_rhs, qdd, rcond_min, info, c->acc_work);
@@ -513,7 +517,7 @@ int nz_compiled_accel(void *ctx, double t, const double *q, const double *qd, do
  * slot j of q_i by slot j + 1 (none past the last slot). */
 static int motion_direction(nz_compiled *c, int *dir, int n)
 {
-  for (int a = 0; a < n; a++) dir[a] = -1;
+  no_motion(dir, n);
   if ((dir[0] = nz_graph_const(c->g, 1.0)) < 0) return -1;
   for (int j = 0; j + 1 < c->nslots; j++)
     for (int i = 0; i < c->k; i++)
@@ -558,14 +562,14 @@ static int build_row(nz_compiled *c, int r, int m, int *out)
   for (int j = 0; ok && j < K; j++)
     if ((out[j + 1] = nz_graph_derivative(c->g, out[j], dir)) < 0) ok = 0;
   for (int i = 0; ok && i < k; i++) {
-    for (int a = 0; a < n; a++) dir[a] = -1;
+    no_motion(dir, n);
     dir[nz_compiled_input_slot(c, 2, i)] = nz_graph_const(c->g, 1.0);
     if ((out[K + 1 + i] = nz_graph_derivative(c->g, out[K], dir)) < 0) ok = 0;
   }
   /* The check's derivatives of Phi along slot j (j > m), weighted by
    * nz_check_slot_weight: the caller scales them by the slots' sizes. */
   for (int j = m + 1; ok && j < NZ_CONSTRAINT_SLOTS; j++) {
-    for (int a = 0; a < n; a++) dir[a] = -1;
+    no_motion(dir, n);
     for (int i = 0; i < k && ok; i++)
       if ((dir[nz_compiled_input_slot(c, j, i)] = nz_graph_const(c->g, nz_check_slot_weight(j, i, k))) < 0) ok = 0;
     if (ok && (out[K + 1 + k + (j - m - 1)] = nz_graph_derivative(c->g, out[0], dir)) < 0) ok = 0;
@@ -593,10 +597,7 @@ int nz_compiled_constraint_row(void *ctx, int r, int m, double t, const double *
   }
   if (c->rows_built[at] < 0) return NZ_EARG;
   double *in = c->row_in, *o = c->row_out;
-  in[0] = t;
-  memcpy(in + 1, c->params, (size_t)c->np * sizeof(double));
-  for (int j = 0; j < c->nslots; j++)
-    for (int i = 0; i < k; i++) in[nz_compiled_input_slot(c, j, i)] = j < nstate ? state[j][i] : 0.0;
+  fill_inputs(c, in, t, state, nstate, c->nslots);
   int st = dplan_eval(c, c->rows[at], in, o);
   if (st) {
     describe_failure(c, c->rows[at]->plan, st);
