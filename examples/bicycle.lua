@@ -301,12 +301,8 @@ print(bicycle)
 local _, why = bicycle:rule()
 print(why)
 
--- What one constrained acceleration costs today (os.clock, CPU time).
-local q, qd = state(0.05, 0.02, 0.1, -0.1, -5 / p.rR)
-local t0 = os.clock()
-local n = 0
-repeat bicycle:accel(0, q, qd); n = n + 1 until os.clock() - t0 > 0.5
-print(("\nconstrained accel: %.2f ms per call (%d calls)"):format((os.clock() - t0) / n * 1e3, n))
+-- What recording, differentiation and a constrained acceleration cost:
+-- `make bench` (bench/bicycle.lua).
 
 -- The paper's linearized equations M q'' + v C1 q' + (g K0 + v^2 K2) q = 0
 -- with the matrices the paper publishes for the benchmark: the reference.
