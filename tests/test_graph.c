@@ -284,7 +284,7 @@ static double eval1(int root, const double *x, nz_status *st)
 static void check_folding(void)
 {
   nz_graph *g = nz_graph_new();
-  double v;
+  double v = 0.0;
   int c1 = nz_graph_const(g, 0.3), c2 = nz_graph_const(g, 1.2);
   int s = nz_graph_fn(g, NZ_FN_SIN, c1), e = nz_graph_fn(g, NZ_FN_EXP, c2);
   int q = nz_graph_op(g, NZ_GOP_ADD, nz_graph_const(g, 1.0), nz_graph_powc(g, c1, 2.0));
@@ -586,7 +586,7 @@ static void check_doubles(void)
   for (int e = 0; e < NEXPR; e++) {
     int root = record(e);
     /* A plan over every node so far: each node against its order-0 jet. */
-    int n = nz_graph_size(G), *all = malloc((size_t)n * sizeof *all);
+    int n = nz_graph_size(G), *all = calloc((size_t)n, sizeof *all);
     for (int i = 0; i < n; i++) all[i] = i;
     nz_graph_plan *p = nz_graph_plan_new(G, all, n);
     double *dv = malloc((size_t)n * sizeof *dv);
@@ -913,7 +913,7 @@ static void series_run(nz_graph_plan *p, nz_jet *const *ji, int nin, int K, nz_s
  * recurrences, run order by order instead of node by node. */
 static double series_against_jets(nz_graph *g, nz_jet **ji, int K, int *ok)
 {
-  int n = nz_graph_size(g), *all = malloc((size_t)n * sizeof *all);
+  int n = nz_graph_size(g), *all = calloc((size_t)n, sizeof *all);
   for (int i = 0; i < n; i++) all[i] = i;
   nz_graph_plan *p = nz_graph_plan_new(g, all, n);
   nz_jet **jo = malloc((size_t)n * sizeof *jo);

@@ -42,7 +42,11 @@ local function arg_error(fname, i, msg, ...)
   error(("%sbad argument #%d to '%s' (%s)"):format(user_where(), i, fname, msg:format(...)), 0)
 end
 
-local function finite(v) return type(v) == "number" and v == v and math.abs(v) ~= math.huge end
+-- v - v is 0 for a finite number, NaN for an infinite one or NaN; the
+-- checks run on every call of a method (sys:accel from a loop), so they
+-- use no global and no library function.
+local type, getmetatable = type, getmetatable
+local function finite(v) return type(v) == "number" and v - v == 0 end
 
 local function check_number(fname, i, name, v)
   if not finite(v) then arg_error(fname, i, "%s: a finite number expected, got %s", name, shown(v)) end
@@ -56,7 +60,10 @@ local function check_vector(self, fname, i, name, v, n, what)
       what or ("one per coordinate: " .. table.concat(self.coords, ", ")), shown(v))
   end
   for j = 1, n do
-    if not finite(v[j]) then arg_error(fname, i, "%s[%d]: a finite number expected, got %s", name, j, shown(v[j])) end
+    local x = v[j]
+    if type(x) ~= "number" or x - x ~= 0 then
+      arg_error(fname, i, "%s[%d]: a finite number expected, got %s", name, j, shown(x))
+    end
   end
 end
 

@@ -421,7 +421,7 @@ int nz_graph_fn(nz_graph *g, nz_jet_fn fn, int a)
 
 int nz_graph_op(nz_graph *g, nz_gop op, int a, int b)
 {
-  double v;
+  double v = 0.0;
   if (!valid(g, a)) return -1;
   if (op == NZ_GOP_NEG) return build_neg(g, a);
   if (!valid(g, b)) return -1;

@@ -366,61 +366,62 @@ static int hybrid_eval(void *vctx, nz_piece piece, int index, const nz_jet *t,
   return lua_eval(&b->ev, piece, index, t, levels, nlevels, out, dir);
 }
 
-/* Bind the recording at def.compiled, if any: read the parameters' current
- * values (def.compiled_params lists their names in input order). */
-static void bind_compiled(lua_State *L, int def, bound_system *b)
+/* ------------------------------------------------------------------ */
+/* The system's evaluator                                               */
+
+/* What a system is to the mechanics, made once per definition table and
+ * kept in it (def.evaluator, a userdata the collector frees with the
+ * table): the pieces it has, the slots of its constraints, its recording
+ * and the hooks on it.  A call binds it to the Lua state and the stack slot
+ * of def (nz_lua_bind_system: a bound_system on the C stack), so that a user
+ * function that calls the mechanics again (a force that asks for sys:accel)
+ * gets a frame of its own while sharing the object. */
+typedef struct system_object {
+  const void *def;            /* the table it was made for (a copy is another system) */
+  nz_system sys;              /* ev is set at binding */
+  struct nz_compiled *comp;   /* def.compiled, kept alive by def */
+  int np;                     /* parameters of the recording */
+} system_object;
+
+static const char *const SYSTEM_OBJECT = "nz.evaluator";
+
+/* The recording at def.compiled, if any, and its hooks. */
+static void object_compiled(lua_State *L, int def, system_object *o)
 {
-  if (lua_getfield(L, def, "compiled") != LUA_TUSERDATA || !(b->comp = nz_lua_tocompiled(L, -1))) {
+  if (lua_getfield(L, def, "compiled") != LUA_TUSERDATA || !(o->comp = nz_lua_tocompiled(L, -1))) {
     lua_pop(L, 1);
     return;
   }
-  lua_pop(L, 1);   /* def keeps it alive */
-  double *pv = nz_compiled_params(b->comp);
-  int np = nz_compiled_nparams(b->comp);
-  if (np > 0) {
-    lua_getfield(L, def, "compiled_params");
-    lua_getfield(L, def, "params");
-    for (int p = 0; p < np; p++) {
-      lua_geti(L, -2, p + 1);
-      lua_gettable(L, -2);
-      int isnum;
-      pv[p] = lua_tonumberx(L, -1, &isnum);
-      if (!isnum) {
-        lua_geti(L, -3, p + 1);
-        luaL_error(L, "system '%s': params.%s must stay a number (its functions were recorded reading it as one), got %s",
-                   nz_lua_system_name(L, def), lua_tostring(L, -1), luaL_typename(L, -2));
-      }
-      lua_pop(L, 1);
-    }
-    lua_pop(L, 2);
-  }
-  b->sys.ev.eval = hybrid_eval;
-  b->sys.ev.ctx = b;
+  lua_pop(L, 1);
+  o->np = nz_compiled_nparams(o->comp);
   if (lua_getfield(L, def, "compiled_mass_bias") == LUA_TBOOLEAN && lua_toboolean(L, -1)) {
-    b->sys.mass_bias = nz_compiled_mass_bias;
-    b->sys.accel = nz_compiled_accel;
+    o->sys.mass_bias = nz_compiled_mass_bias;
+    o->sys.accel = nz_compiled_accel;
   }
   lua_pop(L, 1);
-  b->sys.constraint_row = nz_compiled_constraint_row;
-  b->sys.mass_bias_ctx = b->comp;
+  o->sys.constraint_row = nz_compiled_constraint_row;
+  o->sys.mass_bias_ctx = o->comp;
 }
 
-/* ------------------------------------------------------------------ */
-/* Reading the system and the state                                     */
-
-
-void nz_lua_bind_system(lua_State *L, int def, bound_system *b)
+/* Make def's evaluator object (left on the stack). */
+static system_object *object_new(lua_State *L, int def)
 {
-  memset(b, 0, sizeof *b);
-  luaL_checktype(L, def, LUA_TTABLE);
+  system_object *o = lua_newuserdatauv(L, sizeof *o, 0);
+  memset(o, 0, sizeof *o);
+  if (luaL_newmetatable(L, SYSTEM_OBJECT)) {
+    lua_pushstring(L, SYSTEM_OBJECT);
+    lua_setfield(L, -2, "__name");
+  }
+  lua_setmetatable(L, -2);
+  o->def = lua_topointer(L, def);
   lua_getfield(L, def, "k");
-  b->sys.k = (int)lua_tointeger(L, -1);
+  o->sys.k = (int)lua_tointeger(L, -1);
   lua_pop(L, 1);
-  if (b->sys.k < 1) luaL_error(L, "internal: system definition without coordinates");
+  if (o->sys.k < 1) luaL_error(L, "internal: system definition without coordinates");
   for (int p = 0; p < NZ_PIECE_COUNT; p++) {
     if (lua_getfield(L, def, piece_fields[p]) == LUA_TTABLE && luaL_len(L, -1) > 0) {
-      b->sys.has |= 1u << p;
-      if (p == NZ_PIECE_PHI) b->sys.nc = (int)luaL_len(L, -1);
+      o->sys.has |= 1u << p;
+      if (p == NZ_PIECE_PHI) o->sys.nc = (int)luaL_len(L, -1);
     }
     lua_pop(L, 1);
   }
@@ -428,16 +429,74 @@ void nz_lua_bind_system(lua_State *L, int def, bound_system *b)
    * {n, levels...} kept alive by def. */
   if (lua_getfield(L, def, "constraint_levels") == LUA_TUSERDATA) {
     const int *lv = lua_touserdata(L, -1);
-    b->sys.nlevels = lv[0];
-    b->sys.levels = lv + 1;
+    o->sys.nlevels = lv[0];
+    o->sys.levels = lv + 1;
   }
   lua_pop(L, 1);
+  object_compiled(L, def, o);
+  return o;
+}
+
+/* def's evaluator object: made at the first call, made again when def is a
+ * copy of another definition or its recording changed (record.lua's
+ * differential check makes a copy without it). */
+static system_object *system_object_of(lua_State *L, int def)
+{
+  system_object *o = NULL;
+  if (lua_getfield(L, def, "evaluator") == LUA_TUSERDATA) o = luaL_testudata(L, -1, SYSTEM_OBJECT);
+  lua_pop(L, 1);
+  if (o && o->def == lua_topointer(L, def)) {
+    int same = lua_getfield(L, def, "compiled") == LUA_TUSERDATA ? nz_lua_tocompiled(L, -1) == o->comp : o->comp == NULL;
+    lua_pop(L, 1);
+    if (same) return o;
+  }
+  o = object_new(L, def);
+  lua_setfield(L, def, "evaluator");
+  return o;
+}
+
+/* The recording's parameters take their current values from def.params
+ * (def.compiled_params lists their names in input order). */
+static void read_params(lua_State *L, int def, struct nz_compiled *comp, int np)
+{
+  double *pv = nz_compiled_params(comp);
+  lua_getfield(L, def, "compiled_params");
+  lua_getfield(L, def, "params");
+  for (int p = 0; p < np; p++) {
+    lua_geti(L, -2, p + 1);
+    lua_gettable(L, -2);
+    int isnum;
+    pv[p] = lua_tonumberx(L, -1, &isnum);
+    if (!isnum) {
+      lua_geti(L, -3, p + 1);
+      luaL_error(L, "system '%s': params.%s must stay a number (its functions were recorded reading it as one), got %s",
+                 nz_lua_system_name(L, def), lua_tostring(L, -1), luaL_typename(L, -2));
+    }
+    lua_pop(L, 1);
+  }
+  lua_pop(L, 2);
+}
+
+void nz_lua_bind_system(lua_State *L, int def, bound_system *b)
+{
+  luaL_checktype(L, def, LUA_TTABLE);
+  def = lua_absindex(L, def);
+  system_object *o = system_object_of(L, def);
+  b->sys = o->sys;
+  b->comp = o->comp;
   b->ev.L = L;
-  b->ev.def = lua_absindex(L, def);
-  b->ev.k = b->sys.k;
-  b->sys.ev.eval = lua_eval;
-  b->sys.ev.ctx = &b->ev;
-  bind_compiled(L, b->ev.def, b);
+  b->ev.def = def;
+  b->ev.k = o->sys.k;
+  b->ev.where[0] = '\0';
+  b->ev.interrupted = 0;
+  if (b->comp) {
+    if (o->np > 0) read_params(L, def, b->comp, o->np);
+    b->sys.ev.eval = hybrid_eval;
+    b->sys.ev.ctx = b;
+  } else {
+    b->sys.ev.eval = lua_eval;
+    b->sys.ev.ctx = &b->ev;
+  }
 }
 
 /* Raise the error of a failed core call, with the system's name; a failed

@@ -1,5 +1,6 @@
 /* mech_graph.c - a system's recorded pieces behind nz_evaluator, and the
  * mass matrix and bias derived from them (mech_graph.h). */
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -117,7 +118,7 @@ static void dplan_compile(nz_compiled *c, dplan *d)
 
 /* Evaluate on doubles: natively when compiled (its refusal is confirmed by
  * the interpreter, which names the node), else interpreted. */
-static nz_status dplan_eval(nz_compiled *c, dplan *d, const double *in, double *out)
+static inline nz_status dplan_eval(nz_compiled *c, dplan *d, const double *in, double *out)
 {
   if (!d->tried && (c->native_mode == 1 || (c->native_mode < 0 && d->work >= d->earn)))
     dplan_compile(c, d);
@@ -370,6 +371,50 @@ static int build_mass_bias(nz_compiled *c, int *out)
   return ok ? 0 : -1;
 }
 
+/* Is every node under root defined wherever its inputs are finite?  Then a
+ * finite output says the function was defined, and F and V need not be
+ * evaluated beside the accelerations to be checked.  Sums, products,
+ * whole non-negative powers, division by a non-zero constant and the
+ * functions defined on the whole line qualify; log, sqrt, a division by a
+ * node, ... do not (log x at x < 0 fails while its derivative 1/x does
+ * not).  exp may overflow, but then so does its derivative in h: the
+ * output is not finite and the check of the plan catches it. */
+static int defined_everywhere(const nz_graph *g, int root)
+{
+  if (root < 0) return 1;
+  const nz_gnode *nd = nz_graph_nodes(g);
+  char *need = calloc((size_t)root + 1, 1);
+  int ok = need != NULL;
+  if (ok) need[root] = 1;
+  for (int x = root; x >= 0 && ok; x--) {
+    if (!need[x]) continue;
+    const nz_gnode *n = &nd[x];
+    switch (n->op) {
+    case NZ_GOP_CONST: case NZ_GOP_INPUT: continue;
+    case NZ_GOP_ADD: case NZ_GOP_SUB: case NZ_GOP_MUL: case NZ_GOP_NEG: case NZ_GOP_CMP: case NZ_GOP_SELECT:
+      break;
+    case NZ_GOP_DIV:
+      ok = nd[n->b].op == NZ_GOP_CONST && nd[n->b].v != 0.0;
+      break;
+    case NZ_GOP_POWC:
+      ok = n->v >= 0.0 && n->v == floor(n->v);
+      break;
+    case NZ_GOP_FN:
+      ok = n->fn == NZ_FN_SIN || n->fn == NZ_FN_COS || n->fn == NZ_FN_ATAN || n->fn == NZ_FN_TANH ||
+           n->fn == NZ_FN_EXP || n->fn == NZ_FN_SINH || n->fn == NZ_FN_COSH || n->fn == NZ_FN_ABS ||
+           n->fn == NZ_FN_SIGN;
+      break;
+    default:
+      ok = 0;
+    }
+    if (n->a >= 0) need[n->a] = 1;
+    if (n->b >= 0) need[n->b] = 1;
+    if (n->c >= 0) need[n->c] = 1;
+  }
+  free(need);
+  return ok;
+}
+
 /* When every entry of M is a constant node, factor M once and build
  * q'' = -M^-1 h as a plan (M^-1 by k solves with unit right-hand sides), so
  * that an acceleration costs one pass.  No plan if M is not positive
@@ -393,7 +438,10 @@ static void invert_constant_mass(nz_compiled *c, const int *out)
     ok = nz_solve_spd_in(k, A, c->acc_rhs, minv + (size_t)j * (size_t)k, 0.0, &c->m_info, c->acc_work) == NZ_OK;
   }
   free(A);
-  /* q''_i = -sum_j (M^-1)_ij h_j, then F and V (checked) */
+  /* q''_i = -sum_j (M^-1)_ij h_j, then F and V (checked) unless nothing in
+   * them can be undefined (Cartesian coordinates and polynomial potentials:
+   * a third of the plan of Henon-Heiles) */
+  int checks = !(defined_everywhere(c->g, out[k * k + k]) && defined_everywhere(c->g, out[k * k + k + 1]));
   int *acc = ok ? malloc((size_t)(k + 2) * sizeof(int)) : NULL;
   c->acc_out = acc ? malloc((size_t)(k + 2) * sizeof(double)) : NULL;
   if (!c->acc_out) { free(acc); acc = NULL; }
@@ -410,7 +458,7 @@ static void invert_constant_mass(nz_compiled *c, const int *out)
   if (acc) {
     acc[k] = out[k * k + k];
     acc[k + 1] = out[k * k + k + 1];
-    if ((c->acc_plan = dplan_new(c->g, acc, k + 2))) dplan_load_cached(c, c->acc_plan);
+    if ((c->acc_plan = dplan_new(c->g, acc, checks ? k + 2 : k))) dplan_load_cached(c, c->acc_plan);
   }
   free(acc);
   free(minv);
@@ -454,7 +502,8 @@ static void fill_inputs(const nz_compiled *c, double *in, double t, const double
   for (int p = 0; p < c->np; p++) in[1 + p] = c->params[p];
   for (int j = 0; j < nfill; j++) {
     double *slot = in + nz_compiled_input_slot(c, j, 0);
-    for (int i = 0; i < k; i++) slot[i] = j < nstate ? state[j][i] : 0.0;
+    if (j < nstate) memcpy(slot, state[j], (size_t)k * sizeof(double));
+    else memset(slot, 0, (size_t)k * sizeof(double));
   }
 }
 
@@ -500,9 +549,22 @@ int nz_compiled_accel(void *ctx, double t, const double *q, const double *qd, do
   if (c->acc_plan) {
     /* a constant M too badly conditioned: the jet path reports it */
     if (!(c->m_info.rcond >= rcond_min)) return NZ_EARG;
-    state_inputs(c, c->mb_in, t, q, qd);
-    if (dplan_eval(c, c->acc_plan, c->mb_in, c->acc_out) != NZ_OK) return NZ_EARG;
-    for (int i = 0; i < k; i++) qdd[i] = c->acc_out[i];
+    /* the inputs in line (slots 0 and 1 follow t and the parameters):
+     * this is the whole right-hand side of a Cartesian system, and a loop
+     * over k costs less than two calls of memcpy */
+    double *in = c->mb_in, *slot0 = in + 1 + c->np;
+    in[0] = t;
+    for (int p = 0; p < c->np; p++) in[1 + p] = c->params[p];
+    for (int i = 0; i < k; i++) {
+      slot0[i] = q[i];
+      slot0[k + i] = qd[i];
+    }
+    if (c->acc_plan->nout == k) {          /* no checks: q'' is the whole output */
+      if (dplan_eval(c, c->acc_plan, in, qdd) != NZ_OK) return NZ_EARG;
+    } else {
+      if (dplan_eval(c, c->acc_plan, in, c->acc_out) != NZ_OK) return NZ_EARG;
+      for (int i = 0; i < k; i++) qdd[i] = c->acc_out[i];
+    }
     *info = c->m_info;
     return NZ_OK;
   }
