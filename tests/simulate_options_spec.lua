@@ -247,32 +247,44 @@ describe("the work monitor's Jacobian row", function()
 end)
 
 describe("a run that stops making progress", function()
-  -- T = qd^2 (1 + log q) / 2: M = 1 + log q vanishes at q = 1/e, which the
-  -- motion from q = 0.5, qd = -1 reaches in finite time (qd^2 (1 + log q)
-  -- is conserved, so qd blows up).  Steps fall to 1e-15.
-  -- Whether the steps stall or GSL refuses one first turns on the last bits
-  -- of M (on the recorded graph GSL refuses first, at the same t and q, see
-  -- the last test): the stall detector is tested on the Lua evaluation.
-  local sys = nz.system{ name = "singular", coords = { "q" }, compile = false,
-    T = function(t, q, qd) return 0.5 * qd[1] ^ 2 * (1 + nz.log(q[1])) end }
-  for _, method in ipairs{ "rk8pd", "rkf45", "msbdf" } do
-    it(method .. " stops with the time, the state and M's singular values", function()
-      local ok, msg = pcall(sys.simulate, sys, { q0 = { 0.5 }, qd0 = { -1 }, t1 = 10, method = method })
-      assert(not ok, "expected a failure")
-      msg = tostring(msg)
-      contains(msg, THIS .. ":", "simulate 'singular': the integrator (" .. method .. ") stopped making progress",
-        "at t = 0.0907", "q = {0.36788", "singular values from", "smallest 0.307 at the start")
-      -- Steps counted: main ran forever; the window is 1000 steps and
-      -- the collapse takes a few thousand (measured 4,292 to 11,793).
-      assert(nz.last.stats.steps < 30000, ("%d steps"):format(nz.last.stats.steps))
-    end)
+  -- T = (1 - t/2) qd^2 / 2: M = 1 - t/2 vanishes at t = 2 while the
+  -- momentum (1 - t/2) qd stays 1, so qd = 1 / (1 - t/2) blows up and the
+  -- steps shrink to nothing just before t = 2.  The stall detector stops
+  -- the run there, with M's singular value, which is 1 - t/2 at the t it
+  -- names, and 1 at the start.  Both evaluators see the same M (the jets
+  -- take it as a derivative along q'', exactly) and stop at the same step.
+  for _, compile in ipairs{ true, false } do
+    local sys = nz.system{ name = "degenerating", coords = { "x" }, compile = compile,
+      T = function(t, q, qd) return 0.5 * (1 - t / 2) * qd[1] ^ 2 end }
+    for _, method in ipairs{ "rk8pd", "rkf45", "msbdf" } do
+      it(method .. (compile and "" or " (in Lua)") .. " stops with the time, the state and M's singular values", function()
+        local ok, msg = pcall(sys.simulate, sys, { q0 = { 0 }, qd0 = { 1 }, t1 = 3, method = method })
+        assert(not ok, "expected a failure")
+        msg = tostring(msg)
+        contains(msg, THIS .. ":", "simulate 'degenerating': the integrator (" .. method .. ") stopped making progress",
+          "at t = 1.99999", "smallest 1 at the start")
+        local t = tonumber(msg:match("at t = ([%d.e+-]+),"))
+        local smin = tonumber(msg:match("singular values from ([%d.e+-]+) to"))
+        -- the message rounds to 3 digits
+        assert(t and smin and math.abs(smin - (1 - t / 2)) <= 5e-3 * (1 - t / 2), msg)
+        -- the window is 1000 steps and the collapse takes a few thousand
+        -- (measured 2,201 to 6,307)
+        assert(nz.last.stats.steps < 30000, ("%d steps"):format(nz.last.stats.steps))
+      end)
+    end
   end
-  it("the recorded system stops there too, with a clear message", function()
-    local rec = nz.system{ name = "singular", coords = { "q" },
-      T = function(t, q, qd) return 0.5 * qd[1] ^ 2 * (1 + nz.log(q[1])) end }
-    local ok, msg = pcall(rec.simulate, rec, { q0 = { 0.5 }, qd0 = { -1 }, t1 = 10 })
-    assert(not ok, "expected a failure")
-    contains(tostring(msg), THIS .. ":", "'singular': the integrator (rk8pd)", "at t = 0.0907", "q = {0.367879")
+  it("a step GSL cannot make stops the run too, with the time and state", function()
+    -- T = qd^2 (1 + log q) / 2: M = 1 + log q vanishes at q = 1/e, which the
+    -- motion from q = 0.5, qd = -1 reaches in finite time (qd^2 (1 + log q)
+    -- is conserved, so qd blows up); here GSL refuses a step before the
+    -- steps stall, on either evaluator.
+    for _, compile in ipairs{ true, false } do
+      local rec = nz.system{ name = "singular", coords = { "q" }, compile = compile,
+        T = function(t, q, qd) return 0.5 * qd[1] ^ 2 * (1 + nz.log(q[1])) end }
+      local ok, msg = pcall(rec.simulate, rec, { q0 = { 0.5 }, qd0 = { -1 }, t1 = 10 })
+      assert(not ok, "expected a failure")
+      contains(tostring(msg), THIS .. ":", "'singular': the integrator (rk8pd)", "at t = 0.0907", "q = {0.367879")
+    end
   end)
 end)
 

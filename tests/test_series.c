@@ -1,14 +1,18 @@
 /* test_series.c - the coefficient kernels (series.c) and jets (jet.c) in C,
  * without Lua, against closed-form Taylor series; and the central-difference
- * Jacobian of constrained_series.c against a closed form.  GSL's test functions
+ * Jacobian of constrained_series.c against a closed form; the SPD solve of
+ * core/linalg.c against GSL's Cholesky and against an explicit inverse.  GSL's test functions
  * print one PASS/FAIL line per check (GSL_TEST_VERBOSE style). */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <gsl/gsl_linalg.h>
 #include <gsl/gsl_math.h>
 #include <gsl/gsl_sf_gamma.h>
 #include <gsl/gsl_test.h>
+#include "core/linalg.h"
+#include "core/status.h"
 #include "mech/constrained_series.h"
 #include "jets/jet.h"
 #include "jets/series.h"
@@ -213,12 +217,130 @@ static void check_coefficient_level(void)
   free(pw);
 }
 
+/* nz_solve_spd_in (hand-written Cholesky, Hager-Higham estimate) against a
+ * second path that shares none of its code: GSL's Cholesky solve, and the
+ * exact reciprocal condition number in the 1-norm from GSL's explicit
+ * inverse.  Matrices A = Q D Q^T with Q a product of reflections and D of
+ * a chosen condition, k = 1 .. 24. */
+static void spd_matrix(int k, double cond, unsigned seed, double *A)
+{
+  double *v = malloc((size_t)k * sizeof *v), *Q = malloc((size_t)k * (size_t)k * sizeof *Q);
+  for (int i = 0; i < k * k; i++) Q[i] = i % (k + 1) == 0 ? 1.0 : 0.0;
+  for (int r = 0; r < 3; r++) {                 /* Q = H3 H2 H1, H = I - 2 v v^T / v^T v */
+    double vv = 0.0;
+    for (int i = 0; i < k; i++) {
+      seed = seed * 1103515245u + 12345u;
+      v[i] = ((seed >> 8) & 0xffff) / 65536.0 - 0.5;
+      vv += v[i] * v[i];
+    }
+    for (int i = 0; i < k; i++) {             /* rows of Q times H */
+      double d = 0.0;
+      for (int j = 0; j < k; j++) d += Q[i * k + j] * v[j];
+      for (int j = 0; j < k; j++) Q[i * k + j] -= 2.0 * d * v[j] / vv;
+    }
+  }
+  for (int i = 0; i < k; i++)
+    for (int j = 0; j < k; j++) {
+      double s = 0.0;
+      for (int m = 0; m < k; m++) {
+        double dm = k == 1 ? 1.0 : pow(cond, -(double)m / (k - 1));   /* from 1 down to 1/cond */
+        s += Q[i * k + m] * dm * Q[j * k + m];
+      }
+      A[i * k + j] = s;
+    }
+  for (int i = 0; i < k; i++)                 /* exactly symmetric */
+    for (int j = 0; j < i; j++) A[j * k + i] = A[i * k + j];
+  free(v);
+  free(Q);
+}
+
+static void check_spd_solve(void)
+{
+  double worst_x = 0.0, worst_lo = 0.0, worst_hi = 0.0, worst_gsl = 0.0, worst_bound = -1.0;
+  int bad = 0, bounded = 0;
+  for (int k = 1; k <= 24; k++)
+    for (int c = 0; c < 3; c++) {
+      double cond = c == 0 ? 10.0 : c == 1 ? 1e4 : 1e9;
+      double *A = malloc((size_t)k * (size_t)k * sizeof *A), *F = malloc((size_t)k * (size_t)k * sizeof *F);
+      double *b = malloc((size_t)k * sizeof *b), *sol = malloc((size_t)k * sizeof *sol), x_unused[24];
+      double *work = malloc(nz_solve_spd_work_len(k) * sizeof *work);
+      spd_matrix(k, cond, 17u * (unsigned)k + (unsigned)c, A);
+      for (int i = 0; i < k; i++) b[i] = sin(1.0 + i);
+      memcpy(F, A, (size_t)k * (size_t)k * sizeof *F);
+      nz_solve_info info, est;
+      bad += nz_solve_spd_in(k, F, b, sol, 1e-14, &info, work) != NZ_OK;
+      /* rcond_min = 1 refuses every matrix but 1 x 1 ones after estimating rcond */
+      memcpy(F, A, (size_t)k * (size_t)k * sizeof *F);
+      nz_solve_spd_in(k, F, b, x_unused, 1.0, &est, work);
+      /* GSL: the solution, its estimate, and the exact 1-norm of A^-1 */
+      gsl_matrix *G = gsl_matrix_alloc((size_t)k, (size_t)k);
+      gsl_vector *gx = gsl_vector_alloc((size_t)k), *gw = gsl_vector_alloc(3 * (size_t)k);
+      gsl_vector_view gb = gsl_vector_view_array(b, (size_t)k);
+      double anorm = 0.0, inorm = 0.0, grcond;
+      for (int i = 0; i < k; i++) {
+        double s = 0.0;
+        for (int j = 0; j < k; j++) { s += fabs(A[i * k + j]); gsl_matrix_set(G, (size_t)i, (size_t)j, A[i * k + j]); }
+        anorm = fmax(anorm, s);
+      }
+      gsl_linalg_cholesky_decomp1(G);
+      gsl_linalg_cholesky_solve(G, &gb.vector, gx);
+      gsl_linalg_cholesky_rcond(G, &grcond, gw);
+      gsl_linalg_cholesky_invert(G);
+      for (int j = 0; j < k; j++) {
+        double s = 0.0;
+        for (int i = 0; i < k; i++) s += fabs(gsl_matrix_get(G, (size_t)i, (size_t)j));
+        inorm = fmax(inorm, s);
+      }
+      double exact = 1.0 / (anorm * inorm), xn = 0.0, dx = 0.0;
+      for (int i = 0; i < k; i++) {
+        xn = fmax(xn, fabs(gsl_vector_get(gx, (size_t)i)));
+        dx = fmax(dx, fabs(sol[i] - gsl_vector_get(gx, (size_t)i)));
+      }
+      /* both are backward stable: they differ by about cond * eps */
+      worst_x = fmax(worst_x, dx / xn / (cond * GSL_DBL_EPSILON));
+      /* the estimate of ||A^-1|| is a lower bound: rcond at least the exact one (which the
+       * explicit inverse knows to about cond eps), within a factor 3 */
+      worst_lo = fmax(worst_lo, (exact / est.rcond - 1.0) / (cond * GSL_DBL_EPSILON));
+      worst_hi = fmax(worst_hi, est.rcond / exact);
+      worst_gsl = fmax(worst_gsl, fmax(est.rcond / grcond, grcond / est.rcond));
+      /* the bound that spared the estimate is below the exact rcond */
+      worst_bound = fmax(worst_bound, (info.rcond / exact - 1.0) / (cond * GSL_DBL_EPSILON));
+      if (info.rcond < est.rcond) bounded++;
+      gsl_matrix_free(G);
+      gsl_vector_free(gx);
+      gsl_vector_free(gw);
+      free(A); free(F); free(b); free(sol); free(work);
+    }
+  gsl_test(bad != 0, "SPD solve: every matrix of condition 10, 1e4, 1e9 and k = 1..24 is solved (%d refused)", bad);
+  gsl_test(!(worst_x <= 50.0), "SPD solve: x against GSL's Cholesky within 50 cond eps (worst %.3g)", worst_x);
+  gsl_test(!(worst_lo <= 10.0), "SPD solve: rcond is never below the exact 1-norm one by more than 10 cond eps "
+           "(worst (exact/estimate - 1) / (cond eps) = %.3g)", worst_lo);
+  gsl_test(!(worst_hi <= 3.0), "SPD solve: rcond within a factor 3 of the exact one (worst %.3g)", worst_hi);
+  gsl_test(!(worst_gsl <= 3.0), "SPD solve: rcond within a factor 3 of GSL's estimate (worst %.3g)", worst_gsl);
+  gsl_test(!(worst_bound <= 10.0) || bounded < 30,
+           "SPD solve: the cheap bound that clears rcond_min (%d of 72 matrices) is below the exact rcond "
+           "(worst (bound/exact - 1) / (cond eps) = %.3g)", bounded, worst_bound);
+
+  /* refusals: not positive definite (with the eigenvalue range), and too badly conditioned */
+  double N[4] = { 1.0, 2.0, 2.0, 1.0 }, bb[2] = { 1.0, 1.0 }, xx[2], ws[2 * 2 + 6];
+  nz_solve_info info;
+  int st = nz_solve_spd_in(2, N, bb, xx, 1e-14, &info, ws);
+  gsl_test(st != NZ_ESINGULAR || !info.not_spd || fabs(info.eig_min + 1.0) > 1e-12 || fabs(info.eig_max - 3.0) > 1e-12,
+           "SPD solve: [[1, 2], [2, 1]] is refused as not positive definite, eigenvalues -1 .. 3 (%g .. %g)",
+           info.eig_min, info.eig_max);
+  double S[4] = { 1.0, 1.0, 1.0, 1.0 + 1e-15 };
+  st = nz_solve_spd_in(2, S, bb, xx, 1e-14, &info, ws);
+  gsl_test(st != NZ_ESINGULAR || info.not_spd || !(info.rcond < 1e-14),
+           "SPD solve: [[1, 1], [1, 1 + 1e-15]] is refused as too badly conditioned (rcond %.3g)", info.rcond);
+}
+
 int main(void)
 {
   check_central_jacobian();
   gsl_test_verbose(1);
   check_branches();
   check_coefficient_level();
+  check_spd_solve();
   double one[K + 1];
   variable(x, 0.0);
 

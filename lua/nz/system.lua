@@ -304,6 +304,12 @@ local ACCEL_OPTIONS = {
 }
 
 function System:accel(t, q, qd, opts)
+  -- The common call first: C reads and checks the state, and gives nil
+  -- when something is wrong with it, for the checks below to say what.
+  if opts == nil and self.nc == 0 then
+    local qdd = mech.accel_try(self.engine, t, q, qd)
+    if qdd then return qdd, {} end
+  end
   check_state(self, "accel", 1, t, q, qd)
   check_options("accel", 4, opts, ACCEL_OPTIONS)
   if opts and opts.qdd then check_vector(self, "accel", 4, "option 'qdd'", opts.qdd) end

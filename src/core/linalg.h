@@ -9,7 +9,9 @@
 #define NZ_RCOND_MIN 1e-13
 
 typedef struct nz_solve_info {
-  double rcond;        /* reciprocal condition estimate (0 if not computed)  */
+  double rcond;        /* reciprocal condition number in the 1-norm (0 if not
+                        * computed): Hager-Higham's estimate, or a lower bound
+                        * when a cheap one already clears rcond_min           */
   double eig_min;      /* smallest and largest eigenvalue, when diagnosed    */
   double eig_max;
   int not_spd;         /* 1 when the Cholesky factorization failed           */

@@ -97,6 +97,23 @@ void nz_lua_read_vector(lua_State *L, int idx, int k, double *v, const char *wha
   }
 }
 
+int nz_lua_try_vector(lua_State *L, int idx, int k, double *v)
+{
+  if (lua_type(L, idx) != LUA_TTABLE) return 0;
+  if (lua_getmetatable(L, idx)) {
+    lua_pop(L, 1);
+    return 0;
+  }
+  if (lua_rawlen(L, idx) != (lua_Unsigned)k) return 0;
+  for (int i = 0; i < k; i++) {
+    int ok = lua_rawgeti(L, idx, i + 1) == LUA_TNUMBER;
+    v[i] = lua_tonumber(L, -1);
+    lua_pop(L, 1);
+    if (!ok || !isfinite(v[i])) return 0;
+  }
+  return 1;
+}
+
 void nz_lua_push_vector(lua_State *L, const double *v, int k)
 {
   lua_createtable(L, k, 0);

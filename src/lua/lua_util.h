@@ -16,6 +16,11 @@ void nz_lua_fmt_num(char *buf, size_t n, double v);
 
 /* Arguments and results. */
 /* Read k finite numbers from the table at idx (nil gives zeros if allow_nil). */
+/* The same without raising: 1 when idx is a plain table (no metatable) of
+ * exactly k finite numbers (not strings), read into v; else 0.  For the
+ * fast path of a method whose Lua side checks the arguments only when this
+ * refuses them, to say what is wrong. */
+int nz_lua_try_vector(lua_State *L, int idx, int k, double *v);
 void nz_lua_read_vector(lua_State *L, int idx, int k, double *v, const char *what, int allow_nil,
                         const char *fname);
 void nz_lua_push_vector(lua_State *L, const double *v, int k);

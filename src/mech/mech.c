@@ -99,8 +99,9 @@ static int fit_jets(nz_jet ***v, int k, int K, int D)
 }
 
 /* The direction moves slot j's coefficient c by d(level j + c)/c!, where
- * only levels 0 (q) and 1 (q') move: slot 0 gets dq and dqd (q's series
- * holds q' as its first coefficient), slot 1 gets dqd. */
+ * only levels 0 (q), 1 (q') and, when dqdd is given, 2 (q'') move: slot 0
+ * gets dq and dqd (q's series holds q' as its first coefficient) and
+ * dqdd/2, slot 1 gets dqd and dqdd, slot 2 dqdd. */
 int nz_motion_set_direction(nz_motion *m, const nz_state_direction *d)
 {
   int k = m->k;
@@ -113,6 +114,11 @@ int nz_motion_set_direction(nz_motion *m, const nz_state_direction *d)
     m->dslot[0][i]->c[0] = d->dq[i];
     if (m->K >= 1) m->dslot[0][i]->c[1] = d->dqd[i];
     if (m->nslots > 1) m->dslot[1][i]->c[0] = d->dqd[i];
+    if (!d->dqdd) continue;
+    /* slot j holds q^(j+c)/c!: q'' is coefficient 2 - j of slot j */
+    if (m->K >= 2) m->dslot[0][i]->c[2] = d->dqdd[i] / 2.0;
+    if (m->nslots > 1 && m->K >= 1) m->dslot[1][i]->c[1] = d->dqdd[i];
+    if (m->nslots > 2) m->dslot[2][i]->c[0] = d->dqdd[i];
   }
   m->dir_on = 1;
   return NZ_OK;
@@ -508,23 +514,41 @@ int nz_mass_bias(const nz_system *s, double t, const double *q, const double *qd
   if (s->mass_bias && (st = s->mass_bias(s->mass_bias_ctx, t, q, qd, M, h)) != NZ_EARG) return st;
   double *buf = calloc((size_t)(5 * k), sizeof(double));
   if (!buf) return NZ_ENOMEM;
-  double *force = buf, *dFq = buf + k, *dF1 = buf + 2 * k, *qdd = buf + 3 * k, *r0 = buf + 4 * k;
-  const double *state[3] = { q, qd, qdd };
-  nz_motion mo = { 0 };   /* the k + 1 evaluations of F at order 1 share its jets */
+  double *force = buf, *dFq = buf + k, *dF1 = buf + 2 * k, *qdd = buf + 3 * k, *ej = buf + 4 * k;
+  const double *state[3] = { q, qd, qdd };   /* q'' = 0 */
+  nz_motion mo = { 0 };   /* the evaluations of F at order 1 share its jets */
   memset(M, 0, (size_t)k * (size_t)k * sizeof(double));
   if ((st = generalized_force(s, &mo, t, state, 3, force))) goto done;
   if (nz_system_has(s, NZ_PIECE_F)) {
     if ((st = top_partials(s, &mo, NZ_PIECE_F, 0, t, state, 3, dFq, NULL))) goto done;
     if ((st = top_partials(s, &mo, NZ_PIECE_F, 1, t, state, 3, dF1, NULL))) goto done;
   }
-  for (int i = 0; i < k; i++) h[i] = r0[i] = dF1[i] - 2.0 * dFq[i] - force[i];
-  if (nz_system_has(s, NZ_PIECE_F))
+  for (int i = 0; i < k; i++) h[i] = dF1[i] - 2.0 * dFq[i] - force[i];
+  if (!nz_system_has(s, NZ_PIECE_F)) goto done;
+  /* Column j of M: the residual is affine in q'', so the residual at
+   * q'' = e_j less h, k evaluations as cheap as h's. */
+  double hmax = 0.0, mmax = 0.0;
+  for (int j = 0; j < k; j++) {
+    qdd[j] = 1.0;
+    st = top_partials(s, &mo, NZ_PIECE_F, 1, t, state, 3, dF1, NULL);
+    qdd[j] = 0.0;
+    if (st) goto done;
+    for (int i = 0; i < k; i++) M[i * k + j] = (dF1[i] - 2.0 * dFq[i] - force[i]) - h[i];
+  }
+  for (int i = 0; i < k; i++) hmax = fmax(hmax, fabs(h[i]));
+  for (int e = 0; e < k * k; e++) mmax = fmax(mmax, fabs(M[e]));
+  /* That difference loses eps |h| of M: with h 1e4 times M or more (a mass
+   * matrix that degenerates while the velocity blows up: 1e16 times, and M
+   * came out 0), take each column again as the derivative of dF^(1)/dq'
+   * along q''_j, exact, at twice the cost. */
+  if (!(hmax <= 1e4 * mmax))
     for (int j = 0; j < k; j++) {
-      qdd[j] = 1.0;
-      st = top_partials(s, &mo, NZ_PIECE_F, 1, t, state, 3, dF1, NULL);
-      qdd[j] = 0.0;
+      ej[j] = 1.0;
+      nz_state_direction along = { 0.0, qdd, qdd, ej };   /* qdd: zeros */
+      st = top_partials_along(s, &mo, NZ_PIECE_F, 1, t, state, 3, dF1, NULL, &along, dFq);
+      ej[j] = 0.0;
       if (st) goto done;
-      for (int i = 0; i < k; i++) M[i * k + j] = (dF1[i] - 2.0 * dFq[i] - force[i]) - r0[i];
+      for (int i = 0; i < k; i++) M[i * k + j] = dFq[i];
     }
 done:
   nz_motion_free(&mo);

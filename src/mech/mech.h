@@ -127,10 +127,12 @@ typedef struct nz_motion {
   int dir_on;
 } nz_motion;
 
-/* A state direction: dt, and dq, dqd (k values each; q'' and above fixed). */
+/* A state direction: dt, and dq, dqd, dqdd (k values each; dqdd NULL: q''
+ * fixed, as every level above it). */
 typedef struct nz_state_direction {
   double dt;
   const double *dq, *dqd;
+  const double *dqdd;
 } nz_state_direction;
 
 /* Shape the workspace m (zeroed, or used before) and fill it with the

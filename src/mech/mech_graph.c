@@ -545,8 +545,7 @@ int nz_compiled_accel(void *ctx, double t, const double *q, const double *qd, do
 {
   nz_compiled *c = ctx;
   int k = c->k, st;
-  if (!mass_bias_ready(c)) return NZ_EARG;
-  if (c->acc_plan) {
+  if (c->acc_plan) {                    /* made by mass_bias_ready */
     /* a constant M too badly conditioned: the jet path reports it */
     if (!(c->m_info.rcond >= rcond_min)) return NZ_EARG;
     /* the inputs in line (slots 0 and 1 follow t and the parameters):
@@ -568,6 +567,8 @@ int nz_compiled_accel(void *ctx, double t, const double *q, const double *qd, do
     *info = c->m_info;
     return NZ_OK;
   }
+  if (!mass_bias_ready(c)) return NZ_EARG;
+  if (c->acc_plan) return nz_compiled_accel(ctx, t, q, qd, rcond_min, qdd, info);   /* the first call */
   if ((st = eval_mass_bias(c, t, q, qd))) return st;
   const double *h = c->mb_out + (size_t)k * (size_t)k;
   memcpy(c->acc_A, c->mb_out, (size_t)k * (size_t)k * sizeof(double));

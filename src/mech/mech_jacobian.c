@@ -65,7 +65,7 @@ int nz_ode_jacobian(const nz_system *s, const int *orders, const int *linear,
   for (int j = 0; j <= 2 * k; j++) {
     memset(e, 0, (size_t)k * sizeof(double));
     memset(zero, 0, (size_t)k * sizeof(double));
-    nz_state_direction dir = { j == 2 * k ? 1.0 : 0.0, j < k ? e : zero, (j >= k && j < 2 * k) ? e : zero };
+    nz_state_direction dir = { j == 2 * k ? 1.0 : 0.0, j < k ? e : zero, (j >= k && j < 2 * k) ? e : zero, NULL };
     if (j < 2 * k) e[j % k] = 1.0;
     if ((st = nz_nielsen_residual_along(s, t, state, &dir, r, dr))) goto done;
     for (int i = 0; i < k; i++) rhs[i] = -dr[i];
