@@ -780,6 +780,12 @@ nz_status nz_native_eval(const nz_native *f, const double *in, double *out)
   return f->eval(in, out, f->w) ? NZ_EDOM : NZ_OK;
 }
 
+nz_native_fn nz_native_entry(const nz_native *f, double **work)
+{
+  *work = f->w;
+  return f->eval;
+}
+
 void nz_native_free(nz_native *f)
 {
   if (!f) return;

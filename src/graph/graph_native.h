@@ -53,6 +53,11 @@ nz_native *nz_native_load(const nz_graph *g, const int *outputs, int n, const ch
                           char *why, size_t whylen);
 
 nz_status nz_native_eval(const nz_native *f, const double *in, double *out);
+/* The machine code itself, for a caller on a hot path whose in and out
+ * never overlap: fn(in, out, work) returns nonzero where nz_native_eval
+ * gives NZ_EDOM. */
+typedef int (*nz_native_fn)(const double *in, double *out, double *work);
+nz_native_fn nz_native_entry(const nz_native *f, double **work);
 
 void nz_native_free(nz_native *f);   /* NULL is harmless */
 

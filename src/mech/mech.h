@@ -93,7 +93,11 @@ typedef struct nz_system {
   int (*constraint_row)(void *ctx, int r, int m, double t, const double *const *state, int nstate,
                         double alpha, double beta, double *A, double *value,
                         const double *slot_sizes, double *high);
-  void *mass_bias_ctx;   /* of all three */
+  /* Optional: the whole first-order right-hand side f = (q', q'') of a free
+   * system at y = (q, q'), when the recording has its fastest form (a
+   * constant M's q'' in machine code); NZ_EARG: take accel. */
+  int (*free_rhs)(void *ctx, double t, const double *y, double rcond_min, double *f);
+  void *mass_bias_ctx;   /* of all four */
 } nz_system;
 
 static inline int nz_system_has(const nz_system *s, nz_piece p) { return (s->has >> p) & 1u; }

@@ -576,6 +576,26 @@ int nz_compiled_accel(void *ctx, double t, const double *q, const double *qd, do
   return nz_solve_spd_in(k, c->acc_A, c->acc_rhs, qdd, rcond_min, info, c->acc_work);
 }
 
+int nz_compiled_free_rhs(void *ctx, double t, const double *y, double rcond_min, double *f)
+{
+  nz_compiled *c = ctx;
+  dplan *d = c->acc_plan;
+  int k = c->k;
+  if (!d || !d->native || d->nout != k || !(c->m_info.rcond >= rcond_min)) return NZ_EARG;
+  double *restrict in = c->mb_in, *restrict slot0 = in + 1 + c->np, *work, z = 0.0;
+  in[0] = t;
+  for (int p = 0; p < c->np; p++) in[1 + p] = c->params[p];
+  /* slots 0 and 1 are q and q', as in y; y_i - y_i is 0 unless y_i is not
+   * finite, a state the caller reports */
+  for (int i = 0; i < 2 * k; i++) {
+    slot0[i] = y[i];
+    z += y[i] - y[i];
+  }
+  if (z != 0.0 || nz_native_entry(d->native, &work)(in, f + k, work)) return NZ_EARG;
+  for (int i = 0; i < k; i++) f[i] = y[k + i];
+  return NZ_OK;
+}
+
 /* The direction of D, the derivative along the motion: t moves by 1 and
  * slot j of q_i by slot j + 1 (none past the last slot). */
 static int motion_direction(nz_compiled *c, int *dir, int n)

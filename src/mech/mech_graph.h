@@ -62,6 +62,12 @@ int nz_compiled_mass_bias(void *ctx, double t, const double *q, const double *qd
 struct nz_solve_info;
 int nz_compiled_accel(void *ctx, double t, const double *q, const double *qd, double rcond_min,
                       double *qdd, struct nz_solve_info *info);
+/* The free_rhs hook of nz_system: f = (q', q'') from y = (q, q') in one
+ * call of the machine code of q'' = -M^-1 h, for a constant M without F
+ * and V to check; NZ_EARG otherwise (not built yet, interpreted, checked,
+ * M too badly conditioned for rcond_min, a state that is not finite, or a
+ * refusal at this state), when nz_compiled_accel answers. */
+int nz_compiled_free_rhs(void *ctx, double t, const double *y, double rcond_min, double *f);
 /* The row of constraint r of order m at the acceleration level (the
  * constraint_row hook of nz_system): D^(2-m) Phi with D the derivative
  * along the motion (t -> 1, slot j -> slot j + 1), built on the graph the

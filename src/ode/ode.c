@@ -182,15 +182,19 @@ static int rhs(double t, const double y[], double f[], void *params)
   nz_ode *o = params;
   int k = o->k;
   o->nfev++;
+  /* A free system whose recording has its q'' in machine code: straight to
+   * it, into f (it refuses a state that is not finite, for the check below
+   * to report).  This is the whole per-call cost of a small system, and
+   * each layer between here and the machine code costs as much as its
+   * arithmetic: Henon-Heiles' RHS is 16 ns in hand-written C. */
+  if (o->nc == 0 && !o->work && o->s->free_rhs &&
+      o->s->free_rhs(o->s->mass_bias_ctx, t, y, o->accel.rcond_min, f) == NZ_OK)
+    return GSL_SUCCESS;
   for (int i = 0; i < o->dim; i++)
     if (!isfinite(y[i])) return fail(o, NZ_ODE_FAIL_NONFINITE, NZ_ERANGE, t, y);
   if (o->level) return level_rhs(o, t, y, f);
   int st;
-  if (o->nc == 0 && !o->work && o->s->accel) {
-    /* A free system whose recording solves q'' on doubles: straight to it,
-     * into f.  This is the whole per-call cost of a small system (each
-     * layer between here and the machine code costs as much as its
-     * arithmetic: Henon-Heiles' RHS is 16 ns in hand-written C). */
+  if (o->nc == 0 && !o->work && o->s->accel) {   /* the same through the accel hook */
     st = o->s->accel(o->s->mass_bias_ctx, t, y, y + k, o->accel.rcond_min, f + k, &o->failure.mass);
     if (st != NZ_EARG) {
       if (st) return fail(o, st == NZ_ESINGULAR ? NZ_ODE_FAIL_MASS : NZ_ODE_FAIL_FUNCTION, st, t, y);
