@@ -22,9 +22,18 @@ local function state(k)
   return q, qd
 end
 
-local c_out = timing.run(root .. "build/pendulum_c")
-local c_ns = {}
-for k, ns in c_out:gmatch("\n%s*(%d+)%s+([%d.]+)") do c_ns[tonumber(k)] = tonumber(ns) * 1e-9 end
+-- The C program's time per call for each k.  It runs again beside each
+-- row (before and after nzlua's measurements, the mean of the two): on a
+-- shared machine the speed drifts by 2x within a minute, and a ratio is
+-- only fair between neighbours.
+local c_out
+local function c_times()
+  c_out = timing.run(root .. "build/pendulum_c")
+  local ns = {}
+  for k, v in c_out:gmatch("\n%s*(%d+)%s+([%d.]+)") do ns[tonumber(k)] = tonumber(v) * 1e-9 end
+  return ns
+end
+local c_ns = c_times()
 
 -- The agreement at k = 8, at the C program's own state.
 local q8, qd8, a8 = timing.vector(c_out, "q8"), timing.vector(c_out, "qd8"), timing.vector(c_out, "qdd8")
@@ -51,12 +60,12 @@ for _, k in ipairs(ks) do
     break
   end
   local q, qd = state(k)
+  local c_before = c_times()[k]
   local sysi, sysn = chain(k, false), chain(k, true)
   sysn:accel(0, q, qd)           -- compiles (or loads from the cache) before timing
   local ti, n = timing.per_call(function() sysi:accel(0, q, qd) end, { budget = 1.0 })
   local t = timing.per_call(function() sysn:accel(0, q, qd) end, { budget = 1.0 })
   local growth = last and math.log(t / last.t) / math.log(k / last.k)
-  local growth_c = last and math.log(c_ns[k] / c_ns[last.k]) / math.log(k / last.k)
   local g = timing.graph_line(sysi, ti, "accel") or ""
   local nfev = 0
   local ts = timing.per_call(function()
@@ -64,6 +73,8 @@ for _, k in ipairs(ks) do
     nfev = tr.stats.nfev
   end, { budget = 1.0 })
   ts = ts / nfev
+  c_ns[k] = (c_before + c_times()[k]) / 2
+  local growth_c = last and math.log(c_ns[k] / c_ns[last.k]) / math.log(k / last.k)
   print(("%4d %12s %12s %12s %8.1fx %8.1fx %12s %8.1fx %5d %8s %8s  %s"):format(k, timing.fmt(ti, 12), timing.fmt(t, 12),
     timing.fmt(c_ns[k], 12), ti / c_ns[k], t / c_ns[k], timing.fmt(ts, 12), ts / c_ns[k], n,
     growth and ("%.2f"):format(growth) or "", growth_c and ("%.2f"):format(growth_c) or "", g))
@@ -71,5 +82,6 @@ for _, k in ipairs(ks) do
 end
 print(("agreement at k = 8: max |qdd nzlua - qdd C| / max |qdd C| = %.1e (%s 1e-10)"):format(rel,
   rel <= 1e-10 and "within" or "NOT within: the two models differ"))
-print("notes: wall-clock medians; C: median of 9 loops of >= 10 ms each; state th_i = 0.7 sin(1.3 i + 0.5),")
+print("notes: wall-clock medians; C: median of 9 loops of >= 10 ms each, run just before and just after the row")
+print("  (the mean of the two: the machine's speed drifts); state th_i = 0.7 sin(1.3 i + 0.5),")
 print("  thd_i = 0.9 cos(0.7 i + 0.2); runs = timed samples of nzlua (one call or more each)")
