@@ -640,19 +640,25 @@ static int ls_mass_bias(lua_State *L)
   return 2;
 }
 
+/* Solve M qdd = -h into qdd and push it, or raise (accel and accel_try). */
+static int push_accel(lua_State *L, bound_system *b, double t, const double *q, const double *qd,
+                      double rcond_min, double *qdd)
+{
+  nz_solve_info info;
+  int st = nz_accel(&b->sys, t, q, qd, rcond_min, qdd, &info);
+  if (st == NZ_ESINGULAR) return nz_lua_raise_singular_mass(L, 1, t, q, qd, b->sys.k, &info);
+  if (st) return nz_lua_raise_core(L, b, st, "accel");
+  nz_lua_push_vector(L, qdd, b->sys.k);
+  return 1;
+}
+
 /* accel(def, t, q, qd [, rcond_min]) -> qdd: solves M qdd = -h by Cholesky. */
 static int ls_accel(lua_State *L)
 {
   bound_system b;
   double t, *q = nz_lua_bind_tq_qd(L, 5, &b, 1, 0, &t, "accel");
   int k = b.sys.k;
-  double *qd = q + k, *qdd = q + 2 * k, rcond_min = luaL_optnumber(L, 5, NZ_RCOND_MIN);
-  nz_solve_info info;
-  int st = nz_accel(&b.sys, t, q, qd, rcond_min, qdd, &info);
-  if (st == NZ_ESINGULAR) return nz_lua_raise_singular_mass(L, 1, t, q, qd, k, &info);
-  if (st) return nz_lua_raise_core(L, &b, st, "accel");
-  nz_lua_push_vector(L, qdd, k);
-  return 1;
+  return push_accel(L, &b, t, q, q + k, luaL_optnumber(L, 5, NZ_RCOND_MIN), q + 2 * k);
 }
 
 /* accel_try(def, t, q, qd) -> qdd, or nil when t, q or qd is not what
@@ -673,12 +679,7 @@ static int ls_accel_try(lua_State *L)
     lua_pushnil(L);
     return 1;
   }
-  nz_solve_info info;
-  int st = nz_accel(&b.sys, t, q, qd, NZ_RCOND_MIN, qdd, &info);
-  if (st == NZ_ESINGULAR) return nz_lua_raise_singular_mass(L, 1, t, q, qd, k, &info);
-  if (st) return nz_lua_raise_core(L, &b, st, "accel");
-  nz_lua_push_vector(L, qdd, k);
-  return 1;
+  return push_accel(L, &b, t, q, qd, NZ_RCOND_MIN, qdd);
 }
 
 /* energy(def, t, q, qd) -> T (nil without T), V, F, H */
