@@ -237,6 +237,13 @@ end
 -- A list of numbers (not an options table): multipliers.
 local function is_list(v) return type(v) == "table" and getmetatable(v) == nil and v[1] ~= nil end
 
+-- The options' checkers, made once (not on every call).
+local RESIDUAL_OPTIONS = {
+  form = function(v) return type(v) == "string", "a form name" end,
+  higher = function(v) return type(v) == "table", "a list {q3, q4, ...} of derivatives" end,
+}
+local EQUATIONS_OPTIONS = { quiet = boolean }
+
 function System:residual(n, t, q, qd, qdd, a6, a7)
   check_order("residual", n)
   if type(t) ~= "number" then arg_error("residual", 2, "t: a number expected, got %s", shown(t)) end
@@ -251,10 +258,7 @@ function System:residual(n, t, q, qd, qdd, a6, a7)
   local form, higher = "generalized", nil
   if type(opts) == "string" then form = opts
   elseif type(opts) == "table" and getmetatable(opts) == nil then
-    check_options("residual", oi, opts, {
-      form = function(v) return type(v) == "string", "a form name" end,
-      higher = function(v) return type(v) == "table", "a list {q3, q4, ...} of derivatives" end,
-    })
+    check_options("residual", oi, opts, RESIDUAL_OPTIONS)
     form, higher = opts.form or form, opts.higher
     for j, v in ipairs(higher or {}) do check_vector(self, "residual", oi, ("higher[%d]"):format(j), v) end
   elseif opts ~= nil then
@@ -426,7 +430,7 @@ function System:equations(n, t, q, qd, qdd, opts)
   check_order("equations", n)
   check_state(self, "equations", 2, t, q, qd)
   if qdd ~= nil then check_vector(self, "equations", 5, "qdd", qdd) end
-  check_options("equations", 6, opts, { quiet = boolean })
+  check_options("equations", 6, opts, EQUATIONS_OPTIONS)
   n = n or self:rule()
   local given = qdd ~= nil
   qdd = qdd or self:accel(t, q, qd)
