@@ -391,7 +391,12 @@ static int lo_event_value(lua_State *L)
   luaL_argcheck(L, eb->plans && e >= 0 && e < eb->n, 2, "no such event");
   double t = luaL_checknumber(L, 3), g;
   double *y = lua_newuserdatauv(L, 2 * (size_t)eb->k * sizeof(double) + 1, 0);
-  nz_lua_read_vector(L, 4, 2 * eb->k, y, "y", 0, "simulate");
+  luaL_checktype(L, 4, LUA_TTABLE);
+  for (int i = 0; i < 2 * eb->k; i++) {   /* q, qd: the start of a state that may hold more */
+    lua_geti(L, 4, i + 1);
+    y[i] = luaL_checknumber(L, -1);
+    lua_pop(L, 1);
+  }
   if (events_eval(eb, e, t, y, &g)) lua_pushnil(L);
   else lua_pushnumber(L, g);
   return 1;
