@@ -3,10 +3,14 @@
 -- output grid, locates events, projects onto the constraints, records the
 -- monitors a scene asked for (and nothing else), shows progress on a
 -- terminal, and keeps what it computed when interrupted or when it fails.
--- A run without events and without projection goes through the same loop
--- written in C (src/ode/ode_run.c, run_c below), which returns here only to hand
--- over output points, draw the progress, warn of a long run, or stop; the
--- two give the same trajectory to the bit (tests/simulate_loop_spec.lua).
+-- A run goes through the same loop written in C (src/ode/ode_run.c, run_c
+-- below), which watches the events (recorded once as graphs) and the drift
+-- off the constraints after every step, and returns here only to locate an
+-- event, to project, to hand over output points, draw the progress, warn of
+-- a long run, or stop; the two give the same trajectory to the bit
+-- (tests/simulate_loop_spec.lua).  The Lua loop (run below) remains for an
+-- event function that cannot be recorded and for projection with
+-- constraints of order >= 3 (tr.stats.loop_why says which).
 -- The option _loop = "lua" | "c" forces one: internal, for tests and bench/.
 local core = require "nz.core"
 local constraints = require "nz.constraints"
@@ -765,12 +769,17 @@ function M.simulate(sys, opts)
     tr.status = "done"
   end
 
-  -- The same loop in C (src/ode/ode_run.c), used when nothing in it calls Lua per
-  -- step: no events, no projection.  It returns here only to hand over the
-  -- output points (every 1024, and at the end), at the step counts where
-  -- long_run looks, every 0.2 s while the progress bar shows, and to stop
-  -- (done, stalled, interrupted, failed); each step's arithmetic mirrors
-  -- run() above, so both give the same trajectory and statistics to the bit.
+  -- The same loop in C (src/ode/ode_run.c).  It returns here only to hand
+  -- over the output points (every 1024, and at the end), at the step counts
+  -- where long_run looks, every 0.2 s while the progress bar shows, when an
+  -- event crossed in the last step ("event": located and recorded here by
+  -- on_event, as run() does; the C loop then goes on with the next event of
+  -- the same step), when the violation exceeds project_tol ("project": the
+  -- violation is computed in C by nz_state_violation, the very numbers of
+  -- state_violation(), so both loops project at the same steps; projected
+  -- here and written back), and to stop (done, stalled, interrupted,
+  -- failed); each step's arithmetic mirrors run() above, so both give the
+  -- same trajectory and statistics to the bit.
   -- The C loop hands its points over to tr at each return (or raise):
   -- t, q, qd, qdd, lambda, and in pend each point's state and root, from
   -- which catch_up records the rest.  Ctrl-C's hook may cut catch_up short:
