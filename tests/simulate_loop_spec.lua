@@ -217,9 +217,10 @@ describe("events in the C loop (recorded once as graphs, evaluated in C after ev
     end
     assert.are.equal(#a.events, #b.events)
   end)
-  it("a stopping event: the point where it stops ends the trajectory", function()
-    local _, b = both(pendulum, { q0 = { 1 }, t1 = 5, dt = 0.1,
+  it("a stopping event: the point where it stops ends the trajectory (with the monitors recorded there)", function()
+    local _, b = both(pendulum, { q0 = { 1 }, t1 = 5, dt = 0.1, monitors = { energy = true },
       events = { { f = function(t, q) return q[1] end, direction = -1, stop = true, name = "down" } } })
+    assert.are.equal(#b.t, #b.energy)
     assert.are.equal("stopped", b.status)
     assert.are.equal(1, #b.events)
     assert.are.equal(b.events[1].t, b.t[#b.t])
@@ -291,6 +292,8 @@ describe("events in the C loop (recorded once as graphs, evaluated in C after ev
       pendulum, { q0 = { 1 }, t1 = 2, events = { { f = ev, name = "branchy" } }, _loop = "c" })
     h.checkerror("'_loop' (internal, for tests) must be \"lua\" or \"c\", got \"fast\"", pendulum.simulate, pendulum,
       { q0 = { 1 }, t1 = 0.2, _loop = "fast" })
+    h.checkerror("simulate 'pendulum': event 1: 'direction' must be 1 (rising), -1 (falling) or 0 (either way), got 0.5",
+      pendulum.simulate, pendulum, { q0 = { 1 }, t1 = 0.2, events = { { f = function(t) return t end, direction = 0.5 } } })
   end)
   it("an event that fails mid-run where its graph fails: the same message, from its Lua function", function()
     -- nz.sqrt(q) records; where q < 0 the graph fails and the Lua function

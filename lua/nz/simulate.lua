@@ -196,7 +196,11 @@ local function check_events(sys, cfg)
     if type(ev) ~= "table" or type(ev.f) ~= "function" then
       fail(sys, "event %d must be {f = function(t, q, qd) ... end [, stop = true, direction = 1 or -1, name = ...]}, got %s", i, show(ev))
     end
-    events[i] = { f = ev.f, stop = ev.stop, name = ev.name or ("event " .. i), direction = ev.direction or 0, index = i }
+    local dir = ev.direction or 0
+    if dir ~= 0 and dir ~= 1 and dir ~= -1 then
+      fail(sys, "event %d: 'direction' must be 1 (rising), -1 (falling) or 0 (either way), got %s", i, show(ev.direction))
+    end
+    events[i] = { f = ev.f, stop = ev.stop, name = ev.name or ("event " .. i), direction = dir, index = i }
   end
   cfg.events = events
 end

@@ -484,6 +484,7 @@ static int run_gc(lua_State *L)
  * "project" when the violation exceeds it. */
 static int lo_run_new(lua_State *L)
 {
+  lua_settop(L, 2);
   ode_box *ob = check_ode(L, 1);
   luaL_checktype(L, 2, LUA_TTABLE);
   nz_run_config c;
