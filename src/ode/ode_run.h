@@ -64,8 +64,8 @@ typedef enum nz_run_status {
   NZ_RUN_FAILED,             /* a step, an output point, an event or the violation */
                              /* failed (nz_run_failure_of says which)              */
   NZ_RUN_EVENT,              /* an event crossed in the last step (nz_run_event)   */
-  NZ_RUN_PROJECT             /* the violation exceeds project_tol: project, then   */
-                             /* nz_run_set_state and call again                    */
+  NZ_RUN_PROJECT             /* the violation exceeds project_tol (or is NaN):     */
+                             /* project, nz_run_set_state, and call again          */
 } nz_run_status;
 
 typedef enum nz_run_failure {
@@ -86,7 +86,11 @@ void nz_run_free(nz_run *r);
  * pause right after the accepted step that makes the count equal to it (0:
  * never); pause_wall: pause after the first step at or past this monotonic
  * time in seconds (0: never).  On NZ_RUN_FAILED, *status holds the nz
- * status of the failing call and nz_ode_last_failure(o) the details. */
+ * status of the failing call and, when nz_run_failure_of says
+ * NZ_RUN_FAIL_ODE, nz_ode_last_failure(o) the details.  The order within a
+ * step is the Lua loop's: step, violation (NZ_RUN_PROJECT), count, stall,
+ * pause at a step count, events in their order (NZ_RUN_EVENT), pause at a
+ * wall time; a call after a return goes on from there. */
 nz_run_status nz_run_advance(nz_run *r, const nz_system *s, unsigned long pause_step, double pause_wall,
                              int *status);
 
