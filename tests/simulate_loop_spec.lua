@@ -197,27 +197,204 @@ describe("constrained systems", function()
       q3d0 = { 0.3, 0.6 }, t1 = 0.5, dt = 0.1 })
     assert(a.higher and #a.higher == #a.t)
   end)
-  it("project = true needs the Lua loop: taken by default, refused when the C loop is forced", function()
+end)
+
+describe("events in the C loop (recorded once as graphs, evaluated in C after every step)", function()
+  -- th crosses 0 about every 1 s at this amplitude; qd crosses 0 at the turns.
+  it("several events, either way, rising and falling, none stopping", function()
+    local a, b = both(pendulum, { q0 = { 1 }, t1 = 5, dt = 0.1, events = {
+      { f = function(t, q) return q[1] end, name = "zero" },
+      { f = function(t, q, qd) return qd[1] end, direction = 1, name = "left turn" },
+      { f = function(t, q, qd) return qd[1] end, direction = -1, name = "right turn" } } })
+    assert.are.equal("done", b.status)
+    local n = {}
+    for _, ev in ipairs(b.events) do n[ev.name] = (n[ev.name] or 0) + 1 end
+    assert(n.zero >= 4 and n["left turn"] >= 2 and n["right turn"] >= 2, #b.events)
+    -- the turns alternate: a rising qd is a left turn (th at its minimum)
+    for _, ev in ipairs(b.events) do
+      if ev.name == "left turn" then assert(ev.q[1] < 0) end
+      if ev.name == "right turn" then assert(ev.q[1] > 0) end
+    end
+    assert.are.equal(#a.events, #b.events)
+  end)
+  it("a stopping event: the point where it stops ends the trajectory (with the monitors recorded there)", function()
+    local _, b = both(pendulum, { q0 = { 1 }, t1 = 5, dt = 0.1, monitors = { energy = true },
+      events = { { f = function(t, q) return q[1] end, direction = -1, stop = true, name = "down" } } })
+    assert.are.equal(#b.t, #b.energy)
+    assert.are.equal("stopped", b.status)
+    assert.are.equal(1, #b.events)
+    assert.are.equal(b.events[1].t, b.t[#b.t])
+    assert(math.abs(b.q[#b.q][1]) < 1e-10, b.q[#b.q][1])
+  end)
+  it("two events in one step: both, in their order; the C loop resumes with the next event of the step", function()
+    -- fixed steps of 0.1: t = 0.33 and t = 0.36 fall in the step [0.3, 0.4]
+    local _, b = both(pendulum, { q0 = { 0.5 }, t1 = 1, dt = 0.5, step = 0.1, method = "rk4",
+      events = { function(t) return t - 0.36 end, function(t) return t - 0.33 end, function(t) return t - 0.72 end } })
+    assert.are.equal(3, #b.events)
+    assert.are.equal("event 1", b.events[1].name)          -- in the order of the list, not of time
+    assert.are.equal("event 2", b.events[2].name)
+    assert(math.abs(b.events[1].t - 0.36) < 1e-11 and math.abs(b.events[2].t - 0.33) < 1e-11, b.events[2].t)
+    -- the first of the two stops: the second, in the same step, is not seen
+    local _, c = both(pendulum, { q0 = { 0.5 }, t1 = 1, dt = 0.5, step = 0.1, method = "rk4",
+      events = { { f = function(t) return t - 0.36 end, stop = true }, function(t) return t - 0.33 end } })
+    assert.are.equal(1, #c.events)
+    assert.are.equal("stopped", c.status)
+  end)
+  it("an event at an output time (a step lands on the zero)", function()
+    local _, b = both(pendulum, { q0 = { 1 }, t1 = 0.1, dt = 0.005, events = { function(t) return t - 0.05 end } })
+    assert.are.equal(1, #b.events)
+    assert.are.equal(0.05, b.events[1].t)
+    assert.are.equal(21, #b.t)
+  end)
+  it("a parameter and a branch written with nz.ifelse are recorded; events and projection together", function()
     local s = systems.cartesian_pendulum()
     math.randomseed(7)
     local t0, q0, qd0 = s.draw()
-    local tr = s.sys:simulate{ t0 = t0, q0 = q0, qd0 = qd0, t1 = 0.5, project = true }
+    s.sys.params.level = 0.2
+    local _, b = both(s.sys, { t0 = t0, q0 = q0, qd0 = qd0, t1 = 20, rtol = 1e-6, atol = 1e-8, project = true,
+      events = { function(t, q, qd, params) return nz.ifelse(nz.gt(q[2], 0), 1, q[2] + params.level) end,
+                 { f = function(t, q) return q[1] end, direction = 1 } } })
+    s.sys.params.level = nil
+    assert(b.projections >= 2, b.projections)
+    assert(#b.events >= 2, #b.events)
+  end)
+  it("events on a system with a moving constraint and the work monitor, bsimp", function()
+    local m, R, W = 0.3, 0.5, 4.0
+    local hoop = nz.system{ name = "driven hoop", coords = { "th", "ph" },
+      T = function(t, q, qd) return 0.5 * m * R * R * (qd[1] ^ 2 + nz.sin(q[1]) ^ 2 * qd[2] ^ 2) end,
+      V = function(t, q) return -m * g * R * nz.cos(q[1]) end,
+      constraints = { function(t, q) return q[2] - W * t end } }
+    local _, b = both(hoop, { q0 = { 0.7, 0 }, qd0 = { 0.3, W }, t1 = 2, dt = 0.1, method = "bsimp", monitors = { work = true },
+      events = { function(t, q, qd) return qd[1] end } })
+    assert(#b.events >= 1)
+  end)
+  it("the located times are those of the events' Lua functions (a system not recorded) to 1e-10", function()
+    local plain = nz.system{ name = "pendulum", coords = { "th" }, compile = false,
+      T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end,
+      V = function(t, q) return -g * nz.cos(q[1]) end }
+    local opts = { q0 = { 1 }, t1 = 5, events = { function(t, q) return q[1] * q[1] - 0.25 end } }
+    local a, b = plain:simulate(opts), pendulum:simulate(opts)
+    assert.are.equal("lua", a.stats.loop)
+    assert.truthy(a.stats.loop_why:find("compile = false", 1, true), a.stats.loop_why)
+    assert.are.equal("c", b.stats.loop)
+    assert.are.equal(#a.events, #b.events)
+    assert(#a.events >= 8, #a.events)
+    for i = 1, #a.events do assert(math.abs(a.events[i].t - b.events[i].t) < 1e-10, i) end
+  end)
+  it("an event function that branches in Lua keeps the run in the Lua loop, and says why", function()
+    local ev = function(t, q) if q[1] > 0.5 then return 1 end return q[1] - 0.25 end
+    local tr = pendulum:simulate{ q0 = { 1 }, t1 = 2, events = { { f = ev, name = "branchy" } } }
     assert.are.equal("lua", tr.stats.loop)
-    h.checkerror("'_loop' = \"c\": this run needs the Lua loop", s.sys.simulate, s.sys,
-      { t0 = t0, q0 = q0, qd0 = qd0, t1 = 0.5, project = true, _loop = "c" })
+    assert.truthy(tr.stats.loop_why:find("event 'branchy' cannot be recorded (compares a traced value", 1, true), tr.stats.loop_why)
+    assert.truthy(tr.stats.loop_why:find("simulate_loop_spec.lua:", 1, true), tr.stats.loop_why)
+    assert(#tr.events >= 1)
+    h.checkerror("'_loop' = \"c\": this run needs the Lua loop (event 'branchy' cannot be recorded", pendulum.simulate,
+      pendulum, { q0 = { 1 }, t1 = 2, events = { { f = ev, name = "branchy" } }, _loop = "c" })
+    h.checkerror("'_loop' (internal, for tests) must be \"lua\" or \"c\", got \"fast\"", pendulum.simulate, pendulum,
+      { q0 = { 1 }, t1 = 0.2, _loop = "fast" })
+    h.checkerror("simulate 'pendulum': event 1: 'direction' must be 1 (rising), -1 (falling) or 0 (either way), got 0.5",
+      pendulum.simulate, pendulum, { q0 = { 1 }, t1 = 0.2, events = { { f = function(t) return t end, direction = 0.5 } } })
+  end)
+  it("an event that fails mid-run where its graph fails: the same message, from its Lua function", function()
+    -- nz.sqrt(q) records; where q < 0 the graph fails and the Lua function
+    -- raises, with the event's name, the time and the state
+    local msg, last = both_fail(pendulum, { q0 = { 1 }, t1 = 2, dt = 0.1,
+      events = { { f = function(t, q) return nz.sqrt(q[1]) - 0.5 end, name = "root" } } })
+    assert.truthy(msg:find("simulate 'pendulum': event 'root' raised an error at t = ", 1, true), msg)
+    assert.truthy(msg:find("'sqrt' of a negative value", 1, true), msg)
+    assert.are.equal("failed", last.status)
+    assert(#last.events >= 1, #last.events)
+  end)
+end)
+
+describe("projection in the C loop (the violation computed in C)", function()
+  it("a holonomic pendulum in Cartesian coordinates over a long run projects several times", function()
+    local s = systems.cartesian_pendulum()
+    math.randomseed(7)
+    local t0, q0, qd0 = s.draw()
+    local _, b = both(s.sys, { t0 = t0, q0 = q0, qd0 = qd0, t1 = 20, rtol = 1e-7, atol = 1e-9, project = true })
+    assert(b.projections >= 5, b.projections)
+    for n = 1, #b.t do assert(b.violation[n] <= simulate.PROJECT_TOL * 1.0001, b.violation[n]) end
+  end)
+  it("a fixed step (rk4) and a multistep method (msbdf, reset at each projection)", function()
+    local s = systems.cartesian_pendulum()
+    math.randomseed(8)
+    local t0, q0, qd0 = s.draw()
+    local _, b = both(s.sys, { t0 = t0, q0 = q0, qd0 = qd0, t1 = 5, dt = 0.1, step = 0.01, method = "rk4", project = true })
+    assert(b.projections >= 5, b.projections)
+    local _, c = both(s.sys, { t0 = t0, q0 = q0, qd0 = qd0, t1 = 1, method = "msbdf", rtol = 1e-7, atol = 1e-9, project = true })
+    assert(c.projections >= 2, c.projections)
+  end)
+  it("nonholonomic: the rolling disk (rkf45, msadams) and the Chaplygin sleigh (msbdf)", function()
+    -- tolerances loose enough for the velocity constraints to drift past
+    -- the projection's tolerance within 20 s
+    for _, c in ipairs{ { systems.rolling_disk, { method = "rkf45", rtol = 1e-3, atol = 1e-5, dt = 5 } },
+                        { systems.rolling_disk, { method = "msadams", rtol = 1e-4, atol = 1e-6 } },
+                        { systems.sleigh, { method = "msbdf", rtol = 1e-5, atol = 1e-7 } } } do
+      local s, opts = c[1](), c[2]
+      math.randomseed(9)
+      opts.t0, opts.q0, opts.qd0 = s.draw()
+      opts.t1, opts.project = 20, true
+      local _, b = both(s.sys, opts)
+      assert(b.projections >= 2, s.name .. ": " .. b.projections)
+    end
+  end)
+  it("the violation in C is constraints.violation's, to the bit, on and off the constraints", function()
+    local m, R, W = 0.3, 0.5, 4.0
+    local hoop = { sys = nz.system{ name = "driven hoop", coords = { "th", "ph" },
+      T = function(t, q, qd) return 0.5 * m * R * R * (qd[1] ^ 2 + nz.sin(q[1]) ^ 2 * qd[2] ^ 2) end,
+      constraints = { function(t, q) return q[2] - W * t end } },
+      draw = function() return 0.3, { 0.2, 1.2 }, { 0.1, W } end }
+    local constraints = require "nz.constraints"
+    math.randomseed(10)
+    local checked = 0
+    for _, s in ipairs{ systems.cartesian_pendulum(), systems.rolling_disk(), systems.sleigh(), systems.appell(), hoop } do
+      local orders = {}
+      for r, c in ipairs(constraints.classify(s.sys)) do orders[r] = c.order end
+      for trial = 1, 20 do
+        local t, q, qd = s.draw()
+        local y = {}
+        for i = 1, s.sys.k do   -- off the constraints by up to 1e-3 .. 1 after the first trials
+          local eps = trial <= 2 and 0 or 10 ^ (-3 * math.random())
+          y[i], y[s.sys.k + i] = q[i] + eps * (math.random() - 0.5), qd[i] + eps * (math.random() - 0.5)
+        end
+        local q2, qd2 = {}, {}
+        for i = 1, s.sys.k do q2[i], qd2[i] = y[i], y[s.sys.k + i] end
+        local want = constraints.violation(s.sys, t, q2, qd2)
+        local got = mech.ode_run_violation(s.sys.engine, orders, t, y)
+        assert.are.equal(bits(want), bits(got))
+        checked = checked + 1
+      end
+    end
+    assert.are.equal(100, checked)
+  end)
+  it("at level p >= 3 projection stays in the Lua loop: taken by default, refused when the C loop is forced", function()
+    local mass, F1, F2, l0 = 1.7, 0.3, -0.45, 0.385
+    local sys = nz.system{ name = "servo4", coords = { "x", "y" },
+      T = function(t, q, qd) return 0.5 * mass * (qd[1] ^ 2 + qd[2] ^ 2) end,
+      Q = function() return { F1, F2 } end,
+      constraints = { function(t, q, qd, qdd, qddd, q4d, params) return q4d[1] + 2 * q4d[2] - nz.cos(t) end } }
+    local opts = { q0 = { -0.3, 0.8 }, qd0 = { 0.05, 0.4 }, qdd0 = { (F1 + l0) / mass, (F2 + 2 * l0) / mass },
+      q3d0 = { 0.3, 0.6 }, t1 = 0.5, dt = 0.1, project = true }
+    local tr = sys:simulate(opts)
+    assert.are.equal("lua", tr.stats.loop)
+    assert.truthy(tr.stats.loop_why:find("project = true with constraints of order 4", 1, true), tr.stats.loop_why)
+    opts._loop = "c"
+    h.checkerror("'_loop' = \"c\": this run needs the Lua loop (project = true with constraints of order 4", sys.simulate, sys, opts)
   end)
 end)
 
 describe("which loop runs", function()
-  it("the C loop by default; events take the Lua loop", function()
+  it("the C loop by default, with events and with projection", function()
     assert.are.equal("c", pendulum:simulate{ q0 = { 1 }, t1 = 0.2 }.stats.loop)
     local tr = pendulum:simulate{ q0 = { 1 }, t1 = 0.2, events = { function(t) return t - 0.1 end } }
-    assert.are.equal("lua", tr.stats.loop)
+    assert.are.equal("c", tr.stats.loop)
+    assert.is_nil(tr.stats.loop_why)
     assert.are.equal(1, #tr.events)
-    h.checkerror("'_loop' = \"c\": this run needs the Lua loop", pendulum.simulate, pendulum,
-      { q0 = { 1 }, t1 = 0.2, events = { function(t) return t - 0.1 end }, _loop = "c" })
-    h.checkerror("'_loop' (internal, for tests) must be \"lua\" or \"c\", got \"fast\"", pendulum.simulate, pendulum,
-      { q0 = { 1 }, t1 = 0.2, _loop = "fast" })
+    local s = systems.cartesian_pendulum()
+    math.randomseed(7)
+    local t0, q0, qd0 = s.draw()
+    assert.are.equal("c", s.sys:simulate{ t0 = t0, q0 = q0, qd0 = qd0, t1 = 0.5, project = true }.stats.loop)
   end)
   it("the internal option is not offered among the options", function()
     local ok, err = pcall(pendulum.simulate, pendulum, { q0 = { 1 }, t1 = 1, nope = 1 })

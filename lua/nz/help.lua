@@ -238,6 +238,8 @@ Methods (t a number, q, qd, qdd tables of k numbers):
         that will take over a minute or 1e7 steps says so once (with a larger
         dt or step when the grid or fixed steps set the count) and goes on;
         one whose steps stop advancing t stops with the state and M.
+        Event functions are recorded and watched in C; one that cannot be
+        recorded keeps the run in Lua (tr.stats.loop_why says why).
   print(sys)                 a summary]] },
   { name = "forms", section = "mechanics", usage = "nz.forms",
     summary = "the names of the forms of the equations sys:residual accepts" },

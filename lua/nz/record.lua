@@ -353,6 +353,39 @@ function M.compile(engine, levels, native)
 end
 
 -- ------------------------------------------------------------------ --
+-- Functions of the state (simulate's event functions)                  --
+
+-- Record functions f(t, q, qd, params) of engine's state, each returning a
+-- number, into a graph of their own (inputs numbered as the system's:
+-- src/mech/mech_graph.h), each checked against its function at the sample
+-- state as a system's functions are.  Returns { compiled =, nodes = {one
+-- node per function}, params = {names}, values = {their values now} }, or
+-- nil, the index of the first function that cannot be recorded, and why.
+function M.state_functions(engine, list)
+  local k = engine.k
+  local names = {}
+  for name, v in pairs(engine.params) do
+    if type(name) == "string" and type(v) == "number" then names[#names + 1] = name end
+  end
+  table.sort(names)
+  local index, values = {}, {}
+  for p, name in ipairs(names) do index[name], values[p] = p, engine.params[name] end
+  local c = core.mech.compiled_new(k, #names, 0, 2)
+  local pproxy = param_proxy(c, engine.params, index)
+  local nodes = {}
+  for i, f in ipairs(list) do
+    local ids, why = record_function(c, f, 2, k, pproxy, false)
+    if ids then
+      local ok, bad = check(c, f, ids, 2, k, names, engine.params)
+      if not ok then ids, why = nil, bad end
+    end
+    if not ids then return nil, i, why end
+    nodes[i] = ids[1]
+  end
+  return { compiled = c, nodes = nodes, params = names, values = values }
+end
+
+-- ------------------------------------------------------------------ --
 -- The differential check (NZ_GRAPH_CHECK=1 in the environment)         --
 
 -- Every compiled piece against the Lua evaluator on the same jets: values,

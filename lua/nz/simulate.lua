@@ -3,13 +3,18 @@
 -- output grid, locates events, projects onto the constraints, records the
 -- monitors a scene asked for (and nothing else), shows progress on a
 -- terminal, and keeps what it computed when interrupted or when it fails.
--- A run without events and without projection goes through the same loop
--- written in C (src/ode/ode_run.c, run_c below), which returns here only to hand
--- over output points, draw the progress, warn of a long run, or stop; the
--- two give the same trajectory to the bit (tests/simulate_loop_spec.lua).
+-- A run goes through the same loop written in C (src/ode/ode_run.c, run_c
+-- below), which watches the events (recorded once as graphs) and the drift
+-- off the constraints after every step, and returns here only to locate an
+-- event, to project, to hand over output points, draw the progress, warn of
+-- a long run, or stop; the two give the same trajectory to the bit
+-- (tests/simulate_loop_spec.lua).  The Lua loop (run below) remains for an
+-- event function that cannot be recorded and for projection with
+-- constraints of order >= 3 (tr.stats.loop_why says which).
 -- The option _loop = "lua" | "c" forces one: internal, for tests and bench/.
 local core = require "nz.core"
 local constraints = require "nz.constraints"
+local record_graph = require "nz.record"
 local trajectory = require "nz.trajectory"
 
 local mech = core.mech
@@ -191,7 +196,11 @@ local function check_events(sys, cfg)
     if type(ev) ~= "table" or type(ev.f) ~= "function" then
       fail(sys, "event %d must be {f = function(t, q, qd) ... end [, stop = true, direction = 1 or -1, name = ...]}, got %s", i, show(ev))
     end
-    events[i] = { f = ev.f, stop = ev.stop, name = ev.name or ("event " .. i), direction = ev.direction or 0 }
+    local dir = ev.direction or 0
+    if dir ~= 0 and dir ~= 1 and dir ~= -1 then
+      fail(sys, "event %d: 'direction' must be 1 (rising), -1 (falling) or 0 (either way), got %s", i, show(ev.direction))
+    end
+    events[i] = { f = ev.f, stop = ev.stop, name = ev.name or ("event " .. i), direction = dir, index = i }
   end
   cfg.events = events
 end
@@ -547,9 +556,36 @@ function M.simulate(sys, opts)
     return yy
   end
 
+  -- The event functions, recorded once on tracers (nz/record.lua) into a
+  -- graph evaluated in C (mech.ode_events_new): both loops take the values
+  -- from it, at the start, after every step and while locating, so that
+  -- they see the same numbers (the graph and the Lua function agree to
+  -- rounding, not to the bit, and a last bit of g moves a located time).
+  -- Where the graph fails at a state (a domain error), the Lua function is
+  -- called: it gives the value, or raises with the user's line.  A function
+  -- that cannot be recorded (a Lua branch on the state, math.* on it), or a
+  -- system made with compile = false, keeps every event in Lua, and the run
+  -- in the Lua loop (tr.stats.loop_why says why).
+  local evals, events_why = nil, nil
+  if #cfg.events > 0 then
+    if not sys.recording then
+      events_why = "the system is not recorded (compile = false): its event functions run in Lua"
+    else
+      local fs = {}
+      for i, ev in ipairs(cfg.events) do fs[i] = ev.f end
+      local rec, bad, why = record_graph.state_functions(engine, fs)
+      if rec then evals = mech.ode_events_new(rec.compiled, rec.nodes, rec.values, k)
+      else events_why = ("event '%s' cannot be recorded (%s)"):format(cfg.events[bad].name, why) end
+    end
+  end
+
   -- An event function that raises: its own file:line first (the fault is
   -- there), then the system, the event, the time and the state.
   local function event_value(ev, t, yy)
+    if evals then
+      local g = mech.ode_event_value(evals, ev.index, t, yy)
+      if g then return g end
+    end
     local q, qd = split(yy, k)
     local ok, v = pcall(ev.f, t, q, qd, sys.params)
     if not ok then
@@ -688,6 +724,21 @@ function M.simulate(sys, opts)
     end
   end
 
+  -- Event e crossed in the step from (ta, ya) to (tb, yb): locate it and
+  -- record it; true when it stops the run (its point recorded).
+  local function on_event(e, ta, ya, ga, tb, gb, yb)
+    local ev = cfg.events[e]
+    local te, ye = locate(ev, ta, ya, ga, tb, gb, yb)
+    local q, qd = split(ye, k)
+    tr.events[#tr.events + 1] = { name = ev.name, t = te, q = q, qd = qd }
+    if ev.stop then
+      record(te, ye)
+      tr.status, tr.message = "stopped", ("event '%s' at t = %.12g"):format(ev.name, te)
+      return true
+    end
+    return false
+  end
+
   local function run()
     record(t, y)
     for i, ev in ipairs(cfg.events) do gvals[i] = event_value(ev, t, y) end
@@ -712,16 +763,7 @@ function M.simulate(sys, opts)
         watch(t)
         for e, ev in ipairs(cfg.events) do
           local g = event_value(ev, t, y)
-          if crosses(ev, gvals[e], g) then
-            local te, ye = locate(ev, ta, ya, gvals[e], t, g, y)
-            local q, qd = split(ye, k)
-            tr.events[#tr.events + 1] = { name = ev.name, t = te, q = q, qd = qd }
-            if ev.stop then
-              record(te, ye)
-              tr.status, tr.message = "stopped", ("event '%s' at t = %.12g"):format(ev.name, te)
-              return
-            end
-          end
+          if crosses(ev, gvals[e], g) and on_event(e, ta, ya, gvals[e], t, g, y) then return end
           gvals[e] = g
         end
         update(t, function() return mech.ode_stats(ode).steps end)
@@ -731,12 +773,17 @@ function M.simulate(sys, opts)
     tr.status = "done"
   end
 
-  -- The same loop in C (src/ode/ode_run.c), used when nothing in it calls Lua per
-  -- step: no events, no projection.  It returns here only to hand over the
-  -- output points (every 1024, and at the end), at the step counts where
-  -- long_run looks, every 0.2 s while the progress bar shows, and to stop
-  -- (done, stalled, interrupted, failed); each step's arithmetic mirrors
-  -- run() above, so both give the same trajectory and statistics to the bit.
+  -- The same loop in C (src/ode/ode_run.c).  It returns here only to hand
+  -- over the output points (every 1024, and at the end), at the step counts
+  -- where long_run looks, every 0.2 s while the progress bar shows, when an
+  -- event crossed in the last step ("event": located and recorded here by
+  -- on_event, as run() does; the C loop then goes on with the next event of
+  -- the same step), when the violation exceeds project_tol ("project": the
+  -- violation is computed in C by nz_state_violation, the very numbers of
+  -- state_violation(), so both loops project at the same steps; projected
+  -- here and written back), and to stop (done, stalled, interrupted,
+  -- failed); each step's arithmetic mirrors run() above, so both give the
+  -- same trajectory and statistics to the bit.
   -- The C loop hands its points over to tr at each return (or raise):
   -- t, q, qd, qdd, lambda, and in pend each point's state and root, from
   -- which catch_up records the rest.  Ctrl-C's hook may cut catch_up short:
@@ -751,20 +798,37 @@ function M.simulate(sys, opts)
       cdone = n
     end
   end
+  local projecting = cfg.project and sys.nc > 0
   local function run_c()
+    local directions, orders = {}, {}
+    for e, ev in ipairs(cfg.events) do directions[e] = ev.direction end
+    if projecting then for r, c in ipairs(constraints.classify(sys)) do orders[r] = c.order end end
     crun = mech.ode_run_new(ode, { t0 = cfg.t0, t1 = cfg.t1, dt = cfg.dt, step = cfg.step, h0 = h, y = y,
-      stall_window = M.STALL.window, stall_fraction = M.STALL.fraction })
+      stall_window = M.STALL.window, stall_fraction = M.STALL.fraction,
+      events = evals, directions = directions,
+      fallback = evals and function(e, tt, yy) return event_value(cfg.events[e], tt, yy) end,
+      project_tol = projecting and project_tol or 0, orders = orders })
     -- The bar's next drawing time stays put across the returns that hand
     -- points over ("full"), which may come more often than it.
     local next_draw = mech.now() + M.PROGRESS_PAUSE
     while true do
-      local ok, status, advance = pcall(mech.ode_run, crun, engine, tr, pend, not announced and next_check or 0,
-        progress and next_draw or 0)
+      local ok, status, a1, a2, a3, a4, a5, a6, a7 = pcall(mech.ode_run, crun, engine, tr, pend,
+        not announced and next_check or 0, progress and next_draw or 0)
       t, y, nsteps = mech.ode_run_state(crun)       -- for the messages (the interrupt's t, stalled's state)
       catch_up()
       if not ok then error(status, 0) end
       if status == "done" then tr.status = "done"; return end
-      if status == "stalled" then stalled(t, advance) end
+      if status == "stalled" then stalled(t, a1) end
+      if status == "project" then                   -- project(t), past its test (made in C)
+        y = project_state(t, y)
+        tr.projections = tr.projections + 1
+        if multistep then mech.ode_reset(ode) end
+        mech.ode_run_set_state(crun, y)
+      end
+      if status == "event" and on_event(a1, a2, a3, a4, a5, a6, a7) then
+        cdone = #tr.t                               -- its point recorded whole by record()
+        return
+      end
       if status == "paused" and nsteps == next_check and not announced then  -- watch(t), its second half
         next_check = 2 * next_check
         announced = long_run(t)
@@ -777,11 +841,18 @@ function M.simulate(sys, opts)
   end
 
   -- The C loop when it can do the run; cfg._loop forces one (tests, bench).
-  local in_c = #cfg.events == 0 and not (cfg.project and sys.nc > 0)
-  if cfg._loop == "c" and not in_c then
-    fail(sys, "'_loop' = \"c\": this run needs the Lua loop (it has events or projects onto the constraints)")
+  -- What keeps a run in Lua: an event function that is not recorded, and
+  -- projection at a level p >= 3 (the violation of the levels above qd,
+  -- constraints.level_violation and top_rows, is computed in Lua only).
+  local loop_why = events_why
+  if projecting and p then
+    loop_why = ("project = true with constraints of order %d: the violation at the levels above qd is computed in Lua"):format(p)
   end
-  if cfg._loop == "lua" then in_c = false end
+  local in_c = loop_why == nil
+  if cfg._loop == "c" and not in_c then
+    fail(sys, "'_loop' = \"c\": this run needs the Lua loop (%s)", loop_why)
+  end
+  if cfg._loop == "lua" and in_c then in_c, loop_why = false, "_loop = \"lua\"" end
   local ok, err = pcall(in_c and run_c or run)
   if crun then                 -- what an interrupt cut short (the hook fires once)
     t = mech.ode_run_state(crun)
@@ -791,7 +862,7 @@ function M.simulate(sys, opts)
   done()
   local s = mech.ode_stats(ode)
   tr.stats = { steps = s.steps, rejected = s.rejected, nfev = s.nfev, njev = s.njev, wall = mech.now() - wall0,
-    loop = in_c and "c" or "lua" }
+    loop = in_c and "c" or "lua", loop_why = loop_why }
   if not ok then
     local msg = tostring(err)
     if rawequal(err, core.interrupted) then     -- by identity: a user's message may say "interrupted!"

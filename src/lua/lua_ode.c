@@ -4,19 +4,23 @@
  * call), and a failure is raised after GSL has returned, with the time, the
  * state and what went wrong. */
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 #include <time.h>
 #include <unistd.h>
 #include <lauxlib.h>
 #include "core/interrupt.h"
+#include "lua/lua_graph.h"
 #include "lua/lua_ode.h"
 #include "lua/lua_system.h"
 #include "lua/lua_util.h"
+#include "mech/constrained.h"
 #include "ode/ode.h"
 #include "ode/ode_run.h"
 
 #define NZ_ODE_METATABLE "nz.ode"
 #define NZ_RUN_METATABLE "nz.ode_run"
+#define NZ_EVENTS_METATABLE "nz.ode_events"
 
 typedef struct ode_box {
   nz_ode *o;
@@ -304,10 +308,158 @@ static int lo_stats(lua_State *L)
  * ode_accel raise it, the points computed before it handed over to the
  * trajectory first (flush_points below). */
 
+/* ------------------------------------------------------------------ */
+/* Event functions recorded as graphs (lua/nz/record.lua's
+ * state_functions): a userdata "nz.ode_events" with one plan on doubles per
+ * event, its inputs numbered as mech_graph.h says (0 = t, 1..np the
+ * parameters, then slot j of q_i at 1 + np + j k + i, j = 0, 1), and the
+ * recording (an nz.compiled) kept alive as its user value.  Both loops of
+ * simulate.lua take an event's value from here, so that they see the same
+ * numbers; where a plan fails (a domain error at this state) the event's
+ * Lua function gives the value, or the error with the user's line. */
+
+typedef struct events_box {
+  int n, k, np;
+  nz_graph_plan **plans;
+  double *in;
+} events_box;
+
+static int events_gc(lua_State *L)
+{
+  events_box *eb = luaL_checkudata(L, 1, NZ_EVENTS_METATABLE);
+  for (int e = 0; eb->plans && e < eb->n; e++) nz_graph_plan_free(eb->plans[e]);
+  free(eb->plans);
+  free(eb->in);
+  eb->plans = NULL;
+  eb->in = NULL;
+  return 0;
+}
+
+/* ode_events_new(compiled, {node per event}, {parameter values}, k) -> events */
+static int lo_events_new(lua_State *L)
+{
+  nz_compiled *c = nz_lua_tocompiled(L, 1);
+  luaL_argcheck(L, c != NULL, 1, "a recording (nz.compiled) expected");
+  luaL_checktype(L, 2, LUA_TTABLE);
+  luaL_checktype(L, 3, LUA_TTABLE);
+  int k = (int)luaL_checkinteger(L, 4);
+  nz_graph *g = nz_compiled_graph(c);
+  int n = (int)luaL_len(L, 2), np = (int)luaL_len(L, 3);
+  luaL_argcheck(L, np == nz_compiled_nparams(c), 3, "one value per recorded parameter expected");
+  events_box *eb = lua_newuserdatauv(L, sizeof *eb, 1);
+  memset(eb, 0, sizeof *eb);
+  luaL_setmetatable(L, NZ_EVENTS_METATABLE);
+  lua_pushvalue(L, 1);
+  lua_setiuservalue(L, -2, 1);
+  eb->k = k;
+  eb->np = np;
+  eb->plans = calloc((size_t)n + 1, sizeof *eb->plans);
+  eb->in = calloc((size_t)(1 + np + 2 * k) + (size_t)nz_graph_ninputs(g), sizeof(double));
+  if (!eb->plans || !eb->in) return luaL_error(L, "not enough memory for the events");
+  eb->n = n;
+  for (int e = 0; e < n; e++) {
+    lua_geti(L, 2, e + 1);
+    lua_Integer id = luaL_checkinteger(L, -1);
+    lua_pop(L, 1);
+    if (id < 0 || id >= nz_graph_size(g)) return luaL_error(L, "internal: event %d: node %d is not in the graph", e + 1, (int)id);
+    int node = (int)id;
+    if (!(eb->plans[e] = nz_graph_plan_new(g, &node, 1))) return luaL_error(L, "not enough memory for the events");
+  }
+  for (int p = 0; p < np; p++) {
+    lua_geti(L, 3, p + 1);
+    eb->in[1 + p] = luaL_checknumber(L, -1);
+    lua_pop(L, 1);
+  }
+  return 1;
+}
+
+/* Event e's value at (t, y) (y: q then qd, at least 2k values) from its plan. */
+static int events_eval(events_box *eb, int e, double t, const double *y, double *g)
+{
+  double *in = eb->in;
+  in[0] = t;
+  memcpy(in + 1 + eb->np, y, 2 * (size_t)eb->k * sizeof(double));
+  return nz_graph_eval(eb->plans[e], in, g);
+}
+
+/* ode_event_value(events, e (1-based), t, y) -> g, or nil where the graph
+ * fails (the caller then asks the event's Lua function). */
+static int lo_event_value(lua_State *L)
+{
+  events_box *eb = luaL_checkudata(L, 1, NZ_EVENTS_METATABLE);
+  int e = (int)luaL_checkinteger(L, 2) - 1;
+  luaL_argcheck(L, eb->plans && e >= 0 && e < eb->n, 2, "no such event");
+  double t = luaL_checknumber(L, 3), g;
+  double *y = lua_newuserdatauv(L, 2 * (size_t)eb->k * sizeof(double) + 1, 0);
+  luaL_checktype(L, 4, LUA_TTABLE);
+  for (int i = 0; i < 2 * eb->k; i++) {   /* q, qd: the start of a state that may hold more */
+    lua_geti(L, 4, i + 1);
+    y[i] = luaL_checknumber(L, -1);
+    lua_pop(L, 1);
+  }
+  if (events_eval(eb, e, t, y, &g)) lua_pushnil(L);
+  else lua_pushnumber(L, g);
+  return 1;
+}
+
+/* ode_run_violation(def, {orders}, t, y) -> the violation nz_run computes
+ * (nz_state_violation), for the tests that hold it to constraints.violation. */
+static int lo_run_violation(lua_State *L)
+{
+  lua_settop(L, 4);
+  bound_system b;
+  nz_lua_bind_system(L, 1, &b);
+  int k = b.sys.k, nc = b.sys.nc;
+  int *orders = lua_newuserdatauv(L, ((size_t)nc + 1) * sizeof(int), 0);
+  for (int r = 0; r < nc; r++) {
+    lua_geti(L, 2, r + 1);
+    orders[r] = (int)luaL_checkinteger(L, -1);
+    lua_pop(L, 1);
+  }
+  double t = luaL_checknumber(L, 3), v;
+  double *y = lua_newuserdatauv(L, 2 * (size_t)k * sizeof(double) + 1, 0);
+  nz_lua_read_vector(L, 4, 2 * k, y, "y", 0, "simulate");
+  int st = nz_state_violation(&b.sys, orders, t, y, y + k, &v);
+  if (st) return nz_lua_raise_core(L, &b, st, "constraint_partials");
+  lua_pushnumber(L, v);
+  return 1;
+}
+
 typedef struct run_box {
   nz_run *r;
   ode_box *ode;
+  events_box *events;                /* NULL: none (kept alive as user value 2) */
 } run_box;
+
+/* The event callback of one ode_run call: the graph's value, else the Lua
+ * fallback's (at stack index fallback) under lua_pcall, whose error is
+ * kept at stack index err for ode_run to raise once the C loop has
+ * returned (a Lua error never unwinds through the C core). */
+typedef struct event_ctx {
+  lua_State *L;
+  events_box *eb;
+  int fallback, err, dim, failed;
+} event_ctx;
+
+static int run_event(void *ctx, int e, double t, const double *y, double *g)
+{
+  event_ctx *c = ctx;
+  if (events_eval(c->eb, e, t, y, g) == NZ_OK) return NZ_OK;
+  lua_State *L = c->L;
+  if (!lua_checkstack(L, 5)) return NZ_ENOMEM;
+  lua_pushvalue(L, c->fallback);
+  lua_pushinteger(L, e + 1);
+  lua_pushnumber(L, t);
+  nz_lua_push_vector(L, y, c->dim);
+  if (lua_pcall(L, 3, 1, 0) != LUA_OK) {
+    lua_replace(L, c->err);
+    c->failed = 1;
+    return NZ_EFUNC;
+  }
+  *g = lua_tonumber(L, -1);
+  lua_pop(L, 1);
+  return NZ_OK;
+}
 
 static run_box *check_run(lua_State *L, int idx)
 {
@@ -325,9 +477,14 @@ static int run_gc(lua_State *L)
 }
 
 /* ode_run_new(ode, {t0, t1, dt, step, h0, y, stall_window, stall_fraction
- * [, capacity]}) -> run */
+ * [, capacity] [, events, directions, fallback] [, project_tol, orders]})
+ * -> run.  events: an nz.ode_events, directions its events' (0, 1, -1),
+ * fallback(e, t, y) the value of event e where its graph fails (it raises
+ * the event's error); project_tol > 0 with the constraints' orders: return
+ * "project" when the violation exceeds it. */
 static int lo_run_new(lua_State *L)
 {
+  lua_settop(L, 2);
   ode_box *ob = check_ode(L, 1);
   luaL_checktype(L, 2, LUA_TTABLE);
   nz_run_config c;
@@ -340,17 +497,44 @@ static int lo_run_new(lua_State *L)
   c.stall_window = (unsigned long)number_field(L, 2, "stall_window", 1000.0);
   c.stall_fraction = number_field(L, 2, "stall_fraction", 1e-10);
   c.capacity = (int)number_field(L, 2, "capacity", 1024.0);
+  c.project_tol = number_field(L, 2, "project_tol", 0.0);
+  lua_getfield(L, 2, "events");                            /* at 3 */
+  events_box *eb = lua_isnil(L, 3) ? NULL : luaL_checkudata(L, 3, NZ_EVENTS_METATABLE);
+  lua_getfield(L, 2, "fallback");                          /* at 4 */
+  if (eb) luaL_checktype(L, 4, LUA_TFUNCTION);
+  c.nevents = eb ? eb->n : 0;
+  int *ints = lua_newuserdatauv(L, ((size_t)c.nevents + (size_t)ob->nc + 1) * sizeof(int), 0);
+  for (int e = 0; e < c.nevents; e++) {
+    lua_getfield(L, 2, "directions");
+    lua_geti(L, -1, e + 1);
+    ints[e] = (int)luaL_checkinteger(L, -1);
+    lua_pop(L, 2);
+  }
+  c.directions = ints;
+  if (c.project_tol > 0.0)
+    for (int r = 0; r < ob->nc; r++) {
+      lua_getfield(L, 2, "orders");
+      lua_geti(L, -1, r + 1);
+      ints[c.nevents + r] = (int)luaL_checkinteger(L, -1);
+      lua_pop(L, 2);
+    }
+  c.orders = ints + c.nevents;
   int dim = nz_ode_dim(ob->o);
   double *y = lua_newuserdatauv(L, (size_t)dim * sizeof(double), 0);
   lua_getfield(L, 2, "y");
   nz_lua_read_vector(L, lua_gettop(L), dim, y, "y", 0, "simulate");
   lua_pop(L, 1);
-  run_box *rb = lua_newuserdatauv(L, sizeof *rb, 1);
+  run_box *rb = lua_newuserdatauv(L, sizeof *rb, 3);
   memset(rb, 0, sizeof *rb);
   luaL_setmetatable(L, NZ_RUN_METATABLE);
   lua_pushvalue(L, 1);
   lua_setiuservalue(L, -2, 1);
+  lua_pushvalue(L, 3);                                     /* the events and their fallback */
+  lua_setiuservalue(L, -2, 2);
+  lua_pushvalue(L, 4);
+  lua_setiuservalue(L, -2, 3);
   rb->ode = ob;
+  rb->events = eb;
   if (!(rb->r = nz_run_alloc(ob->o, ob->k, ob->nc, &c, y)))
     return luaL_error(L, "simulate: the run could not start (no memory, or a bad grid: t0 = %f, t1 = %f, dt = %f, step = %f)",
                       c.t0, c.t1, c.dt, c.step);
@@ -408,9 +592,12 @@ static void flush_points(lua_State *L, run_box *rb, int tr, int pend)
 }
 
 /* ode_run(run, def, tr, pend, pause_step, pause_wall) -> "done" | "paused" |
- * "full" | "stalled", advance: steps until simulate.lua must act, hands the
- * output points over (flush_points) and raises the interrupt and failures
- * as ode_step does, the points computed before them handed over first. */
+ * "full" | "stalled", advance | "project" | "event", e, ta, ya, ga, tb, gb,
+ * yb: steps until simulate.lua must act, hands the output points over
+ * (flush_points) and raises the interrupt and failures as ode_step does
+ * (an event's error as its Lua function raised it, a violation's as
+ * constraint_partials does), the points computed before them handed over
+ * first. */
 static int lo_run(lua_State *L)
 {
   run_box *rb = check_run(L, 1);
@@ -418,25 +605,68 @@ static int lo_run(lua_State *L)
   lua_Integer pause_step = luaL_optinteger(L, 5, 0);
   double pause_wall = luaL_optnumber(L, 6, 0.0);
   lua_settop(L, 4);
+  lua_getiuservalue(L, 1, 3);        /* 5: the events' fallback */
+  lua_pushnil(L);                    /* 6: an event's error */
   lua_copy(L, 2, 1);                 /* def first, as raise_failure expects; the caller keeps run */
   bound_system b;
   nz_lua_bind_system(L, 1, &b);
+  event_ctx ec = { L, rb->events, 5, 6, nz_ode_dim(rb->ode->o), 0 };
+  nz_run_set_events(rb->r, rb->events ? run_event : NULL, &ec);
   int st;
   nz_run_status rs = nz_run_advance(rb->r, &b.sys, pause_step > 0 ? (unsigned long)pause_step : 0, pause_wall, &st);
+  nz_run_set_events(rb->r, NULL, NULL);     /* ec dies with this call */
   flush_points(L, rb, 3, 4);
   switch (rs) {
   case NZ_RUN_INTERRUPTED: return nz_lua_raise_interrupt(L);
-  case NZ_RUN_FAILED: return raise_failure(L, rb->ode, &b, st);
+  case NZ_RUN_FAILED:
+    switch (nz_run_failure_of(rb->r)) {
+    case NZ_RUN_FAIL_EVENT:
+      if (ec.failed) {
+        lua_pushvalue(L, 6);
+        return lua_error(L);
+      }
+      return luaL_error(L, "simulate: the events could not be evaluated (status %d)", st);
+    case NZ_RUN_FAIL_VIOLATION: return nz_lua_raise_core(L, &b, st, "constraint_partials");
+    case NZ_RUN_FAIL_ODE: break;
+    }
+    return raise_failure(L, rb->ode, &b, st);
   case NZ_RUN_STALLED:
     lua_pushliteral(L, "stalled");
     lua_pushnumber(L, nz_run_stall_advance(rb->r));
     return 2;
   case NZ_RUN_PAUSED: lua_pushliteral(L, "paused"); return 1;
   case NZ_RUN_FULL: lua_pushliteral(L, "full"); return 1;
+  case NZ_RUN_PROJECT: lua_pushliteral(L, "project"); return 1;
+  case NZ_RUN_EVENT: {
+    int e, dim = nz_ode_dim(rb->ode->o);
+    double ta, ga, tb, gb;
+    const double *ya, *yb;
+    nz_run_event(rb->r, &e, &ta, &ya, &ga, &tb, &gb, &yb);
+    lua_pushliteral(L, "event");
+    lua_pushinteger(L, e + 1);
+    lua_pushnumber(L, ta);
+    nz_lua_push_vector(L, ya, dim);
+    lua_pushnumber(L, ga);
+    lua_pushnumber(L, tb);
+    lua_pushnumber(L, gb);
+    nz_lua_push_vector(L, yb, dim);
+    return 8;
+  }
   case NZ_RUN_DONE: break;
   }
   lua_pushliteral(L, "done");
   return 1;
+}
+
+/* ode_run_set_state(run, y): the projected state of the last step. */
+static int lo_run_set_state(lua_State *L)
+{
+  run_box *rb = check_run(L, 1);
+  int dim = nz_ode_dim(rb->ode->o);
+  double *y = lua_newuserdatauv(L, (size_t)dim * sizeof(double), 0);
+  nz_lua_read_vector(L, 2, dim, y, "y", 0, "simulate");
+  nz_run_set_state(rb->r, y);
+  return 0;
 }
 
 /* ode_run_state(run) -> t, y, steps: where the run is. */
@@ -499,7 +729,9 @@ static const luaL_Reg ode_functions[] = {
   { "ode_accel", lo_accel }, { "ode_rhs", lo_rhs }, { "ode_reset", lo_reset }, { "ode_jacobian", lo_jacobian }, { "ode_stats", lo_stats },
   { "now", lo_now }, { "isatty", lo_isatty }, { "interrupted", lo_interrupted },
   { "ode_methods", lo_methods }, { "ode_run_new", lo_run_new }, { "ode_run", lo_run },
-  { "ode_run_state", lo_run_state }, { "_set_interrupt", lo_set_interrupt },
+  { "ode_run_state", lo_run_state }, { "ode_run_set_state", lo_run_set_state },
+  { "ode_run_violation", lo_run_violation }, { "ode_events_new", lo_events_new },
+  { "ode_event_value", lo_event_value }, { "_set_interrupt", lo_set_interrupt },
   { NULL, NULL }
 };
 
@@ -508,6 +740,11 @@ void nz_lua_open_ode(lua_State *L)
 {
   if (luaL_newmetatable(L, NZ_ODE_METATABLE)) {
     lua_pushcfunction(L, ode_gc);
+    lua_setfield(L, -2, "__gc");
+  }
+  lua_pop(L, 1);
+  if (luaL_newmetatable(L, NZ_EVENTS_METATABLE)) {
+    lua_pushcfunction(L, events_gc);
     lua_setfield(L, -2, "__gc");
   }
   lua_pop(L, 1);

@@ -586,3 +586,26 @@ void nz_constraint_dependence(int nc, int k, const double *A, nz_accel_report *r
 {
   diagnose_dependence(nc, k, A, rep);
 }
+
+int nz_state_violation(const nz_system *s, const int *orders, double t, const double *q,
+                       const double *qd, double *worst)
+{
+  int k = s->k, st = NZ_OK;
+  const double *state[2] = { q, qd };
+  double w = 0.0, *dphi = malloc((size_t)nz_constraint_levels_max(s) * (size_t)k * sizeof(double) + 1);
+  if (!dphi) return NZ_ENOMEM;
+  for (int r = 0; r < s->nc && !st; r++) {
+    if (orders[r] > 1) continue;
+    double v, dt;
+    if ((st = nz_constraint_partials(s, r, t, state, 2, &v, dphi, &dt))) break;
+    if (fabs(v) > w) w = fabs(v);
+    if (orders[r] == 0) {               /* Phi' = Phi_t + Phi_q q', summed as constraints.lua does */
+      double d = dt;
+      for (int j = 0; j < k; j++) d = d + dphi[j] * qd[j];
+      if (fabs(d) > w) w = fabs(d);
+    }
+  }
+  free(dphi);
+  *worst = w;
+  return st;
+}

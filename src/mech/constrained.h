@@ -118,4 +118,14 @@ int nz_accel_constrained(const nz_system *s, const int *orders, const int *linea
                          const double *q, const double *qd, const nz_accel_options *opt,
                          double *qdd, double *lambda, nz_accel_report *rep);
 
+/* How far a state (t, q, qd) is from the constraints: the largest |value| of
+ * the constraints of order <= 1 (orders[r], the classification) at position
+ * level and velocity level (a holonomic one at both: Phi and Phi' = Phi_t +
+ * Phi_q q'), into *worst.  The same numbers as lua/nz/constraints.lua's
+ * M.violation, by the same primitive (nz_constraint_partials) and the same
+ * operations in the same order, so that the stepping loop in C
+ * (ode/ode_run.c) decides to project exactly where the Lua loop does. */
+int nz_state_violation(const nz_system *s, const int *orders, double t, const double *q,
+                       const double *qd, double *worst);
+
 #endif

@@ -9,6 +9,7 @@
 #include <string.h>
 #include <time.h>
 #include "core/interrupt.h"
+#include "mech/constrained.h"
 #include "ode/ode_run.h"
 
 struct nz_run {
@@ -26,6 +27,21 @@ struct nz_run {
   int cap, n;                     /* the output buffer: n of cap points */
   double *bt, *by, *bacc, *broot;
   unsigned char *has_root;
+  /* Where a step's work stands, so that a return for an event, a
+   * projection or a pause resumes in the middle of it: PH_STEP takes the
+   * next step; PH_COUNT counts it (after the projection); PH_EVENTS looks
+   * at events ev_next, ev_next + 1, ... of the step just taken. */
+  enum { PH_STEP, PH_COUNT, PH_EVENTS } phase;
+  int nev, ev_next;
+  int *dirs;                      /* nev directions */
+  double *gvals;                  /* nev: each event's value at the last accepted step */
+  nz_run_event_fn event_fn;
+  void *event_ctx;
+  int *orders;                    /* nc, when projecting */
+  double ta;                      /* the step's start; its state is ytry once it is taken */
+  int ev_e;                       /* the last crossing: event, values */
+  double ev_ga, ev_gb;
+  nz_run_failure failure;
 };
 
 double nz_run_clock(void)
@@ -41,7 +57,8 @@ nz_run *nz_run_alloc(nz_ode *o, int k, int nc, const nz_run_config *cfg, const d
 {
   if (!o || k < 1 || nc < 0 || cfg->capacity < 1 || !isfinite(cfg->t0) || !(cfg->t1 > cfg->t0) ||
       !isfinite(cfg->t1) || !finite_positive(cfg->dt) || !finite_positive(cfg->h0) ||
-      !(cfg->step == 0.0 || finite_positive(cfg->step)) || cfg->stall_window < 1)
+      !(cfg->step == 0.0 || finite_positive(cfg->step)) || cfg->stall_window < 1 || cfg->nevents < 0 ||
+      (cfg->nevents > 0 && !cfg->directions) || (cfg->project_tol > 0.0 && nc > 0 && !cfg->orders))
     return NULL;
   nz_run *r = calloc(1, sizeof *r);
   if (!r) return NULL;
@@ -59,10 +76,18 @@ nz_run *nz_run_alloc(nz_ode *o, int k, int nc, const nz_run_config *cfg, const d
   r->bacc = malloc(cap * (kk + ncc) * sizeof(double) + 1);
   r->broot = malloc(cap * kk * sizeof(double));
   r->has_root = calloc(cap, 1);
-  if (!r->y || !r->ytry || !r->bt || !r->by || !r->bacc || !r->broot || !r->has_root) {
+  r->nev = cfg->nevents;
+  r->dirs = malloc((size_t)r->nev * sizeof(int) + 1);
+  r->gvals = malloc((size_t)r->nev * sizeof(double) + 1);
+  r->orders = malloc(ncc * sizeof(int) + 1);
+  if (!r->y || !r->ytry || !r->bt || !r->by || !r->bacc || !r->broot || !r->has_root || !r->dirs || !r->gvals ||
+      !r->orders) {
     nz_run_free(r);
     return NULL;
   }
+  if (r->nev) memcpy(r->dirs, cfg->directions, (size_t)r->nev * sizeof(int));
+  if (cfg->project_tol > 0.0 && nc > 0) memcpy(r->orders, cfg->orders, ncc * sizeof(int));
+  r->c.directions = r->c.orders = NULL;          /* the caller's arrays may go */
   memcpy(r->y, y0, dim * sizeof(double));
   r->t = cfg->t0;
   r->h = cfg->h0;
@@ -84,6 +109,9 @@ void nz_run_free(nz_run *r)
   free(r->bacc);
   free(r->broot);
   free(r->has_root);
+  free(r->dirs);
+  free(r->gvals);
+  free(r->orders);
   free(r);
 }
 
@@ -154,23 +182,76 @@ static int stalled(nz_run *r)
   return 0;
 }
 
+/* crosses(ev, ga, gb) of simulate.lua: a sign change over the step, or a
+ * step that lands on the zero (an event at an output time), in the event's
+ * direction. */
+static int crosses(int dir, double ga, double gb)
+{
+  if (ga == 0.0 || (gb != 0.0 && (ga > 0.0) == (gb > 0.0))) return 0;
+  return dir == 0 || (dir > 0 && gb > ga) || (dir < 0 && gb < ga);
+}
+
+static int fail(nz_run *r, nz_run_failure what, int st, int *status)
+{
+  r->failure = what;
+  *status = st;
+  return NZ_RUN_FAILED;
+}
+
 nz_run_status nz_run_advance(nz_run *r, const nz_system *s, unsigned long pause_step, double pause_wall,
                              int *status)
 {
   *status = NZ_OK;
+  r->failure = NZ_RUN_FAIL_ODE;
+  if (r->nev && !r->event_fn) return fail(r, NZ_RUN_FAIL_EVENT, NZ_EARG, status);
   if (!r->started) {
     if ((*status = record(r, s))) return NZ_RUN_FAILED;
     r->started = 1;
+    for (int e = 0; e < r->nev; e++) {   /* gvals[i] = event_value(ev, t, y) */
+      int st = r->event_fn(r->event_ctx, e, r->t, r->y, &r->gvals[e]);
+      if (st) return fail(r, NZ_RUN_FAIL_EVENT, st, status);
+    }
   }
+  int projecting = r->c.project_tol > 0.0 && r->nc > 0;
   for (;;) {
     if (r->i > r->nout) return NZ_RUN_DONE;
     if (!r->in_interval) begin_interval(r);
-    while (r->t < r->tout) {
-      if (nz_interrupt_requested()) return NZ_RUN_INTERRUPTED;
-      if ((*status = one_step(r, s))) return NZ_RUN_FAILED;
-      r->nsteps++;
-      if (stalled(r)) return NZ_RUN_STALLED;
-      if (pause_step && r->nsteps == pause_step) return NZ_RUN_PAUSED;
+    while (r->phase != PH_STEP || r->t < r->tout) {
+      if (r->phase == PH_STEP) {
+        if (nz_interrupt_requested()) return NZ_RUN_INTERRUPTED;
+        r->ta = r->t;
+        if ((*status = one_step(r, s))) return NZ_RUN_FAILED;
+        r->phase = PH_COUNT;
+        if (projecting) {                /* project(t): above the tolerance, the caller projects */
+          double v;
+          int st = nz_state_violation(s, r->orders, r->t, r->y, r->y + r->k, &v);
+          if (st) return fail(r, NZ_RUN_FAIL_VIOLATION, st, status);
+          if (!(v <= r->c.project_tol)) return NZ_RUN_PROJECT;   /* NaN too, as project() says */
+        }
+      }
+      if (r->phase == PH_COUNT) {
+        r->nsteps++;
+        r->phase = PH_EVENTS;
+        r->ev_next = 0;
+        if (stalled(r)) return NZ_RUN_STALLED;
+        if (pause_step && r->nsteps == pause_step) return NZ_RUN_PAUSED;
+      }
+      while (r->ev_next < r->nev) {      /* events e = ev_next .. nev - 1 of this step */
+        int e = r->ev_next;
+        double g;
+        int st = r->event_fn(r->event_ctx, e, r->t, r->y, &g);
+        if (st) return fail(r, NZ_RUN_FAIL_EVENT, st, status);
+        double ga = r->gvals[e];
+        r->gvals[e] = g;
+        r->ev_next = e + 1;
+        if (crosses(r->dirs[e], ga, g)) {
+          r->ev_e = e;
+          r->ev_ga = ga;
+          r->ev_gb = g;
+          return NZ_RUN_EVENT;
+        }
+      }
+      r->phase = PH_STEP;
       if (pause_wall > 0.0 && nz_run_clock() >= pause_wall) return NZ_RUN_PAUSED;
     }
     if (r->n == r->cap) return NZ_RUN_FULL;
@@ -179,6 +260,29 @@ nz_run_status nz_run_advance(nz_run *r, const nz_system *s, unsigned long pause_
     r->in_interval = 0;
   }
 }
+
+void nz_run_set_events(nz_run *r, nz_run_event_fn fn, void *ctx)
+{
+  r->event_fn = fn;
+  r->event_ctx = ctx;
+}
+
+/* After a step, ytry holds the state it started from (one_step swaps). */
+void nz_run_event(const nz_run *r, int *e, double *ta, const double **ya, double *ga, double *tb,
+                  double *gb, const double **yb)
+{
+  *e = r->ev_e;
+  *ta = r->ta;
+  *ya = r->ytry;
+  *ga = r->ev_ga;
+  *tb = r->t;
+  *gb = r->ev_gb;
+  *yb = r->y;
+}
+
+void nz_run_set_state(nz_run *r, const double *y) { memcpy(r->y, y, (size_t)r->dim * sizeof(double)); }
+
+nz_run_failure nz_run_failure_of(const nz_run *r) { return r->failure; }
 
 double nz_run_time(const nz_run *r) { return r->t; }
 const double *nz_run_state(const nz_run *r) { return r->y; }

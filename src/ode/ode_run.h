@@ -1,23 +1,38 @@
 /* ode_run.h - the stepping loop of sys:simulate in C (issue 10, item 6).
  *
  * lua/nz/simulate.lua steps an integrator (ode.h) one step at a time, in
- * Lua, so that it can locate events and project onto the constraints.  When
- * a run needs neither (and no Lua function is called per step), this loop
- * does the same work without returning to Lua per step: the output grid
- * (t0 + i dt, the last point at t1), fixed steps that land on each output
- * time, the accelerations and multipliers recorded at each output point,
- * the stall detection, and the polling of the interrupt.  It performs the
- * same floating-point operations in the same order as the Lua loop, so the
- * two give bit-identical trajectories and statistics (the Lua loop stays
- * the reference; tests/simulate_loop_spec.lua compares them).
+ * Lua (run()).  This loop does the same work without returning to Lua per
+ * step: the output grid (t0 + i dt, the last point at t1), fixed steps that
+ * land on each output time, the accelerations and multipliers recorded at
+ * each output point, the stall detection, the polling of the interrupt,
+ * and, when asked, the watch for events and for the drift off the
+ * constraints.  It performs the same floating-point operations in the same
+ * order as the Lua loop, so the two give bit-identical trajectories and
+ * statistics (the Lua loop stays the reference; tests/simulate_loop_spec.lua
+ * compares them).
+ *
+ * Events: after every accepted step the loop evaluates event e = 0, 1, ...
+ * through a callback (nz_run_set_events: the caller's recorded graphs, so
+ * that this layer knows nothing of graphs or Lua) and, when one crosses zero
+ * (the rule of crosses() in simulate.lua), returns NZ_RUN_EVENT with the
+ * step (nz_run_event); the caller locates and records the event and, unless
+ * it stops the run, calls again: the loop goes on with the next event of the
+ * same step.  Projection: with project_tol > 0, after every accepted step the
+ * loop computes the state's violation of the constraints of order <= 1
+ * (nz_state_violation, constrained.h: what the Lua loop's state_violation
+ * computes, by the same primitive in the same order) and, above the
+ * tolerance, returns NZ_RUN_PROJECT; the caller projects, writes the state
+ * back (nz_run_set_state) and calls again.  Locating and projecting stay in
+ * Lua: they happen a few times per run, not per step.
  *
  * The loop is resumable: nz_run_advance returns to its caller when it must
  * act (the run is done, it stalled, it was interrupted, a step failed, the
- * output buffer is full, or the caller asked for a pause at a step count or
- * a wall time for its progress bar and long-run notice) and goes on from
- * where it stopped when called again.  Output points wait in a buffer of
- * `capacity` points that the caller empties (nz_run_clear), so the loop's
- * own memory stays bounded whatever the grid. */
+ * output buffer is full, an event crossed, the state drifted, or the caller
+ * asked for a pause at a step count or a wall time for its progress bar and
+ * long-run notice) and goes on from where it stopped when called again.
+ * Output points wait in a buffer of `capacity` points that the caller
+ * empties (nz_run_clear), so the loop's own memory stays bounded whatever
+ * the grid. */
 #ifndef NZ_ODE_RUN_H
 #define NZ_ODE_RUN_H
 
@@ -30,7 +45,15 @@ typedef struct nz_run_config {
   unsigned long stall_window;  /* simulate.lua's M.STALL                          */
   double stall_fraction;
   int capacity;              /* output points buffered (>= 1)                     */
+  int nevents;               /* event functions watched (0: none)                 */
+  const int *directions;     /* nevents: 0 any crossing, +1 rising, -1 falling (copied) */
+  double project_tol;        /* > 0: NZ_RUN_PROJECT when the violation exceeds it  */
+  const int *orders;         /* nc classified orders, for the violation (copied)   */
 } nz_run_config;
+
+/* The value g of event e (0-based) at (t, y); NZ_OK, or a status that makes
+ * the run fail (NZ_RUN_FAILED, nz_run_failure_of = NZ_RUN_FAIL_EVENT). */
+typedef int (*nz_run_event_fn)(void *ctx, int e, double t, const double *y, double *g);
 
 typedef enum nz_run_status {
   NZ_RUN_DONE = 0,           /* t1 reached, its point recorded                    */
@@ -38,13 +61,24 @@ typedef enum nz_run_status {
   NZ_RUN_FULL,               /* the buffer is full: take the points, call again    */
   NZ_RUN_INTERRUPTED,        /* the interrupt was requested before a step          */
   NZ_RUN_STALLED,            /* the last stall_window steps advanced t too little  */
-  NZ_RUN_FAILED              /* a step or an output point failed (ode's failure)   */
+  NZ_RUN_FAILED,             /* a step, an output point, an event or the violation */
+                             /* failed (nz_run_failure_of says which)              */
+  NZ_RUN_EVENT,              /* an event crossed in the last step (nz_run_event)   */
+  NZ_RUN_PROJECT             /* the violation exceeds project_tol (or is NaN):     */
+                             /* project, nz_run_set_state, and call again          */
 } nz_run_status;
+
+typedef enum nz_run_failure {
+  NZ_RUN_FAIL_ODE = 0,       /* the integrator's (nz_ode_last_failure)             */
+  NZ_RUN_FAIL_EVENT,         /* the event callback's status                        */
+  NZ_RUN_FAIL_VIOLATION      /* nz_state_violation's (a constraint failed)         */
+} nz_run_failure;
 
 typedef struct nz_run nz_run;
 
 /* A run of o from (t0, y0) (nz_ode_dim(o) values).  NULL: no memory or a bad
- * configuration (dt, step or span not positive and finite, capacity < 1). */
+ * configuration (dt, step or span not positive and finite, capacity < 1,
+ * events without directions, project_tol > 0 without orders). */
 nz_run *nz_run_alloc(nz_ode *o, int k, int nc, const nz_run_config *cfg, const double *y0);
 void nz_run_free(nz_run *r);
 
@@ -52,9 +86,31 @@ void nz_run_free(nz_run *r);
  * pause right after the accepted step that makes the count equal to it (0:
  * never); pause_wall: pause after the first step at or past this monotonic
  * time in seconds (0: never).  On NZ_RUN_FAILED, *status holds the nz
- * status of the failing call and nz_ode_last_failure(o) the details. */
+ * status of the failing call and, when nz_run_failure_of says
+ * NZ_RUN_FAIL_ODE, nz_ode_last_failure(o) the details.  The order within a
+ * step is the Lua loop's: step, violation (NZ_RUN_PROJECT), count, stall,
+ * pause at a step count, events in their order (NZ_RUN_EVENT), pause at a
+ * wall time; a call after a return goes on from there. */
 nz_run_status nz_run_advance(nz_run *r, const nz_system *s, unsigned long pause_step, double pause_wall,
                              int *status);
+
+/* The event callback (with its context) used by the following calls of
+ * nz_run_advance; required when nevents > 0 (set it before every call when
+ * its context lives on the caller's stack). */
+void nz_run_set_events(nz_run *r, nz_run_event_fn fn, void *ctx);
+
+/* After NZ_RUN_EVENT: event e (0-based) crossed in the step from (ta, ya)
+ * to (tb, yb), its values ga before and gb after (the arrays stay valid
+ * until the next call of nz_run_advance). */
+void nz_run_event(const nz_run *r, int *e, double *ta, const double **ya, double *ga, double *tb,
+                  double *gb, const double **yb);
+
+/* Replace the state of the last accepted step (dim values: the projected
+ * state after NZ_RUN_PROJECT). */
+void nz_run_set_state(nz_run *r, const double *y);
+
+/* After NZ_RUN_FAILED: what failed. */
+nz_run_failure nz_run_failure_of(const nz_run *r);
 
 /* Where the run is: the time and state of the last accepted step, the steps
  * accepted, and (after NZ_RUN_STALLED) how far the last window advanced. */
