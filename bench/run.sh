@@ -28,3 +28,5 @@ end=$(date +%s.%N)
 awk -v a="$start" -v b="$end" 'BEGIN { printf "wall time of the whole script from the shell (interpreter start, probe and C baseline included): %.3f s\n", b - a }'
 echo
 build/nzlua bench/loop_cost.lua
+echo
+build/nzlua bench/loop_events.lua
