@@ -259,6 +259,36 @@ describe("taylor_run", function()
   end)
 end)
 
+describe("taylor_run with a mass matrix that moves", function()
+  it("Kepler in polar coordinates, e = 0.6, over 10 orbits at tol 1e-15: r and phi against Kepler's equation", function()
+    -- M = diag(1, r^2): every step factors M_0 and solves order by order.
+    local sys = nz.system{ name = "kepler polar", coords = { "r", "phi" },
+      T = function(t, q, qd) return 0.5 * (qd[1] ^ 2 + q[1] ^ 2 * qd[2] ^ 2) end,
+      V = function(t, q) return -1 / q[1] end }
+    local e = 0.6
+    local beta = e / (1 + math.sqrt(1 - e * e))
+    local function at(t)      -- mu = a = 1, periapsis at t = 0; phi unwrapped
+      local E = t + e * math.sin(t)
+      for _ = 1, 60 do E = E - (E - e * math.sin(E) - t) / (1 - e * math.cos(E)) end
+      return 1 - e * math.cos(E), E + 2 * math.atan(beta * math.sin(E) / (1 - beta * math.cos(E)))
+    end
+    local P = 2 * math.pi
+    local r = mech.taylor_run(sys.engine, { t1 = 10 * P, dt = P / 16, q0 = { 1 - e, 0 },
+      qd0 = { 0, math.sqrt((1 + e) / (1 - e)) / (1 - e) }, tol = 1e-15 })
+    local dr, dphi = 0, 0
+    for i = 1, #r.t do
+      local rr, phi = at(r.t[i])
+      dr = math.max(dr, math.abs(r.q[i][1] - rr))
+      dphi = math.max(dphi, math.abs(r.q[i][2] - phi))
+    end
+    -- As the Cartesian run: the phase error grows linearly, a few 1e-14
+    -- per orbit; phi ~ 63 after 10 orbits is known to ~1e-14 by the
+    -- reference.  Measured dr 8.5e-14, dphi 5.2e-13; bounds 1e-11 for both.
+    assert(dr <= 1e-11, ("r off by %.3g"):format(dr))
+    assert(dphi <= 1e-11, ("phi off by %.3g"):format(dphi))
+  end)
+end)
+
 describe("what Taylor's method refuses", function()
   it("a system that is not recorded", function()
     local sys = nz.system{ name = "lua only", coords = { "x" }, compile = false,
