@@ -301,6 +301,17 @@ describe("what Taylor's method refuses", function()
     assert.matches("needs a recorded system", err)
   end)
 
+  it("a system with a branch on the state (the step's polynomial would continue one branch past the switch)", function()
+    local vee = nz.system{ name = "vee", coords = { "x" },
+      T = function(t, q, qd) return qd[1] ^ 2 / 2 end, V = function(t, q) return nz.abs(q[1]) end }
+    local ok, err = pcall(mech.taylor_run, vee.engine, { t1 = 10, q0 = { 1 }, tol = 1e-12 })
+    assert.is_false(ok)
+    assert.matches("does not step across branches yet", err)
+    -- the series itself is that of the branch at t0: x'' = -1 for x > 0
+    local a = mech.motion_series(vee.engine, 0, { 1 }, { 0 }, 4)
+    assert.same({ { 1 }, { 0 }, { -0.5 }, { 0 }, { 0 } }, a)
+  end)
+
   it("bad options, and a failure of the series with where it happened", function()
     local sys = oscillator(1, 1)
     local ok, err = pcall(mech.taylor_run, sys.engine, { t1 = -1, q0 = { 1 } })

@@ -98,6 +98,15 @@ static int lt_taylor_run(lua_State *L)
   bound_system b;
   bind_recorded(L, &b, "taylor_run");
   luaL_checktype(L, 2, LUA_TTABLE);
+  /* The polynomial of a step is the continuation of the branch taken at its
+   * start: across a switch (abs(x) at x = 0) it is silently wrong, and its
+   * coefficients do not show it (a V-shaped well gives a parabola, exact to
+   * every order, and one step to t1). */
+  int branches = nz_compiled_motion_branches(b.comp);
+  if (branches > 0)
+    return luaL_error(L, "system '%s': 'taylor_run': the Taylor method does not step across branches yet, and "
+                      "M or h has %d (comparisons, nz.ifelse, min, max, abs or sign on the state)",
+                      nz_lua_system_name(L, 1), branches);
   int k = b.sys.k;
   nz_taylor_config cfg;
   memset(&cfg, 0, sizeof cfg);

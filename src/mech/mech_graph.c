@@ -825,3 +825,32 @@ fail:
   describe_failure(c, plan, st);
   return st;
 }
+
+int nz_compiled_motion_branches(nz_compiled *c)
+{
+  if (!mass_bias_ready(c)) return -1;
+  const dplan *d = c->acc_plan ? c->acc_plan : c->mb_plan;
+  int root = -1;
+  for (int o = 0; o < d->nout; o++)
+    if (d->outs[o] > root) root = d->outs[o];
+  if (root < 0) return 0;
+  const nz_gnode *nd = nz_graph_nodes(c->g);
+  char *need = calloc((size_t)root + 1, 1);
+  if (!need) return -1;
+  for (int o = 0; o < d->nout; o++) need[d->outs[o]] = 1;
+  /* folding removed the branches on constants: what is left switches with
+   * the state (select's condition is a cmp, counted as such) */
+  int n = 0;
+  for (int x = root; x >= 0; x--) {
+    if (!need[x]) continue;
+    const nz_gnode *g = &nd[x];
+    if (g->op == NZ_GOP_CONST || g->op == NZ_GOP_INPUT) continue;
+    n += g->op == NZ_GOP_CMP || g->op == NZ_GOP_SELECT ||
+         (g->op == NZ_GOP_FN && (g->fn == NZ_FN_SIGN || g->fn == NZ_FN_ABS));
+    if (g->a >= 0) need[g->a] = 1;
+    if (g->b >= 0) need[g->b] = 1;
+    if (g->c >= 0) need[g->c] = 1;
+  }
+  free(need);
+  return n;
+}

@@ -107,6 +107,12 @@ int nz_compiled_native(const nz_compiled *c, double *seconds, const char **why);
  * a given p nothing is allocated. */
 int nz_compiled_motion_series(nz_compiled *c, double t0, const double *q0, const double *qd0, int p,
                               double *a);
+/* Branches in the graphs the series of the motion runs on: comparisons,
+ * selections, sign and abs whose operands move with the state (-1 when M
+ * and h are not recorded).  The series keeps the branch that coefficient 0
+ * chose (graph.h), so a Taylor step must not cross a switch; until steps
+ * are cut at the switches, a run refuses a system that has any. */
+int nz_compiled_motion_branches(nz_compiled *c);
 /* Nodes of the mass-bias plan (0 before its first use). */
 int nz_compiled_mass_bias_nodes(const nz_compiled *c);
 
