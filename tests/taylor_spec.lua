@@ -187,7 +187,8 @@ describe("taylor_run", function()
       worst = math.max(worst, math.abs(r.q[i][1] - math.cos(w * t)), math.abs(r.qd[i][1] + w * math.sin(w * t)) / w)
     end
     -- tol 1e-14 per step, ~670 steps whose errors add in phase at worst:
-    -- ~7e-12; measured 1.4e-12 (the phase error of a step is not one sign).
+    -- ~7e-12; measured 1.1e-14 (1.4e-12 before the run kept its time as a
+    -- sum of two doubles: the rounding of t + h was the phase error).
     -- The reference itself: cos(w t) at t ~ 300 has an argument known to
     -- ~6e-14.  Bound 1e-11.
     assert(worst <= 1e-11, ("worst error %.3g"):format(worst))
@@ -209,7 +210,7 @@ describe("taylor_run", function()
     local worst = 0
     for i = 1, #fine.t, 97 do worst = math.max(worst, math.abs(fine.q[i][1] - math.cos(fine.t[i]))) end
     -- ~50 / 0.45 = 110 steps at 1e-12, at most ~1e-10 if every error
-    -- added; measured 3.3e-14; bound 1e-10.
+    -- added; measured 3.1e-14; bound 1e-10.
     assert(worst <= 1e-10, ("dense output error %.3g"):format(worst))
   end)
 
@@ -249,7 +250,7 @@ describe("taylor_run", function()
       dE = math.max(dE, math.abs((r.qd[i][1] ^ 2 + r.qd[i][2] ^ 2) / 2 - 1 / math.sqrt(r.q[i][1] ^ 2 + r.q[i][2] ^ 2) + 0.5))
     end
     -- The position error grows linearly with the phase error (measured
-    -- 6e-12 after 100 orbits, 2.6e-13 after 20; the reference's mean
+    -- 4.3e-12 after 100 orbits, 3.6e-13 after 20; the reference's mean
     -- anomaly t mod 2 pi carries ~1e-14).  Bound 1e-10 after 20 orbits:
     -- 1e-15 per step over ~870 steps, amplified by the orbit's shear, stays
     -- well below.  Energy (-1/2): measured 1.8e-15 (3.6e-15 relative);
@@ -283,7 +284,7 @@ describe("taylor_run with a mass matrix that moves", function()
     end
     -- As the Cartesian run: the phase error grows linearly, a few 1e-14
     -- per orbit; phi ~ 63 after 10 orbits is known to ~1e-14 by the
-    -- reference.  Measured dr 8.5e-14, dphi 5.2e-13; bounds 1e-11 for both.
+    -- reference.  Measured dr 6.2e-14, dphi 4.0e-13; bounds 1e-11 for both.
     assert(dr <= 1e-11, ("r off by %.3g"):format(dr))
     assert(dphi <= 1e-11, ("phi off by %.3g"):format(dphi))
   end)

@@ -775,7 +775,8 @@ int nz_compiled_motion_series(nz_compiled *c, double t0, const double *q0, const
    * nz_compiled_failure names it. */
   if ((st = nz_graph_series_begin(plan, N, in))) goto fail;
   if (!constant)   /* the series of M's entries, filled coefficient by coefficient below */
-    for (int e = 0; e < k * k; e++) c->ts_M[e] = nz_graph_series_node(plan, c->mb_plan->outs[e]);
+    for (int e = 0; e < k * k; e++)
+      if (!(c->ts_M[e] = nz_graph_series_node(plan, c->mb_plan->outs[e]))) return NZ_EARG;
   for (int n = 0; n <= N; n++) {
     double *qn = qdd + (size_t)n * (size_t)k, *a2 = a + (size_t)(n + 2) * (size_t)k;
     if (n > 0) {

@@ -121,9 +121,12 @@ int nz_taylor_run(int k, nz_taylor_series_fn series, void *ctx, const nz_taylor_
   memcpy(qout, q, kk * sizeof(double));
   memcpy(qdout, qd, kk * sizeof(double));
   long next = 1;
-  double t = cfg->t0, t1 = cfg->t1, hmin = INFINITY, hmax = 0.0, hlast = 0.0;
-  /* 1/e^2 and Jorba-Zou's safety factor, per order (p <= pmax) */
-  const double rho_factor = exp(-2.0);
+  /* The time is t + tlo, a sum of two doubles: t + h rounds by up to half
+   * an ulp of t per step (1e-13 at t ~ 2000), and those roundings would add
+   * up over the steps into a phase error larger than the tolerance (as in
+   * heyoka, which keeps a double-length time for the same reason). */
+  double t = cfg->t0, tlo = 0.0, t1 = cfg->t1, hmin = INFINITY, hmax = 0.0, hlast = 0.0;
+  const double rho_factor = exp(-2.0);   /* rho / e^2 */
   int st = NZ_OK;
   while (t < t1) {
     if (nz_interrupt_requested()) { *stop = NZ_TAYLOR_INTERRUPTED; break; }
@@ -135,7 +138,8 @@ int nz_taylor_run(int k, nz_taylor_series_fn series, void *ctx, const nz_taylor_
     double nx = 0.0;
     for (int i = 0; i < k; i++) nx = fmax(nx, fmax(fabs(q[i]), fabs(qd[i])));
     int absolute = cfg->rtol * nx <= cfg->atol;
-    double eps = absolute ? cfg->atol : cfg->rtol, s = absolute ? 1.0 : nx;
+    /* atol = 0 and a state at 0: absolute, with rtol as the accuracy asked */
+    double eps = absolute && cfg->atol > 0.0 ? cfg->atol : cfg->rtol, s = absolute ? 1.0 : nx;
     int p = cfg->order ? cfg->order : nz_taylor_order(eps);
     if (p > pmax) p = pmax;
     if (p > stats->order) stats->order = p;
@@ -147,32 +151,52 @@ int nz_taylor_run(int k, nz_taylor_series_fn series, void *ctx, const nz_taylor_
     double rho = fmin(r1, r2);
     double h = rho * rho_factor * exp(-0.7 / (p - 1));
     int last = 0;
-    if (isinf(rho) || h >= t1 - t) { h = t1 - t; last = 1; }
-    if (!(h > 0.0) || !isfinite(h) || t + h == t) {
+    double rest = (t1 - t) - tlo;
+    /* the last step also when t + h would round onto t1: the step is then
+     * the rest, longer by less than an ulp of t1 */
+    if (isinf(rho) || h >= rest || t + h >= t1) { h = rest; last = 1; }
+    if (last && !(h > 0.0)) h = 0.0;   /* t + tlo reached t1 by rounding: the state is t1's */
+    if (!isfinite(h) || (!last && (!(h > 0.0) || t + h == t))) {
       *stop = NZ_TAYLOR_STEP;
       st = NZ_ERANGE;
       break;
     }
-    double tn = last ? t1 : t + h;
     /* the grid's points inside the step, on its polynomial */
     for (; next < npts; next++) {
-      double tg = grid_time(cfg, next, npts);
-      if (tg > tn) break;
+      double tg = grid_time(cfg, next, npts), tau = (tg - t) - tlo;
+      if (!last && tau > h) break;
       tout[next] = tg;
-      horner(k, p + 1, a, tg - t, qout + (size_t)next * kk, qdout + (size_t)next * kk);
+      horner(k, p + 1, a, tau, qout + (size_t)next * kk, qdout + (size_t)next * kk);
     }
     horner(k, p + 1, a, h, q, qd);
     if (last && next == npts) {   /* t1 itself: the state, exactly */
       memcpy(qout + (size_t)(npts - 1) * kk, q, kk * sizeof(double));
       memcpy(qdout + (size_t)(npts - 1) * kk, qd, kk * sizeof(double));
     }
-    t = tn;
+    if (last) {
+      t = t1;
+      tlo = 0.0;
+    } else {   /* t + tlo + h: Knuth's two-sum, then renormalized */
+      double sum = t + h, bp = sum - t, err = (t - (sum - bp)) + (h - bp);
+      tlo += err;
+      t = sum + tlo;
+      tlo -= t - sum;
+    }
     stats->steps++;
     if (!last) {
       hmin = fmin(hmin, h);
       hmax = fmax(hmax, h);
     }
     hlast = h;
+  }
+  if (*stop == NZ_TAYLOR_DONE && next == npts - 1) {
+    /* t rounded onto t1 with t + tlo short of it by less than an ulp: the
+     * state is t1's */
+    tout[next] = t1;
+    memcpy(qout + (size_t)next * kk, q, kk * sizeof(double));
+    memcpy(qdout + (size_t)next * kk, qd, kk * sizeof(double));
+    next++;
+    t = t1;
   }
   if (stats->steps > 0 && hmax == 0.0) hmin = hmax = hlast;   /* one step, cut at t1 */
   stats->hmin = stats->steps ? hmin : 0.0;
