@@ -257,7 +257,7 @@ static void spd_matrix(int k, double cond, unsigned seed, double *A)
 static void check_spd_solve(void)
 {
   double worst_x = 0.0, worst_lo = 0.0, worst_hi = 0.0, worst_gsl = 0.0, worst_bound = -1.0;
-  int bad = 0, bounded = 0;
+  int bad = 0, bounded = 0, refactor = 0;
   for (int k = 1; k <= 24; k++)
     for (int c = 0; c < 3; c++) {
       double cond = c == 0 ? 10.0 : c == 1 ? 1e4 : 1e9;
@@ -269,6 +269,11 @@ static void check_spd_solve(void)
       memcpy(F, A, (size_t)k * (size_t)k * sizeof *F);
       nz_solve_info info, est;
       bad += nz_solve_spd_in(k, F, b, sol, 1e-14, &info, work) != NZ_OK;
+      /* the factor left in F solves the same right-hand side again, bit for bit */
+      double again[24];
+      memcpy(again, b, (size_t)k * sizeof *again);
+      nz_cholesky_solve(k, F, again);
+      refactor += memcmp(again, sol, (size_t)k * sizeof *again) != 0;
       /* rcond_min = 1 refuses every matrix but 1 x 1 ones after estimating rcond */
       memcpy(F, A, (size_t)k * (size_t)k * sizeof *F);
       nz_solve_spd_in(k, F, b, x_unused, 1.0, &est, work);
@@ -312,6 +317,8 @@ static void check_spd_solve(void)
       free(A); free(F); free(b); free(sol); free(work);
     }
   gsl_test(bad != 0, "SPD solve: every matrix of condition 10, 1e4, 1e9 and k = 1..24 is solved (%d refused)", bad);
+  gsl_test(refactor != 0, "SPD solve: nz_cholesky_solve with the factor left in A repeats the solve (%d differ)",
+           refactor);
   gsl_test(!(worst_x <= 50.0), "SPD solve: x against GSL's Cholesky within 50 cond eps (worst %.3g)", worst_x);
   gsl_test(!(worst_lo <= 10.0), "SPD solve: rcond is never below the exact 1-norm one by more than 10 cond eps "
            "(worst (exact/estimate - 1) / (cond eps) = %.3g)", worst_lo);

@@ -79,6 +79,8 @@ static void cholesky_solve(int k, const double *L, double *x)
   }
 }
 
+void nz_cholesky_solve(int k, const double *L, double *x) { cholesky_solve(k, L, x); }
+
 static double norm1_vec(int k, const double *x)
 {
   double s = 0.0;

@@ -28,6 +28,11 @@ int nz_solve_spd(int k, double *A, const double *b, double *x, double rcond_min,
 size_t nz_solve_spd_work_len(int k);
 int nz_solve_spd_in(int k, double *A, const double *b, double *x, double rcond_min,
                     nz_solve_info *info, double *work);
+/* After nz_solve_spd_in returned NZ_OK, A holds the Cholesky factor L of
+ * the matrix (A = L L^T, L in the lower triangle): further right-hand sides
+ * of the same matrix cost two triangular solves, x = (L L^T)^-1 x in place
+ * (the Taylor method's orders 1, 2, ... of one step share M_0's factor). */
+void nz_cholesky_solve(int k, const double *L, double *x);
 
 #include <gsl/gsl_matrix.h>
 #include <gsl/gsl_vector.h>

@@ -23,6 +23,7 @@
 #include "lua/lua_series.h"
 #include "lua/lua_special.h"
 #include "lua/lua_system.h"
+#include "lua/lua_taylor.h"
 #include "lua/lua_util.h"
 #include "lua/nz.h"
 
@@ -120,6 +121,7 @@ static int open_core(lua_State *L)
   nz_lua_open_series(L);
   nz_lua_open_linalg(L);
   nz_lua_open_ode(L);
+  nz_lua_open_taylor(L);
   nz_lua_open_graph(L);          /* the recorder's constructor is internal */
   lua_setfield(L, -2, "mech");
   nz_lua_open_dualjet(L);        /* after the jets (its branches call them) and core.mech */

@@ -60,6 +60,13 @@ struct nz_compiled {
   dplan **rows;
   signed char *rows_built;
   double *row_in, *row_out;
+  /* nz_compiled_motion_series's workspace, for series up to ts_cap + 1
+   * coefficients of q (grown, never shrunk): the inputs' coefficient
+   * (ninputs), M_0's factor and the solver's work, a right-hand side (k),
+   * q''s coefficients ((ts_cap - 1) k), and the series of M's entries. */
+  int ts_cap;
+  double *ts_in, *ts_L, *ts_work, *ts_rhs, *ts_qdd;
+  const double **ts_M;
   char failure[160];
 };
 
@@ -186,6 +193,8 @@ void nz_compiled_free(nz_compiled *c)
   free(c->rows);
   free(c->rows_built);
   free(c->row_in);
+  free(c->ts_in);
+  free(c->ts_M);
   free(c->mb_in);
   free(c->acc_A);
   free(c->phi);
@@ -700,4 +709,149 @@ int nz_compiled_constraint_row(void *ctx, int r, int m, double t, const double *
 int nz_compiled_mass_bias_nodes(const nz_compiled *c)
 {
   return c->mb_built > 0 ? nz_graph_plan_nodes(c->mb_plan->plan) : 0;
+}
+
+/* ------------------------------------------------------------------ */
+/* The series of the motion (Taylor's method)                           */
+
+/* The workspace of nz_compiled_motion_series for p + 1 coefficients. */
+static int series_workspace(nz_compiled *c, int p)
+{
+  if (p <= c->ts_cap) return NZ_OK;
+  size_t k = (size_t)c->k, kk = k * k, n = (size_t)c->ninputs;
+  size_t len = n + kk + nz_solve_spd_work_len(c->k) + k + (size_t)(p > 1 ? p - 1 : 1) * k;
+  double *in = malloc(len * sizeof(double));
+  const double **M = c->ts_M ? c->ts_M : malloc(kk * sizeof *M);
+  if (!in || !M) {
+    free(in);
+    if (!c->ts_M) free(M);
+    return NZ_ENOMEM;
+  }
+  free(c->ts_in);
+  c->ts_in = in;
+  c->ts_M = M;
+  c->ts_L = in + n;
+  c->ts_work = c->ts_L + kk;
+  c->ts_rhs = c->ts_work + nz_solve_spd_work_len(c->k);
+  c->ts_qdd = c->ts_rhs + k;
+  c->ts_cap = p;
+  return NZ_OK;
+}
+
+/* Coefficient n of the inputs along the motion t0 + tau: t is t0 + tau
+ * (1 at n = 1, then 0), a parameter is constant, slot 0 of q_i is a_n and
+ * slot 1 is (n + 1) a_{n+1}; higher slots (unread by M and h) are 0. */
+static void series_inputs_at(const nz_compiled *c, double *in, int n, double t0, const double *a)
+{
+  int k = c->k;
+  in[0] = n == 0 ? t0 : n == 1 ? 1.0 : 0.0;
+  for (int p = 0; p < c->np; p++) in[1 + p] = n == 0 ? c->params[p] : 0.0;
+  double *s0 = in + nz_compiled_input_slot(c, 0, 0), *s1 = s0 + k;
+  const double *an = a + (size_t)n * (size_t)k, *an1 = an + k;
+  for (int i = 0; i < k; i++) {
+    s0[i] = an[i];
+    s1[i] = (n + 1) * an1[i];
+  }
+}
+
+int nz_compiled_motion_series(nz_compiled *c, double t0, const double *q0, const double *qd0, int p,
+                              double *a)
+{
+  int k = c->k, st;
+  if (p < 0 || p > NZ_JET_MAX_ORDER + 2) return NZ_EDOM;
+  if (!mass_bias_ready(c)) return NZ_EARG;
+  if ((st = series_workspace(c, p))) return st;
+  memcpy(a, q0, (size_t)k * sizeof(double));
+  if (p >= 1) memcpy(a + k, qd0, (size_t)k * sizeof(double));
+  if (p < 2) return NZ_OK;
+  /* q''s coefficients 0 .. N give a_2 .. a_p */
+  int N = p - 2, constant = c->acc_plan != NULL;
+  nz_graph_plan *plan = constant ? c->acc_plan->plan : c->mb_plan->plan;
+  double *in = c->ts_in, *qdd = c->ts_qdd, *rhs = c->ts_rhs;
+  memset(in, 0, (size_t)c->ninputs * sizeof(double));
+  series_inputs_at(c, in, 0, t0, a);
+  /* The plan's other outputs (F and V, evaluated to check that they are
+   * defined) run along: a failure of any node is the jets' status, and
+   * nz_compiled_failure names it. */
+  if ((st = nz_graph_series_begin(plan, N, in))) goto fail;
+  if (!constant)   /* the series of M's entries, filled coefficient by coefficient below */
+    for (int e = 0; e < k * k; e++)
+      if (!(c->ts_M[e] = nz_graph_series_node(plan, c->mb_plan->outs[e]))) return NZ_EARG;
+  for (int n = 0; n <= N; n++) {
+    double *qn = qdd + (size_t)n * (size_t)k, *a2 = a + (size_t)(n + 2) * (size_t)k;
+    if (n > 0) {
+      series_inputs_at(c, in, n, t0, a);
+      if ((st = nz_graph_series_next(plan, n, in, NULL))) goto fail;
+    }
+    if (constant) {
+      /* q'' = -M^-1 h is the plan: its coefficient n is the answer */
+      for (int i = 0; i < k; i++) qn[i] = nz_graph_series_coef(plan, i, n);
+    } else {
+      /* coefficient n of M q'' + h = 0: M_0 q''_n = -(h_n + sum_{m=1..n} M_m q''_{n-m}),
+       * M_0 factored once (its condition checked) and its factor reused */
+      for (int i = 0; i < k; i++) {
+        double s = nz_graph_series_coef(plan, k * k + i, n);
+        for (int m = 1; m <= n; m++) {
+          const double *qm = qdd + (size_t)(n - m) * (size_t)k;
+          for (int j = 0; j < k; j++) s += c->ts_M[i * k + j][m] * qm[j];
+        }
+        rhs[i] = -s;
+      }
+      if (n == 0) {
+        for (int e = 0; e < k * k; e++) c->ts_L[e] = c->ts_M[e][0];
+        nz_solve_info info;
+        st = nz_solve_spd_in(k, c->ts_L, rhs, qn, NZ_RCOND_MIN, &info, c->ts_work);
+        if (st) {
+          snprintf(c->failure, sizeof c->failure, "the mass matrix is %s (rcond %.3g)",
+                   info.not_spd ? "not positive definite" : "singular", info.rcond);
+          return st;
+        }
+      } else {
+        memcpy(qn, rhs, (size_t)k * sizeof(double));
+        nz_cholesky_solve(k, c->ts_L, qn);
+      }
+    }
+    /* q''(t0 + tau) = sum (j + 1)(j + 2) a_{j+2} tau^j */
+    double d = 1.0 / ((double)(n + 1) * (double)(n + 2));
+    for (int i = 0; i < k; i++) {
+      if (!isfinite(qn[i])) {
+        snprintf(c->failure, sizeof c->failure, "coefficient %d of q''_%d is not finite", n, i + 1);
+        return isnan(qn[i]) ? NZ_ENAN : NZ_ERANGE;
+      }
+      a2[i] = qn[i] * d;
+    }
+  }
+  return NZ_OK;
+fail:
+  describe_failure(c, plan, st);
+  return st;
+}
+
+int nz_compiled_motion_branches(nz_compiled *c)
+{
+  if (!mass_bias_ready(c)) return -1;
+  const dplan *d = c->acc_plan ? c->acc_plan : c->mb_plan;
+  int root = -1;
+  for (int o = 0; o < d->nout; o++)
+    if (d->outs[o] > root) root = d->outs[o];
+  if (root < 0) return 0;
+  const nz_gnode *nd = nz_graph_nodes(c->g);
+  char *need = calloc((size_t)root + 1, 1);
+  if (!need) return -1;
+  for (int o = 0; o < d->nout; o++) need[d->outs[o]] = 1;
+  /* folding removed the branches on constants: what is left switches with
+   * the state (select's condition is a cmp, counted as such) */
+  int n = 0;
+  for (int x = root; x >= 0; x--) {
+    if (!need[x]) continue;
+    const nz_gnode *g = &nd[x];
+    if (g->op == NZ_GOP_CONST || g->op == NZ_GOP_INPUT) continue;
+    n += g->op == NZ_GOP_CMP || g->op == NZ_GOP_SELECT ||
+         (g->op == NZ_GOP_FN && (g->fn == NZ_FN_SIGN || g->fn == NZ_FN_ABS));
+    if (g->a >= 0) need[g->a] = 1;
+    if (g->b >= 0) need[g->b] = 1;
+    if (g->c >= 0) need[g->c] = 1;
+  }
+  free(need);
+  return n;
 }

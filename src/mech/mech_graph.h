@@ -90,6 +90,29 @@ void nz_compiled_set_native(nz_compiled *c, int mode);
 /* Plans running natively; seconds spent compiling; why the last attempt
  * failed (NULL if none did). */
 int nz_compiled_native(const nz_compiled *c, double *seconds, const char **why);
+/* The Taylor coefficients of the free motion from (t0, q0, qd0): a[n k + i]
+ * is coefficient n of q_i(t0 + tau), n = 0 .. p, from M q'' + h = 0 built
+ * order by order on the plans of M and h (graph.h's series: coefficient n
+ * of every node from coefficients 0 .. n of the inputs, t = t0 + tau, q_i =
+ * sum a_n tau^n, q'_i = sum (n + 1) a_{n+1} tau^n).  With a constant M,
+ * coefficient n of q'' is that of the plan q'' = -M^-1 h; otherwise M_0 is
+ * factored once (Cholesky, its condition checked against NZ_RCOND_MIN) and
+ * M_0 q''_n = -(h_n + sum_{m=1..n} M_m q''_{n-m}); then a_{n+2} = q''_n /
+ * ((n + 1)(n + 2)).  The check of F and V runs along.  For a system
+ * without constraints (the caller checks: constraints are not seen here).
+ * NZ_OK; NZ_EARG when M and h are not recorded; a jet status when a node
+ * fails (a domain error, a coefficient not finite); NZ_ESINGULAR when M_0
+ * is not positive definite or too badly conditioned (nz_compiled_failure
+ * says which).  The workspace is the recording's: after the first call for
+ * a given p nothing is allocated. */
+int nz_compiled_motion_series(nz_compiled *c, double t0, const double *q0, const double *qd0, int p,
+                              double *a);
+/* Branches in the graphs the series of the motion runs on: comparisons,
+ * selections, sign and abs whose operands move with the state (-1 when M
+ * and h are not recorded).  The series keeps the branch that coefficient 0
+ * chose (graph.h), so a Taylor step must not cross a switch; until steps
+ * are cut at the switches, a run refuses a system that has any. */
+int nz_compiled_motion_branches(nz_compiled *c);
 /* Nodes of the mass-bias plan (0 before its first use). */
 int nz_compiled_mass_bias_nodes(const nz_compiled *c);
 

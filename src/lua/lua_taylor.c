@@ -1,0 +1,195 @@
+/* lua_taylor.c - Taylor's method for Lua, on a system without constraints
+ * whose M and h are recorded (issue 11, first part; not yet a method of
+ * sys:simulate):
+ *   core.mech.motion_series(engine, t0, q0, qd0, p) -> { a_0, ..., a_p }
+ *     the Taylor coefficients of q(t0 + tau), each a list of k numbers;
+ *   core.mech.taylor_run(engine, { t0, t1, dt, q0, qd0, tol | rtol, atol,
+ *     order, max_steps }) -> { t = {...}, q = {{...}}, qd = {{...}},
+ *     stats = { steps, order, nfev, hmin, hmax, seconds } }
+ *     on the grid t0 + i dt (the last point at t1; dt defaults to t1 - t0),
+ *     nfev counting the series of the motion computed (one per step),
+ *     seconds the wall time of the run in C (the result's tables apart).
+ * engine is a system's definition table (sys.engine). */
+#include <math.h>
+#include <string.h>
+#include <lauxlib.h>
+#include "mech/mech_graph.h"
+#include "ode/ode_run.h"     /* nz_run_clock */
+#include "ode/taylor.h"
+#include "lua/lua_system.h"
+#include "lua/lua_taylor.h"
+#include "lua/lua_util.h"
+
+/* Bind the system at 1 and check that Taylor's method applies to it. */
+static void bind_recorded(lua_State *L, bound_system *b, const char *fname)
+{
+  nz_lua_bind_system(L, 1, b);
+  const char *name = nz_lua_system_name(L, 1);
+  if (!b->comp)
+    luaL_error(L, "system '%s': '%s': the Taylor method needs a recorded system (made with compile = true, "
+               "the default), whose series it builds on the graphs", name, fname);
+  if (!b->sys.mass_bias)
+    luaL_error(L, "system '%s': '%s': the Taylor method needs T, V and Q recorded, and one of them fell back "
+               "to Lua (print(sys) says which and why)", name, fname);
+  if (b->sys.nc > 0)
+    luaL_error(L, "system '%s': '%s': the Taylor method does not handle constraints yet", name, fname);
+}
+
+static int motion_series(void *ctx, double t0, const double *q0, const double *qd0, int p, double *a)
+{
+  return nz_compiled_motion_series(ctx, t0, q0, qd0, p, a);
+}
+
+/* The error of a failed series, with where it failed. */
+static int raise_series(lua_State *L, bound_system *b, int st, double t, const char *fname)
+{
+  const char *name = nz_lua_system_name(L, 1);
+  char num[64];
+  nz_lua_fmt_num(num, sizeof num, t);
+  if (st == NZ_ENOMEM) return luaL_error(L, "system '%s': not enough memory in '%s'", name, fname);
+  if (st == NZ_EARG)
+    return luaL_error(L, "system '%s': '%s': the mass matrix and bias are not recorded", name, fname);
+  return luaL_error(L, "system '%s': '%s': the series of the motion failed at t = %s: %s (status %d)", name,
+                    fname, num, nz_compiled_failure(b->comp), st);
+}
+
+/* motion_series(engine, t0, q0, qd0, p) -> { a_0, ..., a_p } */
+static int lt_motion_series(lua_State *L)
+{
+  lua_settop(L, 5);
+  bound_system b;
+  bind_recorded(L, &b, "motion_series");
+  int k = b.sys.k;
+  double t0 = luaL_checknumber(L, 2);
+  lua_Integer p = luaL_checkinteger(L, 5);
+  luaL_argcheck(L, p >= 0 && p <= 1000, 5, "order out of range (0 .. 1000)");
+  double *buf = lua_newuserdatauv(L, ((size_t)p + 3) * (size_t)k * sizeof(double), 0);
+  double *q0 = buf, *qd0 = buf + k, *a = buf + 2 * k;
+  nz_lua_read_vector(L, 3, k, q0, "q0", 0, "motion_series");
+  nz_lua_read_vector(L, 4, k, qd0, "qd0", 1, "motion_series");
+  int st = nz_compiled_motion_series(b.comp, t0, q0, qd0, (int)p, a);
+  if (st) return raise_series(L, &b, st, t0, "motion_series");
+  lua_createtable(L, (int)p + 1, 0);
+  for (int n = 0; n <= p; n++) {
+    nz_lua_push_vector(L, a + (size_t)n * (size_t)k, k);
+    lua_rawseti(L, -2, n + 1);
+  }
+  return 1;
+}
+
+/* opts.name as a number, or def when absent. */
+static double opt_number(lua_State *L, int idx, const char *name, double def)
+{
+  int type = lua_getfield(L, idx, name);
+  double v = def;
+  if (type != LUA_TNIL) {
+    int isnum;
+    v = lua_tonumberx(L, -1, &isnum);
+    if (!isnum) luaL_error(L, "bad argument to 'taylor_run' (%s must be a number, got %s)", name, luaL_typename(L, -1));
+  }
+  lua_pop(L, 1);
+  return v;
+}
+
+/* taylor_run(engine, opts) -> { t, q, qd, stats } */
+static int lt_taylor_run(lua_State *L)
+{
+  lua_settop(L, 2);
+  bound_system b;
+  bind_recorded(L, &b, "taylor_run");
+  luaL_checktype(L, 2, LUA_TTABLE);
+  /* The polynomial of a step is the continuation of the branch taken at its
+   * start: across a switch (abs(x) at x = 0) it is silently wrong, and its
+   * coefficients do not show it (a V-shaped well gives a parabola, exact to
+   * every order, and one step to t1). */
+  int branches = nz_compiled_motion_branches(b.comp);
+  if (branches > 0)
+    return luaL_error(L, "system '%s': 'taylor_run': the Taylor method does not step across branches yet, and "
+                      "M or h has %d (comparisons, nz.ifelse, min, max, abs or sign on the state)",
+                      nz_lua_system_name(L, 1), branches);
+  int k = b.sys.k;
+  nz_taylor_config cfg;
+  memset(&cfg, 0, sizeof cfg);
+  cfg.t0 = opt_number(L, 2, "t0", 0.0);
+  cfg.t1 = opt_number(L, 2, "t1", NAN);
+  cfg.dt = opt_number(L, 2, "dt", cfg.t1 - cfg.t0);
+  double tol = opt_number(L, 2, "tol", 1e-12);
+  cfg.rtol = opt_number(L, 2, "rtol", tol);
+  cfg.atol = opt_number(L, 2, "atol", tol);
+  double order = opt_number(L, 2, "order", 0.0), max_steps = opt_number(L, 2, "max_steps", 0.0);
+  if (!isfinite(cfg.t0) || !isfinite(cfg.t1) || !(cfg.t1 > cfg.t0))
+    return luaL_error(L, "bad argument to 'taylor_run' (t1 must be a finite number after t0)");
+  if (!(cfg.dt > 0.0) || !isfinite(cfg.dt))
+    return luaL_error(L, "bad argument to 'taylor_run' (dt must be a positive finite number)");
+  if (!(cfg.rtol >= 0.0 && cfg.rtol < 1.0 && cfg.atol >= 0.0 && cfg.atol < 1.0) || (cfg.rtol == 0.0 && cfg.atol == 0.0))
+    return luaL_error(L, "bad argument to 'taylor_run' (tolerances must lie in [0, 1), not both 0)");
+  if (!(order == 0.0 || (order >= 2.0 && order <= 1000.0 && order == floor(order))))
+    return luaL_error(L, "bad argument to 'taylor_run' (order must be a whole number in 2 .. 1000)");
+  if (!(max_steps >= 0.0 && max_steps == floor(max_steps)))
+    return luaL_error(L, "bad argument to 'taylor_run' (max_steps must be a whole number >= 0)");
+  cfg.order = (int)order;
+  cfg.max_steps = (unsigned long)max_steps;
+  long npts = nz_taylor_grid_count(&cfg);
+  if (npts < 2) return luaL_error(L, "bad argument to 'taylor_run' (the output grid t0 .. t1 by dt is too long)");
+  double *q0 = lua_newuserdatauv(L, 2 * (size_t)k * sizeof(double), 0), *qd0 = q0 + k;
+  lua_getfield(L, 2, "q0");
+  nz_lua_read_vector(L, lua_gettop(L), k, q0, "q0", 0, "taylor_run");
+  lua_getfield(L, 2, "qd0");
+  nz_lua_read_vector(L, lua_gettop(L), k, qd0, "qd0", 1, "taylor_run");
+  lua_pop(L, 2);
+  double *out = lua_newuserdatauv(L, (size_t)npts * (1 + 2 * (size_t)k) * sizeof(double), 0);
+  double *tout = out, *qout = out + npts, *qdout = qout + (size_t)npts * (size_t)k;
+  long n = 0;
+  nz_taylor_stats stats;
+  nz_taylor_stop stop;
+  double clock0 = nz_run_clock();
+  int st = nz_taylor_run(k, motion_series, b.comp, &cfg, q0, qd0, tout, qout, qdout, &n, &stats, &stop);
+  double seconds = nz_run_clock() - clock0;
+  if (stop == NZ_TAYLOR_INTERRUPTED) return nz_lua_raise_interrupt(L);
+  if (stop == NZ_TAYLOR_SERIES) return raise_series(L, &b, st, stats.t, "taylor_run");
+  if (stop == NZ_TAYLOR_STEP || stop == NZ_TAYLOR_MAX_STEPS) {
+    char num[64];
+    nz_lua_fmt_num(num, sizeof num, stats.t);
+    return luaL_error(L, "system '%s': 'taylor_run' stopped at t = %s: %s", nz_lua_system_name(L, 1), num,
+                      stop == NZ_TAYLOR_STEP ? "the step size became too small" : "max_steps reached");
+  }
+  if (st == NZ_ENOMEM) return luaL_error(L, "system '%s': not enough memory in 'taylor_run'", nz_lua_system_name(L, 1));
+  if (st) return luaL_error(L, "system '%s': 'taylor_run' failed (status %d)", nz_lua_system_name(L, 1), st);
+  lua_createtable(L, 0, 4);
+  lua_createtable(L, (int)n, 0);
+  for (long i = 0; i < n; i++) {
+    lua_pushnumber(L, tout[i]);
+    lua_rawseti(L, -2, i + 1);
+  }
+  lua_setfield(L, -2, "t");
+  for (int w = 0; w < 2; w++) {
+    const double *v = w ? qdout : qout;
+    lua_createtable(L, (int)n, 0);
+    for (long i = 0; i < n; i++) {
+      nz_lua_push_vector(L, v + (size_t)i * (size_t)k, k);
+      lua_rawseti(L, -2, i + 1);
+    }
+    lua_setfield(L, -2, w ? "qd" : "q");
+  }
+  lua_createtable(L, 0, 5);
+  lua_pushinteger(L, (lua_Integer)stats.steps);
+  lua_setfield(L, -2, "steps");
+  lua_pushinteger(L, stats.order);
+  lua_setfield(L, -2, "order");
+  lua_pushinteger(L, (lua_Integer)stats.nseries);
+  lua_setfield(L, -2, "nfev");
+  lua_pushnumber(L, stats.hmin);
+  lua_setfield(L, -2, "hmin");
+  lua_pushnumber(L, stats.hmax);
+  lua_setfield(L, -2, "hmax");
+  lua_pushnumber(L, seconds);            /* the run in C, without the Lua tables of the result */
+  lua_setfield(L, -2, "seconds");
+  lua_setfield(L, -2, "stats");
+  return 1;
+}
+
+static const luaL_Reg taylor_functions[] = {
+  { "motion_series", lt_motion_series }, { "taylor_run", lt_taylor_run }, { NULL, NULL }
+};
+
+void nz_lua_open_taylor(lua_State *L) { luaL_setfuncs(L, taylor_functions, 0); }

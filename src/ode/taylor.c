@@ -1,0 +1,208 @@
+/* taylor.c - Taylor's method with dense output (taylor.h).
+ *
+ * Order and step size follow A. Jorba and M. Zou, "A software package for
+ * the numerical integration of ODEs by means of high-order Taylor methods",
+ * Experimental Mathematics 14 (2005), section 3.2, as heyoka does.
+ *
+ * The state is x = (q, q'), 2k values; its Taylor coefficient of order j is
+ * x^[j] = (a_j, (j + 1) a_{j+1}).
+ *
+ * Tolerance.  GSL's steppers accept a step when every component's error is
+ * at most atol + rtol |y_i|.  The series gives no error per component, only
+ * the size of the coefficients; so the test is made on the state's max
+ * norm, as Jorba and Zou do: with ||x|| = max |x_i|,
+ *   rtol ||x|| <= atol: absolute, eps = atol, scale s = 1;
+ *   otherwise:          relative, eps = rtol, scale s = ||x||;
+ * i.e. the error is held to max(atol, rtol ||x||), which is within a factor
+ * 2 of GSL's atol + rtol ||x|| (in the max norm, not per component: a small
+ * component next to a large one gets the large one's relative tolerance).
+ *
+ * Order.  p = ceil(-ln(eps) / 2 + 1) (Jorba and Zou's eq. 3.5): with the
+ * step below, the last term kept is about s e^(-2p) <= s eps e^(-2).
+ *
+ * Step.  If q behaves like a function analytic in a disc of radius rho
+ * around t, bounded by about s, its coefficients are ||x^[j]|| ~ s rho^-j;
+ * the two last ones estimate rho:
+ *   rho = min( (s / ||x^[p-1]||)^(1/(p-1)), (s / ||x^[p]||)^(1/p) )
+ * (two, because one may vanish by symmetry: the odd coefficients of an even
+ * motion), and the step is
+ *   h = rho / e^2 * exp(-0.7 / (p - 1)),
+ * so that the neglected terms, s (h/rho)^(p+1) and smaller, are about s
+ * e^(-2(p+1)) < s eps; exp(-0.7 / (p - 1)) is their safety factor, found
+ * by experiment to absorb the tail of the series.  No step is rejected: the
+ * error is not measured, only predicted (as in Jorba-Zou and heyoka); the
+ * tests compare with closed forms.  A zero coefficient norm gives no bound
+ * (rho infinite): when both vanish the polynomial is exact and the step
+ * goes to t1.
+ *
+ * q is kept to degree p + 1 (a_{p+1} is needed for q''s part of x^[p]
+ * anyway), q' to degree p: the dense output's q' is the derivative of its
+ * q, both evaluated by Horner at any time inside the step. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include "core/interrupt.h"
+#include "ode/taylor.h"
+
+long nz_taylor_grid_count(const nz_taylor_config *cfg)
+{
+  double span = cfg->t1 - cfg->t0;
+  if (!isfinite(cfg->t0) || !isfinite(cfg->t1) || !(span > 0.0) || !isfinite(cfg->dt) || !(cfg->dt > 0.0))
+    return 0;
+  /* as the GSL loop (ode_run.c): t0 + i dt, i < n, then t1 */
+  double n = ceil(span / cfg->dt - 1e-9);
+  if (!(n >= 1.0) || n > 1e9) return 0;
+  return (long)n + 1;
+}
+
+int nz_taylor_order(double eps)
+{
+  if (!(eps > 0.0) || eps >= 1.0) return 2;
+  int p = (int)ceil(-log(eps) / 2.0 + 1.0);
+  return p < 2 ? 2 : p;
+}
+
+static double grid_time(const nz_taylor_config *cfg, long i, long npts)
+{
+  return i == npts - 1 ? cfg->t1 : cfg->t0 + (double)i * cfg->dt;
+}
+
+/* q(tau) and q'(tau) from a_0 .. a_P by Horner. */
+static void horner(int k, int P, const double *a, double tau, double *q, double *qd)
+{
+  for (int i = 0; i < k; i++) {
+    double v = a[(size_t)P * (size_t)k + (size_t)i], d = P * v;
+    for (int n = P - 1; n >= 1; n--) {
+      double an = a[(size_t)n * (size_t)k + (size_t)i];
+      v = v * tau + an;
+      d = d * tau + n * an;
+    }
+    q[i] = v * tau + a[i];
+    qd[i] = P >= 1 ? d : 0.0;
+  }
+}
+
+/* The max norm of x^[j] = (a_j, (j + 1) a_{j+1}). */
+static double coef_norm(int k, const double *a, int j)
+{
+  const double *aj = a + (size_t)j * (size_t)k, *aj1 = aj + k;
+  double m = 0.0;
+  for (int i = 0; i < k; i++) {
+    double u = fabs(aj[i]), v = (j + 1) * fabs(aj1[i]);
+    if (u > m) m = u;
+    if (v > m) m = v;
+  }
+  return m;
+}
+
+int nz_taylor_run(int k, nz_taylor_series_fn series, void *ctx, const nz_taylor_config *cfg,
+                  const double *q0, const double *qd0, double *tout, double *qout, double *qdout,
+                  long *npoints, nz_taylor_stats *stats, nz_taylor_stop *stop)
+{
+  long npts = nz_taylor_grid_count(cfg);
+  memset(stats, 0, sizeof *stats);
+  *npoints = 0;
+  *stop = NZ_TAYLOR_DONE;
+  stats->t = cfg->t0;
+  if (k < 1 || npts < 2 || !(cfg->rtol >= 0.0) || !(cfg->atol >= 0.0) || !(cfg->rtol > 0.0 || cfg->atol > 0.0) ||
+      !(cfg->rtol < 1.0) || !(cfg->atol < 1.0) || !isfinite(cfg->atol) || cfg->order == 1 || cfg->order < 0 ||
+      cfg->order > 1000)
+    return NZ_EDOM;
+  /* The highest order the run may use: the smaller positive tolerance's. */
+  double emin = cfg->rtol > 0.0 && (cfg->atol == 0.0 || cfg->rtol < cfg->atol) ? cfg->rtol : cfg->atol;
+  int pmax = cfg->order ? cfg->order : nz_taylor_order(emin);
+  size_t kk = (size_t)k;
+  double *a = malloc(((size_t)pmax + 2 + 2) * kk * sizeof(double));
+  if (!a) return NZ_ENOMEM;
+  double *q = a + ((size_t)pmax + 2) * kk, *qd = q + kk;
+  memcpy(q, q0, kk * sizeof(double));
+  memcpy(qd, qd0, kk * sizeof(double));
+  tout[0] = cfg->t0;
+  memcpy(qout, q, kk * sizeof(double));
+  memcpy(qdout, qd, kk * sizeof(double));
+  long next = 1;
+  /* The time is t + tlo, a sum of two doubles: t + h rounds by up to half
+   * an ulp of t per step (1e-13 at t ~ 2000), and those roundings would add
+   * up over the steps into a phase error larger than the tolerance (as in
+   * heyoka, which keeps a double-length time for the same reason). */
+  double t = cfg->t0, tlo = 0.0, t1 = cfg->t1, hmin = INFINITY, hmax = 0.0, hlast = 0.0;
+  const double rho_factor = exp(-2.0);   /* rho / e^2 */
+  int st = NZ_OK;
+  while (t < t1) {
+    if (nz_interrupt_requested()) { *stop = NZ_TAYLOR_INTERRUPTED; break; }
+    if (cfg->max_steps && stats->steps >= cfg->max_steps) {
+      *stop = NZ_TAYLOR_MAX_STEPS;
+      st = NZ_ERANGE;
+      break;
+    }
+    double nx = 0.0;
+    for (int i = 0; i < k; i++) nx = fmax(nx, fmax(fabs(q[i]), fabs(qd[i])));
+    int absolute = cfg->rtol * nx <= cfg->atol;
+    /* atol = 0 and a state at 0: absolute, with rtol as the accuracy asked */
+    double eps = absolute && cfg->atol > 0.0 ? cfg->atol : cfg->rtol, s = absolute ? 1.0 : nx;
+    int p = cfg->order ? cfg->order : nz_taylor_order(eps);
+    if (p > pmax) p = pmax;
+    if (p > stats->order) stats->order = p;
+    stats->nseries++;
+    if ((st = series(ctx, t, q, qd, p + 1, a))) { *stop = NZ_TAYLOR_SERIES; break; }
+    double n1 = coef_norm(k, a, p - 1), n2 = coef_norm(k, a, p);
+    double r1 = n1 > 0.0 ? pow(s / n1, 1.0 / (p - 1)) : INFINITY;
+    double r2 = n2 > 0.0 ? pow(s / n2, 1.0 / p) : INFINITY;
+    double rho = fmin(r1, r2);
+    double h = rho * rho_factor * exp(-0.7 / (p - 1));
+    int last = 0;
+    double rest = (t1 - t) - tlo;
+    /* the last step also when t + h would round onto t1: the step is then
+     * the rest, longer by less than an ulp of t1 */
+    if (isinf(rho) || h >= rest || t + h >= t1) { h = rest; last = 1; }
+    if (last && !(h > 0.0)) h = 0.0;   /* t + tlo reached t1 by rounding: the state is t1's */
+    if (!isfinite(h) || (!last && (!(h > 0.0) || t + h == t))) {
+      *stop = NZ_TAYLOR_STEP;
+      st = NZ_ERANGE;
+      break;
+    }
+    /* the grid's points inside the step, on its polynomial */
+    for (; next < npts; next++) {
+      double tg = grid_time(cfg, next, npts), tau = (tg - t) - tlo;
+      if (!last && tau > h) break;
+      tout[next] = tg;
+      horner(k, p + 1, a, tau, qout + (size_t)next * kk, qdout + (size_t)next * kk);
+    }
+    horner(k, p + 1, a, h, q, qd);
+    if (last && next == npts) {   /* t1 itself: the state, exactly */
+      memcpy(qout + (size_t)(npts - 1) * kk, q, kk * sizeof(double));
+      memcpy(qdout + (size_t)(npts - 1) * kk, qd, kk * sizeof(double));
+    }
+    if (last) {
+      t = t1;
+      tlo = 0.0;
+    } else {   /* t + tlo + h: Knuth's two-sum, then renormalized */
+      double sum = t + h, bp = sum - t, err = (t - (sum - bp)) + (h - bp);
+      tlo += err;
+      t = sum + tlo;
+      tlo -= t - sum;
+    }
+    stats->steps++;
+    if (!last) {
+      hmin = fmin(hmin, h);
+      hmax = fmax(hmax, h);
+    }
+    hlast = h;
+  }
+  if (*stop == NZ_TAYLOR_DONE && next == npts - 1) {
+    /* t rounded onto t1 with t + tlo short of it by less than an ulp: the
+     * state is t1's */
+    tout[next] = t1;
+    memcpy(qout + (size_t)next * kk, q, kk * sizeof(double));
+    memcpy(qdout + (size_t)next * kk, qd, kk * sizeof(double));
+    next++;
+    t = t1;
+  }
+  if (stats->steps > 0 && hmax == 0.0) hmin = hmax = hlast;   /* one step, cut at t1 */
+  stats->hmin = stats->steps ? hmin : 0.0;
+  stats->hmax = hmax;
+  stats->t = t;
+  *npoints = next;
+  free(a);
+  return st;
+}
