@@ -163,6 +163,24 @@ function M.hamel()
   }
 end
 
+-- A bead on a hoop of radius R turned at the rate W about the vertical:
+-- th from the bottom, ph = W t (a moving holonomic constraint, which works
+-- on the bead).  th'' = (W^2 cos th - g / R) sin th.  fields: added to the
+-- system's definition (compile = false, ...).
+function M.driven_hoop(fields)
+  local m, R, W, g = 0.3, 0.5, 4.0, 9.81
+  local def = { name = "driven hoop", coords = { "th", "ph" },
+    T = function(t, q, qd) return 0.5 * m * R * R * (qd[1] ^ 2 + nz.sin(q[1]) ^ 2 * qd[2] ^ 2) end,
+    V = function(t, q) return -m * g * R * nz.cos(q[1]) end,
+    constraints = { function(t, q) return q[2] - W * t end } }
+  for key, v in pairs(fields or {}) do def[key] = v end
+  return {
+    name = "driven hoop", n = 1, W = W, sys = nz.system(def),
+    accel = function(t, q) return { (W * W * cos(q[1]) - g / R) * sin(q[1]), 0 } end,
+    draw = function() return uniform(0, 2), { uniform(-2, 2), 0 }, { uniform(-1, 1), W } end,
+  }
+end
+
 function M.linear_at_acceleration_level()
   return { M.sleigh(), M.rolling_disk(), M.constant_speed(), M.appell(), M.program(), M.cartesian_pendulum() }
 end

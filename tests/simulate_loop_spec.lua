@@ -170,11 +170,8 @@ describe("constrained systems", function()
     both(s.sys, { t0 = t0, q0 = q0, qd0 = qd0, t1 = 1, dt = 0.1 })
   end)
   it("a moving constraint with the work monitor, bsimp", function()
-    local m, R, W = 0.3, 0.5, 4.0
-    local hoop = nz.system{ name = "driven hoop", coords = { "th", "ph" },
-      T = function(t, q, qd) return 0.5 * m * R * R * (qd[1] ^ 2 + nz.sin(q[1]) ^ 2 * qd[2] ^ 2) end,
-      V = function(t, q) return -m * g * R * nz.cos(q[1]) end,
-      constraints = { function(t, q) return q[2] - W * t end } }
+    local h = systems.driven_hoop()
+    local hoop, W = h.sys, h.W
     local a = both(hoop, { q0 = { 0.7, 0 }, qd0 = { 0.3, W }, t1 = 1, dt = 0.1, method = "bsimp", monitors = { work = true } })
     assert(#a.work == #a.t)
   end)
@@ -259,11 +256,8 @@ describe("events in the C loop (recorded once as graphs, evaluated in C after ev
     assert(#b.events >= 2, #b.events)
   end)
   it("events on a system with a moving constraint and the work monitor, bsimp", function()
-    local m, R, W = 0.3, 0.5, 4.0
-    local hoop = nz.system{ name = "driven hoop", coords = { "th", "ph" },
-      T = function(t, q, qd) return 0.5 * m * R * R * (qd[1] ^ 2 + nz.sin(q[1]) ^ 2 * qd[2] ^ 2) end,
-      V = function(t, q) return -m * g * R * nz.cos(q[1]) end,
-      constraints = { function(t, q) return q[2] - W * t end } }
+    local h = systems.driven_hoop()
+    local hoop, W = h.sys, h.W
     local _, b = both(hoop, { q0 = { 0.7, 0 }, qd0 = { 0.3, W }, t1 = 2, dt = 0.1, method = "bsimp", monitors = { work = true },
       events = { function(t, q, qd) return qd[1] end } })
     assert(#b.events >= 1)

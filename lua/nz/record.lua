@@ -289,16 +289,22 @@ end
 -- mechanics reads; lua/nz/system.lua): sets engine.compiled,
 -- engine.compiled_params, engine.compiled_mass_bias, and returns the report
 -- { {label =, compiled =, why =, nodes =}, ..., seconds =, nodes = }.
-function M.compile(engine, levels, native)
-  local clock = os.clock()
-  local k = engine.k
-  local names = {}
-  for name, v in pairs(engine.params) do
+-- The parameters a recording reads as inputs: the named numbers of params,
+-- in a fixed (sorted) order, and each name's input number.
+local function recorded_params(params)
+  local names, index = {}, {}
+  for name, v in pairs(params) do
     if type(name) == "string" and type(v) == "number" then names[#names + 1] = name end
   end
   table.sort(names)
-  local index = {}
   for p, name in ipairs(names) do index[name] = p end
+  return names, index
+end
+
+function M.compile(engine, levels, native)
+  local clock = os.clock()
+  local k = engine.k
+  local names, index = recorded_params(engine.params)
   -- two slots more than any function reads: the rows of the constraints
   -- differentiate them twice along the motion (src/mech/mech_graph.c)
   local nslots = 2
@@ -363,13 +369,9 @@ end
 -- nil, the index of the first function that cannot be recorded, and why.
 function M.state_functions(engine, list)
   local k = engine.k
-  local names = {}
-  for name, v in pairs(engine.params) do
-    if type(name) == "string" and type(v) == "number" then names[#names + 1] = name end
-  end
-  table.sort(names)
-  local index, values = {}, {}
-  for p, name in ipairs(names) do index[name], values[p] = p, engine.params[name] end
+  local names, index = recorded_params(engine.params)
+  local values = {}
+  for p, name in ipairs(names) do values[p] = engine.params[name] end
   local c = core.mech.compiled_new(k, #names, 0, 2)
   local pproxy = param_proxy(c, engine.params, index)
   local nodes = {}
