@@ -981,15 +981,12 @@ function M.simulate_taylor(sys, cfg)
       local j = math.min(nout, i + chunk)
       local tj = j == nout and cfg.t1 or cfg.t0 + j * cfg.dt
       local ok2, res = pcall(mech.taylor_run, engine, { t0 = t, t1 = tj, dt = cfg.dt, q0 = q, qd0 = qd,
-        rtol = cfg.rtol, atol = cfg.atol })
+        rtol = cfg.rtol, atol = cfg.atol, partial = true })
       if not ok2 then
         if type(res) ~= "string" then error(res, 0) end
         local what = reword(res)
         if what:find("branches", 1, true) then refuse("cannot run this system: %s; take rk8pd", what) end
-        -- where it stopped: the message's time, the state at the last point kept
-        local at = what:match("t = ([%deE%.%+%-]+)")
-        error(("%ssimulate '%s': method 'taylor' failed%s: %s (last output point%s)"):format(user_where(), sys.name,
-          at and (" at t = " .. at) or "", what, state_text(t, q, qd)), 0)
+        error(("%ssimulate '%s': method 'taylor' failed: %s"):format(user_where(), sys.name, what), 0)
       end
       local s = res.stats
       stats.steps, stats.nfev = stats.steps + s.steps, stats.nfev + s.nfev
@@ -1001,6 +998,14 @@ function M.simulate_taylor(sys, cfg)
         record(idx == nout and cfg.t1 or cfg.t0 + idx * cfg.dt, res.q[n], res.qd[n])
       end
       i, t, q, qd = i + m - 1, tr.t[#tr.t], res.q[m], res.qd[m]
+      -- a run that stopped early: its points are kept, then the reason
+      if res.stop == "interrupted" then t = res.stats.t; error(core.interrupted, 0) end
+      if res.stop then
+        error(("%ssimulate '%s': method 'taylor' %s%s: the motion may be singular there (a velocity blowing "
+          .. "up), or the tolerance too tight; last output point%s"):format(user_where(), sys.name, res.message,
+          res.stop == "step" and (" (the series predicts a step below the time's resolution)") or "",
+          state_text(t, q, qd)), 0)
+      end
       local scale = s.seconds > 0 and M.TAYLOR_CHUNK.seconds / s.seconds or 4
       chunk = math.floor(math.max(M.TAYLOR_CHUNK.min, math.min(M.TAYLOR_CHUNK.max, chunk * math.min(scale, 4))))
       if progress then update(t, function() return stats.steps end) end

@@ -1,16 +1,17 @@
 /* lua_taylor.c - Taylor's method for Lua, on a system without constraints
- * whose M and h are recorded (issue 11, first part; not yet a method of
- * sys:simulate):
+ * whose M and h are recorded (issue 11, first part; sys:simulate{method =
+ * "taylor"} runs on taylor_run, lua/nz/simulate.lua):
  *   core.mech.motion_series(engine, t0, q0, qd0, p) -> { a_0, ..., a_p }
  *     the Taylor coefficients of q(t0 + tau), each a list of k numbers;
  *   core.mech.taylor_run(engine, { t0, t1, dt, q0, qd0, tol | rtol, atol,
- *     order, max_steps }) -> { t = {...}, q = {{...}}, qd = {{...}},
- *     stats = { steps, order, nfev, hmin, hmax, seconds } }
+ *     order, max_steps, partial }) -> { t = {...}, q = {{...}}, qd = {{...}},
+ *     stats = { steps, order, nfev, hmin, hmax, t, seconds } [, stop, message] }
  *     on the grid t0 + i dt (the last point at t1; dt defaults to t1 - t0),
  *     nfev counting the series of the motion computed (one per step),
  *     seconds the wall time of the run in C (the result's tables apart).
  * engine is a system's definition table (sys.engine). */
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 #include <lauxlib.h>
 #include "mech/mech_graph.h"
@@ -142,20 +143,49 @@ static int lt_taylor_run(lua_State *L)
   long n = 0;
   nz_taylor_stats stats;
   nz_taylor_stop stop;
+  lua_getfield(L, 2, "partial");
+  int partial = lua_toboolean(L, -1);
+  lua_pop(L, 1);
   double clock0 = nz_run_clock();
   int st = nz_taylor_run(k, motion_series, b.comp, &cfg, q0, qd0, tout, qout, qdout, &n, &stats, &stop);
   double seconds = nz_run_clock() - clock0;
-  if (stop == NZ_TAYLOR_INTERRUPTED) return nz_lua_raise_interrupt(L);
-  if (stop == NZ_TAYLOR_SERIES) return raise_series(L, &b, st, stats.t, "taylor_run");
-  if (stop == NZ_TAYLOR_STEP || stop == NZ_TAYLOR_MAX_STEPS) {
+  /* partial = true (sys:simulate): a run that stops early returns the points
+   * it wrote, with stop = why and message = what, so that the caller keeps
+   * them; otherwise it raises. */
+  char what[512] = "";
+  const char *why = NULL;
+  if (stop == NZ_TAYLOR_INTERRUPTED) {
+    if (!partial) return nz_lua_raise_interrupt(L);
+    why = "interrupted";
+  } else if (stop == NZ_TAYLOR_SERIES) {
+    if (!partial) return raise_series(L, &b, st, stats.t, "taylor_run");
     char num[64];
     nz_lua_fmt_num(num, sizeof num, stats.t);
-    return luaL_error(L, "system '%s': 'taylor_run' stopped at t = %s: %s", nz_lua_system_name(L, 1), num,
-                      stop == NZ_TAYLOR_STEP ? "the step size became too small" : "max_steps reached");
+    why = "series";
+    if (st == NZ_ENOMEM) snprintf(what, sizeof what, "not enough memory");
+    else snprintf(what, sizeof what, "the series of the motion failed at t = %s: %s (status %d)", num,
+                  nz_compiled_failure(b.comp), st);
+  } else if (stop == NZ_TAYLOR_STEP || stop == NZ_TAYLOR_MAX_STEPS) {
+    char num[64];
+    nz_lua_fmt_num(num, sizeof num, stats.t);
+    if (!partial)
+      return luaL_error(L, "system '%s': 'taylor_run' stopped at t = %s: %s", nz_lua_system_name(L, 1), num,
+                        stop == NZ_TAYLOR_STEP ? "the step size became too small" : "max_steps reached");
+    why = stop == NZ_TAYLOR_STEP ? "step" : "max_steps";
+    snprintf(what, sizeof what, "stopped at t = %s: %s", num,
+             stop == NZ_TAYLOR_STEP ? "the step size became too small" : "max_steps reached");
+  } else if (st == NZ_ENOMEM) {
+    return luaL_error(L, "system '%s': not enough memory in 'taylor_run'", nz_lua_system_name(L, 1));
+  } else if (st) {
+    return luaL_error(L, "system '%s': 'taylor_run' failed (status %d)", nz_lua_system_name(L, 1), st);
   }
-  if (st == NZ_ENOMEM) return luaL_error(L, "system '%s': not enough memory in 'taylor_run'", nz_lua_system_name(L, 1));
-  if (st) return luaL_error(L, "system '%s': 'taylor_run' failed (status %d)", nz_lua_system_name(L, 1), st);
-  lua_createtable(L, 0, 4);
+  lua_createtable(L, 0, 6);
+  if (why) {
+    lua_pushstring(L, why);
+    lua_setfield(L, -2, "stop");
+    lua_pushstring(L, what);
+    lua_setfield(L, -2, "message");
+  }
   lua_createtable(L, (int)n, 0);
   for (long i = 0; i < n; i++) {
     lua_pushnumber(L, tout[i]);
@@ -171,7 +201,7 @@ static int lt_taylor_run(lua_State *L)
     }
     lua_setfield(L, -2, w ? "qd" : "q");
   }
-  lua_createtable(L, 0, 5);
+  lua_createtable(L, 0, 7);
   lua_pushinteger(L, (lua_Integer)stats.steps);
   lua_setfield(L, -2, "steps");
   lua_pushinteger(L, stats.order);
@@ -182,6 +212,8 @@ static int lt_taylor_run(lua_State *L)
   lua_setfield(L, -2, "hmin");
   lua_pushnumber(L, stats.hmax);
   lua_setfield(L, -2, "hmax");
+  lua_pushnumber(L, stats.t);
+  lua_setfield(L, -2, "t");
   lua_pushnumber(L, seconds);            /* the run in C, without the Lua tables of the result */
   lua_setfield(L, -2, "seconds");
   lua_setfield(L, -2, "stats");
