@@ -240,6 +240,14 @@ Methods (t a number, q, qd, qdd tables of k numbers):
         one whose steps stop advancing t stops with the state and M.
         Event functions are recorded and watched in C; one that cannot be
         recorded keeps the run in Lua (tr.stats.loop_why says why).
+        method: a GSL stepper (nz.methods; rk8pd by default) or "taylor":
+        Taylor's method on the recorded series of the motion, for a system
+        without constraints whose T, V, Q are recorded and do not branch on
+        the state; order ceil(-ln(tol)/2 + 1) (18 at 1e-14) and steps from
+        rtol/atol, no rejected step; the output grid is read off each step's
+        polynomial, so a fine dt costs no extra step (tr.stats.order: the
+        order used).  Not yet with taylor: constraints, events, the work
+        monitor, step and h0 (each refused with the method to take).
   print(sys)                 a summary]] },
   { name = "forms", section = "mechanics", usage = "nz.forms",
     summary = "the names of the forms of the equations sys:residual accepts" },
