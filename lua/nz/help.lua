@@ -311,7 +311,8 @@ or else against rk8pd at rtol 1e-13, and prints a table of error, wall time,
 right-hand-side evaluations and steps.  plot = true draws the work-precision
 diagram (log-log error against time, a line per method) in the terminal;
 plot = "file.svg" (or .png) writes it.  Returns the rows.
-Defaults: methods rk4, rkf45, rkck, rk8pd, rk4imp, bsimp, msadams, msbdf;
+Defaults: methods rk4, rkf45, rkck, rk8pd, rk4imp, bsimp, msadams, msbdf, taylor
+(taylor skipped, with the reason, for constraints or a system not recorded);
 tols 1e-4, 1e-6, 1e-8, 1e-10.  Ctrl-C stops the sweep, keeping the rows done.]] },
   { name = "methods", section = "mechanics", usage = "nz.methods",
     summary = "GSL's steppers for sys:simulate: {name =, implicit =} each" },
