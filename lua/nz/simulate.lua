@@ -980,8 +980,10 @@ function M.simulate_taylor(sys, cfg)
       if mech.interrupted() then error(core.interrupted, 0) end
       local j = math.min(nout, i + chunk)
       local tj = j == nout and cfg.t1 or cfg.t0 + j * cfg.dt
+      -- the points go straight into tr (t, q, qd, qdd, lambda), made in C
       local ok2, res = pcall(mech.taylor_run, engine, { t0 = t, t1 = tj, dt = cfg.dt, q0 = q, qd0 = qd,
-        rtol = cfg.rtol, atol = cfg.atol, partial = true })
+        rtol = cfg.rtol, atol = cfg.atol, partial = true, tr = tr, grid_t0 = cfg.t0, grid_t1 = cfg.t1, i0 = i,
+        nout = nout })
       if not ok2 then
         if type(res) ~= "string" then error(res, 0) end
         local what = reword(res)
@@ -991,13 +993,10 @@ function M.simulate_taylor(sys, cfg)
       local s = res.stats
       stats.steps, stats.nfev = stats.steps + s.steps, stats.nfev + s.nfev
       stats.order, stats.seconds = math.max(stats.order, s.order), stats.seconds + s.seconds
-      -- points 2 .. of the chunk (its first is the last one recorded)
-      local m = #res.t
-      for n = 2, m do
-        local idx = i + n - 1
-        record(idx == nout and cfg.t1 or cfg.t0 + idx * cfg.dt, res.q[n], res.qd[n])
+      if tr.energy then
+        for n = #tr.t - res.n + 1, #tr.t do tr.energy[n], tr.generalized_energy[n] = sys:energy(tr.t[n], tr.q[n], tr.qd[n]) end
       end
-      i, t, q, qd = i + m - 1, tr.t[#tr.t], res.q[m], res.qd[m]
+      if res.n > 0 then i, t, q, qd = i + res.n, tr.t[#tr.t], res.q, res.qd end
       -- a run that stopped early: its points are kept, then the reason
       if res.stop == "interrupted" then t = res.stats.t; error(core.interrupted, 0) end
       if res.stop then

@@ -92,6 +92,92 @@ static double opt_number(lua_State *L, int idx, const char *name, double def)
   return v;
 }
 
+/* The statistics of a run as a table on the stack. */
+static void push_stats(lua_State *L, const nz_taylor_stats *stats, double seconds)
+{
+  lua_createtable(L, 0, 7);
+  lua_pushinteger(L, (lua_Integer)stats->steps);
+  lua_setfield(L, -2, "steps");
+  lua_pushinteger(L, stats->order);
+  lua_setfield(L, -2, "order");
+  lua_pushinteger(L, (lua_Integer)stats->nseries);
+  lua_setfield(L, -2, "nfev");
+  lua_pushnumber(L, stats->hmin);
+  lua_setfield(L, -2, "hmin");
+  lua_pushnumber(L, stats->hmax);
+  lua_setfield(L, -2, "hmax");
+  lua_pushnumber(L, stats->t);
+  lua_setfield(L, -2, "t");
+  lua_pushnumber(L, seconds);            /* the run in C, without the Lua tables of the result */
+  lua_setfield(L, -2, "seconds");
+}
+
+/* opts.tr (sys:simulate's trajectory, at stack index tr): the run's points
+ * but its first (the last one of the chunk before) appended to tr.t, tr.q,
+ * tr.qd, tr.qdd, tr.lambda as simulate.lua's record() stores them, the time
+ * of point m being t0 + (i0 + m) dt of the whole grid (opts.grid_t0, i0,
+ * nout, grid_t1; t1 for the last), so that the chunks' own grids, which
+ * start at the chunk's start, leave no trace of their rounding in tr.t.
+ * qdd is the system's accelerations at the point's (q, q'): 2 a_2 of the
+ * series at order 2 there (the step's polynomial's second derivative would
+ * carry its truncation, ~p^2 / h^2 times the tolerance).  No Lua function
+ * runs here: Ctrl-C's hook cannot cut a point in half.  Returns { n =
+ * points appended, q, qd = the last point's, stats, stop, message }. */
+static int append_points(lua_State *L, bound_system *b, int tr, const double *tout, const double *qout,
+                         const double *qdout, long n, const nz_taylor_stats *stats, double seconds,
+                         const char *why, const char *what)
+{
+  (void)tout;
+  int k = b->sys.k;
+  double gt0 = opt_number(L, 2, "grid_t0", NAN), gdt = opt_number(L, 2, "dt", NAN);
+  double gt1 = opt_number(L, 2, "grid_t1", NAN);
+  double i0 = opt_number(L, 2, "i0", 0.0), nout = opt_number(L, 2, "nout", 0.0);
+  static const char *const series[] = { "t", "q", "qd", "qdd", "lambda" };
+  int base = lua_gettop(L);
+  for (int j = 0; j < 5; j++) {      /* at base + 1 .. base + 5 */
+    lua_pushstring(L, series[j]);
+    if (lua_rawget(L, tr) != LUA_TTABLE) luaL_error(L, "simulate: tr.%s is not a table", series[j]);
+  }
+  double *acc = lua_newuserdatauv(L, 3 * (size_t)k * sizeof(double), 0);
+  lua_Integer first = (lua_Integer)lua_rawlen(L, base + 1) + 1;
+  for (long m = 1; m < n; m++) {
+    const double *q = qout + (size_t)m * (size_t)k, *qd = qdout + (size_t)m * (size_t)k;
+    double idx = i0 + (double)m, t = idx == nout ? gt1 : gt0 + idx * gdt;
+    int st = nz_compiled_motion_series(b->comp, t, q, qd, 2, acc);
+    if (st) return raise_series(L, b, st, t, "simulate");
+    for (int i = 0; i < k; i++) acc[i] = 2.0 * acc[2 * k + i];
+    lua_Integer at = first + m - 1;
+    lua_pushnumber(L, t);
+    lua_rawseti(L, base + 1, at);
+    nz_lua_push_vector(L, q, k);
+    lua_rawseti(L, base + 2, at);
+    nz_lua_push_vector(L, qd, k);
+    lua_rawseti(L, base + 3, at);
+    nz_lua_push_vector(L, acc, k);
+    lua_rawseti(L, base + 4, at);
+    lua_createtable(L, 0, 0);
+    lua_rawseti(L, base + 5, at);
+  }
+  lua_createtable(L, 0, 6);
+  lua_pushinteger(L, n > 0 ? (lua_Integer)n - 1 : 0);
+  lua_setfield(L, -2, "n");
+  if (n > 0) {
+    nz_lua_push_vector(L, qout + (size_t)(n - 1) * (size_t)k, k);
+    lua_setfield(L, -2, "q");
+    nz_lua_push_vector(L, qdout + (size_t)(n - 1) * (size_t)k, k);
+    lua_setfield(L, -2, "qd");
+  }
+  if (why) {
+    lua_pushstring(L, why);
+    lua_setfield(L, -2, "stop");
+    lua_pushstring(L, what);
+    lua_setfield(L, -2, "message");
+  }
+  push_stats(L, stats, seconds);
+  lua_setfield(L, -2, "stats");
+  return 1;
+}
+
 /* taylor_run(engine, opts) -> { t, q, qd, stats } */
 static int lt_taylor_run(lua_State *L)
 {
@@ -179,6 +265,10 @@ static int lt_taylor_run(lua_State *L)
   } else if (st) {
     return luaL_error(L, "system '%s': 'taylor_run' failed (status %d)", nz_lua_system_name(L, 1), st);
   }
+  lua_getfield(L, 2, "tr");
+  int tr = lua_istable(L, -1) ? lua_gettop(L) : 0;
+  if (tr) return append_points(L, &b, tr, tout, qout, qdout, n, &stats, seconds, why, what);
+  lua_pop(L, 1);
   lua_createtable(L, 0, 6);
   if (why) {
     lua_pushstring(L, why);
@@ -201,21 +291,7 @@ static int lt_taylor_run(lua_State *L)
     }
     lua_setfield(L, -2, w ? "qd" : "q");
   }
-  lua_createtable(L, 0, 7);
-  lua_pushinteger(L, (lua_Integer)stats.steps);
-  lua_setfield(L, -2, "steps");
-  lua_pushinteger(L, stats.order);
-  lua_setfield(L, -2, "order");
-  lua_pushinteger(L, (lua_Integer)stats.nseries);
-  lua_setfield(L, -2, "nfev");
-  lua_pushnumber(L, stats.hmin);
-  lua_setfield(L, -2, "hmin");
-  lua_pushnumber(L, stats.hmax);
-  lua_setfield(L, -2, "hmax");
-  lua_pushnumber(L, stats.t);
-  lua_setfield(L, -2, "t");
-  lua_pushnumber(L, seconds);            /* the run in C, without the Lua tables of the result */
-  lua_setfield(L, -2, "seconds");
+  push_stats(L, &stats, seconds);
   lua_setfield(L, -2, "stats");
   return 1;
 }
