@@ -924,8 +924,20 @@ M.TAYLOR_CHUNK = { seconds = 0.2, min = 256, first = 1024, max = 65536 }
 function M.simulate_taylor(sys, cfg)
   local k, engine = sys.k, sys.engine
   local function refuse(msg, ...) fail(sys, "method 'taylor' " .. msg, ...) end
+  -- Events: recorded as graphs (as the C loop's) and located in C on each
+  -- step's polynomial (src/lua/lua_taylor.c); one that cannot be recorded
+  -- is refused (taylor has no Lua loop).
+  local events
   if #cfg.events > 0 then
-    refuse("does not locate events yet: take rk8pd (the default) or another GSL stepper for a run with events")
+    local fs, directions, stops = {}, {}, {}
+    for i, ev in ipairs(cfg.events) do fs[i], directions[i], stops[i] = ev.f, ev.direction, ev.stop and true or false end
+    local rec, bad, why = record_graph.state_functions(engine, fs)
+    if not rec then
+      refuse("needs event functions it can record, and event '%s' cannot be (%s): take rk8pd, whose Lua loop runs it",
+        cfg.events[bad].name, why)
+    end
+    events = { compiled = rec.compiled, nodes = rec.nodes, values = rec.values, directions = directions, stops = stops,
+      tol = cfg.event_tol }
   end
   if cfg.monitors.work then
     refuse("does not integrate the 'work' monitor yet (it is part of the GSL steppers' state): leave it out, "
@@ -983,7 +995,7 @@ function M.simulate_taylor(sys, cfg)
       -- the points go straight into tr (t, q, qd, qdd, lambda), made in C
       local ok2, res = pcall(mech.taylor_run, engine, { t0 = t, t1 = tj, dt = cfg.dt, q0 = q, qd0 = qd,
         rtol = cfg.rtol, atol = cfg.atol, partial = true, tr = tr, grid_t0 = cfg.t0, grid_t1 = cfg.t1, i0 = i,
-        nout = nout })
+        nout = nout, events = events })
       if not ok2 then
         if type(res) ~= "string" then error(res, 0) end
         local what = reword(res)
@@ -997,6 +1009,16 @@ function M.simulate_taylor(sys, cfg)
         for n = #tr.t - res.n + 1, #tr.t do tr.energy[n], tr.generalized_energy[n] = sys:energy(tr.t[n], tr.q[n], tr.qd[n]) end
       end
       if res.n > 0 then i, t, q, qd = i + res.n, tr.t[#tr.t], res.q, res.qd end
+      for _, e in ipairs(res.events or {}) do
+        tr.events[#tr.events + 1] = { name = cfg.events[e.e].name, t = e.t, q = e.q, qd = e.qd }
+      end
+      if res.stop == "event" then                     -- the last event stopped the run: its point recorded
+        local e = res.events[#res.events]
+        t, q, qd = e.t, e.q, e.qd
+        record(e.t, e.q, e.qd)
+        tr.status, tr.message = "stopped", ("event '%s' at t = %.12g"):format(cfg.events[e.e].name, e.t)
+        return
+      end
       -- a run that stopped early: its points are kept, then the reason
       if res.stop == "interrupted" then t = res.stats.t; error(core.interrupted, 0) end
       if res.stop then
