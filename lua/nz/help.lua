@@ -246,8 +246,10 @@ Methods (t a number, q, qd, qdd tables of k numbers):
         the state; order ceil(-ln(tol)/2 + 1) (18 at 1e-14) and steps from
         rtol/atol, no rejected step; the output grid is read off each step's
         polynomial, so a fine dt costs no extra step (tr.stats.order: the
-        order used).  Not yet with taylor: constraints, events, the work
-        monitor, step and h0 (each refused with the method to take).
+        order used); events are located on each step's polynomial (no
+        integration again; their functions must be recordable).  Not yet
+        with taylor: constraints, the work monitor, step and h0 (each
+        refused with the method to take).
   print(sys)                 a summary]] },
   { name = "forms", section = "mechanics", usage = "nz.forms",
     summary = "the names of the forms of the equations sys:residual accepts" },
@@ -312,7 +314,7 @@ right-hand-side evaluations and steps.  plot = true draws the work-precision
 diagram (log-log error against time, a line per method) in the terminal;
 plot = "file.svg" (or .png) writes it.  Returns the rows.
 Defaults: methods rk4, rkf45, rkck, rk8pd, rk4imp, bsimp, msadams, msbdf, taylor
-(taylor skipped, with the reason, for constraints or a system not recorded);
+(taylor skipped, with the reason, where it does not apply: constraints, not recorded);
 tols 1e-4, 1e-6, 1e-8, 1e-10.  Ctrl-C stops the sweep, keeping the rows done.]] },
   { name = "methods", section = "mechanics", usage = "nz.methods",
     summary = "GSL's steppers for sys:simulate: {name =, implicit =} each" },

@@ -52,7 +52,6 @@ function M.run(sys, opts)
   local function taylor_skip()
     if sys.nc > 0 then return "constraints" end
     if not sys.recording then return "not recorded" end
-    if base.events and #base.events > 0 then return "events" end
     if base.monitors and base.monitors.work then return "work monitor" end
   end
   local rows = {}
@@ -102,7 +101,7 @@ function M.table(rows)
   end
   local text = require("nz.system").table_text(t)
   if next(skipped) then
-    text = text .. "\nskipped: taylor does not yet run systems with constraints or events, nor unrecorded ones"
+    text = text .. "\nskipped: taylor does not yet run systems with constraints, nor unrecorded ones"
   end
   if taylor then
     text = text .. "\ntaylor: rhs evals counts the series of the motion (one per step, of order ~ -ln(tol)/2 + 1);"
