@@ -186,6 +186,18 @@ print("status " .. tr.status .. " points " .. #tr.t .. " last " .. tr.t[#tr.t])
     assert.equal(1.11, nz.last.t[112])
   end)
 
+  it("an event function that fails on a step's polynomial stops the run with where", function()
+    local osc = oscillator()
+    local ok, e = pcall(osc.simulate, osc, { q0 = { 1 }, t1 = 10, dt = 0.5, method = "taylor",
+      events = { function(t, q) return nz.sqrt(q[1]) - 0.5 end } })
+    assert.is_false(ok)
+    -- x = cos(1.5 t) turns negative at t = pi / 3: the step holding it fails
+    assert.truthy(e:find("simulate_taylor_spec%.lua:%d+: simulate 'oscillator': method 'taylor' stopped in the step from t = "), e)
+    assert.truthy(e:find("event 1's recorded function failed", 1, true), e)
+    assert.equal("failed", nz.last.status)
+    assert(nz.last.t[#nz.last.t] < math.pi / 3)
+  end)
+
   it("refuses what it does not do, from the user's line", function()
     local osc = oscillator()
     local function err(o)

@@ -1022,9 +1022,10 @@ function M.simulate_taylor(sys, cfg)
       -- a run that stopped early: its points are kept, then the reason
       if res.stop == "interrupted" then t = res.stats.t; error(core.interrupted, 0) end
       if res.stop then
-        error(("%ssimulate '%s': method 'taylor' %s%s: the motion may be singular there (a velocity blowing "
-          .. "up), or the tolerance too tight; last output point%s"):format(user_where(), sys.name, res.message,
-          res.stop == "step" and (" (the series predicts a step below the time's resolution)") or "",
+        local why = res.stop == "hook" and "" or ": the motion may be singular there (a velocity blowing up), "
+          .. "or the tolerance too tight"
+        error(("%ssimulate '%s': method 'taylor' %s%s%s; last output point%s"):format(user_where(), sys.name, res.message,
+          res.stop == "step" and (" (the series predicts a step below the time's resolution)") or "", why,
           state_text(t, q, qd)), 0)
       end
       local scale = s.seconds > 0 and M.TAYLOR_CHUNK.seconds / s.seconds or 4

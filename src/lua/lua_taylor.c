@@ -426,7 +426,8 @@ static int lt_taylor_run(lua_State *L)
     nz_lua_fmt_num(num, sizeof num, stats.t);
     if (!partial) return luaL_error(L, "'taylor_run': events failed at t = %s (status %d)", num, st);
     snprintf(what, sizeof what, st == NZ_ERANGE ? "stopped at t = %s: more than %d events in one chunk of the output grid"
-             : "stopped at t = %s: event %d's recorded function failed there", num,
+             : "stopped in the step from t = %s: event %d's recorded function failed (a domain error, or not "
+             "finite) on the step's polynomial", num,
              st == NZ_ERANGE ? NZ_TAYLOR_MAX_EVENTS : ev.failed_e + 1);
     why = "hook";
   }
@@ -454,6 +455,8 @@ static int lt_taylor_run(lua_State *L)
     why = stop == NZ_TAYLOR_STEP ? "step" : "max_steps";
     snprintf(what, sizeof what, "stopped at t = %s: %s", num,
              stop == NZ_TAYLOR_STEP ? "the step size became too small" : "max_steps reached");
+  } else if (stop == NZ_TAYLOR_HOOK) {
+    /* said above (what, why) */
   } else if (st == NZ_ENOMEM) {
     return luaL_error(L, "system '%s': not enough memory in 'taylor_run'", nz_lua_system_name(L, 1));
   } else if (st) {
