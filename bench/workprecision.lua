@@ -16,7 +16,7 @@ if #wanted == 0 then wanted = problems.order end
 
 for _, name in ipairs(wanted) do
   local p = assert(problems[name], "no problem " .. name)()
-  local o = { methods = { "rk4", "rkf45", "rkck", "rk8pd", "rk4imp", "bsimp", "msadams", "msbdf" },
+  local o = { methods = { "rk4", "rkf45", "rkck", "rk8pd", "rk4imp", "bsimp", "msadams", "msbdf", "taylor" },
     tols = { 1e-4, 1e-6, 1e-8, 1e-10 }, reference = p.reference }
   for k, v in pairs(p.start) do o[k] = v end
   local rows = nz.workprecision(p.sys, o)

@@ -240,6 +240,16 @@ Methods (t a number, q, qd, qdd tables of k numbers):
         one whose steps stop advancing t stops with the state and M.
         Event functions are recorded and watched in C; one that cannot be
         recorded keeps the run in Lua (tr.stats.loop_why says why).
+        method: a GSL stepper (nz.methods; rk8pd by default) or "taylor":
+        Taylor's method on the recorded series of the motion, for a system
+        without constraints whose T, V, Q are recorded and do not branch on
+        the state; order ceil(-ln(tol)/2 + 1) (18 at 1e-14) and steps from
+        rtol/atol, no rejected step; the output grid is read off each step's
+        polynomial, so a fine dt costs no extra step (tr.stats.order: the
+        order used); events are located on each step's polynomial (no
+        integration again; their functions must be recordable).  Not yet
+        with taylor: constraints, the work monitor, step and h0 (each
+        refused with the method to take).
   print(sys)                 a summary]] },
   { name = "forms", section = "mechanics", usage = "nz.forms",
     summary = "the names of the forms of the equations sys:residual accepts" },
@@ -303,7 +313,8 @@ or else against rk8pd at rtol 1e-13, and prints a table of error, wall time,
 right-hand-side evaluations and steps.  plot = true draws the work-precision
 diagram (log-log error against time, a line per method) in the terminal;
 plot = "file.svg" (or .png) writes it.  Returns the rows.
-Defaults: methods rk4, rkf45, rkck, rk8pd, rk4imp, bsimp, msadams, msbdf;
+Defaults: methods rk4, rkf45, rkck, rk8pd, rk4imp, bsimp, msadams, msbdf, taylor
+(taylor skipped, with the reason, where it does not apply: constraints, not recorded);
 tols 1e-4, 1e-6, 1e-8, 1e-10.  Ctrl-C stops the sweep, keeping the rows done.]] },
   { name = "methods", section = "mechanics", usage = "nz.methods",
     summary = "GSL's steppers for sys:simulate: {name =, implicit =} each" },

@@ -117,11 +117,29 @@ local function check_times(sys, cfg)
 end
 
 local function check_stepping(sys, cfg)
+  if cfg.method == "taylor" then
+    -- Taylor's method (src/ode/taylor.c): order and step from rtol/atol,
+    -- no fixed step and no first step to give.
+    for _, key in ipairs{ "step", "h0" } do
+      if cfg[key] ~= nil then
+        fail(sys, "'%s' does not apply to method 'taylor', which takes its order and steps from rtol/atol: drop '%s'", key, key)
+      end
+    end
+    check_positive(sys, cfg, "rtol", "the relative tolerance")
+    if not (cfg.rtol >= M.MIN_RTOL and cfg.rtol < 1) then
+      fail(sys, "'rtol' must be between %g and 1 (double precision cannot do better), got %s", M.MIN_RTOL, show(cfg.rtol))
+    end
+    if not finite(cfg.atol) or not (cfg.atol >= 0 and cfg.atol < 1) then
+      fail(sys, "'atol' (the absolute tolerance) must be a finite number in [0, 1), got %s", show(cfg.atol))
+    end
+    check_positive(sys, cfg, "event_tol", "the tolerance on event times")
+    return
+  end
   if type(cfg.method) ~= "string" then
-    fail(sys, "'method' must be the name of a GSL stepper (%s), got %s", table.concat(method_names(), " "), show(cfg.method))
+    fail(sys, "'method' must be the name of a GSL stepper (%s) or \"taylor\", got %s", table.concat(method_names(), " "), show(cfg.method))
   end
   if not is_method(cfg.method) then
-    fail(sys, "unknown method '%s'; GSL's steppers are: %s (option 'method')", cfg.method, table.concat(method_names(), " "))
+    fail(sys, "unknown method '%s'; GSL's steppers are: %s; and taylor (Taylor's method, free systems) (option 'method')", cfg.method, table.concat(method_names(), " "))
   end
   check_positive(sys, cfg, "rtol", "the relative tolerance")
   if not (cfg.rtol >= M.MIN_RTOL and cfg.rtol <= 1) then
@@ -450,6 +468,10 @@ function M.simulate(sys, opts)
   -- the answer.  The session clears the request at every prompt.
   if mech.interrupted() then error(core.interrupted, 0) end
   local cfg = validate(sys, opts)
+  if cfg.method == "taylor" and sys.nc > 0 then
+    fail(sys, "method 'taylor' does not handle constraints yet (this system has %d): take a GSL stepper "
+      .. "(rk8pd, the default, or any of %s), which all do", sys.nc, table.concat(method_names(), " "))
+  end
   local k, engine = sys.k, sys.engine
   local orders, linear, p, top = {}, {}, nil, nil
   if sys.nc > 0 then
@@ -467,6 +489,7 @@ function M.simulate(sys, opts)
   end
   engine.orders = orders
   check_memory(sys, cfg, p, top)
+  if cfg.method == "taylor" then return M.simulate_taylor(sys, cfg) end
   local qd0 = cfg.qd0
   if not qd0 then qd0 = {}; for i = 1, k do qd0[i] = 0 end end   -- at rest
   if sys.nc > 0 and cfg.check ~= false then constraints.check_state(sys, cfg.t0, cfg.q0, qd0) end
@@ -875,6 +898,155 @@ function M.simulate(sys, opts)
     -- One location, the user's: the engine's messages come with the
     -- library's line (lua/nz/simulate.lua:...), which says nothing.
     msg = strip_library(msg)
+    if not located(msg) then msg = user_where() .. msg end
+    tr.status, tr.message = "failed", msg
+    require("nz").last = tr
+    error(("%s\n(the trajectory computed so far, %d points up to t = %.6g, is kept in nz.last)"):format(
+      msg, #tr.t, tr.t[#tr.t] or cfg.t0), 0)
+  end
+  return tr
+end
+
+-- Chunks of output points a Taylor run computes in C at a time: sized so
+-- that a chunk takes about TAYLOR_CHUNK.seconds (the progress bar moves,
+-- Ctrl-C loses at most that much work, the buffer stays small), between
+-- min and max points.
+M.TAYLOR_CHUNK = { seconds = 0.2, min = 256, first = 1024, max = 65536 }
+
+-- method = "taylor": the motion of a free recorded system by Taylor's method
+-- (src/ode/taylor.c through core.mech.taylor_run, src/lua/lua_taylor.c).
+-- The run goes by chunks of the output grid; each chunk starts from the
+-- last point of the one before, so the step that reaches a chunk's end is
+-- cut there (one short step per chunk: about 1% more steps at dt = 0.01 on
+-- Henon-Heiles, see the README).  The grid inside a chunk is tc + m dt, tc
+-- the chunk's start: it differs from t0 + n dt by a few ulps, and tr.t keeps
+-- t0 + n dt (the state at a time a few ulps off: far below any tolerance).
+function M.simulate_taylor(sys, cfg)
+  local k, engine = sys.k, sys.engine
+  local function refuse(msg, ...) fail(sys, "method 'taylor' " .. msg, ...) end
+  -- Events: recorded as graphs (as the C loop's) and located in C on each
+  -- step's polynomial (src/lua/lua_taylor.c); one that cannot be recorded
+  -- is refused (taylor has no Lua loop).
+  local events
+  if #cfg.events > 0 then
+    local fs, directions, stops = {}, {}, {}
+    for i, ev in ipairs(cfg.events) do fs[i], directions[i], stops[i] = ev.f, ev.direction, ev.stop and true or false end
+    local rec, bad, why = record_graph.state_functions(engine, fs)
+    if not rec then
+      refuse("needs event functions it can record, and event '%s' cannot be (%s): take rk8pd, whose Lua loop runs it",
+        cfg.events[bad].name, why)
+    end
+    events = { compiled = rec.compiled, nodes = rec.nodes, values = rec.values, directions = directions, stops = stops,
+      tol = cfg.event_tol }
+  end
+  if cfg.monitors.work then
+    refuse("does not integrate the 'work' monitor yet (it is part of the GSL steppers' state): leave it out, "
+      .. "or take rk8pd")
+  end
+  if cfg.project or cfg.alpha then
+    refuse("takes no 'project' or 'baumgarte': they stabilize constraints, and taylor runs free systems only")
+  end
+  if not sys.recording then
+    refuse("needs a recorded system (made with compile = true, the default): it builds the series on the graphs; "
+      .. "take rk8pd for a system made with compile = false")
+  end
+  local qd0 = cfg.qd0
+  if not qd0 then qd0 = {}; for i = 1, k do qd0[i] = 0 end end
+  -- The binding's refusals (a piece that fell back to Lua, branches on the
+  -- state) said as simulate's: the user's line, then what is wrong.
+  local function reword(err)
+    if type(err) ~= "string" then error(err, 0) end    -- an interrupt: as it is
+    local what = strip_library(err):gsub("^system '[^']*': '[%w_]+': ", ""):gsub("^system '[^']*': ", "")
+    return what
+  end
+  local ok, err = pcall(mech.motion_series, engine, cfg.t0, cfg.q0, qd0, 1)
+  if not ok then
+    local what = reword(err)
+    if what:find("fell back", 1, true) or what:find("recorded", 1, true) then
+      refuse("cannot run this system: %s; take rk8pd", what)
+    end
+    refuse("failed at t = %s: %s", num(cfg.t0), what)
+  end
+
+  local ode = mech.ode_new(engine, { method = "rk8pd", rtol = cfg.rtol, atol = cfg.atol, h0 = cfg.dt })  -- for qdd only
+  local tr = trajectory.new(sys, cfg)
+  tr.warnings = cfg.warnings
+  if cfg.monitors.energy then tr.energy, tr.generalized_energy = {}, {} end
+  local function record(t, q, qd)
+    local y = {}
+    for i = 1, k do y[i], y[k + i] = q[i], qd[i] end
+    local n = #tr.t + 1
+    tr.t[n], tr.q[n], tr.qd[n], tr.qdd[n], tr.lambda[n] = t, q, qd, (mech.ode_accel(ode, engine, t, y)), {}
+    if tr.energy then tr.energy[n], tr.generalized_energy[n] = sys:energy(t, q, qd) end
+  end
+
+  local update, done, progress = progress_bar(cfg, cfg.t0, cfg.t1)
+  local wall0 = mech.now()
+  local nout = math.ceil((cfg.t1 - cfg.t0) / cfg.dt - 1e-9)
+  local stats = { steps = 0, nfev = 0, order = 0, seconds = 0 }
+  local t, q, qd = cfg.t0, { table.unpack(cfg.q0) }, { table.unpack(qd0) }
+  local i, chunk = 0, M.TAYLOR_CHUNK.first
+  local function run()
+    record(t, q, qd)
+    while i < nout do
+      if mech.interrupted() then error(core.interrupted, 0) end
+      local j = math.min(nout, i + chunk)
+      local tj = j == nout and cfg.t1 or cfg.t0 + j * cfg.dt
+      -- the points go straight into tr (t, q, qd, qdd, lambda), made in C
+      local ok2, res = pcall(mech.taylor_run, engine, { t0 = t, t1 = tj, dt = cfg.dt, q0 = q, qd0 = qd,
+        rtol = cfg.rtol, atol = cfg.atol, partial = true, tr = tr, grid_t0 = cfg.t0, grid_t1 = cfg.t1, i0 = i,
+        nout = nout, events = events })
+      if not ok2 then
+        if type(res) ~= "string" then error(res, 0) end
+        local what = reword(res)
+        if what:find("branches", 1, true) then refuse("cannot run this system: %s; take rk8pd", what) end
+        error(("%ssimulate '%s': method 'taylor' failed: %s"):format(user_where(), sys.name, what), 0)
+      end
+      local s = res.stats
+      stats.steps, stats.nfev = stats.steps + s.steps, stats.nfev + s.nfev
+      stats.order, stats.seconds = math.max(stats.order, s.order), stats.seconds + s.seconds
+      if tr.energy then
+        for n = #tr.t - res.n + 1, #tr.t do tr.energy[n], tr.generalized_energy[n] = sys:energy(tr.t[n], tr.q[n], tr.qd[n]) end
+      end
+      if res.n > 0 then i, t, q, qd = i + res.n, tr.t[#tr.t], res.q, res.qd end
+      for _, e in ipairs(res.events or {}) do
+        tr.events[#tr.events + 1] = { name = cfg.events[e.e].name, t = e.t, q = e.q, qd = e.qd }
+      end
+      if res.stop == "event" then                     -- the last event stopped the run: its point recorded
+        local e = res.events[#res.events]
+        t, q, qd = e.t, e.q, e.qd
+        record(e.t, e.q, e.qd)
+        tr.status, tr.message = "stopped", ("event '%s' at t = %.12g"):format(cfg.events[e.e].name, e.t)
+        return
+      end
+      -- a run that stopped early: its points are kept, then the reason
+      if res.stop == "interrupted" then t = res.stats.t; error(core.interrupted, 0) end
+      if res.stop then
+        local why = res.stop == "hook" and "" or ": the motion may be singular there (a velocity blowing up), "
+          .. "or the tolerance too tight"
+        error(("%ssimulate '%s': method 'taylor' %s%s%s; last output point%s"):format(user_where(), sys.name, res.message,
+          res.stop == "step" and (" (the series predicts a step below the time's resolution)") or "", why,
+          state_text(t, q, qd)), 0)
+      end
+      local scale = s.seconds > 0 and M.TAYLOR_CHUNK.seconds / s.seconds or 4
+      chunk = math.floor(math.max(M.TAYLOR_CHUNK.min, math.min(M.TAYLOR_CHUNK.max, chunk * math.min(scale, 4))))
+      if progress then update(t, function() return stats.steps end) end
+    end
+    tr.status = "done"
+  end
+  local ok3, err3 = pcall(run)
+  done()
+  tr.stats = { steps = stats.steps, rejected = 0, nfev = stats.nfev, njev = 0, order = stats.order,
+    wall = mech.now() - wall0, loop = "c", loop_why = nil }
+  if not ok3 then
+    if rawequal(err3, core.interrupted) then
+      tr.status, tr.message = "interrupted", ("stopped by Ctrl-C at t = %.6g; the trajectory is partial "
+        .. "(t1 = %g not reached), the part computed so far is kept"):format(t, cfg.t1)
+      io.stderr:write(("simulate '%s': %s (%d points, also in nz.last)\n"):format(sys.name, tr.message, #tr.t))
+      require("nz").last = tr
+      return tr
+    end
+    local msg = strip_library(tostring(err3))
     if not located(msg) then msg = user_where() .. msg end
     tr.status, tr.message = "failed", msg
     require("nz").last = tr

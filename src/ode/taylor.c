@@ -68,7 +68,7 @@ static double grid_time(const nz_taylor_config *cfg, long i, long npts)
 }
 
 /* q(tau) and q'(tau) from a_0 .. a_P by Horner. */
-static void horner(int k, int P, const double *a, double tau, double *q, double *qd)
+void nz_taylor_eval(int k, int P, const double *a, double tau, double *q, double *qd)
 {
   for (int i = 0; i < k; i++) {
     double v = a[(size_t)P * (size_t)k + (size_t)i], d = P * v;
@@ -161,14 +161,20 @@ int nz_taylor_run(int k, nz_taylor_series_fn series, void *ctx, const nz_taylor_
       st = NZ_ERANGE;
       break;
     }
+    int cut = 0;
+    if (cfg->on_step) {
+      double hc = h;
+      if ((st = cfg->on_step(cfg->step_ctx, t + tlo, h, k, p + 1, a, &hc))) { *stop = NZ_TAYLOR_HOOK; break; }
+      if (hc < h && hc >= 0.0) { h = hc; cut = 1; last = 0; }
+    }
     /* the grid's points inside the step, on its polynomial */
     for (; next < npts; next++) {
       double tg = grid_time(cfg, next, npts), tau = (tg - t) - tlo;
-      if (!last && tau > h) break;
+      if ((!last && tau > h) || (cut && tau >= h)) break;
       tout[next] = tg;
-      horner(k, p + 1, a, tau, qout + (size_t)next * kk, qdout + (size_t)next * kk);
+      nz_taylor_eval(k, p + 1, a, tau, qout + (size_t)next * kk, qdout + (size_t)next * kk);
     }
-    horner(k, p + 1, a, h, q, qd);
+    nz_taylor_eval(k, p + 1, a, h, q, qd);
     if (last && next == npts) {   /* t1 itself: the state, exactly */
       memcpy(qout + (size_t)(npts - 1) * kk, q, kk * sizeof(double));
       memcpy(qdout + (size_t)(npts - 1) * kk, qd, kk * sizeof(double));
@@ -188,6 +194,7 @@ int nz_taylor_run(int k, nz_taylor_series_fn series, void *ctx, const nz_taylor_
       hmax = fmax(hmax, h);
     }
     hlast = h;
+    if (cut) { *stop = NZ_TAYLOR_CUT; break; }
   }
   if (*stop == NZ_TAYLOR_DONE && next == npts - 1) {
     /* t rounded onto t1 with t + tlo short of it by less than an ulp: the

@@ -25,11 +25,20 @@
 typedef int (*nz_taylor_series_fn)(void *ctx, double t0, const double *q0, const double *qd0, int p,
                                    double *a);
 
+/* Called after each step's series is known and before its grid points are
+ * written: the step goes from t to t + h on q(t + tau) = sum_{n=0..P} a[n k
+ * + i] tau^n.  *cut comes in as h; setting it to a tau in [0, h) ends the
+ * run at t + tau (stop NZ_TAYLOR_CUT: an event that stops the run).  A
+ * status other than NZ_OK fails the run (NZ_TAYLOR_HOOK). */
+typedef int (*nz_taylor_step_fn)(void *ctx, double t, double h, int k, int P, const double *a, double *cut);
+
 typedef struct nz_taylor_config {
   double t0, t1, dt;     /* the output grid: t0 + i dt, the last point at t1 (t1 > t0) */
   double rtol, atol;     /* >= 0, not both 0 (see taylor.c for the norm)   */
   int order;             /* 0: from the tolerance; else this order (2 ..)   */
   unsigned long max_steps;   /* 0: no limit                                 */
+  nz_taylor_step_fn on_step; /* NULL: none                                  */
+  void *step_ctx;
 } nz_taylor_config;
 
 typedef struct nz_taylor_stats {
@@ -48,8 +57,13 @@ typedef enum nz_taylor_stop {
   NZ_TAYLOR_STEP,            /* the step size is not positive and finite, or
                               * t + h == t (NZ_ERANGE)                        */
   NZ_TAYLOR_MAX_STEPS,       /* max_steps reached (NZ_ERANGE)                 */
-  NZ_TAYLOR_INTERRUPTED      /* the interrupt was requested (NZ_OK)           */
+  NZ_TAYLOR_INTERRUPTED,     /* the interrupt was requested (NZ_OK)           */
+  NZ_TAYLOR_CUT,             /* on_step cut the step: the run ends there (NZ_OK) */
+  NZ_TAYLOR_HOOK             /* on_step failed: its status                    */
 } nz_taylor_stop;
+
+/* q(tau) and q'(tau) of a step's polynomial a_0 .. a_P (Horner). */
+void nz_taylor_eval(int k, int P, const double *a, double tau, double *q, double *qd);
 
 /* Points of the output grid of cfg (t0 .. t1 included); 0 for a bad grid. */
 long nz_taylor_grid_count(const nz_taylor_config *cfg);
