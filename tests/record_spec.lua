@@ -143,6 +143,27 @@ describe("functions that cannot be recorded fall back to Lua", function()
   end)
 end)
 
+describe("forces Q are recorded", function()
+  -- A one-coordinate Q returns a list of one force: the check at the sample
+  -- state once compared that list with the number it holds and sent every
+  -- such Q to Lua as "depending on something other than its arguments".
+  for k = 1, 2 do
+    it(("with %d coordinate%s"):format(k, k == 1 and "" or "s"), function()
+      local coords, c = {}, 130.65
+      for i = 1, k do coords[i] = "q" .. i end
+      local sys = nz.system{ name = "damped", coords = coords,
+        T = function(t, q, qd) local s = 0; for i = 1, k do s = s + 0.5 * qd[i] ^ 2 end; return s end,
+        Q = function(t, q, qd) local f = {}; for i = 1, k do f[i] = -c * qd[i] end; return f end }
+      local text = tostring(sys)
+      assert.truthy(text:find("Q: recorded, runs in C", 1, true), text)
+      local qd = {}
+      for i = 1, k do qd[i] = 0.1 * i end
+      local a = sys:accel(0, qd, qd)
+      for i = 1, k do assert.are.equal(-c * qd[i], a[i]) end      -- m = 1: q'' = Q exactly
+    end)
+  end
+end)
+
 describe("params stay inputs of the recording", function()
   it("sys.params.m = 3 changes the accelerations without recording again", function()
     local sys = particle("branches", V_branches, { m = 2, k = 50 })

@@ -252,7 +252,7 @@ end
 local function sample(j, i) return 0.31 + 0.17 * i - 0.043 * j + 0.011 * i * j end
 local SAMPLE_T = 0.23
 
-local function check(c, f, ids, nslots, k, names, params)
+local function check(c, f, ids, nslots, k, names, params, is_Q)
   local inputs = { [0] = SAMPLE_T }
   for p, name in ipairs(names) do inputs[p] = params[name] end
   local np = #names
@@ -271,7 +271,9 @@ local function check(c, f, ids, nslots, k, names, params)
   if not ok then return true end     -- no verdict where the function itself fails
   local got = c:eval(ids, inputs)
   if not got then return true end
-  local want = #ids == 1 and { res } or res
+  -- Q returns its list of k forces (a list of one with one coordinate)
+  local want = is_Q and res or { res }
+  if type(want) ~= "table" then want = {} end
   for o = 1, #ids do
     local a, b = got[o], want[o]
     if type(b) ~= "number" or math.abs(a - b) > M.CHECK_TOL * math.max(1, math.abs(a), math.abs(b)) then
@@ -320,7 +322,7 @@ function M.compile(engine, levels, native)
     if done[f] then return done[f] end
     local ids, why = record_function(c, f, slots, k, pproxy, is_Q)
     if ids then
-      local ok, bad = check(c, f, ids, slots, k, names, engine.params)
+      local ok, bad = check(c, f, ids, slots, k, names, engine.params, is_Q)
       if not ok then ids, why = nil, bad end
     end
     done[f] = { ids = ids, why = why, label = label }
