@@ -18,6 +18,9 @@ echo
 # Issue 10: nzlua against hand-written C, measured in the same run.
 build/nzlua bench/henon.lua
 echo
+# Issue 11: Taylor's method against the same C program.
+build/nzlua bench/taylor.lua
+echo
 build/nzlua bench/accel_scaling.lua
 echo
 build/nzlua bench/bicycle.lua
