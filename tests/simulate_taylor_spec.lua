@@ -150,6 +150,31 @@ describe("simulate with method = 'taylor'", function()
     assert.truthy(st.message:find("event 'up' at t = 5.955670884", 1, true), st.message)
   end)
 
+  it("a long run says so once, goes on, and advises a looser rtol (taylor's order)", function()
+    -- The oscillator takes ~1.6 steps per unit of time at 1e-14 (3,218 to
+    -- t = 2000): 2e4 units project to ~3.2e4 steps, over the threshold
+    -- lowered here to 2e4 (the clock's criterion off, as in
+    -- simulate_options_spec).  Taylor looks between chunks of the output
+    -- grid (dt = 1: chunks of 1024, 4096, ... points): after the second,
+    -- at t = 5120 (~8,200 steps); the run stops at an event after that.
+    local simulate = require "nz.simulate"
+    local said, saved_warn, saved_limits = {}, simulate.warn, simulate.LONG_RUN
+    simulate.warn = function(msg) said[#said + 1] = msg end
+    simulate.LONG_RUN = { steps = 2e4, seconds = math.huge, check_steps = 2000 }
+    local ok, tr = pcall(oscillator().simulate, oscillator(), { q0 = { 0.7 }, qd0 = { -1.3 }, t1 = 2e4, dt = 1,
+      method = "taylor", rtol = 1e-14, atol = 1e-14, events = { { f = function(t) return t - 8000 end, stop = true } } })
+    simulate.warn, simulate.LONG_RUN = saved_warn, saved_limits
+    assert(ok, tostring(tr))
+    assert.are.equal("stopped", tr.status)          -- it went on, to the event
+    assert.are.equal(1, #said)
+    assert.are.equal(said[1], tr.warnings[1])
+    local msg = said[1]
+    assert.truthy(msg:find("simulate 'oscillator': warning: this run will take about", 1, true), msg)
+    local mech = require("nz.core").mech
+    local p, lp = mech.taylor_order(1e-14), mech.taylor_order(1e-11)
+    assert.truthy(msg:find(("a looser rtol (taylor's order comes from it: rtol = 1e-11 takes order %d instead of %d"):format(lp, p),
+      1, true), msg)
+  end)
   it("Ctrl-C stops a long run and returns the part computed", function()
     local script = os.tmpname()
     local f = assert(io.open(script, "w"))

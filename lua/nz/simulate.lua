@@ -375,6 +375,13 @@ end
 -- for an order-p method grow like rtol^(-1/p): then a low order at a tight
 -- tolerance is what costs.  nsteps: the steps taken up to tt.
 local function cheaper(cfg, nsteps, tt)
+  if cfg.method == "taylor" then
+    -- its steps do not depend on the grid, and hardly on the tolerance
+    -- (Jorba-Zou): the order does, and a step costs about its square
+    local p, lp = mech.taylor_order(cfg.rtol), mech.taylor_order(cfg.rtol * 1e3)
+    return ("a looser rtol (taylor's order comes from it: rtol = %g takes order %d instead of %d, "
+      .. "about %.2gx cheaper per step), or rk8pd"):format(cfg.rtol * 1e3, lp, p, (p / lp) ^ 2)
+  end
   if cfg.step then
     return ("the steps are fixed ('step' = %g; rtol does nothing for fixed steps): a larger 'step', "
       .. "or adaptive steps (drop 'step')"):format(cfg.step)
@@ -392,6 +399,26 @@ local function cheaper(cfg, nsteps, tt)
   advice[#advice + 1] = ("a looser rtol (the steps grow like rtol^(-1/%d) for this method; rtol = %g takes %.2gx fewer steps)")
     :format(p, cfg.rtol * 1e3, 1e3 ^ (1 / p))
   return table.concat(advice, ", or ")
+end
+
+-- A run that will take long says so once, with what would be cheaper
+-- (tr.warnings, and the terminal): nsteps steps have brought it to tt,
+-- wall0 was its start, done() clears the progress bar's line.  True when
+-- it said so.
+local function long_run_notice(sys, cfg, tr, nsteps, tt, wall0, done)
+  local done_frac = (tt - cfg.t0) / (cfg.t1 - cfg.t0)
+  local elapsed = mech.now() - wall0
+  local steps, seconds = nsteps / done_frac, elapsed / done_frac
+  if not ((nsteps >= M.LONG_RUN.check_steps and steps > M.LONG_RUN.steps)
+      or (elapsed >= 1 and seconds > M.LONG_RUN.seconds)) then return false end
+  local msg = ("%ssimulate '%s': warning: this run will take about %.3g steps and %s (t = %.4g of [%g, %g] after %d steps) "
+    .. "with %s%s; it goes on (Ctrl-C stops it and keeps what is done); cheaper: %s"):format(user_where(), sys.name,
+    steps, duration(seconds), tt, cfg.t0, cfg.t1, nsteps, cfg.method,
+    cfg.step and (" at step = %g"):format(cfg.step) or (" at rtol = %g"):format(cfg.rtol), cheaper(cfg, nsteps, tt))
+  tr.warnings[#tr.warnings + 1] = msg
+  done()                                  -- the progress bar's line, if shown
+  M.warn(msg)
+  return true
 end
 
 -- " at t = ..., q = {...}, qd = {...}" as the engine's messages say it.
@@ -698,21 +725,7 @@ function M.simulate(sys, opts)
       cfg.method, M.STALL.window, advance, state_text(tt, q, qd), smin, smax, smax / smin, smin0)
   end
 
-  local function long_run(tt)
-    local done_frac = (tt - cfg.t0) / span
-    local elapsed = mech.now() - wall0
-    local steps, seconds = nsteps / done_frac, elapsed / done_frac
-    if not ((nsteps >= M.LONG_RUN.check_steps and steps > M.LONG_RUN.steps)
-        or (elapsed >= 1 and seconds > M.LONG_RUN.seconds)) then return false end
-    local msg = ("%ssimulate '%s': warning: this run will take about %.3g steps and %s (t = %.4g of [%g, %g] after %d steps) "
-      .. "with %s%s; it goes on (Ctrl-C stops it and keeps what is done); cheaper: %s"):format(user_where(), sys.name,
-      steps, duration(seconds), tt, cfg.t0, cfg.t1, nsteps, cfg.method,
-      cfg.step and (" at step = %g"):format(cfg.step) or (" at rtol = %g"):format(cfg.rtol), cheaper(cfg, nsteps, tt))
-    tr.warnings[#tr.warnings + 1] = msg
-    done()                                  -- the progress bar's line, if shown
-    M.warn(msg)
-    return true
-  end
+  local function long_run(tt) return long_run_notice(sys, cfg, tr, nsteps, tt, wall0, done) end
 
   local t, h = cfg.t0, cfg.h0 or math.min(cfg.dt, 1e-3)
   local gvals = {}
@@ -986,6 +999,7 @@ function M.simulate_taylor(sys, cfg)
   local stats = { steps = 0, nfev = 0, order = 0, seconds = 0 }
   local t, q, qd = cfg.t0, { table.unpack(cfg.q0) }, { table.unpack(qd0) }
   local i, chunk = 0, M.TAYLOR_CHUNK.first
+  local announced, next_check = false, 16
   local function run()
     record(t, q, qd)
     while i < nout do
@@ -1027,6 +1041,10 @@ function M.simulate_taylor(sys, cfg)
         error(("%ssimulate '%s': method 'taylor' %s%s%s; last output point%s"):format(user_where(), sys.name, res.message,
           res.stop == "step" and (" (the series predicts a step below the time's resolution)") or "", why,
           state_text(t, q, qd)), 0)
+      end
+      if not announced and stats.steps >= next_check then      -- as the GSL loops, at 16, 32, ... steps
+        announced = long_run_notice(sys, cfg, tr, stats.steps, t, wall0, done)
+        while next_check <= stats.steps do next_check = 2 * next_check end
       end
       local scale = s.seconds > 0 and M.TAYLOR_CHUNK.seconds / s.seconds or 4
       chunk = math.floor(math.max(M.TAYLOR_CHUNK.min, math.min(M.TAYLOR_CHUNK.max, chunk * math.min(scale, 4))))

@@ -493,8 +493,16 @@ static int lt_taylor_run(lua_State *L)
   return 1;
 }
 
+/* taylor_order(eps) -> the order a run takes at tolerance eps (taylor.h) */
+static int lt_order(lua_State *L)
+{
+  lua_pushinteger(L, nz_taylor_order(luaL_checknumber(L, 1)));
+  return 1;
+}
+
 static const luaL_Reg taylor_functions[] = {
-  { "motion_series", lt_motion_series }, { "taylor_run", lt_taylor_run }, { NULL, NULL }
+  { "motion_series", lt_motion_series }, { "taylor_run", lt_taylor_run }, { "taylor_order", lt_order },
+  { NULL, NULL }
 };
 
 void nz_lua_open_taylor(lua_State *L) { luaL_setfuncs(L, taylor_functions, 0); }
