@@ -256,3 +256,40 @@ print("status " .. tr.status .. " points " .. #tr.t .. " last " .. tr.t[#tr.t])
     assert.truthy(e:find("does not handle constraints yet", 1, true), e)
   end)
 end)
+
+-- The free problems of the work-precision benchmark (bench/problems.lua)
+-- meet their tolerance with taylor: the closed forms of Kepler (10 orbits)
+-- and of the pendulum at 2.5 rad (5 periods), the double pendulum (5 s)
+-- against rk8pd at 1e-13.  The error is the worst over the output grid,
+-- relative to max(1, |q|); measured at tol 1e-6 .. 1e-13: Kepler 13-48 tol
+-- (the global error of ~380 steps), the pendulum 0.14-2.0 tol, the double
+-- pendulum 0.2-1.2 tol.  Bound: 1e3 tol, as the integrator battery's for
+-- adaptive runs.  (The sleigh, the rolling disk and Hamel's particle have
+-- constraints, which taylor refuses; see the refusals above.)
+describe("taylor on the benchmark's free problems", function()
+  package.path = "./?.lua;" .. package.path
+  local problems = require "bench.problems"
+  for _, name in ipairs{ "kepler", "pendulum", "double_pendulum" } do
+    it(name .. " meets its tolerance at 1e-6, 1e-9 and 1e-12", function()
+      local p = problems[name]()
+      local reftr
+      if not p.reference then
+        local o = { method = "rk8pd", rtol = 1e-13, atol = 1e-13 }
+        for key, v in pairs(p.start) do o[key] = v end
+        reftr = p.sys:simulate(o)
+      end
+      for _, tol in ipairs{ 1e-6, 1e-9, 1e-12 } do
+        local o = { method = "taylor", rtol = tol, atol = tol }
+        for key, v in pairs(p.start) do o[key] = v end
+        local tr = p.sys:simulate(o)
+        assert.are.equal("done", tr.status)
+        local worst = 0
+        for i = 1, #tr.t do
+          local want = p.reference and p.reference(tr.t[i]) or reftr.q[i]
+          for j = 1, #want do worst = math.max(worst, math.abs(tr.q[i][j] - want[j]) / math.max(1, math.abs(want[j]))) end
+        end
+        assert(worst <= 1e3 * tol, ("%s at tol %g: error %.3g"):format(name, tol, worst))
+      end
+    end)
+  end
+end)
