@@ -488,6 +488,28 @@ local function split(y, k)
   return q, qd
 end
 
+-- The end of a run (every method): interrupted at t, it returns the
+-- partial trajectory (also in nz.last); failed, it raises the error with one
+-- location, the user's, and keeps the part computed in nz.last; else tr.
+local function finish(sys, cfg, tr, ok, err, t)
+  if ok then return tr end
+  if rawequal(err, core.interrupted) then     -- by identity: a user's message may say "interrupted!"
+    tr.status, tr.message = "interrupted", ("stopped by Ctrl-C at t = %.6g; the trajectory is partial "
+      .. "(t1 = %g not reached), the part computed so far is kept"):format(t, cfg.t1)
+    io.stderr:write(("simulate '%s': %s (%d points, also in nz.last)\n"):format(sys.name, tr.message, #tr.t))
+    require("nz").last = tr
+    return tr
+  end
+  -- The engine's messages come with the library's line
+  -- (lua/nz/simulate.lua:...), which says nothing.
+  local msg = strip_library(tostring(err))
+  if not located(msg) then msg = user_where() .. msg end
+  tr.status, tr.message = "failed", msg
+  require("nz").last = tr
+  error(("%s\n(the trajectory computed so far, %d points up to t = %.6g, is kept in nz.last)"):format(
+    msg, #tr.t, tr.t[#tr.t] or cfg.t0), 0)
+end
+
 function M.simulate(sys, opts)
   -- A script that Ctrl-C interrupted during an earlier simulate (which
   -- returned its partial trajectory) stops here: a later run would
@@ -899,25 +921,7 @@ function M.simulate(sys, opts)
   local s = mech.ode_stats(ode)
   tr.stats = { steps = s.steps, rejected = s.rejected, nfev = s.nfev, njev = s.njev, wall = mech.now() - wall0,
     loop = in_c and "c" or "lua", loop_why = loop_why }
-  if not ok then
-    local msg = tostring(err)
-    if rawequal(err, core.interrupted) then     -- by identity: a user's message may say "interrupted!"
-      tr.status, tr.message = "interrupted", ("stopped by Ctrl-C at t = %.6g; the trajectory is partial "
-        .. "(t1 = %g not reached), the part computed so far is kept"):format(t, cfg.t1)
-      io.stderr:write(("simulate '%s': %s (%d points, also in nz.last)\n"):format(sys.name, tr.message, #tr.t))
-      require("nz").last = tr
-      return tr
-    end
-    -- One location, the user's: the engine's messages come with the
-    -- library's line (lua/nz/simulate.lua:...), which says nothing.
-    msg = strip_library(msg)
-    if not located(msg) then msg = user_where() .. msg end
-    tr.status, tr.message = "failed", msg
-    require("nz").last = tr
-    error(("%s\n(the trajectory computed so far, %d points up to t = %.6g, is kept in nz.last)"):format(
-      msg, #tr.t, tr.t[#tr.t] or cfg.t0), 0)
-  end
-  return tr
+  return finish(sys, cfg, tr, ok, err, t)
 end
 
 -- Chunks of output points a Taylor run computes in C at a time: sized so
@@ -1056,22 +1060,7 @@ function M.simulate_taylor(sys, cfg)
   done()
   tr.stats = { steps = stats.steps, rejected = 0, nfev = stats.nfev, njev = 0, order = stats.order,
     wall = mech.now() - wall0, loop = "c", loop_why = nil }
-  if not ok3 then
-    if rawequal(err3, core.interrupted) then
-      tr.status, tr.message = "interrupted", ("stopped by Ctrl-C at t = %.6g; the trajectory is partial "
-        .. "(t1 = %g not reached), the part computed so far is kept"):format(t, cfg.t1)
-      io.stderr:write(("simulate '%s': %s (%d points, also in nz.last)\n"):format(sys.name, tr.message, #tr.t))
-      require("nz").last = tr
-      return tr
-    end
-    local msg = strip_library(tostring(err3))
-    if not located(msg) then msg = user_where() .. msg end
-    tr.status, tr.message = "failed", msg
-    require("nz").last = tr
-    error(("%s\n(the trajectory computed so far, %d points up to t = %.6g, is kept in nz.last)"):format(
-      msg, #tr.t, tr.t[#tr.t] or cfg.t0), 0)
-  end
-  return tr
+  return finish(sys, cfg, tr, ok3, err3, t)
 end
 
 return M
