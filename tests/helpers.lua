@@ -46,6 +46,18 @@ function M.run(cmd, stdin)
   return ok and 0 or code, slurp(out), slurp(err)
 end
 
+-- Run a Lua script (its text) with nzlua and send it Ctrl-C (SIGINT)
+-- after `seconds`: exit code, stdout, stderr.
+function M.interrupt_script(text, seconds)
+  local script = os.tmpname()
+  local f = assert(io.open(script, "w"))
+  f:write(text)
+  f:close()
+  local code, out, err = M.run(("timeout --foreground --preserve-status -s INT %g %s %s"):format(seconds, M.nzlua, script))
+  os.remove(script)
+  return code, out, err
+end
+
 -- Expect f(...) to raise an error containing `pattern` (plain text).
 function M.checkerror(pattern, f, ...)
   local ok, msg = pcall(f, ...)

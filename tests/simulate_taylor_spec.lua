@@ -176,16 +176,11 @@ describe("simulate with method = 'taylor'", function()
       1, true), msg)
   end)
   it("Ctrl-C stops a long run and returns the part computed", function()
-    local script = os.tmpname()
-    local f = assert(io.open(script, "w"))
-    f:write([[
+    local code, out = h.interrupt_script([[
 local s = nz.system{ coords = {"x"}, T = function(t, q, v) return 0.5 * v[1]^2 end, V = function(t, q) return 0.5 * q[1]^2 end }
 local tr = s:simulate{ q0 = {1}, t1 = 1e9, dt = 1000, rtol = 1e-12, method = "taylor" }
 print("status " .. tr.status .. " points " .. #tr.t .. " last " .. tr.t[#tr.t])
-]])
-    f:close()
-    local code, out = h.run("timeout --foreground --preserve-status -s INT 2 " .. h.nzlua .. " " .. script)
-    os.remove(script)
+]], 2)
     assert.are.equal(130, code)
     local n, last = out:match("status interrupted points (%d+) last (%S+)")
     assert(n and tonumber(n) > 1, out)
