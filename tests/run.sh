@@ -39,7 +39,7 @@ script_test() {
   if "$@"; then echo "ok 1 - $name"; else echo "not ok 1 - $name"; return 1; fi
 }
 
-specs="tests/jet_spec.lua tests/dualjet_spec.lua tests/branch_spec.lua tests/graph_diff_spec.lua tests/mech_spec.lua tests/constraints_spec.lua tests/constraint_checks_spec.lua tests/higher_order_spec.lua tests/simulate_spec.lua tests/simulate_options_spec.lua tests/simulate_loop_spec.lua tests/integrator_battery_spec.lua tests/stability_spec.lua tests/scene_spec.lua tests/help_spec.lua tests/examples_spec.lua tests/tutorial_spec.lua tests/cli_spec.lua tests/repl_spec.lua tests/errors_spec.lua tests/bicycle_spec.lua tests/record_spec.lua tests/taylor_spec.lua tests/simulate_taylor_spec.lua"
+specs="tests/jet_spec.lua tests/dualjet_spec.lua tests/branch_spec.lua tests/graph_diff_spec.lua tests/mech_spec.lua tests/constraints_spec.lua tests/constraint_checks_spec.lua tests/higher_order_spec.lua tests/simulate_spec.lua tests/simulate_options_spec.lua tests/simulate_loop_spec.lua tests/integrator_battery_spec.lua tests/stability_spec.lua tests/scene_spec.lua tests/help_spec.lua tests/examples_spec.lua tests/tutorial_spec.lua tests/cli_spec.lua tests/repl_spec.lua tests/errors_spec.lua tests/bicycle_spec.lua tests/record_spec.lua tests/taylor_spec.lua tests/simulate_taylor_spec.lua tests/workprecision_spec.lua"
 BUSTED="/usr/bin/busted -o TAP --helper=tests/busted_setup.lua"
 
 if [ "$mode" = plain ] || [ "$mode" = all ]; then

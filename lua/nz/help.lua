@@ -310,7 +310,10 @@ Runs the same motion with each method at each tolerance (rtol = tol, atol = tol/
 measures the error (max over the output grid of |q - q_ref|) against
 reference = function(t) return {q1, ...} end when the scene has a closed form,
 or else against rk8pd at rtol 1e-13, and prints a table of error, wall time,
-right-hand-side evaluations and steps.  plot = true draws the work-precision
+right-hand-side evaluations and steps; "(grid)" marks the rows whose steps the
+output grid set (about one step per output point: a GSL stepper stops at every
+output time, so a larger dt shows the method's own cost; taylor reads its points
+off the series and is never limited).  plot = true draws the work-precision
 diagram (log-log error against time, a line per method) in the terminal;
 plot = "file.svg" (or .png) writes it.  Returns the rows.
 Defaults: methods rk4, rkf45, rkck, rk8pd, rk4imp, bsimp, msadams, msbdf, taylor

@@ -1,0 +1,76 @@
+-- workprecision_spec.lua - nz.workprecision: what accuracy costs in time.
+-- The errors are checked against a closed form written here (the harmonic
+-- oscillator), the table's rows against the runs themselves, and the
+-- flags (a grid that sets the steps, methods that do not apply) against
+-- what each run did.
+local h = require "tests.helpers"
+local nz = h.nz
+
+local w = 1.5
+local oscillator = nz.system{ name = "wp oscillator", coords = { "x" },
+  T = function(t, q, qd) return qd[1] ^ 2 / 2 end, V = function(t, q) return w * w * q[1] ^ 2 / 2 end }
+local function exact(t) return { math.cos(w * t) } end
+
+describe("nz.workprecision", function()
+  it("one row per method and tolerance, errors against the closed form, tighter is more accurate", function()
+    local rows = nz.workprecision(oscillator, { q0 = { 1 }, qd0 = { 0 }, t1 = 10, dt = 1, methods = { "rk8pd", "taylor" },
+      tols = { 1e-5, 1e-10 }, reference = exact, quiet = true })
+    assert.are.equal(4, #rows)
+    local by = {}
+    for _, r in ipairs(rows) do
+      assert.are.equal("done", r.status)
+      by[r.method .. r.tol] = r
+      -- the error is the run's own, against cos(w t) on the grid (rtol = tol, atol = tol / 100):
+      -- measured at most 30 tol over these 15 periods
+      local tr = oscillator:simulate{ q0 = { 1 }, qd0 = { 0 }, t1 = 10, dt = 1, method = r.method, rtol = r.tol,
+        atol = r.tol * 1e-2 }
+      local worst = 0
+      for i = 1, #tr.t do worst = math.max(worst, math.abs(tr.q[i][1] - exact(tr.t[i])[1])) end
+      assert.are.equal(worst, r.error)
+      assert(r.error <= 1e2 * r.tol, ("%s at %g: error %.3g"):format(r.method, r.tol, r.error))
+      assert(r.time > 0 and r.nfev > 0 and r.steps > 0)
+    end
+    assert(by["rk8pd1e-10"].error < by["rk8pd1e-05"].error)
+    assert(by["rk8pd1e-10"].nfev > by["rk8pd1e-05"].nfev)
+  end)
+
+  it("flags the rows whose steps the output grid set, and says so under the table", function()
+    -- dt = 0.01 over 10 s: 1000 outputs, more than rk8pd needs at 1e-5
+    -- (about 60 steps with dt = 10); taylor reads its points off the series
+    local rows = nz.workprecision(oscillator, { q0 = { 1 }, qd0 = { 0 }, t1 = 10, dt = 0.01,
+      methods = { "rk8pd", "taylor" }, tols = { 1e-5 }, reference = exact, quiet = true })
+    local text = require("nz.workprecision").table(rows)
+    assert.is_true(rows[1].grid)
+    assert.is_false(rows[2].grid)
+    assert(rows[2].steps < 100, rows[2].steps)
+    assert.truthy(text:find("%(grid%)"), text)
+    assert.truthy(text:find("the output grid, not the tolerance, set these steps", 1, true), text)
+    local coarse = nz.workprecision(oscillator, { q0 = { 1 }, qd0 = { 0 }, t1 = 10, dt = 10,
+      methods = { "rk8pd" }, tols = { 1e-5 }, reference = exact, quiet = true })
+    assert.is_false(coarse[1].grid)
+    assert.is_nil(require("nz.workprecision").table(coarse):find("(grid)", 1, true))
+  end)
+
+  it("a method that does not apply gets one row that says why", function()
+    local cs = require "tests.constraint_systems"
+    local s = cs.sleigh()
+    local t0, q0, qd0 = s.draw()
+    local rows = nz.workprecision(s.sys, { t0 = t0, q0 = q0, qd0 = qd0, t1 = t0 + 1, dt = 0.5,
+      methods = { "rk8pd", "taylor" }, tols = { 1e-6, 1e-8 }, quiet = true })
+    local text = require("nz.workprecision").table(rows)
+    local skipped = 0
+    for _, r in ipairs(rows) do
+      if r.method == "taylor" then
+        assert.are.equal("skipped", r.status)
+        assert.are.equal("skipped: constraints", r.message)
+        skipped = skipped + 1
+      else
+        assert.are.equal("done", r.status)
+      end
+    end
+    assert.are.equal(2, skipped)
+    local _, lines = text:gsub("taylor", "")
+    assert(lines >= 1, text)
+    assert.truthy(text:find("skipped: constraints", 1, true), text)
+  end)
+end)
