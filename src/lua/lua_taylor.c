@@ -15,7 +15,7 @@
 #include <string.h>
 #include <lauxlib.h>
 #include "mech/mech_graph.h"
-#include "ode/ode_run.h"     /* nz_run_clock */
+#include "ode/ode_run.h"     /* nz_run_clock, nz_event_crosses */
 #include "ode/taylor.h"
 #include "graph/graph.h"
 #include "lua/lua_graph.h"
@@ -111,11 +111,6 @@ static int ev_value(taylor_events *ev, int e, double t, int k, int P, const doub
   return st;
 }
 
-static int ev_crosses(int dir, double ga, double gb)
-{
-  if (ga == 0.0 || (gb != 0.0 && (ga > 0.0) == (gb > 0.0))) return 0;
-  return dir == 0 || (dir > 0 && gb > ga) || (dir < 0 && gb < ga);
-}
 
 static int events_step(void *ctx, double t, double h, int k, int P, const double *a, double *cut)
 {
@@ -126,7 +121,7 @@ static int events_step(void *ctx, double t, double h, int k, int P, const double
     int st = ev_value(ev, e, t, k, P, a, h, &gb);
     if (st) return st;
     ev->gprev[e] = gb;
-    if (!ev_crosses(ev->dir[e], ga, gb)) continue;
+    if (!nz_event_crosses(ev->dir[e], ga, gb)) continue;
     /* Illinois on [0, h], as locate() in simulate.lua */
     double ta = 0.0, tb = h, tol = ev->tol * fmax(1.0, fabs(t + h)), gm;
     int side = 0;

@@ -182,15 +182,6 @@ static int stalled(nz_run *r)
   return 0;
 }
 
-/* crosses(ev, ga, gb) of simulate.lua: a sign change over the step, or a
- * step that lands on the zero (an event at an output time), in the event's
- * direction. */
-static int crosses(int dir, double ga, double gb)
-{
-  if (ga == 0.0 || (gb != 0.0 && (ga > 0.0) == (gb > 0.0))) return 0;
-  return dir == 0 || (dir > 0 && gb > ga) || (dir < 0 && gb < ga);
-}
-
 static int fail(nz_run *r, nz_run_failure what, int st, int *status)
 {
   r->failure = what;
@@ -244,7 +235,7 @@ nz_run_status nz_run_advance(nz_run *r, const nz_system *s, unsigned long pause_
         double ga = r->gvals[e];
         r->gvals[e] = g;
         r->ev_next = e + 1;
-        if (crosses(r->dirs[e], ga, g)) {
+        if (nz_event_crosses(r->dirs[e], ga, g)) {
           r->ev_e = e;
           r->ev_ga = ga;
           r->ev_gb = g;

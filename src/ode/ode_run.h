@@ -127,6 +127,16 @@ void nz_run_point(const nz_run *r, int i, double *t, const double **y, const dou
                   const double **root);
 void nz_run_clear(nz_run *r);
 
+/* Does event g cross over a step from ga to gb, in direction dir (0: either,
+ * 1: rising, -1: falling)?  A sign change, or a step that lands on the zero;
+ * the rule of simulate.lua's crosses(), shared by this loop and the Taylor
+ * runs (src/lua/lua_taylor.c). */
+static inline int nz_event_crosses(int dir, double ga, double gb)
+{
+  if (ga == 0.0 || (gb != 0.0 && (ga > 0.0) == (gb > 0.0))) return 0;
+  return dir == 0 || (dir > 0 && gb > ga) || (dir < 0 && gb < ga);
+}
+
 /* The monotonic clock the pauses use (the one of mech.now()). */
 double nz_run_clock(void);
 
