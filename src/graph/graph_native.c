@@ -35,30 +35,15 @@
  * (compilers slow down superlinearly on one huge function); a value needed
  * by a later function goes through a workspace w[].
  *
- * Files.  The cache holds nzg-<hash>.c and nzg-<hash>.so, hash = 64-bit
- * FNV-1a of the generator version, the compiler command and the source.
- * Both are written under unique temporary names and renamed into place, so
- * two processes compiling the same graph at once both succeed and the
- * files are always whole. */
-#include <dlfcn.h>
-#include <errno.h>
-#include <fcntl.h>
+ * Compiling, caching and loading: native_object.h. */
 #include <math.h>
-#include <spawn.h>
-#include <stdarg.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
-#include <sys/types.h>
-#include <sys/utsname.h>
-#include <sys/wait.h>
-#include <time.h>
 #include <unistd.h>
 #include "graph/graph_native.h"
-
-extern char **environ;
+#include "graph/native_object.h"
 
 #define GEN_VERSION "nzlua-native 2"
 /* Computed nodes per generated function, and the size above which the
@@ -76,51 +61,12 @@ extern char **environ;
 #endif
 
 struct nz_native {
-  void *dl;
+  nz_native_object obj;
   int (*eval)(const double *, double *, double *);
   int nin, nout, nodes;
   double *w;   /* cross-function values, then a copy of in[] */
   size_t nw;
-  double seconds;
-  char *path;
 };
-
-static void say(char *why, size_t n, const char *fmt, ...)
-{
-  if (!why || !n) return;
-  va_list ap;
-  va_start(ap, fmt);
-  vsnprintf(why, n, fmt, ap);
-  va_end(ap);
-}
-
-/* ------------------------------------------------------------------ */
-/* A growing string                                                     */
-
-typedef struct sbuf {
-  char *s;
-  size_t len, cap;
-  int oom;
-} sbuf;
-
-static void sb_printf(sbuf *b, const char *fmt, ...)
-{
-  if (b->oom) return;
-  for (;;) {
-    va_list ap;
-    va_start(ap, fmt);
-    int k = vsnprintf(b->s ? b->s + b->len : NULL, b->s ? b->cap - b->len : 0, fmt, ap);
-    va_end(ap);
-    if (k < 0) { b->oom = 1; return; }
-    if (b->s && b->len + (size_t)k < b->cap) { b->len += (size_t)k; return; }
-    size_t cap = b->cap ? b->cap : 1 << 16;
-    while (cap < b->len + (size_t)k + 1) cap *= 2;
-    char *s = realloc(b->s, cap);
-    if (!s) { b->oom = 1; return; }
-    b->s = s;
-    b->cap = cap;
-  }
-}
 
 /* ------------------------------------------------------------------ */
 /* Generating the source                                                */
@@ -234,22 +180,15 @@ typedef struct gen {
   int *wslot;       /* its place in w[], or -1 */
   int *out_head, *out_next;   /* outputs of each node, linked */
   int nw, nodes, nchunks, ncheck, maxin, bad_const;
-  sbuf *b;
+  nz_sbuf *b;
 } gen;
-
-static void literal(char *s, size_t n, double v)
-{
-  if (isnan(v)) snprintf(s, n, "NAN");
-  else if (isinf(v)) snprintf(s, n, v < 0 ? "(-HUGE_VAL)" : "HUGE_VAL");
-  else snprintf(s, n, "(%a)", v);
-}
 
 /* How function `c` reads node id. */
 static void ref(const gen *G, int id, int c, char *s, size_t n)
 {
   const nz_gnode *nd = &G->nd[id];
   if (nd->op == NZ_GOP_INPUT) snprintf(s, n, "in[%d]", nd->a);
-  else if (nd->op == NZ_GOP_CONST) literal(s, n, nd->v);
+  else if (nd->op == NZ_GOP_CONST) nz_native_literal(s, n, nd->v);
   else if (G->chunk[id] == c) snprintf(s, n, "t%d", id);
   else snprintf(s, n, "w[%d]", G->wslot[id]);
 }
@@ -263,13 +202,13 @@ static void emit_powi(gen *G, int id, const char *x, unsigned n, char *e, size_t
   snprintf(base, sizeof base, "%s", x);
   while (n) {
     if (n & 1u) {
-      if (!started) sb_printf(G->b, "  double t%d_y = %s;\n", id, base);   /* 1 * base is base */
-      else sb_printf(G->b, "  t%d_y = t%d_y * %s;\n", id, id, base);
+      if (!started) nz_sb_printf(G->b, "  double t%d_y = %s;\n", id, base);   /* 1 * base is base */
+      else nz_sb_printf(G->b, "  t%d_y = t%d_y * %s;\n", id, id, base);
       started = 1;
     }
     n >>= 1;
     if (n) {
-      sb_printf(G->b, "  const double t%d_%d = %s * %s;\n", id, k, base, base);
+      nz_sb_printf(G->b, "  const double t%d_%d = %s * %s;\n", id, k, base, base);
       snprintf(base, sizeof base, "t%d_%d", id, k++);
     }
   }
@@ -310,21 +249,21 @@ static void emit_node(gen *G, int id, int c, int *acc)
     if (p == 0.0) snprintf(e, sizeof e, "1.0");
     else if (p > 0.0 && is_small_integer(p)) emit_powi(G, id, a, (unsigned)p, e, sizeof e);
     else {
-      literal(pl, sizeof pl, p);
+      nz_native_literal(pl, sizeof pl, p);
       snprintf(e, sizeof e, "nzn_powc(%s, %s, %d)", a, pl, is_small_integer(p));
     }
     break;
   }
   default: snprintf(e, sizeof e, "NAN"); break;   /* refused before */
   }
-  sb_printf(G->b, "  const double t%d = %s;\n", id, e);
+  nz_sb_printf(G->b, "  const double t%d = %s;\n", id, e);
   if (G->check[id]) {
-    sb_printf(G->b, "  c%d += t%d * 0.0;\n", *acc, id);
+    nz_sb_printf(G->b, "  c%d += t%d * 0.0;\n", *acc, id);
     *acc = (*acc + 1) & 3;
   }
-  if (G->wslot[id] >= 0) sb_printf(G->b, "  w[%d] = t%d;\n", G->wslot[id], id);
+  if (G->wslot[id] >= 0) nz_sb_printf(G->b, "  w[%d] = t%d;\n", G->wslot[id], id);
   for (int r = G->out_head[id]; r >= 0; r = G->out_next[r])
-    sb_printf(G->b, "  out[%d] = t%d;\n", r, id);
+    nz_sb_printf(G->b, "  out[%d] = t%d;\n", r, id);
 }
 
 /* Mark what the outputs need, refuse what the native code lacks, decide
@@ -340,7 +279,7 @@ static int analyse(gen *G, const int *outputs, int n, char *why, size_t whylen)
   for (int id = G->top; id >= 0; id--) {
     if (!G->need[id]) continue;
     if (!supported(&nd[id])) {
-      say(why, whylen, "node %d (%s%s%s) is not supported by the native compiler", id,
+      nz_native_say(why, whylen, "node %d (%s%s%s) is not supported by the native compiler", id,
           nd[id].op < NZ_GOP_COUNT ? nz_gop_names[nd[id].op] : "?", nd[id].op == NZ_GOP_FN ? " " : "",
           nd[id].op == NZ_GOP_FN && nd[id].fn < NZ_FN_COUNT ? nz_jet_fn_names[nd[id].fn] : "");
       return -1;
@@ -377,14 +316,14 @@ static int analyse(gen *G, const int *outputs, int n, char *why, size_t whylen)
 
 static void emit(gen *G, int n, const int *outputs)
 {
-  sbuf *b = G->b;
+  nz_sbuf *b = G->b;
   int id = 0;
-  sb_printf(b, "/* Generated by nzlua (%s): %d computed nodes, %d outputs, %d tested. */\n",
+  nz_sb_printf(b, "/* Generated by nzlua (%s): %d computed nodes, %d outputs, %d tested. */\n",
             GEN_VERSION, G->nodes, n, G->ncheck);
-  sb_printf(b, "%s", helpers);
+  nz_sb_printf(b, "%s", helpers);
   for (int c = 0; c < G->nchunks; c++) {
     int acc = 0;
-    sb_printf(b, "\nstatic NZN_NOINLINE double nzn_part%d(const double *restrict in, "
+    nz_sb_printf(b, "\nstatic NZN_NOINLINE double nzn_part%d(const double *restrict in, "
                  "double *restrict out, double *restrict w)\n{\n"
                  "  double c0 = 0.0, c1 = 0.0, c2 = 0.0, c3 = 0.0;\n"
                  "  (void)in; (void)out; (void)w;\n", c);
@@ -393,20 +332,20 @@ static void emit(gen *G, int n, const int *outputs)
       if (G->chunk[id] != c) break;
       emit_node(G, id, c, &acc);
     }
-    sb_printf(b, "  return (c0 + c1) + (c2 + c3);\n}\n");
+    nz_sb_printf(b, "  return (c0 + c1) + (c2 + c3);\n}\n");
   }
-  sb_printf(b, "\nint nzn_eval(const double *restrict in, double *restrict out, double *restrict w);\n"
+  nz_sb_printf(b, "\nint nzn_eval(const double *restrict in, double *restrict out, double *restrict w);\n"
                "int nzn_eval(const double *restrict in, double *restrict out, double *restrict w)\n{\n"
                "  double c = 0.0;\n  (void)in; (void)out; (void)w;\n");
-  if (G->bad_const) sb_printf(b, "  return 1;   /* a constant is not finite */\n");
-  for (int c = 0; c < G->nchunks; c++) sb_printf(b, "  c += nzn_part%d(in, out, w);\n", c);
+  if (G->bad_const) nz_sb_printf(b, "  return 1;   /* a constant is not finite */\n");
+  for (int c = 0; c < G->nchunks; c++) nz_sb_printf(b, "  c += nzn_part%d(in, out, w);\n", c);
   for (int r = 0; r < n; r++) {
     char s[64];
     if (computed(G->nd[outputs[r]].op)) continue;
     ref(G, outputs[r], -1, s, sizeof s);
-    sb_printf(b, "  out[%d] = %s;\n", r, s);
+    nz_sb_printf(b, "  out[%d] = %s;\n", r, s);
   }
-  sb_printf(b, "  return !(c == 0.0);\n}\n");
+  nz_sb_printf(b, "  return !(c == 0.0);\n}\n");
 }
 
 /* The source for outputs[0..n-1] into *src (malloc'd); -1 with why. */
@@ -416,13 +355,13 @@ static int generate(const nz_graph *g, const int *outputs, int n, char **src, ge
   int size = nz_graph_size(g), top = -1;
   for (int r = 0; r < n; r++) {
     if (outputs[r] < 0 || outputs[r] >= size) {
-      say(why, whylen, "output %d is node %d, not a node of the graph (0..%d)", r + 1, outputs[r], size - 1);
+      nz_native_say(why, whylen, "output %d is node %d, not a node of the graph (0..%d)", r + 1, outputs[r], size - 1);
       return -1;
     }
     if (outputs[r] > top) top = outputs[r];
   }
   size_t m = (size_t)top + 2;
-  sbuf b = { 0 };
+  nz_sbuf b = { 0 };
   gen G = { 0 };
   G.nd = nz_graph_nodes(g);
   G.top = top;
@@ -436,14 +375,14 @@ static int generate(const nz_graph *g, const int *outputs, int n, char **src, ge
   G.out_next = malloc(((size_t)n + 1) * sizeof *G.out_next);
   int rc = -1;
   if (!G.need || !G.check || !G.chunk || !G.last || !G.wslot || !G.out_head || !G.out_next) {
-    say(why, whylen, "out of memory generating C for %d nodes", size);
+    nz_native_say(why, whylen, "out of memory generating C for %d nodes", size);
     goto done;
   }
   for (size_t i = 0; i < m; i++) G.out_head[i] = -1;
   if (analyse(&G, outputs, n, why, whylen)) goto done;
   emit(&G, n, outputs);
   if (b.oom) {
-    say(why, whylen, "out of memory generating C for %d nodes", G.nodes);
+    nz_native_say(why, whylen, "out of memory generating C for %d nodes", G.nodes);
     goto done;
   }
   *src = b.s;
@@ -464,294 +403,44 @@ done:
   return rc;
 }
 
-/* ------------------------------------------------------------------ */
-/* The compiler                                                         */
-
-#define MAXWORDS 48
-
-/* $CC split into words, then the flags: argv ready but for the last four
- * slots (-o out src -lm NULL).  Returns the count, or -1. */
-static int compiler_argv(char *buf, size_t n, char **argv, const char *opt)
-{
-  const char *cc = getenv("CC");
-  if (!cc || !*cc) cc = "cc";
-  if (strlen(cc) >= n) return -1;
-  strcpy(buf, cc);
-  int k = 0;
-  char *save = NULL;
-  for (char *s = strtok_r(buf, " \t", &save); s; s = strtok_r(NULL, " \t", &save)) {
-    if (k == MAXWORDS - 12) return -1;
-    argv[k++] = s;
-  }
-  if (!k) return -1;
-  static const char *const flags[] = { "-fPIC", "-shared", "-ffp-contract=off", "-fno-builtin", "-fno-math-errno", "-g0", "-w" };
-  const char *o = getenv("NZLUA_COPT");   /* e.g. -O1, to measure */
-  argv[k++] = (char *)(o && *o ? o : opt);
-  for (size_t i = 0; i < sizeof flags / sizeof flags[0]; i++) argv[k++] = (char *)flags[i];
-  return k;
-}
-
-static uint64_t fnv(uint64_t h, const char *s)
-{
-  for (; *s; s++) {
-    h ^= (unsigned char)*s;
-    h *= 0x100000001b3ULL;
-  }
-  return h;
-}
-
-static double now(void)
-{
-  struct timespec t;
-  clock_gettime(CLOCK_MONOTONIC, &t);
-  return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
-}
-
-/* mkdir -p, 0700 for what it creates. */
-static int make_dirs(const char *dir, char *why, size_t whylen)
-{
-  char p[4096];
-  if (!*dir || strlen(dir) >= sizeof p) {
-    say(why, whylen, "cache directory '%s': empty or too long a path", dir);
-    return -1;
-  }
-  strcpy(p, dir);
-  for (char *s = p + 1;; s++) {
-    if (*s != '/' && *s) continue;
-    char c = *s;
-    *s = 0;
-    if (mkdir(p, 0700) && errno != EEXIST) {
-      say(why, whylen, "cannot create the cache directory '%s': %s (set NZLUA_CACHE to a writable directory)",
-          p, strerror(errno));
-      return -1;
-    }
-    *s = c;
-    if (!c) break;
-  }
-  struct stat st;
-  if (stat(dir, &st) || !S_ISDIR(st.st_mode)) {
-    say(why, whylen, "cache directory '%s' is not a directory (set NZLUA_CACHE to a writable directory)", dir);
-    return -1;
-  }
-  return 0;
-}
-
-static int write_all(int fd, const char *s, size_t n)
-{
-  while (n) {
-    ssize_t k = write(fd, s, n);
-    if (k < 0 && errno == EINTR) continue;
-    if (k <= 0) return -1;
-    s += k;
-    n -= (size_t)k;
-  }
-  return 0;
-}
-
-/* The first line of the compiler's messages that says "error" (or the
- * first line), for why[]. */
-static void compiler_message(const char *log, char *msg, size_t n)
-{
-  FILE *f = fopen(log, "r");
-  char line[512], first[512] = "";
-  msg[0] = 0;
-  if (!f) return;
-  while (fgets(line, sizeof line, f)) {
-    line[strcspn(line, "\n")] = 0;
-    if (!first[0]) snprintf(first, sizeof first, "%s", line);
-    if (strstr(line, "error")) { snprintf(msg, n, "%s", line); break; }
-  }
-  if (!msg[0]) snprintf(msg, n, "%s", first);
-  fclose(f);
-}
-
-/* Run argv with stdout and stderr into log; 0 when it exited 0. */
-static int run_compiler(char **argv, const char *log, char *why, size_t whylen)
-{
-  posix_spawn_file_actions_t fa;
-  pid_t pid;
-  int st = 0, rc;
-  if (posix_spawn_file_actions_init(&fa)) {
-    say(why, whylen, "cannot run the C compiler: out of memory");
-    return -1;
-  }
-  posix_spawn_file_actions_addopen(&fa, 1, log, O_WRONLY | O_CREAT | O_TRUNC, 0600);
-  posix_spawn_file_actions_adddup2(&fa, 1, 2);
-  rc = posix_spawnp(&pid, argv[0], &fa, NULL, argv, environ);
-  posix_spawn_file_actions_destroy(&fa);
-  if (rc) {
-    say(why, whylen, "cannot run the C compiler '%s': %s (set CC to a C compiler; the interpreter is used meanwhile)",
-        argv[0], strerror(rc));
-    return -1;
-  }
-  while (waitpid(pid, &st, 0) < 0) {
-    if (errno == EINTR) continue;
-    say(why, whylen, "waiting for the C compiler '%s': %s", argv[0], strerror(errno));
-    return -1;
-  }
-  if (WIFEXITED(st) && WEXITSTATUS(st) == 0) return 0;
-  if (WIFEXITED(st) && WEXITSTATUS(st) == 127) {
-    say(why, whylen, "cannot run the C compiler '%s': not found (set CC to a C compiler; the interpreter is used meanwhile)",
-        argv[0]);
-    return -1;
-  }
-  char msg[600];
-  compiler_message(log, msg, sizeof msg);
-  if (WIFEXITED(st))
-    say(why, whylen, "the C compiler '%s' failed (exit status %d): %s", argv[0], WEXITSTATUS(st), msg);
-  else
-    say(why, whylen, "the C compiler '%s' was killed by signal %d", argv[0], WIFSIGNALED(st) ? WTERMSIG(st) : 0);
-  return -1;
-}
-
-/* Load so_path; check that it is the object of this hash. */
-static int load(nz_native *f, const char *so_path, const char *hash, char *why, size_t whylen)
-{
-  void *dl = dlopen(so_path, RTLD_NOW | RTLD_LOCAL);
-  if (!dl) {
-    const char *e = dlerror();
-    say(why, whylen, "cannot load '%s': %s", so_path, e ? e : "dlopen failed");
-    return -1;
-  }
-  const char *id = dlsym(dl, "nzn_id");
-  void *ev = dlsym(dl, "nzn_eval");
-  if (!id || !ev || strcmp(id, hash) != 0) {
-    say(why, whylen, "'%s' is not the object it is named after", so_path);
-    dlclose(dl);
-    return -1;
-  }
-  f->dl = dl;
-  /* POSIX: a data pointer from dlsym converts to a function pointer. */
-  memcpy(&f->eval, &ev, sizeof ev);
-  return 0;
-}
-
-/* Write src under a temporary name, compile it, rename both into place. */
-static int compile_into(const char *dir, const char *base, const char *src, char **argv, int k,
-                        char *why, size_t whylen)
-{
-  size_t L = strlen(dir) + strlen(base) + 32;
-  char *tc = malloc(L), *tso = malloc(L), *tlog = malloc(L), *fc = malloc(L), *fso = malloc(L);
-  int rc = -1, fd = -1;
-  if (!tc || !tso || !tlog || !fc || !fso) {
-    say(why, whylen, "out of memory");
-    goto done;
-  }
-  snprintf(tc, L, "%s/%s-XXXXXX.c", dir, base);
-  fd = mkstemps(tc, 2);
-  if (fd < 0) {
-    say(why, whylen, "cannot write in the cache directory '%s': %s (set NZLUA_CACHE to a writable directory)",
-        dir, strerror(errno));
-    tc[0] = 0;
-    goto done;
-  }
-  if (write_all(fd, src, strlen(src)) || close(fd)) {
-    fd = -1;
-    say(why, whylen, "cannot write '%s': %s", tc, strerror(errno));
-    goto done;
-  }
-  fd = -1;
-  size_t tl = strlen(tc);
-  snprintf(tso, L, "%.*s.so", (int)(tl - 2), tc);
-  snprintf(tlog, L, "%.*s.log", (int)(tl - 2), tc);
-  snprintf(fc, L, "%s/%s.c", dir, base);
-  snprintf(fso, L, "%s/%s.so", dir, base);
-  argv[k] = "-o";
-  argv[k + 1] = tso;
-  argv[k + 2] = tc;
-  argv[k + 3] = "-lm";
-  argv[k + 4] = NULL;
-  if (run_compiler(argv, tlog, why, whylen)) goto done;
-  if (rename(tso, fso)) {
-    say(why, whylen, "cannot rename '%s' to '%s': %s", tso, fso, strerror(errno));
-    goto done;
-  }
-  if (rename(tc, fc) == 0) tc[0] = 0;   /* the source stays beside the object */
-  rc = 0;
-done:
-  if (fd >= 0) close(fd);
-  if (tc && tc[0]) unlink(tc);
-  if (tso && tso[0]) unlink(tso);
-  if (tlog && tlog[0]) unlink(tlog);
-  free(tc);
-  free(tso);
-  free(tlog);
-  free(fc);
-  free(fso);
-  return rc;
-}
-
 /* The object for these outputs: from the cache, else compiled (compile = 1)
  * or NULL (compile = 0). */
 static nz_native *native_get(const nz_graph *g, const int *outputs, int n, const char *cache_dir,
                              char *why, size_t whylen, int compile)
 {
-  double t0 = now();
-  char *src = NULL, ccbuf[2048], *argv[MAXWORDS], hash[17], base[32], *so = NULL;
+  double t0 = nz_native_now();
+  char *src = NULL;
   gen info = { 0 };
   nz_native *f = NULL;
   if (why && whylen) why[0] = 0;
   if (!g || n < 0 || (n > 0 && !outputs) || !cache_dir) {
-    say(why, whylen, "nz_native_compile: no graph, outputs or cache directory");
+    nz_native_say(why, whylen, "nz_native_compile: no graph, outputs or cache directory");
     return NULL;
   }
   if (generate(g, outputs, n, &src, &info, why, whylen)) return NULL;
-  int k = compiler_argv(ccbuf, sizeof ccbuf, argv, info.nodes > BIG_GRAPH ? "-O1" : "-O2");
-  if (k < 0) {
-    say(why, whylen, "CC is empty or too long a command");
-    goto fail;
-  }
-  /* The machine too: a cache shared between machines (a network home)
-   * keeps one object per architecture. */
-  struct utsname u;
-  uint64_t h = fnv(0xcbf29ce484222325ULL, GEN_VERSION "\n");
-  if (uname(&u) == 0) h = fnv(fnv(h, u.sysname), u.machine);
-  for (int i = 0; i < k; i++) h = fnv(fnv(h, argv[i]), " ");
-  h = fnv(h, src);
-  snprintf(hash, sizeof hash, "%016llx", (unsigned long long)h);
-  snprintf(base, sizeof base, "nzg-%s", hash);
-  /* The object names itself, so that loading can check it. */
-  sbuf b = { src, strlen(src), strlen(src) + 1, 0 };
-  sb_printf(&b, "const char nzn_id[] = \"%s\";\n", hash);
-  src = b.s;
-  if (b.oom) {
-    say(why, whylen, "out of memory");
-    goto fail;
-  }
-  if (make_dirs(cache_dir, why, whylen)) goto fail;
   f = calloc(1, sizeof *f);
-  so = malloc(strlen(cache_dir) + strlen(base) + 8);
-  if (!f || !so) {
-    say(why, whylen, "out of memory");
+  if (!f) {
+    nz_native_say(why, whylen, "out of memory");
     goto fail;
   }
-  sprintf(so, "%s/%s.so", cache_dir, base);
-  f->path = so;
-  so = NULL;
   f->nin = info.maxin;
   f->nout = n;
   f->nodes = info.nodes;
   f->nw = (size_t)info.nw;
   f->w = malloc((f->nw + (size_t)f->nin + 1) * sizeof *f->w);
   if (!f->w) {
-    say(why, whylen, "out of memory");
+    nz_native_say(why, whylen, "out of memory");
     goto fail;
   }
-  int cached = access(f->path, R_OK) == 0 && load(f, f->path, hash, NULL, 0) == 0;
-  if (!cached && !compile) {
-    say(why, whylen, "not in the cache");
+  if (nz_native_object_get(src, GEN_VERSION, "nzg", "nzn_eval", info.nodes > BIG_GRAPH, compile, cache_dir, t0,
+                           &f->obj, why, whylen))
     goto fail;
-  }
-  if (!cached) {
-    if (compile_into(cache_dir, base, src, argv, k, why, whylen)) goto fail;
-    if (load(f, f->path, hash, why, whylen)) goto fail;
-  }
-  f->seconds = cached ? 0.0 : now() - t0;
+  /* POSIX: a data pointer from dlsym converts to a function pointer. */
+  memcpy(&f->eval, &f->obj.entry, sizeof f->eval);
   free(src);
   return f;
 fail:
   free(src);
-  free(so);
   nz_native_free(f);
   return NULL;
 }
@@ -789,14 +478,13 @@ nz_native_fn nz_native_entry(const nz_native *f, double **work)
 void nz_native_free(nz_native *f)
 {
   if (!f) return;
-  if (f->dl) dlclose(f->dl);
+  nz_native_object_close(&f->obj);
   free(f->w);
-  free(f->path);
   free(f);
 }
 
-double nz_native_compile_seconds(const nz_native *f) { return f->seconds; }
-const char *nz_native_path(const nz_native *f) { return f->path; }
+double nz_native_compile_seconds(const nz_native *f) { return f->obj.seconds; }
+const char *nz_native_path(const nz_native *f) { return f->obj.path; }
 int nz_native_nodes(const nz_native *f) { return f->nodes; }
 
 const char *nz_native_cache_dir(char *buf, size_t n)
