@@ -18,6 +18,8 @@
 #include <sys/wait.h>
 #include <gsl/gsl_test.h>
 #include "graph/graph_native.h"
+#include "graph/graph_series.h"
+#include "graph/series_native.h"
 #include "test_util.h"
 
 #if defined(__SANITIZE_ADDRESS__)
@@ -167,12 +169,14 @@ static void check_specials(void)
  * operands kept in its domain, the result brought back into [-1, 1] by
  * tanh or sin when it may leave it.  A select's condition is a comparison,
  * a sign or a value (nonzero but for a rare exact zero). */
+static int no_branches;   /* 1: no cmp, select, sign or abs (for the series) */
+
 static int random_node(nz_graph *g, const int *v, int n)
 {
   int a = v[n - 1 - irand(n < 8 ? n : 8)], b = v[irand(n)], z;
   int one = nz_graph_const(g, 1.0), onehalf = nz_graph_const(g, 1.5), two = nz_graph_const(g, 2.0);
   static const double pe[] = { 2, 3, 4, 5, 7, 13, 0.5, 1.5, -0.5, -2.5, 1.0 / 3 };
-  int k = irand(22), bounded = 0;
+  int k = irand(no_branches ? 20 : 22), bounded = 0;
   switch (k) {
   case 0: z = nz_graph_op(g, NZ_GOP_ADD, a, b); break;
   case 1: z = nz_graph_op(g, NZ_GOP_SUB, a, b); break;
@@ -198,7 +202,7 @@ static int random_node(nz_graph *g, const int *v, int n)
   }
   default: {
     nz_jet_fn fn = (nz_jet_fn)(k - 9);   /* 11 functions: exp .. tanh */
-    if (irand(4) == 0) fn = irand(2) ? NZ_FN_ABS : NZ_FN_SIGN;
+    if (!no_branches && irand(4) == 0) fn = irand(2) ? NZ_FN_ABS : NZ_FN_SIGN;
     int x = a;
     if (fn == NZ_FN_LOG) x = nz_graph_op(g, NZ_GOP_ADD, onehalf, a);
     if (fn == NZ_FN_SQRT) x = nz_graph_op(g, NZ_GOP_ADD, one, a);
@@ -673,6 +677,142 @@ static void time_native(void)
   else printf("# timing: the 50000-node compile is skipped (set NZLUA_NATIVE_BIG=1)\n");
 }
 
+/* ------------------------------------------------------------------ */
+/* Series built order by order as machine code (series_native.h)        */
+
+/* Coefficients 0..K of the outputs for inputs in[k * 8 + i]: into out[k *
+ * nout + r]; the status of the first failing call (and its k in *kfail). */
+static nz_status series_run(nz_graph_plan *p, int nout, int K, const double *in, double *out, int *kfail)
+{
+  nz_status st = nz_graph_series_begin(p, K, in);
+  *kfail = 0;
+  for (int r = 0; !st && r < nout; r++) out[r] = nz_graph_series_coef(p, r, 0);
+  for (int k = 1; !st && k <= K; k++)
+    if ((st = nz_graph_series_next(p, k, in + 8 * k, out + (size_t)k * (size_t)nout))) *kfail = k;
+  return st;
+}
+
+static void check_series_random(int size, int nout, int points, int K)
+{
+  nz_graph *g = nz_graph_new();
+  int cap = size + 8, *v = malloc((size_t)cap * sizeof *v), outs[1024];
+  no_branches = 1;
+  int n = random_graph(g, size, v, cap);
+  no_branches = 0;
+  if (nout > n - 8) nout = n - 8;
+  for (int r = 0; r < nout; r++) outs[r] = v[n - 1 - r];
+  nz_graph_plan *p = nz_graph_plan_new(g, outs, nout);
+  size_t len = (size_t)(K + 1) * (size_t)nout;
+  double *a = malloc(len * sizeof *a), *b = malloc(len * sizeof *b), *in = malloc((size_t)(K + 1) * 8 * sizeof *in);
+  nz_series_native *sn = NULL;
+  int bad = 0, same = 0, failed = 0, kinds = 0, seen[NZ_SK_COPY + 1] = { 0 };
+  double tc = 0.0;
+  for (int pt = 0; p && pt < points; pt++) {
+    /* values in [-1, 1], later coefficients shrinking as a series with
+     * radius 2; one point in ten with coefficients large enough to overflow
+     * somewhere (the refusals must agree too) */
+    double scale = pt % 10 == 9 ? 1e60 : 0.5;
+    for (int i = 0; i < 8; i++) in[i] = 2 * urand() - 1;
+    for (int k = 1; k <= K; k++)
+      for (int i = 0; i < 8; i++) in[8 * k + i] = (2 * urand() - 1) * pow(scale, k);
+    int ka, kb, na = 0, nb = 0;
+    nz_graph_series_use(p, NULL, NULL, 0);
+    nz_status sa = series_run(p, nout, K, in, a, &ka);
+    nz_graph_plan_failure(p, &na, &(nz_gop){ 0 }, &(nz_jet_fn){ 0 }, &(double){ 0 });
+    if (!sn && !sa) {   /* the layout of a begin that succeeded */
+      double t0 = seconds();
+      sn = nz_series_native_get(p, cache, 1, why, sizeof why);
+      tc = seconds() - t0;
+      if (!sn) { printf("# series_native: %s\n", why); bad++; break; }
+      int nseries, m = nz_graph_series_layout(p, NULL, &nseries);
+      nz_series_slot *sl = m > 0 ? malloc((size_t)m * sizeof *sl) : NULL;
+      if (sl) nz_graph_series_layout(p, sl, &nseries);
+      for (int i = 0; sl && i < m; i++) seen[sl[i].kernel] = 1;
+      free(sl);
+    }
+    if (!sn) continue;
+    nz_series_native_attach(sn, p);
+    nz_status sb = series_run(p, nout, K, in, b, &kb);
+    nz_graph_plan_failure(p, &nb, &(nz_gop){ 0 }, &(nz_jet_fn){ 0 }, &(double){ 0 });
+    failed += sa != NZ_OK;
+    int agree_all = sa == sb && ka == kb && (sa == NZ_OK || na == nb);
+    size_t upto = sa ? (size_t)ka * (size_t)nout : len;
+    for (size_t j = 0; agree_all && j < upto; j++) agree_all = same_bits(a[j], b[j]);
+    if (!agree_all && !bad++)
+      printf("# point %d: statuses %d/%d at k %d/%d, nodes %d/%d\n", pt, (int)sa, (int)sb, ka, kb, na, nb);
+    same += agree_all;
+  }
+  for (int i = 0; i <= NZ_SK_COPY; i++) kinds += seen[i];
+  /* every kernel but the branches' (step, copy of a select) and abs's */
+  gsl_test(bad || same != points || failed == 0 || failed == points || kinds < 20,
+           "series of a random graph without branches (%d nodes, %d kinds of kernel), %d outputs to order %d: "
+           "machine code = interpreter bit for bit at %d of %d points (%d refused alike; compiled in %.2f s)",
+           nz_graph_size(g), kinds, nout, K, same, points, failed, tc);
+  if (p) nz_series_native_detach(p);
+  nz_series_native_free(sn);
+  nz_graph_plan_free(p);
+  nz_graph_free(g);
+  free(v);
+  free(a);
+  free(b);
+  free(in);
+}
+
+/* Begin's domain checks at the points where coefficient 0 is finite but
+ * the series has no derivative (sqrt 0, x^0.5 at 0, asin 1, atan2(0, 0),
+ * hypot(0, 0)): the machine code refuses as the interpreter does, with the
+ * same status and node; and both agree at a regular point. */
+static void check_series_domains(void)
+{
+  struct { const char *name; double x, y; } pts[] = {
+    { "sqrt x", 0.0, 1.0 }, { "x^0.5", 0.0, 1.0 }, { "asin x", 1.0, 0.0 }, { "acos x", -1.0, 0.0 },
+    { "atan2(x, y)", 0.0, 0.0 }, { "hypot(x, y)", 0.0, 0.0 }, { "x / y", 1.0, 0.0 }, { "log x", 0.0, 1.0 },
+  };
+  int bad = 0, n = (int)(sizeof pts / sizeof pts[0]);
+  for (int c = 0; c < n; c++) {
+    nz_graph *g = nz_graph_new();
+    int x = nz_graph_input(g, 0), y = nz_graph_input(g, 1), z;
+    switch (c) {
+    case 0: z = nz_graph_fn(g, NZ_FN_SQRT, x); break;
+    case 1: z = nz_graph_powc(g, x, 0.5); break;
+    case 2: z = nz_graph_fn(g, NZ_FN_ASIN, x); break;
+    case 3: z = nz_graph_fn(g, NZ_FN_ACOS, x); break;
+    case 4: z = nz_graph_op(g, NZ_GOP_ATAN2, x, y); break;
+    case 5: z = nz_graph_op(g, NZ_GOP_HYPOT, x, y); break;
+    case 6: z = nz_graph_op(g, NZ_GOP_DIV, x, y); break;
+    default: z = nz_graph_fn(g, NZ_FN_LOG, x); break;
+    }
+    z = nz_graph_op(g, NZ_GOP_MUL, z, y);   /* a later node, as in a real graph */
+    nz_graph_plan *p = nz_graph_plan_new(g, &z, 1);
+    double in[8 * 4] = { 0.3, 0.7 }, one[8] = { 1.0, 1.0 };
+    for (int k = 1; k < 4; k++) memcpy(in + 8 * k, one, sizeof one);
+    int kf, na, nb;
+    double out_a[4], out_b[4];
+    nz_status regular = series_run(p, 1, 3, in, out_a, &kf);
+    nz_series_native *sn = regular ? NULL : nz_series_native_get(p, cache, 1, why, sizeof why);
+    if (!sn) { printf("# %s: %s\n", pts[c].name, regular ? "no regular begin" : why); bad++; }
+    in[0] = pts[c].x;
+    in[1] = pts[c].y;
+    nz_status sa = series_run(p, 1, 3, in, out_a, &kf);
+    nz_graph_plan_failure(p, &na, &(nz_gop){ 0 }, &(nz_jet_fn){ 0 }, &(double){ 0 });
+    if (sn) nz_series_native_attach(sn, p);
+    nz_status sb = series_run(p, 1, 3, in, out_b, &kf);
+    nz_graph_plan_failure(p, &nb, &(nz_gop){ 0 }, &(nz_jet_fn){ 0 }, &(double){ 0 });
+    nz_status sbeg = nz_graph_series_begin(p, 3, in);   /* begin alone refuses too */
+    if (sa == NZ_OK || sa != sb || na != nb || sbeg != sa) {
+      printf("# %s at (%g, %g): interpreter %d (node %d), machine code %d (node %d), its begin %d\n", pts[c].name,
+             pts[c].x, pts[c].y, (int)sa, na, (int)sb, nb, (int)sbeg);
+      bad++;
+    }
+    nz_series_native_detach(p);
+    nz_series_native_free(sn);
+    nz_graph_plan_free(p);
+    nz_graph_free(g);
+  }
+  gsl_test(bad, "series as machine code refuses where begin refuses (sqrt 0, x^0.5 at 0, asin 1, acos -1, "
+                "atan2(0, 0), hypot(0, 0), 1/0, log 0): the interpreter's status and node, %d cases", n);
+}
+
 int main(void)
 {
   gsl_test_verbose(1);
@@ -688,6 +828,8 @@ int main(void)
   check_rewrites();
   check_random(5000, 64, 50);
   check_pendulum(8);
+  check_series_random(300, 100, 40, 24);
+  check_series_domains();
   if (!SANITIZED) time_native();
   /* Remove the cache of this run. */
   char cmd[128];

@@ -490,14 +490,16 @@ function System:__tostring()
 end
 
 -- The recording's figures: nodes in the graph, seconds it took, nodes of the
--- mass-bias graph (0 until the first accelerations), functions in C and in Lua.
+-- mass-bias graph (0 until the first accelerations), functions in C and in Lua,
+-- plans running as machine code (native_series of them: series for taylor).
 function System:graph_info()
   if not self.recording then return { nodes = 0, record_seconds = 0, mass_bias_nodes = 0, compiled = 0, interpreted = 0 } end
   local info = self.engine.compiled:info()
   local nc, ni = 0, 0
   for _, r in ipairs(self.recording) do if r.compiled then nc = nc + 1 else ni = ni + 1 end end
   return { nodes = info.nodes, record_seconds = self.recording.seconds, mass_bias_nodes = info.mass_bias_nodes,
-    compiled = nc, interpreted = ni, native_plans = info.native_plans, native_seconds = info.native_seconds,
+    compiled = nc, interpreted = ni, native_plans = info.native_plans, native_series = info.native_series,
+    native_seconds = info.native_seconds,
     native_why = info.native_why }
 end
 

@@ -50,6 +50,7 @@
 #include <string.h>
 #include <limits.h>
 #include "graph/graph.h"
+#include "graph/graph_series.h"
 #include "jets/series.h"
 #include "jets/jet_eta.h"
 
@@ -753,6 +754,11 @@ struct nz_graph_plan {
   int ser_ties;
   grun *sruns;          /* runs of computed slots with the same series kernel */
   int nsrun;
+  double *ser_v;        /* each computed slot's v, for machine code */
+  unsigned long ser_sig;   /* the kernels' signature, 0 before a begin */
+  nz_series_code ser_code;   /* machine code for next, or NULL */
+  void (*const *ser_kfn)(void);
+  unsigned long ser_code_sig;   /* the signature it was made for */
   /* Failure of the last evaluation. */
   int bad_const;   /* a non-finite constant slot, or -1 */
   int fail_node;
@@ -786,6 +792,7 @@ void nz_graph_plan_free(nz_graph_plan *p)
   free(p->ser_map);
   free(p->ser);
   free(p->sruns);
+  free(p->ser_v);
   free(p);
 }
 
@@ -1249,18 +1256,14 @@ nz_status nz_graph_eval_jets(nz_graph_plan *p, const nz_jet *const *in, nz_jet *
 /* ------------------------------------------------------------------ */
 /* Series built order by order                                          */
 
-/* The series kernels of a computed slot, chosen at begin once coefficient 0
- * is known (a select's branch, the sign of abs, a constant factor). */
-enum {
-  S_ADD, S_SUB, S_MUL, S_SCALE, S_DIV, S_DIVC, S_SQR, S_POWI, S_POWR, S_POW, S_EXP, S_LOG,
-  S_SQRT, S_SIN, S_COS, S_SINH, S_COSH, S_TAN, S_TANH, S_ATAN, S_ASIN, S_ACOS, S_ATAN2,
-  S_HYPOT, S_STEP, S_COPY
-};
+/* The series kernels of a computed slot (graph_series.h) are chosen at
+ * begin once coefficient 0 is known (a select's branch, the sign of abs, a
+ * constant factor). */
 
 /* One computed slot: z = its series, a and b its operands' (b = a for unary
- * ops; a = the chosen operand for S_COPY), aux its auxiliary series; v a
- * constant factor (S_SCALE: also -1 for neg, +-1 for abs), divisor (S_DIVC),
- * exponent (S_POWR) or scale (S_HYPOT); n the exponent of S_POWI. */
+ * ops; a = the chosen operand for NZ_SK_COPY), aux its auxiliary series; v a
+ * constant factor (NZ_SK_SCALE: also -1 for neg, +-1 for abs), divisor (NZ_SK_DIVC),
+ * exponent (NZ_SK_POWR) or scale (NZ_SK_HYPOT); n the exponent of NZ_SK_POWI. */
 typedef struct srec {
   int op;
   unsigned n;
@@ -1303,15 +1306,18 @@ static nz_status series_storage(nz_graph_plan *p, int K)
     p->srecs = malloc(nr * sizeof *p->srecs);
     p->sruns = malloc(nr * sizeof *p->sruns);
     p->ser_map = malloc(((size_t)top + 1) * sizeof *p->ser_map);
-    if (!p->ser_aux || !p->srecs || !p->sruns || !p->ser_map) {   /* as if never tried */
+    p->ser_v = malloc(nr * sizeof *p->ser_v);
+    if (!p->ser_aux || !p->srecs || !p->sruns || !p->ser_map || !p->ser_v) {   /* as if never tried */
       free(p->ser_aux);
       free(p->srecs);
       free(p->sruns);
       free(p->ser_map);
+      free(p->ser_v);
       p->ser_aux = NULL;
       p->srecs = NULL;
       p->sruns = NULL;
       p->ser_map = NULL;
+      p->ser_v = NULL;
       return NZ_ENOMEM;
     }
     int naux = 0;
@@ -1352,112 +1358,112 @@ static nz_status series_first(nz_graph_plan *p, int i, int K)
   double x = A[0], y = B[0];
   int ca = is_const_slot(p, jr->a), cb = is_const_slot(p, jr->b);
   double *aux = p->ser + ((size_t)p->m + (size_t)p->ser_aux[i]) * ((size_t)p->ser_cap + 1);
-  *r = (srec){ S_COPY, 0, A, B, z, aux, 0.0 };
+  *r = (srec){ NZ_SK_COPY, 0, A, B, z, aux, 0.0 };
   switch (jr->op) {
-  case NZ_GOP_ADD: r->op = S_ADD; break;
-  case NZ_GOP_SUB: r->op = S_SUB; break;
-  case NZ_GOP_NEG: r->op = S_SCALE; r->v = -1.0; break;
+  case NZ_GOP_ADD: r->op = NZ_SK_ADD; break;
+  case NZ_GOP_SUB: r->op = NZ_SK_SUB; break;
+  case NZ_GOP_NEG: r->op = NZ_SK_SCALE; r->v = -1.0; break;
   case NZ_GOP_MUL:   /* a constant factor scales, as nz_jet_affine in the jets */
     if (ca || cb) {
-      r->op = S_SCALE;
+      r->op = NZ_SK_SCALE;
       r->v = ca ? x : y;
       r->a = ca ? B : A;
-    } else r->op = S_MUL;
+    } else r->op = NZ_SK_MUL;
     break;
   case NZ_GOP_DIV:
     if (y == 0.0) return NZ_EZERODIV;
-    r->op = cb ? S_DIVC : S_DIV;
+    r->op = cb ? NZ_SK_DIVC : NZ_SK_DIV;
     r->v = y;
     break;
   case NZ_GOP_POWC: {
     double pw = jr->v;
     int integer = is_small_integer(pw);
-    if (pw == 0.0) { r->op = S_STEP; z[0] = 1.0; return NZ_OK; }
+    if (pw == 0.0) { r->op = NZ_SK_STEP; z[0] = 1.0; return NZ_OK; }
     if (integer && pw > 0.0) {
       r->n = (unsigned)pw;
-      r->op = r->n == 1 ? S_COPY : r->n == 2 ? S_SQR : S_POWI;
+      r->op = r->n == 1 ? NZ_SK_COPY : r->n == 2 ? NZ_SK_SQR : NZ_SK_POWI;
       break;
     }
     if (x == 0.0) {   /* nz_jet_pow's order of checks */
       if (integer || (!smooth && pw < 0.0)) return NZ_EZERODIV;
       if (smooth) return NZ_ESING;
-      r->op = S_STEP;
+      r->op = NZ_SK_STEP;
       z[0] = 0.0;
       return NZ_OK;
     }
     if (x < 0.0 && !integer) return NZ_EDOM;
-    r->op = S_POWR;
+    r->op = NZ_SK_POWR;
     r->v = pw;
     break;
   }
   case NZ_GOP_POW:
     if (x < 0.0) return NZ_EDOM;
     if (x == 0.0) return NZ_ESING;
-    r->op = S_POW;
+    r->op = NZ_SK_POW;
     break;
   case NZ_GOP_ATAN2:
     if (x == 0.0 && y == 0.0 && smooth) return NZ_ESING;
-    r->op = S_ATAN2;
+    r->op = NZ_SK_ATAN2;
     break;
   case NZ_GOP_HYPOT:
     r->v = fmax(fabs(x), fabs(y));
     if (r->v == 0.0) {
       if (smooth) return NZ_ESING;
-      r->op = S_STEP;
+      r->op = NZ_SK_STEP;
       z[0] = 0.0;
       return NZ_OK;
     }
-    r->op = S_HYPOT;
+    r->op = NZ_SK_HYPOT;
     break;
   case NZ_GOP_CMP: {
     nz_status st = d_cmp(jr->fn, x, y, &z[0]);
     if (st) return st;
     p->ser_ties += smooth && x == y;
-    r->op = S_STEP;
+    r->op = NZ_SK_STEP;
     return NZ_OK;
   }
   case NZ_GOP_SELECT: {
     double c = series_of(p, jr->c)[0];
     if (isnan(c)) return NZ_ENAN;
     r->a = c != 0.0 ? A : B;
-    r->op = S_COPY;
+    r->op = NZ_SK_COPY;
     break;
   }
   case NZ_GOP_FN:
     switch (jr->fn) {
-    case NZ_FN_EXP: r->op = S_EXP; break;
+    case NZ_FN_EXP: r->op = NZ_SK_EXP; break;
     case NZ_FN_LOG:
       if (!(x > 0.0)) return NZ_EDOM;
-      r->op = S_LOG;
+      r->op = NZ_SK_LOG;
       break;
     case NZ_FN_SQRT:
       if (x < 0.0) return NZ_EDOM;
       if (x == 0.0 && smooth) return NZ_ESING;
-      r->op = S_SQRT;
+      r->op = NZ_SK_SQRT;
       break;
-    case NZ_FN_SIN: r->op = S_SIN; break;
-    case NZ_FN_COS: r->op = S_COS; break;
-    case NZ_FN_SINH: r->op = S_SINH; break;
-    case NZ_FN_COSH: r->op = S_COSH; break;
-    case NZ_FN_TAN: r->op = S_TAN; break;
-    case NZ_FN_TANH: r->op = S_TANH; break;
-    case NZ_FN_ATAN: r->op = S_ATAN; break;
+    case NZ_FN_SIN: r->op = NZ_SK_SIN; break;
+    case NZ_FN_COS: r->op = NZ_SK_COS; break;
+    case NZ_FN_SINH: r->op = NZ_SK_SINH; break;
+    case NZ_FN_COSH: r->op = NZ_SK_COSH; break;
+    case NZ_FN_TAN: r->op = NZ_SK_TAN; break;
+    case NZ_FN_TANH: r->op = NZ_SK_TANH; break;
+    case NZ_FN_ATAN: r->op = NZ_SK_ATAN; break;
     case NZ_FN_ASIN:
     case NZ_FN_ACOS:
       if (fabs(x) > 1.0) return NZ_EDOM;
       if (fabs(x) == 1.0 && smooth) return NZ_ESING;
-      r->op = jr->fn == NZ_FN_ASIN ? S_ASIN : S_ACOS;
+      r->op = jr->fn == NZ_FN_ASIN ? NZ_SK_ASIN : NZ_SK_ACOS;
       break;
     case NZ_FN_ABS:
       if (x == 0.0 && smooth) return NZ_ESING;
-      r->op = S_SCALE;
+      r->op = NZ_SK_SCALE;
       r->v = x < 0.0 ? -1.0 : 1.0;
       break;
     case NZ_FN_SIGN:
       if (isnan(x)) return NZ_ENAN;
       z[0] = (double)((x > 0.0) - (x < 0.0));
       p->ser_ties += smooth && x == 0.0;
-      r->op = S_STEP;
+      r->op = NZ_SK_STEP;
       return NZ_OK;
     default: return NZ_EDOM;
     }
@@ -1474,57 +1480,57 @@ static inline void series_coef(const srec *r, int op, int k, int K)
   const double *a = r->a, *b = r->b;
   double *z = r->z, *w = r->aux, *w1 = w + K + 1, *w2 = w1 + K + 1, *w3 = w2 + K + 1;
   switch (op) {
-  case S_ADD: z[k] = a[k] + b[k]; break;
-  case S_SUB: z[k] = a[k] - b[k]; break;
-  case S_MUL: z[k] = nz_series_mul_coef(a, b, k); break;
-  case S_SCALE: z[k] = r->v * a[k]; break;
-  case S_DIV: z[k] = nz_series_div_coef(z, a, b, k); break;
-  case S_DIVC: z[k] = a[k] / r->v; break;
-  case S_SQR: z[k] = nz_series_mul_coef(a, a, k); break;
-  case S_POWI: z[k] = nz_series_powi_coef(w, a, r->n, k, K); break;
-  case S_POWR: z[k] = nz_series_pow_coef(z, a, r->v, k); break;
-  case S_POW:   /* exp(y log x) */
+  case NZ_SK_ADD: z[k] = a[k] + b[k]; break;
+  case NZ_SK_SUB: z[k] = a[k] - b[k]; break;
+  case NZ_SK_MUL: z[k] = nz_series_mul_coef(a, b, k); break;
+  case NZ_SK_SCALE: z[k] = r->v * a[k]; break;
+  case NZ_SK_DIV: z[k] = nz_series_div_coef(z, a, b, k); break;
+  case NZ_SK_DIVC: z[k] = a[k] / r->v; break;
+  case NZ_SK_SQR: z[k] = nz_series_mul_coef(a, a, k); break;
+  case NZ_SK_POWI: z[k] = nz_series_powi_coef(w, a, r->n, k, K); break;
+  case NZ_SK_POWR: z[k] = nz_series_pow_coef(z, a, r->v, k); break;
+  case NZ_SK_POW:   /* exp(y log x) */
     w[k] = nz_series_log_coef(w, a, k);
     w1[k] = nz_series_mul_coef(b, w, k);
     z[k] = nz_series_exp_coef(z, w1, k);
     break;
-  case S_EXP: z[k] = nz_series_exp_coef(z, a, k); break;
-  case S_LOG: z[k] = nz_series_log_coef(z, a, k); break;
-  case S_SQRT: z[k] = nz_series_sqrt_coef(z, a, k); break;
-  case S_SIN: nz_series_sincos_coef(z, w, a, k, 0); break;
-  case S_COS: nz_series_sincos_coef(w, z, a, k, 0); break;
-  case S_SINH: nz_series_sincos_coef(z, w, a, k, 1); break;
-  case S_COSH: nz_series_sincos_coef(w, z, a, k, 1); break;
-  case S_TAN: nz_series_tan_coef(z, w, a, k, 0); break;
-  case S_TANH: nz_series_tan_coef(z, w, a, k, 1); break;
-  case S_ATAN:   /* y' (1 + x^2) = x' */
+  case NZ_SK_EXP: z[k] = nz_series_exp_coef(z, a, k); break;
+  case NZ_SK_LOG: z[k] = nz_series_log_coef(z, a, k); break;
+  case NZ_SK_SQRT: z[k] = nz_series_sqrt_coef(z, a, k); break;
+  case NZ_SK_SIN: nz_series_sincos_coef(z, w, a, k, 0); break;
+  case NZ_SK_COS: nz_series_sincos_coef(w, z, a, k, 0); break;
+  case NZ_SK_SINH: nz_series_sincos_coef(z, w, a, k, 1); break;
+  case NZ_SK_COSH: nz_series_sincos_coef(w, z, a, k, 1); break;
+  case NZ_SK_TAN: nz_series_tan_coef(z, w, a, k, 0); break;
+  case NZ_SK_TANH: nz_series_tan_coef(z, w, a, k, 1); break;
+  case NZ_SK_ATAN:   /* y' (1 + x^2) = x' */
     w[k] = nz_series_mul_coef(a, a, k);
     if (k == 0) {
       w[0] += 1.0;
       z[0] = atan(a[0]);
     } else z[k] = nz_series_quadrature_coef(z, a, w, 1.0, k);
     break;
-  case S_ASIN:
-  case S_ACOS:   /* y' sqrt(1 - x^2) = +-x' */
+  case NZ_SK_ASIN:
+  case NZ_SK_ACOS:   /* y' sqrt(1 - x^2) = +-x' */
     w[k] = -nz_series_mul_coef(a, a, k);
     if (k == 0) w[0] += 1.0;
     w1[k] = nz_series_sqrt_coef(w1, w, k);
-    if (k == 0) z[0] = op == S_ASIN ? asin(a[0]) : acos(a[0]);
-    else z[k] = nz_series_quadrature_coef(z, a, w1, op == S_ASIN ? 1.0 : -1.0, k);
+    if (k == 0) z[0] = op == NZ_SK_ASIN ? asin(a[0]) : acos(a[0]);
+    else z[k] = nz_series_quadrature_coef(z, a, w1, op == NZ_SK_ASIN ? 1.0 : -1.0, k);
     break;
-  case S_ATAN2:
+  case NZ_SK_ATAN2:
     w[k] = nz_series_mul_coef(b, b, k) + nz_series_mul_coef(a, a, k);
     z[k] = nz_series_atan2_coef(z, a, b, w, k);
     break;
-  case S_HYPOT:   /* s sqrt((a/s)^2 + (b/s)^2), s = max(|a_0|, |b_0|) */
+  case NZ_SK_HYPOT:   /* s sqrt((a/s)^2 + (b/s)^2), s = max(|a_0|, |b_0|) */
     w[k] = a[k] / r->v;
     w1[k] = b[k] / r->v;
     w2[k] = nz_series_mul_coef(w, w, k) + nz_series_mul_coef(w1, w1, k);
     w3[k] = nz_series_sqrt_coef(w3, w2, k);
     z[k] = w3[k] * r->v;
     break;
-  case S_STEP: if (k > 0) z[k] = 0.0; break;
-  case S_COPY: z[k] = a[k]; break;
+  case NZ_SK_STEP: if (k > 0) z[k] = 0.0; break;
+  case NZ_SK_COPY: z[k] = a[k]; break;
   default: z[k] = NAN; break;
   }
 }
@@ -1539,6 +1545,56 @@ static nz_status series_inputs(nz_graph_plan *p, const double *in, int k)
   return NZ_OK;
 }
 
+void nz_graph_series_inputs(nz_graph_plan *p, double **ptr, int n)
+{
+  for (int i = 0; i < n; i++) ptr[i] = NULL;
+  if (p->ser_k < 0) return;
+  for (int s = 0; s < p->nin; s++)
+    if (p->in_num[s] < n) ptr[p->in_num[s]] = series_of(p, s);
+}
+
+/* Begin's work after the inputs and constants: each computed slot's
+ * kernel and coefficient 0, with the jets' domain checks for order K. */
+static nz_status series_first_all(nz_graph_plan *p, int K)
+{
+  nz_status st;
+  for (int i = 0; i < p->nrec; i++) {
+    int s = p->base + i;
+    double *z = series_of(p, s);
+    st = series_first(p, i, K);
+    if (!st && p->srecs[i].op != NZ_SK_STEP) {
+      series_coef(&p->srecs[i], p->srecs[i].op, 0, p->ser_cap);
+      st = d_finite(z[0]);
+    }
+    if (st) return plan_fail(p, s, st, series_of(p, p->jrecs[i].a)[0]);
+  }
+  /* Runs of one kernel (the plan's schedule groups a level's nodes by
+   * opcode): one dispatch per run in nz_graph_series_next.  The signature
+   * (FNV-1a of the kernels) tells machine code made for another choice of
+   * kernels (a select's other branch) from the one for this begin. */
+  p->nsrun = 0;
+  unsigned long sig = 0xcbf29ce484222325UL;
+  for (int i = 0; i < p->nrec; i++) {
+    if (p->nsrun == 0 || p->sruns[p->nsrun - 1].op != p->srecs[i].op)
+      p->sruns[p->nsrun++].op = p->srecs[i].op;
+    p->sruns[p->nsrun - 1].end = i + 1;
+    p->ser_v[i] = p->srecs[i].v;
+    sig = (sig ^ (unsigned long)p->srecs[i].op) * 0x100000001b3UL;
+  }
+  p->ser_sig = sig | 1;   /* never 0 */
+  p->ser_k = 0;
+  return NZ_OK;
+}
+
+/* Machine code applies: attached, made for the kernels of the last
+ * interpreted begin, and that begin's kernels (and their pointers into
+ * the storage) still stand.  Only for series of order >= 1: with order 0
+ * a begin may choose other kernels (x^p at x = 0 is then a constant). */
+static int series_code_ok(const nz_graph_plan *p)
+{
+  return p->ser_code && p->ser_code_sig == p->ser_sig && p->ser_K >= 1;
+}
+
 nz_status nz_graph_series_begin(nz_graph_plan *p, int max_order, const double *in0)
 {
   nz_status st;
@@ -1548,7 +1604,9 @@ nz_status nz_graph_series_begin(nz_graph_plan *p, int max_order, const double *i
   if (max_order < 0 || max_order > NZ_JET_MAX_ORDER) return NZ_EDOM;
   if (p->bad_const >= 0)
     return plan_fail(p, p->bad_const, d_finite(p->vals[p->bad_const]), p->vals[p->bad_const]);
+  const double *old = p->ser;
   if ((st = series_storage(p, max_order))) return st;
+  if (p->ser != old) p->ser_sig = 0;   /* the kernels point into the old storage */
   p->ser_K = max_order;
   if ((st = series_inputs(p, in0, 0))) return st;
   for (int s = p->nin; s < p->base; s++) {   /* constants: exact to every order */
@@ -1556,35 +1614,19 @@ nz_status nz_graph_series_begin(nz_graph_plan *p, int max_order, const double *i
     c[0] = p->vals[s];
     for (int k = 1; k <= max_order; k++) c[k] = 0.0;
   }
-  for (int i = 0; i < p->nrec; i++) {
-    int s = p->base + i;
-    double *z = series_of(p, s);
-    st = series_first(p, i, max_order);
-    if (!st && p->srecs[i].op != S_STEP) {
-      series_coef(&p->srecs[i], p->srecs[i].op, 0, p->ser_cap);
-      st = d_finite(z[0]);
-    }
-    if (st) return plan_fail(p, s, st, series_of(p, p->jrecs[i].a)[0]);
+  /* Machine code makes coefficient 0 with the same checks (series_native.c);
+   * on a refusal the interpreter begins again and says why. */
+  if (series_code_ok(p) && p->ser_code(0, p->ser_cap + 1, p->ser, p->ser_v, p->ser_kfn) == 0) {
+    p->ser_k = 0;
+    return NZ_OK;
   }
-  /* Runs of one kernel (the plan's schedule groups a level's nodes by
-   * opcode): one dispatch per run in nz_graph_series_next. */
-  p->nsrun = 0;
-  for (int i = 0; i < p->nrec; i++) {
-    if (p->nsrun == 0 || p->sruns[p->nsrun - 1].op != p->srecs[i].op)
-      p->sruns[p->nsrun++].op = p->srecs[i].op;
-    p->sruns[p->nsrun - 1].end = i + 1;
-  }
-  p->ser_k = 0;
-  return NZ_OK;
+  return series_first_all(p, max_order);
 }
 
-nz_status nz_graph_series_next(nz_graph_plan *p, int k, const double *in_k, double *out_k)
+/* Coefficient k of every computed slot by the interpreter, the inputs'
+ * coefficient k in place. */
+static nz_status series_next_interp(nz_graph_plan *p, int k)
 {
-  nz_status st;
-  p->fail_node = -1;
-  if (p->ser_k < 0 || k < 1 || k > p->ser_k + 1 || k > p->ser_K) return NZ_EDOM;
-  p->ser_k = k - 1;   /* coefficient k, if it was filled, is being replaced */
-  if ((st = series_inputs(p, in_k, k))) return st;
   int K = p->ser_cap, i = 0;
   const srec *R = p->srecs;
   /* One dispatch per run; series_coef is inlined with a constant kernel. */
@@ -1592,10 +1634,10 @@ nz_status nz_graph_series_next(nz_graph_plan *p, int k, const double *in_k, doub
   for (int q = 0; q < p->nsrun; q++) {
     int e = p->sruns[q].end;
     switch (p->sruns[q].op) {
-      RUN(S_ADD) RUN(S_SUB) RUN(S_MUL) RUN(S_SCALE) RUN(S_DIV) RUN(S_DIVC) RUN(S_SQR)
-      RUN(S_POWI) RUN(S_POWR) RUN(S_POW) RUN(S_EXP) RUN(S_LOG) RUN(S_SQRT) RUN(S_SIN)
-      RUN(S_COS) RUN(S_SINH) RUN(S_COSH) RUN(S_TAN) RUN(S_TANH) RUN(S_ATAN) RUN(S_ASIN)
-      RUN(S_ACOS) RUN(S_ATAN2) RUN(S_HYPOT) RUN(S_STEP) RUN(S_COPY)
+      RUN(NZ_SK_ADD) RUN(NZ_SK_SUB) RUN(NZ_SK_MUL) RUN(NZ_SK_SCALE) RUN(NZ_SK_DIV) RUN(NZ_SK_DIVC) RUN(NZ_SK_SQR)
+      RUN(NZ_SK_POWI) RUN(NZ_SK_POWR) RUN(NZ_SK_POW) RUN(NZ_SK_EXP) RUN(NZ_SK_LOG) RUN(NZ_SK_SQRT) RUN(NZ_SK_SIN)
+      RUN(NZ_SK_COS) RUN(NZ_SK_SINH) RUN(NZ_SK_COSH) RUN(NZ_SK_TAN) RUN(NZ_SK_TANH) RUN(NZ_SK_ATAN) RUN(NZ_SK_ASIN)
+      RUN(NZ_SK_ACOS) RUN(NZ_SK_ATAN2) RUN(NZ_SK_HYPOT) RUN(NZ_SK_STEP) RUN(NZ_SK_COPY)
     default: for (; i < e; i++) R[i].z[k] = NAN; break;
     }
   }
@@ -1606,6 +1648,31 @@ nz_status nz_graph_series_next(nz_graph_plan *p, int k, const double *in_k, doub
     if (!isfinite(R[i].z[k]))
       return plan_fail(p, p->base + i, d_finite(R[i].z[k]), series_of(p, p->jrecs[i].a)[0]);
   p->ser_k = k;
+  return NZ_OK;
+}
+
+nz_status nz_graph_series_next(nz_graph_plan *p, int k, const double *in_k, double *out_k)
+{
+  nz_status st;
+  p->fail_node = -1;
+  if (p->ser_k < 0 || k < 1 || k > p->ser_k + 1 || k > p->ser_K) return NZ_EDOM;
+  p->ser_k = k - 1;   /* coefficient k, if it was filled, is being replaced */
+  if (in_k && (st = series_inputs(p, in_k, k))) return st;
+  if (series_code_ok(p)) {
+    /* Machine code for these kernels: when every coefficient it made is
+     * finite, they are the interpreter's.  Otherwise the interpreter
+     * begins again from the inputs in place and redoes coefficients 1..k
+     * (its begin may have been the machine code's), to name the node. */
+    if (p->ser_code(k, p->ser_cap + 1, p->ser, p->ser_v, p->ser_kfn) == 0) {
+      p->ser_k = k;
+      goto done;
+    }
+    if ((st = series_first_all(p, p->ser_K))) return st;
+    for (int j = 1; j < k; j++)
+      if ((st = series_next_interp(p, j))) return st;
+  }
+  if ((st = series_next_interp(p, k))) return st;
+done:
   if (out_k)
     for (int o = 0; o < p->nout; o++) out_k[o] = series_of(p, p->out_slot[o])[k];
   return NZ_OK;
@@ -1626,4 +1693,32 @@ const double *nz_graph_series_node(const nz_graph_plan *p, int node)
   if (p->ser_k < 0 || node < 0 || node > p->ser_top) return NULL;
   int s = p->ser_map[node];
   return s < 0 ? NULL : series_of(p, s);
+}
+
+int nz_graph_series_layout(const nz_graph_plan *p, nz_series_slot *slots, int *nseries)
+{
+  if (p->ser_k < 0 || !p->srecs) return -1;
+  size_t L = (size_t)p->ser_cap + 1;
+  *nseries = p->m + p->ser_naux;
+  if (slots)
+    for (int i = 0; i < p->nrec; i++) {
+      const srec *r = &p->srecs[i];
+      const jrec *jr = &p->jrecs[i];
+      slots[i] = (nz_series_slot){
+        .kernel = r->op, .gop = jr->op, .fn = jr->fn,
+        .z = (int)((size_t)(r->z - p->ser) / L), .a = (int)((size_t)(r->a - p->ser) / L),
+        .b = (int)((size_t)(r->b - p->ser) / L),
+        .aux = p->m + p->ser_aux[i],
+        .n = r->n, .v = r->v };
+    }
+  return p->nrec;
+}
+
+unsigned long nz_graph_series_signature(const nz_graph_plan *p) { return p->ser_k < 0 ? 0 : p->ser_sig; }
+
+void nz_graph_series_use(nz_graph_plan *p, nz_series_code code, void (*const *K)(void), unsigned long sig)
+{
+  p->ser_code = code;
+  p->ser_kfn = K;
+  p->ser_code_sig = code ? sig : 0;
 }

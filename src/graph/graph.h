@@ -182,12 +182,19 @@ nz_status nz_graph_eval_jets(nz_graph_plan *p, const nz_jet *const *in, nz_jet *
  * input number, as nz_graph_eval), for series up to max_order (0..
  * NZ_JET_MAX_ORDER; else NZ_EDOM).  NZ_ENOMEM if the storage cannot grow. */
 nz_status nz_graph_series_begin(nz_graph_plan *p, int max_order, const double *in0);
-/* Given coefficient k of every input (in_k[i], i by input number), fill
+/* Given coefficient k of every input (in_k[i], i by input number; NULL:
+ * already written in place, see nz_graph_series_inputs), fill
  * coefficient k of every node and return the outputs' coefficient k in
  * out_k (NULL: not wanted).  k runs 1, 2, ... in order; 1 <= k <= the last
  * coefficient filled + 1 and k <= max_order, else NZ_EDOM (a k already
  * filled is filled again from the new in_k, and later ones are dropped). */
 nz_status nz_graph_series_next(nz_graph_plan *p, int k, const double *in_k, double *out_k);
+/* After a successful begin: ptr[i] = the series of input number i (i <
+ * n), NULL for an input the plan does not read.  A caller that writes
+ * coefficient k of every used input there may pass in_k = NULL to
+ * nz_graph_series_next (no array to fill and copy).  The pointers hold
+ * until a begin with a higher max_order. */
+void nz_graph_series_inputs(nz_graph_plan *p, double **ptr, int n);
 /* The last coefficient filled (0 after begin), -1 before a successful begin. */
 int nz_graph_series_order(const nz_graph_plan *p);
 /* Coefficient j (0..nz_graph_series_order) of output r; NAN outside. */

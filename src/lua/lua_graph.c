@@ -199,6 +199,8 @@ static int lg_info(lua_State *L)
   const char *why;
   lua_pushinteger(L, nz_compiled_native(c, &secs, &why));
   lua_setfield(L, -2, "native_plans");
+  lua_pushinteger(L, nz_compiled_native_series(c));
+  lua_setfield(L, -2, "native_series");
   lua_pushnumber(L, secs);
   lua_setfield(L, -2, "native_seconds");
   if (why) {

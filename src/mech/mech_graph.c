@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include "graph/graph_native.h"
+#include "graph/series_native.h"
 #include "core/linalg.h"
 #include "mech/mech_graph.h"
 
@@ -20,6 +21,11 @@ typedef struct dplan {
   double work;          /* nodes interpreted so far */
   double earn;          /* ... before compiling pays (auto mode) */
   int tried;
+  /* The plan's series (Taylor's method) as machine code, on the same
+   * policy: node coefficients interpreted so far, and whether it was tried. */
+  nz_series_native *ser;
+  double ser_work;
+  int ser_tried;
 } dplan;
 
 typedef struct compiled_piece {
@@ -44,7 +50,7 @@ struct nz_compiled {
   double *mb_in, *mb_out;
   /* Native code: mode (-1 auto, 0 off, 1 on), plans compiled, seconds spent
    * compiling, and why the last attempt failed. */
-  int native_mode, native_count;
+  int native_mode, native_count, native_series;
   double native_seconds;
   char native_why[200];
   /* nz_compiled_accel's workspace: A (k x k), rhs (k), the solver's. */
@@ -67,12 +73,15 @@ struct nz_compiled {
   int ts_cap;
   double *ts_in, *ts_L, *ts_work, *ts_rhs, *ts_qdd;
   const double **ts_M;
+  double **ts_inp;   /* the plan's input series, written in place (ninputs) */
   char failure[160];
 };
 
 static void dplan_free(dplan *d)
 {
   if (!d) return;
+  if (d->ser) nz_series_native_detach(d->plan);
+  nz_series_native_free(d->ser);
   nz_graph_plan_free(d->plan);
   nz_native_free(d->native);
   free(d->outs);
@@ -123,6 +132,31 @@ static void dplan_compile(nz_compiled *c, dplan *d)
   }
 }
 
+/* After a begin of d's series to order N: its machine code, when it has
+ * earned it as the plans on doubles do (in node coefficients, about 4 ns
+ * each interpreted: NZ_SERIES_NATIVE_PER_NODE), or at once when cached. */
+static void dplan_series_native(nz_compiled *c, dplan *d, int N)
+{
+  if (d->ser_tried || c->native_mode == 0) return;
+  int nodes = nz_graph_plan_nodes(d->plan);
+  d->ser_work += (double)nodes * N;
+  int compile = c->native_mode == 1 || d->ser_work >= NZ_NATIVE_BASE + NZ_SERIES_NATIVE_PER_NODE * nodes;
+  char dir[1024], why[200];
+  if (!nz_native_cache_dir(dir, sizeof dir)) return;
+  /* first call: load it if cached (generating and hashing the source
+   * costs microseconds per node, once) */
+  if (!compile && d->ser_work > (double)nz_graph_plan_nodes(d->plan) * N) return;
+  d->ser = nz_series_native_get(d->plan, dir, compile, why, sizeof why);
+  if (d->ser) {
+    nz_series_native_attach(d->ser, d->plan);
+    c->native_count++;
+    c->native_series++;
+    c->native_seconds += nz_series_native_seconds(d->ser);
+  } else if (compile)
+    snprintf(c->native_why, sizeof c->native_why, "%s", why);
+  d->ser_tried = d->ser || compile;
+}
+
 /* Evaluate on doubles: natively when compiled (its refusal is confirmed by
  * the interpreter, which names the node), else interpreted. */
 static inline nz_status dplan_eval(nz_compiled *c, dplan *d, const double *in, double *out)
@@ -133,6 +167,8 @@ static inline nz_status dplan_eval(nz_compiled *c, dplan *d, const double *in, d
   d->work += nz_graph_plan_nodes(d->plan);
   return nz_graph_eval(d->plan, in, out);
 }
+
+int nz_compiled_native_series(const nz_compiled *c) { return c->native_series; }
 
 void nz_compiled_set_native(nz_compiled *c, int mode) { c->native_mode = mode < 0 ? -1 : mode > 0; }
 
@@ -195,6 +231,7 @@ void nz_compiled_free(nz_compiled *c)
   free(c->row_in);
   free(c->ts_in);
   free(c->ts_M);
+  free(c->ts_inp);
   free(c->mb_in);
   free(c->acc_A);
   free(c->phi);
@@ -722,11 +759,14 @@ static int series_workspace(nz_compiled *c, int p)
   size_t len = n + kk + nz_solve_spd_work_len(c->k) + k + (size_t)(p > 1 ? p - 1 : 1) * k;
   double *in = malloc(len * sizeof(double));
   const double **M = c->ts_M ? c->ts_M : malloc(kk * sizeof *M);
-  if (!in || !M) {
+  double **inp = c->ts_inp ? c->ts_inp : malloc(n * sizeof *inp);
+  if (!in || !M || !inp) {
     free(in);
     if (!c->ts_M) free(M);
+    if (!c->ts_inp) free(inp);
     return NZ_ENOMEM;
   }
+  c->ts_inp = inp;
   free(c->ts_in);
   c->ts_in = in;
   c->ts_M = M;
@@ -754,6 +794,23 @@ static void series_inputs_at(const nz_compiled *c, double *in, int n, double t0,
   }
 }
 
+/* The same for n >= 1, written in place into the plan's input series
+ * (nz_graph_series_inputs; NULL: an input the plan does not read). */
+static void series_inputs_put(const nz_compiled *c, double *const *ip, int n, const double *a)
+{
+  int k = c->k, s0 = nz_compiled_input_slot(c, 0, 0);
+  if (ip[0]) ip[0][n] = n == 1 ? 1.0 : 0.0;
+  for (int x = 1; x < s0; x++)
+    if (ip[x]) ip[x][n] = 0.0;
+  for (int x = s0 + 2 * k; x < c->ninputs; x++)
+    if (ip[x]) ip[x][n] = 0.0;
+  const double *an = a + (size_t)n * (size_t)k, *an1 = an + k;
+  for (int i = 0; i < k; i++) {
+    if (ip[s0 + i]) ip[s0 + i][n] = an[i];
+    if (ip[s0 + k + i]) ip[s0 + k + i][n] = (n + 1) * an1[i];
+  }
+}
+
 int nz_compiled_motion_series(nz_compiled *c, double t0, const double *q0, const double *qd0, int p,
                               double *a)
 {
@@ -774,23 +831,27 @@ int nz_compiled_motion_series(nz_compiled *c, double t0, const double *q0, const
    * defined) run along: a failure of any node is the jets' status, and
    * nz_compiled_failure names it. */
   if ((st = nz_graph_series_begin(plan, N, in))) goto fail;
-  if (!constant)   /* the series of M's entries, filled coefficient by coefficient below */
-    for (int e = 0; e < k * k; e++)
-      if (!(c->ts_M[e] = nz_graph_series_node(plan, c->mb_plan->outs[e]))) return NZ_EARG;
+  dplan_series_native(c, constant ? c->acc_plan : c->mb_plan, N);
+  /* the series of M's entries (of q'' itself with a constant M), filled
+   * coefficient by coefficient below */
+  const dplan *dp = constant ? c->acc_plan : c->mb_plan;
+  for (int e = 0; e < (constant ? k : k * k); e++)
+    if (!(c->ts_M[e] = nz_graph_series_node(plan, dp->outs[e]))) return NZ_EARG;
+  nz_graph_series_inputs(plan, c->ts_inp, c->ninputs);
   for (int n = 0; n <= N; n++) {
     double *qn = qdd + (size_t)n * (size_t)k, *a2 = a + (size_t)(n + 2) * (size_t)k;
     if (n > 0) {
-      series_inputs_at(c, in, n, t0, a);
-      if ((st = nz_graph_series_next(plan, n, in, NULL))) goto fail;
+      series_inputs_put(c, c->ts_inp, n, a);
+      if ((st = nz_graph_series_next(plan, n, NULL, NULL))) goto fail;
     }
     if (constant) {
       /* q'' = -M^-1 h is the plan: its coefficient n is the answer */
-      for (int i = 0; i < k; i++) qn[i] = nz_graph_series_coef(plan, i, n);
+      for (int i = 0; i < k; i++) qn[i] = c->ts_M[i][n];
     } else {
       /* coefficient n of M q'' + h = 0: M_0 q''_n = -(h_n + sum_{m=1..n} M_m q''_{n-m}),
        * M_0 factored once (its condition checked) and its factor reused */
       for (int i = 0; i < k; i++) {
-        double s = nz_graph_series_coef(plan, k * k + i, n);
+        double s = nz_graph_series_coef(plan, k * k + i, n);   /* h_i */
         for (int m = 1; m <= n; m++) {
           const double *qm = qdd + (size_t)(n - m) * (size_t)k;
           for (int j = 0; j < k; j++) s += c->ts_M[i * k + j][m] * qm[j];

@@ -86,10 +86,17 @@ int nz_compiled_constraint_row(void *ctx, int r, int m, double t, const double *
  * is loaded at once, except in mode 0. */
 #define NZ_NATIVE_BASE 1.7e7
 #define NZ_NATIVE_PER_NODE 8e4
+/* The same for the series of a plan (Taylor's method), counted in node
+ * coefficients: compiling costs about 3 ms per node of a big plan
+ * (graph/series_native.c calls its kernels there), 8e5 coefficients at
+ * ~4 ns. */
+#define NZ_SERIES_NATIVE_PER_NODE 8e5
 void nz_compiled_set_native(nz_compiled *c, int mode);
 /* Plans running natively; seconds spent compiling; why the last attempt
  * failed (NULL if none did). */
 int nz_compiled_native(const nz_compiled *c, double *seconds, const char **why);
+/* Of those, the series of plans (Taylor's method) running as machine code. */
+int nz_compiled_native_series(const nz_compiled *c);
 /* The Taylor coefficients of the free motion from (t0, q0, qd0): a[n k + i]
  * is coefficient n of q_i(t0 + tau), n = 0 .. p, from M q'' + h = 0 built
  * order by order on the plans of M and h (graph.h's series: coefficient n
