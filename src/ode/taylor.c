@@ -9,31 +9,35 @@
  *
  * Tolerance.  GSL's steppers accept a step when every component's error is
  * at most atol + rtol |y_i|.  The series gives no error per component, only
- * the size of the coefficients; so the test is made on the state's max
- * norm, as Jorba and Zou do: with ||x|| = max |x_i|,
- *   rtol ||x|| <= atol: absolute, eps = atol, scale s = 1;
- *   otherwise:          relative, eps = rtol, scale s = ||x||;
- * i.e. the error is held to max(atol, rtol ||x||), which is within a factor
- * 2 of GSL's atol + rtol ||x|| (in the max norm, not per component: a small
- * component next to a large one gets the large one's relative tolerance).
+ * the size of its coefficients; so each component of the state x = (q, q')
+ * is measured against its own scale
+ *   s_i = max(|x_i|, atol / rtol)   (s_i = 1 when rtol = 0),
+ * and the tolerance asked of every component is eps = rtol (atol when rtol
+ * = 0): the error of x_i is held to about max(atol, rtol |x_i|), within a
+ * factor 2 of GSL's atol + rtol |x_i|.  (Jorba and Zou, and heyoka, measure
+ * the whole state with one max norm; then a large component, an angle that
+ * grows without bound, loosens the tolerance of every small one: Kepler's r
+ * lost three digits over 100 orbits that way.)  A component at exactly 0
+ * with atol = 0 takes the largest component as its scale.
  *
  * Order.  p = ceil(-ln(eps) / 2 + 1) (Jorba and Zou's eq. 3.5): with the
  * step below, the last term kept is about s e^(-2p) <= s eps e^(-2).
  *
- * Step.  If q behaves like a function analytic in a disc of radius rho
- * around t, bounded by about s, its coefficients are ||x^[j]|| ~ s rho^-j;
- * the two last ones estimate rho:
- *   rho = min( (s / ||x^[p-1]||)^(1/(p-1)), (s / ||x^[p]||)^(1/p) )
+ * Step.  If x_i behaves like a function analytic in a disc of radius rho
+ * around t, bounded by about s_i, its coefficients are |x_i^[j]| ~ s_i
+ * rho^-j; the two last ones estimate rho, the smallest over the components:
+ *   rho = min( (min_i s_i / |x_i^[p-1]|)^(1/(p-1)), (min_i s_i / |x_i^[p]|)^(1/p) )
  * (two, because one may vanish by symmetry: the odd coefficients of an even
- * motion), and the step is
+ * motion; the minimum over i is taken before the root, which is monotonic,
+ * so a step costs two pow calls whatever k), and the step is
  *   h = rho / e^2 * exp(-0.7 / (p - 1)),
- * so that the neglected terms, s (h/rho)^(p+1) and smaller, are about s
- * e^(-2(p+1)) < s eps; exp(-0.7 / (p - 1)) is their safety factor, found
+ * so that the neglected terms, s_i (h/rho)^(p+1) and smaller, are about s_i
+ * e^(-2(p+1)) < s_i eps; exp(-0.7 / (p - 1)) is their safety factor, found
  * by experiment to absorb the tail of the series.  No step is rejected: the
  * error is not measured, only predicted (as in Jorba-Zou and heyoka); the
- * tests compare with closed forms.  A zero coefficient norm gives no bound
- * (rho infinite): when both vanish the polynomial is exact and the step
- * goes to t1.
+ * tests compare with closed forms.  A zero coefficient gives no bound (rho
+ * infinite): when all vanish the polynomial is exact and the step goes to
+ * t1.
  *
  * q is kept to degree p + 1 (a_{p+1} is needed for q''s part of x^[p]
  * anyway), q' to degree p: the dense output's q' is the derivative of its
@@ -82,15 +86,16 @@ void nz_taylor_eval(int k, int P, const double *a, double tau, double *q, double
   }
 }
 
-/* The max norm of x^[j] = (a_j, (j + 1) a_{j+1}). */
-static double coef_norm(int k, const double *a, int j)
+/* min_i s_i / |x_i^[j]| over the components of x^[j] = (a_j, (j + 1)
+ * a_{j+1}), s = (scales of q, scales of q'); INFINITY when all vanish. */
+static double coef_ratio(int k, const double *a, int j, const double *s)
 {
   const double *aj = a + (size_t)j * (size_t)k, *aj1 = aj + k;
-  double m = 0.0;
+  double m = INFINITY;
   for (int i = 0; i < k; i++) {
     double u = fabs(aj[i]), v = (j + 1) * fabs(aj1[i]);
-    if (u > m) m = u;
-    if (v > m) m = v;
+    if (u > 0.0 && s[i] < m * u) m = s[i] / u;
+    if (v > 0.0 && s[k + i] < m * v) m = s[k + i] / v;
   }
   return m;
 }
@@ -112,9 +117,9 @@ int nz_taylor_run(int k, nz_taylor_series_fn series, void *ctx, const nz_taylor_
   double emin = cfg->rtol > 0.0 && (cfg->atol == 0.0 || cfg->rtol < cfg->atol) ? cfg->rtol : cfg->atol;
   int pmax = cfg->order ? cfg->order : nz_taylor_order(emin);
   size_t kk = (size_t)k;
-  double *a = malloc(((size_t)pmax + 2 + 2) * kk * sizeof(double));
+  double *a = malloc(((size_t)pmax + 2 + 4) * kk * sizeof(double));
   if (!a) return NZ_ENOMEM;
-  double *q = a + ((size_t)pmax + 2) * kk, *qd = q + kk;
+  double *q = a + ((size_t)pmax + 2) * kk, *qd = q + kk, *scale = qd + kk;
   memcpy(q, q0, kk * sizeof(double));
   memcpy(qd, qd0, kk * sizeof(double));
   tout[0] = cfg->t0;
@@ -135,19 +140,25 @@ int nz_taylor_run(int k, nz_taylor_series_fn series, void *ctx, const nz_taylor_
       st = NZ_ERANGE;
       break;
     }
+    /* each component's scale (see the top of this file) */
+    double eps = cfg->rtol > 0.0 ? cfg->rtol : cfg->atol, floor = cfg->rtol > 0.0 ? cfg->atol / cfg->rtol : 1.0;
     double nx = 0.0;
-    for (int i = 0; i < k; i++) nx = fmax(nx, fmax(fabs(q[i]), fabs(qd[i])));
-    int absolute = cfg->rtol * nx <= cfg->atol;
-    /* atol = 0 and a state at 0: absolute, with rtol as the accuracy asked */
-    double eps = absolute && cfg->atol > 0.0 ? cfg->atol : cfg->rtol, s = absolute ? 1.0 : nx;
+    for (int i = 0; i < k; i++) {
+      scale[i] = cfg->rtol > 0.0 ? fmax(fabs(q[i]), floor) : 1.0;
+      scale[k + i] = cfg->rtol > 0.0 ? fmax(fabs(qd[i]), floor) : 1.0;
+      nx = fmax(nx, fmax(scale[i], scale[k + i]));
+    }
+    if (floor == 0.0)   /* atol = 0: a component at 0 takes the largest scale */
+      for (int i = 0; i < 2 * k; i++)
+        if (scale[i] == 0.0) scale[i] = nx > 0.0 ? nx : 1.0;
     int p = cfg->order ? cfg->order : nz_taylor_order(eps);
     if (p > pmax) p = pmax;
     if (p > stats->order) stats->order = p;
     stats->nseries++;
     if ((st = series(ctx, t, q, qd, p + 1, a))) { *stop = NZ_TAYLOR_SERIES; break; }
-    double n1 = coef_norm(k, a, p - 1), n2 = coef_norm(k, a, p);
-    double r1 = n1 > 0.0 ? pow(s / n1, 1.0 / (p - 1)) : INFINITY;
-    double r2 = n2 > 0.0 ? pow(s / n2, 1.0 / p) : INFINITY;
+    double m1 = coef_ratio(k, a, p - 1, scale), m2 = coef_ratio(k, a, p, scale);
+    double r1 = isinf(m1) ? INFINITY : pow(m1, 1.0 / (p - 1));
+    double r2 = isinf(m2) ? INFINITY : pow(m2, 1.0 / p);
     double rho = fmin(r1, r2);
     double h = rho * rho_factor * exp(-0.7 / (p - 1));
     int last = 0;
