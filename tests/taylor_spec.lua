@@ -297,6 +297,24 @@ describe("the series as machine code (src/graph/series_native.c)", function()
   end)
 end)
 
+describe("the series as machine code when a coefficient overflows", function()
+  it("names the same node as the interpreter (the fused loop hands over to it)", function()
+    -- x'' = -1/x at x = 1e-200: coefficient 1 of 1/x is -x'/x^2 ~ 1e400
+    local msgs = {}
+    for _, native in ipairs{ false, true } do
+      local lg = nz.system{ name = "log well", coords = { "x" }, native = native,
+        T = function(t, q, qd) return qd[1] ^ 2 / 2 end, V = function(t, q) return nz.log(q[1]) end }
+      mech.motion_series(lg.engine, 0, { 1 }, { 0 }, 10)   -- compiles the machine code (native = true)
+      assert.equal(native and 1 or 0, lg:graph_info().native_series)
+      local ok, err = pcall(mech.motion_series, lg.engine, 0, { 1e-200 }, { 1 }, 10)
+      assert.is_false(ok)
+      assert.matches("the series of the motion failed at t = 0: div of 1 failed %(status 4, node %d+%)", err)
+      msgs[#msgs + 1] = err
+    end
+    assert.equal(msgs[1], msgs[2])
+  end)
+end)
+
 describe("taylor_run with a mass matrix that moves", function()
   it("Kepler in polar coordinates, e = 0.6, over 10 orbits at tol 1e-15: r and phi against Kepler's equation", function()
     -- M = diag(1, r^2): every step factors M_0 and solves order by order.

@@ -721,7 +721,7 @@ static void check_series_random(int size, int nout, int points, int K)
     nz_graph_plan_failure(p, &na, &(nz_gop){ 0 }, &(nz_jet_fn){ 0 }, &(double){ 0 });
     if (!sn && !sa) {   /* the layout of a begin that succeeded */
       double t0 = seconds();
-      sn = nz_series_native_get(p, cache, 1, why, sizeof why);
+      sn = nz_series_native_get(p, NULL, cache, 1, why, sizeof why);
       tc = seconds() - t0;
       if (!sn) { printf("# series_native: %s\n", why); bad++; break; }
       int nseries, m = nz_graph_series_layout(p, NULL, &nseries);
@@ -789,7 +789,7 @@ static void check_series_domains(void)
     int kf, na, nb;
     double out_a[4], out_b[4];
     nz_status regular = series_run(p, 1, 3, in, out_a, &kf);
-    nz_series_native *sn = regular ? NULL : nz_series_native_get(p, cache, 1, why, sizeof why);
+    nz_series_native *sn = regular ? NULL : nz_series_native_get(p, NULL, cache, 1, why, sizeof why);
     if (!sn) { printf("# %s: %s\n", pts[c].name, regular ? "no regular begin" : why); bad++; }
     in[0] = pts[c].x;
     in[1] = pts[c].y;

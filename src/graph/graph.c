@@ -1722,3 +1722,23 @@ void nz_graph_series_use(nz_graph_plan *p, nz_series_code code, void (*const *K)
   p->ser_kfn = K;
   p->ser_code_sig = code ? sig : 0;
 }
+
+int nz_graph_series_input_slots(const nz_graph_plan *p, int *in_num)
+{
+  if (p->ser_k < 0) return -1;
+  if (in_num)
+    for (int s = 0; s < p->nin; s++) in_num[s] = p->in_num[s];
+  return p->nin;
+}
+
+int nz_graph_series_output(const nz_graph_plan *p, int r) { return r >= 0 && r < p->nout ? p->out_slot[r] : -1; }
+
+int nz_graph_series_loop(nz_graph_plan *p, nz_series_loop loop, void (*const *K)(void), unsigned long sig, int N,
+                         double *a)
+{
+  if (p->ser_k < 0 || N < 0 || N > p->ser_K || sig != p->ser_sig || p->ser_K < 1) return -1;
+  p->fail_node = -1;
+  int rc = loop(N, p->ser_cap + 1, p->ser, p->ser_v, K, a);
+  p->ser_k = rc ? 0 : N;   /* refused: coefficient 0 (begin's) still stands */
+  return rc;
+}

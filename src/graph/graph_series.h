@@ -54,6 +54,23 @@ unsigned long nz_graph_series_signature(const nz_graph_plan *p);
  * does the work again and names the node. */
 typedef int (*nz_series_code)(int k, int L, double *S, double *v, void (*const *K)(void));
 
+/* The input slots of the plan (series 0 .. nin - 1): in_num[s] = the
+ * input number of slot s (in_num may be NULL: only count); returns nin, or
+ * -1 before a successful begin.  And the series of output r. */
+int nz_graph_series_input_slots(const nz_graph_plan *p, int *in_num);
+int nz_graph_series_output(const nz_graph_plan *p, int r);
+
+/* Machine code that fills coefficients 1 .. N of every slot itself, the
+ * inputs' included (a fused loop: series_native.c's second-order ODE);
+ * `a` is the caller's.  Returns 0, or nonzero when it refused. */
+typedef int (*nz_series_loop)(int N, int L, double *S, double *v, void (*const *K)(void), double *a);
+/* After a begin to order >= N whose kernels have signature sig: run loop
+ * on the arena; when it returns 0 the plan holds coefficients 0 .. N (as
+ * after nz_graph_series_next up to N).  Returns loop's value, or -1 when it
+ * does not apply (then nothing was run). */
+int nz_graph_series_loop(nz_graph_plan *p, nz_series_loop loop, void (*const *K)(void), unsigned long sig, int N,
+                         double *a);
+
 /* Let nz_graph_series_next run code (NULL: the interpreter again) for
  * every begin whose signature is sig; K stays the caller's. */
 void nz_graph_series_use(nz_graph_plan *p, nz_series_code code, void (*const *K)(void), unsigned long sig);

@@ -24,12 +24,31 @@
 
 typedef struct nz_series_native nz_series_native;
 
+/* A second-order ODE on the plan: its outputs acc[i] are q_i'' (i < k),
+ * with q_i the input number pos[i] and q_i' the input vel[i]; t the input
+ * `time` (-1: none); every other input the plan reads is constant.  Given
+ * it, the object also holds the whole series of a step as one loop
+ * (nz_series_native_ode2): no call per order, the inputs of order n
+ * written from the coefficients already found. */
+typedef struct nz_series_ode2 {
+  int k, time;
+  const int *pos, *vel, *acc;
+} nz_series_ode2;
+
 /* Machine code for the kernels the last successful nz_graph_series_begin
- * on p chose: from cache_dir, or compiled there (compile = 1; with
- * compile = 0, NULL "not in the cache").  NULL with a one-line reason in
- * why (a branch, no compiler, ...). */
-nz_series_native *nz_series_native_get(const nz_graph_plan *p, const char *cache_dir, int compile,
-                                       char *why, size_t whylen);
+ * on p chose (and for the loop of ode2, which may be NULL): from
+ * cache_dir, or compiled there (compile = 1; with compile = 0, NULL "not in
+ * the cache").  NULL with a one-line reason in why (a branch, no compiler,
+ * ...). */
+nz_series_native *nz_series_native_get(const nz_graph_plan *p, const nz_series_ode2 *ode2, const char *cache_dir,
+                                       int compile, char *why, size_t whylen);
+/* With an object made with ode2, after a begin of p to order N at q0, q'0
+ * = a[0 .. 2k): a[(n + 2) k + i] = q_i''s coefficient n / ((n + 1)(n + 2))
+ * for n = 0 .. N, the numbers nz_graph_series_next would give order by
+ * order.  0; nonzero when it does not apply or a coefficient is not finite
+ * (the caller then goes order by order, where the interpreter names the
+ * node). */
+int nz_series_native_ode2(const nz_series_native *s, nz_graph_plan *p, int N, double *a);
 /* Make nz_graph_series_next on p run it (for every begin that chooses the
  * same kernels).  Detach with nz_series_native_detach before freeing it. */
 void nz_series_native_attach(const nz_series_native *s, nz_graph_plan *p);

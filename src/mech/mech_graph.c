@@ -74,6 +74,7 @@ struct nz_compiled {
   double *ts_in, *ts_L, *ts_work, *ts_rhs, *ts_qdd;
   const double **ts_M;
   double **ts_inp;   /* the plan's input series, written in place (ninputs) */
+  int *ts_pos;       /* input numbers of q_i, of q_i', output numbers of q_i'' (3k) */
   char failure[160];
 };
 
@@ -135,7 +136,7 @@ static void dplan_compile(nz_compiled *c, dplan *d)
 /* After a begin of d's series to order N: its machine code, when it has
  * earned it as the plans on doubles do (in node coefficients, about 4 ns
  * each interpreted: NZ_SERIES_NATIVE_PER_NODE), or at once when cached. */
-static void dplan_series_native(nz_compiled *c, dplan *d, int N)
+static void dplan_series_native(nz_compiled *c, dplan *d, int N, const nz_series_ode2 *ode2)
 {
   if (d->ser_tried || c->native_mode == 0) return;
   int nodes = nz_graph_plan_nodes(d->plan);
@@ -146,7 +147,7 @@ static void dplan_series_native(nz_compiled *c, dplan *d, int N)
   /* first call: load it if cached (generating and hashing the source
    * costs microseconds per node, once) */
   if (!compile && d->ser_work > (double)nz_graph_plan_nodes(d->plan) * N) return;
-  d->ser = nz_series_native_get(d->plan, dir, compile, why, sizeof why);
+  d->ser = nz_series_native_get(d->plan, ode2, dir, compile, why, sizeof why);
   if (d->ser) {
     nz_series_native_attach(d->ser, d->plan);
     c->native_count++;
@@ -232,6 +233,7 @@ void nz_compiled_free(nz_compiled *c)
   free(c->ts_in);
   free(c->ts_M);
   free(c->ts_inp);
+  free(c->ts_pos);
   free(c->mb_in);
   free(c->acc_A);
   free(c->phi);
@@ -760,13 +762,21 @@ static int series_workspace(nz_compiled *c, int p)
   double *in = malloc(len * sizeof(double));
   const double **M = c->ts_M ? c->ts_M : malloc(kk * sizeof *M);
   double **inp = c->ts_inp ? c->ts_inp : malloc(n * sizeof *inp);
-  if (!in || !M || !inp) {
+  int *pos = c->ts_pos ? c->ts_pos : malloc(3 * k * sizeof *pos);
+  if (!in || !M || !inp || !pos) {
     free(in);
     if (!c->ts_M) free(M);
     if (!c->ts_inp) free(inp);
+    if (!c->ts_pos) free(pos);
     return NZ_ENOMEM;
   }
   c->ts_inp = inp;
+  c->ts_pos = pos;
+  for (int i = 0; i < c->k; i++) {
+    pos[i] = nz_compiled_input_slot(c, 0, i);
+    pos[k + (size_t)i] = nz_compiled_input_slot(c, 1, i);
+    pos[2 * k + (size_t)i] = i;
+  }
   free(c->ts_in);
   c->ts_in = in;
   c->ts_M = M;
@@ -831,7 +841,14 @@ int nz_compiled_motion_series(nz_compiled *c, double t0, const double *q0, const
    * defined) run along: a failure of any node is the jets' status, and
    * nz_compiled_failure names it. */
   if ((st = nz_graph_series_begin(plan, N, in))) goto fail;
-  dplan_series_native(c, constant ? c->acc_plan : c->mb_plan, N);
+  if (constant) {
+    /* q'' = -M^-1 h as a second-order ODE on the plan: its machine code
+     * runs the whole series in one loop */
+    nz_series_ode2 o = { k, 0, c->ts_pos, c->ts_pos + k, c->ts_pos + 2 * k };
+    dplan_series_native(c, c->acc_plan, N, &o);
+    if (c->acc_plan->ser && nz_series_native_ode2(c->acc_plan->ser, plan, N, a) == 0) return NZ_OK;
+  } else
+    dplan_series_native(c, c->mb_plan, N, NULL);
   /* the series of M's entries (of q'' itself with a constant M), filled
    * coefficient by coefficient below */
   const dplan *dp = constant ? c->acc_plan : c->mb_plan;

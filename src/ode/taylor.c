@@ -143,10 +143,12 @@ int nz_taylor_run(int k, nz_taylor_series_fn series, void *ctx, const nz_taylor_
     /* each component's scale (see the top of this file) */
     double eps = cfg->rtol > 0.0 ? cfg->rtol : cfg->atol, floor = cfg->rtol > 0.0 ? cfg->atol / cfg->rtol : 1.0;
     double nx = 0.0;
-    for (int i = 0; i < k; i++) {
-      scale[i] = cfg->rtol > 0.0 ? fmax(fabs(q[i]), floor) : 1.0;
-      scale[k + i] = cfg->rtol > 0.0 ? fmax(fabs(qd[i]), floor) : 1.0;
-      nx = fmax(nx, fmax(scale[i], scale[k + i]));
+    for (int i = 0; i < k; i++) {   /* (comparisons, not fmax: no call on this path) */
+      double u = fabs(q[i]), w = fabs(qd[i]);
+      scale[i] = cfg->rtol > 0.0 ? (u > floor ? u : floor) : 1.0;
+      scale[k + i] = cfg->rtol > 0.0 ? (w > floor ? w : floor) : 1.0;
+      if (scale[i] > nx) nx = scale[i];
+      if (scale[k + i] > nx) nx = scale[k + i];
     }
     if (floor == 0.0)   /* atol = 0: a component at 0 takes the largest scale */
       for (int i = 0; i < 2 * k; i++)
