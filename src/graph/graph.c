@@ -477,6 +477,14 @@ int nz_graph_op(nz_graph *g, nz_gop op, int a, int b)
   case NZ_GOP_DIV:   /* x / x is kept: x may be 0 when evaluated */
     if (is_const_value(g, b, 1.0)) return a;
     if (!nz_graph_is_const(g, a, NULL) && is_const_value(g, b, -1.0)) return build_neg(g, a);
+    /* (c x) / d = (c / d) x, as c1 (c2 x) above, when c / d is exact: the
+     * derivatives of x^2 / 2 and y^3 / 3 are x and y^2, not (2 x) / 2 and
+     * (3 y^2) / 3 (two nodes fewer each, in every evaluation and series) */
+    if (!nz_graph_is_const(g, a, NULL) && nz_graph_is_const(g, b, &v) && v != 0.0 && isfinite(v)) {
+      double ca, qv;
+      int xa = split_term(g, a, &ca);
+      if (xa != a && isfinite(qv = ca / v) && qv != 0.0 && fma(qv, v, -ca) == 0.0) return scaled(g, qv, xa);
+    }
     break;
   case NZ_GOP_POW:
     /* a constant exponent is POWC even for a constant base: (-2)^2 = 4 */
