@@ -62,7 +62,8 @@ typedef enum nz_taylor_stop {
   NZ_TAYLOR_HOOK             /* on_step failed: its status                    */
 } nz_taylor_stop;
 
-/* q(tau) and q'(tau) of a step's polynomial a_0 .. a_P (Horner). */
+/* q(tau) and q'(tau) of a step's polynomial a_0 .. a_P (Horner); q and qd must not
+ * overlap a. */
 void nz_taylor_eval(int k, int P, const double *a, double tau, double *q, double *qd);
 
 /* Points of the output grid of cfg (t0 .. t1 included); 0 for a bad grid. */
