@@ -100,6 +100,56 @@ describe("simulate against closed forms", function()
   end
 end)
 
+-- The same closed forms, events and failures with method = "taylor"
+-- (Taylor's method on the recorded series; its own spec is
+-- simulate_taylor_spec.lua).
+describe("simulate against closed forms with method = 'taylor'", function()
+  it("the pendulum at 2.5 rad with the default tolerances stays within 1e-8 of the exact motion", function()
+    local exact = exact_pendulum(2.5)
+    local tr = pendulum:simulate{ q0 = { 2.5 }, t1 = 10, dt = 0.05, method = "taylor" }
+    local worst = 0
+    for i = 1, #tr.t do worst = math.max(worst, math.abs(tr.q[i][1] - exact(tr.t[i]))) end
+    -- measured 1.1e-10 (128 steps of order 13); the bound is the GSL run's
+    assert(worst <= 1e-8, ("max error %.3g"):format(worst))
+  end)
+  it("integrates the pendulum to its tolerance at 1e-6, 1e-8, 1e-10 and 1e-12", function()
+    local exact = exact_pendulum(1.0)
+    for _, tol in ipairs{ 1e-6, 1e-8, 1e-10, 1e-12 } do
+      local tr = pendulum:simulate{ q0 = { 1 }, t1 = 3, dt = 0.5, method = "taylor", rtol = tol, atol = tol * 1e-2 }
+      local worst = 0
+      for i = 1, #tr.t do worst = math.max(worst, math.abs(tr.q[i][1] - exact(tr.t[i]))) end
+      -- in units of rtol, as the GSL steppers above: measured 0.009, 0.0032,
+      -- 0.0034, 0.0083 (the step rule's safety keeps taylor well inside);
+      -- bound 0.02, about twice the worst
+      assert(worst <= 0.02 * tol, ("rtol %g: max error %.3g"):format(tol, worst))
+    end
+  end)
+  it("a direction filter and stop = true end the run at the event, located on the step's polynomial", function()
+    local _, P = exact_pendulum(1.0)
+    local tr = pendulum:simulate{ q0 = { 1 }, t1 = 10, dt = 0.1, method = "taylor",
+      events = { { name = "upward", f = function(t, q, qd) return q[1] end, direction = 1, stop = true } } }
+    assert.are.equal("stopped", tr.status)
+    -- measured 4.7e-14 from 3P/4
+    assert(math.abs(tr.t[#tr.t] - 3 * P / 4) <= 1e-10, ("stopped at %.15g"):format(tr.t[#tr.t]))
+    assert.are.equal(1, #tr.events)
+  end)
+  it("a mass matrix that degenerates, a blow-up in finite time, a singular start: stopped with where, never NaN", function()
+    local deg = nz.system{ name = "degenerating", coords = { "x" },
+      T = function(t, q, qd) return 0.5 * (1 - t / 2) * qd[1] ^ 2 end }
+    h.checkerror("simulate 'degenerating': method 'taylor' stopped at t = 1.99999", deg.simulate, deg,
+      { q0 = { 0 }, qd0 = { 1 }, t1 = 3, method = "taylor" })
+    local blow = nz.system{ name = "blowup", coords = { "x" }, T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end,
+      V = function(t, q) return -q[1] ^ 3 / 3 end }
+    -- x = 6 / (t - sqrt(6))^2 ... is infinite at t = sqrt(6) = 2.449489742783178
+    h.checkerror("stopped at t = 2.44948974", blow.simulate, blow,
+      { q0 = { 1 }, qd0 = { math.sqrt(2 / 3) }, t1 = 5, method = "taylor" })
+    local sing = nz.system{ name = "degenerate", coords = { "x", "y" },
+      T = function(t, q, qd) return 0.5 * (qd[1] + q[2] * qd[2]) ^ 2 + 0.5 * q[1] ^ 2 * qd[2] ^ 2 end }
+    h.checkerror("system 'degenerate': the mass matrix M = d2T/dqd2 is not positive definite at t = 0, q = {0, 1}",
+      sing.simulate, sing, { q0 = { 0, 1 }, t1 = 1, method = "taylor" })
+  end)
+end)
+
 -- Central differences of the accelerations, for the Jacobian check.
 local function fd_jacobian(sys, t, y)
   local k = sys.k
