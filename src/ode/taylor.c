@@ -142,7 +142,6 @@ int nz_taylor_run(int k, nz_taylor_series_fn series, void *ctx, const nz_taylor_
    * up over the steps into a phase error larger than the tolerance (as in
    * heyoka, which keeps a double-length time for the same reason). */
   double t = cfg->t0, tlo = 0.0, t1 = cfg->t1, hmin = INFINITY, hmax = 0.0, hlast = 0.0;
-  const double rho_factor = exp(-2.0);   /* rho / e^2 */
   int st = NZ_OK;
   while (t < t1) {
     if (nz_interrupt_requested()) { *stop = NZ_TAYLOR_INTERRUPTED; break; }
@@ -170,15 +169,16 @@ int nz_taylor_run(int k, nz_taylor_series_fn series, void *ctx, const nz_taylor_
     stats->nseries++;
     if ((st = series(ctx, t, q, qd, p + 1, a))) { *stop = NZ_TAYLOR_SERIES; break; }
     double m1 = coef_ratio(k, a, p - 1, scale), m2 = coef_ratio(k, a, p, scale);
-    double r1 = isinf(m1) ? INFINITY : pow(m1, 1.0 / (p - 1));
-    double r2 = isinf(m2) ? INFINITY : pow(m2, 1.0 / p);
-    double rho = fmin(r1, r2);
-    double h = rho * rho_factor * exp(-0.7 / (p - 1));
+    /* in logarithms: two log and one exp a step, not two pow and an exp
+     * (a tenth of a small system's step) */
+    double l1 = isinf(m1) ? INFINITY : log(m1) / (p - 1), l2 = isinf(m2) ? INFINITY : log(m2) / p;
+    double lrho = l1 < l2 ? l1 : l2;   /* log rho */
+    double h = isinf(lrho) ? INFINITY : exp(lrho - 2.0 - 0.7 / (p - 1));
     int last = 0;
     double rest = (t1 - t) - tlo;
     /* the last step also when t + h would round onto t1: the step is then
      * the rest, longer by less than an ulp of t1 */
-    if (isinf(rho) || h >= rest || t + h >= t1) { h = rest; last = 1; }
+    if (isinf(lrho) || h >= rest || t + h >= t1) { h = rest; last = 1; }
     if (last && !(h > 0.0)) h = 0.0;   /* t + tlo reached t1 by rounding: the state is t1's */
     if (!isfinite(h) || (!last && (!(h > 0.0) || t + h == t))) {
       *stop = NZ_TAYLOR_STEP;
