@@ -31,7 +31,7 @@
 #include "graph/series_native.h"
 #include "jets/series.h"
 
-#define SER_VERSION "nzlua-series 8"
+#define SER_VERSION "nzlua-series 9"
 #ifndef CHUNK
 #define CHUNK 2000
 #endif
@@ -66,7 +66,10 @@ static const char preamble[] =
   "typedef double (*nzs_quad_f)(const double *, const double *, const double *, double, int);\n"
   "typedef double (*nzs_atan2_f)(const double *, const double *, const double *, const double *, int);\n"
   "static NZS_KERNEL double nzs_mul(const double *a, const double *b, int k)\n"
-  "{ double s = 0.0; for (int j = 0; j <= k; j++) s += a[j] * b[k - j]; return s; }\n"
+  "{\n  double s = 0.0;\n  if (a == b) {\n"
+  "    for (int j = 0; 2 * j < k; j++) s += a[j] * a[k - j];\n"
+  "    s += s;\n    if (!(k & 1)) s += a[k / 2] * a[k / 2];\n    return s;\n  }\n"
+  "  for (int j = 0; j <= k; j++) s += a[j] * b[k - j];\n  return s;\n}\n"
   "static NZS_KERNEL double nzs_div(const double *z, const double *a, const double *b, int k)\n"
   "{ double s = a[k]; for (int j = 0; j < k; j++) s -= z[j] * b[k - j]; return s / b[0]; }\n"
   "static NZS_KERNEL double nzs_exp(const double *y, const double *x, int k)\n"
