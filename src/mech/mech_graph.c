@@ -25,7 +25,7 @@ typedef struct dplan {
    * policy: node coefficients interpreted so far, and whether it was tried. */
   nz_series_native *ser;
   double ser_work;
-  int ser_tried;
+  int ser_tried, ser_looked;
 } dplan;
 
 typedef struct compiled_piece {
@@ -142,11 +142,16 @@ static void dplan_series_native(nz_compiled *c, dplan *d, int N, const nz_series
   int nodes = nz_graph_plan_nodes(d->plan);
   d->ser_work += (double)nodes * N;
   int compile = c->native_mode == 1 || d->ser_work >= NZ_NATIVE_BASE + NZ_SERIES_NATIVE_PER_NODE * nodes;
+  /* the first call looks in the cache (generating and hashing the source
+   * costs microseconds per node, once); later ones only count, until
+   * compiling pays */
+  if (!compile && d->ser_looked) return;
+  d->ser_looked = 1;
   char dir[1024], why[200];
-  if (!nz_native_cache_dir(dir, sizeof dir)) return;
-  /* first call: load it if cached (generating and hashing the source
-   * costs microseconds per node, once) */
-  if (!compile && d->ser_work > (double)nz_graph_plan_nodes(d->plan) * N) return;
+  if (!nz_native_cache_dir(dir, sizeof dir)) {
+    d->ser_tried = 1;
+    return;
+  }
   d->ser = nz_series_native_get(d->plan, ode2, dir, compile, why, sizeof why);
   if (d->ser) {
     nz_series_native_attach(d->ser, d->plan);
