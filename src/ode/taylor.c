@@ -71,29 +71,38 @@ static double grid_time(const nz_taylor_config *cfg, long i, long npts)
   return i == npts - 1 ? cfg->t1 : cfg->t0 + (double)i * cfg->dt;
 }
 
-/* q(tau) and q'(tau) from a_0 .. a_P by Horner, all coordinates in step:
- * each coordinate's two sums are chains of dependent multiply-adds, and
- * 2k chains side by side keep the processor busy where one at a time would
- * wait on each (the same operations per coordinate, so the same numbers;
- * 3x faster on a dense grid of two coordinates).  q and qd must not
- * overlap a. */
+/* q(tau) and q'(tau) from a_0 .. a_P by Horner, two coordinates at a
+ * time: each sum is a chain of dependent multiply-adds, and four chains
+ * side by side (in registers) keep the processor busy where one would wait
+ * on each; the same operations per coordinate, so the same numbers. */
 void nz_taylor_eval(int k, int P, const double *a, double tau, double *q, double *qd)
 {
-  const double *aP = a + (size_t)P * (size_t)k;
-  for (int i = 0; i < k; i++) {
-    q[i] = aP[i];
-    qd[i] = P * aP[i];
-  }
-  for (int n = P - 1; n >= 1; n--) {
-    const double *an = a + (size_t)n * (size_t)k;
-    for (int i = 0; i < k; i++) {
-      q[i] = q[i] * tau + an[i];
-      qd[i] = qd[i] * tau + n * an[i];
+  size_t K = (size_t)k;
+  int i = 0;
+  for (; i + 1 < k; i += 2) {
+    const double *c = a + (size_t)P * K + (size_t)i;
+    double v0 = c[0], d0 = P * v0, v1 = c[1], d1 = P * v1;
+    for (int n = P - 1; n >= 1; n--) {
+      const double *an = a + (size_t)n * K + (size_t)i;
+      v0 = v0 * tau + an[0];
+      d0 = d0 * tau + n * an[0];
+      v1 = v1 * tau + an[1];
+      d1 = d1 * tau + n * an[1];
     }
+    q[i] = v0 * tau + a[i];
+    q[i + 1] = v1 * tau + a[i + 1];
+    qd[i] = P >= 1 ? d0 : 0.0;
+    qd[i + 1] = P >= 1 ? d1 : 0.0;
   }
-  for (int i = 0; i < k; i++) {
-    q[i] = q[i] * tau + a[i];
-    if (P < 1) qd[i] = 0.0;
+  for (; i < k; i++) {
+    double v = a[(size_t)P * K + (size_t)i], d = P * v;
+    for (int n = P - 1; n >= 1; n--) {
+      double an = a[(size_t)n * K + (size_t)i];
+      v = v * tau + an;
+      d = d * tau + n * an;
+    }
+    q[i] = v * tau + a[i];
+    qd[i] = P >= 1 ? d : 0.0;
   }
 }
 
