@@ -31,12 +31,15 @@
 #include "graph/series_native.h"
 #include "jets/series.h"
 
-#define SER_VERSION "nzlua-series 9"
+#define SER_VERSION "nzlua-series 10"
 #ifndef CHUNK
 #define CHUNK 2000
 #endif
 #define BIG_PLAN 5000
 #define INLINE_SLOTS 60
+/* Orders of a small plan's second-order ODE written out (the order of
+ * Taylor's method for a tolerance of 1e-16 is 20). */
+#define ODE2_UNROLLED 24
 
 /* The kernels the generated code calls through K, in this order. */
 enum { K_POWI, K_POW, K_QUAD, K_ATAN2, K_COUNT };
@@ -107,11 +110,33 @@ static int branch(const nz_series_slot *r)
  * also the domain checks of its series_first for an order >= 1 that a
  * finite coefficient 0 would not reveal (the others give an infinity or a
  * NaN: log 0, 1/0, sqrt(-1), ...), into `bad`. */
-static void emit_slot(nz_sbuf *b, const nz_series_slot *r, int i, int check)
+/* nzs_mul(SER(a), SER(b), kc) written out for a known kc: the same sums
+ * in the same order, without a loop whose trip count changes at every call
+ * (its exit was the costliest branch of a small plan). */
+static void emit_product(nz_sbuf *b, int z, int a, int bb, int kc)
+{
+  nz_sb_printf(b, "  { double s = 0.0;");
+  if (a == bb) {
+    for (int j = 0; 2 * j < kc; j++) nz_sb_printf(b, " s += SER(%d)[%d] * SER(%d)[%d];", a, j, a, kc - j);
+    nz_sb_printf(b, " s += s;");
+    if (!(kc & 1)) nz_sb_printf(b, " s += SER(%d)[%d] * SER(%d)[%d];", a, kc / 2, a, kc / 2);
+  } else
+    for (int j = 0; j <= kc; j++) nz_sb_printf(b, " s += SER(%d)[%d] * SER(%d)[%d];", a, j, bb, kc - j);
+  nz_sb_printf(b, " SER(%d)[%d] = s; }\n", z, kc);
+}
+
+/* kc >= 0: the code for that coefficient only (k a constant in scope),
+ * products written out. */
+static void emit_slot(nz_sbuf *b, const nz_series_slot *r, int i, int check, int kc)
 {
   char v[64];
   int z = r->z, a = r->a, bb = r->b, w = r->aux;
   nz_native_literal(v, sizeof v, r->v);
+  if (kc >= 0 && (r->kernel == NZ_SK_MUL || r->kernel == NZ_SK_SQR)) {
+    emit_product(b, z, a, r->kernel == NZ_SK_SQR ? a : bb, kc);
+    if (check) nz_sb_printf(b, "  c%d += SER(%d)[k] * 0.0;\n", i & 3, z);
+    return;
+  }
   switch (r->kernel) {
   case NZ_SK_ADD: nz_sb_printf(b, "  SER(%d)[k] = SER(%d)[k] + SER(%d)[k];\n", z, a, bb); break;
   case NZ_SK_SUB: nz_sb_printf(b, "  SER(%d)[k] = SER(%d)[k] - SER(%d)[k];\n", z, a, bb); break;
@@ -184,20 +209,13 @@ static void emit_slot(nz_sbuf *b, const nz_series_slot *r, int i, int check)
   if (check) nz_sb_printf(b, "  c%d += SER(%d)[k] * 0.0;\n", i & 3, z);
 }
 
-/* The fused loop of a second-order ODE (series_native.h): the inputs of
- * order n from a[], the slots, then a[n + 2] from the outputs, with the
- * very expressions of nz_compiled_motion_series (mech_graph.c) so that the
- * numbers are the same. */
-static void emit_ode2(nz_sbuf *b, const nz_graph_plan *p, const nz_series_ode2 *o, int nparts)
+/* The inputs of coefficient n (a C expression) of a second-order ODE, with
+ * the very expressions of nz_compiled_motion_series (mech_graph.c) so that
+ * the numbers are the same: q_i from a[n], q_i' from a[n + 1], t, the rest
+ * constant. */
+static void emit_ode2_inputs(nz_sbuf *b, const nz_graph_plan *p, const nz_series_ode2 *o, const int *in_num, int nin,
+                             const char *n)
 {
-  int nin = nz_graph_series_input_slots(p, NULL), *in_num = malloc(((size_t)nin + 1) * sizeof *in_num);
-  if (!in_num) { b->oom = 1; return; }
-  nz_graph_series_input_slots(p, in_num);
-  nz_sb_printf(b, "\nint nzs_ode2(int N, int L, double *restrict S, double *restrict v, void (*const *K)(void), "
-                  "double *restrict a);\n"
-                  "int nzs_ode2(int N, int L, double *restrict S, double *restrict v, void (*const *K)(void), "
-                  "double *restrict a)\n{\n  const size_t l = (size_t)L;\n"
-                  "  for (int n = 0; n <= N; n++) {\n    if (n > 0) {\n");
   for (int s = 0; s < nin; s++) {
     int role = 0, i = 0;   /* 1 q_i, 2 q_i', 3 t, 0 constant */
     for (int j = 0; j < o->k && !role; j++) {
@@ -205,17 +223,61 @@ static void emit_ode2(nz_sbuf *b, const nz_graph_plan *p, const nz_series_ode2 *
       else if (in_num[s] == o->vel[j]) role = 2, i = j;
     }
     if (!role && in_num[s] == o->time) role = 3;
-    if (role == 1) nz_sb_printf(b, "      SER(%d)[n] = a[(size_t)n * %d + %d];\n", s, o->k, i);
-    else if (role == 2) nz_sb_printf(b, "      SER(%d)[n] = (n + 1) * a[(size_t)(n + 1) * %d + %d];\n", s, o->k, i);
-    else if (role == 3) nz_sb_printf(b, "      SER(%d)[n] = n == 1 ? 1.0 : 0.0;\n", s);
-    else nz_sb_printf(b, "      SER(%d)[n] = 0.0;\n", s);
+    if (role == 1) nz_sb_printf(b, "    SER(%d)[%s] = a[(size_t)(%s) * %d + %d];\n", s, n, n, o->k, i);
+    else if (role == 2) nz_sb_printf(b, "    SER(%d)[%s] = ((%s) + 1) * a[(size_t)((%s) + 1) * %d + %d];\n", s, n, n, n, o->k, i);
+    else if (role == 3) nz_sb_printf(b, "    SER(%d)[%s] = (%s) == 1 ? 1.0 : 0.0;\n", s, n, n);
+    else nz_sb_printf(b, "    SER(%d)[%s] = 0.0;\n", s, n);
   }
+  (void)p;
+}
+
+/* a[n + 2] from the outputs of coefficient n. */
+static void emit_ode2_outputs(nz_sbuf *b, const nz_graph_plan *p, const nz_series_ode2 *o, const char *n)
+{
+  nz_sb_printf(b, "    { const double d = 1.0 / ((double)((%s) + 1) * (double)((%s) + 2));\n", n, n);
+  for (int i = 0; i < o->k; i++)
+    nz_sb_printf(b, "      a[(size_t)((%s) + 2) * %d + %d] = SER(%d)[%s] * d;\n", n, o->k, i,
+                 nz_graph_series_output(p, o->acc[i]), n);
+  nz_sb_printf(b, "    }\n");
+}
+
+/* The fused loop of a second-order ODE (series_native.h).  A small plan
+ * (one part) gets it written out order by order up to ODE2_UNROLLED, every
+ * product a straight sum (emit_product): no branch whose outcome changes
+ * from one order to the next; a failure is looked for once at the end (a
+ * NaN only spoils later coefficients, and the caller then redoes all).
+ * Beyond that order, and for big plans, a loop over the parts. */
+static void emit_ode2(nz_sbuf *b, const nz_graph_plan *p, const nz_series_ode2 *o, int nparts,
+                      const nz_series_slot *slots, int n, const char *used)
+{
+  int nin = nz_graph_series_input_slots(p, NULL), *in_num = malloc(((size_t)nin + 1) * sizeof *in_num);
+  if (!in_num) { b->oom = 1; return; }
+  nz_graph_series_input_slots(p, in_num);
+  nz_sb_printf(b, "\nint nzs_ode2(int N, int L, double *restrict S, double *restrict v, void (*const *K)(void), "
+                  "double *restrict a);\n"
+                  "int nzs_ode2(int N, int L, double *restrict S, double *restrict v, void (*const *K)(void), "
+                  "double *restrict a)\n{\n  const size_t l = (size_t)L;\n  (void)v; (void)K;\n");
+  if (nparts == 1 && n <= INLINE_SLOTS) {
+    nz_sb_printf(b, "  if (N > %d) goto loop;\n  {\n  double c0 = 0.0, c1 = 0.0, c2 = 0.0, c3 = 0.0;\n  int bad = 0;\n",
+                 ODE2_UNROLLED);
+    emit_ode2_outputs(b, p, o, "0");
+    for (int kc = 1; kc <= ODE2_UNROLLED; kc++) {
+      char ks[16];
+      snprintf(ks, sizeof ks, "%d", kc);
+      nz_sb_printf(b, "  if (N < %d) goto done;\n  {\n  const int k = %d;\n", kc, kc);
+      emit_ode2_inputs(b, p, o, in_num, nin, ks);
+      for (int i = 0; i < n; i++) emit_slot(b, &slots[i], i, !used[slots[i].z], kc);
+      emit_ode2_outputs(b, p, o, ks);
+      nz_sb_printf(b, "  }\n");
+    }
+    nz_sb_printf(b, "done:\n  return bad || !((c0 + c1) + (c2 + c3) == 0.0);\n  }\nloop:;\n");
+  }
+  nz_sb_printf(b, "  for (int n = 0; n <= N; n++) {\n    if (n > 0) {\n");
+  emit_ode2_inputs(b, p, o, in_num, nin, "n");
   nz_sb_printf(b, "      double c = 0.0;\n");
   for (int c = 0; c < nparts; c++) nz_sb_printf(b, "      c += nzs_part%d(n, L, S, v, K);\n", c);
-  nz_sb_printf(b, "      if (!(c == 0.0)) return n + 1;\n    }\n"
-                  "    const double d = 1.0 / ((double)(n + 1) * (double)(n + 2));\n");
-  for (int i = 0; i < o->k; i++)
-    nz_sb_printf(b, "    a[(size_t)(n + 2) * %d + %d] = SER(%d)[n] * d;\n", o->k, i, nz_graph_series_output(p, o->acc[i]));
+  nz_sb_printf(b, "      if (!(c == 0.0)) return n + 1;\n    }\n");
+  emit_ode2_outputs(b, p, o, "n");
   nz_sb_printf(b, "  }\n  return 0;\n}\n");
   free(in_num);
 }
@@ -250,7 +312,7 @@ static char *generate(const nz_graph_plan *p, const nz_series_ode2 *ode2, const 
                      "double *restrict v, void (*const *K)(void))\n{\n"
                      "  const size_t l = (size_t)L;\n  double c0 = 0.0, c1 = 0.0, c2 = 0.0, c3 = 0.0;\n"
                      "  int bad = 0;\n  (void)v; (void)K;\n", c);
-    for (int i = c * CHUNK; i < n && i < (c + 1) * CHUNK; i++) emit_slot(&b, &slots[i], i, !used[slots[i].z]);
+    for (int i = c * CHUNK; i < n && i < (c + 1) * CHUNK; i++) emit_slot(&b, &slots[i], i, !used[slots[i].z], -1);
     nz_sb_printf(&b, "  return bad ? NAN : (c0 + c1) + (c2 + c3);\n}\n");
   }
   nz_sb_printf(&b, "\nint nzs_next(int k, int L, double *restrict S, double *restrict v, void (*const *K)(void));\n"
@@ -258,7 +320,7 @@ static char *generate(const nz_graph_plan *p, const nz_series_ode2 *ode2, const 
                    "{\n  double c = 0.0;\n");
   for (int c = 0; c < nparts; c++) nz_sb_printf(&b, "  c += nzs_part%d(k, L, S, v, K);\n", c);
   nz_sb_printf(&b, "  return !(c == 0.0);\n}\n");
-  if (ode2) emit_ode2(&b, p, ode2, nparts);
+  if (ode2) emit_ode2(&b, p, ode2, nparts, slots, n, used);
   free(used);
   if (b.oom) {
     free(b.s);
