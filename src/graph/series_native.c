@@ -35,7 +35,6 @@
 #ifndef CHUNK
 #define CHUNK 2000
 #endif
-#define BIG_PLAN 5000
 #define INLINE_SLOTS 60
 /* Orders of a small plan's second-order ODE written out (the order of
  * Taylor's method for a tolerance of 1e-16 is 20). */
@@ -356,8 +355,9 @@ nz_series_native *nz_series_native_get(const nz_graph_plan *p, const nz_series_o
       goto fail;
     }
   if (!(src = generate(p, ode2, slots, n, nseries, why, whylen))) goto fail;
-  if (nz_native_object_get(src, SER_VERSION, "nzs", "nzs_next", n > BIG_PLAN, compile, cache_dir, t0, &s->obj, why,
-                           whylen))
+  /* -O1 always: Henon-Heiles' series (written out to order 24) runs as
+   * fast as at -O2 and compiles in 0.35 s instead of 0.52 s */
+  if (nz_native_object_get(src, SER_VERSION, "nzs", "nzs_next", 1, compile, cache_dir, t0, &s->obj, why, whylen))
     goto fail;
   /* POSIX: a data pointer from dlsym converts to a function pointer. */
   memcpy(&s->code, &s->obj.entry, sizeof s->code);

@@ -141,7 +141,7 @@ static void dplan_series_native(nz_compiled *c, dplan *d, int N, const nz_series
   if (d->ser_tried || c->native_mode == 0) return;
   int nodes = nz_graph_plan_nodes(d->plan);
   d->ser_work += (double)nodes * N;
-  int compile = c->native_mode == 1 || d->ser_work >= NZ_NATIVE_BASE + NZ_SERIES_NATIVE_PER_NODE * nodes;
+  int compile = c->native_mode == 1 || d->ser_work >= NZ_SERIES_NATIVE_BASE + NZ_SERIES_NATIVE_PER_NODE * nodes;
   /* the first call looks in the cache (generating and hashing the source
    * costs microseconds per node, once); later ones only count, until
    * compiling pays */
