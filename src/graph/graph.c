@@ -1339,6 +1339,9 @@ static nz_status series_storage(nz_graph_plan *p, int K)
     p->ser_naux = naux;
   }
   if (K > p->ser_cap) {
+    /* at least NZ_SERIES_MIN_ORDER: the same stride for every order up to
+     * it, which machine code takes as a constant */
+    if (K < NZ_SERIES_MIN_ORDER) K = NZ_SERIES_MIN_ORDER;
     size_t len = ((size_t)p->m + (size_t)p->ser_naux) * ((size_t)K + 1);
     double *ser = malloc((len ? len : 1) * sizeof *ser);
     if (!ser) return NZ_ENOMEM;

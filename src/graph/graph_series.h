@@ -15,6 +15,11 @@
 
 #include "graph/graph.h"
 
+/* The arena holds at least this order (its stride L at least this + 1),
+ * so that L is the same for every series up to it: the machine code of a
+ * small plan (series_native.c) is written for that L. */
+#define NZ_SERIES_MIN_ORDER 24
+
 typedef enum nz_series_kernel {
   NZ_SK_ADD, NZ_SK_SUB, NZ_SK_MUL, NZ_SK_SCALE, NZ_SK_DIV, NZ_SK_DIVC, NZ_SK_SQR, NZ_SK_POWI,
   NZ_SK_POWR, NZ_SK_POW, NZ_SK_EXP, NZ_SK_LOG, NZ_SK_SQRT, NZ_SK_SIN, NZ_SK_COS, NZ_SK_SINH,

@@ -31,14 +31,14 @@
 #include "graph/series_native.h"
 #include "jets/series.h"
 
-#define SER_VERSION "nzlua-series 10"
+#define SER_VERSION "nzlua-series 11"
 #ifndef CHUNK
 #define CHUNK 2000
 #endif
 #define INLINE_SLOTS 60
 /* Orders of a small plan's second-order ODE written out (the order of
  * Taylor's method for a tolerance of 1e-16 is 20). */
-#define ODE2_UNROLLED 24
+#define ODE2_UNROLLED NZ_SERIES_MIN_ORDER
 
 /* The kernels the generated code calls through K, in this order. */
 enum { K_POWI, K_POW, K_QUAD, K_ATAN2, K_COUNT };
@@ -257,8 +257,11 @@ static void emit_ode2(nz_sbuf *b, const nz_graph_plan *p, const nz_series_ode2 *
                   "int nzs_ode2(int N, int L, double *restrict S, double *restrict v, void (*const *K)(void), "
                   "double *restrict a)\n{\n  const size_t l = (size_t)L;\n  (void)v; (void)K;\n");
   if (nparts == 1 && n <= INLINE_SLOTS) {
-    nz_sb_printf(b, "  if (N > %d) goto loop;\n  {\n  double c0 = 0.0, c1 = 0.0, c2 = 0.0, c3 = 0.0;\n  int bad = 0;\n",
-                 ODE2_UNROLLED);
+    /* the arena's stride as a constant (graph_series.h): every address a
+     * constant offset from S, none computed or kept in a register */
+    nz_sb_printf(b, "  if (N > %d || L != %d) goto loop;\n  {\n  const size_t l = %d;\n"
+                    "  double c0 = 0.0, c1 = 0.0, c2 = 0.0, c3 = 0.0;\n  int bad = 0;\n",
+                 ODE2_UNROLLED, ODE2_UNROLLED + 1, ODE2_UNROLLED + 1);
     emit_ode2_outputs(b, p, o, "0");
     for (int kc = 1; kc <= ODE2_UNROLLED; kc++) {
       char ks[16];
