@@ -21,6 +21,8 @@ echo
 # Issue 11: Taylor's method against the same C program.
 build/nzlua bench/taylor.lua
 echo
+build/nzlua bench/taylor_problems.lua
+echo
 build/nzlua bench/accel_scaling.lua
 echo
 build/nzlua bench/bicycle.lua
