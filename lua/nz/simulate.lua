@@ -517,10 +517,6 @@ function M.simulate(sys, opts)
   -- the answer.  The session clears the request at every prompt.
   if mech.interrupted() then error(core.interrupted, 0) end
   local cfg = validate(sys, opts)
-  if cfg.method == "taylor" and sys.nc > 0 then
-    fail(sys, "method 'taylor' does not handle constraints yet (this system has %d): take a GSL stepper "
-      .. "(rk8pd, the default, or any of %s), which all do", sys.nc, table.concat(method_names(), " "))
-  end
   local k, engine = sys.k, sys.engine
   local orders, linear, p, top = {}, {}, nil, nil
   if sys.nc > 0 then
@@ -538,7 +534,14 @@ function M.simulate(sys, opts)
   end
   engine.orders = orders
   check_memory(sys, cfg, p, top)
-  if cfg.method == "taylor" then return M.simulate_taylor(sys, cfg) end
+  if cfg.method == "taylor" then
+    if p then
+      fail(sys, "method 'taylor' takes constraints of order 0, 1 and 2 (on q, q', q''), and this system's need the "
+        .. "level %d (a constraint on the third derivative or higher): take a GSL stepper (rk8pd, the default, "
+        .. "or any of %s)", p, table.concat(method_names(), " "))
+    end
+    return M.simulate_taylor(sys, cfg, orders, linear)
+  end
   local qd0 = cfg.qd0
   if not qd0 then qd0 = {}; for i = 1, k do qd0[i] = 0 end end   -- at rest
   if sys.nc > 0 and cfg.check ~= false then constraints.check_state(sys, cfg.t0, cfg.q0, qd0) end
@@ -938,7 +941,7 @@ M.TAYLOR_CHUNK = { seconds = 0.2, min = 256, first = 1024, max = 65536 }
 -- Henon-Heiles, see the README).  The grid inside a chunk is tc + m dt, tc
 -- the chunk's start: it differs from t0 + n dt by a few ulps, and tr.t keeps
 -- t0 + n dt (the state at a time a few ulps off: far below any tolerance).
-function M.simulate_taylor(sys, cfg)
+function M.simulate_taylor(sys, cfg, orders, linear)
   local k, engine = sys.k, sys.engine
   local function refuse(msg, ...) fail(sys, "method 'taylor' " .. msg, ...) end
   -- Events: recorded as graphs (as the C loop's) and located in C on each
@@ -961,8 +964,10 @@ function M.simulate_taylor(sys, cfg)
       .. "or take rk8pd")
   end
   if cfg.project or cfg.alpha then
-    refuse("takes no 'project' or 'baumgarte': they stabilize constraints, and taylor runs free systems only")
+    refuse("takes no 'project' or 'baumgarte': its series keeps the constraints to the order of the method "
+      .. "along each step (their drift is the truncation's: tr:violation() shows it); take rk8pd to project")
   end
+  local classification = sys.nc > 0 and { orders = orders, linear = linear } or nil
   if not sys.recording then
     refuse("needs a recorded system (made with compile = true, the default): it builds the series on the graphs; "
       .. "take rk8pd for a system made with compile = false")
@@ -976,7 +981,8 @@ function M.simulate_taylor(sys, cfg)
     local what = strip_library(err):gsub("^system '[^']*': '[%w_]+': ", ""):gsub("^system '[^']*': ", "")
     return what
   end
-  local ok, err = pcall(mech.motion_series, engine, cfg.t0, cfg.q0, qd0, 1)
+  if sys.nc > 0 and cfg.check ~= false then constraints.check_state(sys, cfg.t0, cfg.q0, qd0) end
+  local ok, err = pcall(mech.motion_series, engine, cfg.t0, cfg.q0, qd0, 1, classification)
   if not ok then
     local what = reword(err)
     if what:find("fell back", 1, true) or what:find("recorded", 1, true) then
@@ -985,7 +991,9 @@ function M.simulate_taylor(sys, cfg)
     refuse("failed at t = %s: %s", num(cfg.t0), what)
   end
 
-  local ode = mech.ode_new(engine, { method = "rk8pd", rtol = cfg.rtol, atol = cfg.atol, h0 = cfg.dt })  -- for qdd only
+  -- q'' and the multipliers of a point taylor_run does not record itself
+  local ode = mech.ode_new(engine, { method = "rk8pd", rtol = cfg.rtol, atol = cfg.atol, h0 = cfg.dt,
+    orders = orders, linear = linear })
   local tr = trajectory.new(sys, cfg)
   tr.warnings = cfg.warnings
   if cfg.monitors.energy then tr.energy, tr.generalized_energy = {}, {} end
@@ -993,7 +1001,8 @@ function M.simulate_taylor(sys, cfg)
     local y = {}
     for i = 1, k do y[i], y[k + i] = q[i], qd[i] end
     local n = #tr.t + 1
-    tr.t[n], tr.q[n], tr.qd[n], tr.qdd[n], tr.lambda[n] = t, q, qd, (mech.ode_accel(ode, engine, t, y)), {}
+    local qdd, lambda = mech.ode_accel(ode, engine, t, y)
+    tr.t[n], tr.q[n], tr.qd[n], tr.qdd[n], tr.lambda[n] = t, q, qd, qdd, sys.nc > 0 and lambda or {}
     if tr.energy then tr.energy[n], tr.generalized_energy[n] = sys:energy(t, q, qd) end
   end
 
@@ -1013,7 +1022,7 @@ function M.simulate_taylor(sys, cfg)
       -- the points go straight into tr (t, q, qd, qdd, lambda), made in C
       local ok2, res = pcall(mech.taylor_run, engine, { t0 = t, t1 = tj, dt = cfg.dt, q0 = q, qd0 = qd,
         rtol = cfg.rtol, atol = cfg.atol, partial = true, tr = tr, grid_t0 = cfg.t0, grid_t1 = cfg.t1, i0 = i,
-        nout = nout, events = events })
+        nout = nout, events = events, orders = orders, linear = linear })
       if not ok2 then
         if type(res) ~= "string" then error(res, 0) end
         local what = reword(res)

@@ -313,3 +313,61 @@ int nz_solve_square(int N, const double *J, const double *rhs, double *x, double
   if (st || fast) return st;
   return nz_solve_svd(N, J, rhs, x, rcond);
 }
+
+struct nz_lu {
+  int cap, N;
+  gsl_matrix *LU;
+  gsl_permutation *perm;
+};
+
+nz_lu *nz_lu_new(int N)
+{
+  if (N < 1) return NULL;
+  nz_lu *f = calloc(1, sizeof *f);
+  if (!f) return NULL;
+  f->cap = N;
+  f->LU = gsl_matrix_alloc((size_t)N, (size_t)N);
+  f->perm = gsl_permutation_alloc((size_t)N);
+  if (!f->LU || !f->perm) {
+    nz_lu_free(f);
+    return NULL;
+  }
+  return f;
+}
+
+void nz_lu_free(nz_lu *f)
+{
+  if (!f) return;
+  if (f->LU) gsl_matrix_free(f->LU);
+  if (f->perm) gsl_permutation_free(f->perm);
+  free(f);
+}
+
+int nz_lu_factor(nz_lu *f, int N, const double *A)
+{
+  if (N < 1 || N > f->cap) return NZ_EDOM;
+  f->N = N;
+  gsl_matrix_view m = gsl_matrix_submatrix(f->LU, 0, 0, (size_t)N, (size_t)N);
+  for (int i = 0; i < N; i++)
+    for (int j = 0; j < N; j++) gsl_matrix_set(&m.matrix, (size_t)i, (size_t)j, A[(size_t)i * (size_t)N + (size_t)j]);
+  gsl_permutation pv = { (size_t)N, f->perm->data };   /* the first N of the allocated */
+  int sign;
+  gsl_error_handler_t *old = gsl_set_error_handler_off();
+  int st = gsl_linalg_LU_decomp(&m.matrix, &pv, &sign);
+  gsl_set_error_handler(old);
+  if (st) return NZ_ESINGULAR;
+  for (int i = 0; i < N; i++)
+    if (gsl_matrix_get(&m.matrix, (size_t)i, (size_t)i) == 0.0) return NZ_ESINGULAR;
+  return NZ_OK;
+}
+
+int nz_lu_solve(nz_lu *f, double *x)
+{
+  gsl_matrix_view m = gsl_matrix_submatrix(f->LU, 0, 0, (size_t)f->N, (size_t)f->N);
+  gsl_permutation pv = { (size_t)f->N, f->perm->data };
+  gsl_vector_view v = gsl_vector_view_array(x, (size_t)f->N);
+  gsl_error_handler_t *old = gsl_set_error_handler_off();
+  int st = gsl_linalg_LU_svx(&m.matrix, &pv, &v.vector);
+  gsl_set_error_handler(old);
+  return st ? NZ_ESINGULAR : NZ_OK;
+}

@@ -61,4 +61,17 @@ int nz_solve_svd(int N, const double *J, const double *rhs, double *x, double *r
 int nz_solve_square(int N, const double *J, const double *rhs, double *x, double rcond_min,
                     double *rcond);
 
+/* An LU factorization (partial pivoting, GSL) kept for several right-hand
+ * sides: the saddle-point matrix of a constrained Taylor step, factored once
+ * per step and solved once per order.  nz_lu_new(N) holds matrices up to N x
+ * N; NULL when out of memory. */
+typedef struct nz_lu nz_lu;
+nz_lu *nz_lu_new(int N);
+void nz_lu_free(nz_lu *f);   /* NULL is harmless */
+/* Factor the row-major N x N matrix A (N <= the size it was made for).
+ * NZ_OK, NZ_EDOM (N too large), or NZ_ESINGULAR when a pivot is 0. */
+int nz_lu_factor(nz_lu *f, int N, const double *A);
+/* x = A^-1 x in place, for the last factored A. */
+int nz_lu_solve(nz_lu *f, double *x);
+
 #endif

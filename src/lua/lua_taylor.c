@@ -9,11 +9,15 @@
  *     on the grid t0 + i dt (the last point at t1; dt defaults to t1 - t0),
  *     nfev counting the series of the motion computed (one per step),
  *     seconds the wall time of the run in C (the result's tables apart).
- * engine is a system's definition table (sys.engine). */
+ * engine is a system's definition table (sys.engine).  A system with
+ * constraints (of orders 0, 1, 2) needs their classification: the 6th
+ * argument of motion_series, fields orders and linear of taylor_run's
+ * opts, as sys:simulate passes them. */
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
 #include <lauxlib.h>
+#include "mech/constrained.h"
 #include "mech/mech_graph.h"
 #include "ode/ode_run.h"     /* nz_run_clock, nz_event_crosses */
 #include "ode/taylor.h"
@@ -34,13 +38,82 @@ static void bind_recorded(lua_State *L, bound_system *b, const char *fname)
   if (!b->sys.mass_bias)
     luaL_error(L, "system '%s': '%s': the Taylor method needs T, V and Q recorded, and one of them fell back "
                "to Lua (print(sys) says which and why)", name, fname);
-  if (b->sys.nc > 0)
-    luaL_error(L, "system '%s': '%s': the Taylor method does not handle constraints yet", name, fname);
 }
+
+/* The series function of a run: the free motion, or the motion under the
+ * constraints (their classification in orders and linear): the start's
+ * accelerations and multipliers by the constrained solver (Newton where a
+ * constraint is not linear in q''), then the series order by order on the
+ * saddle-point system (nz_compiled_constrained_series). */
+typedef struct series_ctx {
+  bound_system *b;
+  int *orders, *linear;   /* nc each (NULL: free)                    */
+  double *qdd, *lam;      /* the start's, k and nc                    */
+  nz_accel_report rep;    /* of the last solve; failed: it failed     */
+  int accel_failed;
+  double t;               /* where                                    */
+  double *q, *qd;         /* the state there (k each)                 */
+} series_ctx;
 
 static int motion_series(void *ctx, double t0, const double *q0, const double *qd0, int p, double *a)
 {
-  return nz_compiled_motion_series(ctx, t0, q0, qd0, p, a);
+  series_ctx *s = ctx;
+  if (!s->orders) return nz_compiled_motion_series(s->b->comp, t0, q0, qd0, p, a);
+  int k = s->b->sys.k;
+  nz_accel_options opt = NZ_ACCEL_DEFAULTS;
+  memset(&s->rep, 0, sizeof s->rep);
+  int st = nz_accel_constrained(&s->b->sys, s->orders, s->linear, t0, q0, qd0, &opt, s->qdd, s->lam, &s->rep);
+  if (st) {
+    s->accel_failed = 1;
+    s->t = t0;
+    memcpy(s->q, q0, (size_t)k * sizeof(double));
+    memcpy(s->qd, qd0, (size_t)k * sizeof(double));
+    return st;
+  }
+  if (p < 2) {
+    memcpy(a, q0, (size_t)k * sizeof(double));
+    if (p >= 1) memcpy(a + k, qd0, (size_t)k * sizeof(double));
+    return NZ_OK;
+  }
+  return nz_compiled_constrained_series(s->b->comp, s->orders, t0, q0, qd0, s->qdd, s->lam, p, a, NULL);
+}
+
+/* The context for b: with constraints, their classification from the
+ * table at index idx (fields orders and linear, as sys:simulate passes them
+ * to its integrators), in userdata on the stack. */
+static void series_setup(lua_State *L, bound_system *b, int idx, series_ctx *s, const char *fname)
+{
+  memset(s, 0, sizeof *s);
+  s->b = b;
+  int nc = b->sys.nc, k = b->sys.k;
+  if (nc == 0) return;
+  if (!idx || lua_getfield(L, idx, "orders") != LUA_TTABLE)
+    luaL_error(L, "system '%s': '%s': a system with constraints needs their classification (orders, linear; "
+               "sys:simulate{method = \"taylor\"} passes it)", nz_lua_system_name(L, 1), fname);
+  lua_getfield(L, idx, "linear");
+  int *ints = lua_newuserdatauv(L, 2 * (size_t)(nc + 1) * sizeof(int), 0);
+  double *d = lua_newuserdatauv(L, (3 * (size_t)k + (size_t)nc + 1) * sizeof(double), 0);
+  s->orders = ints;
+  s->linear = ints + nc + 1;
+  s->qdd = d, s->q = d + k, s->qd = d + 2 * k, s->lam = d + 3 * k;
+  int top = lua_gettop(L);
+  for (int r = 0; r < nc; r++) {
+    lua_geti(L, top - 3, r + 1);
+    s->orders[r] = (int)luaL_checkinteger(L, -1);
+    lua_geti(L, top - 2, r + 1);
+    s->linear[r] = lua_toboolean(L, -1);
+    lua_pop(L, 2);
+    if (s->orders[r] < 0 || s->orders[r] > 2)
+      luaL_error(L, "system '%s': '%s': constraint %d is of order %d; the Taylor method takes constraints of order "
+                 "0, 1 and 2", nz_lua_system_name(L, 1), fname, r + 1, s->orders[r]);
+  }
+  s->rep.A = NULL;
+}
+
+/* A failed constrained solve at a step's start, raised with where. */
+static int raise_accel(lua_State *L, series_ctx *s)
+{
+  return nz_lua_raise_accel_failure(L, 1, &s->rep, s->orders, s->t, s->q, s->qd, s->b->sys.k, s->b->sys.nc);
 }
 
 /* The error of a failed series, with where it failed. */
@@ -56,12 +129,14 @@ static int raise_series(lua_State *L, bound_system *b, int st, double t, const c
                     fname, num, nz_compiled_failure(b->comp), st);
 }
 
-/* motion_series(engine, t0, q0, qd0, p) -> { a_0, ..., a_p } */
+/* motion_series(engine, t0, q0, qd0, p [, {orders, linear}]) -> { a_0, ..., a_p } */
 static int lt_motion_series(lua_State *L)
 {
-  lua_settop(L, 5);
+  lua_settop(L, 6);
   bound_system b;
   bind_recorded(L, &b, "motion_series");
+  series_ctx sc;
+  series_setup(L, &b, lua_istable(L, 6) ? 6 : 0, &sc, "motion_series");
   int k = b.sys.k;
   double t0 = luaL_checknumber(L, 2);
   lua_Integer p = luaL_checkinteger(L, 5);
@@ -70,7 +145,8 @@ static int lt_motion_series(lua_State *L)
   double *q0 = buf, *qd0 = buf + k, *a = buf + 2 * k;
   nz_lua_read_vector(L, 3, k, q0, "q0", 0, "motion_series");
   nz_lua_read_vector(L, 4, k, qd0, "qd0", 1, "motion_series");
-  int st = nz_compiled_motion_series(b.comp, t0, q0, qd0, (int)p, a);
+  int st = motion_series(&sc, t0, q0, qd0, (int)p, a);
+  if (st && sc.accel_failed) return raise_accel(L, &sc);
   if (st) return raise_series(L, &b, st, t0, "motion_series");
   lua_createtable(L, (int)p + 1, 0);
   for (int n = 0; n <= p; n++) {
@@ -216,10 +292,11 @@ static void push_stats(lua_State *L, const nz_taylor_stats *stats, double second
  * carry its truncation, ~p^2 / h^2 times the tolerance).  No Lua function
  * runs here: Ctrl-C's hook cannot cut a point in half.  Returns { n =
  * points appended, q, qd = the last point's, stats, stop, message }. */
-static int append_points(lua_State *L, bound_system *b, int tr, const double *tout, const double *qout,
+static int append_points(lua_State *L, series_ctx *sc, int tr, const double *tout, const double *qout,
                          const double *qdout, long n, const nz_taylor_stats *stats, double seconds,
                          const char *why, const char *what, const taylor_events *ev)
 {
+  bound_system *b = sc->b;
   (void)tout;
   int k = b->sys.k;
   double gt0 = opt_number(L, 2, "grid_t0", NAN), gdt = opt_number(L, 2, "dt", NAN);
@@ -236,9 +313,21 @@ static int append_points(lua_State *L, bound_system *b, int tr, const double *to
   for (long m = 1; m < n; m++) {
     const double *q = qout + (size_t)m * (size_t)k, *qd = qdout + (size_t)m * (size_t)k;
     double idx = i0 + (double)m, t = idx == nout ? gt1 : gt0 + idx * gdt;
-    int st = nz_compiled_motion_series(b->comp, t, q, qd, 2, acc);
-    if (st) return raise_series(L, b, st, t, "simulate");
-    for (int i = 0; i < k; i++) acc[i] = 2.0 * acc[2 * k + i];
+    /* q'' (and the multipliers) at the point, as the GSL runs record them */
+    if (sc->orders) {
+      nz_accel_options opt = NZ_ACCEL_DEFAULTS;
+      memset(&sc->rep, 0, sizeof sc->rep);
+      if (nz_accel_constrained(&b->sys, sc->orders, sc->linear, t, q, qd, &opt, acc, sc->lam, &sc->rep)) {
+        sc->t = t;
+        memcpy(sc->q, q, (size_t)k * sizeof(double));
+        memcpy(sc->qd, qd, (size_t)k * sizeof(double));
+        return raise_accel(L, sc);
+      }
+    } else {
+      int st = nz_compiled_motion_series(b->comp, t, q, qd, 2, acc);
+      if (st) return raise_series(L, b, st, t, "simulate");
+      for (int i = 0; i < k; i++) acc[i] = 2.0 * acc[2 * k + i];
+    }
     lua_Integer at = first + m - 1;
     lua_pushnumber(L, t);
     lua_rawseti(L, base + 1, at);
@@ -248,7 +337,8 @@ static int append_points(lua_State *L, bound_system *b, int tr, const double *to
     lua_rawseti(L, base + 3, at);
     nz_lua_push_vector(L, acc, k);
     lua_rawseti(L, base + 4, at);
-    lua_createtable(L, 0, 0);
+    if (sc->orders) nz_lua_push_vector(L, sc->lam, b->sys.nc);
+    else lua_createtable(L, 0, 0);
     lua_rawseti(L, base + 5, at);
   }
   lua_createtable(L, 0, 6);
@@ -302,6 +392,8 @@ static int lt_taylor_run(lua_State *L)
                       "M or h has %d (comparisons, nz.ifelse, min, max, abs or sign on the state)",
                       nz_lua_system_name(L, 1), branches);
   int k = b.sys.k;
+  series_ctx sc;
+  series_setup(L, &b, 2, &sc, "taylor_run");
   nz_taylor_config cfg;
   memset(&cfg, 0, sizeof cfg);
   cfg.t0 = opt_number(L, 2, "t0", 0.0);
@@ -413,7 +505,7 @@ static int lt_taylor_run(lua_State *L)
   char what[512] = "";
   const char *why = NULL;
   double clock0 = nz_run_clock();
-  int st = nz_taylor_run(k, motion_series, b.comp, &cfg, q0, qd0, tout, qout, qdout, &n, &stats, &stop);
+  int st = nz_taylor_run(k, motion_series, &sc, &cfg, q0, qd0, tout, qout, qdout, &n, &stats, &stop);
   double seconds = nz_run_clock() - clock0;
   for (int e = 0; e < ev.n; e++) nz_graph_plan_free(ev.plans[e]);
   if (stop == NZ_TAYLOR_HOOK) {
@@ -434,11 +526,17 @@ static int lt_taylor_run(lua_State *L)
     if (!partial) return nz_lua_raise_interrupt(L);
     why = "interrupted";
   } else if (stop == NZ_TAYLOR_SERIES) {
+    if (!partial && sc.accel_failed) return raise_accel(L, &sc);
     if (!partial) return raise_series(L, &b, st, stats.t, "taylor_run");
     char num[64];
     nz_lua_fmt_num(num, sizeof num, stats.t);
     why = "series";
     if (st == NZ_ENOMEM) snprintf(what, sizeof what, "not enough memory");
+    else if (sc.accel_failed)
+      snprintf(what, sizeof what, "the accelerations under the constraints could not be solved at t = %s (%s)", num,
+               sc.rep.failure == NZ_ACCEL_SINGULAR ? "the matrix [M A^T; A 0] is singular there"
+               : sc.rep.failure == NZ_ACCEL_NEWTON ? "Newton's method did not converge"
+               : "the solution failed its check");
     else snprintf(what, sizeof what, "the series of the motion failed at t = %s: %s (status %d)", num,
                   nz_compiled_failure(b.comp), st);
   } else if (stop == NZ_TAYLOR_STEP || stop == NZ_TAYLOR_MAX_STEPS) {
@@ -459,7 +557,7 @@ static int lt_taylor_run(lua_State *L)
   }
   lua_getfield(L, 2, "tr");
   int tr = lua_istable(L, -1) ? lua_gettop(L) : 0;
-  if (tr) return append_points(L, &b, tr, tout, qout, qdout, n, &stats, seconds, why, what, &ev);
+  if (tr) return append_points(L, &sc, tr, tout, qout, qdout, n, &stats, seconds, why, what, &ev);
   lua_pop(L, 1);
   lua_createtable(L, 0, 6);
   if (why) {

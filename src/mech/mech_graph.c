@@ -74,6 +74,7 @@ struct nz_compiled {
   double *ts_in, *ts_L, *ts_work, *ts_rhs, *ts_qdd;
   const double **ts_M;
   double **ts_inp;   /* the plan's input series, written in place (ninputs) */
+  struct cseries *cs;   /* nz_compiled_constrained_series's plans and workspace */
   int *ts_pos;       /* input numbers of q_i, of q_i', output numbers of q_i'' (3k) */
   char failure[160];
 };
@@ -222,6 +223,8 @@ static void piece_clear(compiled_piece *p)
   memset(p, 0, sizeof *p);
 }
 
+static void constrained_series_free(nz_compiled *c);   /* at the end of this file */
+
 void nz_compiled_free(nz_compiled *c)
 {
   if (!c) return;
@@ -238,6 +241,7 @@ void nz_compiled_free(nz_compiled *c)
   free(c->ts_in);
   free(c->ts_M);
   free(c->ts_inp);
+  constrained_series_free(c);
   free(c->ts_pos);
   free(c->mb_in);
   free(c->acc_A);
@@ -937,4 +941,309 @@ int nz_compiled_motion_branches(nz_compiled *c)
   }
   free(need);
   return n;
+}
+
+/* ------------------------------------------------------------------ */
+/* The series of a constrained motion (Taylor's method with constraints) */
+
+/* Per constraint r of order m (m <= 2): a plan of Phi_r and of A_r =
+ * dPhi_r/dq^(m) (k outputs), evaluated as series along the motion; and the
+ * workspace of a step, grown with the order and never shrunk. */
+typedef struct cseries {
+  int built, nc, cap;          /* built: 1, or -1 when it cannot be      */
+  int *m;                      /* the orders it was built for (nc)        */
+  dplan **plan;                /* nc                                      */
+  double ***inp;               /* nc x ninputs: input series in place     */
+  double **mb_inp;             /* the mass-bias plan's (ninputs)          */
+  const double **Aser;         /* nc x k: the series of A's entries       */
+  const double **Mser;         /* k x k: of M's                           */
+  const double **phi;          /* nc: of Phi                              */
+  double *S, *rhs, *qdd, *lam, *H, *in0;
+  nz_lu *lu;
+} cseries;
+
+static void cseries_free(cseries *w)
+{
+  if (!w) return;
+  for (int r = 0; r < w->nc; r++) {
+    if (w->plan) dplan_free(w->plan[r]);
+    if (w->inp) free(w->inp[r]);
+  }
+  free(w->m);
+  free(w->plan);
+  free(w->inp);
+  free(w->mb_inp);
+  free(w->Aser);
+  free(w->Mser);
+  free(w->phi);
+  free(w->S);
+  nz_lu_free(w->lu);
+  free(w);
+}
+
+static void constrained_series_free(nz_compiled *c)
+{
+  cseries_free(c->cs);
+  c->cs = NULL;
+}
+
+/* The plans of Phi_r and A_r for the orders m[r]: NZ_OK, or NZ_EARG with
+ * the reason in c->failure (a constraint not recorded, of order > 2, or
+ * reading a derivative above its order: its series would need coefficients
+ * of q not known yet). */
+static int cseries_plans(nz_compiled *c, const int *m)
+{
+  cseries *w = c->cs;
+  int k = c->k, nc = c->nc;
+  if (w && w->built > 0) {
+    int same = 1;
+    for (int r = 0; r < nc; r++) same &= w->m[r] == m[r];
+    if (same) return NZ_OK;
+  }
+  cseries_free(w);
+  c->cs = w = calloc(1, sizeof *w);
+  if (!w) return NZ_ENOMEM;
+  w->nc = nc;
+  w->m = malloc((size_t)nc * sizeof *w->m);
+  w->plan = calloc((size_t)nc, sizeof *w->plan);
+  w->inp = calloc((size_t)nc, sizeof *w->inp);
+  w->mb_inp = malloc((size_t)c->ninputs * sizeof *w->mb_inp);
+  w->Aser = malloc((size_t)nc * (size_t)k * sizeof *w->Aser);
+  w->Mser = malloc((size_t)k * (size_t)k * sizeof *w->Mser);
+  w->phi = malloc((size_t)nc * sizeof *w->phi);
+  w->lu = nz_lu_new(k + nc);
+  int *out = malloc((size_t)(3 + k + NZ_CONSTRAINT_SLOTS) * sizeof(int)), *po = malloc((size_t)(k + 1) * sizeof(int));
+  if (!w->m || !w->plan || !w->inp || !w->mb_inp || !w->Aser || !w->Mser || !w->phi || !w->lu || !out || !po) {
+    free(out);
+    free(po);
+    return NZ_ENOMEM;
+  }
+  memcpy(w->m, m, (size_t)nc * sizeof *m);
+  w->built = -1;
+  int st = NZ_OK;
+  for (int r = 0; r < nc && !st; r++) {
+    if (m[r] < 0 || m[r] > 2) {
+      snprintf(c->failure, sizeof c->failure, "constraint %d is of order %d: taylor takes orders 0, 1, 2", r + 1, m[r]);
+      st = NZ_EARG;
+    } else if (!c->phi[r].n || c->nslots < NZ_CONSTRAINT_SLOTS + 2) {
+      snprintf(c->failure, sizeof c->failure, "constraint %d is not recorded", r + 1);
+      st = NZ_EARG;
+    } else if (m[r] < 2 && reads_inputs(c->g, c->phi[r].nodes[0], nz_compiled_input_slot(c, m[r] + 1, 0),
+                                        nz_compiled_input_slot(c, c->nslots - 1, k - 1))) {
+      snprintf(c->failure, sizeof c->failure,
+               "constraint %d is of order %d but its function reads higher derivatives of q", r + 1, m[r]);
+      st = NZ_EARG;
+    } else if (build_row(c, r, m[r], out)) {
+      snprintf(c->failure, sizeof c->failure, "constraint %d: its gradient could not be built on the graph", r + 1);
+      st = NZ_EARG;
+    } else {
+      po[0] = out[0];
+      memcpy(po + 1, out + (2 - m[r]) + 1, (size_t)k * sizeof(int));
+      if (!(w->plan[r] = dplan_new(c->g, po, k + 1)) ||
+          !(w->inp[r] = malloc((size_t)c->ninputs * sizeof *w->inp[r])))
+        st = NZ_ENOMEM;
+    }
+  }
+  free(out);
+  free(po);
+  if (!st) w->built = 1;
+  return st;
+}
+
+/* The workspace for series of N + 1 coefficients of q''. */
+static int cseries_workspace(nz_compiled *c, int N)
+{
+  cseries *w = c->cs;
+  if (N <= w->cap && w->S) return NZ_OK;
+  int k = c->k, nc = c->nc, n = k + nc;
+  size_t len = (size_t)n * (size_t)n + (size_t)n + (size_t)(N + 1) * (size_t)(k + nc) + (size_t)k * (size_t)k * (size_t)nc +
+               (size_t)c->ninputs;
+  double *S = malloc(len * sizeof *S);
+  if (!S) return NZ_ENOMEM;
+  free(w->S);
+  w->S = S;
+  w->rhs = S + (size_t)n * (size_t)n;
+  w->qdd = w->rhs + n;
+  w->lam = w->qdd + (size_t)(N + 1) * (size_t)k;
+  w->H = w->lam + (size_t)(N + 1) * (size_t)nc;
+  w->in0 = w->H + (size_t)k * (size_t)k * (size_t)nc;
+  w->cap = N;
+  return NZ_OK;
+}
+
+/* Coefficient j of slot s of q along the series: a_{j+s} (j+s)! / j!
+ * (j + s <= top: a known coefficient; the unknown one is 0 here). */
+static double slot_coef(const double *a, int k, int i, int s, int j, int top)
+{
+  if (j + s > top) return 0.0;
+  double f = 1.0;
+  for (int x = j + 1; x <= j + s; x++) f *= x;
+  return f * a[(size_t)(j + s) * (size_t)k + (size_t)i];
+}
+
+/* Write coefficient j of every input of a plan (q's slots from a[0..top],
+ * t = t0 + tau, parameters constant) in place. */
+static void cseries_put(const nz_compiled *c, double *const *ip, int j, double t0, const double *a, int top)
+{
+  int k = c->k;
+  if (ip[0]) ip[0][j] = j == 0 ? t0 : j == 1 ? 1.0 : 0.0;
+  for (int p = 0; p < c->np; p++)
+    if (ip[1 + p]) ip[1 + p][j] = j == 0 ? c->params[p] : 0.0;
+  for (int s = 0; s < c->nslots; s++)
+    for (int i = 0; i < k; i++) {
+      double *x = ip[nz_compiled_input_slot(c, s, i)];
+      if (x) x[j] = s <= 2 ? slot_coef(a, k, i, s, j, top) : 0.0;
+    }
+}
+
+int nz_compiled_constrained_series(nz_compiled *c, const int *orders, double t0, const double *q0,
+                                   const double *qd0, const double *qdd0, const double *lam0, int p, double *a,
+                                   double *lambda)
+{
+  int k = c->k, nc = c->nc, st;
+  if (p < 2 || p > NZ_JET_MAX_ORDER) return NZ_EDOM;
+  if (!mass_bias_ready(c)) return NZ_EARG;
+  if ((st = cseries_plans(c, orders))) return st;
+  int N = p - 2;   /* q'''s coefficients 0 .. N give a_2 .. a_p */
+  if ((st = cseries_workspace(c, N))) return st;
+  cseries *w = c->cs;
+  nz_graph_plan *mb = c->mb_plan->plan;
+  memcpy(a, q0, (size_t)k * sizeof(double));
+  memcpy(a + k, qd0, (size_t)k * sizeof(double));
+  for (int i = 0; i < k; i++) a[2 * k + i] = qdd0[i] * 0.5;
+  memcpy(w->qdd, qdd0, (size_t)k * sizeof(double));
+  memcpy(w->lam, lam0, (size_t)nc * sizeof(double));
+  /* coefficient 0 of every plan; the constraint plans then up to their
+   * coefficient 2 - m, the one order 0 settled */
+  double *in = w->in0;
+  memset(in, 0, (size_t)c->ninputs * sizeof(double));
+  in[0] = t0;
+  for (int q = 0; q < c->np; q++) in[1 + q] = c->params[q];
+  for (int i = 0; i < k; i++) {
+    in[nz_compiled_input_slot(c, 0, i)] = q0[i];
+    in[nz_compiled_input_slot(c, 1, i)] = qd0[i];
+    in[nz_compiled_input_slot(c, 2, i)] = qdd0[i];
+  }
+  nz_graph_plan *fail_plan = mb;
+  if ((st = nz_graph_series_begin(mb, N, in))) goto fail;
+  nz_graph_series_inputs(mb, w->mb_inp, c->ninputs);
+  for (int e = 0; e < k * k; e++)
+    if (!(w->Mser[e] = nz_graph_series_node(mb, c->mb_plan->outs[e]))) return NZ_EARG;
+  for (int r = 0; r < nc; r++) {
+    nz_graph_plan *pr = w->plan[r]->plan;
+    fail_plan = pr;
+    if ((st = nz_graph_series_begin(pr, N + 2, in))) goto fail;
+    nz_graph_series_inputs(pr, w->inp[r], c->ninputs);
+    w->phi[r] = nz_graph_series_node(pr, w->plan[r]->outs[0]);
+    for (int i = 0; i < k; i++) w->Aser[r * k + i] = nz_graph_series_node(pr, w->plan[r]->outs[1 + i]);
+    for (int j = 1; j <= 2 - orders[r]; j++) {
+      cseries_put(c, w->inp[r], j, t0, a, 2);
+      if ((st = nz_graph_series_next(pr, j, NULL, NULL))) goto fail;
+    }
+  }
+  /* The saddle-point matrix of every order n >= 1, [M_0 - sum lambda0_r
+   * H_r, -A_0^T; A_0, 0], H_r = dA_r/dq'' (zero unless constraint r is of
+   * order 2 and not linear in q''), factored once. */
+  int n2 = k + nc;
+  double *S = w->S, *H = w->H;
+  memset(H, 0, (size_t)k * (size_t)k * (size_t)nc * sizeof(double));
+  if (N >= 1)
+    for (int r = 0; r < nc; r++) {
+      if (orders[r] != 2) continue;
+      /* dA_r/dq'' by probing coefficient 1: it is affine in q''_1 with that
+       * slope (the chain rule of the top coefficient), exactly */
+      nz_graph_plan *pr = w->plan[r]->plan;
+      fail_plan = pr;
+      double base[NZ_CONSTRAINT_SLOTS + 64];
+      int kk = k < 64 ? k : 64;
+      if (k > 64) { snprintf(c->failure, sizeof c->failure, "more than 64 coordinates with a constraint of order 2"); return NZ_EARG; }
+      cseries_put(c, w->inp[r], 1, t0, a, 2);
+      if ((st = nz_graph_series_next(pr, 1, NULL, NULL))) goto fail;
+      for (int i = 0; i < kk; i++) base[i] = w->Aser[r * k + i][1];
+      for (int j = 0; j < k; j++) {
+        double *x = w->inp[r][nz_compiled_input_slot(c, 2, j)];
+        if (!x) continue;   /* A_r does not read q''_j */
+        x[1] = 1.0;
+        if ((st = nz_graph_series_next(pr, 1, NULL, NULL))) goto fail;
+        for (int i = 0; i < k; i++) H[((size_t)r * (size_t)k + (size_t)i) * (size_t)k + (size_t)j] = w->Aser[r * k + i][1] - base[i];
+        x[1] = 0.0;
+      }
+    }
+  for (int i = 0; i < k; i++) {
+    for (int j = 0; j < k; j++) {
+      double v = w->Mser[i * k + j][0];
+      for (int r = 0; r < nc; r++) v -= lam0[r] * H[((size_t)r * (size_t)k + (size_t)i) * (size_t)k + (size_t)j];
+      S[(size_t)i * (size_t)n2 + (size_t)j] = v;
+    }
+    for (int r = 0; r < nc; r++) S[(size_t)i * (size_t)n2 + (size_t)(k + r)] = -w->Aser[r * k + i][0];
+  }
+  for (int r = 0; r < nc; r++) {
+    for (int j = 0; j < k; j++) S[(size_t)(k + r) * (size_t)n2 + (size_t)j] = w->Aser[r * k + j][0];
+    for (int j = 0; j < nc; j++) S[(size_t)(k + r) * (size_t)n2 + (size_t)(k + j)] = 0.0;
+  }
+  if (N >= 1 && (st = nz_lu_factor(w->lu, n2, S))) {
+    snprintf(c->failure, sizeof c->failure, "the saddle-point matrix [M A^T; A 0] is singular");
+    return st;
+  }
+  for (int n = 1; n <= N; n++) {
+    /* coefficient n of M and h: q to a_{n+1}, known */
+    fail_plan = mb;
+    cseries_put(c, w->mb_inp, n, t0, a, n + 1);
+    if ((st = nz_graph_series_next(mb, n, NULL, NULL))) goto fail;
+    double *u = w->rhs;
+    for (int i = 0; i < k; i++) {
+      double s = nz_graph_series_coef(mb, k * k + i, n);   /* h_i */
+      for (int j = 1; j <= n; j++)
+        for (int x = 0; x < k; x++) s += w->Mser[i * k + x][j] * w->qdd[(size_t)(n - j) * (size_t)k + (size_t)x];
+      u[i] = -s;
+    }
+    /* the constraints: coefficient n + 2 - m of Phi_r with q''_n = 0 ... */
+    for (int r = 0; r < nc; r++) {
+      int m = orders[r], j = n + 2 - m;
+      nz_graph_plan *pr = w->plan[r]->plan;
+      fail_plan = pr;
+      cseries_put(c, w->inp[r], j, t0, a, n + 1);
+      if ((st = nz_graph_series_next(pr, j, NULL, NULL))) goto fail;
+      /* ... is affine in q''_n with slope A_r0 times (slot m's coefficient
+       * j per unit of q''_n): 1 / ((n+1)(n+2)), 1 / (n+1), 1 */
+      double scale = m == 0 ? 1.0 / ((double)(n + 1) * (double)(n + 2)) : m == 1 ? 1.0 / (double)(n + 1) : 1.0;
+      u[k + r] = -w->phi[r][j] / scale;
+      /* A^T lambda's coefficient n without A_0^T lambda_n (in the matrix):
+       * sum_{i=1..n} A_i^T lambda_{n-i}, A_n at q''_n = 0 (its part in
+       * q''_n is the matrix's H) */
+      for (int x = 0; x < k; x++) {
+        double s = 0.0;
+        for (int i = 1; i <= n; i++) s += w->Aser[r * k + x][i] * w->lam[(size_t)(n - i) * (size_t)nc + (size_t)r];
+        u[x] += s;
+      }
+    }
+    if ((st = nz_lu_solve(w->lu, u))) {
+      snprintf(c->failure, sizeof c->failure, "the saddle-point matrix could not be solved at order %d", n);
+      return st;
+    }
+    double *qn = w->qdd + (size_t)n * (size_t)k, *ln = w->lam + (size_t)n * (size_t)nc;
+    double d = 1.0 / ((double)(n + 1) * (double)(n + 2));
+    for (int i = 0; i < k; i++) {
+      if (!isfinite(u[i])) {
+        snprintf(c->failure, sizeof c->failure, "coefficient %d of q''_%d is not finite", n, i + 1);
+        return isnan(u[i]) ? NZ_ENAN : NZ_ERANGE;
+      }
+      qn[i] = u[i];
+      a[(size_t)(n + 2) * (size_t)k + (size_t)i] = u[i] * d;
+    }
+    for (int r = 0; r < nc; r++) ln[r] = u[k + r];
+    /* the constraint plans' coefficient n + 2 - m again, with q''_n */
+    for (int r = 0; r < nc; r++) {
+      int j = n + 2 - orders[r];
+      nz_graph_plan *pr = w->plan[r]->plan;
+      fail_plan = pr;
+      cseries_put(c, w->inp[r], j, t0, a, n + 2);
+      if ((st = nz_graph_series_next(pr, j, NULL, NULL))) goto fail;
+    }
+  }
+  if (lambda) memcpy(lambda, w->lam, (size_t)(N + 1) * (size_t)nc * sizeof(double));
+  return NZ_OK;
+fail:
+  describe_failure(c, fail_plan, st);
+  return st;
 }

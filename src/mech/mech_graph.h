@@ -115,6 +115,25 @@ int nz_compiled_native_series(const nz_compiled *c);
  * a given p nothing is allocated. */
 int nz_compiled_motion_series(nz_compiled *c, double t0, const double *q0, const double *qd0, int p,
                               double *a);
+/* The Taylor coefficients of a motion under constraints of orders[r] <= 2
+ * (the classification: 0 holonomic, 1 on the velocities, 2 on the
+ * accelerations), from (t0, q0, qd0) with the accelerations qdd0 and the
+ * multipliers lam0 of M q'' + h = A^T lambda solved at the start (by
+ * nz_accel_constrained: Newton when a constraint is not linear in q'').
+ * Order n >= 1 of q'' and lambda solves the saddle-point system
+ *   [M_0 - sum_r lambda0_r H_r  -A_0^T] [q''_n    ]   [-(h_n + sum_{j>=1} M_j q''_{n-j}) + sum_{j>=1} A_j^T lambda_{n-j}]
+ *   [A_0                         0    ] [lambda_n ] = [-(coefficient n + 2 - m_r of Phi_r at q''_n = 0) / s_r]
+ * (A_r = dPhi_r/dq^(m_r), H_r = dA_r/dq'' for a constraint of order 2,
+ * s_r the weight of q''_n in that coefficient), factored once per step:
+ * the series of Phi_r vanishes to the order of the method, so the
+ * constraints hold along each step up to its truncation error.  a as for
+ * nz_compiled_motion_series (p >= 2); lambda ((p - 1) x nc, or NULL): the
+ * multipliers' coefficients.  NZ_OK; NZ_EARG with the reason in
+ * nz_compiled_failure (a constraint not recorded, of order > 2, or
+ * reading derivatives above its order); NZ_ESINGULAR; a jet status. */
+int nz_compiled_constrained_series(nz_compiled *c, const int *orders, double t0, const double *q0,
+                                   const double *qd0, const double *qdd0, const double *lam0, int p, double *a,
+                                   double *lambda);
 /* Branches in the graphs the series of the motion runs on: comparisons,
  * selections, sign and abs whose operands move with the state (-1 when M
  * and h are not recorded).  The series keeps the branch that coefficient 0
