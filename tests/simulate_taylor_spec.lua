@@ -243,12 +243,7 @@ print("status " .. tr.status .. " points " .. #tr.t .. " last " .. tr.t[#tr.t])
     ok, e = pcall(vwell.simulate, vwell, { q0 = { 1 }, t1 = 1, method = "taylor" })
     assert.is_false(ok)
     assert.truthy(e:find("simulate_taylor_spec%.lua:%d+: simulate 'vwell': method 'taylor' cannot run this system: .*branches"), e)
-    local pend = nz.system{ name = "constrained", coords = { "x", "y" },
-      T = function(t, q, qd) return (qd[1] ^ 2 + qd[2] ^ 2) / 2 end, V = function(t, q) return q[2] end,
-      constraints = { function(t, q) return q[1] ^ 2 + q[2] ^ 2 - 1 end } }
-    ok, e = pcall(pend.simulate, pend, { q0 = { 1, 0 }, t1 = 1, method = "taylor" })
-    assert.is_false(ok)
-    assert.truthy(e:find("does not handle constraints yet", 1, true), e)
+    -- (constraints: tests/taylor_constrained_spec.lua)
   end)
 end)
 

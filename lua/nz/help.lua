@@ -242,14 +242,16 @@ Methods (t a number, q, qd, qdd tables of k numbers):
         recorded keeps the run in Lua (tr.stats.loop_why says why).
         method: a GSL stepper (nz.methods; rk8pd by default) or "taylor":
         Taylor's method on the recorded series of the motion, for a system
-        without constraints whose T, V, Q are recorded and do not branch on
-        the state; order ceil(-ln(tol)/2 + 1) (18 at 1e-14) and steps from
-        rtol/atol, no rejected step; the output grid is read off each step's
+        whose T, V, Q and constraints are recorded and do not branch on the
+        state, with constraints of order 0, 1, 2 (their series kept at 0 to
+        the method's order, nothing projected: tr.violation shows the drift);
+        order ceil(-ln(tol)/2 + 1) (18 at 1e-14) and steps from rtol/atol,
+        no rejected step; the output grid is read off each step's
         polynomial, so a fine dt costs no extra step (tr.stats.order: the
         order used); events are located on each step's polynomial (no
-        integration again; their functions must be recordable).  Not yet
-        with taylor: constraints, the work monitor, step and h0 (each
-        refused with the method to take).
+        integration again; their functions must be recordable).  Not with
+        taylor: constraints of order 3 or more, project and baumgarte, the
+        work monitor, step and h0 (each refused with the method to take).
   print(sys)                 a summary]] },
   { name = "forms", section = "mechanics", usage = "nz.forms",
     summary = "the names of the forms of the equations sys:residual accepts" },

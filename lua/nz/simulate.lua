@@ -1003,6 +1003,7 @@ function M.simulate_taylor(sys, cfg, orders, linear)
     local n = #tr.t + 1
     local qdd, lambda = mech.ode_accel(ode, engine, t, y)
     tr.t[n], tr.q[n], tr.qd[n], tr.qdd[n], tr.lambda[n] = t, q, qd, qdd, sys.nc > 0 and lambda or {}
+    if tr.violation then tr.violation[n] = constraints.violation(sys, t, q, qd) end
     if tr.energy then tr.energy[n], tr.generalized_energy[n] = sys:energy(t, q, qd) end
   end
 
@@ -1034,6 +1035,9 @@ function M.simulate_taylor(sys, cfg, orders, linear)
       stats.order, stats.seconds = math.max(stats.order, s.order), stats.seconds + s.seconds
       if tr.energy then
         for n = #tr.t - res.n + 1, #tr.t do tr.energy[n], tr.generalized_energy[n] = sys:energy(tr.t[n], tr.q[n], tr.qd[n]) end
+      end
+      if tr.violation then     -- as the GSL runs: the drift off the constraints at each point
+        for n = #tr.t - res.n + 1, #tr.t do tr.violation[n] = constraints.violation(sys, tr.t[n], tr.q[n], tr.qd[n]) end
       end
       if res.n > 0 then i, t, q, qd = i + res.n, tr.t[#tr.t], res.q, res.qd end
       for _, e in ipairs(res.events or {}) do

@@ -47,10 +47,11 @@ function M.run(sys, opts)
     ref_text = ("%s at rtol %g"):format(opts.reference_method or M.defaults.reference_method,
       opts.reference_tol or M.defaults.reference_tol)
   end
-  -- Taylor's method runs free recorded systems only (nz/simulate.lua): where
-  -- it does not apply its rows say why instead of failing.
+  -- Taylor's method runs recorded systems with constraints of order 0, 1, 2
+  -- (nz/simulate.lua): where it does not apply its rows say why instead of
+  -- failing.
   local function taylor_skip()
-    if sys.nc > 0 then return "constraints" end
+    if sys.nc > 0 and require("nz.constraints").level(sys) then return "constraints of order 3 or more" end
     if not sys.recording then return "not recorded" end
     if base.monitors and base.monitors.work then return "work monitor" end
   end
@@ -105,7 +106,7 @@ function M.table(rows)
   end
   local text = require("nz.system").table_text(t)
   if next(skipped) then
-    text = text .. "\nskipped: taylor does not yet run systems with constraints, nor unrecorded ones"
+    text = text .. "\nskipped: taylor runs recorded systems with constraints of order 0, 1 and 2 only"
   end
   if grid then
     text = text .. "\n(grid): about one step per output point: the output grid, not the tolerance, set these steps "

@@ -1,5 +1,5 @@
-/* lua_taylor.c - Taylor's method for Lua, on a system without constraints
- * whose M and h are recorded (issue 11, first part; sys:simulate{method =
+/* lua_taylor.c - Taylor's method for Lua, on a system whose M and h (and
+ * constraints, of order <= 2) are recorded (issue 11; sys:simulate{method =
  * "taylor"} runs on taylor_run, lua/nz/simulate.lua):
  *   core.mech.motion_series(engine, t0, q0, qd0, p) -> { a_0, ..., a_p }
  *     the Taylor coefficients of q(t0 + tau), each a list of k numbers;

@@ -1,5 +1,6 @@
-/* taylor.h - Taylor's method for the motion M q'' + h = 0 (issue 11, first
- * part: systems without constraints).
+/* taylor.h - Taylor's method for the motion of a mechanical system (issue
+ * 11): the series function gives the motion's coefficients, free or under
+ * constraints (mech_graph.h), this loop does not know which.
  *
  * A step from (t, q, q') takes the series of the motion q(t + tau) =
  * sum_{n=0..p+1} a_n tau^n from a series function (for a recorded system
