@@ -1154,12 +1154,10 @@ int nz_compiled_constrained_series(nz_compiled *c, const int *orders, double t0,
        * slope (the chain rule of the top coefficient), exactly */
       nz_graph_plan *pr = w->plan[r]->plan;
       fail_plan = pr;
-      double base[NZ_CONSTRAINT_SLOTS + 64];
-      int kk = k < 64 ? k : 64;
-      if (k > 64) { snprintf(c->failure, sizeof c->failure, "more than 64 coordinates with a constraint of order 2"); return NZ_EARG; }
+      double *base = w->rhs;   /* free until the loop below */
       cseries_put(c, w->inp[r], 1, t0, a, 2);
       if ((st = nz_graph_series_next(pr, 1, NULL, NULL))) goto fail;
-      for (int i = 0; i < kk; i++) base[i] = w->Aser[r * k + i][1];
+      for (int i = 0; i < k; i++) base[i] = w->Aser[r * k + i][1];
       for (int j = 0; j < k; j++) {
         double *x = w->inp[r][nz_compiled_input_slot(c, 2, j)];
         if (!x) continue;   /* A_r does not read q''_j */
