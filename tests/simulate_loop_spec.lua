@@ -57,6 +57,8 @@ local function with_loop(opts, loop)
   local o = {}
   for key, v in pairs(opts) do o[key] = v end
   o._loop = loop
+  -- the Lua loop has no dense output: both loops stop at every output point
+  if o.dense == nil then o.dense = false end
   return o
 end
 
