@@ -49,6 +49,7 @@ struct nz_run {
    * the state the next step starts from (no projection in between). */
   struct slot { double t; double *y, *f; int f_ok; } slots[4], *sq, *sp, *sa, *sb;
   int nprev, start_ok;
+  int gridded;                    /* a step failed: the grid sets the steps from there */
   double *yi;                     /* an interpolated state */
   double *coef, z[4];             /* the step's divided differences (dim x 12), its nodes */
   int coef_ok;
@@ -346,9 +347,21 @@ static int dense_step(nz_run *r, const nz_system *s)
     r->nprev = 0;
   }
   r->start_ok = 0;
-  double tlimit = r->c.t1, h = r->h;
+  double tlimit = r->gridded ? r->tout : r->c.t1, h = r->h;
   for (;;) {
     int st = one_step(r, s, tlimit);
+    /* A step that fails (a singular M, a user function's error past some
+     * time) is taken again as the grid would take it, and so are the steps
+     * after it: the run creeps up to the failure an output interval at a
+     * time and keeps what it computed up to there, as without dense output
+     * (the step does not commit when it fails). */
+    if (st && !r->gridded && tlimit > r->tout && !nz_interrupt_requested()) {
+      r->gridded = 1;
+      r->h = h;
+      nz_ode_reset(r->o);
+      tlimit = r->tout;
+      continue;
+    }
     if (st) return st;
     r->sb->t = r->t;
     memcpy(r->sb->y, r->y, (size_t)r->dim * sizeof(double));
@@ -361,6 +374,14 @@ static int dense_step(nz_run *r, const nz_system *s)
       if (!(tj < r->t)) break;
       int ok;
       if ((st = interpolate(r, s, tj, r->yi, &ok))) return st;
+      if (ok && r->c.project_tol > 0.0 && r->nc > 0) {
+        /* projecting: a point off the constraints by more than project_tol
+         * (the interpolant is not on them) is made a step end, which the
+         * run then projects */
+        double v;
+        if ((st = nz_state_violation(s, r->orders, tj, r->yi, r->yi + r->k, &v))) return st;
+        ok = v <= r->c.project_tol;
+      }
       if (!ok) {
         bad = tj;
         found = 1;
