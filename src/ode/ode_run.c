@@ -208,17 +208,16 @@ static int one_step(nz_run *r, const nz_system *s, double tlimit)
   return NZ_OK;
 }
 
-/* One component's Hermite interpolant at tau, in Newton form: ng (<= 4)
- * groups of nodes z[g], each of multiplicity m (2 or 3), with d[3 g + j]
- * the j-th derivative there.  out: the polynomial and its derivative, then
- * its last Newton term and that term's derivative: what the last node
- * condition adds, the error of the polynomial without it, which estimates
- * the error of the whole on the safe side.  (The terms of the whole last
- * group, the error of the degree-8 polynomial, were tried: on a pendulum
- * at rtol 1e-12 they forced 2487 output points of 20000 to be step ends,
- * for errors 3x below the run's own at its step ends; the last term forces
- * 40 and keeps the grid's error at the step ends' (1.4e-11 against
- * 1.2e-11), see tests/simulate_dense_spec.lua.) */
+/* One component's Hermite interpolant in Newton form: ng (<= 4) groups of
+ * nodes z[g], each of multiplicity m (2 or 3), with d[3 g + j] the j-th
+ * derivative there; c gets the m ng coefficients.  Its last Newton term
+ * (what the last node condition adds: the error of the polynomial without
+ * it) is the error estimate, on the safe side.  (The terms of a whole last
+ * group, the error of the polynomial of one step fewer, were tried: on a
+ * pendulum at rtol 1e-12 they made 2487 of 20000 output points step ends,
+ * for errors 3x below the run's own at its step ends; the last term makes
+ * 40 of them step ends and keeps the points' error at the step ends'
+ * (1.4e-11 against 1.2e-11), see tests/simulate_dense_spec.lua.) */
 static void hermite_coef(int m, int ng, const double *z, const double *d, double *c)
 {
   static const double fact[] = { 1.0, 1.0, 2.0 };
@@ -379,7 +378,10 @@ static int dense_step(nz_run *r, const nz_system *s)
          * (the interpolant is not on them) is made a step end, which the
          * run then projects */
         double v;
-        if ((st = nz_state_violation(s, r->orders, tj, r->yi, r->yi + r->k, &v))) return st;
+        if ((st = nz_state_violation(s, r->orders, tj, r->yi, r->yi + r->k, &v))) {
+          r->failure = NZ_RUN_FAIL_VIOLATION;
+          return st;
+        }
         ok = v <= r->c.project_tol;
       }
       if (!ok) {

@@ -40,12 +40,19 @@
  * q, q', q'' (a quintic over the step alone, and up to degree 11 with the
  * starts of the two steps before joined on), q' is the derivative of q's
  * polynomial, and every other component gets the cubic (up to degree 7)
- * from y and f: no evaluation beyond f at the step ends.  The last Newton term of the interpolant (what the last
- * node condition adds) estimates the error of the polynomial without it;
- * an output point whose estimate exceeds atol + rtol |y| in any component
- * is made a step end instead: the step is taken again from its start,
- * ending there (a multistep method restarts), as without dense output.
- * nz_run_dense_stats counts both kinds of point. */
+ * from y and f: no evaluation beyond f at the step ends.  The last Newton
+ * term of an interpolant (what its last node condition adds) estimates its
+ * error; of the interpolants over the step alone and joined with one or two
+ * steps before, each component takes the one whose estimate is smallest
+ * against atol + rtol |y| (a high degree amplifies the step ends' own
+ * errors).  An output point whose estimate exceeds atol + rtol |y| in any
+ * component (or, when projecting, whose violation exceeds project_tol) is
+ * made a step end instead: the step is taken again from its start, ending
+ * there (the integrator reset: GSL's evolve object keeps its last step, a
+ * multistep method its history).  A step that fails is taken again towards
+ * the next output time, and every step after it: the run reaches a failure
+ * as without dense output.  nz_run_dense_stats counts both kinds of point;
+ * events are located on the interpolant (nz_run_interpolate). */
 #ifndef NZ_ODE_RUN_H
 #define NZ_ODE_RUN_H
 
