@@ -387,7 +387,7 @@ local function cheaper(cfg, nsteps, tt)
       .. "or adaptive steps (drop 'step')"):format(cfg.step)
   end
   local outputs = math.floor((tt - cfg.t0) / cfg.dt + 1e-9)
-  if outputs > 0 and nsteps <= 1.5 * outputs then
+  if outputs > 0 and nsteps <= 1.5 * outputs and not cfg.dense_on then   -- dense output: the grid adds no step
     return ("the steps are set by the output grid ('dt' = %g: %d outputs in %d steps; rtol and the method change "
       .. "nothing): a larger 'dt'"):format(cfg.dt, outputs, nsteps)
   end
@@ -933,6 +933,7 @@ function M.simulate(sys, opts)
     fail(sys, "'_loop' = \"c\": this run needs the Lua loop (%s)", loop_why)
   end
   if cfg._loop == "lua" and in_c then in_c, loop_why = false, "_loop = \"lua\"" end
+  cfg.dense_on = dense and in_c      -- for the long-run notice's advice (cheaper)
   local ok, err = pcall(in_c and run_c or run)
   if crun then                 -- what an interrupt cut short (the hook fires once)
     t = mech.ode_run_state(crun)
