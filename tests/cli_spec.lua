@@ -200,7 +200,7 @@ local function failing(raise)
   mech.argument_hook(function() calls = calls + 1; if calls == 1000 then raise() end end)
 end
 
-local run = { q0 = { 0.7, 0 }, qd0 = { 0.3, W }, t1 = 3, method = "bsimp", monitors = { work = true } }
+local run = { q0 = { 0.7, 0 }, qd0 = { 0.3, W }, t1 = 3, method = "bsimp", monitors = { work = true }, dense = false }
 failing(function() error("boom") end)
 local ok, err = pcall(hoop.simulate, hoop, run)
 print(ok, err)

@@ -36,15 +36,23 @@ describe("nz.workprecision", function()
 
   it("flags the rows whose steps the output grid set, and says so under the table", function()
     -- dt = 0.01 over 10 s: 1000 outputs, more than rk8pd needs at 1e-5
-    -- (about 60 steps with dt = 10); taylor reads its points off the series
+    -- (about 60 steps with dt = 10); rk8pd reads its points off its dense
+    -- output and taylor off the series; msbdf (no dense output unless
+    -- asked) and rk8pd with dense = false stop at every output time
     local rows = nz.workprecision(oscillator, { q0 = { 1 }, qd0 = { 0 }, t1 = 10, dt = 0.01,
-      methods = { "rk8pd", "taylor" }, tols = { 1e-5 }, reference = exact, quiet = true })
+      methods = { "rk8pd", "taylor", "msbdf" }, tols = { 1e-5 }, reference = exact, quiet = true })
     local text = require("nz.workprecision").table(rows)
-    assert.is_true(rows[1].grid)
+    assert.is_false(rows[1].grid)
+    assert(rows[1].steps < 100, rows[1].steps)
     assert.is_false(rows[2].grid)
     assert(rows[2].steps < 100, rows[2].steps)
+    assert.is_true(rows[3].grid)
     assert.truthy(text:find("%(grid%)"), text)
     assert.truthy(text:find("the output grid, not the tolerance, set these steps", 1, true), text)
+    local off = nz.workprecision(oscillator, { q0 = { 1 }, qd0 = { 0 }, t1 = 10, dt = 0.01, simulate = { dense = false },
+      methods = { "rk8pd" }, tols = { 1e-5 }, reference = exact, quiet = true })
+    assert.is_true(off[1].grid)
+    assert(off[1].steps >= 1000, off[1].steps)
     local coarse = nz.workprecision(oscillator, { q0 = { 1 }, qd0 = { 0 }, t1 = 10, dt = 10,
       methods = { "rk8pd" }, tols = { 1e-5 }, reference = exact, quiet = true })
     assert.is_false(coarse[1].grid)

@@ -231,7 +231,7 @@ Methods (t a number, q, qd, qdd tables of k numbers):
                              whether H is a first integral: {holds, reasons, ...}
   sys:equations(n, t, q, qd [, qdd])  print the terms of (3.1) per coordinate
   sys:simulate{q0 =, qd0 =, t1 = [, t0, dt, method, rtol, atol, step, h0, events,
-        event_tol, project, baumgarte, monitors, progress, check]}  a trajectory.
+        event_tol, project, baumgarte, monitors, progress, check, dense]}  a trajectory.
         Each option is checked (which, what it got, what it accepts; the
         output points must fit in 1 GB, require('nz.simulate').MAX_MEMORY); a
         fixed step with rtol, atol or h0 warns once that they do nothing; a run
@@ -240,6 +240,18 @@ Methods (t a number, q, qd, qdd tables of k numbers):
         one whose steps stop advancing t stops with the state and M.
         Event functions are recorded and watched in C; one that cannot be
         recorded keeps the run in Lua (tr.stats.loop_why says why).
+        dense (true by default): a GSL stepper's output points inside a step
+        come off the step's Hermite interpolant (q, qd, qdd at its ends and
+        the one or two steps before), so a fine dt adds no step; an error
+        control checks each point against atol + rtol |y| and makes a point
+        that misses it a step end (the step taken again): every point meets
+        the run's tolerance.  Events are located on the interpolant too.
+        dense = false: every output point is a step end (the grid caps the
+        steps).  The grid still limits a run with dense = false, with a fixed
+        step, with msadams and msbdf (off unless dense = true: a point made a
+        step end restarts them), and in the Lua loop; tr.stats.grid_why says
+        so when it set the steps; tr.stats.interpolated, forced: the points
+        read off an interpolant, and those its control made step ends.
         method: a GSL stepper (nz.methods; rk8pd by default) or "taylor":
         Taylor's method on the recorded series of the motion, for a system
         whose T, V, Q and constraints are recorded and do not branch on the
@@ -313,9 +325,11 @@ measures the error (max over the output grid of |q - q_ref|) against
 reference = function(t) return {q1, ...} end when the scene has a closed form,
 or else against rk8pd at rtol 1e-13, and prints a table of error, wall time,
 right-hand-side evaluations and steps; "(grid)" marks the rows whose steps the
-output grid set (about one step per output point: a GSL stepper stops at every
-output time, so a larger dt shows the method's own cost; taylor reads its points
-off the series and is never limited).  plot = true draws the work-precision
+output grid set (tr.stats.grid_why: the GSL steppers read their points off an
+interpolant, but msadams and msbdf, and any run with dense = false, stop at
+every output time, and a run whose interpolant missed the tolerance at many
+points made them step ends; a larger dt shows the method's own cost; taylor
+reads its points off the series and is never limited).  plot = true draws the work-precision
 diagram (log-log error against time, a line per method) in the terminal;
 plot = "file.svg" (or .png) writes it.  Returns the rows.
 Defaults: methods rk4, rkf45, rkck, rk8pd, rk4imp, bsimp, msadams, msbdf, taylor

@@ -69,9 +69,12 @@ function M.run(sys, opts)
         row.status, row.message = "skipped", "skipped: " .. skip
       elseif ok then
         row.error, row.time, row.nfev, row.steps, row.status = max_error(tr, reference), tr.stats.wall, tr.stats.nfev, tr.stats.steps, tr.status
-        -- a GSL stepper stops at every output point: with about one step
-        -- per output the grid, not the tolerance, sets its steps
-        row.grid = method ~= "taylor" and row.steps <= 1.5 * (#tr.t - 1)
+        -- the grid set the steps: a GSL stepper without dense output
+        -- (msadams, msbdf, dense = false) stopped at about every output
+        -- point, or the interpolant's error control made many points step
+        -- ends (nz/simulate.lua says which in tr.stats.grid_why)
+        row.grid = method ~= "taylor" and tr.stats.grid_why ~= nil
+        row.grid_why = row.grid and tr.stats.grid_why or nil
       else
         row.status, row.message = "failed", tostring(tr):match("^[^\n]*")
       end
@@ -109,8 +112,9 @@ function M.table(rows)
     text = text .. "\nskipped: taylor runs recorded systems with constraints of order 0, 1 and 2 only"
   end
   if grid then
-    text = text .. "\n(grid): about one step per output point: the output grid, not the tolerance, set these steps "
-      .. "(the GSL steppers stop at every output time); a larger dt shows the method's own cost"
+    text = text .. "\n(grid): the output grid, not the tolerance, set these steps (msadams and msbdf, and every "
+      .. "stepper with dense = false, stop at every output time; the others read their points off an interpolant "
+      .. "unless its error control made many of them step ends); a larger dt shows the method's own cost"
   end
   if taylor then
     text = text .. "\ntaylor: rhs evals counts the series of the motion (one per step, of order ~ -ln(tol)/2 + 1);"

@@ -477,7 +477,8 @@ static int run_gc(lua_State *L)
 }
 
 /* ode_run_new(ode, {t0, t1, dt, step, h0, y, stall_window, stall_fraction
- * [, capacity] [, events, directions, fallback] [, project_tol, orders]})
+ * [, capacity] [, events, directions, fallback] [, project_tol, orders]
+ * [, dense, rtol, atol]})
  * -> run.  events: an nz.ode_events, directions its events' (0, 1, -1),
  * fallback(e, t, y) the value of event e where its graph fails (it raises
  * the event's error); project_tol > 0 with the constraints' orders: return
@@ -498,6 +499,11 @@ static int lo_run_new(lua_State *L)
   c.stall_fraction = number_field(L, 2, "stall_fraction", 1e-10);
   c.capacity = (int)number_field(L, 2, "capacity", 1024.0);
   c.project_tol = number_field(L, 2, "project_tol", 0.0);
+  c.rtol = number_field(L, 2, "rtol", 0.0);
+  c.atol = number_field(L, 2, "atol", 0.0);
+  lua_getfield(L, 2, "dense");
+  c.dense = lua_toboolean(L, -1);
+  lua_pop(L, 1);
   lua_getfield(L, 2, "events");                            /* at 3 */
   events_box *eb = lua_isnil(L, 3) ? NULL : luaL_checkudata(L, 3, NZ_EVENTS_METATABLE);
   lua_getfield(L, 2, "fallback");                          /* at 4 */
@@ -669,6 +675,38 @@ static int lo_run_set_state(lua_State *L)
   return 0;
 }
 
+/* ode_run_dense(run) -> interpolated, forced: the output points read from
+ * the interpolant, and those its error control made step ends. */
+static int lo_run_dense(lua_State *L)
+{
+  run_box *rb = check_run(L, 1);
+  unsigned long a, b;
+  nz_run_dense_stats(rb->r, &a, &b);
+  lua_pushinteger(L, (lua_Integer)a);
+  lua_pushinteger(L, (lua_Integer)b);
+  return 2;
+}
+
+/* ode_run_interpolate(run, def, tau) -> y | nil: the state at tau in the
+ * last step from its interpolant, nil when dense output is off or its
+ * estimate misses the tolerance there (the caller integrates again). */
+static int lo_run_interpolate(lua_State *L)
+{
+  run_box *rb = check_run(L, 1);
+  double tau = luaL_checknumber(L, 3);
+  int dim = nz_ode_dim(rb->ode->o);
+  double *y = lua_newuserdatauv(L, (size_t)dim * sizeof(double), 0);
+  lua_settop(L, 4);
+  lua_copy(L, 2, 1);                 /* def first, as raise_failure expects */
+  bound_system b;
+  nz_lua_bind_system(L, 1, &b);
+  int st = nz_run_interpolate(rb->r, &b.sys, tau, y);
+  if (st == NZ_EARG) return 0;
+  if (st) return raise_failure(L, rb->ode, &b, st);
+  nz_lua_push_vector(L, y, dim);
+  return 1;
+}
+
 /* ode_run_state(run) -> t, y, steps: where the run is. */
 static int lo_run_state(lua_State *L)
 {
@@ -729,7 +767,7 @@ static const luaL_Reg ode_functions[] = {
   { "ode_accel", lo_accel }, { "ode_rhs", lo_rhs }, { "ode_reset", lo_reset }, { "ode_jacobian", lo_jacobian }, { "ode_stats", lo_stats },
   { "now", lo_now }, { "isatty", lo_isatty }, { "interrupted", lo_interrupted },
   { "ode_methods", lo_methods }, { "ode_run_new", lo_run_new }, { "ode_run", lo_run },
-  { "ode_run_state", lo_run_state }, { "ode_run_set_state", lo_run_set_state },
+  { "ode_run_state", lo_run_state }, { "ode_run_dense", lo_run_dense }, { "ode_run_interpolate", lo_run_interpolate }, { "ode_run_set_state", lo_run_set_state },
   { "ode_run_violation", lo_run_violation }, { "ode_events_new", lo_events_new },
   { "ode_event_value", lo_event_value }, { "_set_interrupt", lo_set_interrupt },
   { NULL, NULL }

@@ -351,6 +351,7 @@ void nz_ode_free(nz_ode *o)
 }
 
 int nz_ode_dim(const nz_ode *o) { return o->dim; }
+int nz_ode_is_multistep(const nz_ode *o) { return o->multistep; }
 
 static int finish_step(nz_ode *o, int gs, double t, const double *y)
 {

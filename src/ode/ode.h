@@ -43,6 +43,9 @@ int nz_ode_is_implicit(const char *method);
 nz_ode *nz_ode_alloc(int k, const nz_ode_config *cfg);
 void nz_ode_free(nz_ode *o);
 int nz_ode_dim(const nz_ode *o);
+/* msadams and msbdf: a history of steps, lost by a step taken again from
+ * an earlier state (nz_ode_reset first). */
+int nz_ode_is_multistep(const nz_ode *o);
 
 /* One adaptive step from *t towards t1 (never past it): *h is the step to
  * try and, on return, the next one.  s: the system, bound for this call.

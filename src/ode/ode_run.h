@@ -33,6 +33,26 @@
  * Output points wait in a buffer of `capacity` points that the caller
  * empties (nz_run_clear), so the loop's own memory stays bounded whatever
  * the grid. */
+/* Dense output (cfg.dense, adaptive steps only): the steps go to t1, not to
+ * each output time, and an output point inside a step is read from a
+ * Hermite interpolant of the step, so that the output grid no longer caps
+ * the steps.  y = (q, q', ...) and f = (q', q'', ...): for q the nodes carry
+ * q, q', q'' (a quintic over the step alone, and up to degree 11 with the
+ * starts of the two steps before joined on), q' is the derivative of q's
+ * polynomial, and every other component gets the cubic (up to degree 7)
+ * from y and f: no evaluation beyond f at the step ends.  The last Newton
+ * term of an interpolant (what its last node condition adds) estimates its
+ * error; of the interpolants over the step alone and joined with one or two
+ * steps before, each component takes the one whose estimate is smallest
+ * against atol + rtol |y| (a high degree amplifies the step ends' own
+ * errors).  An output point whose estimate exceeds atol + rtol |y| in any
+ * component (or, when projecting, whose violation exceeds project_tol) is
+ * made a step end instead: the step is taken again from its start, ending
+ * there (the integrator reset: GSL's evolve object keeps its last step, a
+ * multistep method its history).  A step that fails is taken again towards
+ * the next output time, and every step after it: the run reaches a failure
+ * as without dense output.  nz_run_dense_stats counts both kinds of point;
+ * events are located on the interpolant (nz_run_interpolate). */
 #ifndef NZ_ODE_RUN_H
 #define NZ_ODE_RUN_H
 
@@ -49,6 +69,9 @@ typedef struct nz_run_config {
   const int *directions;     /* nevents: 0 any crossing, +1 rising, -1 falling (copied) */
   double project_tol;        /* > 0: NZ_RUN_PROJECT when the violation exceeds it  */
   const int *orders;         /* nc classified orders, for the violation (copied)   */
+  int dense;                 /* adaptive steps: output points inside a step from   */
+                             /* the step's Hermite interpolant (see below)         */
+  double rtol, atol;         /* dense: the interpolant's tolerance per component   */
 } nz_run_config;
 
 /* The value g of event e (0-based) at (t, y); NZ_OK, or a status that makes
@@ -136,6 +159,16 @@ static inline int nz_event_crosses(int dir, double ga, double gb)
   if (ga == 0.0 || (gb != 0.0 && (ga > 0.0) == (gb > 0.0))) return 0;
   return dir == 0 || (dir > 0 && gb > ga) || (dir < 0 && gb < ga);
 }
+
+/* Dense output: the output points read from an interpolant, and those
+ * that its error control made step ends (each also cost a step taken again). */
+void nz_run_dense_stats(const nz_run *r, unsigned long *interpolated, unsigned long *forced);
+
+/* The state at tau in [ta, tb] of the last step (after NZ_RUN_EVENT), from
+ * its interpolant: NZ_OK with y (dim values) when the error estimate meets
+ * the tolerance, NZ_EARG when dense output is off or it does not (locate by
+ * integrating again), or the status of a failed evaluation of f. */
+int nz_run_interpolate(nz_run *r, const nz_system *s, double tau, double *y);
 
 /* The monotonic clock the pauses use (the one of mech.now()). */
 double nz_run_clock(void);
