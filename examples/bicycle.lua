@@ -342,7 +342,7 @@ print("(the paper: self-stable between the weave speed 4.292 and the capsize spe
 
 -- A ride of 1 s at 5 m/s after a push to the side: the lean dies out.
 local q0, qd0 = state(0, 0, 0.5, 0, -5 / p.rR)
-local tr = bicycle:simulate{ q0 = q0, qd0 = qd0, t1 = 1, dt = 0.05, rtol = 1e-8, atol = 1e-10, monitors = { energy = true } }
+local tr = bicycle:simulate{ q0 = q0, qd0 = qd0, t1 = 1, dt = 0.05, rtol = 1e-10, atol = 1e-12, monitors = { energy = true } }
 print()
 print(tr)
 local lo, hi = math.huge, -math.huge
