@@ -39,7 +39,8 @@ script_test() {
   if "$@"; then echo "ok 1 - $name"; else echo "not ok 1 - $name"; return 1; fi
 }
 
-specs="tests/jet_spec.lua tests/dualjet_spec.lua tests/branch_spec.lua tests/graph_diff_spec.lua tests/mech_spec.lua tests/constraints_spec.lua tests/constraint_checks_spec.lua tests/higher_order_spec.lua tests/simulate_spec.lua tests/simulate_options_spec.lua tests/simulate_loop_spec.lua tests/integrator_battery_spec.lua tests/stability_spec.lua tests/scene_spec.lua tests/help_spec.lua tests/examples_spec.lua tests/tutorial_spec.lua tests/cli_spec.lua tests/repl_spec.lua tests/errors_spec.lua tests/bicycle_spec.lua tests/record_spec.lua tests/taylor_spec.lua tests/simulate_taylor_spec.lua tests/workprecision_spec.lua"
+# Every spec in tests/ (a new one cannot be left out).
+specs=$(ls tests/*_spec.lua | sort | tr '\n' ' ')
 BUSTED="/usr/bin/busted -o TAP --helper=tests/busted_setup.lua"
 
 if [ "$mode" = plain ] || [ "$mode" = all ]; then
@@ -52,10 +53,12 @@ if [ "$mode" = plain ] || [ "$mode" = all ]; then
   suite "Lua specs (lua5.4 + build/nz.so)" env LUA_CPATH="build/?.so;;" NZLUA=build/nzlua \
     NZ_GRAPH_CHECK=1 NZLUA_CACHE="$log/cache" lua5.4 $BUSTED $specs
   # The same comparisons with every plan on doubles compiled to machine code
-  # at its first use (M and h, the constraint rows, q'' for a constant M).
+  # at its first use (M and h, the constraint rows, q'' for a constant M),
+  # and the series of Taylor's method too.
   suite "Graphs compiled to machine code (NZLUA_NATIVE=1)" env LUA_CPATH="build/?.so;;" NZLUA=build/nzlua \
     NZLUA_NATIVE=1 NZLUA_CACHE="$log/cache" lua5.4 $BUSTED tests/graph_diff_spec.lua tests/record_spec.lua \
-    tests/branch_spec.lua tests/constraint_checks_spec.lua
+    tests/branch_spec.lua tests/constraint_checks_spec.lua tests/taylor_spec.lua tests/simulate_taylor_spec.lua \
+    tests/taylor_constrained_spec.lua
 fi
 if [ "$mode" = sanitize ] || [ "$mode" = all ]; then
   export ASAN_OPTIONS=detect_leaks=1:abort_on_error=0:halt_on_error=1
