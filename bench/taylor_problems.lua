@@ -5,7 +5,7 @@
 -- conserve.  One row per method and tolerance: time (median of a few runs),
 -- steps, right-hand sides or series, the error against the reference, the
 -- drift of the invariant, and rk8pd's time over taylor's.  A method that
--- refuses a problem (taylor and constraints, until they land) prints its
+-- refuses a problem (taylor and a constraint of order 3, say) prints its
 -- reason in the row.
 --   build/nzlua bench/taylor_problems.lua
 local root = (arg and arg[0] or ""):match("^(.-)bench/[^/]*$") or ""

@@ -1,8 +1,9 @@
 -- taylor_spec.lua - Taylor's method on recorded systems without constraints
--- (issue 11, first part): the series of the motion against closed forms and
--- conservation laws, and runs against closed forms.  Not yet a method of
--- sys:simulate: the spec calls core.mech.motion_series / taylor_run.
--- Every bound says why it is what it is.
+-- (with constraints: taylor_constrained_spec.lua; through sys:simulate:
+-- simulate_taylor_spec.lua): the series of the motion against closed forms
+-- and conservation laws, runs against closed forms, and the series as
+-- machine code against the interpreter.  The spec calls
+-- core.mech.motion_series / taylor_run.  Every bound says why it is what it is.
 local h = require "tests.helpers"
 local nz = h.nz
 local mech = require("nz.core").mech
