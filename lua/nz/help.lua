@@ -264,6 +264,18 @@ Methods (t a number, q, qd, qdd tables of k numbers):
         integration again; their functions must be recordable).  Not with
         taylor: constraints of order 3 or more, project and baumgarte, the
         work monitor, step and h0 (each refused with the method to take).
+  sys:linearize{q =, qd = [, t, coords, speeds, hold]}  the motion linearized
+                             about an equilibrium or a steady motion: lin.state
+                             (names), lin.A (x' = A x, exact: jets, not finite
+                             differences), lin.M, lin.C, lin.K when every
+                             coordinate is kept with its speed, lin.residual
+                             (the kept accelerations there: 0 at a steady
+                             point), lin:eigenvalues() ({re, im}), lin:modes(),
+                             print(lin) (frequency, damping, stable or not).
+                             coords/speeds: names or numbers kept in the state
+                             (a coordinate left out must not appear: ignorable);
+                             hold: speeds held at their values (a motor).  Not
+                             yet for systems with constraints.
   print(sys)                 a summary]] },
   { name = "forms", section = "mechanics", usage = "nz.forms",
     summary = "the names of the forms of the equations sys:residual accepts" },

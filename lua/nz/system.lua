@@ -381,6 +381,8 @@ function System:report(opts) return require("nz.report").report(self, opts) end
 
 -- Integrate the motion (lua/nz/simulate.lua): returns a trajectory.
 function System:simulate(opts) return require("nz.simulate").simulate(self, opts) end
+-- The motion linearized about an equilibrium or a steady motion (nz/linearize.lua).
+function System:linearize(opts) return require("nz.linearize").linearize(self, opts) end
 
 -- ------------------------------------------------------------------ --
 -- Printing                                                             --

@@ -371,3 +371,38 @@ int nz_lu_solve(nz_lu *f, double *x)
   gsl_set_error_handler(old);
   return st ? NZ_ESINGULAR : NZ_OK;
 }
+
+int nz_eigen(int n, const double *A, double *re, double *im, double *vr, double *vi)
+{
+  gsl_matrix *a = gsl_matrix_alloc((size_t)n, (size_t)n);
+  gsl_vector_complex *eval = gsl_vector_complex_alloc((size_t)n);
+  gsl_matrix_complex *evec = vr ? gsl_matrix_complex_alloc((size_t)n, (size_t)n) : NULL;
+  gsl_eigen_nonsymmv_workspace *wv = vr ? gsl_eigen_nonsymmv_alloc((size_t)n) : NULL;
+  gsl_eigen_nonsymm_workspace *w = vr ? NULL : gsl_eigen_nonsymm_alloc((size_t)n);
+  int st = NZ_ENOMEM;
+  if (!a || !eval || (vr && (!evec || !wv)) || (!vr && !w)) goto done;
+  for (int i = 0; i < n; i++)
+    for (int j = 0; j < n; j++) gsl_matrix_set(a, (size_t)i, (size_t)j, A[(size_t)i * (size_t)n + (size_t)j]);
+  gsl_error_handler_t *old = gsl_set_error_handler_off();
+  int rc = vr ? gsl_eigen_nonsymmv(a, eval, evec, wv) : gsl_eigen_nonsymm(a, eval, w);
+  gsl_set_error_handler(old);
+  if (rc) { st = NZ_ERANGE; goto done; }
+  for (int i = 0; i < n; i++) {
+    gsl_complex z = gsl_vector_complex_get(eval, (size_t)i);
+    re[i] = GSL_REAL(z);
+    im[i] = GSL_IMAG(z);
+    for (int r = 0; vr && r < n; r++) {
+      gsl_complex v = gsl_matrix_complex_get(evec, (size_t)r, (size_t)i);
+      vr[(size_t)r * (size_t)n + (size_t)i] = GSL_REAL(v);
+      vi[(size_t)r * (size_t)n + (size_t)i] = GSL_IMAG(v);
+    }
+  }
+  st = NZ_OK;
+done:
+  if (a) gsl_matrix_free(a);
+  if (eval) gsl_vector_complex_free(eval);
+  if (evec) gsl_matrix_complex_free(evec);
+  if (wv) gsl_eigen_nonsymmv_free(wv);
+  if (w) gsl_eigen_nonsymm_free(w);
+  return st;
+}

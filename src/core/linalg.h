@@ -61,6 +61,12 @@ int nz_solve_svd(int N, const double *J, const double *rhs, double *x, double *r
 int nz_solve_square(int N, const double *J, const double *rhs, double *x, double rcond_min,
                     double *rcond);
 
+/* Eigenvalues (re[i] + i im[i]) and, when vr is not NULL, eigenvectors
+ * (column i of the row-major n x n matrices vr, vi) of the row-major real
+ * n x n matrix A, by GSL's nonsymmetric solver (Francis QR); unsorted.
+ * NZ_OK, NZ_ENOMEM, or NZ_ERANGE when the QR iteration did not converge. */
+int nz_eigen(int n, const double *A, double *re, double *im, double *vr, double *vi);
+
 /* An LU factorization (partial pivoting, GSL) kept for several right-hand
  * sides: the saddle-point matrix of a constrained Taylor step, factored once
  * per step and solved once per order.  nz_lu_new(N) holds matrices up to N x

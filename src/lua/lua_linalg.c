@@ -1,6 +1,7 @@
 /* lua_linalg.c - the dense linear algebra Lua needs (linalg.h, GSL): least
  * squares of minimum norm (projection, Tsenov's elimination) and singular
- * values (nz.check's rank test). */
+ * values (nz.check's rank test); eigenvalues and eigenvectors of a real
+ * matrix (sys:linearize). */
 #include <lauxlib.h>
 #include "core/linalg.h"
 #include "lua/lua_linalg.h"
@@ -56,8 +57,46 @@ static int ls_singular_values(lua_State *L)
   return 1;
 }
 
+/* eigen(A) -> { {re, im}, ... }, { {vector i as {re, im} pairs}, ... } of a
+ * square real matrix (a list of rows), unsorted (GSL's order). */
+static int ls_eigen(lua_State *L)
+{
+  int m, n;
+  double *A = read_matrix(L, 1, &m, &n, 0, "eigen");
+  luaL_argcheck(L, m == n, 1, "a square matrix expected");
+  double *w = lua_newuserdatauv(L, (2 * (size_t)n + 2 * (size_t)n * (size_t)n) * sizeof(double), 0);
+  double *re = w, *im = w + n, *vr = im + n, *vi = vr + (size_t)n * (size_t)n;
+  int st = nz_eigen(n, A, re, im, vr, vi);
+  if (st == NZ_ENOMEM) return luaL_error(L, "eigen: not enough memory");
+  if (st) return luaL_error(L, "eigen: the QR iteration did not converge (a matrix with entries not finite, or "
+                            "badly scaled)");
+  lua_createtable(L, n, 0);
+  for (int i = 0; i < n; i++) {
+    lua_createtable(L, 2, 0);
+    lua_pushnumber(L, re[i]);
+    lua_rawseti(L, -2, 1);
+    lua_pushnumber(L, im[i]);
+    lua_rawseti(L, -2, 2);
+    lua_rawseti(L, -2, i + 1);
+  }
+  lua_createtable(L, n, 0);
+  for (int i = 0; i < n; i++) {
+    lua_createtable(L, n, 0);
+    for (int r = 0; r < n; r++) {
+      lua_createtable(L, 2, 0);
+      lua_pushnumber(L, vr[(size_t)r * (size_t)n + (size_t)i]);
+      lua_rawseti(L, -2, 1);
+      lua_pushnumber(L, vi[(size_t)r * (size_t)n + (size_t)i]);
+      lua_rawseti(L, -2, 2);
+      lua_rawseti(L, -2, r + 1);
+    }
+    lua_rawseti(L, -2, i + 1);
+  }
+  return 2;
+}
+
 static const luaL_Reg linalg_functions[] = {
-  { "lstsq", ls_lstsq }, { "singular_values", ls_singular_values }, { NULL, NULL }
+  { "lstsq", ls_lstsq }, { "singular_values", ls_singular_values }, { "eigen", ls_eigen }, { NULL, NULL }
 };
 
 /* Add the functions to the table on top of the stack (core.mech). */
