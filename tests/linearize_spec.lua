@@ -96,4 +96,23 @@ describe("sys:linearize without constraints", function()
       { q = { 0.3, 0 }, qd = { 0, 2 }, coords = { "th" } })
     h.checkerror("'x' is not a coordinate", dp.linearize, dp, { q = { 0, 0 }, coords = { "x" } })
   end)
+
+  it("sys:equilibrium: Newton from a guess to the hoop's off-axis equilibrium and to the double pendulum's inverted one", function()
+    local W = 4
+    local q, rep = hoop:equilibrium{ q = { 0.8, 0 }, qd = { 0, W }, coords = { "th" } }
+    -- cos th* = g / W^2; Newton stops at kept accelerations <= 1e-12
+    -- (g-sized terms): th within ~1e-13 of it
+    assert.near(math.acos(g / (W * W)), q[1], 1e-12)
+    assert(rep.residual <= 1e-12 and rep.iterations >= 1)
+    local dp = double_pendulum()
+    q = dp:equilibrium{ q = { 3.0, -3.2 } }
+    assert.near(math.pi, q[1], 1e-12)
+    assert.near(-math.pi, q[2], 1e-12)
+    -- the inverted double pendulum is unstable: two modes grow
+    local grow = 0
+    for _, e in ipairs(dp:linearize{ q = q }:eigenvalues()) do if e[1] > 1e-9 then grow = grow + 1 end end
+    assert.are.equal(2, grow)
+    h.checkerror("sys:equilibrium 'driven hoop': the accelerations do not depend on the kept coordinates",
+      hoop.equilibrium, hoop, { q = { 0.8, 0 }, qd = { 0, W } })
+  end)
 end)

@@ -276,6 +276,10 @@ Methods (t a number, q, qd, qdd tables of k numbers):
                              (a coordinate left out must not appear: ignorable);
                              hold: speeds held at their values (a motor).  Not
                              yet for systems with constraints.
+  sys:equilibrium{q = guess [, qd, t, coords, tol, maxit]}  an equilibrium or
+                             a steady motion near the guess: Newton on the kept
+                             accelerations in the kept coordinates (the speeds
+                             held as given); returns q and {iterations, residual}
   print(sys)                 a summary]] },
   { name = "forms", section = "mechanics", usage = "nz.forms",
     summary = "the names of the forms of the equations sys:residual accepts" },

@@ -1,5 +1,6 @@
 -- nz/linearize.lua - sys:linearize{...}: the motion linearized about an
--- equilibrium or a steady motion, x' = A x, with its eigenvalues (issue 12,
+-- equilibrium or a steady motion, x' = A x, with its eigenvalues; and
+-- sys:equilibrium{...}, Newton's method for one near a guess (issue 12,
 -- first part: systems without constraints).
 --
 -- A is exact: the rows of q'' are the exact Jacobian of the accelerations
@@ -20,8 +21,10 @@ local M = {}
 local Linear = {}
 Linear.__index = Linear
 
+local method = "linearize"   -- the public function running, for messages
+
 local function fail(sys, fmt, ...)
-  error(("%ssys:linearize '%s': " .. fmt):format(require("nz.where").user_where(), sys.name, ...), 0)
+  error(("%ssys:%s '%s': " .. fmt):format(require("nz.where").user_where(), method, sys.name, ...), 0)
 end
 
 -- Coordinate numbers from names or 1-based indices.
@@ -46,6 +49,7 @@ local function indices(sys, list, what)
 end
 
 function M.linearize(sys, opts)
+  method = "linearize"
   opts = opts or {}
   local k = sys.k
   if sys.nc > 0 then
@@ -134,6 +138,56 @@ function M.linearize(sys, opts)
     end
   end
   return lin
+end
+
+-- An equilibrium or a steady motion near a guess: Newton on the kept
+-- accelerations q''_i(q, qd) = 0 (i in coords) in the kept coordinates,
+-- the others and every speed held at their values, with the exact
+-- Jacobian (the jets').  Returns q and a report {iterations, residual}; a
+-- Jacobian that is singular there, or no convergence in maxit steps, is an
+-- error that says so with the last iterate.
+function M.equilibrium(sys, opts)
+  method = "equilibrium"
+  opts = opts or {}
+  local k = sys.k
+  if sys.nc > 0 then
+    fail(sys, "systems with constraints are not handled yet (this one has %d): linearize the free system", sys.nc)
+  end
+  if type(opts.q) ~= "table" or #opts.q ~= k then fail(sys, "q: a guess of %d numbers expected", k) end
+  local t, q, qd = opts.t or 0, { table.unpack(opts.q) }, opts.qd
+  if not qd then qd = {}; for i = 1, k do qd[i] = 0 end end
+  local all = {}
+  for i = 1, k do all[i] = i end
+  local coords = indices(sys, opts.coords or all, "coords")
+  local tol, maxit = opts.tol or 1e-12, opts.maxit or 50
+  local ode = mech.ode_new(sys.engine, { method = "rk8pd", rtol = 1e-10, atol = 1e-10 })
+  local n = #coords
+  local res = math.huge
+  for it = 0, maxit do
+    local y = {}
+    for i = 1, k do y[i], y[k + i] = q[i], qd[i] end
+    local qdd = mech.ode_accel(ode, sys.engine, t, y)
+    res = 0
+    local b = {}
+    for r, i in ipairs(coords) do b[r] = -qdd[i]; res = math.max(res, math.abs(qdd[i])) end
+    if res <= tol then return q, { iterations = it, residual = res } end
+    if it == maxit then break end
+    local J = mech.ode_jacobian(ode, sys.engine, t, y)
+    local Jk = {}
+    for r, i in ipairs(coords) do
+      Jk[r] = {}
+      for c, j in ipairs(coords) do Jk[r][c] = J[k + i][j] end
+    end
+    local sv = mech.singular_values(Jk)
+    if sv[#sv] <= 1e-13 * sv[1] then
+      fail(sys, "the accelerations do not depend on the kept coordinates at q = {%s} (their Jacobian is singular): "
+        .. "a neutral direction; keep fewer coordinates, or start elsewhere", table.concat(q, ", "))
+    end
+    local dx = mech.lstsq(Jk, b)
+    for c, j in ipairs(coords) do q[j] = q[j] + dx[c] end
+  end
+  fail(sys, "Newton's method did not reach an equilibrium in %d steps (kept accelerations %.3g at q = {%s}): "
+    .. "start nearer, or raise maxit", maxit, res, table.concat(q, ", "))
 end
 
 -- Eigenvalues {re, im}, sorted by growth rate (re, largest first), then by
