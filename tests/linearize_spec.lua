@@ -88,7 +88,7 @@ describe("sys:linearize without constraints", function()
   it("says what it refuses: constraints, a coordinate left out that appears, a speed neither kept nor held", function()
     local cs = require "tests.constraint_systems"
     local pend = cs.cartesian_pendulum().sys
-    h.checkerror("systems with constraints are not linearized yet", pend.linearize, pend, { q = { 0, -1 } })
+    h.checkerror("systems with constraints are not handled yet", pend.linearize, pend, { q = { 0, -1 } })
     local dp = double_pendulum()
     h.checkerror("coordinate 'b' is left out but appears in the equation of a''", dp.linearize, dp,
       { q = { 0, 0 }, coords = { "a" } })

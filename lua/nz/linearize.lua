@@ -48,21 +48,29 @@ local function indices(sys, list, what)
   return out, seen
 end
 
-function M.linearize(sys, opts)
-  method = "linearize"
-  opts = opts or {}
+-- What both public functions read first: the point (t, q, qd; qd at rest
+-- by default) and the kept coordinates (all by default).
+local function start(sys, opts, name)
+  method = name
   local k = sys.k
   if sys.nc > 0 then
-    fail(sys, "systems with constraints are not linearized yet (this one has %d): the elimination of the dependent "
-      .. "coordinates and speeds comes next; linearize the free system, or see examples/bicycle.lua", sys.nc)
+    fail(sys, "systems with constraints are not handled yet (this one has %d): the elimination of the dependent "
+      .. "coordinates and speeds comes next; take the free system, or see examples/bicycle.lua", sys.nc)
   end
   if type(opts.q) ~= "table" or #opts.q ~= k then fail(sys, "q: a table of %d numbers expected", k) end
-  local t, q, qd = opts.t or 0, opts.q, opts.qd
+  local qd = opts.qd
   if not qd then qd = {}; for i = 1, k do qd[i] = 0 end end
   if #qd ~= k then fail(sys, "qd: a table of %d numbers expected", k) end
   local all = {}
   for i = 1, k do all[i] = i end
   local coords, kept = indices(sys, opts.coords or all, "coords")
+  return opts.t or 0, opts.q, qd, coords, kept
+end
+
+function M.linearize(sys, opts)
+  opts = opts or {}
+  local k = sys.k
+  local t, q, qd, coords, kept = start(sys, opts, "linearize")
   local speeds, moving = indices(sys, opts.speeds or coords, "speeds")
   local hold, held = indices(sys, opts.hold or {}, "hold")
   for _, i in ipairs(hold) do
@@ -147,21 +155,12 @@ end
 -- Jacobian that is singular there, or no convergence in maxit steps, is an
 -- error that says so with the last iterate.
 function M.equilibrium(sys, opts)
-  method = "equilibrium"
   opts = opts or {}
   local k = sys.k
-  if sys.nc > 0 then
-    fail(sys, "systems with constraints are not handled yet (this one has %d): linearize the free system", sys.nc)
-  end
-  if type(opts.q) ~= "table" or #opts.q ~= k then fail(sys, "q: a guess of %d numbers expected", k) end
-  local t, q, qd = opts.t or 0, { table.unpack(opts.q) }, opts.qd
-  if not qd then qd = {}; for i = 1, k do qd[i] = 0 end end
-  local all = {}
-  for i = 1, k do all[i] = i end
-  local coords = indices(sys, opts.coords or all, "coords")
+  local t, guess, qd, coords = start(sys, opts, "equilibrium")
+  local q = { table.unpack(guess) }
   local tol, maxit = opts.tol or 1e-12, opts.maxit or 50
   local ode = mech.ode_new(sys.engine, { method = "rk8pd", rtol = 1e-10, atol = 1e-10 })
-  local n = #coords
   local res = math.huge
   for it = 0, maxit do
     local y = {}
