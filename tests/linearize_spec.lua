@@ -53,6 +53,12 @@ describe("sys:linearize without constraints", function()
     assert.near(math.sqrt(g / l * (2 + math.sqrt(2))), w[2], 1e-12)
     for _, r in ipairs(grow) do assert(math.abs(r) <= 1e-12, ("growth rate %.3g of a conservative system"):format(r)) end
     assert.truthy(tostring(lin):find("neutral", 1, true))
+    -- the mode shapes: b / a = sqrt 2 in phase (slow), -sqrt 2 (fast)
+    local modes = lin:modes()
+    table.sort(modes, function(x, y) return x.omega < y.omega end)
+    local function ratio(md) return md.shape[2] / md.shape[1] * (math.abs(md.phase[2] - md.phase[1]) > 1.5 and -1 or 1) end
+    assert.near(math.sqrt(2), ratio(modes[1]), 1e-10)
+    assert.near(-math.sqrt(2), ratio(modes[2]), 1e-10)
   end)
 
   it("the inverted pendulum: one mode grows at sqrt(g/l)", function()

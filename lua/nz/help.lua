@@ -271,7 +271,8 @@ Methods (t a number, q, qd, qdd tables of k numbers):
                              coordinate is kept with its speed, lin.residual
                              (the kept accelerations there: 0 at a steady
                              point), lin:eigenvalues() ({re, im}), lin:modes(),
-                             print(lin) (frequency, damping, stable or not).
+                             print(lin) (frequency, damping, stable or not,
+                             the mode's shape in the kept coordinates).
                              coords/speeds: names or numbers kept in the state
                              (a coordinate left out must not appear: ignorable);
                              hold: speeds held at their values (a motor).  Not

@@ -208,15 +208,38 @@ end
 
 -- One row per mode: the eigenvalue, its frequency (rad/s and Hz), damping
 -- ratio, and whether it grows.
+-- Its shape: the eigenvector's kept coordinates, turned so that the largest
+-- is real and 1 (the phase of each relative to it in `phase`, radians).
+local function shape(self, v)
+  local ncoord = #self.coords
+  local big, at = -1, 1
+  for i = 1, ncoord do
+    local m = math.sqrt(v[i][1] ^ 2 + v[i][2] ^ 2)
+    if m > big then big, at = m, i end
+  end
+  local amp, phase = {}, {}
+  local a0 = math.atan(v[at][2], v[at][1])
+  for i = 1, ncoord do
+    amp[i] = big > 0 and math.sqrt(v[i][1] ^ 2 + v[i][2] ^ 2) / big or 0
+    local p = math.atan(v[i][2], v[i][1]) - a0
+    p = (p + math.pi) % (2 * math.pi) - math.pi
+    if amp[i] < 1e-12 then p = 0 end
+    phase[i] = p
+  end
+  return amp, phase
+end
+
 function Linear:modes()
   local rows = {}
-  for _, e in ipairs(self:eigenvalues()) do
+  local ev = self:eigenvalues()
+  for n, e in ipairs(ev) do
     local re, im = e[1], e[2]
     if im >= 0 then
       local w = math.sqrt(re * re + im * im)
+      local amp, phase = shape(self, self.vectors[n])
       rows[#rows + 1] = { re = re, im = im, omega = math.abs(im), hz = math.abs(im) / (2 * math.pi),
         damping = w > 0 and -re / w or 0, stable = re < -1e-12 * (1 + w) and "stable" or re > 1e-12 * (1 + w)
-          and "unstable" or "neutral" }
+          and "unstable" or "neutral", shape = amp, phase = phase }
     end
   end
   return rows
@@ -229,10 +252,17 @@ function Linear:__tostring()
   if self.residual > 1e-9 then
     lines[#lines + 1] = ("  not an equilibrium or a steady motion: the kept accelerations are %.3g there"):format(self.residual)
   end
-  local t = { { "eigenvalue", "frequency (rad/s)", "(Hz)", "damping", "" } }
+  local names = {}
+  for n, i in ipairs(self.coords) do names[n] = self.system.coords[i] end
+  local t = { { "eigenvalue", "frequency (rad/s)", "(Hz)", "damping", "", "shape (" .. table.concat(names, ", ") .. ")" } }
   for _, m in ipairs(self:modes()) do
+    local sh = {}
+    for i, a in ipairs(m.shape) do
+      sh[i] = math.abs(m.phase[i]) > 3.1 and ("%.4g"):format(-a) or math.abs(m.phase[i]) < 0.04 and ("%.4g"):format(a)
+        or ("%.4g@%.2g"):format(a, m.phase[i])
+    end
     t[#t + 1] = { m.im > 0 and ("%.6g +- %.6gi"):format(m.re, m.im) or ("%.6g"):format(m.re), ("%.6g"):format(m.omega),
-      ("%.6g"):format(m.hz), ("%.3g"):format(m.damping), m.stable }
+      ("%.6g"):format(m.hz), ("%.3g"):format(m.damping), m.stable, table.concat(sh, ", ") }
   end
   lines[#lines + 1] = require("nz.system").table_text(t, "  ")
   return table.concat(lines, "\n")
