@@ -13,9 +13,11 @@
 -- axes: x forward, y to the right, z down; lean and steer positive to the
 -- right.
 --
--- The example linearizes the nonlinear equations numerically about upright
--- straight running and prints the eigenvalues of lean and steer at a few
--- speeds, beside the paper's, then rides 1 s at 5 m/s.
+-- The example linearizes the nonlinear equations about upright straight
+-- running (sys:linearize, exact), prints the benchmark's matrices M, C1,
+-- K0, K2 beside the paper's, the eigenvalues of lean and steer for v = 0..10
+-- m/s (the paper's Table 2), the weave and capsize speeds (sys:eigen_sweep)
+-- and a plot of the eigenvalues against the speed, then rides 1 s at 5 m/s.
 --
 -- Run: build/nzlua examples/bicycle.lua.  Loaded with an argument
 -- (loadfile(path)("module")) it returns the model and the tools below
@@ -219,79 +221,37 @@ local function state(lean, steer, leand, steerd, rear_rate)
   return q, qd
 end
 
--- The linearization about upright straight running at speed v: central
--- differences of the constrained accelerations of lean and steer with
--- respect to (lean, steer, lean', steer'), the rear wheel's rate held at
--- -v/rR (the speed's own perturbation decouples at first order).  Returns
--- K and C of  (lean, steer)'' = K (lean, steer) + C (lean, steer)'.
-local function linearize(v, h)
-  h = h or 1e-5
-  local K, C = { {}, {} }, { {}, {} }
-  for j = 1, 4 do
-    local acc = {}
-    for s, sign in ipairs{ 1, -1 } do
-      local x = { 0, 0, 0, 0 }
-      x[j] = sign * h
-      local q, qd = state(x[1], x[2], x[3], x[4], -v / p.rR)
-      local qdd = bicycle:accel(0, q, qd)
-      acc[s] = { qdd[LEAN], qdd[STEER] }
-    end
-    for i = 1, 2 do
-      local d = (acc[1][i] - acc[2][i]) / (2 * h)
-      if j <= 2 then K[i][j] = d else C[i][j - 2] = d end
-    end
-  end
-  return K, C
+-- The linearization about upright straight running at speed v
+-- (sys:linearize: exact, from the jets, no differences): lean and steer
+-- kept with their rates, the rear wheel's rate held at -v/rR (the speed's
+-- own perturbation decouples at first order), pitch solved from the front
+-- wheel's contact, the other rates from the rolling constraints, and x, y,
+-- yaw and the wheel angles left out (they do not appear: checked).
+local function linearize(v)
+  return bicycle:linearize{ q = { 0, 0, 0, 0, 0, 0, 0, 0 }, qd = { 0, 0, 0, 0, 0, -v / p.rR, 0, 0 },
+    coords = { "lean", "steer" }, speeds = { "lean", "steer" }, hold = { "rear" } }
 end
 
--- Eigenvalues of [[0, I], [K, C]]: the roots of det(s^2 - s C - K), a
--- quartic, by Durand-Kerner's iteration in complex arithmetic.
-local function quartic(K, C)
-  return { 1, -(C[1][1] + C[2][2]), C[1][1] * C[2][2] - K[1][1] - K[2][2] - C[1][2] * C[2][1],
-    C[1][1] * K[2][2] + C[2][2] * K[1][1] - C[1][2] * K[2][1] - K[1][2] * C[2][1],
-    K[1][1] * K[2][2] - K[1][2] * K[2][1] }
+-- The benchmark's matrices of M q'' + v C1 q' + (g K0 + v^2 K2) q = 0 from
+-- two linearizations: K = g K0 at v = 0, and C = C1, K = g K0 + K2 at v = 1.
+local function matrices()
+  local l0, l1 = linearize(0), linearize(1)
+  local C1, K0, K2 = { {}, {} }, { {}, {} }, { {}, {} }
+  for i = 1, 2 do for j = 1, 2 do
+    C1[i][j], K0[i][j], K2[i][j] = l1.C[i][j], l0.K[i][j] / p.g, l1.K[i][j] - l0.K[i][j]
+  end end
+  return l0.M, C1, K0, K2
 end
-local function cmul(a, b) return { a[1] * b[1] - a[2] * b[2], a[1] * b[2] + a[2] * b[1] } end
-local function cdiv(a, b) local d = b[1] ^ 2 + b[2] ^ 2; return { (a[1] * b[1] + a[2] * b[2]) / d, (a[2] * b[1] - a[1] * b[2]) / d } end
-local function roots(coef)
-  local n = #coef - 1
-  local z = {}
-  for i = 1, n do z[i] = { 0.9 * math.cos(2 * math.pi * i / n + 0.4) * 10, 0.9 * math.sin(2 * math.pi * i / n + 0.4) * 10 } end
-  for _ = 1, 500 do
-    local moved = 0
-    for i = 1, n do
-      local f = { coef[1], 0 }
-      for k = 2, n + 1 do f = cmul(f, z[i]); f[1] = f[1] + coef[k] end
-      local d = { 1, 0 }
-      for j = 1, n do if j ~= i then d = cmul(d, { z[i][1] - z[j][1], z[i][2] - z[j][2] }) end end
-      local step = cdiv(f, d)
-      z[i] = { z[i][1] - step[1], z[i][2] - step[2] }
-      moved = math.max(moved, math.abs(step[1]) + math.abs(step[2]))
-    end
-    if moved < 1e-15 then break end
-  end
-  -- The coefficients are real: a real root's imaginary part is rounding (set
-  -- it to 0) and complex roots come in pairs (make them exact conjugates, so
-  -- that each pair sorts as a - bi, a + bi).
-  for i = 1, n do if math.abs(z[i][2]) < 1e-9 * (1 + math.abs(z[i][1])) then z[i][2] = 0 end end
-  for i = 1, n do
-    if z[i][2] > 0 then
-      local best, j = math.huge, nil
-      for k = 1, n do
-        local d = math.abs(z[k][1] - z[i][1]) + math.abs(z[k][2] + z[i][2])
-        if k ~= i and z[k][2] < 0 and d < best then best, j = d, k end
-      end
-      local re, im = (z[i][1] + z[j][1]) / 2, (z[i][2] - z[j][2]) / 2
-      z[i], z[j] = { re, im }, { re, -im }
-    end
-  end
-  table.sort(z, function(a, b) if a[1] ~= b[1] then return a[1] < b[1] end return a[2] < b[2] end)
-  return z
-end
-local function eigenvalues(K, C) return roots(quartic(K, C)) end
 
-local model = { system = bicycle, params = p, state = state, linearize = linearize, eigenvalues = eigenvalues,
-  quartic = quartic, roots = roots, front_contact_height = front_contact_height,
+-- The eigenvalues against the speed, and where the motion changes stability.
+local function sweep(values, tol)
+  return bicycle:eigen_sweep{ parameter = "v", values = values, tol = tol,
+    at = function(v) return { q = { 0, 0, 0, 0, 0, 0, 0, 0 }, qd = { 0, 0, 0, 0, 0, -v / p.rR, 0, 0 },
+      coords = { "lean", "steer" }, speeds = { "lean", "steer" }, hold = { "rear" } } end }
+end
+
+local model = { system = bicycle, params = p, state = state, linearize = linearize, matrices = matrices, sweep = sweep,
+  front_contact_height = front_contact_height,
   front_contact_velocity = front_contact_velocity, rear_rolling = rear_rolling, frames = frames, omegas = omegas, bodies = bodies,
   index = { x = X, y = Y, yaw = YAW, lean = LEAN, pitch = PITCH, rear = REAR, steer = STEER, front = FRONT } }
 if ... == "module" then return model end
@@ -304,41 +264,52 @@ print(why)
 -- What recording, differentiation and a constrained acceleration cost:
 -- `make bench` (bench/bicycle.lua).
 
--- The paper's linearized equations M q'' + v C1 q' + (g K0 + v^2 K2) q = 0
--- with the matrices the paper publishes for the benchmark: the reference.
-local Mp = { { 80.81722, 2.31941332208709 }, { 2.31941332208709, 0.29784188199686 } }
-local C1 = { { 0, 33.86641391492494 }, { -0.85035641456978, 1.68540397397560 } }
-local K0 = { { -80.95, -2.59951685249872 }, { -2.59951685249872, -0.80329488458618 } }
-local K2 = { { 0, 76.59734589573222 }, { 0, 2.65431523794604 } }
-local function paper(v)
-  local det = Mp[1][1] * Mp[2][2] - Mp[1][2] * Mp[2][1]
-  local Mi = { { Mp[2][2] / det, -Mp[1][2] / det }, { -Mp[2][1] / det, Mp[1][1] / det } }
-  local K, C = { {}, {} }, { {}, {} }
-  for i = 1, 2 do for j = 1, 2 do
-    K[i][j] = -(Mi[i][1] * (p.g * K0[1][j] + v * v * K2[1][j]) + Mi[i][2] * (p.g * K0[2][j] + v * v * K2[2][j]))
-    C[i][j] = -v * (Mi[i][1] * C1[1][j] + Mi[i][2] * C1[2][j])
-  end end
-  return eigenvalues(K, C)
-end
-local function listed(zs)   -- a complex pair once, as a +- bi
-  local out = {}
-  for _, z in ipairs(zs) do
-    if z[2] == 0 then out[#out + 1] = ("%.6f"):format(z[1])
-    elseif z[2] > 0 then out[#out + 1] = ("%.6f+-%.6fi"):format(z[1], z[2]) end
+-- The paper's matrices for the benchmark (its section 5, 14 digits), beside
+-- those of the nonlinear model linearized at upright straight running.
+local published = {
+  M = { { 80.81722, 2.31941332208709 }, { 2.31941332208709, 0.29784188199686 } },
+  C1 = { { 0, 33.86641391492494 }, { -0.85035641456978, 1.68540397397560 } },
+  K0 = { { -80.95, -2.59951685249872 }, { -2.59951685249872, -0.80329488458618 } },
+  K2 = { { 0, 76.59734589573222 }, { 0, 2.65431523794604 } },
+}
+print()
+print(linearize(5))
+print("\nM q'' + v C1 q' + (g K0 + v^2 K2) q = 0 in q = (lean, steer): nzlua's linearization and the paper's")
+local mine = {}
+mine.M, mine.C1, mine.K0, mine.K2 = matrices()
+for _, name in ipairs{ "M", "C1", "K0", "K2" } do
+  local worst = 0
+  for i = 1, 2 do
+    for j = 1, 2 do worst = math.max(worst, math.abs(mine[name][i][j] - published[name][i][j])) end
+    print(("%-3s %20.14f %20.14f    paper %20.14f %20.14f"):format(i == 1 and name or "", mine[name][i][1], mine[name][i][2],
+      published[name][i][1], published[name][i][2]))
   end
-  return table.concat(out, "  ")
+  print(("    largest difference %.1e"):format(worst))
 end
 
-print("\neigenvalues of lean and steer about upright straight running (1/s)")
-print(("%6s  %-50s  %s"):format("v m/s", "nzlua (linearized numerically)", "vs the paper's"))
-for _, v in ipairs{ 0, 2, 4, 4.5, 5, 6, 8 } do
-  local mine, ref = eigenvalues(linearize(v)), paper(v)
-  local worst = 0
-  for i = 1, 4 do worst = math.max(worst, math.abs(mine[i][1] - ref[i][1]) + math.abs(mine[i][2] - ref[i][2])) end
-  local stable = mine[4][1] < 0 and "  self-stable" or ""
-  print(("%6.2f  %-50s  %.1e%s"):format(v, listed(mine), worst, stable))
+-- The paper's Table 2 from v = 0 to 10 m/s, and the speeds where upright
+-- running becomes stable (weave) and unstable again (capsize).
+local values = {}
+for i = 0, 100 do values[#values + 1] = i / 10 end
+local sw = sweep(values, 1e-12)
+print()
+print(("%6s  %s"):format("v m/s", "eigenvalues of lean and steer (1/s)"))
+for _, row in ipairs(sw.rows) do
+  if row.value == math.floor(row.value) then
+    local out = {}
+    for _, z in ipairs(row.eigenvalues) do
+      if z[2] == 0 then out[#out + 1] = ("%.14f"):format(z[1])
+      elseif z[2] > 0 then out[#out + 1] = ("%.14f +- %.14fi"):format(z[1], z[2]) end
+    end
+    print(("%6.2f  %s  %s"):format(row.value, table.concat(out, "  "), row.status))
+  end
 end
-print("(the paper: self-stable between the weave speed 4.292 and the capsize speed 6.024 m/s)")
+for _, c in ipairs(sw.crossings) do
+  print(("%s speed %.14f m/s: %s -> %s"):format(c.to == "stable" and "weave" or "capsize", c.value, c.from, c.to))
+end
+print("(the paper, Table 2: weave speed 4.29238253634111, capsize speed 6.02426201538837 m/s)")
+local drawn, why = pcall(sw.plot, sw, { width = 100, height = 28 })   -- in the terminal (gnuplot)
+if not drawn then print(why) end
 
 -- A ride of 1 s at 5 m/s after a push to the side: the lean dies out.
 local q0, qd0 = state(0, 0, 0.5, 0, -5 / p.rR)

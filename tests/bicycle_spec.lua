@@ -4,8 +4,10 @@
 -- Proc. R. Soc. A 463, 1955-1982: their linearized equations
 --   M q'' + v C1 q' + (g K0 + v^2 K2) q = 0,   q = (lean, steer),
 -- with the matrices published for the benchmark (14 digits), the eigenvalues of their
--- Table 2, and the weave and capsize speeds.  The nonlinear model is
--- linearized numerically by central differences of sys:accel.  Its
+-- Table 2 (every speed, every printed digit), and the weave and capsize
+-- speeds.  The nonlinear model is linearized by sys:linearize (exact: jets
+-- through the constrained accelerations, nothing differenced) and swept by
+-- sys:eigen_sweep.  Its
 -- kinematics are checked against the rotation matrices with jets, and a ride
 -- of 1 s (#slow: about 16 s today) against the linear motion, the
 -- constraints and the energy.
@@ -20,9 +22,9 @@ local sys, p, I = bike.system, bike.params, bike.index
 -- and its g (Table 1).
 local g = 9.81
 local Mp = { { 80.81722, 2.31941332208709 }, { 2.31941332208709, 0.29784188199686 } }
-local C1 = { { 0, 33.86641391492494 }, { -0.85035641456978, 1.68540397397560 } }
-local K0 = { { -80.95, -2.59951685249872 }, { -2.59951685249872, -0.80329488458618 } }
-local K2 = { { 0, 76.59734589573222 }, { 0, 2.65431523794604 } }
+local C1p = { { 0, 33.86641391492494 }, { -0.85035641456978, 1.68540397397560 } }
+local K0p = { { -80.95, -2.59951685249872 }, { -2.59951685249872, -0.80329488458618 } }
+local K2p = { { 0, 76.59734589573222 }, { 0, 2.65431523794604 } }
 
 -- (lean, steer)'' = K q + C q' from the paper: K = -M^-1 (g K0 + v^2 K2), C = -v M^-1 C1.
 local function paper(v)
@@ -30,11 +32,27 @@ local function paper(v)
   local Mi = { { Mp[2][2] / det, -Mp[1][2] / det }, { -Mp[2][1] / det, Mp[1][1] / det } }
   local K, C = { {}, {} }, { {}, {} }
   for i = 1, 2 do for j = 1, 2 do
-    K[i][j] = -(Mi[i][1] * (g * K0[1][j] + v * v * K2[1][j]) + Mi[i][2] * (g * K0[2][j] + v * v * K2[2][j]))
-    C[i][j] = -v * (Mi[i][1] * C1[1][j] + Mi[i][2] * C1[2][j])
+    K[i][j] = -(Mi[i][1] * (g * K0p[1][j] + v * v * K2p[1][j]) + Mi[i][2] * (g * K0p[2][j] + v * v * K2p[2][j]))
+    C[i][j] = -v * (Mi[i][1] * C1p[1][j] + Mi[i][2] * C1p[2][j])
   end end
   return K, C
 end
+
+-- Table 2 of the paper: the eigenvalues {re, im} at v = 0, 1, ..., 10 m/s,
+-- 14 decimals as published (a complex pair as both members).
+local table2 = {
+  [0] = { { -3.13164324790656, 0 }, { 3.13164324790656, 0 }, { -5.53094371765393, 0 }, { 5.53094371765393, 0 } },
+  { { -3.13423125066578, 0 }, { 3.52696170990070, -0.8077402751993 }, { 3.52696170990070, 0.8077402751993 }, { -7.11008014637442, 0 } },
+  { { -3.07158645641514, 0 }, { 2.68234517512745, -1.68066296590675 }, { 2.68234517512745, 1.68066296590675 }, { -8.67387984831735, 0 } },
+  { { -2.63366137253667, 0 }, { 1.70675605663975, -2.31582447384325 }, { 1.70675605663975, 2.31582447384325 }, { -10.35101467245920, 0 } },
+  { { -1.42944427361326, 0 }, { 0.41325331521125, -3.07910818603206 }, { 0.41325331521125, 3.07910818603206 }, { -12.15861426576450, 0 } },
+  { { -0.32286642900409, 0 }, { -0.77534188219585, -4.46486771378823 }, { -0.77534188219585, 4.46486771378823 }, { -14.07838969279820, 0 } },
+  { { -0.00406690076970, 0 }, { -1.52644486584142, -5.87673060598709 }, { -1.52644486584142, 5.87673060598709 }, { -16.08537123098030, 0 } },
+  { { 0.10268170574766, 0 }, { -2.13875644258362, -7.19525913329805 }, { -2.13875644258362, 7.19525913329805 }, { -18.15788466125262, 0 } },
+  { { 0.14327879765713, 0 }, { -2.69348683581097, -8.46037971396931 }, { -2.69348683581097, 8.46037971396931 }, { -20.27940894394569, 0 } },
+  { { 0.15790184030917, 0 }, { -3.21675402252485, -9.69377351531791 }, { -3.21675402252485, 9.69377351531791 }, { -22.43788559040858, 0 } },
+  { { 0.16105338653172, 0 }, { -3.72016840437287, -10.90681139476287 }, { -3.72016840437287, 10.90681139476287 }, { -24.62459635017404, 0 } },
+}
 
 local function max_abs(m) local s = 0; for i = 1, 2 do for j = 1, 2 do s = math.max(s, math.abs(m[i][j])) end end; return s end
 local function max_diff(a, b) local s = 0; for i = 1, 2 do for j = 1, 2 do s = math.max(s, math.abs(a[i][j] - b[i][j])) end end; return s end
@@ -120,71 +138,101 @@ describe("the bicycle against the benchmark's linearized equations", function()
     assert(max_diff(M, Mp) <= 1e-13 * max_abs(Mp), ("M = {{%.14g, %.14g}, {%.14g, %.14g}}"):format(M[1][1], M[1][2], M[2][1], M[2][2]))
   end)
 
-  it("K and C of the numerical linearization match -M^-1 (g K0 + v^2 K2) and -v M^-1 C1 at 0, 3, 5 and 8 m/s", function()
-    for _, v in ipairs{ 0, 3, 5, 8 } do
-      local K, C = bike.linearize(v)
-      local Kp, Cp = paper(v)
-      -- Central differences with h = 1e-5: truncation ~ h^2 f'''/6, measured
-      -- 3e-10 of the largest entry at 5 m/s; the bound leaves a factor 30.
-      local scale = math.max(max_abs(Kp), max_abs(Cp))
-      assert(max_diff(K, Kp) <= 1e-8 * scale, ("v = %g: K off by %.3g"):format(v, max_diff(K, Kp)))
-      assert(max_diff(C, Cp) <= 1e-8 * scale, ("v = %g: C off by %.3g"):format(v, max_diff(C, Cp)))
+  it("sys:linearize at upright straight running: what it keeps, solves and drops", function()
+    local lin = bike.linearize(5)
+    assert.are.same({ "lean", "steer", "lean'", "steer'" }, lin.state)
+    local function named(list) local out = {}; for n, i in ipairs(list) do out[n] = sys.coords[i] end; return out end
+    assert.are.same({ "pitch" }, named(lin.dependent))
+    assert.are.same({ "x", "y", "yaw", "pitch", "front" }, named(lin.dependent_speeds))
+    assert.are.same({ "rear" }, named(lin.hold))
+    -- the dependent rates solved at the point: the bicycle rolls straight at
+    -- v = 5 (x' = v), the front wheel at -v/rF
+    assert.near(5, lin.qd[I.x], 1e-13)
+    assert.near(-5 / p.rF, lin.qd[I.front], 1e-12)
+    assert(lin.residual <= 1e-12, "upright straight running is a steady motion")
+    local text = tostring(lin)
+    assert.truthy(text:find("dependent speeds (from the velocity constraints): x', y', yaw', pitch', front'", 1, true), text)
+  end)
+
+  it("M, C1, K0, K2 of M q'' + v C1 q' + (g K0 + v^2 K2) q = 0 are the published ones (14 digits)", function()
+    local M, C1, K0, K2 = bike.matrices()
+    -- The paper prints 14 decimals; these come from exact jets through the
+    -- constrained accelerations and the reduced mass matrix, so rounding
+    -- only: measured 3.5e-16 (M), 4.7e-16 (C1), 3.2e-15 (K0), 1.1e-15 (K2)
+    -- of each matrix's largest entry.  Bound 1e-14 of it.
+    for _, pair in ipairs{ { "M", M, Mp }, { "C1", C1, C1p }, { "K0", K0, K0p }, { "K2", K2, K2p } } do
+      local name, got, want = table.unpack(pair)
+      assert(max_diff(got, want) <= 1e-14 * max_abs(want), ("%s off by %.3g: {{%.15g, %.15g}, {%.15g, %.15g}}"):format(
+        name, max_diff(got, want), got[1][1], got[1][2], got[2][1], got[2][2]))
     end
   end)
 
-  it("the eigenvalues of Table 2 at 0, 4, 5 and 10 m/s", function()
-    -- Table 2 of the paper, as published (sorted as bike.eigenvalues sorts).
-    local table2 = {
-      [0] = { { -5.53094371765393, 0 }, { -3.13164324790656, 0 }, { 3.13164324790656, 0 }, { 5.53094371765393, 0 } },
-      [4] = { { -12.15861426576447, 0 }, { -1.42944427361326, 0 }, { 0.41325331521125, -3.07910818603206 }, { 0.41325331521125, 3.07910818603206 } },
-      [5] = { { -14.07838969279822, 0 }, { -0.77534188219585, -4.46486771378823 }, { -0.77534188219585, 4.46486771378823 }, { -0.32286642900409, 0 } },
-      [10] = { { -24.62459635017404, 0 }, { -3.72016840437287, -10.90681139476287 }, { -3.72016840437287, 10.90681139476287 }, { 0.16105338653172, 0 } },
-    }
-    for _, v in ipairs{ 0, 4, 5, 10 } do
-      local got, ref = bike.eigenvalues(bike.linearize(v)), bike.eigenvalues(paper(v))
-      for i = 1, 4 do
-        local want = table2[v][i]
-        local size = math.abs(want[1]) + math.abs(want[2])
-        -- The paper's own matrices give its eigenvalues to its 14 digits
-        -- (a check of the quartic's roots here).
-        local e_ref = math.abs(ref[i][1] - want[1]) + math.abs(ref[i][2] - want[2])
-        assert(e_ref <= 1e-12 * size, ("v = %g, eigenvalue %d from the paper's matrices off by %.3g"):format(v, i, e_ref))
-        -- The nonlinear model: measured 1.8e-9 relative at worst (the small
-        -- capsize root at 5 m/s); the bound 1e-7 leaves a factor 50.
-        local e = math.abs(got[i][1] - want[1]) + math.abs(got[i][2] - want[2])
-        assert(e <= 1e-7 * size, ("v = %g, eigenvalue %d: %.15g%+.15gi, Table 2 %.15g%+.15gi (off by %.3g)"):format(
-          v, i, got[i][1], got[i][2], want[1], want[2], e))
+  it("the eigenvalues of Table 2 at every speed from 0 to 10 m/s, to all printed digits", function()
+    for v = 0, 10 do
+      local got = bike.linearize(v):eigenvalues()
+      local want = table2[v]
+      assert.are.equal(4, #got)
+      -- match each published eigenvalue with the nearest of ours (the
+      -- paper's order is by mode: capsize, weave pair, castor)
+      local used = {}
+      for _, w in ipairs(want) do
+        local best, bi = math.huge, nil
+        for i, z in ipairs(got) do
+          local d = math.abs(z[1] - w[1]) + math.abs(z[2] - w[2])
+          if not used[i] and d < best then best, bi = d, i end
+        end
+        used[bi] = true
+        -- 14 decimals printed (half a unit: 5e-15) and the rounding of a
+        -- 4x4 nonsymmetric eigenproblem whose entries grow as |lambda|^2:
+        -- measured 5.5e-13 at worst (the castor root, -18.16 at 7 m/s:
+        -- 2.9e-14 of it), 6e-14 elsewhere.  Bound 1e-13 (1 + |lambda|).
+        local size = math.sqrt(w[1] ^ 2 + w[2] ^ 2)
+        assert(best <= 1e-13 * (1 + size), ("v = %d: Table 2 has %.14f%+.14fi, nearest %.14f%+.14fi (off by %.3g)"):format(
+          v, w[1], w[2], got[bi][1], got[bi][2], best))
       end
     end
   end)
 
-  it("self-stable between the weave speed 4.29238253634111 and the capsize speed 6.02426201538837 m/s", function()
-    -- The speed where the real part of the weave pair (weave) or the largest
-    -- real root (capsize) crosses 0, by the secant method.
-    local function weave(v)
-      for _, z in ipairs(bike.eigenvalues(bike.linearize(v))) do if z[2] > 0 then return z[1] end end
-      error("no weave pair at v = " .. v)
+  it("the bifurcation speed 0.68428307889246 of Table 2: the two real roots meet at 3.78290405129320", function()
+    local ev = bike.linearize(0.68428307889246):eigenvalues()
+    -- A double root splits as the square root of the distance from the
+    -- bifurcation: the speed's 14 printed digits (5e-15) leave a split of
+    -- ~sqrt(5e-15 * c): measured 1.4e-7 here.  Bound 2e-6.
+    local near = 0
+    for _, z in ipairs(ev) do
+      if math.abs(z[1] - 3.78290405129320) + math.abs(z[2]) <= 2e-6 then near = near + 1 end
     end
-    local function capsize(v)
-      local best = -math.huge
-      for _, z in ipairs(bike.eigenvalues(bike.linearize(v))) do if z[2] == 0 then best = math.max(best, z[1]) end end
-      return best
+    assert.are.equal(2, near)
+  end)
+
+  it("sys:eigen_sweep: stable between the weave speed 4.29238253634111 and the capsize speed 6.02426201538837 m/s", function()
+    local values = {}
+    for i = 0, 20 do values[#values + 1] = i / 2 end
+    local sw = bike.sweep(values, 1e-13)
+    assert.are.equal(2, #sw.crossings)
+    local weave, capsize = sw.crossings[1], sw.crossings[2]
+    assert.are.same({ "unstable", "stable", "oscillatory" }, { weave.from, weave.to, weave.kind })
+    assert.are.same({ "stable", "unstable", "real" }, { capsize.from, capsize.to, capsize.kind })
+    -- Brent's method to 1e-13 on the largest real part, which crosses 0
+    -- with slopes ~1.5 (weave) and ~0.2 (capsize) per m/s: its rounding
+    -- (~5e-15) moves the root by ~3e-15 and ~2.5e-14; measured 1.3e-14 and
+    -- 4.6e-14 off the published 14 digits.  Bound 2e-13.
+    assert(math.abs(weave.value - 4.29238253634111) <= 2e-13, ("weave speed %.15f"):format(weave.value))
+    assert(math.abs(capsize.value - 6.02426201538837) <= 2e-13, ("capsize speed %.15f"):format(capsize.value))
+    -- at the weave speed the weave pair is on the imaginary axis: +-3.43503384866144i
+    -- (Table 2); measured 2.7e-15 off
+    assert(math.abs(weave.frequency - 3.43503384866144) <= 1e-12, ("weave frequency %.15f"):format(weave.frequency))
+    for i, row in ipairs(sw.rows) do
+      local stable = row.value > 4.29238253634111 and row.value < 6.02426201538837
+      assert.are.equal(stable and "stable" or "unstable", row.status, "v = " .. row.value)
+      assert.are.equal(values[i], row.value)
     end
-    local function crossing(f, a, b)
-      local fa, fb = f(a), f(b)
-      assert(fa * fb < 0, "no sign change")
-      for _ = 1, 12 do
-        local c = b - fb * (b - a) / (fb - fa)
-        a, fa, b, fb = b, fb, c, f(c)
-        if math.abs(b - a) < 1e-11 then break end
-      end
-      return b
-    end
-    local vw, vc = crossing(weave, 4.2, 4.4), crossing(capsize, 5.9, 6.1)
-    -- The eigenvalues are good to ~1e-9 and cross 0 with slopes ~1.5 (weave)
-    -- and ~0.2 (capsize) per m/s: measured 4e-10 and 2e-9 m/s off.
-    assert(math.abs(vw - 4.29238253634111) <= 1e-7, ("weave speed %.14f"):format(vw))
-    assert(math.abs(vc - 6.02426201538837) <= 1e-7, ("capsize speed %.14f"):format(vc))
+    -- the CSV: a header and one row per speed
+    local csv = sw:csv()
+    local lines = {}
+    for line in csv:gmatch("[^\n]+") do lines[#lines + 1] = line end
+    assert.are.equal("v,re1,im1,re2,im2,re3,im3,re4,im4,status", lines[1])
+    assert.are.equal(#values + 1, #lines)
   end)
 end)
 

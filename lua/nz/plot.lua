@@ -21,7 +21,8 @@ end
 
 local function quote(s) return '"' .. tostring(s):gsub('"', "'") .. '"' end
 
--- plot.lines{ series = { {name =, x = {...}, y = {...}}, ... }, title =, xlabel =,
+-- plot.lines{ series = { {name =, x = {...}, y = {...} [, points = true, style =
+--             "points"]}, ... }, title =, xlabel =,
 --             ylabel =, logx =, logy =, file = "out.svg", width =, height = }
 -- Returns the text drawn (terminal) or the file name.
 function M.lines(opts)
@@ -53,7 +54,7 @@ function M.lines(opts)
   local parts = {}
   for si, s in ipairs(series) do
     parts[si] = ("%s index %d with %s title %s"):format(quote(data), si - 1,
-      s.points and "linespoints" or "lines", quote(s.name or ("series " .. si)))
+      s.style or (s.points and "linespoints" or "lines"), quote(s.name or ("series " .. si)))
   end
   script[#script + 1] = "plot " .. table.concat(parts, ", ")
   local sfile = os.tmpname()

@@ -383,6 +383,8 @@ function System:report(opts) return require("nz.report").report(self, opts) end
 function System:simulate(opts) return require("nz.simulate").simulate(self, opts) end
 -- The motion linearized about an equilibrium or a steady motion (nz/linearize.lua).
 function System:linearize(opts) return require("nz.linearize").linearize(self, opts) end
+-- The eigenvalues against a parameter and where stability changes (nz/eigen_sweep.lua).
+function System:eigen_sweep(opts) return require("nz.eigen_sweep").sweep(self, opts) end
 -- An equilibrium or a steady motion near a guess (Newton, nz/linearize.lua).
 function System:equilibrium(opts) return require("nz.linearize").equilibrium(self, opts) end
 

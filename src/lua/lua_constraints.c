@@ -128,6 +128,28 @@ static int ls_constraint_row(lua_State *L)
   return 2;
 }
 
+/* constraint_state_gradient(def, r, level, t, q, qd) -> value, dq, dqd:
+ * Phi_r^(level) and its gradient in (q, q') (nz_constraint_state_gradient). */
+static int ls_constraint_state_gradient(lua_State *L)
+{
+  bound_system b;
+  int r = bind_constraint(L, 6, &b), k = b.sys.k;
+  int level = (int)luaL_checkinteger(L, 3);
+  luaL_argcheck(L, level == 0 || level == 1, 3, "level 0 or 1 expected");
+  double t = luaL_checknumber(L, 4), value;
+  double *data = lua_newuserdatauv(L, 5 * (size_t)k * sizeof(double), 0);
+  const double *levels[3] = { data, data + k, data + 2 * k };
+  nz_lua_read_vector(L, 5, k, data, "q", 0, "constraint_state_gradient");
+  nz_lua_read_vector(L, 6, k, data + k, "qd", 1, "constraint_state_gradient");
+  memset(data + 2 * k, 0, (size_t)k * sizeof(double));
+  int st = nz_constraint_state_gradient(&b.sys, r, level, t, levels, 3, &value, data + 3 * k);
+  if (st) return nz_lua_raise_core(L, &b, st, "constraint_state_gradient");
+  lua_pushnumber(L, value);
+  nz_lua_push_vector(L, data + 3 * k, k);
+  nz_lua_push_vector(L, data + 4 * k, k);
+  return 3;
+}
+
 static void read_flags(lua_State *L, int idx, int n, int *v, const char *what)
 {
   luaL_checktype(L, idx, LUA_TTABLE);
@@ -214,7 +236,7 @@ static int ls_force_velocity_jacobian(lua_State *L)
 
 static const luaL_Reg constraint_functions[] = {
   { "constraint_partials", ls_constraint_partials }, { "constraint_levels", ls_constraint_levels }, { "constraint_curvature", ls_constraint_curvature },
-  { "constraint_row", ls_constraint_row }, { "accel_constrained", ls_accel_constrained },
+  { "constraint_row", ls_constraint_row }, { "constraint_state_gradient", ls_constraint_state_gradient }, { "accel_constrained", ls_accel_constrained },
   { "force_velocity_jacobian", ls_force_velocity_jacobian }, { NULL, NULL }
 };
 

@@ -19,6 +19,7 @@
 #include "lua/lua_graph.h"
 #include "lua/lua_jet.h"
 #include "lua/lua_linalg.h"
+#include "lua/lua_roots.h"
 #include "lua/lua_ode.h"
 #include "lua/lua_series.h"
 #include "lua/lua_special.h"
@@ -120,6 +121,7 @@ static int open_core(lua_State *L)
   nz_lua_open_constraints(L);
   nz_lua_open_series(L);
   nz_lua_open_linalg(L);
+  nz_lua_open_roots(L);
   nz_lua_open_ode(L);
   nz_lua_open_taylor(L);
   nz_lua_open_graph(L);          /* the recorder's constructor is internal */

@@ -36,6 +36,29 @@ int nz_constraint_partials(const nz_system *s, int r, double t, const double *co
   return st;
 }
 
+int nz_constraint_state_gradient(const nz_system *s, int r, int level, double t,
+                                 const double *const *state, int nstate, double *value,
+                                 double *grad)
+{
+  int k = s->k;
+  if (level < 0 || level > 1) return NZ_EARG;
+  nz_motion mo;
+  int st = nz_motion_init(&mo, k, nz_constraint_levels(s, r), level, 2 * k, t, state, nstate);
+  if (st) return st;
+  for (int i = 0; i < k; i++) {             /* direction i: q_i; k + i: q'_i */
+    nz_motion_seed_level(&mo, i, i, 0);
+    nz_motion_seed_level(&mo, i, k + i, 1);
+  }
+  st = nz_motion_eval(s, NZ_PIECE_PHI, r, &mo, NULL);
+  if (!st) {
+    double f = nz_factorial(level);         /* coefficient `level` holds Phi^(level) / level! */
+    *value = f * mo.out[0]->c[level];
+    for (int d = 0; d < 2 * k; d++) grad[d] = f * nz_jet_tangent(mo.out[0], d)[level];
+  }
+  nz_motion_free(&mo);
+  return st;
+}
+
 /* Make every slot (and t) constant in the series variable. */
 static void freeze(nz_motion *mo)
 {

@@ -17,6 +17,18 @@
 int nz_constraint_partials(const nz_system *s, int r, double t, const double *const *state,
                            int nstate, double *value, double *dphi, double *dphidt);
 
+/* The constraint differentiated `level` times along the motion (0: Phi
+ * itself, 1: Phi' = Phi_t + Phi_q q' + ...) into *value, and its gradient
+ * with respect to the state: grad[i] = d/dq_i, grad[k + i] = d/dq'_i (2k
+ * values), exact (tangents on the jets).  These are the rows of the tangent
+ * space of the constraints that sys:linearize works in: a holonomic
+ * constraint at levels 0 and 1, a first-order one at level 0.  Level 1 of a
+ * first-order constraint would read q'' from the state (the gradient is then
+ * the partial one, at that q''). */
+int nz_constraint_state_gradient(const nz_system *s, int r, int level, double t,
+                                 const double *const *state, int nstate, double *value,
+                                 double *grad);
+
 /* Phi along q^(m) + s v, as a series in s: c[0] + c[1] s + c[2] s^2.
  * c[2] = v^T H v / 2 vanishes for every v exactly when Phi is affine in q^(m). */
 int nz_constraint_curvature(const nz_system *s, int r, int m, double t, const double *const *state,

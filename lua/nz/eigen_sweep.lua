@@ -1,0 +1,182 @@
+-- nz/eigen_sweep.lua - sys:eigen_sweep{...}: the eigenvalues of the
+-- linearized motion against a parameter (a forward speed, a spin rate, a
+-- mass), the parameter values where the motion changes stability, located
+-- to a tolerance, and the sweep as a table, a CSV file and a plot of the
+-- real and imaginary parts (as Fig. 3 of Meijaard et al. 2007 draws the
+-- bicycle's).
+--
+-- Each value runs sys:linearize with the options `at(value)` returns (it
+-- may also set sys.params).  The motion at a value is
+--   unstable  when some eigenvalue has a real part above thr,
+--   stable    when every one is below -thr,
+--   neutral   otherwise (every mode on the imaginary axis, as a
+--             conservative system's, or a zero eigenvalue),
+-- thr = 1e-8 (1 + max |A_ij|) (linearize.threshold: above what rounding
+-- does to the eigenvalues, even where modes meet and the eigenvalue is
+-- defective).
+-- Between two neighbouring values whose status differs, the change is
+-- located: by Brent's method (GSL, core.mech.root_brent) on the largest real
+-- part when it changes sign (a mode crossing the imaginary axis: the
+-- bicycle's weave and capsize speeds), else by bisection on the status (a
+-- change to or from neutral: two modes meeting on the imaginary axis, as
+-- when a top starts to sleep, where the largest real part only touches 0).
+local linearize = require "nz.linearize"
+
+local M = {}
+
+local Sweep = {}
+Sweep.__index = Sweep
+
+local function fail(sys, fmt, ...)
+  error(("%ssys:eigen_sweep '%s': " .. fmt):format(require("nz.where").user_where(), sys.name, ...), 0)
+end
+
+local function finite(v) return type(v) == "number" and v == v and math.abs(v) ~= math.huge end
+
+-- The eigenvalues at one value, their largest real part and the status.
+local function at_value(sys, opts, v)
+  local lopts = opts.at(v)
+  if type(lopts) ~= "table" then fail(sys, "at(%g) must return the options of sys:linearize (a table), got %s", v, type(lopts)) end
+  local lin = sys:linearize(lopts)
+  local ev = lin:eigenvalues()
+  local top, which = -math.huge, nil
+  for _, e in ipairs(ev) do
+    if e[1] > top then top, which = e[1], e end
+  end
+  local thr = linearize.threshold(lin.A)
+  return { value = v, eigenvalues = ev, abscissa = top, status = linearize.stability(top, thr), leading = which,
+    residual = lin.residual, threshold = thr }
+end
+
+-- Where the status changes between the rows a and b (a.value < b.value).
+local function locate(sys, opts, a, b, tol)
+  local mech = require("nz.core").mech
+  local how, x
+  if a.status ~= "neutral" and b.status ~= "neutral" then
+    how = "Brent's method on the largest real part"
+    x = mech.root_brent(function(v) return at_value(sys, opts, v).abscissa end, a.value, b.value, tol)
+  else
+    how = "bisection on the status"
+    local lo, hi = a.value, b.value
+    while hi - lo > tol do
+      local mid = 0.5 * (lo + hi)
+      if mid <= lo or mid >= hi then break end
+      if at_value(sys, opts, mid).status == a.status then lo = mid else hi = mid end
+    end
+    x = 0.5 * (lo + hi)
+  end
+  local there = at_value(sys, opts, x)
+  local lead = there.leading
+  return { value = x, from = a.status, to = b.status, how = how,
+    kind = math.abs(lead[2]) > there.threshold and "oscillatory" or "real", frequency = math.abs(lead[2]), eigenvalue = lead }
+end
+
+function M.sweep(sys, opts)
+  if type(opts) ~= "table" then fail(sys, "options expected: sys:eigen_sweep{ values = {...}, at = function(v) return {...} end }") end
+  for key in pairs(opts) do
+    if not ({ values = true, at = true, parameter = true, tol = true })[key] then
+      fail(sys, "unknown option '%s' (options: values, at, parameter, tol)", tostring(key))
+    end
+  end
+  local values = opts.values
+  if type(values) ~= "table" or #values < 2 then fail(sys, "values: a list of at least 2 increasing numbers expected") end
+  for i, v in ipairs(values) do
+    if not finite(v) then fail(sys, "values[%d] is not a finite number", i) end
+    if i > 1 and v <= values[i - 1] then fail(sys, "values must increase (values[%d] = %g after %g)", i, v, values[i - 1]) end
+  end
+  if type(opts.at) ~= "function" then
+    fail(sys, "at: a function of the parameter value returning the options of sys:linearize expected")
+  end
+  local span = values[#values] - values[1]
+  local tol = opts.tol or 1e-10 * span
+  if not finite(tol) or tol <= 0 then fail(sys, "tol must be a positive number") end
+  local sw = setmetatable({ system = sys, parameter = opts.parameter or "parameter", rows = {}, crossings = {},
+    tol = tol }, Sweep)
+  for i, v in ipairs(values) do sw.rows[i] = at_value(sys, opts, v) end
+  for i = 2, #values do
+    local a, b = sw.rows[i - 1], sw.rows[i]
+    if a.status ~= b.status then sw.crossings[#sw.crossings + 1] = locate(sys, opts, a, b, tol) end
+  end
+  return sw
+end
+
+-- The eigenvalues of a row as text: a complex pair once, as re +- im i.
+local function listed(ev, fmt)
+  local out = {}
+  for _, e in ipairs(ev) do
+    if e[2] == 0 then out[#out + 1] = fmt:format(e[1])
+    elseif e[2] > 0 then out[#out + 1] = (fmt .. " +- " .. fmt .. "i"):format(e[1], e[2]) end
+  end
+  return table.concat(out, ", ")
+end
+
+function Sweep:__tostring()
+  local t = { { self.parameter, "eigenvalues", "" } }
+  for _, r in ipairs(self.rows) do t[#t + 1] = { ("%.6g"):format(r.value), listed(r.eigenvalues, "%.6g"), r.status } end
+  local lines = { ("eigenvalues of '%s' against %s"):format(self.system.name, self.parameter),
+    require("nz.system").table_text(t, "  ") }
+  if #self.crossings == 0 then
+    lines[#lines + 1] = "  no change of stability between these values"
+  end
+  for _, c in ipairs(self.crossings) do
+    lines[#lines + 1] = ("  %s = %.12g: %s -> %s (%s%s; located to %.1e by %s)"):format(self.parameter, c.value, c.from,
+      c.to, c.kind == "oscillatory" and "an oscillatory mode" or "a real mode",
+      c.kind == "oscillatory" and (", %.6g rad/s"):format(c.frequency) or "", self.tol, c.how)
+  end
+  return table.concat(lines, "\n")
+end
+
+-- The sweep as CSV: the parameter, then re and im of each eigenvalue (as
+-- sorted: growth rate first), then the status; one row per value.
+function Sweep:csv(file)
+  local n = 0
+  for _, r in ipairs(self.rows) do n = math.max(n, #r.eigenvalues) end
+  local head = { self.parameter }
+  for j = 1, n do head[#head + 1] = ("re%d,im%d"):format(j, j) end
+  head[#head + 1] = "status"
+  local lines = { table.concat(head, ",") }
+  for _, r in ipairs(self.rows) do
+    local row = { ("%.17g"):format(r.value) }
+    for j = 1, n do
+      local e = r.eigenvalues[j]
+      row[#row + 1] = e and ("%.17g,%.17g"):format(e[1], e[2]) or ","
+    end
+    row[#row + 1] = r.status
+    lines[#lines + 1] = table.concat(row, ",")
+  end
+  local text = table.concat(lines, "\n") .. "\n"
+  if file then
+    local f = assert(io.open(file, "w"))
+    f:write(text)
+    f:close()
+    return file
+  end
+  return text
+end
+
+-- The real parts and the (positive) imaginary parts against the parameter,
+-- as points (modes are not followed from one value to the next), with the
+-- changes of stability marked on the axis.  opts: file, title, width, height.
+function Sweep:plot(opts)
+  opts = opts or {}
+  local re = { name = "Re(lambda)", x = {}, y = {}, style = "points pt 7 ps 0.4" }
+  local im = { name = "Im(lambda)", x = {}, y = {}, style = "points pt 6 ps 0.4" }
+  for _, r in ipairs(self.rows) do
+    for _, e in ipairs(r.eigenvalues) do
+      re.x[#re.x + 1], re.y[#re.y + 1] = r.value, e[1]
+      if e[2] > 0 then im.x[#im.x + 1], im.y[#im.y + 1] = r.value, e[2] end
+    end
+  end
+  local series = { re }
+  if #im.x > 0 then series[2] = im end
+  for _, c in ipairs(self.crossings) do
+    series[#series + 1] = { name = ("%s = %.6g"):format(self.parameter, c.value), x = { c.value, c.value },
+      y = { 0, 0 }, style = "points pt 2 ps 1.5" }
+  end
+  local out = require("nz.plot").lines{ series = series, file = opts.file, width = opts.width, height = opts.height,
+    title = opts.title or ("eigenvalues of %s against %s"):format(self.system.name, self.parameter),
+    xlabel = self.parameter, ylabel = "eigenvalue (1/s)", quiet = opts.quiet }
+  if opts.file then return out end   -- the terminal's plot is printed already: nothing for the session to print again
+end
+
+return M
