@@ -264,23 +264,49 @@ Methods (t a number, q, qd, qdd tables of k numbers):
         integration again; their functions must be recordable).  Not with
         taylor: constraints of order 3 or more, project and baumgarte, the
         work monitor, step and h0 (each refused with the method to take).
-  sys:linearize{q =, qd = [, t, coords, speeds, hold]}  the motion linearized
-                             about an equilibrium or a steady motion: lin.state
-                             (names), lin.A (x' = A x, exact: jets, not finite
-                             differences), lin.M, lin.C, lin.K when every
-                             coordinate is kept with its speed, lin.residual
-                             (the kept accelerations there: 0 at a steady
-                             point), lin:eigenvalues() ({re, im}), lin:modes(),
-                             print(lin) (frequency, damping, stable or not,
-                             the mode's shape in the kept coordinates).
+  sys:linearize{q =, qd = [, t, coords, speeds, hold, dependent]}  the motion
+                             linearized about an equilibrium or a steady
+                             motion, with or without constraints (order 0, 1,
+                             2): lin.state (names), lin.A (x' = A x, exact:
+                             jets, not finite differences), lin.M, lin.C, lin.K
+                             when the kept speeds are the kept coordinates' (M
+                             the reduced mass matrix on the constraints),
+                             lin.residual (the kept accelerations there: 0 at a
+                             steady point), lin:eigenvalues() ({re, im}),
+                             lin:modes(), print(lin) (frequency, damping,
+                             stable or not, the mode's shape).
                              coords/speeds: names or numbers kept in the state
-                             (a coordinate left out must not appear: ignorable);
-                             hold: speeds held at their values (a motor).  Not
-                             yet for systems with constraints.
-  sys:equilibrium{q = guess [, qd, t, coords, tol, maxit]}  an equilibrium or
-                             a steady motion near the guess: Newton on the kept
-                             accelerations in the kept coordinates (the speeds
-                             held as given); returns q and {iterations, residual}
+                             (default: every coordinate the constraints leave
+                             free, less those that do not appear, and their
+                             speeds).  A coordinate left out is dependent
+                             (solved from the holonomic constraints by Newton:
+                             lin.dependent, lin.position_newton) or ignorable
+                             (it must not appear: said if it does); a speed
+                             left out is dependent (solved from the velocity
+                             constraints: lin.dependent_speeds), held (hold: a
+                             motor, a wheel's rate in a steady run) or must not
+                             appear.  nzlua picks the dependent ones by complete
+                             pivoting on the constraints' gradients unless
+                             named (dependent = {...}), and print(lin) says
+                             which.  lin.q, lin.qd: the point, solved.
+  sys:eigen_sweep{values = {...}, at = function(v) return {linearize options} end
+                  [, parameter = "v", tol]}  the eigenvalues against a
+                             parameter (at may also set sys.params): sw.rows
+                             ({value, eigenvalues, status}: stable, neutral or
+                             unstable), sw.crossings ({value, from, to, kind,
+                             frequency}: where stability changes, located to
+                             tol, default 1e-10 of the span: Brent's method
+                             where the largest real part changes sign,
+                             bisection where modes meet on the imaginary
+                             axis), print(sw), sw:csv([file]),
+                             sw:plot{[file =, width =, height =]} (real and
+                             imaginary parts against the parameter).
+  sys:equilibrium{q = guess [, qd, t, coords, hold, dependent, tol, maxit]}
+                             an equilibrium or a steady motion near the guess:
+                             Newton on the kept accelerations in the kept
+                             coordinates, the dependent coordinates and speeds
+                             solved at every step, the other speeds held as
+                             given; returns q and {iterations, residual, qd}
   print(sys)                 a summary]] },
   { name = "forms", section = "mechanics", usage = "nz.forms",
     summary = "the names of the forms of the equations sys:residual accepts" },

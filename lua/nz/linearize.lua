@@ -658,8 +658,9 @@ function Linear:__tostring()
       sh[#sh + 1] = math.abs(m.phase[i]) > 3.1 and ("%.4g"):format(-a) or math.abs(m.phase[i]) < 0.04 and ("%.4g"):format(a)
         or ("%.4g@%.2g"):format(a, m.phase[i])
     end
-    t[#t + 1] = { m.im > 0 and ("%.6g +- %.6gi"):format(m.re, m.im) or ("%.6g"):format(m.re), ("%.6g"):format(m.omega),
-      ("%.6g"):format(m.hz), ("%.3g"):format(m.damping), m.stable, table.concat(sh, ", ") }
+    local re = m.stable == "neutral" and 0 or m.re   -- on the imaginary axis: the rest is rounding
+    t[#t + 1] = { m.im > 0 and ("%.6g +- %.6gi"):format(re, m.im) or ("%.6g"):format(re), ("%.6g"):format(m.omega),
+      ("%.6g"):format(m.hz), ("%.3g"):format(m.stable == "neutral" and 0 or m.damping), m.stable, table.concat(sh, ", ") }
   end
   lines[#lines + 1] = require("nz.system").table_text(t, "  ")
   return table.concat(lines, "\n")
