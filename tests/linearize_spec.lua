@@ -297,6 +297,23 @@ describe("sys:linearize with constraints", function()
       { q = { 0, 0, 0, 0.3, 0 }, qd = { 0, 0, 0, 0, 5 }, coords = {}, speeds = { "th", "psi" }, hold = { "phi" } })
   end)
 
+  it("sys:eigen_sweep on the driven hoop: the bottom stops being stable at the critical rate W = sqrt(g)", function()
+    local values = {}
+    for i = 0, 12 do values[#values + 1] = i / 2 end
+    local sw = hoop:eigen_sweep{ parameter = "W", values = values, tol = 1e-12,
+      at = function(W) return { q = { 0, 0 }, qd = { 0, W }, coords = { "th" }, hold = { "ph" } } end }
+    assert.are.equal(1, #sw.crossings)
+    local c = sw.crossings[1]
+    assert.are.same({ "neutral", "unstable", "real" }, { c.from, c.to, c.kind })
+    -- +-sqrt(g - W^2) passes through 0: growth ~sqrt(2 sqrt(g) (W - W_c)), so
+    -- the status threshold (~1e-7) moves the limit by ~1e-15; bisection to
+    -- 1e-12: measured 2.6e-13 off
+    assert(math.abs(c.value - math.sqrt(g)) <= 2e-12, ("critical rate %.15g, want %.15g"):format(c.value, math.sqrt(g)))
+    for _, row in ipairs(sw.rows) do
+      assert.are.equal(row.value < math.sqrt(g) and "neutral" or "unstable", row.status, "W = " .. row.value)
+    end
+  end)
+
   it("sys:eigen_sweep refuses bad options with the reason", function()
     local tp = top()
     h.checkerror("values must increase", tp.eigen_sweep, tp, { values = { 1, 1 }, at = function() return {} end })

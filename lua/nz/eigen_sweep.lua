@@ -51,21 +51,25 @@ end
 -- Where the status changes between the rows a and b (a.value < b.value).
 local function locate(sys, opts, a, b, tol)
   local mech = require("nz.core").mech
-  local how, x
+  local how, x, there
   if a.status ~= "neutral" and b.status ~= "neutral" then
     how = "Brent's method on the largest real part"
     x = mech.root_brent(function(v) return at_value(sys, opts, v).abscissa end, a.value, b.value, tol)
+    there = at_value(sys, opts, x)
   else
     how = "bisection on the status"
-    local lo, hi = a.value, b.value
+    local lo, hi, rlo, rhi = a.value, b.value, a, b
     while hi - lo > tol do
       local mid = 0.5 * (lo + hi)
       if mid <= lo or mid >= hi then break end
-      if at_value(sys, opts, mid).status == a.status then lo = mid else hi = mid end
+      local r = at_value(sys, opts, mid)
+      if r.status == a.status then lo, rlo = mid, r else hi, rhi = mid, r end
     end
     x = 0.5 * (lo + hi)
+    -- the mode that changes is read where it has left the axis: the end of
+    -- the last bracket that is not neutral
+    there = rlo.status ~= "neutral" and rlo or rhi
   end
-  local there = at_value(sys, opts, x)
   local lead = there.leading
   return { value = x, from = a.status, to = b.status, how = how,
     kind = math.abs(lead[2]) > there.threshold and "oscillatory" or "real", frequency = math.abs(lead[2]), eigenvalue = lead }
