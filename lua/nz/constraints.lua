@@ -136,6 +136,7 @@ end
 local function sample_states(sys, n)
   return samples_near(sys, anchors(sys)[1], n, generator(20261122))
 end
+M.sample_states = sample_states   -- {t =, [1] = q, [2] = qd, ...}: for nz/rumyantsev.lua too
 
 -- A state close to an anchor (within the samples' spread) adds nothing.
 local function near_anchor(sys, a, st)

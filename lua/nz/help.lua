@@ -301,6 +301,25 @@ Methods (t a number, q, qd, qdd tables of k numbers):
                              axis), print(sw), sw:csv([file]),
                              sw:plot{[file =, width =, height =]} (real and
                              imaginary parts against the parameter).
+  sys:energy_integral()      whether H = T2 - T0 + V is a first integral and why
+                             (L free of t, constraints homogeneous in the
+                             velocities, no force doing work), checked at
+                             sample states; print it for the statement
+  sys:energy_theorem(tr)     along a trajectory simulated with monitors =
+                             {energy = true, work = true}: the drift of H and
+                             of T + V - integral R_0 dt (Rumyantsev eq. 3.3-3.7)
+  sys:parametric{[time = "t", tau = function(s) return t end]}  the system in
+                             (q, t) with a parameter as its time and
+                             Lambda = L(t, q, x'/t') t' (eq. 1.14-1.17): k + 1
+                             equations, the last the energy equation; tau fixes
+                             t = tau(s), so that it can be integrated
+  sys:jacobi_whittaker{h =, independent = "phi"}  with H = h conserved, the
+                             path as a system in "time" phi (eq. 2.8-2.12):
+                             R = 2 sqrt((h + L0) G) + T1, constraints kept;
+                             path:simulate{t0 = phi0, t1 = phi1, ...} gives
+                             the other coordinates against phi, and
+                             path:elapsed(tr) the physical time at each point
+                             (dt/dphi = sqrt(G / (h + L0)))
   sys:equilibrium{q = guess [, qd, t, coords, hold, dependent, tol, maxit]}
                              an equilibrium or a steady motion near the guess:
                              Newton on the kept accelerations in the kept

@@ -385,6 +385,12 @@ function System:simulate(opts) return require("nz.simulate").simulate(self, opts
 function System:linearize(opts) return require("nz.linearize").linearize(self, opts) end
 -- The eigenvalues against a parameter and where stability changes (nz/eigen_sweep.lua).
 function System:eigen_sweep(opts) return require("nz.eigen_sweep").sweep(self, opts) end
+-- Time as a coordinate (Rumyantsev, nz/rumyantsev.lua): the parametric
+-- system, the energy integral and theorem, the Jacobi-Whittaker reduction.
+function System:parametric(opts) return require("nz.rumyantsev").parametric(self, opts) end
+function System:energy_integral() return require("nz.rumyantsev").energy_integral(self) end
+function System:energy_theorem(tr) return require("nz.rumyantsev").energy_theorem(self, tr) end
+function System:jacobi_whittaker(opts) return require("nz.rumyantsev").jacobi_whittaker(self, opts) end
 -- An equilibrium or a steady motion near a guess (Newton, nz/linearize.lua).
 function System:equilibrium(opts) return require("nz.linearize").equilibrium(self, opts) end
 
