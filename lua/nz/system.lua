@@ -385,6 +385,8 @@ function System:simulate(opts) return require("nz.simulate").simulate(self, opts
 function System:linearize(opts) return require("nz.linearize").linearize(self, opts) end
 -- The eigenvalues against a parameter and where stability changes (nz/eigen_sweep.lua).
 function System:eigen_sweep(opts) return require("nz.eigen_sweep").sweep(self, opts) end
+-- The equations as formulas (nz/show.lua).
+function System:show(opts) return require("nz.show").show(self, opts) end
 -- Time as a coordinate (Rumyantsev, nz/rumyantsev.lua): the parametric
 -- system, the energy integral and theorem, the Jacobi-Whittaker reduction.
 function System:parametric(opts) return require("nz.rumyantsev").parametric(self, opts) end

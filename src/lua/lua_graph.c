@@ -210,6 +210,94 @@ static int lg_info(lua_State *L)
   return 1;
 }
 
+/* ------------------------------------------------------------------ */
+/* Reading the graph (lua/nz/formula.lua: sys:show and sys:export)      */
+
+/* nodes([from]) -> {op = {...}, fn = {...}, a = {...}, b = {...}, v = {...},
+ * c = {...}}: every node from `from` (0-based, default 0) on, by id + 1:
+ * op and fn as names (fn: the function of FN, the comparison of CMP, else
+ * false), a, b, c operand ids (-1 unused; a = the input number of INPUT),
+ * v the constant (CONST) or the exponent (POWC). */
+static int lg_nodes(lua_State *L)
+{
+  nz_compiled *c = check(L);
+  const nz_graph *g = nz_compiled_graph(c);
+  int n = nz_graph_size(g), from = (int)luaL_optinteger(L, 2, 0);
+  const nz_gnode *nd = nz_graph_nodes(g);
+  static const char *const fields[] = { "op", "fn", "a", "b", "v", "c" };
+  lua_createtable(L, 0, 6);
+  for (int f = 0; f < 6; f++) {
+    lua_createtable(L, n > from ? n - from : 0, 0);
+    for (int x = from; x < n; x++) {
+      const nz_gnode *e = &nd[x];
+      switch (f) {
+      case 0: lua_pushstring(L, nz_gop_names[e->op]); break;
+      case 1:
+        if (e->op == NZ_GOP_FN) lua_pushstring(L, nz_jet_fn_names[e->fn]);
+        else if (e->op == NZ_GOP_CMP) lua_pushstring(L, cmp_names[e->fn]);   /* in nz_cmp order */
+        else lua_pushboolean(L, 0);
+        break;
+      case 2: lua_pushinteger(L, e->a); break;
+      case 3: lua_pushinteger(L, e->b); break;
+      case 4: lua_pushnumber(L, e->v); break;
+      default: lua_pushinteger(L, e->c); break;
+      }
+      lua_rawseti(L, -2, x + 1);
+    }
+    lua_setfield(L, -2, fields[f]);
+  }
+  return 1;
+}
+
+/* mass_bias_outputs() -> {M (k k, row-major), h (k)} node ids, or nil when
+ * M and h cannot be built from the recording */
+static int lg_mass_bias_outputs(lua_State *L)
+{
+  nz_compiled *c = check(L);
+  int k = (int)luaL_checkinteger(L, 2);
+  int *out = lua_newuserdatauv(L, ((size_t)k * (size_t)k + (size_t)k) * sizeof(int), 0);
+  if (nz_compiled_mass_bias_outputs(c, out)) { lua_pushnil(L); return 1; }
+  lua_createtable(L, k * k + k, 0);
+  for (int i = 0; i < k * k + k; i++) {
+    lua_pushinteger(L, out[i]);
+    lua_rawseti(L, -2, i + 1);
+  }
+  return 1;
+}
+
+/* piece_outputs(piece, index (1-based)) -> {node ids} (empty: not recorded) */
+static int lg_piece_outputs(lua_State *L)
+{
+  nz_compiled *c = check(L);
+  nz_piece piece = (nz_piece)luaL_checkoption(L, 2, NULL, piece_names);
+  int out[1024];
+  int n = nz_compiled_piece_outputs(c, piece, (int)luaL_optinteger(L, 3, 1) - 1, out, 1024);
+  lua_createtable(L, n, 0);
+  for (int i = 0; i < n; i++) {
+    lua_pushinteger(L, out[i]);
+    lua_rawseti(L, -2, i + 1);
+  }
+  return 1;
+}
+
+/* derivative(root, {[input number] = node}) -> the node of d root along the
+ * inputs' motion (inputs not listed do not move); builds nodes in the graph */
+static int lg_derivative(lua_State *L)
+{
+  nz_compiled *c = check(L);
+  nz_graph *g = nz_compiled_graph(c);
+  int root = check_node(L, g, 2);
+  luaL_checktype(L, 3, LUA_TTABLE);
+  int n = nz_graph_ninputs(g);
+  int *dir = lua_newuserdatauv(L, (size_t)(n > 0 ? n : 1) * sizeof(int), 0);
+  for (int i = 0; i < n; i++) {
+    lua_geti(L, 3, i);
+    dir[i] = lua_isnil(L, -1) ? -1 : check_node(L, g, -1);
+    lua_pop(L, 1);
+  }
+  return push_node(L, nz_graph_derivative(g, root, dir));
+}
+
 /* piece_nodes(piece, index (1-based)) -> nodes its evaluation visits */
 static int lg_piece_nodes(lua_State *L)
 {
@@ -268,7 +356,9 @@ static const luaL_Reg methods[] = {
   { "op", lg_op }, { "fn", lg_fn }, { "powc", lg_powc }, { "constant", lg_constant },
   { "cmp", lg_cmp }, { "select", lg_select },
   { "set_piece", lg_set_piece }, { "info", lg_info }, { "piece_nodes", lg_piece_nodes },
-  { "eval", lg_eval }, { "set_native", lg_set_native }, { NULL, NULL }
+  { "eval", lg_eval }, { "set_native", lg_set_native }, { "nodes", lg_nodes },
+  { "mass_bias_outputs", lg_mass_bias_outputs }, { "piece_outputs", lg_piece_outputs }, { "derivative", lg_derivative },
+  { NULL, NULL }
 };
 
 void nz_lua_open_graph(lua_State *L)

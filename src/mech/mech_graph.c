@@ -759,6 +759,23 @@ int nz_compiled_mass_bias_nodes(const nz_compiled *c)
   return c->mb_built > 0 ? nz_graph_plan_nodes(c->mb_plan->plan) : 0;
 }
 
+int nz_compiled_mass_bias_outputs(nz_compiled *c, int *out)
+{
+  if (!mass_bias_ready(c)) return NZ_EARG;
+  int k = c->k;
+  for (int i = 0; i < k * k + k; i++) out[i] = c->mb_plan->outs[i];
+  return NZ_OK;
+}
+
+int nz_compiled_piece_outputs(const nz_compiled *c, nz_piece piece, int index, int *out, int max)
+{
+  const compiled_piece *p = piece_of(c, piece, index);
+  if (!p || !p->n) return 0;
+  int n = p->n < max ? p->n : max;
+  for (int i = 0; i < n; i++) out[i] = p->nodes[i];
+  return n;
+}
+
 /* ------------------------------------------------------------------ */
 /* The series of the motion (Taylor's method)                           */
 

@@ -142,5 +142,13 @@ int nz_compiled_constrained_series(nz_compiled *c, const int *orders, double t0,
 int nz_compiled_motion_branches(nz_compiled *c);
 /* Nodes of the mass-bias plan (0 before its first use). */
 int nz_compiled_mass_bias_nodes(const nz_compiled *c);
+/* Reading the equations out of the graph (sys:show, sys:export): the node
+ * ids of M (k x k, row-major) and h (k) into out (k k + k), built at the
+ * first call (NZ_EARG when they cannot be: a piece not recorded); and the
+ * output nodes of a piece into out (at most max; returns how many, 0 when
+ * the piece is not recorded). */
+int nz_compiled_mass_bias_outputs(nz_compiled *c, int *out);
+int nz_compiled_piece_outputs(const nz_compiled *c, nz_piece piece, int index, int *out, int max);
+
 
 #endif

@@ -1,0 +1,269 @@
+-- nz/show.lua - sys:show{...}: the equations of motion as formulas, read
+-- from the recorded graphs: per coordinate M(q) q'' + h(q, q') = A^T lambda
+-- (THEORY.md (6.2): the equations of every order n collected; h holds the
+-- forces, dV/dq - Q), the constraints Phi_r = 0, and on request the mass
+-- matrix and the bias.  Plain text (coordinate names and primes as the
+-- user named them), LaTeX (an aligned block), or Lua (a function of t, q,
+-- qd, qdd, lambda, params returning the residuals: what the tests load back
+-- and compare with sys:residual).
+local formula = require "nz.formula"
+local constraints = require "nz.constraints"
+
+local M = {}
+
+local function fail(sys, fmt, ...)
+  error(("%ssys:show '%s': " .. fmt):format(require("nz.where").user_where(), sys.name, ...), 0)
+end
+
+-- The graph of a system, read once per call: the node dump, its symbols,
+-- and a memo of the polynomials already made.
+local function reader(sys)
+  local e = sys.engine
+  local c = e.compiled
+  if not c then
+    fail(sys, "the system is not recorded (made with compile = false), so there are no formulas to read: make it without compile = false")
+  end
+  local k, np = sys.k, #(e.compiled_params or {})
+  local function sym(input)
+    if input == 0 then return formula.symbol("t", { lua = "t", base = "t" }) end
+    if input <= np then
+      local name = e.compiled_params[input]
+      return formula.symbol(name, { lua = ("params[%q]"):format(name), base = name })
+    end
+    local s = input - 1 - np
+    local j, i = s // k, s % k + 1
+    local name = sys.coords[i] .. ("'"):rep(j)
+    local lua = ({ "q", "qd", "qdd", "qddd" })[j + 1] or ("higher[" .. (j - 3) .. "]")
+    return formula.symbol(name, { lua = ("%s[%d]"):format(lua, i), base = sys.coords[i], dots = j, slot = j, coord = i })
+  end
+  local rd = { c = c, k = k, np = np, memo = {}, sym = sym }
+  function rd.poly(id)
+    if not rd.nodes or id + 1 > #rd.nodes.op then rd.nodes = c:nodes() end
+    return formula.from_graph(rd.nodes, id, sym, rd.memo)
+  end
+  function rd.input(j, i) return 1 + np + j * k + (i - 1) end
+  return rd
+end
+
+-- M (k x k) and h (k) as polynomials.
+local function mass_bias(sys, rd)
+  local ids = rd.c:mass_bias_outputs(sys.k)
+  if not ids then fail(sys, "M and h could not be built from the recording (a piece of T, V or Q runs in Lua)") end
+  local k, Mp, h = sys.k, {}, {}
+  for i = 1, k do
+    Mp[i] = {}
+    for j = 1, k do Mp[i][j] = rd.poly(ids[(i - 1) * k + j]) end
+    h[i] = rd.poly(ids[k * k + i])
+  end
+  return Mp, h
+end
+
+-- Constraint r: Phi_r and its gradient A_r = dPhi_r/dq^(m) (m its order).
+local function constraint(sys, rd, r, m)
+  local out = rd.c:piece_outputs("constraints", r)
+  if #out == 0 then fail(sys, "constraint %d runs in Lua: only recorded functions can be shown", r) end
+  local one = rd.c:const(1)
+  local A = {}
+  for i = 1, sys.k do
+    local d = rd.c:derivative(out[1], { [rd.input(m, i)] = one })
+    A[i] = d
+  end
+  local phi = rd.poly(out[1])
+  for i = 1, sys.k do A[i] = rd.poly(A[i]) end
+  return phi, A
+end
+
+-- The equations as polynomials: lhs[i] = sum_j M_ij q_j'' + h_i and rhs[i]
+-- = sum_r A_ri lambda_r; with the constraints and their orders.
+function M.equations(sys)
+  local rd = reader(sys)
+  local Mp, h = mass_bias(sys, rd)
+  local k = sys.k
+  local lhs, rhs = {}, {}
+  for i = 1, k do
+    local s = h[i]
+    for j = 1, k do s = formula.add(s, formula.mul(Mp[i][j], rd.sym(rd.input(2, j)))) end
+    lhs[i], rhs[i] = s, formula.const(0)
+  end
+  local phis, As, orders = {}, {}, {}
+  if sys.nc > 0 then
+    orders = constraints.orders(sys)
+    for r = 1, sys.nc do
+      phis[r], As[r] = constraint(sys, rd, r, orders[r])
+      local lam = formula.symbol("lambda" .. r, { lua = ("lambda[%d]"):format(r), base = "lambda_" .. r })
+      for i = 1, k do rhs[i] = formula.add(rhs[i], formula.mul(As[r][i], lam)) end
+    end
+  end
+  return { lhs = lhs, rhs = rhs, M = Mp, h = h, phi = phis, A = As, orders = orders }
+end
+
+-- Is the text a sum at its top level (a + or - outside every parenthesis)?
+local function top_level_sum(text)
+  local depth = 0
+  for n = 1, #text do
+    local ch = text:sub(n, n)
+    if ch == "(" or ch == "{" then depth = depth + 1
+    elseif ch == ")" or ch == "}" then depth = depth - 1
+    elseif depth == 0 and (ch == "+" or ch == "-") and n > 1 and text:sub(n - 1, n - 1) == " " then return true end
+  end
+  return false
+end
+
+-- Rank of an atom in an equation: q'' first (2), then q' (1).
+local function rank(a) return a.kind == "sym" and a.info and a.info.slot and a.info.slot >= 1 and a.info.slot or 0 end
+
+-- Names for atoms that repeat, when the text would run over a screen:
+-- cos(...) -> c1, sin(...) -> s1, anything else -> w1.
+local function short_names(polys)
+  local counts = {}
+  for _, P in ipairs(polys) do formula.count_atoms(P, counts) end
+  local list = {}
+  for key, e in pairs(counts) do
+    local a = e.atom
+    local compound = a.kind ~= "sym" and not (a.arg and #a.arg.terms == 1 and #a.arg.terms[1].f == 1 and a.arg.terms[1].c == 1)
+    if e.n >= 2 and compound and a.kind ~= "group" then list[#list + 1] = { key = key, atom = a } end
+  end
+  table.sort(list, function(x, y) return x.key < y.key end)
+  local names, where, n = {}, {}, { c = 0, s = 0, w = 0 }
+  for _, e in ipairs(list) do
+    local letter = e.atom.fn == "cos" and "c" or e.atom.fn == "sin" and "s" or "w"
+    n[letter] = n[letter] + 1
+    names[e.key] = letter .. n[letter]
+    where[#where + 1] = e
+  end
+  return names, where
+end
+
+function M.show(sys, opts)
+  opts = opts or {}
+  if type(opts) ~= "table" then fail(sys, "options must be a table {tex =, lua =, mass =, bias =, width =}") end
+  for key in pairs(opts) do
+    if not ({ tex = true, lua = true, mass = true, bias = true, width = true, names = true })[key] then
+      fail(sys, "unknown option '%s' (options: tex, lua, mass, bias, width, names)", tostring(key))
+    end
+  end
+  local eq = M.equations(sys)
+  local k = sys.k
+  if opts.lua then
+    local lines = { "-- the residuals M q'' + h - A^T lambda of '" .. sys.name .. "' (nzlua sys:show{lua = true})",
+      "return function(t, q, qd, qdd, lambda, params)", "  lambda = lambda or {}", "  params = params or {}", "  return {" }
+    for i = 1, k do
+      local r = formula.sub(eq.lhs[i], eq.rhs[i])
+      lines[#lines + 1] = "    " .. formula.print(r, "lua") .. ","
+    end
+    lines[#lines + 1] = "  }"
+    lines[#lines + 1] = "end"
+    return table.concat(lines, "\n")
+  end
+  local lang = opts.tex and "tex" or "text"
+  local polys = {}
+  for i = 1, k do
+    eq.lhs[i] = formula.ordered(eq.lhs[i], rank)
+    polys[#polys + 1], polys[#polys + 2] = eq.lhs[i], eq.rhs[i]
+  end
+  for r = 1, sys.nc do polys[#polys + 1] = eq.phi[r] end
+  -- name repeated subexpressions when the equations run long
+  -- a row: sum_j (M_ij) q_j'' + h_i = A^T lambda, each coefficient of q''
+  -- whole (in parentheses when a sum), then the bias' terms
+  local function lhs_text(i, names)
+    local parts = {}
+    for j = 1, k do
+      local C = eq.M[i][j]
+      if #C.terms > 0 then
+        local acc = formula.print(formula.symbol(sys.coords[j] .. "''", { base = sys.coords[j], dots = 2, slot = 2, coord = j,
+          lua = ("qdd[%d]"):format(j) }), lang)
+        local text
+        local cst, v = formula.is_const(C)
+        if cst then
+          text = (v == 1 and "" or v == -1 and "-" or (formula.number(v) .. (lang == "tex" and " \\, " or " "))) .. acc
+        elseif #C.terms == 1 then
+          text = formula.print(formula.mul(C, formula.const(1)), lang, names) .. (lang == "tex" and " \\, " or " ") .. acc
+        else
+          local inner = formula.print(C, lang, names, true)
+          if top_level_sum(inner) then
+            inner = (lang == "tex" and "\\left(" .. inner .. "\\right)" or "(" .. inner .. ")")
+          end
+          text = inner .. (lang == "tex" and " \\, " or " ") .. acc
+        end
+        parts[#parts + 1] = text
+      end
+    end
+    local rest = formula.print(eq.h[i], lang, names)
+    local s = table.concat(parts, " + "):gsub("%+ %-", "- ")
+    if rest ~= "0" then
+      s = s == "" and rest or (rest:sub(1, 1) == "-" and (s .. " - " .. rest:sub(2)) or (s .. " + " .. rest))
+    end
+    return s == "" and "0" or s
+  end
+  local function render(names)
+    local rows = {}
+    for i = 1, k do rows[i] = { lhs_text(i, names), formula.print(eq.rhs[i], lang, names, true) } end
+    return rows
+  end
+  local rows, names, where = render(nil), nil, {}
+  local total = 0
+  for _, r in ipairs(rows) do total = total + #r[1] + #r[2] end
+  if opts.names ~= false and (total > (opts.width or 100) * 3 or opts.names) then
+    names, where = short_names(polys)
+    if #where > 0 then rows = render(names) else names = nil end
+  end
+  local n = sys.nc > 0 and (sys:rule()) or 1
+  local form = ({ "Nielsen's", "Tsenov's" })[n] or ("Dolapchiev's, of order " .. n)
+  if lang == "tex" then
+    local out = { "\\begin{aligned}" }
+    for i = 1, k do
+      out[#out + 1] = ("  %s &= %s \\\\"):format(rows[i][1], rows[i][2])
+    end
+    for r = 1, sys.nc do out[#out + 1] = ("  %s &= 0 \\\\"):format(formula.print(eq.phi[r], "tex", names, true)) end
+    for _, e in ipairs(where) do
+      out[#out + 1] = ("  %s &= %s \\\\"):format(names[e.key]:gsub("^(%a)(%d+)$", "%1_{%2}"), formula.print_atom(e.atom, formula.printers.tex, nil))
+    end
+    out[#out] = out[#out]:gsub(" \\\\$", "")
+    out[#out + 1] = "\\end{aligned}"
+    local s = table.concat(out, "\n")
+    if names then   -- short names are plain letters in text; typeset them with an index
+      for _, e in ipairs(where) do
+        local nm = names[e.key]
+        s = s:gsub("([^%a_])" .. nm .. "([^%d])", "%1" .. nm:gsub("^(%a)(%d+)$", "%1_{%2}") .. "%2")
+      end
+    end
+    return s
+  end
+  local out = { ("equations of motion of '%s': M(q) q'' + h(q, q') = A^T lambda, per coordinate"):format(sys.name),
+    ("  (Dolapchiev's rule picks n = %d, %s equations; the equations of every order n collect to these)"):format(n, form) }
+  local width = 0
+  for i = 1, k do width = math.max(width, #sys.coords[i]) end
+  for i = 1, k do
+    out[#out + 1] = ("  %-" .. width .. "s:  %s = %s"):format(sys.coords[i], rows[i][1], rows[i][2])
+  end
+  if sys.nc > 0 then
+    out[#out + 1] = "with the constraints"
+    for r = 1, sys.nc do
+      out[#out + 1] = ("  (%d)  %s = 0   (order %d: A = dPhi/d%s)"):format(r, formula.print(eq.phi[r], "text", names, true),
+        eq.orders[r], ({ "q", "q'", "q''" })[eq.orders[r] + 1] or "q^(m)")
+    end
+  end
+  if #where > 0 then
+    out[#out + 1] = "where"
+    for _, e in ipairs(where) do
+      out[#out + 1] = ("  %s = %s"):format(names[e.key], formula.print_atom(e.atom, formula.printers.text, nil))
+    end
+  end
+  if opts.mass then
+    out[#out + 1] = "the mass matrix M(q):"
+    for i = 1, k do
+      for j = i, k do
+        if #eq.M[i][j].terms > 0 then
+          out[#out + 1] = ("  M[%s, %s] = %s"):format(sys.coords[i], sys.coords[j], formula.print(eq.M[i][j], "text", names, true))
+        end
+      end
+    end
+  end
+  if opts.bias then
+    out[#out + 1] = "the bias h(q, q') (with the forces: dV/dq - Q):"
+    for i = 1, k do out[#out + 1] = ("  h[%s] = %s"):format(sys.coords[i], formula.print(eq.h[i], "text", names, true)) end
+  end
+  return table.concat(out, "\n")
+end
+
+return M

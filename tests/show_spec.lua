@@ -1,0 +1,150 @@
+-- show_spec.lua - sys:show: the equations of motion as formulas.  The
+-- smallest systems against text written by hand here; every system (free,
+-- holonomic, nonholonomic linear and nonlinear in the velocities, Hamel's
+-- second-order constraint) by a round trip: the formulas printed in Lua
+-- syntax, loaded back as a Lua function, equal the engine's residual
+-- (sys:residual, with the multipliers) at random states.
+local h = require "tests.helpers"
+local nz = h.nz
+local cs = require "tests.constraint_systems"
+
+local function pendulum()
+  return nz.system{ name = "pendulum", coords = { "th" }, params = { m = 1, g = 9.81, l = 2 },
+    T = function(t, q, qd, P) return 0.5 * P.m * P.l ^ 2 * qd[1] ^ 2 end,
+    V = function(t, q, P) return -P.m * P.g * P.l * nz.cos(q[1]) end }
+end
+
+local function double_pendulum()
+  return nz.system{ name = "double pendulum", coords = { "th1", "th2" }, params = { m1 = 1, m2 = 1.5, l1 = 1, l2 = 0.7, g = 9.81 },
+    T = function(t, q, qd, P)
+      -- from the bobs' positions: x1 = l1 sin th1, y1 = -l1 cos th1, x2 = x1 + l2 sin th2, ...
+      local x1d, y1d = P.l1 * nz.cos(q[1]) * qd[1], P.l1 * nz.sin(q[1]) * qd[1]
+      local x2d, y2d = x1d + P.l2 * nz.cos(q[2]) * qd[2], y1d + P.l2 * nz.sin(q[2]) * qd[2]
+      return 0.5 * P.m1 * (x1d ^ 2 + y1d ^ 2) + 0.5 * P.m2 * (x2d ^ 2 + y2d ^ 2)
+    end,
+    V = function(t, q, P) return -P.m1 * P.g * P.l1 * nz.cos(q[1]) - P.m2 * P.g * (P.l1 * nz.cos(q[1]) + P.l2 * nz.cos(q[2])) end }
+end
+
+local function spherical_pendulum()
+  return nz.system{ name = "spherical pendulum", coords = { "th", "ph" }, params = { m = 1.2, g = 9.81, l = 0.8 },
+    T = function(t, q, qd, P) return 0.5 * P.m * P.l ^ 2 * (qd[1] ^ 2 + nz.sin(q[1]) ^ 2 * qd[2] ^ 2) end,
+    V = function(t, q, P) return -P.m * P.g * P.l * nz.cos(q[1]) end }
+end
+
+local function knife_edge()
+  return nz.system{ name = "knife edge", coords = { "x", "y", "th" }, params = { m = 1.2, J = 0.05 },
+    T = function(t, q, qd, P) return 0.5 * P.m * (qd[1] ^ 2 + qd[2] ^ 2) + 0.5 * P.J * qd[3] ^ 2 end,
+    constraints = { function(t, q, qd) return nz.sin(q[3]) * qd[1] - nz.cos(q[3]) * qd[2] end } }
+end
+
+local function lines_of(text)
+  local out = {}
+  for line in text:gmatch("[^\n]+") do out[#out + 1] = line end
+  return out
+end
+
+describe("sys:show: the equations as text", function()
+  it("the simple pendulum: l^2 m th'' + g l m sin(th) = 0", function()
+    local text = pendulum():show{}
+    assert.truthy(text:find("  th:  l^2 m th'' + g l m sin(th) = 0", 1, true), text)
+    assert.truthy(text:find("n = 1, Nielsen's equations", 1, true), text)
+  end)
+
+  it("the double pendulum: coefficients of q'' collected, like terms with their parameters' sum", function()
+    local text = double_pendulum():show{}
+    -- derived by hand from T: M11 = (m1 + m2) l1^2, M12 = m2 l1 l2 cos(th1 - th2),
+    -- h1 = m2 l1 l2 sin(th1 - th2) th2'^2 + (m1 + m2) g l1 sin th1
+    assert.truthy(text:find("th1:  l1^2 (m1 + m2) th1'' + l1 l2 m2 cos(th1 - th2) th2'' + l1 l2 m2 sin(th1 - th2) th2'^2"
+      .. " + g l1 (m1 + m2) sin(th1) = 0", 1, true), text)
+    assert.truthy(text:find("th2:  l1 l2 m2 cos(th1 - th2) th1'' + l2^2 m2 th2'' - l1 l2 m2 sin(th1 - th2) th1'^2"
+      .. " + g l2 m2 sin(th2) = 0", 1, true), text)
+  end)
+
+  it("the spherical pendulum: sin and cos of th, th' ph' cross term", function()
+    local text = spherical_pendulum():show{}
+    -- M = m l^2 diag(1, sin^2 th); h_th = -m l^2 sin cos ph'^2 + m g l sin th,
+    -- h_ph = 2 m l^2 sin cos th' ph'
+    assert.truthy(text:find("th:  l^2 m th'' - l^2 m cos(th) sin(th) ph'^2 + g l m sin(th) = 0", 1, true), text)
+    assert.truthy(text:find("ph:  l^2 m sin(th)^2 ph'' + 2 l^2 m cos(th) sin(th) th' ph' = 0", 1, true), text)
+  end)
+
+  it("the Cartesian pendulum and the knife edge: the multipliers on the right, the constraints listed", function()
+    local p = nz.system{ name = "cartesian pendulum", coords = { "x", "y" }, params = { m = 1, g = 9.81, L = 1.3 },
+      T = function(t, q, qd, P) return 0.5 * P.m * (qd[1] ^ 2 + qd[2] ^ 2) end,
+      V = function(t, q, P) return P.m * P.g * q[2] end,
+      constraints = { function(t, q, qd, qdd, qddd, P) return q[1] ^ 2 + q[2] ^ 2 - P.L ^ 2 end } }
+    local text = p:show{}
+    assert.truthy(text:find("  x:  m x'' = 2 lambda1 x\n  y:  m y'' + g m = 2 lambda1 y\n", 1, true), text)
+    assert.truthy(text:find("(1)  x^2 + y^2 - L^2 = 0   (order 0: A = dPhi/dq)", 1, true), text)
+    local ke = knife_edge():show{}
+    assert.truthy(ke:find("  x :  m x'' = lambda1 sin(th)\n  y :  m y'' = -lambda1 cos(th)\n  th:  J th'' = 0\n", 1, true), ke)
+    assert.truthy(ke:find("(1)  sin(th) x' - cos(th) y' = 0   (order 1: A = dPhi/dq')", 1, true), ke)
+  end)
+
+  it("Hamel's particle: the multiplier's coefficients hold the accelerations (A = dPhi/dq'')", function()
+    local text = cs.hamel().sys:show{}
+    assert.truthy(text:find("q1:  1.5 q1'' - 0.7 = -lambda1 q2''", 1, true), text)
+    assert.truthy(text:find("q3:  1.5 q3'' - 2 = lambda1", 1, true), text)
+    assert.truthy(text:find("(1)  -q1'' q2'' + q3'' = 0   (order 2", 1, true), text)
+  end)
+
+  it("mass = true and bias = true print M and h; long equations name their repeated parts", function()
+    local text = double_pendulum():show{ mass = true, bias = true }
+    assert.truthy(text:find("M[th1, th1] = l1^2 (m1 + m2)", 1, true), text)
+    assert.truthy(text:find("M[th1, th2] = l1 l2 m2 cos(th1 - th2)", 1, true), text)
+    assert.truthy(text:find("h[th2] = l2 m2 (-l1 sin(th1 - th2) th1'^2 + g sin(th2))", 1, true), text)
+    local named = double_pendulum():show{ names = true }
+    assert.truthy(named:find("where\n  c1 = cos(th1 - th2)\n  s1 = sin(th1 - th2)", 1, true), named)
+    assert.truthy(named:find("l1 l2 m2 c1 th2''", 1, true), named)
+  end)
+
+  it("refuses a system it cannot read, and unknown options", function()
+    local lua_only = nz.system{ name = "not recorded", coords = { "x" }, compile = false, T = function(t, q, qd) return qd[1] ^ 2 end }
+    h.checkerror("the system is not recorded", lua_only.show, lua_only, {})
+    local p = pendulum()
+    h.checkerror("unknown option 'latex'", p.show, p, { latex = true })
+  end)
+end)
+
+describe("sys:show{tex = true}", function()
+  it("an aligned block with Greek letters, dots and \\sin", function()
+    local tex = pendulum():show{ tex = true }
+    assert.are.equal("\\begin{aligned}\n  l^{2} \\, m \\, \\ddot{\\theta} + g \\, l \\, m \\, \\sin\\left(\\theta\\right) &= 0\n\\end{aligned}", tex)
+    local dp = double_pendulum():show{ tex = true }
+    -- balanced braces and \left( ... \right) pairs
+    local depth, lefts, rights = 0, 0, 0
+    for ch in dp:gmatch("[{}]") do depth = depth + (ch == "{" and 1 or -1); assert(depth >= 0, dp) end
+    assert.are.equal(0, depth)
+    for _ in dp:gmatch("\\left") do lefts = lefts + 1 end
+    for _ in dp:gmatch("\\right") do rights = rights + 1 end
+    assert.are.equal(lefts, rights)
+    assert.truthy(dp:find("\\ddot{\\theta}_{1}", 1, true) or dp:find("\\ddot{\\theta_{1}}", 1, true), dp)
+  end)
+end)
+
+describe("sys:show{lua = true}: the formulas loaded back equal the engine's residual", function()
+  local systems = {
+    { pendulum(), 0 }, { double_pendulum(), 0 }, { spherical_pendulum(), 0 }, { knife_edge(), 1 },
+    { cs.cartesian_pendulum().sys, 1 }, { cs.sleigh().sys, 1 }, { cs.appell().sys, 1 }, { cs.rolling_disk().sys, 2 },
+    { cs.hamel().sys, 1 }, { cs.driven_hoop().sys, 1 }, { cs.program().sys, 1 },
+  }
+  for _, entry in ipairs(systems) do
+    local sys = entry[1]
+    it(sys.name, function()
+      local chunk = sys:show{ lua = true }
+      local f = assert(load(chunk, "=(show)", "t", { math = math, nz = nz }))()
+      for _ = 1, 20 do
+        local t, q, qd, qdd, lambda = 3 * math.random(), {}, {}, {}, {}
+        for i = 1, sys.k do q[i], qd[i], qdd[i] = 2 * math.random() - 1, 2 * math.random() - 1, 2 * math.random() - 1 end
+        for r = 1, sys.nc do lambda[r] = 2 * math.random() - 1 end
+        local want = sys:residual(1, t, q, qd, qdd, sys.nc > 0 and lambda or nil)
+        local got = f(t, q, qd, qdd, lambda, sys.params)
+        for i = 1, sys.k do
+          -- the same terms summed in another order: rounding only, terms of size ~10
+          assert(math.abs(got[i] - want[i]) <= 1e-12 * (1 + math.abs(want[i])),
+            ("%s, equation %d: formula %.17g, engine %.17g"):format(sys.name, i, got[i], want[i]))
+        end
+      end
+    end)
+  end
+end)
