@@ -9,9 +9,10 @@
 #   make clean
 
 PKGS      = lua5.4 gsl readline
-# Debian packages for building, testing (busted, tmux) and plotting (gnuplot).
+# Debian packages for building, testing (busted, tmux; python3-numpy runs the
+# Python that sys:export writes) and plotting (gnuplot).
 DEB_PKGS  = make gcc pkg-config liblua5.4-dev lua5.4 libreadline-dev libgsl-dev \
-            lua-busted tmux gnuplot-nox
+            lua-busted tmux gnuplot-nox python3-numpy
 
 CC       ?= cc
 WARN      = -Wall -Wextra -Werror -Wshadow -Wstrict-prototypes -Wmissing-prototypes

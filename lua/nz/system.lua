@@ -387,6 +387,8 @@ function System:linearize(opts) return require("nz.linearize").linearize(self, o
 function System:eigen_sweep(opts) return require("nz.eigen_sweep").sweep(self, opts) end
 -- The equations as formulas (nz/show.lua).
 function System:show(opts) return require("nz.show").show(self, opts) end
+-- The equations as code that runs without nzlua (nz/export.lua).
+function System:export(opts) return require("nz.export").export(self, opts) end
 -- Time as a coordinate (Rumyantsev, nz/rumyantsev.lua): the parametric
 -- system, the energy integral and theorem, the Jacobi-Whittaker reduction.
 function System:parametric(opts) return require("nz.rumyantsev").parametric(self, opts) end
