@@ -61,7 +61,7 @@ describe("simulate with method = 'taylor'", function()
       dL = math.max(dL, math.abs(q[1] * v[2] - q[2] * v[1] - L0))
     end
     -- As taylor_spec's Kepler run (3.6e-13 after 20 orbits; bound 1e-10),
-    -- here over 10 orbits and cut into chunks.  Energy -1/2 and angular
+    -- here over 10 orbits.  Energy -1/2 and angular
     -- momentum 1.2: 1e-13 relative, as Henon-Heiles (measured 3.6e-13
     -- position, 1.8e-15 energy, 1.0e-15 angular momentum).
     assert(worst <= 1e-10, ("position error %.3g"):format(worst))
@@ -92,25 +92,19 @@ describe("simulate with method = 'taylor'", function()
     assert(worst <= 1e-11, ("taylor vs rk8pd %.3g"):format(worst))
   end)
 
-  it("a chunked run gives the trajectory of one chunk (chunk boundaries only cut a step)", function()
-    local sim = require "nz.simulate"
+  it("the output grid does not change the steps: the C loop reads its points off each step's polynomial", function()
     local osc = oscillator()
-    local o = { q0 = { 1 }, t1 = 50, dt = 0.05, method = "taylor", rtol = 1e-13, atol = 1e-13 }
-    local saved = sim.TAYLOR_CHUNK
-    sim.TAYLOR_CHUNK = { seconds = 1e-9, min = 7, first = 7, max = 7 }
-    local ok, small = pcall(osc.simulate, osc, o)
-    sim.TAYLOR_CHUNK = saved
-    assert(ok, small)
-    local big = osc:simulate(o)
-    assert.equal(#big.t, #small.t)
-    local worst = 0
-    for i = 1, #big.t do
-      assert.equal(big.t[i], small.t[i])
-      worst = math.max(worst, math.abs(big.q[i][1] - small.q[i][1]))
-    end
-    -- Two runs at 1e-13 differing in their steps: ~1e-13 each (measured 1.4e-14).
-    assert(worst <= 1e-12, ("chunked vs whole %.3g"):format(worst))
-    assert(small.stats.steps > big.stats.steps)        -- a cut step per chunk
+    local fine = osc:simulate{ q0 = { 1 }, t1 = 50, dt = 0.05, method = "taylor", rtol = 1e-13, atol = 1e-13 }
+    local coarse = osc:simulate{ q0 = { 1 }, t1 = 50, dt = 50, method = "taylor", rtol = 1e-13, atol = 1e-13 }
+    assert.equal(1001, #fine.t)
+    assert.equal(2, #coarse.t)
+    assert.equal(coarse.stats.steps, fine.stats.steps)
+    -- the same steps, so the same end state to the bit
+    assert.equal(coarse.q[2][1], fine.q[#fine.q][1])
+    assert.equal(coarse.qd[2][1], fine.qd[#fine.qd][1])
+    assert.equal("c", fine.stats.loop)
+    assert.equal(0, fine.stats.forced)                  -- the polynomial needs no step end
+    assert.equal(999, fine.stats.interpolated)          -- every point but t0 and t1 (a step end)
   end)
 
   it("events on the series: the pendulum's zero crossings at odd multiples of the quarter period K(k)/w", function()
@@ -154,9 +148,9 @@ describe("simulate with method = 'taylor'", function()
     -- The oscillator takes ~1.6 steps per unit of time at 1e-14 (3,218 to
     -- t = 2000): 2e4 units project to ~3.2e4 steps, over the threshold
     -- lowered here to 2e4 (the clock's criterion off, as in
-    -- simulate_options_spec).  Taylor looks between chunks of the output
-    -- grid (dt = 1: chunks of 1024, 4096, ... points): after the second,
-    -- at t = 5120 (~8,200 steps); the run stops at an event after that.
+    -- simulate_options_spec).  The C loop looks at 16, 32, ... steps, as
+    -- for the GSL steppers: at 2048 steps (t ~ 1300) the projection says
+    -- ~3.2e4; the run stops at an event after that.
     local simulate = require "nz.simulate"
     local said, saved_warn, saved_limits = {}, simulate.warn, simulate.LONG_RUN
     simulate.warn = function(msg) said[#said + 1] = msg end
