@@ -4,6 +4,7 @@
 -- Every bound says why it is what it is.
 local h = require "tests.helpers"
 local nz = h.nz
+local function mech_order(tol) return require("nz.core").mech.taylor_order(tol) end
 
 local function oscillator()
   return nz.system{ name = "oscillator", coords = { "x" },
@@ -239,6 +240,51 @@ print("status " .. tr.status .. " points " .. #tr.t .. " last " .. tr.t[#tr.t])
     assert.truthy(e:find("simulate_taylor_spec%.lua:%d+: simulate 'vwell': method 'taylor' cannot run this system: .*branches"), e)
     -- (constraints: tests/taylor_constrained_spec.lua)
   end)
+end)
+
+-- One stepping loop for every method (src/ode/stepper.h, ode_run.c): the
+-- same events problem through taylor and rk8pd, both in the C loop, with
+-- the interface's statistics.  Taylor's crossings are located on the step's
+-- polynomial in C; rk8pd's in Lua on its Hermite interpolant.
+describe("taylor and rk8pd through the same loop", function()
+  local w, th0 = 1.3, 2.5
+  local pend = nz.system{ name = "pendulum", coords = { "th" },
+    T = function(t, q, qd) return qd[1] ^ 2 / 2 end, V = function(t, q) return -w * w * nz.cos(q[1]) end }
+  -- the quarter period K(k) / w, K(k) = pi / (2 AGM(1, sqrt(1 - k^2))), k = sin(th0 / 2)
+  local function agm(a, b) for _ = 1, 40 do a, b = (a + b) / 2, math.sqrt(a * b) end return a end
+  local kk = math.sin(th0 / 2)
+  local K = math.pi / (2 * agm(1, math.sqrt(1 - kk * kk)))
+  -- Taylor: measured 4.3e-14 (its polynomial holds q to ~1e-14, Illinois
+  -- stops within event_tol); rk8pd: 5.3e-11 (event_tol = 1e-12 relative to
+  -- max(1, t): 3.7e-11 at the last crossing, and the interpolant's error).
+  -- Bounds: 1e-11 (as the test above) and 2e-10.
+  for method, bound in pairs{ taylor = 1e-11, rk8pd = 2e-10 } do
+    it(method .. ": the zero crossings at odd multiples of the quarter period, and the statistics", function()
+      local tr = pend:simulate{ q0 = { th0 }, t1 = 40, dt = 0.1, method = method, rtol = 1e-13, atol = 1e-13,
+        events = { { f = function(t, q) return q[1] end, name = "zero" } } }
+      assert.equal("done", tr.status)
+      assert.equal(401, #tr.t)
+      assert.equal(math.floor(40 * w / (2 * K) + 0.5), #tr.events)
+      local worst = 0
+      for n, e in ipairs(tr.events) do
+        worst = math.max(worst, math.abs(e.t - (2 * n - 1) * K / w), math.abs(e.q[1]))
+      end
+      assert(worst <= bound, ("%s: event times %.3g"):format(method, worst))
+      local s = tr.stats
+      assert.equal("c", s.loop)
+      assert(s.steps > 0 and s.nfev > 0 and s.rejected >= 0)
+      assert.equal(method == "taylor" and mech_order(1e-13) or 8, s.order)
+      if method == "taylor" then
+        assert.equal(0, s.rejected)
+        assert.equal(s.steps, s.nfev)                  -- one series per step
+        assert.equal(0, s.forced)
+      else
+        assert(s.nfev >= 12 * s.steps, "rk8pd: 13 stages a step")
+      end
+      assert.equal(399, s.interpolated + s.forced)     -- every point but t0 and t1 off the dense output or forced
+      assert.is_nil(s.grid_why)                        -- the grid set no step
+    end)
+  end
 end)
 
 -- The free problems of the work-precision benchmark (bench/problems.lua)

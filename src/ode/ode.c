@@ -145,7 +145,7 @@ static int accelerations(nz_ode *o, double t, const double *y, double *out)
 static int reaction_power(nz_ode *o, double t, const double *y, const double *acc, double *R0)
 {
   int k = o->k;
-  double dLdt, T0, T1, rate;
+  double dLdt = 0.0, T0, T1, rate = 0.0;   /* (set when st is NZ_OK; initialized for the compiler's flow analysis under LTO) */
   int st = nz_lagrangian_time_partial(o->s, t, y, y + k, &dLdt);
   if (!st) st = nz_kinetic_parts(o->s, t, y, y + k, acc, &T0, &T1, &rate);
   if (st) return st;
