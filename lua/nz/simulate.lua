@@ -11,6 +11,10 @@
 -- (tests/simulate_loop_spec.lua).  The Lua loop (run below) remains for an
 -- event function that cannot be recorded and for projection with
 -- constraints of order >= 3 (tr.stats.loop_why says which).
+-- method = "taylor" (Taylor's method, src/ode/taylor.c) is an integrator of
+-- the same interface (src/ode/stepper.h) and runs in the same C loop, which
+-- locates its events on the step's polynomial itself ("located" below); it
+-- has no Lua loop.
 -- The option _loop = "lua" | "c" forces one: internal, for tests and bench/.
 local core = require "nz.core"
 local constraints = require "nz.constraints"
