@@ -55,6 +55,7 @@ struct nz_run {
   unsigned long ninterp, nforced;
   /* Events located here, on an exact dense output (the integrator's
    * exact_dense): the step's crossings in time order. */
+  int exact;                      /* dense output from an exact one, nothing projected: exact_step */
   int locate, nloc, loc_next, loc_located;
   double *loc_t, *loc_y;          /* nev times, nev states */
   int *loc_e;
@@ -108,6 +109,7 @@ nz_run *nz_run_alloc(nz_stepper *st, const nz_run_config *cfg, const double *y0)
   /* Dense output needs adaptive steps and a tolerance to control it by. */
   r->c.dense = cfg->dense && cfg->step == 0.0 && finite_positive(cfg->rtol + cfg->atol) && cfg->rtol >= 0.0 &&
                cfg->atol >= 0.0;
+  r->exact = st->exact_dense && r->c.dense && !(cfg->project_tol > 0.0 && nc > 0);
   if (!r->yi ||
       !r->y || !r->ytry || !r->bt || !r->by || !r->bacc || !r->broot || !r->has_root || !r->dirs || !r->gvals ||
       !r->orders) {
@@ -193,12 +195,6 @@ static int one_step(nz_run *r, const nz_system *s, double tlimit)
 {
   double t = r->t, h = r->h;
   int st;
-  if (r->st->exact_dense) {          /* Taylor: y as it was when a step fails, and no event needs ya */
-    if ((st = r->st->ops->step(r->st, s, &t, tlimit, &h, r->y))) return st;
-    r->t = t;
-    r->h = h;
-    return NZ_OK;
-  }
   memcpy(r->ytry, r->y, (size_t)r->dim * sizeof(double));
   if (r->c.step > 0.0) {
     st = r->st->ops->step_fixed(r->st, s, &t, r->hfixed, r->ytry);
@@ -247,9 +243,6 @@ static int dense_step(nz_run *r, const nz_system *s)
       continue;
     }
     if (st) return st;
-    /* an exact dense output (the step's own polynomial) meets the
-     * tolerance everywhere in the step: nothing to check */
-    if (r->st->exact_dense && !projecting) break;
     double bad = 0.0;
     int found = 0;
     for (double j = r->i; j <= r->nout; j += 1.0) {
@@ -288,6 +281,30 @@ static int dense_step(nz_run *r, const nz_system *s)
     tlimit = bad;
     r->nforced++;
   }
+  r->start_ok = 1;
+  return NZ_OK;
+}
+
+/* A step with an exact dense output (Taylor's polynomial: it meets the
+ * tolerance everywhere in the step, so no point is checked and no step is
+ * taken again for one), towards t1, on y in place (the integrator leaves it
+ * as it was when the step fails, and no event needs the step's start).  A
+ * step that fails is taken again towards the next output time, as in
+ * dense_step, and so are the steps after it. */
+static int exact_step(nz_run *r, const nz_system *s)
+{
+  double t = r->t, h = r->h, tlimit = r->gridded ? r->tout : r->c.t1;
+  r->start_ok = 0;
+  int st = r->st->ops->step(r->st, s, &t, tlimit, &h, r->y);
+  if (st && !r->gridded && tlimit > r->tout && !nz_interrupt_requested()) {
+    r->gridded = 1;
+    t = r->t;
+    h = r->h;
+    st = r->st->ops->step(r->st, s, &t, r->tout, &h, r->y);
+  }
+  if (st) return st;
+  r->t = t;
+  r->h = h;
   r->start_ok = 1;
   return NZ_OK;
 }
@@ -416,7 +433,8 @@ nz_run_status nz_run_advance(nz_run *r, const nz_system *s, unsigned long pause_
       if (r->phase == PH_STEP) {
         if (nz_interrupt_requested()) return NZ_RUN_INTERRUPTED;
         r->ta = r->t;
-        if ((*status = r->c.dense ? dense_step(r, s) : one_step(r, s, r->tout))) return NZ_RUN_FAILED;
+        if ((*status = r->exact ? exact_step(r, s) : r->c.dense ? dense_step(r, s) : one_step(r, s, r->tout)))
+          return NZ_RUN_FAILED;
         r->phase = PH_COUNT;
         if (projecting) {                /* project(t): above the tolerance, the caller projects */
           double v;
