@@ -245,8 +245,8 @@ nz_stepper *nz_lua_taylor_new(lua_State *L, int cfg, const char *fname)
 }
 
 /* What stopped a Taylor step: why (a word) and what (a sentence), or
- * NULL when its failure is an accelerations' solve (raise_accel: an output
- * point's, or a series' start under constraints). */
+ * NULL when what failed was an output point's accelerations (raise_accel,
+ * or the user function's error). */
 static const char *failure_text(nz_stepper *st, nz_compiled *comp, char *what, size_t n, double *tfail)
 {
   int status;
@@ -260,8 +260,13 @@ static const char *failure_text(nz_stepper *st, nz_compiled *comp, char *what, s
     snprintf(what, n, "stopped at t = %s: the step size became too small", num);
     return "step";
   }
-  if (f != NZ_TAYLOR_SERIES || c->accel_failed) return NULL;
+  if (f != NZ_TAYLOR_SERIES) return NULL;
   if (status == NZ_ENOMEM) snprintf(what, n, "not enough memory");
+  else if (c->accel_failed)   /* the start of the series under constraints */
+    snprintf(what, n, "the accelerations under the constraints could not be solved at t = %s (%s)", num,
+             c->rep.failure == NZ_ACCEL_SINGULAR ? "the matrix [M A^T; A 0] is singular there"
+             : c->rep.failure == NZ_ACCEL_NEWTON ? "Newton's method did not converge"
+             : "the solution failed its check");
   else snprintf(what, n, "the series of the motion failed at t = %s: %s (status %d)", num, nz_compiled_failure(comp),
                 status);
   return "series";
@@ -416,7 +421,8 @@ static int lt_taylor_run(lua_State *L)
     char what[512];
     double t;
     const char *why = failure_text(tb->st, b.comp, what, sizeof what, &t);
-    if (!why) return raise_accel(L, nz_taylor_ctx(tb->st));
+    series_ctx *sc = nz_taylor_ctx(tb->st);
+    if (!why || sc->accel_failed) return raise_accel(L, sc);
     if (!strcmp(why, "series")) return raise_series(L, &b, st, t, "taylor_run");
     return luaL_error(L, "system '%s': 'taylor_run' %s", nz_lua_system_name(L, 1), what);
   }

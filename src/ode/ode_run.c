@@ -120,7 +120,7 @@ nz_run *nz_run_alloc(nz_stepper *st, const nz_run_config *cfg, const double *y0)
   if (cfg->project_tol > 0.0 && nc > 0) memcpy(r->orders, cfg->orders, ncc * sizeof(int));
   r->c.directions = r->c.orders = NULL;          /* the caller's arrays may go */
   memcpy(r->y, y0, dim * sizeof(double));
-  r->t = cfg->t0;
+  r->t = r->ta = cfg->t0;
   r->h = cfg->h0;
   r->window_t = cfg->t0;
   r->window_left = cfg->stall_window;
@@ -421,7 +421,9 @@ nz_run_status nz_run_advance(nz_run *r, const nz_system *s, unsigned long pause_
     if ((*status = record(r, s))) return NZ_RUN_FAILED;
     r->started = 1;
     for (int e = 0; e < r->nev; e++) {   /* gvals[i] = event_value(ev, t, y) */
+      r->ev_e = e;
       int st = r->event_fn(r->event_ctx, e, r->t, r->y, &r->gvals[e]);
+      if (!st && r->locate && !isfinite(r->gvals[e])) st = NZ_EDOM;
       if (st) return fail(r, NZ_RUN_FAIL_EVENT, st, status);
     }
   }
