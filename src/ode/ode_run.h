@@ -19,8 +19,9 @@
  * (the rule of crosses() in simulate.lua), returns NZ_RUN_EVENT with the
  * step (nz_run_event); the caller locates and records the event and, unless
  * it stops the run, calls again: the loop goes on with the next event of the
- * same step (an exact dense output: see nz_run_located).  Projection: with project_tol > 0, after every accepted step the
- * loop computes the state's violation of the constraints of order <= 1
+ * same step (with an exact dense output the loop locates them itself: see
+ * nz_run_located).  Projection: with project_tol > 0, after every accepted
+ * step the loop computes the state's violation of the constraints of order <= 1
  * (nz_state_violation, constrained.h: what the Lua loop's state_violation
  * computes, by the same primitive in the same order) and, above the
  * tolerance, returns NZ_RUN_PROJECT; the caller projects, writes the state
@@ -38,9 +39,10 @@
 /* Dense output (cfg.dense, adaptive steps only): the steps go to t1, not to
  * each output time, and an output point inside a step is read from the
  * integrator's dense output, so that the output grid no longer caps the
- * steps.  Taylor's is the step's own polynomial (exact: no check).  GSL's
- * (stepper_gsl.c) is a Hermite interpolant of the step.  y = (q, q', ...) and f = (q', q'', ...): for q the nodes carry
- * q, q', q'' (a quintic over the step alone, and up to degree 11 with the
+ * steps.  Taylor's is the step's own polynomial (exact: no point is
+ * checked, no step taken again).  GSL's (stepper_gsl.c) is a Hermite
+ * interpolant of the step: y = (q, q', ...) and f = (q', q'', ...); for q
+ * the nodes carry q, q', q'' (a quintic over the step alone, and up to degree 11 with the
  * starts of the two steps before joined on), q' is the derivative of q's
  * polynomial, and every other component gets the cubic (up to degree 7)
  * from y and f: no evaluation beyond f at the step ends.  The last Newton
@@ -55,7 +57,8 @@
  * multistep method its history).  A step that fails is taken again towards
  * the next output time, and every step after it: the run reaches a failure
  * as without dense output.  nz_run_dense_stats counts both kinds of point;
- * events are located on the interpolant (nz_run_interpolate). */
+ * the caller locates a GSL stepper's events on the interpolant
+ * (nz_run_interpolate). */
 #ifndef NZ_ODE_RUN_H
 #define NZ_ODE_RUN_H
 
