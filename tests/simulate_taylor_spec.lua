@@ -4,6 +4,7 @@
 -- Every bound says why it is what it is.
 local h = require "tests.helpers"
 local nz = h.nz
+local function mech_order(tol) return require("nz.core").mech.taylor_order(tol) end
 
 local function oscillator()
   return nz.system{ name = "oscillator", coords = { "x" },
@@ -61,7 +62,7 @@ describe("simulate with method = 'taylor'", function()
       dL = math.max(dL, math.abs(q[1] * v[2] - q[2] * v[1] - L0))
     end
     -- As taylor_spec's Kepler run (3.6e-13 after 20 orbits; bound 1e-10),
-    -- here over 10 orbits and cut into chunks.  Energy -1/2 and angular
+    -- here over 10 orbits.  Energy -1/2 and angular
     -- momentum 1.2: 1e-13 relative, as Henon-Heiles (measured 3.6e-13
     -- position, 1.8e-15 energy, 1.0e-15 angular momentum).
     assert(worst <= 1e-10, ("position error %.3g"):format(worst))
@@ -92,25 +93,19 @@ describe("simulate with method = 'taylor'", function()
     assert(worst <= 1e-11, ("taylor vs rk8pd %.3g"):format(worst))
   end)
 
-  it("a chunked run gives the trajectory of one chunk (chunk boundaries only cut a step)", function()
-    local sim = require "nz.simulate"
+  it("the output grid does not change the steps: the C loop reads its points off each step's polynomial", function()
     local osc = oscillator()
-    local o = { q0 = { 1 }, t1 = 50, dt = 0.05, method = "taylor", rtol = 1e-13, atol = 1e-13 }
-    local saved = sim.TAYLOR_CHUNK
-    sim.TAYLOR_CHUNK = { seconds = 1e-9, min = 7, first = 7, max = 7 }
-    local ok, small = pcall(osc.simulate, osc, o)
-    sim.TAYLOR_CHUNK = saved
-    assert(ok, small)
-    local big = osc:simulate(o)
-    assert.equal(#big.t, #small.t)
-    local worst = 0
-    for i = 1, #big.t do
-      assert.equal(big.t[i], small.t[i])
-      worst = math.max(worst, math.abs(big.q[i][1] - small.q[i][1]))
-    end
-    -- Two runs at 1e-13 differing in their steps: ~1e-13 each (measured 1.4e-14).
-    assert(worst <= 1e-12, ("chunked vs whole %.3g"):format(worst))
-    assert(small.stats.steps > big.stats.steps)        -- a cut step per chunk
+    local fine = osc:simulate{ q0 = { 1 }, t1 = 50, dt = 0.05, method = "taylor", rtol = 1e-13, atol = 1e-13 }
+    local coarse = osc:simulate{ q0 = { 1 }, t1 = 50, dt = 50, method = "taylor", rtol = 1e-13, atol = 1e-13 }
+    assert.equal(1001, #fine.t)
+    assert.equal(2, #coarse.t)
+    assert.equal(coarse.stats.steps, fine.stats.steps)
+    -- the same steps, so the same end state to the bit
+    assert.equal(coarse.q[2][1], fine.q[#fine.q][1])
+    assert.equal(coarse.qd[2][1], fine.qd[#fine.qd][1])
+    assert.equal("c", fine.stats.loop)
+    assert.equal(0, fine.stats.forced)                  -- the polynomial needs no step end
+    assert.equal(999, fine.stats.interpolated)          -- every point but t0 and t1 (a step end)
   end)
 
   it("events on the series: the pendulum's zero crossings at odd multiples of the quarter period K(k)/w", function()
@@ -154,9 +149,9 @@ describe("simulate with method = 'taylor'", function()
     -- The oscillator takes ~1.6 steps per unit of time at 1e-14 (3,218 to
     -- t = 2000): 2e4 units project to ~3.2e4 steps, over the threshold
     -- lowered here to 2e4 (the clock's criterion off, as in
-    -- simulate_options_spec).  Taylor looks between chunks of the output
-    -- grid (dt = 1: chunks of 1024, 4096, ... points): after the second,
-    -- at t = 5120 (~8,200 steps); the run stops at an event after that.
+    -- simulate_options_spec).  The C loop looks at 16, 32, ... steps, as
+    -- for the GSL steppers: at 2048 steps (t ~ 1300) the projection says
+    -- ~3.2e4; the run stops at an event after that.
     local simulate = require "nz.simulate"
     local said, saved_warn, saved_limits = {}, simulate.warn, simulate.LONG_RUN
     simulate.warn = function(msg) said[#said + 1] = msg end
@@ -245,6 +240,51 @@ print("status " .. tr.status .. " points " .. #tr.t .. " last " .. tr.t[#tr.t])
     assert.truthy(e:find("simulate_taylor_spec%.lua:%d+: simulate 'vwell': method 'taylor' cannot run this system: .*branches"), e)
     -- (constraints: tests/taylor_constrained_spec.lua)
   end)
+end)
+
+-- One stepping loop for every method (src/ode/stepper.h, ode_run.c): the
+-- same events problem through taylor and rk8pd, both in the C loop, with
+-- the interface's statistics.  Taylor's crossings are located on the step's
+-- polynomial in C; rk8pd's in Lua on its Hermite interpolant.
+describe("taylor and rk8pd through the same loop", function()
+  local w, th0 = 1.3, 2.5
+  local pend = nz.system{ name = "pendulum", coords = { "th" },
+    T = function(t, q, qd) return qd[1] ^ 2 / 2 end, V = function(t, q) return -w * w * nz.cos(q[1]) end }
+  -- the quarter period K(k) / w, K(k) = pi / (2 AGM(1, sqrt(1 - k^2))), k = sin(th0 / 2)
+  local function agm(a, b) for _ = 1, 40 do a, b = (a + b) / 2, math.sqrt(a * b) end return a end
+  local kk = math.sin(th0 / 2)
+  local K = math.pi / (2 * agm(1, math.sqrt(1 - kk * kk)))
+  -- Taylor: measured 4.3e-14 (its polynomial holds q to ~1e-14, Illinois
+  -- stops within event_tol); rk8pd: 5.3e-11 (event_tol = 1e-12 relative to
+  -- max(1, t): 3.7e-11 at the last crossing, and the interpolant's error).
+  -- Bounds: 1e-11 (as the test above) and 2e-10.
+  for method, bound in pairs{ taylor = 1e-11, rk8pd = 2e-10 } do
+    it(method .. ": the zero crossings at odd multiples of the quarter period, and the statistics", function()
+      local tr = pend:simulate{ q0 = { th0 }, t1 = 40, dt = 0.1, method = method, rtol = 1e-13, atol = 1e-13,
+        events = { { f = function(t, q) return q[1] end, name = "zero" } } }
+      assert.equal("done", tr.status)
+      assert.equal(401, #tr.t)
+      assert.equal(math.floor(40 * w / (2 * K) + 0.5), #tr.events)
+      local worst = 0
+      for n, e in ipairs(tr.events) do
+        worst = math.max(worst, math.abs(e.t - (2 * n - 1) * K / w), math.abs(e.q[1]))
+      end
+      assert(worst <= bound, ("%s: event times %.3g"):format(method, worst))
+      local s = tr.stats
+      assert.equal("c", s.loop)
+      assert(s.steps > 0 and s.nfev > 0 and s.rejected >= 0)
+      assert.equal(method == "taylor" and mech_order(1e-13) or 8, s.order)
+      if method == "taylor" then
+        assert.equal(0, s.rejected)
+        assert.equal(s.steps, s.nfev)                  -- one series per step
+        assert.equal(0, s.forced)
+      else
+        assert(s.nfev >= 12 * s.steps, "rk8pd: 13 stages a step")
+      end
+      assert.equal(399, s.interpolated + s.forced)     -- every point but t0 and t1 off the dense output or forced
+      assert.is_nil(s.grid_why)                        -- the grid set no step
+    end)
+  end
 end)
 
 -- The free problems of the work-precision benchmark (bench/problems.lua)

@@ -11,6 +11,10 @@
 -- (tests/simulate_loop_spec.lua).  The Lua loop (run below) remains for an
 -- event function that cannot be recorded and for projection with
 -- constraints of order >= 3 (tr.stats.loop_why says which).
+-- method = "taylor" (Taylor's method, src/ode/taylor.c) is an integrator of
+-- the same interface (src/ode/stepper.h) and runs in the same C loop, which
+-- locates its events on the step's polynomial itself ("located" below); it
+-- has no Lua loop.
 -- The option _loop = "lua" | "c" forces one: internal, for tests and bench/.
 local core = require "nz.core"
 local constraints = require "nz.constraints"
@@ -534,13 +538,31 @@ function M.simulate(sys, opts)
   end
   engine.orders = orders
   check_memory(sys, cfg, p, top)
-  if cfg.method == "taylor" then
+  -- method = "taylor": Taylor's method (src/ode/taylor.c, made by
+  -- src/lua/lua_taylor.c) behind the same integrator interface as GSL's
+  -- steppers (src/ode/stepper.h), in the same C loop below; what it does not
+  -- do is refused here, from the user's line.
+  local taylor = cfg.method == "taylor"
+  local function refuse(msg, ...) fail(sys, "method 'taylor' " .. msg, ...) end
+  if taylor then
     if p then
       fail(sys, "method 'taylor' takes constraints of order 0, 1 and 2 (on q, q', q''), and this system's need the "
         .. "level %d (a constraint on the third derivative or higher): take a GSL stepper (rk8pd, the default, "
         .. "or any of %s)", p, table.concat(method_names(), " "))
     end
-    return M.simulate_taylor(sys, cfg, orders, linear)
+    if cfg.monitors.work then
+      refuse("does not integrate the 'work' monitor yet (it is part of the GSL steppers' state): leave it out, "
+        .. "or take rk8pd")
+    end
+    if cfg.project or cfg.alpha then
+      refuse("takes no 'project' or 'baumgarte': its series keeps the constraints to the order of the method "
+        .. "along each step (their drift is the truncation's: tr:violation() shows it); take rk8pd to project")
+    end
+    if not sys.recording then
+      refuse("needs a recorded system (made with compile = true, the default): it builds the series on the graphs; "
+        .. "take rk8pd for a system made with compile = false")
+    end
+    if cfg._loop == "lua" then fail(sys, "'_loop' = \"lua\": method 'taylor' runs in the C loop only") end
   end
   local qd0 = cfg.qd0
   if not qd0 then qd0 = {}; for i = 1, k do qd0[i] = 0 end end   -- at rest
@@ -548,11 +570,25 @@ function M.simulate(sys, opts)
   local tail = p and start_levels(sys, cfg, orders, p, qd0, top)
   local guess = top and cfg.guess and top_guess(sys, cfg.guess, p)
 
-  local ode = mech.ode_new(engine, {
+  local ode_cfg = {
     method = cfg.method, rtol = cfg.rtol, atol = cfg.atol, h0 = cfg.h0 or math.min(cfg.dt, 1e-3),
     work = cfg.monitors.work, orders = orders, linear = linear, alpha = cfg.alpha, beta = cfg.beta, level = p,
     top = top ~= nil, guess = guess,
-  })
+  }
+  local ode
+  if taylor then
+    -- the binding's refusals (a piece that fell back to Lua, branches on the
+    -- state) said as simulate's: the user's line, then what is wrong
+    local ok, res = pcall(mech.ode_new, engine, ode_cfg)
+    if not ok then
+      if type(res) ~= "string" then error(res, 0) end
+      local what = strip_library(res):gsub("^system '[^']*': '[%w_]+': ", ""):gsub("^system '[^']*': ", "")
+      refuse("cannot run this system: %s; take rk8pd", what)
+    end
+    ode = res
+  else
+    ode = mech.ode_new(engine, ode_cfg)
+  end
   local tr = trajectory.new(sys, cfg)
   tr.warnings = cfg.warnings
   if cfg.monitors.energy then tr.energy, tr.generalized_energy = {}, {} end
@@ -655,6 +691,9 @@ function M.simulate(sys, opts)
       for i, ev in ipairs(cfg.events) do fs[i] = ev.f end
       local rec, bad, why = record_graph.state_functions(engine, fs)
       if rec then evals = mech.ode_events_new(rec.compiled, rec.nodes, rec.values, k)
+      elseif taylor then
+        refuse("needs event functions it can record, and event '%s' cannot be (%s): take rk8pd, whose Lua loop runs it",
+          cfg.events[bad].name, why)
       else events_why = ("event '%s' cannot be recorded (%s)"):format(cfg.events[bad].name, why) end
     end
   end
@@ -790,11 +829,10 @@ function M.simulate(sys, opts)
     end
   end
 
-  -- Event e crossed in the step from (ta, ya) to (tb, yb): locate it and
-  -- record it; true when it stops the run (its point recorded).
-  local function on_event(e, ta, ya, ga, tb, gb, yb)
+  -- Event e at te, state ye: recorded; true when it stops the run (its
+  -- point recorded).
+  local function on_located(e, te, ye)
     local ev = cfg.events[e]
-    local te, ye = locate(ev, ta, ya, ga, tb, gb, yb)
     local q, qd = split(ye, k)
     tr.events[#tr.events + 1] = { name = ev.name, t = te, q = q, qd = qd }
     if ev.stop then
@@ -812,6 +850,23 @@ function M.simulate(sys, opts)
       return true
     end
     return false
+  end
+
+  -- Event e crossed in the step from (ta, ya) to (tb, yb): locate it and
+  -- record it; true when it stops the run (its point recorded).
+  local function on_event(e, ta, ya, ga, tb, gb, yb)
+    return on_located(e, locate(cfg.events[e], ta, ya, ga, tb, gb, yb))
+  end
+
+  -- A Taylor step that failed ({taylor_stop = why, message = what} from the
+  -- binding): said with the user's line and the last output point.
+  local function taylor_failure(err)
+    local n = #tr.t
+    local why = err.taylor_stop == "hook" and "" or ": the motion may be singular there (a velocity blowing up), "
+      .. "or the tolerance too tight"
+    return ("%ssimulate '%s': method 'taylor' %s%s%s; last output point%s"):format(user_where(), sys.name, err.message,
+      err.taylor_stop == "step" and " (the series predicts a step below the time's resolution)" or "", why,
+      state_text(tr.t[n], tr.q[n], tr.qd[n]))
   end
 
   local function run()
@@ -880,17 +935,20 @@ function M.simulate(sys, opts)
   -- again from its start, which restarts msadams and msbdf at order 1: on a
   -- pendulum (dt = 0.01, rtol 1e-10) msbdf took 79,410 steps with it against
   -- 20,949 without, so those two keep the grid unless asked (dense = true).
-  local dense = not cfg.step and (cfg.dense == true or (cfg.dense == nil and not multistep))
+  -- Taylor's dense output is its own solution, the step's polynomial.
+  local dense = taylor or (not cfg.step and (cfg.dense == true or (cfg.dense == nil and not multistep)))
   local function run_c()
     local directions, orders = {}, {}
     for e, ev in ipairs(cfg.events) do directions[e] = ev.direction end
     if projecting then for r, c in ipairs(constraints.classify(sys)) do orders[r] = c.order end end
     crun = mech.ode_run_new(ode, { t0 = cfg.t0, t1 = cfg.t1, dt = cfg.dt, step = cfg.step, h0 = h, y = y,
       stall_window = M.STALL.window, stall_fraction = M.STALL.fraction,
+      capacity = math.min(1024, math.ceil((cfg.t1 - cfg.t0) / cfg.dt - 1e-9) + 1),   -- no larger than the grid
       events = evals, directions = directions,
-      fallback = evals and function(e, tt, yy) return event_value(cfg.events[e], tt, yy) end,
+      -- taylor: no Lua function where a graph fails on the step's polynomial (the run fails)
+      fallback = evals and not taylor and function(e, tt, yy) return event_value(cfg.events[e], tt, yy) end or nil,
       project_tol = projecting and project_tol or 0, orders = orders,
-      dense = dense, rtol = cfg.rtol, atol = cfg.atol })
+      dense = dense, rtol = cfg.rtol, atol = cfg.atol, event_tol = cfg.event_tol })
     -- The bar's next drawing time stays put across the returns that hand
     -- points over ("full"), which may come more often than it.
     local next_draw = mech.now() + M.PROGRESS_PAUSE
@@ -899,7 +957,10 @@ function M.simulate(sys, opts)
         not announced and next_check or 0, progress and next_draw or 0)
       t, y, nsteps = mech.ode_run_state(crun)       -- for the messages (the interrupt's t, stalled's state)
       catch_up()
-      if not ok then error(status, 0) end
+      if not ok then
+        if type(status) == "table" and status.taylor_stop then status = taylor_failure(status) end
+        error(status, 0)
+      end
       if status == "done" then tr.status = "done"; return end
       if status == "stalled" then stalled(t, a1) end
       if status == "project" then                   -- project(t), past its test (made in C)
@@ -910,6 +971,10 @@ function M.simulate(sys, opts)
       end
       if status == "event" and on_event(a1, a2, a3, a4, a5, a6, a7) then
         cdone = #tr.t                               -- its point recorded whole by record()
+        return
+      end
+      if status == "located" and on_located(a1, a2, a3) then   -- located in C (taylor's polynomial)
+        cdone = #tr.t
         return
       end
       if status == "paused" and nsteps == next_check and not announced then  -- watch(t), its second half
@@ -945,8 +1010,8 @@ function M.simulate(sys, opts)
   end
   done()
   local s = mech.ode_stats(ode)
-  tr.stats = { steps = s.steps, rejected = s.rejected, nfev = s.nfev, njev = s.njev, wall = mech.now() - wall0,
-    loop = in_c and "c" or "lua", loop_why = loop_why }
+  tr.stats = { steps = s.steps, rejected = s.rejected, nfev = s.nfev, njev = s.njev, order = s.order,
+    wall = mech.now() - wall0, loop = in_c and "c" or "lua", loop_why = loop_why }
   -- Dense output: how many output points came off an interpolant, how many
   -- its error control made step ends; grid_why: why the output grid capped
   -- the steps (nil when it did not).
@@ -964,155 +1029,6 @@ function M.simulate(sys, opts)
     tr.stats.grid_why = ("the interpolant's error control made %d output points step ends"):format(tr.stats.forced)
   end
   return finish(sys, cfg, tr, ok, err, t)
-end
-
--- Chunks of output points a Taylor run computes in C at a time: sized so
--- that a chunk takes about TAYLOR_CHUNK.seconds (the progress bar moves,
--- Ctrl-C loses at most that much work, the buffer stays small), between
--- min and max points.
-M.TAYLOR_CHUNK = { seconds = 0.2, min = 256, first = 1024, max = 65536 }
-
--- method = "taylor": the motion of a free recorded system by Taylor's method
--- (src/ode/taylor.c through core.mech.taylor_run, src/lua/lua_taylor.c).
--- The run goes by chunks of the output grid; each chunk starts from the
--- last point of the one before, so the step that reaches a chunk's end is
--- cut there (one short step per chunk: about 1% more steps at dt = 0.01 on
--- Henon-Heiles, see the README).  The grid inside a chunk is tc + m dt, tc
--- the chunk's start: it differs from t0 + n dt by a few ulps, and tr.t keeps
--- t0 + n dt (the state at a time a few ulps off: far below any tolerance).
-function M.simulate_taylor(sys, cfg, orders, linear)
-  local k, engine = sys.k, sys.engine
-  local function refuse(msg, ...) fail(sys, "method 'taylor' " .. msg, ...) end
-  -- Events: recorded as graphs (as the C loop's) and located in C on each
-  -- step's polynomial (src/lua/lua_taylor.c); one that cannot be recorded
-  -- is refused (taylor has no Lua loop).
-  local events
-  if #cfg.events > 0 then
-    local fs, directions, stops = {}, {}, {}
-    for i, ev in ipairs(cfg.events) do fs[i], directions[i], stops[i] = ev.f, ev.direction, ev.stop and true or false end
-    local rec, bad, why = record_graph.state_functions(engine, fs)
-    if not rec then
-      refuse("needs event functions it can record, and event '%s' cannot be (%s): take rk8pd, whose Lua loop runs it",
-        cfg.events[bad].name, why)
-    end
-    events = { compiled = rec.compiled, nodes = rec.nodes, values = rec.values, directions = directions, stops = stops,
-      tol = cfg.event_tol }
-  end
-  if cfg.monitors.work then
-    refuse("does not integrate the 'work' monitor yet (it is part of the GSL steppers' state): leave it out, "
-      .. "or take rk8pd")
-  end
-  if cfg.project or cfg.alpha then
-    refuse("takes no 'project' or 'baumgarte': its series keeps the constraints to the order of the method "
-      .. "along each step (their drift is the truncation's: tr:violation() shows it); take rk8pd to project")
-  end
-  local classification = sys.nc > 0 and { orders = orders, linear = linear } or nil
-  if not sys.recording then
-    refuse("needs a recorded system (made with compile = true, the default): it builds the series on the graphs; "
-      .. "take rk8pd for a system made with compile = false")
-  end
-  local qd0 = cfg.qd0
-  if not qd0 then qd0 = {}; for i = 1, k do qd0[i] = 0 end end
-  -- The binding's refusals (a piece that fell back to Lua, branches on the
-  -- state) said as simulate's: the user's line, then what is wrong.
-  local function reword(err)
-    if type(err) ~= "string" then error(err, 0) end    -- an interrupt: as it is
-    local what = strip_library(err):gsub("^system '[^']*': '[%w_]+': ", ""):gsub("^system '[^']*': ", "")
-    return what
-  end
-  if sys.nc > 0 and cfg.check ~= false then constraints.check_state(sys, cfg.t0, cfg.q0, qd0) end
-  local ok, err = pcall(mech.motion_series, engine, cfg.t0, cfg.q0, qd0, 1, classification)
-  if not ok then
-    local what = reword(err)
-    if what:find("fell back", 1, true) or what:find("recorded", 1, true) then
-      refuse("cannot run this system: %s; take rk8pd", what)
-    end
-    refuse("failed at t = %s: %s", num(cfg.t0), what)
-  end
-
-  -- q'' and the multipliers of a point taylor_run does not record itself
-  local ode = mech.ode_new(engine, { method = "rk8pd", rtol = cfg.rtol, atol = cfg.atol, h0 = cfg.dt,
-    orders = orders, linear = linear })
-  local tr = trajectory.new(sys, cfg)
-  tr.warnings = cfg.warnings
-  if cfg.monitors.energy then tr.energy, tr.generalized_energy = {}, {} end
-  local function record(t, q, qd)
-    local y = {}
-    for i = 1, k do y[i], y[k + i] = q[i], qd[i] end
-    local n = #tr.t + 1
-    local qdd, lambda = mech.ode_accel(ode, engine, t, y)
-    tr.t[n], tr.q[n], tr.qd[n], tr.qdd[n], tr.lambda[n] = t, q, qd, qdd, sys.nc > 0 and lambda or {}
-    if tr.violation then tr.violation[n] = constraints.violation(sys, t, q, qd) end
-    if tr.energy then tr.energy[n], tr.generalized_energy[n] = sys:energy(t, q, qd) end
-  end
-
-  local update, done, progress = progress_bar(cfg, cfg.t0, cfg.t1)
-  local wall0 = mech.now()
-  local nout = math.ceil((cfg.t1 - cfg.t0) / cfg.dt - 1e-9)
-  local stats = { steps = 0, nfev = 0, order = 0, seconds = 0 }
-  local t, q, qd = cfg.t0, { table.unpack(cfg.q0) }, { table.unpack(qd0) }
-  local i, chunk = 0, M.TAYLOR_CHUNK.first
-  local announced, next_check = false, 16
-  local function run()
-    record(t, q, qd)
-    while i < nout do
-      if mech.interrupted() then error(core.interrupted, 0) end
-      local j = math.min(nout, i + chunk)
-      local tj = j == nout and cfg.t1 or cfg.t0 + j * cfg.dt
-      -- the points go straight into tr (t, q, qd, qdd, lambda), made in C
-      local ok2, res = pcall(mech.taylor_run, engine, { t0 = t, t1 = tj, dt = cfg.dt, q0 = q, qd0 = qd,
-        rtol = cfg.rtol, atol = cfg.atol, partial = true, tr = tr, grid_t0 = cfg.t0, grid_t1 = cfg.t1, i0 = i,
-        nout = nout, events = events, orders = orders, linear = linear })
-      if not ok2 then
-        if type(res) ~= "string" then error(res, 0) end
-        local what = reword(res)
-        if what:find("branches", 1, true) then refuse("cannot run this system: %s; take rk8pd", what) end
-        error(("%ssimulate '%s': method 'taylor' failed: %s"):format(user_where(), sys.name, what), 0)
-      end
-      local s = res.stats
-      stats.steps, stats.nfev = stats.steps + s.steps, stats.nfev + s.nfev
-      stats.order, stats.seconds = math.max(stats.order, s.order), stats.seconds + s.seconds
-      if tr.energy then
-        for n = #tr.t - res.n + 1, #tr.t do tr.energy[n], tr.generalized_energy[n] = sys:energy(tr.t[n], tr.q[n], tr.qd[n]) end
-      end
-      if tr.violation then     -- as the GSL runs: the drift off the constraints at each point
-        for n = #tr.t - res.n + 1, #tr.t do tr.violation[n] = constraints.violation(sys, tr.t[n], tr.q[n], tr.qd[n]) end
-      end
-      if res.n > 0 then i, t, q, qd = i + res.n, tr.t[#tr.t], res.q, res.qd end
-      for _, e in ipairs(res.events or {}) do
-        tr.events[#tr.events + 1] = { name = cfg.events[e.e].name, t = e.t, q = e.q, qd = e.qd }
-      end
-      if res.stop == "event" then                     -- the last event stopped the run: its point recorded
-        local e = res.events[#res.events]
-        t, q, qd = e.t, e.q, e.qd
-        record(e.t, e.q, e.qd)
-        tr.status, tr.message = "stopped", ("event '%s' at t = %.12g"):format(cfg.events[e.e].name, e.t)
-        return
-      end
-      -- a run that stopped early: its points are kept, then the reason
-      if res.stop == "interrupted" then t = res.stats.t; error(core.interrupted, 0) end
-      if res.stop then
-        local why = res.stop == "hook" and "" or ": the motion may be singular there (a velocity blowing up), "
-          .. "or the tolerance too tight"
-        error(("%ssimulate '%s': method 'taylor' %s%s%s; last output point%s"):format(user_where(), sys.name, res.message,
-          res.stop == "step" and (" (the series predicts a step below the time's resolution)") or "", why,
-          state_text(t, q, qd)), 0)
-      end
-      if not announced and stats.steps >= next_check then      -- as the GSL loops, at 16, 32, ... steps
-        announced = long_run_notice(sys, cfg, tr, stats.steps, t, wall0, done)
-        while next_check <= stats.steps do next_check = 2 * next_check end
-      end
-      local scale = s.seconds > 0 and M.TAYLOR_CHUNK.seconds / s.seconds or 4
-      chunk = math.floor(math.max(M.TAYLOR_CHUNK.min, math.min(M.TAYLOR_CHUNK.max, chunk * math.min(scale, 4))))
-      if progress then update(t, function() return stats.steps end) end
-    end
-    tr.status = "done"
-  end
-  local ok3, err3 = pcall(run)
-  done()
-  tr.stats = { steps = stats.steps, rejected = 0, nfev = stats.nfev, njev = 0, order = stats.order,
-    wall = mech.now() - wall0, loop = "c", loop_why = nil }
-  return finish(sys, cfg, tr, ok3, err3, t)
 end
 
 return M

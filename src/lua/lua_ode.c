@@ -1,5 +1,7 @@
-/* lua_ode.c - the integrator (ode.h) for Lua: a userdata "nz.ode" owning a
- * GSL stepper for one system, stepped by lua/nz/simulate.lua.  Each call
+/* lua_ode.c - the integrator (stepper.h) for Lua: a userdata "nz.ode" owning
+ * a GSL stepper (ode.h) or Taylor's method (taylor.h, made by lua_taylor.c)
+ * for one system, stepped by lua/nz/simulate.lua (GSL's steppers also in
+ * its Lua loop, through ode_step).  Each call
  * binds the system's definition table again (the evaluator lives for one
  * call), and a failure is raised after GSL has returned, with the time, the
  * state and what went wrong. */
@@ -13,32 +15,46 @@
 #include "lua/lua_graph.h"
 #include "lua/lua_ode.h"
 #include "lua/lua_system.h"
+#include "lua/lua_taylor.h"
 #include "lua/lua_util.h"
 #include "mech/constrained.h"
 #include "ode/ode.h"
 #include "ode/ode_run.h"
+#include "ode/stepper.h"
+#include "ode/taylor.h"
 
 #define NZ_ODE_METATABLE "nz.ode"
 #define NZ_RUN_METATABLE "nz.ode_run"
 #define NZ_EVENTS_METATABLE "nz.ode_events"
 
 typedef struct ode_box {
-  nz_ode *o;
-  int k, nc;
+  nz_stepper *st;                    /* the integrator, owning o for GSL's */
+  nz_ode *o;                         /* GSL's steppers; NULL for taylor */
+  int k, nc, dim;
   char method[16];
 } ode_box;
 
 static ode_box *check_ode(lua_State *L, int idx)
 {
   ode_box *b = luaL_checkudata(L, idx, NZ_ODE_METATABLE);
-  if (!b->o) luaL_error(L, "this integrator has been freed");
+  if (!b->st) luaL_error(L, "this integrator has been freed");
+  return b;
+}
+
+/* The functions of GSL's steppers alone (a step from Lua, the right-hand
+ * side, the Jacobian). */
+static ode_box *check_gsl(lua_State *L, int idx)
+{
+  ode_box *b = check_ode(L, idx);
+  if (!b->o) luaL_error(L, "method '%s' runs in the C loop only (ode_run): it has no right-hand side to step from Lua", b->method);
   return b;
 }
 
 static int ode_gc(lua_State *L)
 {
   ode_box *b = luaL_checkudata(L, 1, NZ_ODE_METATABLE);
-  nz_ode_free(b->o);
+  nz_stepper_free(b->st);
+  b->st = NULL;
   b->o = NULL;
   return 0;
 }
@@ -63,6 +79,17 @@ static int lo_new(lua_State *L)
   memset(&cfg, 0, sizeof cfg);
   lua_getfield(L, 2, "method");
   cfg.method = luaL_optstring(L, -1, "rk8pd");
+  if (!strcmp(cfg.method, "taylor")) {   /* Taylor's method: lua_taylor.c checks and makes it */
+    ode_box *box = lua_newuserdatauv(L, sizeof *box, 0);
+    memset(box, 0, sizeof *box);
+    luaL_setmetatable(L, NZ_ODE_METATABLE);
+    box->k = k;
+    box->nc = nc;
+    box->dim = 2 * k;
+    snprintf(box->method, sizeof box->method, "taylor");
+    box->st = nz_lua_taylor_new(L, 2, "simulate");
+    return 1;
+  }
   int known = 0;
   for (int i = 0; nz_ode_methods[i]; i++) known |= !strcmp(nz_ode_methods[i], cfg.method);
   if (!known) {
@@ -122,13 +149,21 @@ static int lo_new(lua_State *L)
   box->k = k;
   box->nc = nc;
   snprintf(box->method, sizeof box->method, "%s", cfg.method);
-  if (!(box->o = nz_ode_alloc(k, &cfg))) return luaL_error(L, "not enough memory for the integrator");
+  nz_ode *o = nz_ode_alloc(k, &cfg);
+  if (!o || !(box->st = nz_stepper_gsl_new(o, k, nc, cfg.rtol, cfg.atol)))
+    return luaL_error(L, "not enough memory for the integrator");
+  box->o = o;
+  box->dim = nz_ode_dim(o);
   return 1;
 }
 
 /* Raise the failure of the last step or evaluation, with time and state. */
 static int raise_failure(lua_State *L, ode_box *box, bound_system *b, int st)
 {
+  if (!box->o) {
+    if (b->ev.interrupted) return nz_lua_raise_interrupt(L);
+    return nz_lua_taylor_raise(L, box->st, st);
+  }
   const nz_ode_failure *f = nz_ode_last_failure(box->o);
   int k = box->k;
   const double *q = f->y, *qd = f->y ? f->y + k : NULL;
@@ -172,7 +207,7 @@ static int raise_failure(lua_State *L, ode_box *box, bound_system *b, int st)
 
 static void read_y(lua_State *L, int idx, ode_box *box, double *y)
 {
-  nz_lua_read_vector(L, idx, nz_ode_dim(box->o), y, "y", 0, "simulate");
+  nz_lua_read_vector(L, idx, box->dim, y, "y", 0, "simulate");
 }
 
 /* The start of every call (ode, def, ...): check the integrator, put def
@@ -184,7 +219,7 @@ static ode_box *begin_call(lua_State *L, int nargs, bound_system *b, int idx, si
   ode_box *box = check_ode(L, 1);
   lua_copy(L, 2, 1);
   nz_lua_bind_system(L, 1, b);
-  int dim = nz_ode_dim(box->o);
+  int dim = box->dim;
   *y = lua_newuserdatauv(L, ((size_t)dim + extra) * sizeof(double), 0);
   read_y(L, idx, box, *y);
   return box;
@@ -195,9 +230,10 @@ static int lo_step(lua_State *L)
 {
   bound_system b;
   double *y;
+  check_gsl(L, 1);
   ode_box *box = begin_call(L, 6, &b, 6, 0, &y);
   double t = luaL_checknumber(L, 3), t1 = luaL_checknumber(L, 4), h = luaL_checknumber(L, 5);
-  int dim = nz_ode_dim(box->o);
+  int dim = box->dim;
   int st = nz_ode_step(box->o, &b.sys, &t, t1, &h, y);
   if (st) return raise_failure(L, box, &b, st);
   lua_pushnumber(L, t);
@@ -211,9 +247,10 @@ static int lo_step_fixed(lua_State *L)
 {
   bound_system b;
   double *y;
+  check_gsl(L, 1);
   ode_box *box = begin_call(L, 5, &b, 5, 0, &y);
   double t = luaL_checknumber(L, 3), h = luaL_checknumber(L, 4);
-  int dim = nz_ode_dim(box->o);
+  int dim = box->dim;
   int st = nz_ode_step_fixed(box->o, &b.sys, &t, h, y);
   if (st) return raise_failure(L, box, &b, st);
   lua_pushnumber(L, t);
@@ -227,7 +264,7 @@ static int lo_rhs(lua_State *L)
   bound_system b;
   double *y;
   lua_settop(L, 4);
-  int dim = nz_ode_dim(check_ode(L, 1)->o);
+  int dim = check_gsl(L, 1)->dim;
   ode_box *box = begin_call(L, 4, &b, 4, (size_t)dim, &y);
   double t = luaL_checknumber(L, 3);
   int st = nz_ode_rhs(box->o, &b.sys, t, y, y + dim);
@@ -246,12 +283,12 @@ static int lo_accel(lua_State *L)
   int k = box->k, nc = box->nc;
   box = begin_call(L, 4, &b, 4, (size_t)k + (size_t)nc, &y);
   double t = luaL_checknumber(L, 3);
-  int dim = nz_ode_dim(box->o);
-  int st = nz_ode_accel(box->o, &b.sys, t, y, y + dim);
+  int dim = box->dim;
+  int st = box->st->ops->accel(box->st, &b.sys, t, y, y + dim);
   if (st) return raise_failure(L, box, &b, st);
   nz_lua_push_vector(L, y + dim, k);
   nz_lua_push_vector(L, y + dim + k, nc);
-  const double *root = nz_ode_root(box->o);
+  const double *root = box->st->ops->root(box->st);
   if (!root) return 2;
   nz_lua_push_vector(L, root, k);
   return 3;
@@ -264,7 +301,7 @@ static int lo_jacobian(lua_State *L)
   bound_system b;
   double *y;
   lua_settop(L, 4);
-  int dim = nz_ode_dim(check_ode(L, 1)->o);
+  int dim = check_gsl(L, 1)->dim;
   ode_box *box = begin_call(L, 4, &b, 4, (size_t)dim * (size_t)dim + (size_t)dim, &y);
   double t = luaL_checknumber(L, 3);
   double *J = y + dim, *dfdt = J + (size_t)dim * dim;
@@ -281,15 +318,22 @@ static int lo_jacobian(lua_State *L)
 
 static int lo_reset(lua_State *L)
 {
-  nz_ode_reset(check_ode(L, 1)->o);
+  nz_stepper *st = check_ode(L, 1)->st;
+  st->ops->reset(st);
   return 0;
 }
 
+/* ode_stats(ode) -> { steps, rejected, nfev, njev, order }: the
+ * interface's statistics (Taylor: nfev counts the series of the motion,
+ * order the highest used). */
 static int lo_stats(lua_State *L)
 {
-  nz_ode_stats st;
-  nz_ode_get_stats(check_ode(L, 1)->o, &st);
-  lua_createtable(L, 0, 4);
+  nz_stepper_stats st;
+  nz_stepper *sp = check_ode(L, 1)->st;
+  sp->ops->stats(sp, &st);
+  lua_createtable(L, 0, 5);
+  lua_pushinteger(L, st.order);
+  lua_setfield(L, -2, "order");
   lua_pushinteger(L, (lua_Integer)st.steps);
   lua_setfield(L, -2, "steps");
   lua_pushinteger(L, (lua_Integer)st.rejected);
@@ -446,6 +490,7 @@ static int run_event(void *ctx, int e, double t, const double *y, double *g)
   event_ctx *c = ctx;
   if (events_eval(c->eb, e, t, y, g) == NZ_OK) return NZ_OK;
   lua_State *L = c->L;
+  if (lua_isnil(L, c->fallback)) return NZ_EDOM;   /* none: the graph's failure fails the run */
   if (!lua_checkstack(L, 5)) return NZ_ENOMEM;
   lua_pushvalue(L, c->fallback);
   lua_pushinteger(L, e + 1);
@@ -478,10 +523,11 @@ static int run_gc(lua_State *L)
 
 /* ode_run_new(ode, {t0, t1, dt, step, h0, y, stall_window, stall_fraction
  * [, capacity] [, events, directions, fallback] [, project_tol, orders]
- * [, dense, rtol, atol]})
+ * [, dense, rtol, atol] [, event_tol]})
  * -> run.  events: an nz.ode_events, directions its events' (0, 1, -1),
  * fallback(e, t, y) the value of event e where its graph fails (it raises
- * the event's error); project_tol > 0 with the constraints' orders: return
+ * the event's error; nil: the graph's failure fails the run); event_tol:
+ * the tolerance of the events the loop locates itself (taylor); project_tol > 0 with the constraints' orders: return
  * "project" when the violation exceeds it. */
 static int lo_run_new(lua_State *L)
 {
@@ -507,7 +553,8 @@ static int lo_run_new(lua_State *L)
   lua_getfield(L, 2, "events");                            /* at 3 */
   events_box *eb = lua_isnil(L, 3) ? NULL : luaL_checkudata(L, 3, NZ_EVENTS_METATABLE);
   lua_getfield(L, 2, "fallback");                          /* at 4 */
-  if (eb) luaL_checktype(L, 4, LUA_TFUNCTION);
+  if (eb && !lua_isnil(L, 4)) luaL_checktype(L, 4, LUA_TFUNCTION);
+  c.event_tol = number_field(L, 2, "event_tol", 1e-12);
   c.nevents = eb ? eb->n : 0;
   int *ints = lua_newuserdatauv(L, ((size_t)c.nevents + (size_t)ob->nc + 1) * sizeof(int), 0);
   for (int e = 0; e < c.nevents; e++) {
@@ -525,7 +572,7 @@ static int lo_run_new(lua_State *L)
       lua_pop(L, 2);
     }
   c.orders = ints + c.nevents;
-  int dim = nz_ode_dim(ob->o);
+  int dim = ob->dim;
   double *y = lua_newuserdatauv(L, (size_t)dim * sizeof(double), 0);
   lua_getfield(L, 2, "y");
   nz_lua_read_vector(L, lua_gettop(L), dim, y, "y", 0, "simulate");
@@ -541,7 +588,7 @@ static int lo_run_new(lua_State *L)
   lua_setiuservalue(L, -2, 3);
   rb->ode = ob;
   rb->events = eb;
-  if (!(rb->r = nz_run_alloc(ob->o, ob->k, ob->nc, &c, y)))
+  if (!(rb->r = nz_run_alloc(ob->st, &c, y)))
     return luaL_error(L, "simulate: the run could not start (no memory, or a bad grid: t0 = %f, t1 = %f, dt = %f, step = %f)",
                       c.t0, c.t1, c.dt, c.step);
   return 1;
@@ -568,7 +615,7 @@ static void flush_points(lua_State *L, run_box *rb, int tr, int pend)
     luaL_checktype(L, base + 6, LUA_TTABLE);
     luaL_checktype(L, base + 7, LUA_TTABLE);
   }
-  int k = rb->ode->k, nc = rb->ode->nc, dim = nz_ode_dim(rb->ode->o), count = nz_run_count(rb->r);
+  int k = rb->ode->k, nc = rb->ode->nc, dim = rb->ode->dim, count = nz_run_count(rb->r);
   lua_Integer first = (lua_Integer)lua_rawlen(L, base + 1) + 1;
   for (int i = 0; i < count; i++) {
     double t;
@@ -599,7 +646,8 @@ static void flush_points(lua_State *L, run_box *rb, int tr, int pend)
 
 /* ode_run(run, def, tr, pend, pause_step, pause_wall) -> "done" | "paused" |
  * "full" | "stalled", advance | "project" | "event", e, ta, ya, ga, tb, gb,
- * yb: steps until simulate.lua must act, hands the output points over
+ * yb | "located", e, te, ye (an event the loop located itself, on Taylor's
+ * polynomial): steps until simulate.lua must act, hands the output points over
  * (flush_points) and raises the interrupt and failures as ode_step does
  * (an event's error as its Lua function raised it, a violation's as
  * constraint_partials does), the points computed before them handed over
@@ -616,7 +664,7 @@ static int lo_run(lua_State *L)
   lua_copy(L, 2, 1);                 /* def first, as raise_failure expects; the caller keeps run */
   bound_system b;
   nz_lua_bind_system(L, 1, &b);
-  event_ctx ec = { L, rb->events, 5, 6, nz_ode_dim(rb->ode->o), 0 };
+  event_ctx ec = { L, rb->events, 5, 6, rb->ode->dim, 0 };
   nz_run_set_events(rb->r, rb->events ? run_event : NULL, &ec);
   int st;
   nz_run_status rs = nz_run_advance(rb->r, &b.sys, pause_step > 0 ? (unsigned long)pause_step : 0, pause_wall, &st);
@@ -629,6 +677,21 @@ static int lo_run(lua_State *L)
     case NZ_RUN_FAIL_EVENT:
       if (ec.failed) {
         lua_pushvalue(L, 6);
+        return lua_error(L);
+      }
+      if (lua_isnil(L, 5)) {         /* no fallback (taylor): the step and the event, for simulate.lua */
+        int e;
+        double ta, ga, tb, gb;
+        const double *ya, *yb;
+        nz_run_event(rb->r, &e, &ta, &ya, &ga, &tb, &gb, &yb);
+        char num[64];
+        nz_lua_fmt_num(num, sizeof num, ta);
+        lua_createtable(L, 0, 2);
+        lua_pushliteral(L, "hook");
+        lua_setfield(L, -2, "taylor_stop");
+        lua_pushfstring(L, "stopped in the step from t = %s: event %d's recorded function failed (a domain error, "
+                        "or not finite) on the step's polynomial", num, e + 1);
+        lua_setfield(L, -2, "message");
         return lua_error(L);
       }
       return luaL_error(L, "simulate: the events could not be evaluated (status %d)", st);
@@ -644,9 +707,16 @@ static int lo_run(lua_State *L)
   case NZ_RUN_FULL: lua_pushliteral(L, "full"); return 1;
   case NZ_RUN_PROJECT: lua_pushliteral(L, "project"); return 1;
   case NZ_RUN_EVENT: {
-    int e, dim = nz_ode_dim(rb->ode->o);
+    int e, dim = rb->ode->dim;
     double ta, ga, tb, gb;
     const double *ya, *yb;
+    if (nz_run_located(rb->r, &e, &ta, &ya)) {   /* located here (taylor): "located", e, te, ye */
+      lua_pushliteral(L, "located");
+      lua_pushinteger(L, e + 1);
+      lua_pushnumber(L, ta);
+      nz_lua_push_vector(L, ya, dim);
+      return 4;
+    }
     nz_run_event(rb->r, &e, &ta, &ya, &ga, &tb, &gb, &yb);
     lua_pushliteral(L, "event");
     lua_pushinteger(L, e + 1);
@@ -668,7 +738,7 @@ static int lo_run(lua_State *L)
 static int lo_run_set_state(lua_State *L)
 {
   run_box *rb = check_run(L, 1);
-  int dim = nz_ode_dim(rb->ode->o);
+  int dim = rb->ode->dim;
   double *y = lua_newuserdatauv(L, (size_t)dim * sizeof(double), 0);
   nz_lua_read_vector(L, 2, dim, y, "y", 0, "simulate");
   nz_run_set_state(rb->r, y);
@@ -694,7 +764,7 @@ static int lo_run_interpolate(lua_State *L)
 {
   run_box *rb = check_run(L, 1);
   double tau = luaL_checknumber(L, 3);
-  int dim = nz_ode_dim(rb->ode->o);
+  int dim = rb->ode->dim;
   double *y = lua_newuserdatauv(L, (size_t)dim * sizeof(double), 0);
   lua_settop(L, 4);
   lua_copy(L, 2, 1);                 /* def first, as raise_failure expects */
@@ -712,7 +782,7 @@ static int lo_run_state(lua_State *L)
 {
   run_box *rb = check_run(L, 1);
   lua_pushnumber(L, nz_run_time(rb->r));
-  nz_lua_push_vector(L, nz_run_state(rb->r), nz_ode_dim(rb->ode->o));
+  nz_lua_push_vector(L, nz_run_state(rb->r), rb->ode->dim);
   lua_pushinteger(L, (lua_Integer)nz_run_steps(rb->r));
   return 3;
 }

@@ -40,6 +40,7 @@ int nz_ode_is_implicit(const char *m)
 static int is_multistep(const char *m) { return !strcmp(m, "msadams") || !strcmp(m, "msbdf"); }
 
 struct nz_ode {
+  const char *method;             /* one of nz_ode_methods */
   int k, nc, dim, work, multistep;
   int level;                      /* p >= 3: the state of constrained_series.h; else 0 */
   double work_offset;             /* GSL carries W + work_offset (see nz_ode_alloc) */
@@ -144,7 +145,7 @@ static int accelerations(nz_ode *o, double t, const double *y, double *out)
 static int reaction_power(nz_ode *o, double t, const double *y, const double *acc, double *R0)
 {
   int k = o->k;
-  double dLdt, T0, T1, rate;
+  double dLdt = 0.0, T0, T1, rate = 0.0;   /* (set when st is NZ_OK; initialized for the compiler's flow analysis under LTO) */
   int st = nz_lagrangian_time_partial(o->s, t, y, y + k, &dLdt);
   if (!st) st = nz_kinetic_parts(o->s, t, y, y + k, acc, &T0, &T1, &rate);
   if (st) return st;
@@ -291,6 +292,8 @@ nz_ode *nz_ode_alloc(int k, const nz_ode_config *cfg)
   if (!T) return NULL;
   nz_ode *o = calloc(1, sizeof *o);
   if (!o) return NULL;
+  for (int i = 0; nz_ode_methods[i]; i++)
+    if (!strcmp(nz_ode_methods[i], cfg->method)) o->method = nz_ode_methods[i];
   o->k = k;
   o->nc = cfg->nc;
   o->work = cfg->work;
@@ -351,6 +354,7 @@ void nz_ode_free(nz_ode *o)
 }
 
 int nz_ode_dim(const nz_ode *o) { return o->dim; }
+const char *nz_ode_method(const nz_ode *o) { return o->method; }
 int nz_ode_is_multistep(const nz_ode *o) { return o->multistep; }
 
 static int finish_step(nz_ode *o, int gs, double t, const double *y)
@@ -437,6 +441,7 @@ void nz_ode_get_stats(const nz_ode *o, nz_ode_stats *st)
   st->rejected = o->rejected0 + o->driver->e->failed_steps;
   st->nfev = o->nfev;
   st->njev = o->njev;
+  st->order = (int)gsl_odeiv2_step_order(o->driver->s);
 }
 
 const nz_ode_failure *nz_ode_last_failure(const nz_ode *o) { return &o->failure; }

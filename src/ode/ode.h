@@ -5,8 +5,8 @@
  *
  * The caller steps it one adaptive (or fixed) step at a time, so that the
  * output grid, events, projection and monitors stay in the caller's hands
- * (lua/nz/simulate.lua, or the loop in C of ode_run.h when no Lua function
- * is called per step).  Implicit steppers get the exact Jacobian of the
+ * (lua/nz/simulate.lua, or the loop in C of ode_run.h, which reaches it
+ * through the integrator interface: stepper.h, stepper_gsl.c).  Implicit steppers get the exact Jacobian of the
  * first-order system from jets (mech_jacobian.c); at level p >= 3, central
  * differences of the right-hand side (constrained_series.h). */
 #ifndef NZ_ODE_H
@@ -43,6 +43,8 @@ int nz_ode_is_implicit(const char *method);
 nz_ode *nz_ode_alloc(int k, const nz_ode_config *cfg);
 void nz_ode_free(nz_ode *o);
 int nz_ode_dim(const nz_ode *o);
+/* The stepper's name, one of nz_ode_methods. */
+const char *nz_ode_method(const nz_ode *o);
 /* msadams and msbdf: a history of steps, lost by a step taken again from
  * an earlier state (nz_ode_reset first). */
 int nz_ode_is_multistep(const nz_ode *o);
@@ -72,6 +74,7 @@ int nz_ode_jacobian_at(nz_ode *o, const nz_system *s, double t, const double *y,
 
 typedef struct nz_ode_stats {
   unsigned long steps, rejected, nfev, njev;
+  int order;                 /* the stepper's (msadams, msbdf: its current one) */
 } nz_ode_stats;
 void nz_ode_get_stats(const nz_ode *o, nz_ode_stats *st);
 

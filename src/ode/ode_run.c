@@ -1,9 +1,11 @@
-/* ode_run.c - the stepping loop of sys:simulate in C (see ode_run.h).
+/* ode_run.c - the stepping loop of sys:simulate in C (see ode_run.h), over
+ * any integrator of the interface of stepper.h.
  *
  * Each arithmetic step below mirrors a line of the Lua loop in
  * lua/nz/simulate.lua (run()), in the same order and on the same doubles:
  * change one and the other together, or the two loops stop agreeing to the
- * bit (tests/simulate_loop_spec.lua would say so). */
+ * bit (tests/simulate_loop_spec.lua would say so).  The Lua loop steps GSL's
+ * steppers only; Taylor's method runs here alone. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -13,7 +15,7 @@
 #include "ode/ode_run.h"
 
 struct nz_run {
-  nz_ode *o;
+  nz_stepper *st;
   int k, nc, dim;
   nz_run_config c;
   double nout;                    /* output intervals (an integer, as a double) */
@@ -24,6 +26,7 @@ struct nz_run {
   double *y, *ytry;               /* the state, and the copy a step works on */
   unsigned long nsteps;
   double window_t, advance;       /* stall detection */
+  unsigned long window_left;      /* steps to the end of the window (nsteps % window == 0 there) */
   int cap, n;                     /* the output buffer: n of cap points */
   double *bt, *by, *bacc, *broot;
   unsigned char *has_root;
@@ -31,8 +34,9 @@ struct nz_run {
    * projection or a pause resumes in the middle of it: PH_STEP takes the
    * next step; PH_COUNT counts it (after the projection); PH_GRID records
    * the output points inside it (dense output); PH_EVENTS looks
-   * at events ev_next, ev_next + 1, ... of the step just taken. */
-  enum { PH_STEP, PH_COUNT, PH_GRID, PH_EVENTS } phase;
+   * at events ev_next, ev_next + 1, ... of the step just taken; PH_LOCATED
+   * hands over the events located in it (loc_next, ... of nloc). */
+  enum { PH_STEP, PH_COUNT, PH_GRID, PH_EVENTS, PH_LOCATED } phase;
   int nev, ev_next;
   int *dirs;                      /* nev directions */
   double *gvals;                  /* nev: each event's value at the last accepted step */
@@ -43,17 +47,18 @@ struct nz_run {
   int ev_e;                       /* the last crossing: event, values */
   double ev_ga, ev_gb;
   nz_run_failure failure;
-  /* Dense output (ode_run.h): four slots of (t, y, f) rotated from step
-   * to step: the starts of the two steps before (sp, sq: nprev of them
-   * joined on), the step's start (sa) and its end (sb); start_ok: sb holds
-   * the state the next step starts from (no projection in between). */
-  struct slot { double t; double *y, *f; int f_ok; } slots[4], *sq, *sp, *sa, *sb;
-  int nprev, start_ok;
+  /* Dense output (ode_run.h), from the integrator's dense(); start_ok: the
+   * last step is whole and the state its end (no projection since). */
+  int start_ok;
   int gridded;                    /* a step failed: the grid sets the steps from there */
   double *yi;                     /* an interpolated state */
-  double *coef, z[4];             /* the step's divided differences (dim x 12), its nodes */
-  int coef_ok;
   unsigned long ninterp, nforced;
+  /* Events located here, on an exact dense output (the integrator's
+   * exact_dense): the step's crossings in time order. */
+  int exact;                      /* dense output from an exact one, nothing projected: exact_step */
+  int locate, nloc, loc_next, loc_located;
+  double *loc_t, *loc_y;          /* nev times, nev states */
+  int *loc_e;
 };
 
 double nz_run_clock(void)
@@ -65,19 +70,22 @@ double nz_run_clock(void)
 
 static int finite_positive(double x) { return isfinite(x) && x > 0.0; }
 
-nz_run *nz_run_alloc(nz_ode *o, int k, int nc, const nz_run_config *cfg, const double *y0)
+nz_run *nz_run_alloc(nz_stepper *st, const nz_run_config *cfg, const double *y0)
 {
-  if (!o || k < 1 || nc < 0 || cfg->capacity < 1 || !isfinite(cfg->t0) || !(cfg->t1 > cfg->t0) ||
+  if (!st) return NULL;
+  int k = st->k, nc = st->nc;
+  if (k < 1 || nc < 0 || cfg->capacity < 1 || !isfinite(cfg->t0) || !(cfg->t1 > cfg->t0) ||
       !isfinite(cfg->t1) || !finite_positive(cfg->dt) || !finite_positive(cfg->h0) ||
       !(cfg->step == 0.0 || finite_positive(cfg->step)) || cfg->stall_window < 1 || cfg->nevents < 0 ||
-      (cfg->nevents > 0 && !cfg->directions) || (cfg->project_tol > 0.0 && nc > 0 && !cfg->orders))
+      (cfg->nevents > 0 && !cfg->directions) || (cfg->project_tol > 0.0 && nc > 0 && !cfg->orders) ||
+      (cfg->step > 0.0 && !st->ops->step_fixed) || (st->exact_dense && cfg->nevents > 0 && !finite_positive(cfg->event_tol)))
     return NULL;
   nz_run *r = calloc(1, sizeof *r);
   if (!r) return NULL;
-  r->o = o;
+  r->st = st;
   r->k = k;
   r->nc = nc;
-  r->dim = nz_ode_dim(o);
+  r->dim = st->dim;
   r->c = *cfg;
   r->cap = cfg->capacity;
   size_t cap = (size_t)r->cap, dim = (size_t)r->dim, kk = (size_t)k, ncc = (size_t)nc;
@@ -93,20 +101,15 @@ nz_run *nz_run_alloc(nz_ode *o, int k, int nc, const nz_run_config *cfg, const d
   r->gvals = malloc((size_t)r->nev * sizeof(double) + 1);
   r->orders = malloc(ncc * sizeof(int) + 1);
   r->yi = malloc(dim * sizeof(double));
-  r->coef = malloc(12 * dim * sizeof(double));
-  if (!r->coef) r->yi = (free(r->yi), NULL);
-  for (int j = 0; j < 4; j++) {
-    r->slots[j].y = malloc(dim * sizeof(double));
-    r->slots[j].f = malloc(dim * sizeof(double));
-    if (!r->slots[j].y || !r->slots[j].f) r->yi = (free(r->yi), NULL);
-  }
-  r->sq = &r->slots[0];
-  r->sp = &r->slots[1];
-  r->sa = &r->slots[2];
-  r->sb = &r->slots[3];
+  r->locate = st->exact_dense && r->nev > 0;
+  r->loc_t = malloc((size_t)r->nev * sizeof(double) + 1);
+  r->loc_y = malloc((size_t)r->nev * dim * sizeof(double) + 1);
+  r->loc_e = malloc((size_t)r->nev * sizeof(int) + 1);
+  if (!r->loc_t || !r->loc_y || !r->loc_e) r->yi = (free(r->yi), NULL);
   /* Dense output needs adaptive steps and a tolerance to control it by. */
   r->c.dense = cfg->dense && cfg->step == 0.0 && finite_positive(cfg->rtol + cfg->atol) && cfg->rtol >= 0.0 &&
                cfg->atol >= 0.0;
+  r->exact = st->exact_dense && r->c.dense && !(cfg->project_tol > 0.0 && nc > 0);
   if (!r->yi ||
       !r->y || !r->ytry || !r->bt || !r->by || !r->bacc || !r->broot || !r->has_root || !r->dirs || !r->gvals ||
       !r->orders) {
@@ -117,9 +120,10 @@ nz_run *nz_run_alloc(nz_ode *o, int k, int nc, const nz_run_config *cfg, const d
   if (cfg->project_tol > 0.0 && nc > 0) memcpy(r->orders, cfg->orders, ncc * sizeof(int));
   r->c.directions = r->c.orders = NULL;          /* the caller's arrays may go */
   memcpy(r->y, y0, dim * sizeof(double));
-  r->t = cfg->t0;
+  r->t = r->ta = cfg->t0;
   r->h = cfg->h0;
   r->window_t = cfg->t0;
+  r->window_left = cfg->stall_window;
   /* local nout = math.ceil((cfg.t1 - cfg.t0) / cfg.dt - 1e-9) */
   r->nout = ceil((cfg->t1 - cfg->t0) / cfg->dt - 1e-9);
   if (!(r->nout >= 0.0)) r->nout = 0.0;          /* -0 */
@@ -141,11 +145,9 @@ void nz_run_free(nz_run *r)
   free(r->gvals);
   free(r->orders);
   free(r->yi);
-  free(r->coef);
-  for (int j = 0; j < 4; j++) {
-    free(r->slots[j].y);
-    free(r->slots[j].f);
-  }
+  free(r->loc_t);
+  free(r->loc_y);
+  free(r->loc_e);
   free(r);
 }
 
@@ -155,11 +157,14 @@ static int record_at(nz_run *r, const nz_system *s, double t, const double *y)
 {
   int n = r->n, k = r->k;
   double *acc = r->bacc + (size_t)n * (size_t)(k + r->nc);
-  int st = nz_ode_accel(r->o, s, t, y, acc);
-  if (st) return st;
+  if (r->c.no_accel) memset(acc, 0, (size_t)(k + r->nc) * sizeof(double));
+  else {
+    int st = r->st->ops->accel(r->st, s, t, y, acc);
+    if (st) return st;
+  }
   r->bt[n] = t;
   memcpy(r->by + (size_t)n * (size_t)r->dim, y, (size_t)r->dim * sizeof(double));
-  const double *root = nz_ode_root(r->o);
+  const double *root = r->st->ops->root(r->st);
   r->has_root[n] = root != NULL;
   if (root) memcpy(r->broot + (size_t)n * (size_t)k, root, (size_t)k * sizeof(double));
   r->n = n + 1;
@@ -189,15 +194,15 @@ static void begin_interval(nz_run *r)
 static int one_step(nz_run *r, const nz_system *s, double tlimit)
 {
   double t = r->t, h = r->h;
-  memcpy(r->ytry, r->y, (size_t)r->dim * sizeof(double));
   int st;
+  memcpy(r->ytry, r->y, (size_t)r->dim * sizeof(double));
   if (r->c.step > 0.0) {
-    st = nz_ode_step_fixed(r->o, s, &t, r->hfixed, r->ytry);
+    st = r->st->ops->step_fixed(r->st, s, &t, r->hfixed, r->ytry);
     if (st) return st;
     r->nfixed -= 1.0;
     if (r->nfixed == 0.0) t = r->tout;
   } else {
-    st = nz_ode_step(r->o, s, &t, tlimit, &h, r->ytry);
+    st = r->st->ops->step(r->st, s, &t, tlimit, &h, r->ytry);
     if (st) return st;
   }
   double *swap = r->y;
@@ -208,123 +213,11 @@ static int one_step(nz_run *r, const nz_system *s, double tlimit)
   return NZ_OK;
 }
 
-/* One component's Hermite interpolant in Newton form: ng (<= 4) groups of
- * nodes z[g], each of multiplicity m (2 or 3), with d[3 g + j] the j-th
- * derivative there; c gets the m ng coefficients.  Its last Newton term
- * (what the last node condition adds: the error of the polynomial without
- * it) is the error estimate, on the safe side.  (The terms of a whole last
- * group, the error of the polynomial of one step fewer, were tried: on a
- * pendulum at rtol 1e-12 they made 2487 of 20000 output points step ends,
- * for errors 3x below the run's own at its step ends; the last term makes
- * 40 of them step ends and keeps the points' error at the step ends'
- * (1.4e-11 against 1.2e-11), see tests/simulate_dense_spec.lua.) */
-static void hermite_coef(int m, int ng, const double *z, const double *d, double *c)
-{
-  static const double fact[] = { 1.0, 1.0, 2.0 };
-  int n = m * ng;
-  for (int j = 0; j < n; j++) c[j] = d[3 * (j / m)];
-  /* Divided differences, a column at a time, in place from the bottom: over
-   * nodes of one group (o < m there) they are the derivatives over o!. */
-  for (int o = 1; o < n; o++)
-    for (int j = n - 1; j >= o; j--)
-      c[j] = j / m == (j - o) / m ? d[3 * (j / m) + o] / fact[o] : (c[j] - c[j - 1]) / (z[j / m] - z[(j - o) / m]);
-}
-
-/* The interpolant at tau: the Newton form's partial sums over the first
- * 2, 3, ... ng groups are the interpolants of those nodes alone (the
- * coefficients of a node do not depend on the nodes after it), each with
- * its last term as its estimate; out gets the one whose estimate, relative
- * to atol + rtol |value| (and |derivative| when the derivative is an output,
- * deriv), is the smallest.  The highest degree is the most accurate on a
- * smooth motion; a lower one wins where the step ends carry errors (at the
- * tolerance, not smooth from step to step) that a high-degree polynomial
- * amplifies: bsimp, msbdf, msadams. */
-static void hermite_eval(int m, int ng, const double *z, const double *c, double tau, double atol, double rtol,
-                         int deriv, double out[4])
-{
-  int n = m * ng;
-  double w = 1.0, dw = 0.0, v = 0.0, dv = 0.0, best = HUGE_VAL;
-  for (int j = 0; j < n; j++) {
-    v += c[j] * w;
-    dv += c[j] * dw;
-    if (j >= 2 * m - 1 && (j + 1) % m == 0) {  /* the interpolant of the first (j + 1) / m groups */
-      double e = c[j] * w, de = c[j] * dw;
-      double ratio = fabs(e) / (atol + rtol * fabs(v));
-      if (deriv) ratio = fmax(ratio, fabs(de) / (atol + rtol * fabs(dv)));
-      if (!(ratio >= best)) {               /* NaN: taken, for the caller to refuse */
-        best = ratio;
-        out[0] = v;
-        out[1] = dv;
-        out[2] = e;
-        out[3] = de;
-      }
-    }
-    dw = dw * (tau - z[j / m]) + w;
-    w *= tau - z[j / m];
-  }
-}
-
-static int slot_f(nz_run *r, const nz_system *s, struct slot *sl)
-{
-  if (sl->f_ok) return NZ_OK;
-  int st = nz_ode_rhs(r->o, s, sl->t, sl->y, sl->f);
-  sl->f_ok = st == NZ_OK;
-  return st;
-}
-
-/* The divided differences of the step's interpolant, once per step (12 per
- * component), for every output point and event time inside it. */
-static int dense_coef(nz_run *r, const nz_system *s)
-{
-  if (r->coef_ok) return NZ_OK;
-  struct slot *sl[4] = { r->sa, r->sb, r->sp, r->sq };
-  int ng = 2 + r->nprev, k = r->k, st;
-  for (int g = 0; g < ng; g++)
-    if ((st = slot_f(r, s, sl[g]))) return st;
-  double d[12];
-  for (int g = 0; g < ng; g++) r->z[g] = sl[g]->t;
-  for (int i = 0; i < k; i++) {
-    for (int g = 0; g < ng; g++) {
-      d[3 * g] = sl[g]->y[i];
-      d[3 * g + 1] = sl[g]->y[k + i];
-      d[3 * g + 2] = sl[g]->f[k + i];
-    }
-    hermite_coef(3, ng, r->z, d, r->coef + 12 * i);
-  }
-  for (int i = 2 * k; i < r->dim; i++) {
-    for (int g = 0; g < ng; g++) {
-      d[3 * g] = sl[g]->y[i];
-      d[3 * g + 1] = sl[g]->f[i];
-    }
-    hermite_coef(2, ng, r->z, d, r->coef + 12 * i);
-  }
-  r->coef_ok = 1;
-  return NZ_OK;
-}
-
-/* The state at tau from the interpolant of the step from sa to sb (joined
- * with the nprev steps before): *ok when every component's estimate meets
- * atol + rtol |y_i|.  q from (q, q', q''), q' as its derivative, every
- * other component from (y, f). */
+/* The state at tau inside the last step from the integrator's dense
+ * output: *ok when it meets the integrator's tolerance there. */
 static int interpolate(nz_run *r, const nz_system *s, double tau, double *y, int *ok)
 {
-  int st = dense_coef(r, s);
-  if (st) return st;
-  int ng = 2 + r->nprev, k = r->k;
-  double out[4], rtol = r->c.rtol, atol = r->c.atol;
-  *ok = 1;
-  for (int i = 0; i < k; i++) {
-    hermite_eval(3, ng, r->z, r->coef + 12 * i, tau, atol, rtol, 1, out);
-    y[i] = out[0];
-    y[k + i] = out[1];
-    if (!(fabs(out[2]) <= atol + rtol * fabs(out[0])) || !(fabs(out[3]) <= atol + rtol * fabs(out[1]))) *ok = 0;
-  }
-  for (int i = 2 * k; i < r->dim; i++) {
-    hermite_eval(2, ng, r->z, r->coef + 12 * i, tau, atol, rtol, 0, out);
-    y[i] = out[0];
-    if (!(fabs(out[2]) <= atol + rtol * fabs(out[0]))) *ok = 0;
-  }
-  return NZ_OK;
+  return r->st->ops->dense(r->st, s, tau, y, ok);
 }
 
 /* A step with dense output: towards t1, and taken again from its start,
@@ -332,20 +225,8 @@ static int interpolate(nz_run *r, const nz_system *s, double tau, double *y, int
  * there exceeds the tolerance (ode_run.h). */
 static int dense_step(nz_run *r, const nz_system *s)
 {
-  if (r->start_ok) {                 /* the last step's end starts this one */
-    struct slot *tmp = r->sq;
-    r->sq = r->sp;
-    r->sp = r->sa;
-    r->sa = r->sb;
-    r->sb = tmp;
-    r->nprev = r->nprev < 2 ? r->nprev + 1 : 2;
-  } else {
-    r->sa->t = r->t;
-    memcpy(r->sa->y, r->y, (size_t)r->dim * sizeof(double));
-    r->sa->f_ok = 0;
-    r->nprev = 0;
-  }
   r->start_ok = 0;
+  int projecting = r->c.project_tol > 0.0 && r->nc > 0;
   double tlimit = r->gridded ? r->tout : r->c.t1, h = r->h;
   for (;;) {
     int st = one_step(r, s, tlimit);
@@ -357,15 +238,11 @@ static int dense_step(nz_run *r, const nz_system *s)
     if (st && !r->gridded && tlimit > r->tout && !nz_interrupt_requested()) {
       r->gridded = 1;
       r->h = h;
-      nz_ode_reset(r->o);
+      r->st->ops->reset(r->st);
       tlimit = r->tout;
       continue;
     }
     if (st) return st;
-    r->sb->t = r->t;
-    memcpy(r->sb->y, r->y, (size_t)r->dim * sizeof(double));
-    r->sb->f_ok = 0;
-    r->coef_ok = 0;
     double bad = 0.0;
     int found = 0;
     for (double j = r->i; j <= r->nout; j += 1.0) {
@@ -373,7 +250,7 @@ static int dense_step(nz_run *r, const nz_system *s)
       if (!(tj < r->t)) break;
       int ok;
       if ((st = interpolate(r, s, tj, r->yi, &ok))) return st;
-      if (ok && r->c.project_tol > 0.0 && r->nc > 0) {
+      if (ok && projecting) {
         /* projecting: a point off the constraints by more than project_tol
          * (the interpolant is not on them) is made a step end, which the
          * run then projects */
@@ -400,10 +277,34 @@ static int dense_step(nz_run *r, const nz_system *s)
      * given an earlier state rejects its steps down to nothing) and a
      * multistep method its history: both start again (ode.c keeps the
      * counts). */
-    nz_ode_reset(r->o);
+    r->st->ops->reset(r->st);
     tlimit = bad;
     r->nforced++;
   }
+  r->start_ok = 1;
+  return NZ_OK;
+}
+
+/* A step with an exact dense output (Taylor's polynomial: it meets the
+ * tolerance everywhere in the step, so no point is checked and no step is
+ * taken again for one), towards t1, on y in place (the integrator leaves it
+ * as it was when the step fails, and no event needs the step's start).  A
+ * step that fails is taken again towards the next output time, as in
+ * dense_step, and so are the steps after it. */
+static int exact_step(nz_run *r, const nz_system *s)
+{
+  double t = r->t, h = r->h, tlimit = r->gridded ? r->tout : r->c.t1;
+  r->start_ok = 0;
+  int st = r->st->ops->step(r->st, s, &t, tlimit, &h, r->y);
+  if (st && !r->gridded && tlimit > r->tout && !nz_interrupt_requested()) {
+    r->gridded = 1;
+    t = r->t;
+    h = r->h;
+    st = r->st->ops->step(r->st, s, &t, r->tout, &h, r->y);
+  }
+  if (st) return st;
+  r->t = t;
+  r->h = h;
   r->start_ok = 1;
   return NZ_OK;
 }
@@ -412,13 +313,95 @@ static int dense_step(nz_run *r, const nz_system *s)
  * fraction of the span stalls. */
 static int stalled(nz_run *r)
 {
-  if (r->nsteps % r->c.stall_window != 0) return 0;
+  if (--r->window_left != 0) return 0;   /* nsteps % stall_window != 0, without a division per step */
+  r->window_left = r->c.stall_window;
   if (r->t - r->window_t < r->c.stall_fraction * (r->c.t1 - r->c.t0)) {
     r->advance = r->t - r->window_t;
     return 1;
   }
   r->window_t = r->t;
   return 0;
+}
+
+/* Illinois' variant of regula falsi on [ta, tb] for event e, from ga to
+ * gb, on the integrator's dense output, as locate() in simulate.lua but on
+ * the offsets from ta (the secant's ta gb - tb ga loses the digits that
+ * ta and tb share): the time te and the state ye (the step's end itself
+ * when the root is there). */
+static int locate(nz_run *r, const nz_system *s, int e, double ta, double ga, double tb, double gb, double *te,
+                  double *ye)
+{
+  int ok, st;
+  double a = 0.0, b = tb - ta;
+  if (gb != 0.0) {
+    double tol = r->c.event_tol * fmax(1.0, fabs(tb)), gm;
+    int side = 0;
+    for (int it = 0; it < 100 && b - a > tol; it++) {
+      double m = (a * gb - b * ga) / (gb - ga);
+      if (!(m > a && m < b)) m = 0.5 * (a + b);
+      if ((st = interpolate(r, s, ta + m, ye, &ok))) return st;
+      if ((st = r->event_fn(r->event_ctx, e, ta + m, ye, &gm))) return st;
+      if (!isfinite(gm)) return NZ_EDOM;
+      if (gm == 0.0) {
+        a = b = m;
+        break;
+      }
+      if ((gm > 0.0) == (ga > 0.0)) {
+        a = m, ga = gm;
+        if (side == -1) gb /= 2;
+        side = -1;
+      } else {
+        b = m, gb = gm;
+        if (side == 1) ga /= 2;
+        side = 1;
+      }
+    }
+  }
+  if (b == tb - ta) {
+    *te = tb;
+    memcpy(ye, r->y, (size_t)r->dim * sizeof(double));
+    return NZ_OK;
+  }
+  *te = ta + b;
+  return interpolate(r, s, *te, ye, &ok);
+}
+
+/* Every event of the step just taken, at its end; those that crossed
+ * located on the dense output and sorted by time (stable: event order for
+ * equal times), for PH_LOCATED to hand over. */
+static int locate_step(nz_run *r, const nz_system *s)
+{
+  size_t dim = (size_t)r->dim;
+  r->nloc = r->loc_next = 0;
+  for (int e = 0; e < r->nev; e++) {
+    double g;
+    int st = r->event_fn(r->event_ctx, e, r->t, r->y, &g);
+    if (!st && !isfinite(g)) st = NZ_EDOM;
+    r->ev_e = e;
+    if (st) return st;
+    double ga = r->gvals[e];
+    r->gvals[e] = g;
+    if (!nz_event_crosses(r->dirs[e], ga, g)) continue;
+    int n = r->nloc;
+    if ((st = locate(r, s, e, r->ta, ga, r->t, g, &r->loc_t[n], r->loc_y + (size_t)n * dim))) return st;
+    r->loc_e[n] = e;
+    for (; n > 0 && r->loc_t[n] < r->loc_t[n - 1]; n--) {
+      double tt = r->loc_t[n];
+      r->loc_t[n] = r->loc_t[n - 1];
+      r->loc_t[n - 1] = tt;
+      int ee = r->loc_e[n];
+      r->loc_e[n] = r->loc_e[n - 1];
+      r->loc_e[n - 1] = ee;
+      double *a = r->loc_y + (size_t)n * dim, *b = a - dim;
+      for (size_t i = 0; i < dim; i++) {
+        double v = a[i];
+        a[i] = b[i];
+        b[i] = v;
+      }
+    }
+    r->nloc++;
+  }
+  return NZ_OK;
 }
 
 static int fail(nz_run *r, nz_run_failure what, int st, int *status)
@@ -438,7 +421,9 @@ nz_run_status nz_run_advance(nz_run *r, const nz_system *s, unsigned long pause_
     if ((*status = record(r, s))) return NZ_RUN_FAILED;
     r->started = 1;
     for (int e = 0; e < r->nev; e++) {   /* gvals[i] = event_value(ev, t, y) */
+      r->ev_e = e;
       int st = r->event_fn(r->event_ctx, e, r->t, r->y, &r->gvals[e]);
+      if (!st && r->locate && !isfinite(r->gvals[e])) st = NZ_EDOM;
       if (st) return fail(r, NZ_RUN_FAIL_EVENT, st, status);
     }
   }
@@ -450,7 +435,8 @@ nz_run_status nz_run_advance(nz_run *r, const nz_system *s, unsigned long pause_
       if (r->phase == PH_STEP) {
         if (nz_interrupt_requested()) return NZ_RUN_INTERRUPTED;
         r->ta = r->t;
-        if ((*status = r->c.dense ? dense_step(r, s) : one_step(r, s, r->tout))) return NZ_RUN_FAILED;
+        if ((*status = r->exact ? exact_step(r, s) : r->c.dense ? dense_step(r, s) : one_step(r, s, r->tout)))
+          return NZ_RUN_FAILED;
         r->phase = PH_COUNT;
         if (projecting) {                /* project(t): above the tolerance, the caller projects */
           double v;
@@ -476,6 +462,16 @@ nz_run_status nz_run_advance(nz_run *r, const nz_system *s, unsigned long pause_
         begin_interval(r);
       }
       r->phase = r->phase == PH_GRID ? PH_EVENTS : r->phase;
+      if (r->locate && r->phase == PH_EVENTS) {
+        int st = locate_step(r, s);
+        if (st) return fail(r, NZ_RUN_FAIL_EVENT, st, status);
+        r->phase = PH_LOCATED;
+        r->ev_next = r->nev;
+      }
+      if (r->phase == PH_LOCATED && r->loc_next < r->nloc) {
+        r->loc_located = r->loc_next++;
+        return NZ_RUN_EVENT;
+      }
       while (r->ev_next < r->nev) {      /* events e = ev_next .. nev - 1 of this step */
         int e = r->ev_next;
         double g;
@@ -528,6 +524,16 @@ void nz_run_set_state(nz_run *r, const double *y)
   r->start_ok = 0;
 }
 
+int nz_run_located(const nz_run *r, int *e, double *te, const double **ye)
+{
+  if (!r->locate || r->phase != PH_LOCATED) return 0;
+  int i = r->loc_located;
+  *e = r->loc_e[i];
+  *te = r->loc_t[i];
+  *ye = r->loc_y + (size_t)i * (size_t)r->dim;
+  return 1;
+}
+
 void nz_run_dense_stats(const nz_run *r, unsigned long *interpolated, unsigned long *forced)
 {
   *interpolated = r->ninterp;
@@ -536,7 +542,7 @@ void nz_run_dense_stats(const nz_run *r, unsigned long *interpolated, unsigned l
 
 int nz_run_interpolate(nz_run *r, const nz_system *s, double tau, double *y)
 {
-  if (!r->c.dense || !r->start_ok || !(tau >= r->sa->t && tau <= r->sb->t)) return NZ_EARG;
+  if (!r->c.dense || !r->start_ok) return NZ_EARG;
   int ok, st = interpolate(r, s, tau, y, &ok);
   return st ? st : ok ? NZ_OK : NZ_EARG;
 }
@@ -559,3 +565,5 @@ void nz_run_point(const nz_run *r, int i, double *t, const double **y, const dou
 }
 
 void nz_run_clear(nz_run *r) { r->n = 0; }
+
+nz_stepper *nz_run_stepper(const nz_run *r) { return r->st; }

@@ -1,6 +1,8 @@
-/* ode_run.h - the stepping loop of sys:simulate in C (issue 10, item 6).
+/* ode_run.h - the stepping loop of sys:simulate in C (issue 10, item 6),
+ * driving any integrator of the interface of stepper.h: GSL's steppers
+ * (stepper_gsl.c) and Taylor's method (taylor.c) run here alike.
  *
- * lua/nz/simulate.lua steps an integrator (ode.h) one step at a time, in
+ * lua/nz/simulate.lua steps a GSL integrator (ode.h) one step at a time, in
  * Lua (run()).  This loop does the same work without returning to Lua per
  * step: the output grid (t0 + i dt, the last point at t1), fixed steps that
  * land on each output time, the accelerations and multipliers recorded at
@@ -17,8 +19,9 @@
  * (the rule of crosses() in simulate.lua), returns NZ_RUN_EVENT with the
  * step (nz_run_event); the caller locates and records the event and, unless
  * it stops the run, calls again: the loop goes on with the next event of the
- * same step.  Projection: with project_tol > 0, after every accepted step the
- * loop computes the state's violation of the constraints of order <= 1
+ * same step (with an exact dense output the loop locates them itself: see
+ * nz_run_located).  Projection: with project_tol > 0, after every accepted
+ * step the loop computes the state's violation of the constraints of order <= 1
  * (nz_state_violation, constrained.h: what the Lua loop's state_violation
  * computes, by the same primitive in the same order) and, above the
  * tolerance, returns NZ_RUN_PROJECT; the caller projects, writes the state
@@ -34,10 +37,12 @@
  * empties (nz_run_clear), so the loop's own memory stays bounded whatever
  * the grid. */
 /* Dense output (cfg.dense, adaptive steps only): the steps go to t1, not to
- * each output time, and an output point inside a step is read from a
- * Hermite interpolant of the step, so that the output grid no longer caps
- * the steps.  y = (q, q', ...) and f = (q', q'', ...): for q the nodes carry
- * q, q', q'' (a quintic over the step alone, and up to degree 11 with the
+ * each output time, and an output point inside a step is read from the
+ * integrator's dense output, so that the output grid no longer caps the
+ * steps.  Taylor's is the step's own polynomial (exact: no point is
+ * checked, no step taken again).  GSL's (stepper_gsl.c) is a Hermite
+ * interpolant of the step: y = (q, q', ...) and f = (q', q'', ...); for q
+ * the nodes carry q, q', q'' (a quintic over the step alone, and up to degree 11 with the
  * starts of the two steps before joined on), q' is the derivative of q's
  * polynomial, and every other component gets the cubic (up to degree 7)
  * from y and f: no evaluation beyond f at the step ends.  The last Newton
@@ -52,11 +57,12 @@
  * multistep method its history).  A step that fails is taken again towards
  * the next output time, and every step after it: the run reaches a failure
  * as without dense output.  nz_run_dense_stats counts both kinds of point;
- * events are located on the interpolant (nz_run_interpolate). */
+ * the caller locates a GSL stepper's events on the interpolant
+ * (nz_run_interpolate). */
 #ifndef NZ_ODE_RUN_H
 #define NZ_ODE_RUN_H
 
-#include "ode/ode.h"
+#include "ode/stepper.h"
 
 typedef struct nz_run_config {
   double t0, t1, dt;         /* the output grid, as simulate.lua makes it        */
@@ -72,6 +78,9 @@ typedef struct nz_run_config {
   int dense;                 /* adaptive steps: output points inside a step from   */
                              /* the step's Hermite interpolant (see below)         */
   double rtol, atol;         /* dense: the interpolant's tolerance per component   */
+  double event_tol;          /* events located here (an exact dense output): the   */
+                             /* tolerance on their times, relative to max(1, |t|)  */
+  int no_accel;              /* output points without q'' and lambda (zeros)       */
 } nz_run_config;
 
 /* The value g of event e (0-based) at (t, y); NZ_OK, or a status that makes
@@ -92,17 +101,19 @@ typedef enum nz_run_status {
 } nz_run_status;
 
 typedef enum nz_run_failure {
-  NZ_RUN_FAIL_ODE = 0,       /* the integrator's (nz_ode_last_failure)             */
+  NZ_RUN_FAIL_ODE = 0,       /* the integrator's (see nz_run_advance)              */
   NZ_RUN_FAIL_EVENT,         /* the event callback's status                        */
   NZ_RUN_FAIL_VIOLATION      /* nz_state_violation's (a constraint failed)         */
 } nz_run_failure;
 
 typedef struct nz_run nz_run;
 
-/* A run of o from (t0, y0) (nz_ode_dim(o) values).  NULL: no memory or a bad
- * configuration (dt, step or span not positive and finite, capacity < 1,
- * events without directions, project_tol > 0 without orders). */
-nz_run *nz_run_alloc(nz_ode *o, int k, int nc, const nz_run_config *cfg, const double *y0);
+/* A run of the integrator st (which stays the caller's) from (t0, y0)
+ * (st->dim values).  NULL: no memory or a bad configuration (dt, step or
+ * span not positive and finite, capacity < 1, events without directions,
+ * project_tol > 0 without orders, a fixed step for an integrator without
+ * fixed steps, events on an exact dense output without event_tol). */
+nz_run *nz_run_alloc(nz_stepper *st, const nz_run_config *cfg, const double *y0);
 void nz_run_free(nz_run *r);
 
 /* Step until something needs the caller (see nz_run_status).  pause_step:
@@ -110,7 +121,8 @@ void nz_run_free(nz_run *r);
  * never); pause_wall: pause after the first step at or past this monotonic
  * time in seconds (0: never).  On NZ_RUN_FAILED, *status holds the nz
  * status of the failing call and, when nz_run_failure_of says
- * NZ_RUN_FAIL_ODE, nz_ode_last_failure(o) the details.  The order within a
+ * NZ_RUN_FAIL_ODE, the integrator's report the details (nz_ode_last_failure,
+ * nz_taylor_last_failure).  The order within a
  * step is the Lua loop's: step, violation (NZ_RUN_PROJECT), count, stall,
  * pause at a step count, events in their order (NZ_RUN_EVENT), pause at a
  * wall time; a call after a return goes on from there. */
@@ -124,16 +136,28 @@ void nz_run_set_events(nz_run *r, nz_run_event_fn fn, void *ctx);
 
 /* After NZ_RUN_EVENT: event e (0-based) crossed in the step from (ta, ya)
  * to (tb, yb), its values ga before and gb after (the arrays stay valid
- * until the next call of nz_run_advance). */
+ * until the next call of nz_run_advance).  With an integrator whose dense
+ * output is exact (Taylor's polynomial), the loop locates the events itself
+ * (Illinois' regula falsi, as simulate.lua's locate(), to event_tol) after
+ * each step and hands them over in time order, one NZ_RUN_EVENT each:
+ * nz_run_located says so and gives the time and state.  An event whose
+ * value fails or is not finite there fails the run (NZ_RUN_FAIL_EVENT,
+ * nz_run_event's e names it, ta the step's start; ya is not kept then). */
 void nz_run_event(const nz_run *r, int *e, double *ta, const double **ya, double *ga, double *tb,
                   double *gb, const double **yb);
+/* After NZ_RUN_EVENT: 1 when the loop located it (event e at te, state ye,
+ * valid until the next call), 0 when the caller locates it. */
+int nz_run_located(const nz_run *r, int *e, double *te, const double **ye);
 
 /* Replace the state of the last accepted step (dim values: the projected
- * state after NZ_RUN_PROJECT). */
+ * state after NZ_RUN_PROJECT); the next step starts afresh from it. */
 void nz_run_set_state(nz_run *r, const double *y);
 
 /* After NZ_RUN_FAILED: what failed. */
 nz_run_failure nz_run_failure_of(const nz_run *r);
+
+/* The integrator: its statistics (stats), its failures. */
+nz_stepper *nz_run_stepper(const nz_run *r);
 
 /* Where the run is: the time and state of the last accepted step, the steps
  * accepted, and (after NZ_RUN_STALLED) how far the last window advanced. */

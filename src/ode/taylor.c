@@ -45,30 +45,14 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#include "core/interrupt.h"
+#include "ode/stepper.h"
 #include "ode/taylor.h"
-
-long nz_taylor_grid_count(const nz_taylor_config *cfg)
-{
-  double span = cfg->t1 - cfg->t0;
-  if (!isfinite(cfg->t0) || !isfinite(cfg->t1) || !(span > 0.0) || !isfinite(cfg->dt) || !(cfg->dt > 0.0))
-    return 0;
-  /* as the GSL loop (ode_run.c): t0 + i dt, i < n, then t1 */
-  double n = ceil(span / cfg->dt - 1e-9);
-  if (!(n >= 1.0) || n > 1e9) return 0;
-  return (long)n + 1;
-}
 
 int nz_taylor_order(double eps)
 {
   if (!(eps > 0.0) || eps >= 1.0) return 2;
   int p = (int)ceil(-log(eps) / 2.0 + 1.0);
   return p < 2 ? 2 : p;
-}
-
-static double grid_time(const nz_taylor_config *cfg, long i, long npts)
-{
-  return i == npts - 1 ? cfg->t1 : cfg->t0 + (double)i * cfg->dt;
 }
 
 /* q(tau) and q'(tau) from a_0 .. a_P by Horner, two coordinates at a
@@ -120,129 +104,225 @@ static double coef_ratio(int k, const double *a, int j, const double *s)
   return m;
 }
 
-int nz_taylor_run(int k, nz_taylor_series_fn series, void *ctx, const nz_taylor_config *cfg,
-                  const double *q0, const double *qd0, double *tout, double *qout, double *qdout,
-                  long *npoints, nz_taylor_stats *stats, nz_taylor_stop *stop)
+typedef struct taylor_stepper {
+  nz_stepper base;
+  nz_taylor_config c;
+  int pmax;                       /* the highest order (the smaller tolerance's)  */
+  double *a;                      /* the last step's polynomial, (pmax + 2) x k   */
+  int P;                          /* its degree (0: no step yet)                  */
+  double ta, tlo_a, h;            /* its start (t + tlo) and length               */
+  double *scale;                  /* 2k scales                                    */
+  double t, tlo;                  /* where the last step ended (t + tlo)          */
+  double *yfail;                  /* the state of the last failure (dim)          */
+  double tfail;
+  nz_taylor_failure failure;
+  int status;
+  unsigned long steps, nseries;
+  int order;
+  double hmin, hmax, hlast;
+} taylor_stepper;
+
+static taylor_stepper *as_taylor(nz_stepper *st) { return (taylor_stepper *)st; }
+
+static int fail_at(taylor_stepper *ts, nz_taylor_failure kind, int status, double t, const double *y)
 {
-  long npts = nz_taylor_grid_count(cfg);
-  memset(stats, 0, sizeof *stats);
-  *npoints = 0;
-  *stop = NZ_TAYLOR_DONE;
-  stats->t = cfg->t0;
-  if (k < 1 || npts < 2 || !(cfg->rtol >= 0.0) || !(cfg->atol >= 0.0) || !(cfg->rtol > 0.0 || cfg->atol > 0.0) ||
-      !(cfg->rtol < 1.0) || !(cfg->atol < 1.0) || !isfinite(cfg->atol) || cfg->order == 1 || cfg->order < 0 ||
-      cfg->order > 1000)
-    return NZ_EDOM;
-  /* The highest order the run may use: the smaller positive tolerance's. */
-  double emin = cfg->rtol > 0.0 && (cfg->atol == 0.0 || cfg->rtol < cfg->atol) ? cfg->rtol : cfg->atol;
-  int pmax = cfg->order ? cfg->order : nz_taylor_order(emin);
-  size_t kk = (size_t)k;
-  double *a = malloc(((size_t)pmax + 2 + 4) * kk * sizeof(double));
-  if (!a) return NZ_ENOMEM;
-  double *q = a + ((size_t)pmax + 2) * kk, *qd = q + kk, *scale = qd + kk;
-  memcpy(q, q0, kk * sizeof(double));
-  memcpy(qd, qd0, kk * sizeof(double));
-  tout[0] = cfg->t0;
-  memcpy(qout, q, kk * sizeof(double));
-  memcpy(qdout, qd, kk * sizeof(double));
-  long next = 1;
-  /* The time is t + tlo, a sum of two doubles: t + h rounds by up to half
-   * an ulp of t per step (1e-13 at t ~ 2000), and those roundings would add
-   * up over the steps into a phase error larger than the tolerance (as in
-   * heyoka, which keeps a double-length time for the same reason). */
-  double t = cfg->t0, tlo = 0.0, t1 = cfg->t1, hmin = INFINITY, hmax = 0.0, hlast = 0.0;
-  int st = NZ_OK;
-  while (t < t1) {
-    if (nz_interrupt_requested()) { *stop = NZ_TAYLOR_INTERRUPTED; break; }
-    if (cfg->max_steps && stats->steps >= cfg->max_steps) {
-      *stop = NZ_TAYLOR_MAX_STEPS;
-      st = NZ_ERANGE;
-      break;
-    }
-    /* each component's scale (see the top of this file) */
-    double eps = cfg->rtol > 0.0 ? cfg->rtol : cfg->atol, floor = cfg->rtol > 0.0 ? cfg->atol / cfg->rtol : 1.0;
-    double nx = 0.0;
-    for (int i = 0; i < k; i++) {   /* (comparisons, not fmax: no call on this path) */
-      double u = fabs(q[i]), w = fabs(qd[i]);
-      scale[i] = cfg->rtol > 0.0 ? (u > floor ? u : floor) : 1.0;
-      scale[k + i] = cfg->rtol > 0.0 ? (w > floor ? w : floor) : 1.0;
-      if (scale[i] > nx) nx = scale[i];
-      if (scale[k + i] > nx) nx = scale[k + i];
-    }
-    if (floor == 0.0)   /* atol = 0: a component at 0 takes the largest scale */
-      for (int i = 0; i < 2 * k; i++)
-        if (scale[i] == 0.0) scale[i] = nx > 0.0 ? nx : 1.0;
-    int p = cfg->order ? cfg->order : nz_taylor_order(eps);
-    if (p > pmax) p = pmax;
-    if (p > stats->order) stats->order = p;
-    stats->nseries++;
-    if ((st = series(ctx, t, q, qd, p + 1, a))) { *stop = NZ_TAYLOR_SERIES; break; }
-    double m1 = coef_ratio(k, a, p - 1, scale), m2 = coef_ratio(k, a, p, scale);
-    /* in logarithms: two log and one exp a step, not two pow and an exp
-     * (a tenth of a small system's step) */
-    double l1 = isinf(m1) ? INFINITY : log(m1) / (p - 1), l2 = isinf(m2) ? INFINITY : log(m2) / p;
-    double lrho = l1 < l2 ? l1 : l2;   /* log rho */
-    double h = isinf(lrho) ? INFINITY : exp(lrho - 2.0 - 0.7 / (p - 1));
-    int last = 0;
-    double rest = (t1 - t) - tlo;
-    /* the last step also when t + h would round onto t1: the step is then
-     * the rest, longer by less than an ulp of t1 */
-    if (isinf(lrho) || h >= rest || t + h >= t1) { h = rest; last = 1; }
-    if (last && !(h > 0.0)) h = 0.0;   /* t + tlo reached t1 by rounding: the state is t1's */
-    if (!isfinite(h) || (!last && (!(h > 0.0) || t + h == t))) {
-      *stop = NZ_TAYLOR_STEP;
-      st = NZ_ERANGE;
-      break;
-    }
-    int cut = 0;
-    if (cfg->on_step) {
-      double hc = h;
-      if ((st = cfg->on_step(cfg->step_ctx, t + tlo, h, k, p + 1, a, &hc))) { *stop = NZ_TAYLOR_HOOK; break; }
-      if (hc < h && hc >= 0.0) { h = hc; cut = 1; last = 0; }
-    }
-    /* the grid's points inside the step, on its polynomial */
-    for (; next < npts; next++) {
-      double tg = grid_time(cfg, next, npts), tau = (tg - t) - tlo;
-      if ((!last && tau > h) || (cut && tau >= h)) break;
-      tout[next] = tg;
-      nz_taylor_eval(k, p + 1, a, tau, qout + (size_t)next * kk, qdout + (size_t)next * kk);
-    }
-    nz_taylor_eval(k, p + 1, a, h, q, qd);
-    if (last && next == npts) {   /* t1 itself: the state, exactly */
-      memcpy(qout + (size_t)(npts - 1) * kk, q, kk * sizeof(double));
-      memcpy(qdout + (size_t)(npts - 1) * kk, qd, kk * sizeof(double));
-    }
-    if (last) {
-      t = t1;
-      tlo = 0.0;
-    } else {   /* t + tlo + h: Knuth's two-sum, then renormalized */
-      double sum = t + h, bp = sum - t, err = (t - (sum - bp)) + (h - bp);
-      tlo += err;
-      t = sum + tlo;
-      tlo -= t - sum;
-    }
-    stats->steps++;
-    if (!last) {
-      hmin = fmin(hmin, h);
-      hmax = fmax(hmax, h);
-    }
-    hlast = h;
-    if (cut) { *stop = NZ_TAYLOR_CUT; break; }
-  }
-  if (*stop == NZ_TAYLOR_DONE && next == npts - 1) {
-    /* t rounded onto t1 with t + tlo short of it by less than an ulp: the
-     * state is t1's */
-    tout[next] = t1;
-    memcpy(qout + (size_t)next * kk, q, kk * sizeof(double));
-    memcpy(qdout + (size_t)next * kk, qd, kk * sizeof(double));
-    next++;
-    t = t1;
-  }
-  if (stats->steps > 0 && hmax == 0.0) hmin = hmax = hlast;   /* one step, cut at t1 */
-  stats->hmin = stats->steps ? hmin : 0.0;
-  stats->hmax = hmax;
-  stats->t = t;
-  *npoints = next;
-  free(a);
-  return st;
+  ts->failure = kind;
+  ts->status = status;
+  ts->tfail = t;
+  memcpy(ts->yfail, y, (size_t)ts->base.dim * sizeof(double));
+  return status;
 }
+
+/* One step from (*t, y = (q, q')) towards tlimit: the series to order p + 1,
+ * the step from its last coefficients (the top of this file), the state at
+ * the step's end from the polynomial.  The time is t + tlo, a sum of two
+ * doubles: t + h rounds by up to half an ulp of t per step (1e-13 at t ~
+ * 2000), and those roundings would add up over the steps into a phase
+ * error larger than the tolerance (as in heyoka, which keeps a
+ * double-length time for the same reason).  *t is its rounded value; a
+ * step that starts elsewhere (the first, or after the caller moved the
+ * state) starts with tlo = 0.  *h gets the step taken. */
+static int taylor_step(nz_stepper *st, const nz_system *s, double *t, double tlimit, double *h, double *y)
+{
+  taylor_stepper *ts = as_taylor(st);
+  const nz_taylor_config *cfg = &ts->c;
+  int k = st->k;
+  double *q = y, *qd = y + k, *scale = ts->scale;
+  ts->failure = NZ_TAYLOR_OK;
+  if (*t != ts->t) {
+    ts->t = *t;
+    ts->tlo = 0.0;
+  }
+  double tt = ts->t, tlo = ts->tlo;
+  /* each component's scale (see the top of this file); the tolerances in
+   * locals, which the stores to scale cannot alias */
+  double rtol = cfg->rtol, atol = cfg->atol;
+  double eps = rtol > 0.0 ? rtol : atol, floor = rtol > 0.0 ? atol / rtol : 1.0;
+  double nx = 0.0;
+  for (int i = 0; i < k; i++) {   /* (comparisons, not fmax: no call on this path) */
+    double u = fabs(q[i]), w = fabs(qd[i]);
+    scale[i] = rtol > 0.0 ? (u > floor ? u : floor) : 1.0;
+    scale[k + i] = rtol > 0.0 ? (w > floor ? w : floor) : 1.0;
+    if (scale[i] > nx) nx = scale[i];
+    if (scale[k + i] > nx) nx = scale[k + i];
+  }
+  if (floor == 0.0)   /* atol = 0: a component at 0 takes the largest scale */
+    for (int i = 0; i < 2 * k; i++)
+      if (scale[i] == 0.0) scale[i] = nx > 0.0 ? nx : 1.0;
+  int p = cfg->order ? cfg->order : nz_taylor_order(eps);
+  if (p > ts->pmax) p = ts->pmax;
+  double *a = ts->a;
+  ts->nseries++;
+  int status = cfg->series(cfg->ctx, s, tt, q, qd, p + 1, a);
+  if (status) {
+    ts->P = 0;
+    return fail_at(ts, NZ_TAYLOR_SERIES, status, tt, y);
+  }
+  if (p > ts->order) ts->order = p;
+  double m1 = coef_ratio(k, a, p - 1, scale), m2 = coef_ratio(k, a, p, scale);
+  /* in logarithms: two log and one exp a step, not two pow and an exp
+   * (a tenth of a small system's step) */
+  double l1 = isinf(m1) ? INFINITY : log(m1) / (p - 1), l2 = isinf(m2) ? INFINITY : log(m2) / p;
+  double lrho = l1 < l2 ? l1 : l2;   /* log rho */
+  double hh = isinf(lrho) ? INFINITY : exp(lrho - 2.0 - 0.7 / (p - 1));
+  int last = 0;
+  double rest = (tlimit - tt) - tlo;
+  /* the last step also when t + h would round onto tlimit: the step is then
+   * the rest, longer by less than an ulp of tlimit */
+  if (isinf(lrho) || hh >= rest || tt + hh >= tlimit) { hh = rest; last = 1; }
+  if (last && !(hh > 0.0)) hh = 0.0;   /* t + tlo reached tlimit by rounding: the state is tlimit's */
+  if (!isfinite(hh) || (!last && (!(hh > 0.0) || tt + hh == tt))) {
+    ts->P = 0;
+    return fail_at(ts, NZ_TAYLOR_STEP, NZ_ERANGE, tt, y);
+  }
+  ts->P = p + 1;
+  ts->ta = tt;
+  ts->tlo_a = tlo;
+  ts->h = hh;
+  nz_taylor_eval(k, p + 1, a, hh, q, qd);
+  if (last) {
+    tt = tlimit;
+    tlo = 0.0;
+  } else {   /* t + tlo + h: Knuth's two-sum, then renormalized */
+    double sum = tt + hh, bp = sum - tt, err = (tt - (sum - bp)) + (hh - bp);
+    tlo += err;
+    tt = sum + tlo;
+    tlo -= tt - sum;
+  }
+  ts->t = tt;
+  ts->tlo = tlo;
+  ts->steps++;
+  if (!last) {   /* (comparisons, not fmin/fmax: no call on this path; hh > 0) */
+    if (hh < ts->hmin) ts->hmin = hh;
+    if (hh > ts->hmax) ts->hmax = hh;
+  }
+  ts->hlast = hh;
+  *t = tt;
+  *h = hh;
+  return NZ_OK;
+}
+
+/* The state at tau on the last step's polynomial (Horner). */
+static int taylor_dense(nz_stepper *st, const nz_system *s, double tau, double *y, int *ok)
+{
+  taylor_stepper *ts = as_taylor(st);
+  (void)s;
+  *ok = 0;
+  if (!ts->P) return NZ_EARG;
+  /* tau - (ta + tlo_a), as the step measured it; the step's ends as the
+   * caller sees them (ta, t rounded) belong to it too */
+  double u = (tau - ts->ta) - ts->tlo_a;
+  if (!(u >= 0.0 || tau >= ts->ta) || !(u <= ts->h || tau <= ts->t)) return NZ_EARG;
+  nz_taylor_eval(st->k, ts->P, ts->a, u, y, y + st->k);
+  *ok = 1;
+  return NZ_OK;
+}
+
+static int taylor_accel(nz_stepper *st, const nz_system *s, double t, const double *y, double *out)
+{
+  taylor_stepper *ts = as_taylor(st);
+  int status = ts->c.accel(ts->c.ctx, s, t, y, y + st->k, out);
+  return status ? fail_at(ts, NZ_TAYLOR_ACCEL, status, t, y) : NZ_OK;
+}
+
+static const double *taylor_root(const nz_stepper *st)
+{
+  (void)st;
+  return NULL;
+}
+
+static void taylor_stats(const nz_stepper *st, nz_stepper_stats *out)
+{
+  const taylor_stepper *ts = (const taylor_stepper *)st;
+  out->steps = ts->steps;
+  out->rejected = 0;
+  out->nfev = ts->nseries;
+  out->njev = 0;
+  out->order = ts->order;
+}
+
+/* Nothing to forget: a step depends on its start alone. */
+static void taylor_reset(nz_stepper *st) { (void)st; }
+
+static void taylor_free(nz_stepper *st)
+{
+  taylor_stepper *ts = as_taylor(st);
+  if (ts->c.ctx_free) ts->c.ctx_free(ts->c.ctx);
+  free(ts->a);
+  free(ts);
+}
+
+static const nz_stepper_ops taylor_ops = {
+  taylor_step, NULL, taylor_dense, taylor_accel, taylor_root, taylor_stats, taylor_reset, taylor_free
+};
+
+nz_stepper *nz_taylor_stepper_new(const nz_taylor_config *cfg)
+{
+  if (cfg->k < 1 || cfg->nc < 0 || !cfg->series || !cfg->accel || !(cfg->rtol >= 0.0) || !(cfg->atol >= 0.0) ||
+      !(cfg->rtol > 0.0 || cfg->atol > 0.0) || !(cfg->rtol < 1.0) || !(cfg->atol < 1.0) || cfg->order == 1 ||
+      cfg->order < 0 || cfg->order > 1000)
+    return NULL;
+  taylor_stepper *ts = calloc(1, sizeof *ts);
+  if (!ts) return NULL;
+  /* The highest order a run may use: the smaller positive tolerance's. */
+  double emin = cfg->rtol > 0.0 && (cfg->atol == 0.0 || cfg->rtol < cfg->atol) ? cfg->rtol : cfg->atol;
+  ts->pmax = cfg->order ? cfg->order : nz_taylor_order(emin);
+  size_t kk = (size_t)cfg->k;
+  /* the polynomial (pmax + 2 coefficients), the scales (2k), the failure's state (2k) */
+  if (!(ts->a = malloc(((size_t)ts->pmax + 2 + 4) * kk * sizeof(double)))) {
+    free(ts);
+    return NULL;
+  }
+  ts->scale = ts->a + ((size_t)ts->pmax + 2) * kk;
+  ts->yfail = ts->scale + 2 * kk;
+  ts->c = *cfg;
+  ts->base.ops = &taylor_ops;
+  ts->base.name = "taylor";
+  ts->base.k = cfg->k;
+  ts->base.nc = cfg->nc;
+  ts->base.dim = 2 * cfg->k;
+  ts->base.exact_dense = 1;
+  ts->t = NAN;
+  ts->hmin = INFINITY;
+  return &ts->base;
+}
+
+nz_taylor_failure nz_taylor_last_failure(const nz_stepper *st, int *status, double *t, const double **y)
+{
+  const taylor_stepper *ts = (const taylor_stepper *)st;
+  if (status) *status = ts->status;
+  if (t) *t = ts->tfail;
+  if (y) *y = ts->yfail;
+  return ts->failure;
+}
+
+void nz_taylor_step_sizes(const nz_stepper *st, double *hmin, double *hmax)
+{
+  const taylor_stepper *ts = (const taylor_stepper *)st;
+  double lo = ts->hmin, hi = ts->hmax;
+  if (ts->steps > 0 && hi == 0.0) lo = hi = ts->hlast;   /* one step, cut at the end */
+  *hmin = ts->steps ? lo : 0.0;
+  *hmax = hi;
+}
+
+void *nz_taylor_ctx(const nz_stepper *st) { return ((const taylor_stepper *)st)->c.ctx; }
