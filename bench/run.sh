@@ -35,3 +35,6 @@ echo
 build/nzlua bench/loop_cost.lua
 echo
 build/nzlua bench/loop_events.lua
+echo
+# Issue 14: the exported C against hand-written C and nzlua.
+build/nzlua bench/export.lua

@@ -301,6 +301,26 @@ Methods (t a number, q, qd, qdd tables of k numbers):
                              axis), print(sw), sw:csv([file]),
                              sw:plot{[file =, width =, height =]} (real and
                              imaginary parts against the parameter).
+  sys:show{[tex = true, lua = true, mass = true, bias = true, names = true]}
+                             the equations as formulas read from the recorded
+                             graphs: per coordinate M(q) q'' + h(q, q') =
+                             A^T lambda (the equations of every order n
+                             collected), the constraints, M and h on request;
+                             like terms collected, parameters (sys.params)
+                             shown by name, repeated parts named when long
+                             (where c1 = cos(th1 - th2)); tex = true: a LaTeX
+                             aligned block; lua = true: a Lua chunk returning
+                             function(t, q, qd, qdd, lambda, params) -> residuals
+  sys:export{lang = "c" | "python" | "octave", file = "name.c" [, jacobian = false,
+             main = {q0 =, qd0 =, t1 =, dt = [, t0, rtol, atol]}]}
+                             the equations as code that runs without nzlua:
+                             nzx_accel (q'' and lambda: the saddle-point
+                             system by an included LU), nzx_rhs (f = (q', q'')),
+                             nzx_jacobian (exact), nzx_constraints; main
+                             integrates (C: GSL rk8pd, cc -O2 f.c -lgsl
+                             -lgslcblas -lm; Python: NumPy; Octave: ode45) and
+                             prints CSV "t,<coords>,<coords>'" every dt.
+                             Constraints of order 0, 1, 2 linear in q''
   sys:energy_integral()      whether H = T2 - T0 + V is a first integral and why
                              (L free of t, constraints homogeneous in the
                              velocities, no force doing work), checked at
