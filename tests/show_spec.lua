@@ -98,6 +98,43 @@ describe("sys:show: the equations as text", function()
     assert.truthy(named:find("l1 l2 m2 c1 th2''", 1, true), named)
   end)
 
+  it("reduced = true: Tsenov's equations without multipliers, which vanish on the motion", function()
+    local text = knife_edge():show{ reduced = true }
+    -- by hand: the blade's direction (cos th, sin th) removes the lateral reaction
+    assert.truthy(text:find("x :  m cos(th) x'' + m sin(th) y'' = 0", 1, true), text)
+    assert.truthy(text:find("th:  J th'' = 0", 1, true), text)
+    local formula = require "nz.formula"
+    for _, sys in ipairs{ knife_edge(), cs.sleigh().sys, cs.rolling_disk().sys, cs.cartesian_pendulum().sys, cs.program().sys } do
+      local show = require "nz.show"
+      local eq = show.equations(sys)
+      local red = assert(show.reduced(sys, eq))
+      assert.are.equal(sys.k - sys.nc, #red.equations)
+      local fs = {}
+      for n, e in ipairs(red.equations) do
+        fs[n] = assert(load("return function(t, q, qd, qdd, lambda, params) return " .. formula.print(e, "lua") .. " end",
+          "=(reduced)", "t", { math = math, nz = nz }))()
+      end
+      for _ = 1, 5 do
+        -- a state on the constraints, drawn by hand (tests/constraint_systems.lua), and its accelerations
+        local t, q, qd
+        if sys.name == "knife edge" then
+          local th, v = 2 * math.random() - 1, 2 * math.random() - 1
+          t, q, qd = 0, { math.random(), math.random(), th }, { v * math.cos(th), v * math.sin(th), math.random() }
+        else
+          local c = ({ sleigh = cs.sleigh, ["rolling disk"] = cs.rolling_disk, ["cartesian pendulum"] = cs.cartesian_pendulum,
+            program = cs.program })[sys.name]()
+          t, q, qd = c.draw()
+        end
+        local qdd = sys:accel(t, q, qd)
+        for n, f in ipairs(fs) do
+          local v = f(t, q, qd, qdd, {}, sys.params)
+          -- terms of size ~1-10: rounding only (bound 1e-12)
+          assert(math.abs(v) <= 1e-12, ("%s: reduced equation %d leaves %.3g on the motion"):format(sys.name, n, v))
+        end
+      end
+    end
+  end)
+
   it("refuses a system it cannot read, and unknown options", function()
     local lua_only = nz.system{ name = "not recorded", coords = { "x" }, compile = false, T = function(t, q, qd) return qd[1] ^ 2 end }
     h.checkerror("the system is not recorded", lua_only.show, lua_only, {})

@@ -120,6 +120,7 @@ local function pick_columns(G, cand)
   table.sort(chosen)
   return chosen
 end
+M.pick_columns = pick_columns   -- also sys:show's choice of dependent coordinates
 
 -- The constraints' rows on the state: `list` holds {r = constraint, level =
 -- 0 or 1}; values and gradients in (q, q') (rows of 2k).

@@ -112,6 +112,63 @@ end
 -- Rank of an atom in an equation: q'' first (2), then q' (1).
 local function rank(a) return a.kind == "sym" and a.info and a.info.slot and a.info.slot >= 1 and a.info.slot or 0 end
 
+-- Tsenov's reduced equations (THEORY.md §7): the multipliers eliminated by
+-- combining the equations along the admissible directions.  With the
+-- dependent coordinates D chosen at a sample state by complete pivoting on
+-- the constraint rows (as sys:reduced does), a = -A_D^-1 A_I, and each
+-- independent l gives E_l + sum_r a_rl E_D_r = 0; multiplied through by
+-- det A_D to stay free of fractions: det E_l - sum_r (adj(A_D) A_I)_rl E_D_r.
+-- Up to two constraints (the adjugate written out).
+function M.reduced(sys, eq)
+  local k, nc = sys.k, sys.nc
+  if nc == 0 then return nil, "the system has no constraints: its equations are already free of multipliers" end
+  if nc > 2 then return nil, ("%d constraints: the reduced equations are printed for one or two"):format(nc) end
+  local _, linear = constraints.orders(sys)
+  for r = 1, nc do
+    if eq.orders[r] > 2 or (eq.orders[r] == 2 and not linear[r]) then
+      return nil, ("constraint %d is not linear at the acceleration level: Tsenov's elimination does not apply"):format(r)
+    end
+  end
+  local st = constraints.sample_states(sys, 1)[1]
+  local zero = {}
+  for i = 1, k do zero[i] = 0 end
+  local Anum = {}
+  for r = 1, nc do Anum[r] = require("nz.core").mech.constraint_row(sys.engine, r, eq.orders[r], st.t, st[1], st[2], zero) end
+  local all = {}
+  for i = 1, k do all[i] = i end
+  local dep = require("nz.linearize").pick_columns(Anum, all)
+  if not dep then return nil, "the constraints are dependent at the sample state: no set of dependent coordinates" end
+  local is_dep = {}
+  for _, i in ipairs(dep) do is_dep[i] = true end
+  local A = eq.A
+  local det, adj
+  if nc == 1 then
+    det, adj = A[1][dep[1]], { { formula.const(1) } }
+  else
+    local a, b, c, d = A[1][dep[1]], A[1][dep[2]], A[2][dep[1]], A[2][dep[2]]
+    det = formula.sub(formula.mul(a, d), formula.mul(b, c))
+    adj = { { d, formula.neg(b) }, { formula.neg(c), a } }   -- rows: dependent r, columns: constraint s
+  end
+  local out, ind = {}, {}
+  for l = 1, k do
+    if not is_dep[l] then
+      local e, coupled = formula.mul(det, eq.lhs[l]), false
+      for r = 1, nc do
+        local coef = formula.const(0)
+        for s = 1, nc do coef = formula.add(coef, formula.mul(adj[r][s], A[s][l])) end
+        if #coef.terms > 0 then coupled = true end
+        e = formula.sub(e, formula.mul(coef, eq.lhs[dep[r]]))
+      end
+      if not coupled then e = eq.lhs[l] end          -- no constraint moves q_l: its own equation
+      local lead = formula.ordered(e, rank).terms[1]
+      if lead and lead.c < 0 then e = formula.neg(e) end   -- "= 0": the sign is free
+      out[#out + 1], ind[#ind + 1] = e, l
+    end
+  end
+  return { equations = out, independent = ind, dependent = dep, det = det }
+end
+
+
 -- Names for atoms that repeat, when the text would run over a screen:
 -- cos(...) -> c1, sin(...) -> s1, anything else -> w1.
 local function short_names(polys)
@@ -138,8 +195,8 @@ function M.show(sys, opts)
   opts = opts or {}
   if type(opts) ~= "table" then fail(sys, "options must be a table {tex =, lua =, mass =, bias =, width =}") end
   for key in pairs(opts) do
-    if not ({ tex = true, lua = true, mass = true, bias = true, width = true, names = true })[key] then
-      fail(sys, "unknown option '%s' (options: tex, lua, mass, bias, width, names)", tostring(key))
+    if not ({ tex = true, lua = true, mass = true, bias = true, width = true, names = true, reduced = true })[key] then
+      fail(sys, "unknown option '%s' (options: tex, lua, mass, bias, reduced, width, names)", tostring(key))
     end
   end
   local eq = M.equations(sys)
@@ -247,6 +304,17 @@ function M.show(sys, opts)
     out[#out + 1] = "where"
     for _, e in ipairs(where) do
       out[#out + 1] = ("  %s = %s"):format(names[e.key], formula.print_atom(e.atom, formula.printers.text, nil))
+    end
+  end
+  if opts.reduced then
+    local red, why = M.reduced(sys, eq)
+    if not red then fail(sys, "reduced = true: %s", why) end
+    local dn = {}
+    for n, i in ipairs(red.dependent) do dn[n] = sys.coords[i] end
+    out[#out + 1] = ("Tsenov's reduced equations, without multipliers (dependent: %s; the coupled ones multiplied by %s):"):format(
+      table.concat(dn, ", "), formula.print(red.det, "text", names, true))
+    for n, e in ipairs(red.equations) do
+      out[#out + 1] = ("  %-" .. width .. "s:  %s = 0"):format(sys.coords[red.independent[n]], formula.print(formula.ordered(e, rank), "text", names))
     end
   end
   if opts.mass then
