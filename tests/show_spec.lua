@@ -135,6 +135,42 @@ describe("sys:show: the equations as text", function()
     end
   end)
 
+  it("appell = true: Appell's S, whose derivatives in q'' give the equations", function()
+    -- a particle in a plane under gravity, in polar coordinates: S = m/2 |a|^2
+    -- up to terms free of the accelerations, |a|^2 = (r'' - r th'^2)^2 + (r th'' + 2 r' th')^2
+    local polar = nz.system{ name = "polar", coords = { "r", "th" }, params = { m = 2 },
+      T = function(t, q, qd, P) return 0.5 * P.m * (qd[1] ^ 2 + q[1] ^ 2 * qd[2] ^ 2) end }
+    local text = polar:show{ appell = true }
+    assert.truthy(text:find("S = -m r th'^2 r'' + 0.5 m r''^2 + 2 m r r' th' th'' + 0.5 m r^2 th''^2", 1, true), text)
+    local show, formula = require "nz.show", require "nz.formula"
+    for _, sys in ipairs{ double_pendulum(), spherical_pendulum(), polar } do
+      local eq = show.equations(sys)
+      local S = show.appell(sys, eq)
+      -- dS/dq''_i = (M q'' + h)_i + (dV/dq - Q)_i: S loaded back as Lua and
+      -- differenced in q''_i (exact up to rounding: S is quadratic in q'')
+      local f = assert(load("return function(t, q, qd, qdd, lambda, params) return " .. formula.print(S, "lua") .. " end",
+        "=(S)", "t", { math = math, nz = nz }))()
+      for _ = 1, 5 do
+        local q, qd, qdd = {}, {}, {}
+        for i = 1, sys.k do q[i], qd[i], qdd[i] = math.random() + 0.3, math.random() - 0.5, math.random() - 0.5 end
+        local res = sys:residual(1, 0, q, qd, qdd)
+        for i = 1, sys.k do
+          -- S is quadratic in q'': the central difference is exact up to rounding
+          local hh = 1e-3
+          local up, dn = { table.unpack(qdd) }, { table.unpack(qdd) }
+          up[i], dn[i] = up[i] + hh, dn[i] - hh
+          local dS = (f(0, q, qd, up, {}, sys.params) - f(0, q, qd, dn, {}, sys.params)) / (2 * hh)
+          -- dS/dq''_i = (M q'' + h)_i - (force part of h)_i: compare with the
+          -- residual less the applied forces (-dV/dq + Q) of the formula
+          local fi = assert(load("return function(t, q, qd, qdd, lambda, params) return " .. formula.print(eq.force[i], "lua") .. " end",
+            "=(F)", "t", { math = math, nz = nz }))()(0, q, qd, qdd, {}, sys.params)
+          assert(math.abs(dS - (res[i] + fi)) <= 1e-9 * (1 + math.abs(res[i])), ("%s: dS/dq''_%d %.15g, residual + forces %.15g"):format(
+            sys.name, i, dS, res[i] + fi))
+        end
+      end
+    end
+  end)
+
   it("refuses a system it cannot read, and unknown options", function()
     local lua_only = nz.system{ name = "not recorded", coords = { "x" }, compile = false, T = function(t, q, qd) return qd[1] ^ 2 end }
     h.checkerror("the system is not recorded", lua_only.show, lua_only, {})

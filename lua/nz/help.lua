@@ -301,13 +301,14 @@ Methods (t a number, q, qd, qdd tables of k numbers):
                              axis), print(sw), sw:csv([file]),
                              sw:plot{[file =, width =, height =]} (real and
                              imaginary parts against the parameter).
-  sys:show{[tex = true, lua = true, mass = true, bias = true, reduced = true, names = true]}
+  sys:show{[tex = true, lua = true, mass = true, bias = true, reduced = true, appell = true, names = true]}
                              the equations as formulas read from the recorded
                              graphs: per coordinate M(q) q'' + h(q, q') =
                              A^T lambda (the equations of every order n
                              collected), the constraints, M and h on request,
                              Tsenov's reduced equations without multipliers
-                             (reduced = true, one or two constraints);
+                             (reduced = true, one or two constraints), Appell's
+                             S up to terms free of q'' (appell = true);
                              like terms collected, parameters (sys.params)
                              shown by name, repeated parts named when long
                              (where c1 = cos(th1 - th2)); tex = true: a LaTeX

@@ -94,7 +94,34 @@ function M.equations(sys)
       for i = 1, k do rhs[i] = formula.add(rhs[i], formula.mul(As[r][i], lam)) end
     end
   end
-  return { lhs = lhs, rhs = rhs, M = Mp, h = h, phi = phis, A = As, orders = orders }
+  -- the applied forces -dV/dq + Q, for Appell's function (appell = true)
+  local force = {}
+  local V, Q = rd.c:piece_outputs("V", 1), rd.c:piece_outputs("Q", 1)
+  local one = rd.c:const(1)
+  for i = 1, k do
+    local f = formula.const(0)
+    if #V > 0 then f = formula.neg(rd.poly(rd.c:derivative(V[1], { [rd.input(0, i)] = one }))) end
+    if #Q >= i then f = formula.add(f, rd.poly(Q[i])) end
+    force[i] = f
+  end
+  return { lhs = lhs, rhs = rhs, M = Mp, h = h, phi = phis, A = As, orders = orders, force = force, sym = rd.sym, input = rd.input }
+end
+
+-- Appell's function of the accelerations up to terms free of q'' (THEORY.md
+-- §4: R_2, which is Appell's S = sum m a^2 / 2 for particles):
+-- S = 1/2 q''^T M q'' + q''^T (h + dV/dq - Q), so that dS/dq''_i = Q_i - dV/dq_i
+-- are the equations.
+function M.appell(sys, eq)
+  local k = sys.k
+  local S = formula.const(0)
+  for i = 1, k do
+    local ai = eq.sym(eq.input(2, i))
+    for j = 1, k do
+      S = formula.add(S, formula.mul(formula.mul(formula.const(0.5), eq.M[i][j]), formula.mul(ai, eq.sym(eq.input(2, j)))))
+    end
+    S = formula.add(S, formula.mul(ai, formula.add(eq.h[i], eq.force[i])))
+  end
+  return S
 end
 
 -- Is the text a sum at its top level (a + or - outside every parenthesis)?
@@ -195,8 +222,8 @@ function M.show(sys, opts)
   opts = opts or {}
   if type(opts) ~= "table" then fail(sys, "options must be a table {tex =, lua =, mass =, bias =, width =}") end
   for key in pairs(opts) do
-    if not ({ tex = true, lua = true, mass = true, bias = true, width = true, names = true, reduced = true })[key] then
-      fail(sys, "unknown option '%s' (options: tex, lua, mass, bias, reduced, width, names)", tostring(key))
+    if not ({ tex = true, lua = true, mass = true, bias = true, width = true, names = true, reduced = true, appell = true })[key] then
+      fail(sys, "unknown option '%s' (options: tex, lua, mass, bias, reduced, appell, width, names)", tostring(key))
     end
   end
   local eq = M.equations(sys)
@@ -316,6 +343,10 @@ function M.show(sys, opts)
     for n, e in ipairs(red.equations) do
       out[#out + 1] = ("  %-" .. width .. "s:  %s = 0"):format(sys.coords[red.independent[n]], formula.print(formula.ordered(e, rank), "text", names))
     end
+  end
+  if opts.appell then
+    out[#out + 1] = "Appell's function of the accelerations (up to terms free of q''; dS/dq''_i = Q_i - dV/dq_i + (A^T lambda)_i):"
+    out[#out + 1] = "  S = " .. formula.print(formula.ordered(M.appell(sys, eq), rank), "text", names)
   end
   if opts.mass then
     out[#out + 1] = "the mass matrix M(q):"
