@@ -11,7 +11,7 @@ local sleigh = nz.system{
   constraints = { function(t, q, qd) return -qd[1] * sin(q[3]) + qd[2] * cos(q[3]) end },
 }
 print(sleigh)
-sleigh:constraints()
+print(sleigh:constraints())
 local n, why = sleigh:rule()
 print("\n" .. why)
 

@@ -8,7 +8,7 @@ local hamel = nz.system{
   Q = function() return { Q[1], Q[2], Q[3] } end,
   constraints = { function(t, q, qd, qdd) return qdd[3] - qdd[1] * qdd[2] end },
 }
-hamel:constraints()
+print(hamel:constraints())
 local n, why = hamel:rule()
 print("\n" .. why)
 local q, qd = { 0, 0, 0 }, { 0.4, -0.5, 0.6 }

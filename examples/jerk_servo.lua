@@ -10,7 +10,7 @@ local servo = nz.system{
   Q = function() return { F[1], F[2] } end,
   constraints = { function(t, q, qd, qdd, qddd) return qddd[1] + 2 * qddd[2] - sin(t) end },
 }
-servo:constraints()
+print(servo:constraints())
 local _, why = servo:rule()
 print("\n" .. why)
 local q0, qd0 = { 0.1, 0.2 }, { 0.3, -0.1 }

@@ -25,8 +25,32 @@ describe("nz.help", function()
     assert.truthy(text:find("normalized coefficients c_0..c_K", 1, true), text)
     assert.are.equal(text, nz.help("jet", { quiet = true }))
   end)
-  it("says what to do when there is no help", function()
-    h.checkerror("no help for 'nothing_here': help() lists what nz offers", nz.help, "nothing_here")
-    h.checkerror("no help for this table", nz.help, {})
+  it("says what to do when there is no help, in one line and without an error", function()
+    assert.are.equal("no help for 'nothing_here': help() lists what nz offers", nz.help("nothing_here", { quiet = true }))
+    assert.are.equal("no help for this table: help() lists what nz offers", nz.help({}, { quiet = true }))
+    -- in the session: the line, no traceback
+    local rc, out = h.run(h.nzlua .. " -i", "help(42)\n")
+    assert.are.equal(0, rc)
+    assert.truthy(out:find("no help for this number: help() lists what nz offers", 1, true), out)
+    assert.falsy(out:find("traceback", 1, true), out)
+  end)
+
+  it("covers every method of a system and of a trajectory", function()
+    local text = nz.help(nz.system, { quiet = true })
+    local sys = nz.system{ name = "p", coords = { "x" }, T = function(t, q, qd) return qd[1] ^ 2 / 2 end }
+    local System = getmetatable(sys).__index
+    for name, f in pairs(System) do
+      if type(f) == "function" and not name:match("^_") then
+        assert(text:find("sys:" .. name, 1, true), ("help(nz.system) does not mention sys:%s"):format(name))
+      end
+    end
+    local tr = sys:simulate{ q0 = { 0 }, qd0 = { 1 }, t1 = 0.1 }
+    local Traj = getmetatable(tr).__index
+    local ttext = text     -- the trajectory's methods are in help(nz.system)
+    for name, f in pairs(Traj) do
+      if type(f) == "function" and not name:match("^_") then
+        assert(ttext:find("tr:" .. name, 1, true), ("help(nz.system) does not mention tr:%s"):format(name))
+      end
+    end
   end)
 end)

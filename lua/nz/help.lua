@@ -199,9 +199,11 @@ Methods (t a number, q, qd, qdd tables of k numbers):
         constraints involved.  opts: qdd, lambda, tol, maxit, rcond_min,
         check; any other key is an error.  Every method checks its arguments
         (t, q, qd: k finite numbers each) and names the one that is wrong.
-  sys:constraints()          print and return the classification: order,
-                             linear in the top derivative, holonomic,
-                             homogeneous in qd (Euler's theorem), evidence
+  sys:constraints()          the classification, one entry per constraint:
+                             order, linear in the top derivative, holonomic,
+                             homogeneous in qd (Euler's theorem), evidence;
+                             it prints as a table (print(sys:constraints())
+                             in a script; the session prints it once)
   sys:rule([{extremal = true}])  Dolapchiev's n and a paragraph saying why
   sys:reduced(t, q, qd [, n] [, form])  accelerations from Tsenov's reduced equations (7.1);
                              order >= 3: q^(p) from the level-p equations, form =
@@ -349,6 +351,25 @@ Methods (t a number, q, qd, qdd tables of k numbers):
                              coordinates, the dependent coordinates and speeds
                              solved at every step, the other speeds held as
                              given; returns q and {iterations, residual, qd}
+  sys:report{q =, qd = [, n, simulate = {...}, plot = {...} | false]}  a
+                             classroom summary: the rule, residuals of two
+                             orders at the state, a short integration and a
+                             plot
+The trajectory tr = sys:simulate{...}: tr.t[i], tr.q[i][j], tr.qd[i][j],
+tr.qdd[i][j], tr.lambda[i][r], tr.status, tr.stats, tr.violation, monitors:
+  tr:column(name)            the values of a quantity along the motion: a
+                             coordinate, "name'" (velocity), "name''", "t",
+                             "E" (T + V), "H", "work", "violation", "lambda1"
+  tr:plot{[y = {...}, x = "t", phase = "th", file = "f.svg" | "f.png", title,
+           xlabel, ylabel, legend = false, size = {w, h}, drift]}  a plot in
+                             the terminal (sized to it) or to a file; E and H
+                             are drawn as their drift from the first value;
+                             unknown options are refused
+  tr:csv([file])             CSV with a header naming every column (written
+                             beside the file and renamed: never half a file)
+  tr:residuals([n] [, {quiet = true}])  residuals of the equations of order n
+                             along the motion, max and RMS per equation
+  print(tr)                  a summary: cost, status, drift, monitors
   print(sys)                 a summary]] },
   { name = "forms", section = "mechanics", usage = "nz.forms",
     summary = "the names of the forms of the equations sys:residual accepts" },
@@ -391,6 +412,10 @@ error naming the effect and the parameter.
   constraint{f = function(t, q, qd, qdd) ... end}   any other constraint]] },
   { name = "rotations", section = "scenes", usage = "nz.rotations.euler_zxz(psi, theta, phi)",
     summary = "rotation matrices x(a), y(a), z(a), mul(A, B), euler_zxz for a body's rot" },
+  { name = "print", section = "session", usage = "nz.print(v, ...)",
+    summary = "print values as the session shows them (numbers in their shortest exact form, tables readable)" },
+  { name = "format", section = "session", usage = "nz.format(v)",
+    summary = "a value as the session shows it, as a string" },
   { name = "check", section = "scenes", usage = "nz.check(sys, function(t, q, qd, qdd) return {...} end)",
     summary = "check a derivation by hand: equivalent to the system's equations?",
     text = [[
@@ -484,10 +509,12 @@ function M.bind(nz)
     else
       local e = find(nz, what)
       if not e then
-        error(("no help for %s: help() lists what nz offers"):format(
-          type(what) == "string" and ("'" .. what .. "'") or ("this " .. type(what))), 2)
+        -- one line, not an error: at the prompt a traceback would bury it
+        text = ("no help for %s: help() lists what nz offers"):format(
+          type(what) == "string" and ("'" .. what .. "'") or ("this " .. type(what)))
+      else
+        text = ("%s\n  %s\n%s"):format(e.usage, e.summary, e.text and ("\n" .. e.text) or "")
       end
-      text = ("%s\n  %s\n%s"):format(e.usage, e.summary, e.text and ("\n" .. e.text) or "")
     end
     if opts and opts.quiet then return text end
     print(text)

@@ -23,6 +23,9 @@ nz.check = require("nz.check").check
 nz.rotations = require "nz.rotations"
 nz.smooth_abs = require("nz.branch").smooth_abs
 
+nz.format = require("nz.repl").format     -- a value as the session shows it
+nz.print = require("nz.repl").show        -- print values as the session does
+
 nz.help = require("nz.help").bind(nz)
 
 return nz

@@ -22,7 +22,7 @@ end
 local function quote(s) return '"' .. tostring(s):gsub('"', "'") .. '"' end
 
 -- plot.lines{ series = { {name =, x = {...}, y = {...} [, points = true, style =
---             "points"]}, ... }, title =, xlabel =,
+--             "points"]}, ... }, title =, xlabel =, legend = false,
 --             ylabel =, logx =, logy =, file = "out.svg", width =, height = }
 -- Returns the text drawn (terminal) or the file name.
 function M.lines(opts)
@@ -49,7 +49,7 @@ function M.lines(opts)
     opts.xlabel and ("set xlabel " .. quote(opts.xlabel)) or "",
     opts.ylabel and ("set ylabel " .. quote(opts.ylabel)) or "",
     opts.logx and 'set logscale x\nset format x "%.0e"' or "", opts.logy and 'set logscale y\nset format y "%.0e"' or "",
-    "set key outside right", "set grid",
+    opts.legend == false and "unset key" or "set key outside right", "set grid",
   }
   local parts = {}
   for si, s in ipairs(series) do

@@ -8,22 +8,31 @@ M.global_names = {
   "atan2", "sinh", "cosh", "tanh", "abs", "hypot", "help",
 }
 
+-- `quit` and `exit` typed alone say how to leave (plain Lua would print nil).
+local leave = setmetatable({}, { __tostring = function() return "leave with Ctrl-D, or os.exit()" end,
+  __call = function() os.exit(0) end })
+
 function M.install_globals(env, nz)
   for _, name in ipairs(M.global_names) do env[name] = nz[name] end
   env.pi = math.pi
+  env.quit, env.exit = leave, leave
 end
 
 local MAX_ITEMS = 12
 
--- A float as the shortest of %.15g / %.17g that reads back exactly, keeping
--- Lua's ".0" mark of an integral float.
+-- A float as the shortest decimal that reads back exactly (%.15g, %.16g
+-- or %.17g: math.pi is 3.141592653589793), keeping Lua's ".0" mark of an
+-- integral float.
 function M.number(v)
   if math.type(v) == "integer" then return tostring(v) end
   -- the C library says "nan", "-nan" or "inf": the same words everywhere
   if v ~= v then return "NaN" end
   if math.abs(v) == math.huge then return v > 0 and "inf" or "-inf" end
-  local s = ("%.15g"):format(v)
-  if tonumber(s) ~= v then s = ("%.17g"):format(v) end
+  local s
+  for digits = 15, 17 do
+    s = ("%." .. digits .. "g"):format(v)
+    if tonumber(s) == v then break end
+  end
   if s:match("^%-?%d+$") then s = s .. ".0" end
   return s
 end
@@ -56,8 +65,23 @@ end
 
 M.format = function(v) return format(v, 0) end
 
--- Print the values of an expression typed at the prompt, tab-separated.
+-- Print the values of an expression typed at the prompt, tab-separated,
+-- and keep the first in `_` (as GSL Shell and IPython do).  Nothing at all
+-- is printed when every value is nil: a function that printed its result
+-- and returned nothing leaves no stray "nil".
 function M.print(...)
+  local n = select("#", ...)
+  local any = false
+  for i = 1, n do if select(i, ...) ~= nil then any = true end end
+  if not any then return end
+  rawset(_G, "_", (...))
+  local parts = {}
+  for i = 1, n do parts[i] = format((select(i, ...)), 0) end
+  print(table.concat(parts, "\t"))
+end
+
+-- nz.print(...): what the session shows, from a script.
+function M.show(...)
   local n = select("#", ...)
   local parts = {}
   for i = 1, n do parts[i] = format((select(i, ...)), 0) end

@@ -340,10 +340,14 @@ function System:reaction_power(t, q, qd)
 end
 
 -- Classification of the constraints (printed unless opts.quiet).
+-- The classification, a list that prints as its table (print(sys:constraints())
+-- in a script; typed at the prompt, the session prints it once).
 function System:constraints(opts)
   local classes = constraints.classify(self)
-  if not (opts and opts.quiet) then print(constraints.report(self)) end
-  return classes
+  local out = {}
+  for i, c in ipairs(classes) do out[i] = c end
+  local sys = self
+  return setmetatable(out, { __tostring = function() return constraints.report(sys) end })
 end
 
 -- Dolapchiev's order n and why; opts.extremal for the extremal form (4.3).

@@ -151,23 +151,73 @@ end
 
 -- tr:plot{ y = {"th", "x"}, x = "t", file = "out.svg", title = ... }
 -- tr:plot{ phase = "th" } draws th' against th.  Default: every coordinate
--- against t, in the terminal.
+-- against t, in the terminal, sized to it.  A conserved quantity (E, H) is
+-- drawn as its drift from its first value: its own ticks would all read the
+-- same digits.  Draws and returns nothing in the terminal (the session
+-- prints nothing more); returns the file's name when writing one.
+local PLOT_OPTIONS = { y = true, x = true, phase = true, file = true, title = true, xlabel = true, ylabel = true,
+  legend = true, size = true, width = true, height = true, quiet = true, drift = true }
+local CONSERVED = { E = true, H = true }
+
+-- The terminal's columns and lines (COLUMNS and LINES, else stty), or nil.
+local function terminal_size()
+  local cols, lines = tonumber(os.getenv("COLUMNS")), tonumber(os.getenv("LINES"))
+  if cols and lines then return cols, lines end
+  local p = io.popen("stty size 2>/dev/null </dev/tty")
+  local out = p and p:read("a") or ""
+  if p then p:close() end
+  local l, c = out:match("(%d+)%s+(%d+)")
+  return tonumber(c), tonumber(l)
+end
+
 function Trajectory:plot(opts)
   opts = opts or {}
+  for key in pairs(opts) do
+    if not PLOT_OPTIONS[key] then
+      local names = {}
+      for k in pairs(PLOT_OPTIONS) do names[#names + 1] = k end
+      table.sort(names)
+      error(("%strajectory:plot: unknown option '%s' (options: %s)"):format(require("nz.where").user_where(), tostring(key),
+        table.concat(names, ", ")), 0)
+    end
+  end
   local series = {}
+  local ylabel = opts.ylabel
   if opts.phase then
     series[1] = { name = opts.phase .. "' vs " .. opts.phase, x = self:column(opts.phase), y = self:column(opts.phase .. "'") }
+    ylabel = ylabel or (opts.phase .. "'")
   else
     local ys = opts.y or self.coords
     if type(ys) == "string" then ys = { ys } end
     local x = self:column(opts.x or "t")
-    for i, name in ipairs(ys) do series[i] = { name = name, x = x, y = self:column(name) } end
+    for i, name in ipairs(ys) do
+      local y = self:column(name)
+      if opts.drift ~= false and (CONSERVED[name] or opts.drift) then
+        local d, y0 = {}, y[1]
+        for n = 1, #y do d[n] = y[n] - y0 end
+        y, name = d, ("%s - %s(0)"):format(name, name)
+      end
+      series[i] = { name = name, x = x, y = y }
+    end
+    if not ylabel then
+      local names = {}
+      for i, s in ipairs(series) do names[i] = s.name end
+      ylabel = table.concat(names, ", ")
+    end
   end
-  return plot.lines{
-    series = series, file = opts.file, width = opts.width, height = opts.height, quiet = opts.quiet,
-    title = opts.title or ("%s (%s)"):format(self.system.name, self.method),
-    xlabel = opts.phase or opts.x or "t", ylabel = opts.phase and (opts.phase .. "'") or nil,
+  local width, height = opts.width, opts.height
+  if type(opts.size) == "table" then width, height = opts.size[1], opts.size[2] end
+  if not opts.file and not (width and height) then
+    local cols, lines = terminal_size()
+    width = width or (cols and math.max(40, math.min(cols - 1, 200))) or 100
+    height = height or (lines and math.max(12, math.min(lines - 3, 60))) or 30
+  end
+  local out = plot.lines{
+    series = series, file = opts.file, width = width, height = height, quiet = opts.quiet,
+    title = opts.title or self.system.name, xlabel = opts.xlabel or opts.phase or opts.x or "t", ylabel = ylabel,
+    legend = opts.legend,
   }
+  if opts.file or opts.quiet then return out end
 end
 
 -- Residuals of the generalized equations of order n (with the multipliers)

@@ -565,6 +565,7 @@ static int pmain(lua_State *L)
   } else if (script == argc && !(args & (HAS_E | HAS_V))) {
     if (isatty(0)) {
       print_version();
+      puts("Type help() for what nz offers, help(name) for one entry; Ctrl-C interrupts a computation, Ctrl-D (or os.exit()) leaves.");
       do_repl(L);
     } else if (dofile(L, NULL) != LUA_OK) {
       return 0;

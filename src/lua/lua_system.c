@@ -269,6 +269,46 @@ static int accumulate_result(lua_State *L, int idx, nz_jet *out, nz_jet *dout, c
 }
 
 /* A call that did not return: the interrupt, or a message to keep. */
+/* What to do about the two mistakes a newcomer makes first, said after the
+ * message: math.cos (numbers only) applied to a jet, and a coordinate read
+ * by name (q.th) where q is a list.  Pushes the hint ("" when neither
+ * applies). */
+static void error_hint(lua_State *L, lua_evaluator *ev, const char *msg)
+{
+  const char *fn = strstr(msg, "bad argument #1 to '");
+  if (fn && (strstr(msg, "got nz.jet") || strstr(msg, "got nz.dualjet") || strstr(msg, "got table"))) {
+    char name[32];
+    fn += strlen("bad argument #1 to '");
+    size_t n = strcspn(fn, "'");
+    if (n > 0 && n < sizeof name) {
+      memcpy(name, fn, n);
+      name[n] = 0;
+      lua_pushfstring(L, " (math.%s works on numbers only: write nz.%s(...), or %s(...) in the session)", name, name, name);
+      return;
+    }
+  }
+  const char *field = strstr(msg, "(field '");
+  if (field && strstr(msg, "nil value")) {
+    field += strlen("(field '");
+    size_t n = strcspn(field, "'");
+    lua_getfield(L, ev->def, "coords");
+    for (int i = 1; lua_istable(L, -1) && i <= ev->k; i++) {
+      lua_geti(L, -1, i);
+      size_t len;
+      const char *c = lua_tolstring(L, -1, &len);
+      int same = c && len == n && strncmp(c, field, n) == 0;
+      lua_pop(L, 1);
+      if (same) {
+        lua_pushfstring(L, " (q, qd, ... are lists indexed by number: '%s' is q[%d], qd[%d])", c, i, i);
+        lua_remove(L, -2);   /* the coordinates' table */
+        return;
+      }
+    }
+    lua_pop(L, 1);
+  }
+  lua_pushliteral(L, "");
+}
+
 static void note_error(lua_evaluator *ev, const eval_call *c, nz_piece piece, int index,
                        const char *doing)
 {
@@ -279,7 +319,10 @@ static void note_error(lua_evaluator *ev, const eval_call *c, nz_piece piece, in
   }
   take_location(ev);
   const char *msg = lua_tostring(L, -1);
-  lua_pushfstring(L, "%s: %s", doing, msg ? strip_location(ev, msg) : "(error object is not a string)");
+  error_hint(L, ev, msg ? msg : "");   /* pushes the hint, "" when none */
+  lua_pushfstring(L, "%s: %s%s", doing, msg ? strip_location(ev, msg) : "(error object is not a string)",
+                  lua_tostring(L, -1));
+  lua_remove(L, -2);
   record_failure(ev, piece, index, c->t, c->levels, c->nlevels, lua_tostring(L, -1));
 }
 
