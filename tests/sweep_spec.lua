@@ -145,21 +145,28 @@ describe("nz.sweep", function()
   end)
 
   it("keeps what finished when Ctrl-C stops a sweep (exit 130); the next run computes only the rest", function()
-    local out = os.tmpname()
+    local out, script, res = os.tmpname(), os.tmpname(), os.tmpname()
     os.remove(out)
-    local script = ([[
+    write(script, ([[
       local rows = nz.sweep{ grid = { x = { 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12 } }, jobs = 2, out = %q,
         progress = false, run = function(_, p)
-          local t = os.clock(); while os.clock() - t < 0.15 do end
+          local t = os.clock(); while os.clock() - t < 0.2 do end
           return { y = p.x * p.x } end }
       print(rows.status, rows.computed, rows.missing)
-    ]]):format(out)
-    local code, stdout, stderr = h.interrupt_script(script, 0.6)
+    ]]):format(out))
+    -- Ctrl-C (SIGINT to nzlua alone) once the file holds two rows
+    local shell = ([[%s %s > %s.out 2> %s.err & pid=$!
+      i=0; while [ "$(cat %s 2>/dev/null | wc -l)" -lt 3 ] && [ $i -lt 600 ]; do sleep 0.05; i=$((i+1)); done
+      kill -INT $pid; wait $pid; echo $? > %s.rc]]):format(h.nzlua, script, res, res, out, res)
+    os.execute(shell)
+    local code, stdout, stderr = tonumber(slurp(res .. ".rc")), slurp(res .. ".out"), slurp(res .. ".err")
+    for _, f in ipairs{ script, res, res .. ".rc", res .. ".out", res .. ".err" } do os.remove(f) end
     assert.are.equal(130, code, stderr)
     local status, computed, missing = stdout:match("^(%S+)\t(%d+)\t(%d+)")
     assert.are.equal("interrupted", status, stdout .. stderr)
     assert.truthy(stderr:find("sweep: stopped by Ctrl-C after", 1, true), stderr)
     local kept = #lines(slurp(out) or "") - 1
+    assert.truthy(kept >= 2 and kept < 12, "rows kept: " .. kept)
     assert.are.equal(tonumber(computed), kept)
     assert.are.equal(12 - kept, tonumber(missing))
     local rows = nz.sweep(quiet{ grid = { x = { 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12 } }, jobs = 2, out = out,

@@ -22,7 +22,10 @@ local M = {}
 -- Limits and timings (documented in help(nz.sweep)).
 M.MAX_POINTS = 1e7       -- points of one sweep (a grid's product is checked first)
 M.POLL_MS = 200          -- the parent looks at the clock (progress) at least this often
-M.AHEAD = 2              -- points handed to a worker at once while many remain
+-- Cheap points (under AHEAD_BELOW seconds each, on average) are handed out
+-- up to AHEAD at a time per worker, so that a worker never waits for the
+-- parent between them; costlier ones one at a time, which balances best.
+M.AHEAD, M.AHEAD_BELOW = 16, 0.002
 M.PROGRESS = { delay = 0.5, every = 0.2 }   -- the bar shows after delay s, redraws every s
 M.DEFAULT_SEED = 1       -- sample = {n =, ranges =} without a seed
 
@@ -519,13 +522,12 @@ local function worker_loop(ctx, fd)
   end
 end
 
--- In worker processes.  Each worker holds up to M.AHEAD points (one
--- running, the next waiting in its socket, so that it never waits for the
--- parent between points) while many remain, one at the end; the next point
--- goes to whichever worker is free, so points of very different cost
--- balance themselves.
+-- In worker processes.  The next point goes to whichever worker is free,
+-- so points of very different cost balance themselves; cheap points go
+-- several at a time (M.AHEAD) while many remain.
 local function run_forked(ctx, queue, jobs, finished, tick)
   local workers, byfd, nextq = {}, {}, 1
+  local start, ndone = mech.now(), 0
   local function spawn()
     local pid, fd = mech.sweep_fork()
     if not pid then error(("sweep: cannot start a worker process (%s)"):format(fd), 0) end
@@ -543,7 +545,10 @@ local function run_forked(ctx, queue, jobs, finished, tick)
     if w.fd then mech.sweep_close(w.fd); byfd[w.fd] = nil; w.fd = nil end
   end
   local function assign(w)
-    local ahead = (#queue - nextq + 1 > 2 * jobs) and M.AHEAD or 1
+    local ahead = 1
+    if ndone >= jobs and (mech.now() - start) * jobs / ndone < M.AHEAD_BELOW then
+      ahead = math.max(1, math.min(M.AHEAD, (#queue - nextq + 1) // (2 * jobs)))
+    end
     while #w.pending < ahead and nextq <= #queue and not w.lost do
       local i = queue[nextq]
       nextq = nextq + 1
@@ -598,6 +603,7 @@ local function run_forked(ctx, queue, jobs, finished, tick)
             local i, out, e = unpack_result(w.buf:sub(5, 4 + len))
             w.buf = w.buf:sub(5 + len)
             assert(table.remove(w.pending, 1) == i, "sweep: a worker answered for another point")
+            ndone = ndone + 1
             finished(i, out, e)
           end
           assign(w)
