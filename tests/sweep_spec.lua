@@ -201,6 +201,45 @@ describe("nz.sweep", function()
     assert.are.equal("run returned 'x', which is an input of the sweep: name the output differently", bad[2].error)
   end)
 
+  it("draws a progress bar with the time left when asked (on a terminal by default), none when redirected", function()
+    local script = os.tmpname()
+    write(script, [[
+      require("nz.sweep").PROGRESS.delay = 0
+      local progress = arg[1] == "on" or nil
+      nz.sweep{ grid = { x = { 1, 2, 3, 4, 5, 6 } }, jobs = 2, progress = progress, run = function(_, p)
+        local t = os.clock(); while os.clock() - t < 0.05 do end
+        return { y = p.x } end }
+    ]])
+    local code, _, err = h.run(h.nzlua .. " " .. script .. " on")
+    assert.are.equal(0, code, err)
+    assert.truthy(err:find("%] %d/6 points, [%d.]+ s left  %(Ctrl%-C stops, keeping what is done%)"), err)
+    local code2, _, err2 = h.run(h.nzlua .. " " .. script)
+    assert.are.equal(0, code2, err2)
+    assert.are.equal("", err2)
+    os.remove(script)
+  end)
+
+  it("retry = true computes the failed points of a resumed file again (their new row comes last)", function()
+    local out = os.tmpname()
+    local fail = true
+    local function run(_, p)
+      if fail and p.x == 2 then error("not yet") end
+      return { y = 10 * p.x }
+    end
+    local first = nz.sweep(quiet{ grid = { x = { 1, 2, 3 } }, run = run, jobs = 1, out = out })
+    assert.are.equal(1, first.failed)
+    fail = false
+    local kept = nz.sweep(quiet{ grid = { x = { 1, 2, 3 } }, run = run, jobs = 1, out = out })
+    assert.are.equal(0, kept.computed)
+    assert.truthy(kept[2].error:find("not yet", 1, true))
+    local again = nz.sweep(quiet{ grid = { x = { 1, 2, 3 } }, run = run, jobs = 1, out = out, retry = true })
+    assert.are.equal(1, again.computed)
+    assert.are.equal(20, again[2].y)
+    assert.is_nil(again[2].error)
+    assert.are.equal(20, nz.sweep(quiet{ grid = { x = { 1, 2, 3 } }, run = run, jobs = 1, out = out })[2].y)
+    os.remove(out)
+  end)
+
   it("leaves no worker behind (no zombie children)", function()
     nz.sweep(quiet{ grid = { x = { 1, 2, 3, 4, 5 } }, jobs = 3, run = function(_, p) return { y = p.x } end })
     local pid = slurp("/proc/self/stat"):match("^(%d+)")

@@ -440,7 +440,8 @@ table of outputs {name = number | string | boolean, ...}.
                        sweep resumes: only the missing points are computed
                        (resume = false starts over; a file of other columns is
                        refused, never overwritten).  A cut last line is dropped.
-  retry = true         with a resume, compute the points recorded with an error again
+  retry = true         with a resume, compute the points recorded with an error
+                       again (the new row is appended: a point's last row counts)
   progress = false     no progress bar (shown on a terminal: points done, time left)
   todo = "points.txt"  write the points still missing, one per line, and run
                        nothing: the input of nzlua --sweep-worker (see

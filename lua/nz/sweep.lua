@@ -26,6 +26,7 @@ M.POLL_MS = 200          -- the parent looks at the clock (progress) at least th
 -- up to AHEAD at a time per worker, so that a worker never waits for the
 -- parent between them; costlier ones one at a time, which balances best.
 M.AHEAD, M.AHEAD_BELOW = 16, 0.002
+M.FLUSH_S = 0.01         -- a worker holds finished results at most this long while it has points
 M.PROGRESS = { delay = 0.5, every = 0.2 }   -- the bar shows after delay s, redraws every s
 M.DEFAULT_SEED = 1       -- sample = {n =, ranges =} without a seed
 
@@ -506,10 +507,19 @@ local function run_here(ctx, queue, finished)
 end
 
 -- The worker's side of a fork: point indices in, packed results out, until
--- the parent closes the socket.
+-- the parent closes the socket.  Results wait while more points are at hand
+-- (at most M.FLUSH_S seconds), so that cheap points cost one send per batch;
+-- all are sent before the worker waits for more.
 local function worker_loop(ctx, fd)
-  local buf = ""
+  local buf, ready, last = "", {}, mech.now()
+  local function flush()
+    if #ready == 0 then return true end
+    local ok = mech.sweep_send(fd, table.concat(ready))
+    ready, last = {}, mech.now()
+    return ok
+  end
   while true do
+    if #buf < 8 and not flush() then return end
     while #buf < 8 do
       local s = mech.sweep_recv(fd)
       if not s then return end
@@ -518,7 +528,8 @@ local function worker_loop(ctx, fd)
     local i = string.unpack("<j", buf)
     buf = buf:sub(9)
     local out, err = evaluate(ctx.sys, ctx.run, ctx.points[i], ctx.input_set)
-    if not mech.sweep_send(fd, string.pack("<s4", pack_result(i, out, err))) then return end
+    ready[#ready + 1] = string.pack("<s4", pack_result(i, out, err))
+    if mech.now() - last > M.FLUSH_S and not flush() then return end
   end
 end
 
@@ -549,12 +560,13 @@ local function run_forked(ctx, queue, jobs, finished, tick)
     if ndone >= jobs and (mech.now() - start) * jobs / ndone < M.AHEAD_BELOW then
       ahead = math.max(1, math.min(M.AHEAD, (#queue - nextq + 1) // (2 * jobs)))
     end
-    while #w.pending < ahead and nextq <= #queue and not w.lost do
+    local send = {}
+    while #w.pending < ahead and nextq <= #queue do
       local i = queue[nextq]
       nextq = nextq + 1
-      w.pending[#w.pending + 1] = i
-      if not mech.sweep_send(w.fd, string.pack("<j", i)) then w.lost = true end
+      w.pending[#w.pending + 1], send[#send + 1] = i, string.pack("<j", i)
     end
+    if #send > 0 and not w.lost and not mech.sweep_send(w.fd, table.concat(send)) then w.lost = true end
     if #w.pending == 0 then retire(w) end
   end
   local function reap(w)
