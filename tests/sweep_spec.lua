@@ -319,9 +319,9 @@ describe("nz.sweep", function()
     assert.are.equal("todo", listed.status)
     assert.are.equal(10, listed.todo)
     assert.are.equal(10, #lines(slurp(todo)))
+    local nzlua = h.nzlua:find("^/") and h.nzlua or os.getenv("PWD") .. "/" .. h.nzlua
     local cmd = ("FAKE_SSH_LOG=%s parallel --ssh tests/data/fake_ssh.sh -S 1/hostA,1/hostB --pipe -N 2 "
-      .. "%s --sweep-worker %s/%s < %s > %s"):format(log, h.nzlua:find("^/") and h.nzlua or os.getenv("PWD") .. "/" .. h.nzlua,
-      os.getenv("PWD"), SCENE, todo, done)
+      .. "%s --sweep-worker %s/%s < %s > %s"):format(log, nzlua, os.getenv("PWD"), SCENE, todo, done)
     local ok = os.execute(cmd)
     assert.truthy(ok, cmd)
     local hosts = {}
@@ -335,13 +335,30 @@ describe("nz.sweep", function()
     for _, r in ipairs(merged) do if r.error then r.error = r.error:gsub("^.*tests/data/", "tests/data/") end end
     assert_same_rows(single, merged, "GNU parallel on two hosts against one process")
     assert.are.equal(11, #lines(slurp(out)))
+    -- the same in one call: nz.sweep runs GNU parallel and appends its rows as they come
+    os.remove(out)
+    os.remove(log)
+    local through = nz.sweep(quiet{ file = SCENE, grid = grid, out = out, jobs = 1,
+      parallel = ("--ssh 'env FAKE_SSH_LOG=%s tests/data/fake_ssh.sh' -S 1/hostA,1/hostB -N 3"):format(log), worker = nzlua })
+    assert.are.equal("complete", through.status)
+    assert.are.equal(10, through.computed)
+    assert.are.equal(11, #lines(slurp(out)))
+    for _, r in ipairs(through) do if r.error then r.error = r.error:gsub("^.*tests/data/", "tests/data/") end end
+    assert_same_rows(single, through, "nz.sweep{parallel = ...} against one process")
+    assert.truthy(slurp(log):find("hostA", 1, true) and slurp(log):find("hostB", 1, true), slurp(log))
+    -- hosts whose worker fails answer for no point: they stay missing, not failed
+    os.remove(out)
+    local none = nz.sweep(quiet{ file = SCENE, grid = grid, out = out, parallel = "-S : -N 5", worker = "false" })
+    assert.are.equal("incomplete", none.status)
+    assert.are.equal(10, none.missing)
+    assert.are.equal(0, #none)
     for _, f in ipairs{ out, todo, done, log } do os.remove(f) end
   end)
 
   it("refuses bad options with the caller's file:line and what was expected", function()
     local run = function() return {} end
     local cases = {
-      { { grid = { x = { 1 } }, run = run, jbos = 2 }, "sweep: unknown option 'jbos' (options: file, from, grid, jobs, list, out, progress, resume, retry, run, sample, system, todo)" },
+      { { grid = { x = { 1 } }, run = run, jbos = 2 }, "sweep: unknown option 'jbos' (options: file, from, grid, jobs, list, out, parallel, progress, resume, retry, run, sample, system, todo, worker)" },
       { { run = run }, "sweep: no points: give 'grid', 'list' or 'sample'" },
       { { grid = { x = { 1 } }, list = { { x = 1 } }, run = run }, "sweep: give one of 'grid', 'list', 'sample', not grid and list" },
       { { grid = { x = {} }, run = run }, "sweep: 'grid.x' must be a non-empty list of values, got a table" },
@@ -359,6 +376,9 @@ describe("nz.sweep", function()
       { { grid = { x = { 1 } }, run = run, out = 3 }, "sweep: 'out' must be a file name, got 3" },
       { { grid = { x = { 1 } }, run = run, retry = true }, "sweep: 'retry' needs 'out'" },
       { { grid = { x = { 1 } }, run = run, from = "tests/data/nope.txt" }, "sweep: 'from': cannot read tests/data/nope.txt" },
+      { { grid = { x = { 1 } }, run = run, parallel = "-S host" }, "sweep: 'parallel' needs 'file': the hosts load the system and run from it" },
+      { { grid = { x = { 1 } }, run = run, worker = "nzlua" }, "sweep: 'worker' (the command on the hosts) goes with 'parallel'" },
+      { { grid = { x = { 1 } }, file = SCENE, parallel = true }, "sweep: 'parallel' must be a string, got true" },
     }
     for _, c in ipairs(cases) do
       local ok, msg = pcall(nz.sweep, c[1])

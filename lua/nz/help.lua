@@ -448,10 +448,16 @@ table of outputs {name = number | string | boolean, ...}.
                        help("sweep_worker")) under GNU parallel or a job array
   from = "done.txt"    take the rows of these files (worker output, or CSV) as
                        done: they are added to out and not computed
+  parallel = "--sshloginfile hosts"   run the missing points through GNU
+                       parallel with these options (needs 'file'; 10 points
+                       per job unless -N or --block is given); each row is
+                       appended to out as it comes back; points no host
+                       answered for stay missing (rows.status "incomplete")
+  worker = "nzlua"     the command that runs nzlua on the hosts
 A point whose run fails is recorded with its message in the column error (its
 outputs empty) and the others go on; a worker that dies loses only its point.
 Returns the rows in the order of the points (inputs, outputs, error), with
-rows.status ("complete", "interrupted", "todo"), rows.computed, rows.resumed,
+rows.status ("complete", "interrupted", "incomplete", "todo"), rows.computed, rows.resumed,
 rows.failed.  Ctrl-C stops dispatching, ends the workers and returns the rows
 finished (rows.missing says how many are not; they are in out); the next
 nz.sweep in the script raises nz.interrupted.
@@ -466,7 +472,9 @@ double quotes with \\ \" \n escaped; # starts a comment line).  Each line of
 stdout is the point's inputs, its outputs and, when run failed, error="...",
 in the same format, flushed as each point finishes.  A line that is not a point
 is reported on stderr (the others go on; the exit status is then 1).
-Across machines (the same nzlua and file on each):
+Across machines (the same nzlua and file on each), in one call:
+  nz.sweep{file = "f.lua", grid = {...}, out = "r.csv", parallel = "--sshloginfile hosts"}
+or in three steps (the points, GNU parallel, the rows into r.csv):
   nz.sweep{file = "f.lua", grid = {...}, out = "r.csv", todo = "todo.txt"}
   parallel --pipe -N 10 --sshloginfile hosts nzlua --sweep-worker f.lua \
       < todo.txt > done.txt

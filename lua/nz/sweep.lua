@@ -27,11 +27,12 @@ M.POLL_MS = 200          -- the parent looks at the clock (progress) at least th
 -- parent between them; costlier ones one at a time, which balances best.
 M.AHEAD, M.AHEAD_BELOW = 16, 0.002
 M.FLUSH_S = 0.01         -- a worker holds finished results at most this long while it has points
+M.PARALLEL_N = 10        -- points per GNU parallel job, unless the options say (-N, --block)
 M.PROGRESS = { delay = 0.5, every = 0.2 }   -- the bar shows after delay s, redraws every s
 M.DEFAULT_SEED = 1       -- sample = {n =, ranges =} without a seed
 
 local known = { system = true, file = true, grid = true, list = true, sample = true, run = true, jobs = true,
-  out = true, resume = true, retry = true, progress = true, todo = true, from = true }
+  out = true, resume = true, retry = true, progress = true, todo = true, from = true, parallel = true, worker = true }
 
 local function fail(msg, ...) error(user_where() .. ("sweep: " .. msg):format(...), 0) end
 
@@ -631,6 +632,57 @@ local function run_forked(ctx, queue, jobs, finished, tick)
   end
 end
 
+-- Through GNU parallel: the missing points go to a temporary file, which
+-- `parallel --pipe OPTIONS` cuts into jobs of `WORKER --sweep-worker FILE`
+-- on the hosts its options name; its output is read line by line as the
+-- jobs finish.  Returns the number of points no job answered for, and how
+-- parallel ended.  Ctrl-C at a terminal reaches parallel too (the same
+-- process group), which ends its jobs; the rows read so far are kept.
+local function shell_quote(text) return "'" .. text:gsub("'", "'\\''") .. "'" end
+
+local function run_parallel(ctx, queue, finished, opts, inputs)
+  if not os.execute("command -v parallel >/dev/null 2>&1") then
+    fail("'parallel': GNU parallel is not installed (sudo apt-get install parallel, or make deps)")
+  end
+  local file = opts.file
+  if file:sub(1, 1) ~= "/" then file = (os.getenv("PWD") or ".") .. "/" .. file end
+  local todo = os.tmpname()
+  local f = assert(io.open(todo, "wb"))
+  local index, missing = {}, 0
+  for _, i in ipairs(queue) do
+    f:write(M.record_line(inputs, ctx.points[i]))
+    index[point_key(inputs, ctx.points[i])] = i
+    missing = missing + 1
+  end
+  f:close()
+  local popts = opts.parallel
+  if not (popts:find("%-N") or popts:find("%-%-max%-replace%-args") or popts:find("%-%-block")) then
+    popts = popts .. " -N " .. M.PARALLEL_N
+  end
+  local cmd = ("parallel --pipe %s %s --sweep-worker %s < %s"):format(popts, opts.worker or "nzlua", shell_quote(file),
+    shell_quote(todo))
+  local p = assert(io.popen(cmd, "r"))
+  local ok, err = pcall(function()
+    for line in p:lines() do
+      local row = M.parse_record(line)
+      local key = row and point_key(inputs, row)
+      local i = key and index[key]
+      if i then
+        index[key], missing = nil, missing - 1
+        local out = {}
+        for k, v in pairs(row) do if not ctx.input_set[k] and k ~= "error" then out[k] = v end end
+        finished(i, row.error == nil and out or nil, row.error)
+      else
+        io.stderr:write("sweep: a line of GNU parallel's output that is no point of this sweep: ", line, "\n")
+      end
+    end
+  end)
+  local _, how, code = p:close()
+  os.remove(todo)
+  if not ok then error(err, 0) end
+  return missing, how, code
+end
+
 ----------------------------------------------------------------------------
 -- nz.sweep
 
@@ -667,6 +719,16 @@ local function check_options(opts)
     end
   end
   if opts.retry and not opts.out then fail("'retry' needs 'out', the file whose failed points are computed again") end
+  for _, key in ipairs{ "parallel", "worker" } do
+    if opts[key] ~= nil and type(opts[key]) ~= "string" then fail("'%s' must be a string, got %s", key, show(opts[key])) end
+  end
+  if opts.worker and not opts.parallel then fail("'worker' (the command on the hosts) goes with 'parallel'") end
+  if opts.parallel then
+    if not opts.file then
+      fail("'parallel' needs 'file': the hosts load the system and run from it (what is given inline stays in this process)")
+    end
+    if opts.todo then fail("give 'parallel' or 'todo', not both") end
+  end
 end
 
 -- The system and the run function, from the options or from a file that
@@ -811,8 +873,10 @@ function M.sweep(opts)
       if writer then writer:append(row) end
       update(computed, failed)
     end
+    local unanswered, how, code = 0, nil, nil
     local ok, err = pcall(function()
-      if jobs == 1 then run_here(ctx, queue, finished)
+      if opts.parallel and #queue > 0 then unanswered, how, code = run_parallel(ctx, queue, finished, opts, inputs)
+      elseif jobs == 1 then run_here(ctx, queue, finished)
       else run_forked(ctx, queue, jobs, finished, function() update(computed, failed) end) end
     end)
     done_bar()
@@ -826,6 +890,15 @@ function M.sweep(opts)
       io.stderr:write(("sweep: stopped by Ctrl-C after %d of the %d points%s; %d missing\n"):format(
         nresumed + computed, #points, opts.out and (" (they are in %s: the same sweep again computes only the rest)"):format(opts.out) or "",
         rows.missing))
+      return rows
+    end
+    if unanswered > 0 then
+      local rows = { status = "incomplete", computed = computed, resumed = nresumed, failed = failed,
+        missing = unanswered, columns = writer and writer:columns() }
+      for i = 1, #points do if rows_by[i] then rows[#rows + 1] = rows_by[i] end end
+      io.stderr:write(("sweep: GNU parallel (%s %s) gave no row for %d of the %d points%s\n"):format(
+        how or "?", tostring(code), unanswered, #queue,
+        opts.out and ("; they are not in %s: the same sweep again computes only them"):format(opts.out) or ""))
       return rows
     end
   end
