@@ -10,9 +10,10 @@
 
 PKGS      = lua5.4 gsl readline
 # Debian packages for building, testing (busted, tmux; python3-numpy runs the
-# Python that sys:export writes) and plotting (gnuplot).
+# Python that sys:export writes), plotting (gnuplot) and sweeps across
+# machines (GNU parallel).
 DEB_PKGS  = make gcc pkg-config liblua5.4-dev lua5.4 libreadline-dev libgsl-dev \
-            lua-busted tmux gnuplot-nox python3-numpy
+            lua-busted tmux gnuplot-nox python3-numpy parallel
 
 CC       ?= cc
 WARN      = -Wall -Wextra -Werror -Wshadow -Wstrict-prototypes -Wmissing-prototypes

@@ -38,3 +38,6 @@ build/nzlua bench/loop_events.lua
 echo
 # Issue 14: the exported C against hand-written C and nzlua.
 build/nzlua bench/export.lua
+echo
+# Issue 16: nz.sweep on 1, 2 and every core, and its overhead per point.
+build/nzlua bench/sweep.lua

@@ -308,6 +308,25 @@ describe("examples", function()
     -- measured 5.3e-15 (rk8pd, rtol 1e-10, t1 = 6)
     assert(number_after(out, "largest error against the closed form:") < 1e-12, out)
   end)
+  it("henon_chaos.lua: the fraction of chaotic orbits grows with the energy, as Henon and Heiles found", function()
+    local out = run("henon_chaos.lua")
+    local fractions = {}
+    for E, orbits, chaotic, fraction, failed in out:gmatch("\n%s*([%d.]+)%s+(%d+)%s+(%d+)%s+([%d.]+)%s+(%d+)") do
+      fractions[#fractions + 1] = { E = tonumber(E), f = tonumber(fraction), orbits = tonumber(orbits), failed = tonumber(failed) }
+    end
+    assert.are.equal(5, #fractions, out)
+    for i, r in ipairs(fractions) do
+      assert.are.equal(0, r.failed, out)
+      assert.truthy(r.orbits > 50, out)
+      if i > 1 then assert(r.f >= fractions[i - 1].f, "the fraction falls with the energy:\n" .. out) end
+    end
+    -- measured 0.00, 0.04, 0.55, 0.75, 0.84 (16 x 16 grid, T = 500); Henon
+    -- and Heiles (1964): regular at E = 1/12, about half chaotic at 1/8
+    assert(fractions[1].f <= 0.05, out)
+    assert(fractions[3].f > 0.3 and fractions[3].f < 0.8, out)
+    assert(fractions[5].f > 0.7, out)
+    assert.truthy(out:find("chaotic fraction", 1, true), out)
+  end)
   it("every example in examples/ has a test here and a line in examples/README.md", function()
     local index = assert(io.open("examples/README.md")):read("a")
     local spec = assert(io.open("tests/examples_spec.lua")):read("a")

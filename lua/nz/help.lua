@@ -445,6 +445,72 @@ plot = "file.svg" (or .png) writes it.  Returns the rows.
 Defaults: methods rk4, rkf45, rkck, rk8pd, rk4imp, bsimp, msadams, msbdf, taylor
 (taylor skipped, with the reason, where it does not apply: constraints, not recorded);
 tols 1e-4, 1e-6, 1e-8, 1e-10.  Ctrl-C stops the sweep, keeping the rows done.]] },
+  { name = "sweep", section = "mechanics",
+    usage = "nz.sweep{system = sys | file =, grid = | list = | sample =, run = function(sys, point), jobs =, out =}",
+    summary = "a system at many points on every core: one row per point, appended to a CSV as each finishes",
+    text = [[
+Points: grid = {amp = {0.5, 1, 1.5}, l = {1, 2}} (every combination, the first
+name in alphabetical order varying slowest), list = {{amp = 0.5, l = 1}, ...}
+(every point with the same names), or sample = {n = 100, seed = 1, ranges =
+{amp = {0, 1.5}}} (uniform, splitmix64: the same points on every machine).
+Values are numbers or strings.  For each point the names that are in
+sys.params are set (and restored afterwards), then run(sys, point) returns a
+table of outputs {name = number | string | boolean, ...}.
+  file = "scene.lua"   instead of system: the file returns a system, or
+                       {system = sys, run = function(sys, point) ... end}
+  jobs = n             worker processes (default: every core online; jobs = 1
+                       runs in this process).  Workers are fork()ed: the
+                       system and run (closures too) need no serialization,
+                       and the results come back bit for bit.
+  out = "results.csv"  a header (the inputs, the outputs, error), then one row
+                       per point, appended and flushed as each point finishes.
+                       When the file exists with this sweep's inputs, the
+                       sweep resumes: only the missing points are computed
+                       (resume = false starts over; a file of other columns is
+                       refused, never overwritten).  A cut last line is dropped.
+  retry = true         with a resume, compute the points recorded with an error
+                       again (the new row is appended: a point's last row counts)
+  progress = false     no progress bar (shown on a terminal: points done, time left)
+  todo = "points.txt"  write the points still missing, one per line, and run
+                       nothing: the input of nzlua --sweep-worker (see
+                       help("sweep_worker")) under GNU parallel or a job array
+  from = "done.txt"    take the rows of these files (worker output, or CSV) as
+                       done: they are added to out and not computed
+  parallel = "--sshloginfile hosts"   run the missing points through GNU
+                       parallel with these options (needs 'file'; 10 points
+                       per job unless -N or --block is given); each row is
+                       appended to out as it comes back; points no host
+                       answered for stay missing (rows.status "incomplete")
+  worker = "nzlua"     the command that runs nzlua on the hosts
+A point whose run fails is recorded with its message in the column error (its
+outputs empty) and the others go on; a worker that dies loses only its point.
+Returns the rows in the order of the points (inputs, outputs, error), with
+rows.status ("complete", "interrupted", "incomplete", "todo"), rows.computed, rows.resumed,
+rows.failed.  Ctrl-C stops dispatching, ends the workers and returns the rows
+finished (rows.missing says how many are not; they are in out); the next
+nz.sweep in the script raises nz.interrupted.
+Limits: at most 1e7 points (require("nz.sweep").MAX_POINTS).]] },
+  { name = "sweep_worker", section = "mechanics", optional = true,
+    usage = "nzlua --sweep-worker file.lua < points.txt > results.txt",
+    summary = "run a sweep's points from stdin (one per line), result rows to stdout (GNU parallel, Slurm)",
+    text = [[
+file.lua returns {system = sys, run = function(sys, point) ... end}.  Each line
+of stdin is a point, name=value separated by spaces (amp=0.5 l=1; strings in
+double quotes with \\ \" \n escaped; # starts a comment line).  Each line of
+stdout is the point's inputs, its outputs and, when run failed, error="...",
+in the same format, flushed as each point finishes.  A line that is not a point
+is reported on stderr (the others go on; the exit status is then 1).
+Across machines (the same nzlua and file on each), in one call:
+  nz.sweep{file = "f.lua", grid = {...}, out = "r.csv", parallel = "--sshloginfile hosts"}
+or in three steps (the points, GNU parallel, the rows into r.csv):
+  nz.sweep{file = "f.lua", grid = {...}, out = "r.csv", todo = "todo.txt"}
+  parallel --pipe -N 10 --sshloginfile hosts nzlua --sweep-worker f.lua \
+      < todo.txt > done.txt
+  nz.sweep{file = "f.lua", grid = {...}, out = "r.csv", from = "done.txt"}
+A Slurm job array: task i runs line i,
+  sed -n "${SLURM_ARRAY_TASK_ID}p" todo.txt | nzlua --sweep-worker f.lua \
+      > done.$SLURM_ARRAY_TASK_ID.txt
+then from = {"done.1.txt", ...} (or cat them into one file).]] },
   { name = "methods", section = "mechanics", usage = "nz.methods",
     summary = "GSL's steppers for sys:simulate: {name =, implicit =} each" },
   { name = "last", section = "mechanics", usage = "nz.last", optional = true,

@@ -22,6 +22,7 @@ nz.scene = require("nz.scene").scene
 nz.check = require("nz.check").check
 nz.rotations = require "nz.rotations"
 nz.smooth_abs = require("nz.branch").smooth_abs
+nz.sweep = require("nz.sweep").sweep
 
 nz.format = require("nz.repl").format     -- a value as the session shows it
 nz.print = require("nz.repl").show        -- print values as the session does

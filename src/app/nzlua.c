@@ -84,6 +84,10 @@ static void print_usage(FILE *f)
           "  -i         enter interactive mode after running the script\n"
           "  -l mod     require library 'mod' into global 'mod'\n"
           "  -v         show version information\n"
+          "  --sweep-worker file\n"
+          "             run the points of a sweep: 'file' returns {system =, run =};\n"
+          "             points on stdin, one per line (name=value ...), result rows on\n"
+          "             stdout in the same format (for GNU parallel; help(nz.sweep))\n"
           "  -h         show this help\n"
           "  --         stop handling options\n"
           "  -          stop handling options and execute stdin\n"
@@ -471,7 +475,10 @@ static void do_repl(lua_State *L)
 /* ------------------------------------------------------------------ */
 /* Arguments                                                            */
 
-enum { HAS_ERROR = 1, HAS_I = 2, HAS_V = 4, HAS_E = 8, HAS_H = 16 };
+enum { HAS_ERROR = 1, HAS_I = 2, HAS_V = 4, HAS_E = 8, HAS_H = 16, HAS_W = 32 };
+
+/* --sweep-worker FILE: the file of the sweep whose points stdin brings. */
+static const char *sweep_worker_file = NULL;
 
 /* Scan options; *first is the index of the script (or argc). */
 static int collectargs(char **argv, int *first)
@@ -485,6 +492,11 @@ static int collectargs(char **argv, int *first)
     if (strcmp(argv[i], "--help") == 0 || strcmp(argv[i], "-h") == 0) args |= HAS_H;
     else if (strcmp(argv[i], "--version") == 0 || strcmp(argv[i], "-v") == 0) args |= HAS_V;
     else if (strcmp(argv[i], "-i") == 0) args |= HAS_I | HAS_V;
+    else if (strcmp(argv[i], "--sweep-worker") == 0) {
+      if (argv[i + 1] == NULL) { *first = i; return HAS_ERROR; }
+      sweep_worker_file = argv[++i];
+      args |= HAS_W;
+    }
     else if (strcmp(argv[i], "-e") == 0 || strcmp(argv[i], "-l") == 0) {
       if (argv[i][1] == 'e') args |= HAS_E;
       if (argv[i + 1] == NULL || argv[i + 1][0] == '-') { *first = i; return HAS_ERROR; }
@@ -521,6 +533,21 @@ static void createargtable(lua_State *L, char **argv, int argc, int script)
     lua_rawseti(L, -2, i - script);
   }
   lua_setglobal(L, "arg");
+}
+
+/* nzlua --sweep-worker FILE (lua/nz/sweep.lua's worker). */
+static int dosweepworker(lua_State *L)
+{
+  lua_getglobal(L, "require");
+  lua_pushliteral(L, "nz.sweep");
+  int status = docall(L, 1, 1);
+  if (status == LUA_OK) {
+    lua_getfield(L, -1, "worker");
+    lua_remove(L, -2);
+    lua_pushstring(L, sweep_worker_file);
+    status = docall(L, 1, 0);
+  }
+  return report(L, status, 0);
 }
 
 /* The session's environment: nz as a global, its functions unprefixed. */
@@ -560,7 +587,9 @@ static int pmain(lua_State *L)
   createargtable(L, argv, argc, script);
   if (!runargs(L, argv, script)) return 0;
   if (script < argc && handle_script(L, argv + script) != LUA_OK) return 0;
-  if (args & HAS_I) {
+  if (args & HAS_W) {
+    if (dosweepworker(L) != LUA_OK) return 0;
+  } else if (args & HAS_I) {
     do_repl(L);
   } else if (script == argc && !(args & (HAS_E | HAS_V))) {
     if (isatty(0)) {

@@ -23,6 +23,7 @@
 #include "lua/lua_ode.h"
 #include "lua/lua_series.h"
 #include "lua/lua_special.h"
+#include "lua/lua_sweep.h"
 #include "lua/lua_system.h"
 #include "lua/lua_taylor.h"
 #include "lua/lua_util.h"
@@ -124,6 +125,7 @@ static int open_core(lua_State *L)
   nz_lua_open_roots(L);
   nz_lua_open_ode(L);
   nz_lua_open_taylor(L);
+  nz_lua_open_sweep(L);          /* worker processes of nz.sweep */
   nz_lua_open_graph(L);          /* the recorder's constructor is internal */
   lua_setfield(L, -2, "mech");
   nz_lua_open_dualjet(L);        /* after the jets (its branches call them) and core.mech */
