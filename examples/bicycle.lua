@@ -148,7 +148,7 @@ local function front_contact_velocity(q, qd)
 end
 local function front_rolling(i) return function(t, q, qd) return front_contact_velocity(q, qd)[i] end end
 
-local bicycle = nz.system{
+bicycle = nz.system{
   name = "Whipple bicycle (Meijaard et al. 2007 benchmark)",
   coords = { "x", "y", "yaw", "lean", "pitch", "rear", "steer", "front" },
   bodies = bodies,
@@ -315,7 +315,7 @@ if not drawn then print(why) end
 -- side: the bicycle weaves (lean and steer oscillate at ~4.5 rad/s) and the
 -- lean dies out, as the eigenvalues say (weave -0.78 +- 4.46i, capsize -0.32).
 local q0, qd0 = state(0, 0, 0.5, 0, -5 / p.rR)
-local tr = bicycle:simulate{ q0 = q0, qd0 = qd0, t1 = 5, dt = 0.05, rtol = 1e-10, atol = 1e-12, monitors = { energy = true } }
+tr = bicycle:simulate{ q0 = q0, qd0 = qd0, t1 = 5, dt = 0.05, rtol = 1e-10, atol = 1e-12, monitors = { energy = true } }
 print()
 print(tr)
 print("\n  t (s)   lean (rad)   steer (rad)")

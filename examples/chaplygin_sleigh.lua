@@ -1,7 +1,7 @@
 -- chaplygin_sleigh.lua - a linear nonholonomic constraint: the rule picks
 -- Nielsen's equations; multipliers and Tsenov's elimination agree.
 local m, I, a = 2.0, 0.3, 0.4      -- mass, inertia about the centre of mass, blade offset
-local sleigh = nz.system{
+sleigh = nz.system{
   name = "Chaplygin sleigh", coords = { "x", "y", "th" },
   T = function(t, q, qd)
     local vx = qd[1] - a * sin(q[3]) * qd[3]
@@ -31,7 +31,7 @@ sleigh:equations(n, 0, q, qd)
 
 -- The sleigh's rotation dies out and it ends moving straight: w -> 0.
 -- rtol 1e-12: the motion is compared with its closed form to ~1e-13 below
-local tr = sleigh:simulate{ q0 = q, qd0 = qd, t1 = 20, rtol = 1e-12, atol = 1e-12 }
+tr = sleigh:simulate{ q0 = q, qd0 = qd, t1 = 20, rtol = 1e-12, atol = 1e-12 }
 print(tr)
 tr:plot{ x = "x", y = { "y" }, width = 72, height = 18 }
 print(("final turning rate th' = %.3e (it started at %.1f)"):format(tr.qd[#tr.qd][3], w))

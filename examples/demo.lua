@@ -9,7 +9,7 @@ for j = 0, 5 do print(("  c_%d = % .15f    q^(%d)(0) = % .12f"):format(j, q:coef
 
 -- 2. A mechanical system: a heavy pendulum.  T and V are written once; the
 --    equations of any order n come from the jets.
-local sys = nz.system{
+sys = nz.system{
   name = "pendulum", coords = { "th" }, params = { m = 2.0, l = 1.3, g = 9.81 },
   T = function(t, q, qd, p) return 0.5 * p.m * p.l ^ 2 * qd[1] ^ 2 end,
   V = function(t, q, p) return -p.m * p.g * p.l * nz.cos(q[1]) end,
@@ -27,7 +27,7 @@ end
 
 -- 3. Its motion at large amplitude: rk8pd at rtol 1e-10 by default; the
 --    period against the complete elliptic integral (GSL).
-local tr = sys:simulate{ q0 = { 2.5 }, t1 = 8, dt = 0.02, monitors = { energy = true },
+tr = sys:simulate{ q0 = { 2.5 }, t1 = 8, dt = 0.02, monitors = { energy = true },
   events = { { name = "up", f = function(t, q) return q[1] end, direction = 1 } } }
 print("\n" .. tostring(tr))
 local ev = tr.events

@@ -1,7 +1,7 @@
 -- double_pendulum.lua - a system built from two particles; its equations of
 -- every order agree, and the table of (3.1) shows the terms per coordinate.
 local g = 9.81
-local sys = nz.system{
+sys = nz.system{
   name = "double pendulum", coords = { "a", "b" },
   params = { l1 = 1.0, l2 = 0.7, m1 = 2.0, m2 = 1.0 },
   bodies = {
@@ -33,6 +33,6 @@ end
 local E, H = sys:energy(t, q, qd)
 print(("energy T + V = %.12f, generalized energy H = %.12f (equal: the system is scleronomic)"):format(E, H))
 
-local tr = sys:simulate{ q0 = q, qd0 = qd, t1 = 5, monitors = { energy = true } }
+tr = sys:simulate{ q0 = q, qd0 = qd, t1 = 5, monitors = { energy = true } }
 print(tr)
 tr:plot{ y = { "a", "b" }, width = 72, height = 18 }

@@ -2,7 +2,7 @@
 -- nonlinear in the accelerations, so the rule asks for the equations with q'''
 -- (n = 3), and the accelerations are a root of a nonlinear system.
 local m, Q = 1.5, { 0.7, -0.4, 2.0 }
-local hamel = nz.system{
+hamel = nz.system{
   name = "Hamel's particle", coords = { "q1", "q2", "q3" },
   T = function(t, q, qd) return 0.5 * m * (qd[1] ^ 2 + qd[2] ^ 2 + qd[3] ^ 2) end,
   Q = function() return { Q[1], Q[2], Q[3] } end,
@@ -24,7 +24,7 @@ for _, order in ipairs{ n, 1 } do
 end
 
 -- Along the motion the accelerations stay on the root reached at the start.
-local tr = hamel:simulate{ q0 = q, qd0 = qd, t1 = 10 }
+tr = hamel:simulate{ q0 = q, qd0 = qd, t1 = 10 }
 print(tr)
 tr:plot{ y = { "q1", "q2", "q3" }, width = 72, height = 18 }
 local worst = 0

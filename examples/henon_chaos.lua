@@ -24,7 +24,7 @@ local D0, GROWTH = 1e-9, 5                      -- initial distance; decades tha
 local energies = { 1 / 12, 1 / 10, 1 / 8, 1 / 7, 1 / 6.5 }
 
 local function V(x, y) return (x^2 + y^2) / 2 + x^2 * y - y^3 / 3 end
-local sys = nz.system{
+sys = nz.system{
   name = "Henon-Heiles, twice", coords = { "x", "y", "x2", "y2" },
   T = function(t, q, qd) return (qd[1]^2 + qd[2]^2 + qd[3]^2 + qd[4]^2) / 2 end,
   V = function(t, q) return V(q[1], q[2]) + V(q[3], q[4]) end,

@@ -4,7 +4,7 @@
 -- state (q, qd, qdd, lambda), and (6.2) differentiated once gives q''' and
 -- lambda'.  sys:project completes the start (qdd0 and the multiplier).
 local m, F = 1.7, { 0.3, -0.45 }
-local servo = nz.system{
+servo = nz.system{
   name = "servo on the jerk", coords = { "x", "y" },
   T = function(t, q, qd) return 0.5 * m * (qd[1] ^ 2 + qd[2] ^ 2) end,
   Q = function() return { F[1], F[2] } end,
@@ -22,7 +22,7 @@ for _, order in ipairs{ 3, 1 } do
 end
 
 -- rtol 1e-12: the motion is compared with its closed form to ~1e-13 below
-local tr = servo:simulate{ q0 = q, qd0 = qd, qdd0 = start.qdd, t1 = 6, rtol = 1e-12, atol = 1e-12 }
+tr = servo:simulate{ q0 = q, qd0 = qd, qdd0 = start.qdd, t1 = 6, rtol = 1e-12, atol = 1e-12 }
 print(tr)
 tr:plot{ y = { "lambda1" }, width = 72, height = 14 }
 -- By hand: 5 lambda' / m = sin t, so lambda = lambda0 + m (1 - cos t) / 5 and

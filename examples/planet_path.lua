@@ -22,7 +22,7 @@ print()
 print(path)
 
 -- The path r(phi), from periapsis (dr/dphi = 0) once around.
-local tr = path:simulate{ q0 = { rp }, qd0 = { 0 }, t0 = 0, t1 = 2 * math.pi, dt = 2 * math.pi / 400, rtol = 1e-13, atol = 1e-13 }
+tr = path:simulate{ q0 = { rp }, qd0 = { 0 }, t0 = 0, t1 = 2 * math.pi, dt = 2 * math.pi / 400, rtol = 1e-13, atol = 1e-13 }
 local p, worst = a * (1 - e * e), 0
 for i = 1, #tr.t do worst = math.max(worst, math.abs(tr.q[i][1] - p / (1 + e * math.cos(tr.t[i])))) end
 print(("\nthe path against the conic r = p / (1 + e cos phi), p = a (1 - e^2): largest difference %.1e"):format(worst))

@@ -2,11 +2,11 @@
 -- nonholonomic constraints): its contact point runs on a circle of radius
 -- R ph' / th'.
 local m, R, Id, Ia = 1.2, 0.3, 0.05, 0.08
-local disk = nz.scene{ name = "vertical rolling disk", coords = { "x", "y", "th", "ph" },
+disk = nz.scene{ name = "vertical rolling disk", coords = { "x", "y", "th", "ph" },
   T = function(t, q, qd) return 0.5 * m * (qd[1] ^ 2 + qd[2] ^ 2) + 0.5 * Id * qd[3] ^ 2 + 0.5 * Ia * qd[4] ^ 2 end,
   effects = { nz.effects.rolling_disk{ x = "x", y = "y", heading = "th", angle = "ph", radius = R } } }
 local w, phd = 0.7, 3.0
-local tr = disk:report{ q = { 0, 0, 0, 0 }, qd = { R * phd, 0, w, phd }, simulate = { t1 = 10, dt = 0.05 },
+tr = disk:report{ q = { 0, 0, 0, 0 }, qd = { R * phd, 0, w, phd }, simulate = { t1 = 10, dt = 0.05 },
   plot = { x = "x", y = { "y" } } }
 -- centre of the circle: (0, R ph'/th') from this start
 local rho, worst = R * phd / w, 0

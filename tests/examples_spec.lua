@@ -170,6 +170,15 @@ describe("examples", function()
     local t1, t2 = out:match("time to phi = pi/2: (%S+), Kepler's equation E %- e sin E: (%S+)")
     assert(t1 and math.abs(tonumber(t1:sub(1, -2)) - tonumber(t2)) < 1e-12, out)
   end)
+  it("henon_section.lua: regular orbits on curves, a chaotic one filling a region", function()
+    local out = run("henon_section.lua")
+    local regular, chaotic = 0, 0
+    for cells, kind in out:gmatch("%s(%d+)%s+(%a+)\n") do
+      if kind == "regular" then regular = regular + 1 elseif kind == "chaotic" then chaotic = chaotic + 1 end
+      assert(tonumber(cells) > 0)
+    end
+    assert(regular >= 3 and chaotic >= 1, out)
+  end)
   it("heavy_top.lua: the spin about the axis is conserved #slow", function()
     local out = run("heavy_top.lua")
     rule(out, 1)

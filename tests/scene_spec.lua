@@ -154,6 +154,16 @@ describe("nz.check: a derivation by hand", function()
     assert.is_false(ok)
     assert.truthy(text:find("Equation 2 is wrong: at t = ", 1, true), text)
     assert.truthy(text:find("the true accelerations are qdd = {", 1, true) and text:find("should give 0 but gives", 1, true), text)
+    -- M and h beside the student's coefficients: the ratios show which term
+    -- is off (here the qdd[1] term: the student's row is the system's / (m l)
+    -- but for the 0.01 added to the first coefficient)
+    local m1, m2 = text:match("the system's equation 2 there:  M%[2%] = {([^,]+), ([^}]+)}")
+    local c1, c2 = text:match("your equation 2 there: +coefficients of qdd {([^,]+), ([^}]+)}")
+    assert(m1 and c1, text)
+    m1, m2, c1, c2 = tonumber(m1), tonumber(m2), tonumber(c1), tonumber(c2)
+    local ml = P.m * P.l
+    assert(math.abs(c2 - m2 / ml) <= 1e-5 * math.abs(c2), text)            -- the right term (6 digits shown)
+    assert(math.abs(c1 - m1 / ml - 0.01) <= 1e-5, text)                     -- the wrong one, by 0.01
   end)
   it("says when the equations do not determine the accelerations", function()
     local ok, text = nz.check(cart, function(t, q, qd, a) local r = right(t, q, qd, a); return { r[1], 2 * r[1] } end, { quiet = true })

@@ -112,6 +112,18 @@ function M.check(sys, eqs, opts)
           lines[#lines + 1] = ("Equation %d is wrong: at t = %.6g, q = %s, qd = %s the true accelerations are qdd = %s; "
             .. "there your equation %d should give 0 but gives %s (its terms are of size %.3g).")
             :format(i, t, vec(q), vec(qd), vec(a), i, g6(value(E[i])), scale)
+          -- side by side: the system's row M q'' + h (h with the forces) and
+          -- the student's own coefficients of q'' and rest, so that the
+          -- wrong term shows (an equation may be scaled: compare ratios)
+          local okmb, Mm, hh = pcall(sys.mass_bias, sys, t, q, qd)
+          if okmb then
+            local Jrow = {}
+            for j = 1, k do Jrow[j] = J[i][j] end
+            lines[#lines + 1] = ("  the system's equation %d there:  M[%d] = %s (the coefficients of qdd), h[%d] = %s"
+              .. "%s"):format(i, i, vec(Mm[i]), i, g6(hh[i]), sys.nc > 0 and " (before the constraint forces A^T lambda)" or "")
+            lines[#lines + 1] = ("  your equation %d there:           coefficients of qdd %s, the rest (at qdd = 0) %s")
+              :format(i, vec(Jrow), g6(value(E0[i])))
+          end
         end
       end
       if ok then

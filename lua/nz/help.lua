@@ -369,6 +369,18 @@ tr.qdd[i][j], tr.lambda[i][r], tr.status, tr.stats, tr.violation, monitors:
                              beside the file and renamed: never half a file)
   tr:residuals([n] [, {quiet = true}])  residuals of the equations of order n
                              along the motion, max and RMS per equation
+  tr:section{[when = "event name", plot = {"y", "y'"}, draw = false, file =]}
+                             a Poincare section: the two quantities at each
+                             crossing of the event (simulate with events =
+                             {{name =, f =, direction = 1}}), as {x, y, t}
+                             and drawn
+  tr:animate{[file = "m.gif" | "m.svg", frames = 60, fps = 20, draw = f,
+              plane = "xy", links = true, range = {x0, x1, y0, y1}]}
+                             the mechanism frame by frame: in the terminal,
+                             as an animated GIF, or SVG frames; from the
+                             bodies (a point each, linked as a chain from the
+                             origin) or draw(t, q) -> {points = {{x, y}},
+                             segments = {{x1, y1, x2, y2}}}
   print(tr)                  a summary: cost, status, drift, monitors
   print(sys)                 a summary]] },
   { name = "forms", section = "mechanics", usage = "nz.forms",

@@ -22,7 +22,8 @@ end
 local function quote(s) return '"' .. tostring(s):gsub('"', "'") .. '"' end
 
 -- plot.lines{ series = { {name =, x = {...}, y = {...} [, points = true, style =
---             "points"]}, ... }, title =, xlabel =, legend = false,
+--             "points", labels = {...} (a text beside each point)]}, ... },
+--             title =, xlabel =, legend = false,
 --             ylabel =, logx =, logy =, file = "out.svg", width =, height = }
 -- Returns the text drawn (terminal) or the file name.
 function M.lines(opts)
@@ -36,7 +37,7 @@ function M.lines(opts)
     for i = 1, #s.x do
       local x, y = s.x[i], s.y[i]
       if x == x and y == y and (not opts.logy or y > 0) and (not opts.logx or x > 0) then
-        f:write(("%.17g %.17g\n"):format(x, y))
+        f:write(("%.17g %.17g %s\n"):format(x, y, s.labels and quote(s.labels[i] or "") or ""))
       end
     end
     f:write("\n\n")
@@ -53,8 +54,11 @@ function M.lines(opts)
   }
   local parts = {}
   for si, s in ipairs(series) do
-    parts[si] = ("%s index %d with %s title %s"):format(quote(data), si - 1,
+    parts[#parts + 1] = ("%s index %d using 1:2 with %s title %s"):format(quote(data), si - 1,
       s.style or (s.points and "linespoints" or "lines"), quote(s.name or ("series " .. si)))
+    if s.labels then   -- a label beside each point (the work-precision diagram's tolerances)
+      parts[#parts + 1] = ("%s index %d using 1:2:3 with labels left offset 0.6,0.3 font ',8' notitle"):format(quote(data), si - 1)
+    end
   end
   script[#script + 1] = "plot " .. table.concat(parts, ", ")
   local sfile = os.tmpname()

@@ -72,6 +72,7 @@ function M.scene(def)
     Q = #Q > 0 and Q or nil, L = #L > 0 and L or nil, S = S, constraints = #C > 0 and C or nil,
     params = def.params, sample = def.sample }
   sys.effects = kinds
+  sys.bodies = def.bodies      -- kept for drawing (tr:animate)
   return sys
 end
 

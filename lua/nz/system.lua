@@ -199,6 +199,7 @@ function M.system(def)
     constraint_levels = Clevels,
     params = def.params or {},
     sample = def.sample,
+    bodies = def.bodies,      -- kept for drawing (tr:animate)
     pieces = { T = #T, V = #V, Q = #Q, L = #L, S = #S },
   }, System)
   -- What the C mechanics reads (params is the same table: change a mass in

@@ -2,7 +2,7 @@
 -- grid (tr.t[i], tr.q[i][j], tr.qd[i][j], tr.qdd[i][j], tr.lambda[i][r]),
 -- what it cost (tr.stats), how it ended (tr.status), the constraint
 -- violation, and the monitors a scene asked for.  Methods: a summary
--- (tostring), csv, plot, residuals.
+-- (tostring), column, csv, plot, residuals, section, animate.
 local core = require "nz.core"
 local plot = require "nz.plot"
 
@@ -219,6 +219,11 @@ function Trajectory:plot(opts)
   }
   if opts.file or opts.quiet then return out end
 end
+
+-- A Poincare section from the run's event crossings, and the mechanism
+-- animated (nz/views.lua).
+function Trajectory:section(opts) return require("nz.views").section(self, opts) end
+function Trajectory:animate(opts) return require("nz.views").animate(self, opts) end
 
 -- Residuals of the generalized equations of order n (with the multipliers)
 -- along the trajectory: max and RMS per equation; printed unless quiet.

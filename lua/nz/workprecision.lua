@@ -55,12 +55,19 @@ function M.run(sys, opts)
     if not sys.recording then return "not recorded" end
     if base.monitors and base.monitors.work then return "work monitor" end
   end
-  local rows = {}
+  local rows, stopped = {}, false
   for _, method in ipairs(methods) do
     for _, tol in ipairs(tols) do
       local skip = method == "taylor" and taylor_skip()
       local ok, tr
       if not skip then ok, tr = pcall(run, method, tol) end
+      -- Ctrl-C: the run in progress is marked and nothing more is started
+      -- (the rows measured so far are kept and returned)
+      if (ok and tr.status == "interrupted") or (not ok and tr == core.interrupted) or core.mech.interrupted() then
+        rows[#rows + 1] = { method = method, tol = tol, status = "interrupted", message = "stopped by Ctrl-C" }
+        stopped = true
+        break
+      end
       if method == "taylor" and not ok and not skip then
         skip = tostring(tr):match("method 'taylor' cannot run this system: ([^;\n]*)")
       end
@@ -79,15 +86,18 @@ function M.run(sys, opts)
         row.status, row.message = "failed", tostring(tr):match("^[^\n]*")
       end
       rows[#rows + 1] = row
-      if core.mech.interrupted() then break end
     end
+    if stopped then break end
   end
+  rows.interrupted = stopped or nil
   if not opts.quiet then
     print(("Work-precision of '%s', t = %g .. %g, error = max over the output grid of |q - q_ref| (reference: %s)")
       :format(sys.name, base.t0 or 0, base.t1, ref_text))
     print(M.table(rows))
   end
-  if opts.plot then M.diagram(rows, { file = type(opts.plot) == "string" and opts.plot or nil, title = "work-precision: " .. sys.name }) end
+  if opts.plot and not stopped then
+    M.diagram(rows, { file = type(opts.plot) == "string" and opts.plot or nil, title = "work-precision: " .. sys.name })
+  end
   return rows
 end
 
@@ -100,6 +110,8 @@ function M.table(rows)
       skipped[r.method] = true
     elseif r.status == "failed" then
       t[#t + 1] = { r.method, ("%g"):format(r.tol), "failed", "-", "-", r.message or "" }
+    elseif r.status == "interrupted" then
+      t[#t + 1] = { r.method, ("%g"):format(r.tol), "interrupted", "-", "-", "stopped by Ctrl-C: the rows above were measured" }
     else
       t[#t + 1] = { r.method, ("%g"):format(r.tol), ("%.2e"):format(r.error), ("%.4f"):format(r.time),
         tostring(r.nfev), tostring(r.steps) .. (r.grid and " (grid)" or "") }
@@ -120,7 +132,40 @@ function M.table(rows)
     text = text .. "\ntaylor: rhs evals counts the series of the motion (one per step, of order ~ -ln(tol)/2 + 1);"
       .. " its output points come off each step's polynomial (dt adds no steps)"
   end
+  local advice = M.recommend(rows)
+  if advice then text = text .. "\n" .. advice end
   return text
+end
+
+-- One line: the cheapest method (least time) reaching each accuracy, the
+-- accuracies being the decades the measured errors span.
+function M.recommend(rows)
+  local done = {}
+  for _, r in ipairs(rows) do
+    if r.status ~= "failed" and r.status ~= "skipped" and r.status ~= "interrupted" and r.error and r.time then
+      done[#done + 1] = r
+    end
+  end
+  if #done == 0 then return nil end
+  local lo, hi = math.huge, 0
+  for _, r in ipairs(done) do
+    if r.error > 0 then lo, hi = math.min(lo, r.error), math.max(hi, r.error) end
+  end
+  if hi == 0 then return nil end
+  local parts, last = {}, nil
+  for e = math.ceil(math.log(hi, 10)), math.floor(math.log(math.max(lo, 1e-300), 10)), -2 do
+    local level = 10 ^ e
+    local best
+    for _, r in ipairs(done) do
+      if r.error <= level and (not best or r.time < best.time) then best = r end
+    end
+    if best and best ~= last then
+      parts[#parts + 1] = ("error <= 1e%d: %s at tol %g (%.3g s)"):format(e, best.method, best.tol, best.time)
+      last = best
+    end
+  end
+  if #parts == 0 then return nil end
+  return "cheapest for each accuracy: " .. table.concat(parts, "; ")
 end
 
 -- Error against time, log-log, one line per method.
@@ -128,15 +173,21 @@ function M.diagram(rows, opts)
   local by, order = {}, {}
   for _, r in ipairs(rows) do
     if r.status ~= "failed" and r.status ~= "skipped" and r.error > 0 and r.time > 0 then
-      if not by[r.method] then by[r.method] = { name = r.method, x = {}, y = {}, points = true }; order[#order + 1] = r.method end
+      if not by[r.method] then
+        order[#order + 1] = r.method
+        -- a mark of its own per method (the terminal's plot has no colours)
+        by[r.method] = { name = r.method, x = {}, y = {}, labels = {}, style = ("linespoints pt %d"):format(#order) }
+      end
       local s = by[r.method]
       s.x[#s.x + 1], s.y[#s.y + 1] = r.time, r.error
+      s.labels[#s.labels + 1] = ("%g"):format(r.tol)     -- each point says its tolerance
     end
   end
   local series = {}
   for i, m in ipairs(order) do series[i] = by[m] end
-  return plot.lines{ series = series, logx = true, logy = true, file = opts.file, quiet = opts.quiet,
+  local out = plot.lines{ series = series, logx = true, logy = true, file = opts.file, quiet = opts.quiet,
     xlabel = "wall time (s)", ylabel = "max error", title = opts.title, width = opts.width, height = opts.height }
+  if opts.file or opts.quiet then return out end
 end
 
 return M

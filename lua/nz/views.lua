@@ -1,0 +1,199 @@
+-- nz/views.lua - two more ways to look at a trajectory:
+--   tr:section{...}  a Poincare section: the states where an event of the
+--                    run crossed zero (located by simulate, not read off the
+--                    output grid), two quantities against each other;
+--   tr:animate{...}  the mechanism drawn frame by frame: in the terminal,
+--                    or to an animated GIF or SVG frames (gnuplot).
+local plot = require "nz.plot"
+
+local M = {}
+
+local function fail(fname, fmt, ...)
+  error(("%strajectory:%s: " .. fmt):format(require("nz.where").user_where(), fname, ...), 0)
+end
+
+local function check_options(fname, opts, known)
+  for key in pairs(opts) do
+    if not known[key] then
+      local names = {}
+      for k in pairs(known) do names[#names + 1] = k end
+      table.sort(names)
+      fail(fname, "unknown option '%s' (options: %s)", tostring(key), table.concat(names, ", "))
+    end
+  end
+end
+
+-- The value of a named quantity at an event's state: a coordinate, or its
+-- velocity "name'".
+local function value_at(tr, ev, name)
+  local base, primes = name:match("^(.-)('*)$")
+  for j, c in ipairs(tr.coords) do
+    if c == base then
+      if #primes == 0 then return ev.q[j] end
+      if #primes == 1 then return ev.qd[j] end
+    end
+  end
+  if name == "t" then return ev.t end
+  fail("section", "no quantity '%s' at the crossings (coordinates %s, with ' for velocities, and t)", name,
+    table.concat(tr.coords, ", "))
+end
+
+-- tr:section{ when = "x=0", plot = {"y", "y'"} [, file =, title =, quiet =] }:
+-- the crossings of event `when` (its name in simulate's events; default the
+-- only one), the two quantities at each; returns {x = {...}, y = {...}, t = {...}}
+-- and draws them (draw = false: only returns them; file = ... to an SVG or PNG).
+local SECTION = { when = true, plot = true, file = true, title = true, draw = true, width = true, height = true }
+function M.section(tr, opts)
+  opts = opts or {}
+  check_options("section", opts, SECTION)
+  local evs = tr.events or {}
+  local names, seen = {}, {}
+  for _, e in ipairs(evs) do
+    if not seen[e.name or ""] then seen[e.name or ""] = true; names[#names + 1] = tostring(e.name) end
+  end
+  table.sort(names)
+  if #evs == 0 then
+    fail("section", "the run recorded no event crossing: simulate with events = {{name = 'x=0', f = function(t, q, qd) "
+      .. "return q[1] end, direction = 1}} (the section's surface), long enough to cross it")
+  end
+  local when = opts.when
+  if when == nil then
+    if #names > 1 then fail("section", "the run has several events (%s): say which with when = \"name\"", table.concat(names, ", ")) end
+    when = evs[1].name
+  end
+  if not seen[when] then fail("section", "no event named '%s' crossed (events: %s)", tostring(when), table.concat(names, ", ")) end
+  local pair = opts.plot or { tr.coords[1], tr.coords[1] .. "'" }
+  if type(pair) ~= "table" or #pair ~= 2 then fail("section", "plot: two quantities {\"y\", \"y'\"} expected") end
+  local out = { x = {}, y = {}, t = {}, names = pair }
+  for _, e in ipairs(evs) do
+    if e.name == when then
+      out.x[#out.x + 1], out.y[#out.y + 1], out.t[#out.t + 1] = value_at(tr, e, pair[1]), value_at(tr, e, pair[2]), e.t
+    end
+  end
+  if opts.draw ~= false then
+    plot.lines{ series = { { name = ("%s at %s"):format(pair[2], tostring(when)), x = out.x, y = out.y, style = "points pt 7 ps 0.3" } },
+      file = opts.file, title = opts.title or ("Poincare section of %s: %s crossings"):format(tr.system.name, tostring(when)),
+      xlabel = pair[1], ylabel = pair[2], width = opts.width, height = opts.height, legend = false }
+  end
+  return out
+end
+
+-- The shapes of the frame at (t, q): points {x, y} and segments {x1, y1,
+-- x2, y2} in the plane of the first two coordinates of `plane` (default
+-- x, y).  From `draw(t, q)` when given; else from the system's bodies: a
+-- point per body and a link from the origin to the first and between
+-- successive bodies (a chain, as pendulums are); else refused.
+local function shapes_of(tr, opts)
+  if opts.draw then return opts.draw end
+  local bodies = tr.system.bodies
+  if not bodies then
+    fail("animate", "the system has no bodies to draw: give draw = function(t, q) return {points = {{x, y}, ...}, "
+      .. "segments = {{x1, y1, x2, y2}, ...}} end")
+  end
+  local axes = opts.plane == "xz" and { 1, 3 } or opts.plane == "yz" and { 2, 3 } or { 1, 2 }
+  return function(t, q)
+    local points, segments = {}, {}
+    local px, py = 0, 0
+    for _, b in ipairs(bodies) do
+      local r = b.pos(t, q, tr.system.params)
+      local x, y = r[axes[1]], r[axes[2]]
+      points[#points + 1] = { x, y }
+      if opts.links ~= false then segments[#segments + 1] = { px, py, x, y } end
+      px, py = x, y
+    end
+    return { points = points, segments = segments }
+  end
+end
+
+-- tr:animate{ [file = "motion.gif" | "frame.svg", frames = 60, fps = 20,
+--   draw = function(t, q) ... end, plane = "xy", links = true, range =
+--   {xmin, xmax, ymin, ymax}] }: `frames` evenly spaced output points drawn
+-- with gnuplot; with a .gif file one animated GIF, with .svg one file per
+-- frame (name-001.svg, ...), else in the terminal, one frame after another.
+-- Returns the number of frames (and the file names).
+local ANIMATE = { file = true, frames = true, fps = true, draw = true, plane = true, links = true, range = true,
+  width = true, height = true, title = true }
+function M.animate(tr, opts)
+  opts = opts or {}
+  check_options("animate", opts, ANIMATE)
+  if #tr.t == 0 then fail("animate", "the trajectory is empty") end
+  local draw = shapes_of(tr, opts)
+  local nframes = math.min(opts.frames or 60, #tr.t)
+  local idx = {}
+  for f = 1, nframes do idx[f] = nframes == 1 and 1 or math.floor(1 + (f - 1) * (#tr.t - 1) / (nframes - 1) + 0.5) end
+  local frames = {}
+  local xmin, xmax, ymin, ymax = math.huge, -math.huge, math.huge, -math.huge
+  for f, i in ipairs(idx) do
+    local s = draw(tr.t[i], tr.q[i])
+    frames[f] = { t = tr.t[i], shapes = s }
+    for _, p in ipairs(s.points or {}) do
+      xmin, xmax, ymin, ymax = math.min(xmin, p[1]), math.max(xmax, p[1]), math.min(ymin, p[2]), math.max(ymax, p[2])
+    end
+    for _, g in ipairs(s.segments or {}) do
+      xmin, xmax = math.min(xmin, g[1], g[3]), math.max(xmax, g[1], g[3])
+      ymin, ymax = math.min(ymin, g[2], g[4]), math.max(ymax, g[2], g[4])
+    end
+  end
+  if opts.range then xmin, xmax, ymin, ymax = table.unpack(opts.range) end
+  local pad = 0.05 * math.max(xmax - xmin, ymax - ymin, 1e-9)
+  xmin, xmax, ymin, ymax = xmin - pad, xmax + pad, ymin - pad, ymax + pad
+  local file = opts.file
+  local kind = file and file:match("%.(%w+)$")
+  if file and kind ~= "gif" and kind ~= "svg" then fail("animate", "file '%s' must end in .gif or .svg", file) end
+  local data = os.tmpname()
+  local d = assert(io.open(data, "w"))
+  for _, fr in ipairs(frames) do      -- per frame: block 2f of segments, block 2f+1 of points
+    for _, g in ipairs(fr.shapes.segments or {}) do d:write(("%.9g %.9g\n%.9g %.9g\n\n"):format(g[1], g[2], g[3], g[4])) end
+    d:write("0 0\n\n\n")   -- (a dummy line keeps the block present)
+    for _, p in ipairs(fr.shapes.points or {}) do d:write(("%.9g %.9g\n"):format(p[1], p[2])) end
+    d:write("\n\n")
+  end
+  d:close()
+  local w, h = opts.width or (file and 480 or 60), opts.height or (file and 480 or 24)
+  local script = {}
+  local outputs = {}
+  if kind == "gif" then
+    script[#script + 1] = ("set terminal gif animate delay %d size %d,%d"):format(math.floor(100 / (opts.fps or 20) + 0.5), w, h)
+    script[#script + 1] = ("set output %q"):format(file)
+    outputs[1] = file
+  elseif not file then
+    script[#script + 1] = ("set terminal dumb size %d,%d"):format(w, h)
+  end
+  script[#script + 1] = ("set xrange [%.9g:%.9g]\nset yrange [%.9g:%.9g]\nset size ratio -1\nunset key"):format(xmin, xmax, ymin, ymax)
+  for f, fr in ipairs(frames) do
+    if kind == "svg" then
+      local name = file:gsub("%.svg$", ("-%03d.svg"):format(f))
+      script[#script + 1] = ("set terminal svg size %d,%d\nset output %q"):format(w, h, name)
+      outputs[#outputs + 1] = name
+    end
+    script[#script + 1] = ("set title %q"):format(("%s  t = %.3f"):format(opts.title or tr.system.name, fr.t))
+    script[#script + 1] = ("plot %q index %d with lines lw 2, %q index %d with points pt 7 ps 1.5"):format(
+      data, 2 * (f - 1), data, 2 * (f - 1) + 1)
+  end
+  local sfile = os.tmpname()
+  local sf = assert(io.open(sfile, "w"))
+  sf:write(table.concat(script, "\n"), "\n")
+  sf:close()
+  local p = io.popen("gnuplot " .. sfile .. " 2>&1")
+  local out = p:read("a")
+  local ok = p:close()
+  os.remove(data)
+  os.remove(sfile)
+  if not ok then fail("animate", "gnuplot failed: %s", out) end
+  if not file then
+    -- the terminal: frames one after another, the screen cleared between
+    -- them when it is one (a redirected output keeps them all)
+    local tty = require("nz.core").mech.isatty(1)
+    local pieces = {}
+    for frame in out:gmatch("\f?([^\f]+)") do pieces[#pieces + 1] = frame end
+    for _, frame in ipairs(pieces) do
+      if tty then io.write("\27[H\27[2J") end
+      io.write(frame)
+      io.flush()
+      if tty then os.execute(("sleep %g"):format(1 / (opts.fps or 20))) end
+    end
+  end
+  return nframes, outputs
+end
+
+return M
