@@ -1,5 +1,5 @@
 -- appell.lua - Appell's nonlinear constraint z'^2 = c^2 (x'^2 + y'^2) on a
--- heavy particle (THEORY.md §6): first order, nonlinear: n = 2.
+-- heavy particle (docs/theory.md §6): first order, nonlinear: n = 2.
 local m, c, g = 1.3, 0.6, 9.81
 appell = nz.scene{ name = "Appell's particle", coords = { "x", "y", "z" },
   bodies = { { name = "p", mass = m, pos = function(t, q) return { q[1], q[2], q[3] } end } },

@@ -1,5 +1,5 @@
 -- bead_hoop.lua - a bead on a hoop turned by a motor at the constant rate W
--- (THEORY.md §9).  As one coordinate with a rheonomic T: Jacobi's integral
+-- (docs/theory.md §9).  As one coordinate with a rheonomic T: Jacobi's integral
 -- T2 - T0 + V is conserved, T + V is not.  With the motor as a driven
 -- coordinate (a moving constraint): T + V minus the work of the motor is.
 local g, R, m, W = 9.81, 0.5, 0.3, 6.0

@@ -1,4 +1,4 @@
--- hamel.lua - Hamel's second-order constraint q3'' = q1'' q2'' (THEORY.md §10):
+-- hamel.lua - Hamel's second-order constraint q3'' = q1'' q2'' (docs/theory.md §10):
 -- nonlinear in the accelerations, so the rule asks for the equations with q'''
 -- (n = 3), and the accelerations are a root of a nonlinear system.
 local m, Q = 1.5, { 0.7, -0.4, 2.0 }

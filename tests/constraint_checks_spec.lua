@@ -2,14 +2,14 @@
 -- wrong: constraints whose nonlinearity or order shows only away from the
 -- sample states, the check after every solve (constrained.c), scale-aware
 -- classification, and what a failing constraint function says.  Every
--- expected value is derived by hand below from (6.2) and THEORY.md §10.
+-- expected value is derived by hand below from (6.2) and docs/theory.md §10.
 local h = require "tests.helpers"
 local nz = h.nz
 local mech = require("nz.core").mech
 
 local function vec(v) local p = {}; for i = 1, #v do p[i] = ("%.15g"):format(v[i]) end; return "{" .. table.concat(p, ", ") .. "}" end
 
--- Hamel's particle of THEORY.md §10 with a constraint phi(t, q, qd, qdd).
+-- Hamel's particle of docs/theory.md §10 with a constraint phi(t, q, qd, qdd).
 local m, Q = 1.5, { 0.7, -0.4, 2.0 }
 local function particle(name, phi)
   return nz.system{ name = name, coords = { "q1", "q2", "q3" },
@@ -45,7 +45,7 @@ describe("a constraint nonlinear only away from the sample states", function()
       return qdd[3] - nz.exp(30 * (q[1] - 3)) * qdd[1] * qdd[2]
     end)
   end
-  it("accel at q1 = 3 satisfies Hamel's equations (THEORY.md §10)", function()
+  it("accel at q1 = 3 satisfies Hamel's equations (docs/theory.md §10)", function()
     local sys = hamel_switch()
     local qdd, lambda = sys:accel(t0, q3, qd3)
     -- Newton stops at 1e-12 of the forces, then one exact step: rounding.

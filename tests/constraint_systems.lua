@@ -147,7 +147,7 @@ function M.cartesian_pendulum()
   }
 end
 
--- Hamel's particle (THEORY.md §10): q3'' = q1'' q2'' under constant forces.
+-- Hamel's particle (docs/theory.md §10): q3'' = q1'' q2'' under constant forces.
 function M.hamel()
   local m, Q = 1.5, { 0.7, -0.4, 2.0 }
   return {

@@ -1,5 +1,5 @@
 -- constraints_spec.lua - constraints of any order, Dolapchiev's rule and the
--- motion they allow (THEORY.md §6-§10), against equations derived by hand in
+-- motion they allow (docs/theory.md §6-§10), against equations derived by hand in
 -- tests/constraint_systems.lua and closed forms.
 local h = require "tests.helpers"
 local nz = h.nz
@@ -124,7 +124,7 @@ describe("accelerations with constraints against hand derivations", function()
   end
 end)
 
-describe("Hamel's example (THEORY.md §10)", function()
+describe("Hamel's example (docs/theory.md §10)", function()
   local case = cs.hamel()
   it("the accelerations satisfy the closed-form equations at many states", function()
     local m, Q = case.m, case.Q

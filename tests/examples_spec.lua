@@ -78,7 +78,7 @@ describe("examples", function()
     local a = number_after(out, "th'' =")
     assert(math.abs(a - (-9.81 / 1.3 * math.sin(0.7))) < 1e-12, out)
     -- At th'' = 0 the residual of every order is Lagrange's, m l^2 th'' +
-    -- m g l sin th, that is m g l sin 0.7 (THEORY.md §3: all orders agree).
+    -- m g l sin th, that is m g l sin 0.7 (docs/theory.md §3: all orders agree).
     local want = 2.0 * 9.81 * 1.3 * math.sin(0.7)
     for _, n in ipairs{ 1, 2, 3, 12 } do
       local r = number_after(out, ("n = %2d:"):format(n))

@@ -1,4 +1,4 @@
--- higher_order_spec.lua - constraints of order 3 and more (THEORY.md §6, §8):
+-- higher_order_spec.lua - constraints of order 3 and more (docs/theory.md §6, §8):
 -- the derivative slots a constraint declares, classification and
 -- Dolapchiev's rule, the residuals of every form, and the motion integrated
 -- at level p >= 3 (state q, qd, qdd, ..., lambda, ...; src/mech/constrained_series.c)

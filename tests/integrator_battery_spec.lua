@@ -8,7 +8,7 @@
 --   pendulum      large-amplitude pendulum, Jacobi's elliptic functions
 --   knife edge    a knife edge on an inclined plane (linear nonholonomic):
 --                 th = w t, x = G/(2 w^2) sin^2(w t), y = G/(2 w) (t - sin(2 w t)/(2 w))
---   hamel         Hamel's particle (THEORY.md §10): constant forces, so the
+--   hamel         Hamel's particle (docs/theory.md §10): constant forces, so the
 --                 accelerations are the constant root of m a1 (1 + a2^2) = Q1 + Q3 a2,
 --                 m a2 (1 + a1^2) = Q2 + Q3 a1, a3 = a1 a2 and q = q0 + qd0 t + a t^2/2
 --   stiff spring  an overdamped oscillator m q'' = -K q - c q' (a velocity-
@@ -231,7 +231,7 @@ local function battery(filter, t1, list)
               assert.are.equal(T1, tr.t[#tr.t])
             end
             if set.work and problem.conservative then
-              -- T + V - W is conserved (THEORY.md §9); W = 0 for these
+              -- T + V - W is conserved (docs/theory.md §9); W = 0 for these
               -- scleronomic systems, so T + V alone is, to the run's error.
               local e0 = tr.energy[1]
               for i = 1, #tr.t do
@@ -277,7 +277,7 @@ describe("integrator battery at t1 = 10: pendulum and knife edge #slow", functio
 end)
 
 -- A nonzero work: the bead on a hoop driven at the constant rate W (the
--- constraint ph = W t; THEORY.md §9).  The motor's work W(t) changes, so the
+-- constraint ph = W t; docs/theory.md §9).  The motor's work W(t) changes, so the
 -- work component of the state, and its Jacobian row (R_0), matter; T + V - W
 -- and Jacobi's integral h = T2 - T0 + V (hand-derived for this T:
 -- m R^2 (th'^2 - sin^2 th W^2) / 2 - m g R cos th) are both conserved.

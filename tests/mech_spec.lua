@@ -1,5 +1,5 @@
 -- mech_spec.lua - mechanical systems and their generalized equations of any
--- order (THEORY.md §2-§5, §9, §11), against hand-derived equations, finite
+-- order (docs/theory.md §2-§5, §9, §11), against hand-derived equations, finite
 -- differences, and the identities of the theory.
 local h = require "tests.helpers"
 local nz = h.nz

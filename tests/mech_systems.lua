@@ -231,7 +231,7 @@ function M.charged_drag()
       return { r * phd ^ 2 - k * r / m + Q[1] / m, (Q[2] - 2 * m * r * rd * phd) / (m * r * r) }
     end,
     -- dQ_j/dqd_i by hand (s_r' = r'/s, s_phi' = r^2 phi'/s), for the
-    -- extremal form at n = 1 (THEORY.md (4.3) needs dQ/dq^(n) = 0).
+    -- extremal form at n = 1 (docs/theory.md (4.3) needs dQ/dq^(n) = 0).
     dQ_dqd = function(t, q, qd)
       local _, s = forces(t, q, qd, math.sqrt, cos)
       local r, rd, phd = q[1], qd[1], qd[2]

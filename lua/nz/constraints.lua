@@ -1,5 +1,5 @@
 -- nz/constraints.lua - what the constraints of a system are and what they
--- demand (THEORY.md §6-§9): classification by jets at sample states,
+-- demand (docs/theory.md §6-§9): classification by jets at sample states,
 -- Dolapchiev's rule, the reduced form of Tsenov, projection onto the
 -- constraints, and the energy balance with moving constraints.
 --
@@ -399,7 +399,7 @@ local function forces_depend_on_velocity(sys)
   return false
 end
 
--- Dolapchiev's criterion (THEORY.md §8).  opts.extremal: the extremal form
+-- Dolapchiev's criterion (docs/theory.md §8).  opts.extremal: the extremal form
 -- (4.3) is wanted, which needs forces free of q^(n).
 function M.rule(sys, opts)
   local lines, n = {}, 1
@@ -784,7 +784,7 @@ function M.project_levels(sys, t, q, qd, p, opts, report)
 end
 
 -- ------------------------------------------------------------------ --
--- Tsenov's elimination (THEORY.md §7)                                  --
+-- Tsenov's elimination (docs/theory.md §7)                                  --
 
 -- Choose r dependent coordinates by Gauss-Jordan elimination with complete
 -- pivoting on A (r x k), and return them with a = -A_dep^-1 A_ind (r x l)
@@ -947,7 +947,7 @@ function M.reduced(sys, t, q, qd, n, form)
 end
 
 -- ------------------------------------------------------------------ --
--- Energy with constraints (THEORY.md §9)                               --
+-- Energy with constraints (docs/theory.md §9)                               --
 
 -- R_0 = d/dt(T1 + 2 T0) - dL/dt + sum_r lambda_r (dPhi_r/dq^(m_r) . q'), eq. (9.1).
 function M.reaction_power(sys, t, q, qd, qdd, lambda)

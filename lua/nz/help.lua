@@ -11,7 +11,7 @@ local sections = {
   { id = "branches", title = "Branches that can be recorded (instead of a Lua if on a jet)" },
   { id = "mechanics", title = "Mechanical systems and their equations of any order" },
   { id = "scenes", title = "Scenes, effects and the classroom" },
-  { id = "operators", title = "Operators on a function f(t, q, qd) (THEORY.md §2, §5)" },
+  { id = "operators", title = "Operators on a function f(t, q, qd) (docs/theory.md §2, §5)" },
   { id = "session", title = "Session" },
 }
 
@@ -178,7 +178,7 @@ time and what runs as machine code; compile = false keeps everything in Lua.
 
 Methods (t a number, q, qd, qdd tables of k numbers):
   sys:residual(n, t, q, qd, qdd [, lambda] [, form])  k residuals of order n,
-        (1/n)(dT^(n)/dq^(n) - (n+1) dT/dq) - Q (THEORY.md (3.1)), n = 1..100;
+        (1/n)(dT^(n)/dq^(n) - (n+1) dT/dq) - Q (docs/theory.md (3.1)), n = 1..100;
         form: "generalized" (default), "lagrange", "difference" (3.2), "euler" (3.3),
         "appell" (4.2), "extremal" (4.3), "wassmuth" (particles, n >= 2).
         Or {form = ..., higher = {q3, q4, ...}}: derivatives beyond qdd (default 0;
@@ -532,15 +532,15 @@ then from = {"done.1.txt", ...} (or cat them into one file).]] },
   { name = "partial", section = "operators", usage = "nz.partial(n, f, t, q, qd [, qdd, higher])",
     summary = "d f^(n) / d q^(n): the n-th time derivative of f, differentiated by q^(n)",
     text = [[
-Computed with jets as THEORY.md §3 says (f differentiated n times along the motion,
+Computed with jets as docs/theory.md §3 says (f differentiated n times along the motion,
 the partial taken by a tangent seeded on q^(n)).  n = 0 gives df/dq.  By (2.1) it
 equals n d/dt(df/dqd) + df/dq.  k values.]] },
   { name = "top_coefficient", section = "operators", usage = "nz.top_coefficient(m, f, t, q, qd [, qdd])",
     summary = "d f^(m-1) / d q^(m): the coefficient of the top derivative (equals df/dqd)" },
   { name = "nielsen_op", section = "operators", usage = "nz.nielsen_op(m, f, t, q, qd [, qdd, higher])",
-    summary = "N^m(f) = d f^(m)/dq^(m) - 2 d f^(m-1)/dq^(m-1)  (THEORY.md (5.1))" },
+    summary = "N^m(f) = d f^(m)/dq^(m) - 2 d f^(m-1)/dq^(m-1)  (docs/theory.md (5.1))" },
   { name = "euler_op", section = "operators", usage = "nz.euler_op(m, f, t, q, qd [, qdd, higher])",
-    summary = "E^m(f) = d/dt(d f^(m-1)/dq^(m)) - d f^(m-1)/dq^(m-1)  (THEORY.md (5.2))" },
+    summary = "E^m(f) = d/dt(d f^(m-1)/dq^(m)) - d f^(m-1)/dq^(m-1)  (docs/theory.md (5.2))" },
   { name = "help", section = "session", usage = "nz.help([f])",
     summary = "list what nz offers, or explain one function (help(nz.jet))" },
   { name = "version", section = "session", usage = "nz.version", summary = "the version string" },

@@ -1,6 +1,6 @@
 -- nz/show.lua - sys:show{...}: the equations of motion as formulas, read
 -- from the recorded graphs: per coordinate M(q) q'' + h(q, q') = A^T lambda
--- (THEORY.md (6.2): the equations of every order n collected; h holds the
+-- (docs/theory.md (6.2): the equations of every order n collected; h holds the
 -- forces, dV/dq - Q), the constraints Phi_r = 0, and on request the mass
 -- matrix and the bias.  Plain text (coordinate names and primes as the
 -- user named them), LaTeX (an aligned block), or Lua (a function of t, q,
@@ -107,7 +107,7 @@ function M.equations(sys)
   return { lhs = lhs, rhs = rhs, M = Mp, h = h, phi = phis, A = As, orders = orders, force = force, sym = rd.sym, input = rd.input }
 end
 
--- Appell's function of the accelerations up to terms free of q'' (THEORY.md
+-- Appell's function of the accelerations up to terms free of q'' (docs/theory.md
 -- §4: R_2, which is Appell's S = sum m a^2 / 2 for particles):
 -- S = 1/2 q''^T M q'' + q''^T (h + dV/dq - Q), so that dS/dq''_i = Q_i - dV/dq_i
 -- are the equations.
@@ -139,7 +139,7 @@ end
 -- Rank of an atom in an equation: q'' first (2), then q' (1).
 local function rank(a) return a.kind == "sym" and a.info and a.info.slot and a.info.slot >= 1 and a.info.slot or 0 end
 
--- Tsenov's reduced equations (THEORY.md §7): the multipliers eliminated by
+-- Tsenov's reduced equations (docs/theory.md §7): the multipliers eliminated by
 -- combining the equations along the admissible directions.  With the
 -- dependent coordinates D chosen at a sample state by complete pivoting on
 -- the constraint rows (as sys:reduced does), a = -A_D^-1 A_I, and each

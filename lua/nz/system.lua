@@ -1,5 +1,5 @@
 -- nz/system.lua - nz.system{...}: a mechanical system and its generalized
--- equations of motion of any order (THEORY.md §2-§5, §9, §11).
+-- equations of motion of any order (docs/theory.md §2-§5, §9, §11).
 --
 -- The definition is validated here, then handed to the C mechanics
 -- (core.mech) as a plain table of piece lists; the C side never sees this

@@ -251,6 +251,12 @@ static void history_open(void)
   }
   using_history();
   stifle_history(NZLUA_HISTORY_LINES);
+  /* A statement typed over several lines is one entry: each entry is written
+   * after a timestamp line, and what follows a timestamp up to the next one
+   * is read back as one entry (readline 8: history_multiline_entries). */
+  history_comment_char = '#';   /* the timestamps' mark: without it readline writes none */
+  history_write_timestamps = 1;
+  history_multiline_entries = 1;
   if (!history_path) return;
   FILE *f = fopen(history_path, "a");   /* append_history needs the file to exist */
   if (f) fclose(f);

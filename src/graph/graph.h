@@ -147,7 +147,7 @@ nz_status nz_graph_eval(nz_graph_plan *p, const double *in, double *out);
 nz_status nz_graph_eval_jets(nz_graph_plan *p, const nz_jet *const *in, nz_jet *const *out,
                              const nz_jet *const *din, nz_jet *const *dout);
 
-/* Series built order by order (the Taylor integrator's way: THEORY.md §11).
+/* Series built order by order (the Taylor integrator's way: docs/theory.md §11).
  * A Taylor integrator for x' = f(t, x) knows x_0..x_k and needs coefficient
  * k of f(t, x(t)) (then x_{k+1} = f_k / (k + 1)), without recomputing lower
  * orders.  The plan keeps a series of max_order + 1 coefficients per node

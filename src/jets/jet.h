@@ -4,7 +4,7 @@
  * the value series c_0..c_K (c_j = f^(j)(t0) / j!) and, for each direction d,
  * the series of the partial derivative of those coefficients along d.  The
  * arithmetic is that of truncated series whose coefficients are dual numbers
- * a + sum_d a_d eps_d with eps_d eps_e = 0: THEORY.md §3 explains why the
+ * a + sum_d a_d eps_d with eps_d eps_e = 0: docs/theory.md §3 explains why the
  * mechanics needs both (T differentiated n times along the motion, then one
  * partial derivative with respect to q^(n)).  Plain dual numbers are K = 0.
  *

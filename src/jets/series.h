@@ -1,7 +1,7 @@
 /* series.h - coefficient kernels of truncated Taylor series.
  *
  * A series of order K is the array x[0..K] of normalized Taylor coefficients,
- * x[j] = x^(j)(t0) / j!  (THEORY.md §3, §11).  Every kernel here exists at two
+ * x[j] = x^(j)(t0) / j!  (docs/theory.md §3, §11).  Every kernel here exists at two
  * levels, as in TaylorSeries.jl: nz_series_<f>_coef fills coefficient k from
  * coefficients 0..k-1 of the result (and 0..k of the arguments), and
  * nz_series_<f> loops over k = 0..K.  The coefficient level is what a Taylor
@@ -12,7 +12,7 @@
  * - domain checks (log of a non-positive value, ...) are the caller's job
  *   (jet.c), so these kernels never fail: they assume a valid constant term;
  * - coefficients stay normalized: no factorials are ever formed, which is what
- *   keeps orders of 30 and more finite (THEORY.md §11).
+ *   keeps orders of 30 and more finite (docs/theory.md §11).
  */
 #ifndef NZ_SERIES_H
 #define NZ_SERIES_H

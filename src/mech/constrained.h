@@ -1,5 +1,5 @@
 /* constrained.h - constraints of any order and the motion they allow
- * (THEORY.md §6-§8).
+ * (docs/theory.md §6-§8).
  *
  * A constraint Phi_r(t, q, q', q'', q''', ...) = 0 has an order m (the highest
  * derivative it depends on) and is linear or not in q^(m); both are found

@@ -1,5 +1,5 @@
 /* constrained_series.h - the motion under constraints of order 3 and more,
- * integrated at a level p >= 3 (THEORY.md §6).
+ * integrated at a level p >= 3 (docs/theory.md §6).
  *
  * With a constraint linear in q^(m), m >= 3, the accelerations are not a
  * function of (q, q'): q'' is part of the state.  The state grows by the
@@ -24,7 +24,7 @@
  * Nielsen residual r = d/dt dF/dq' - dF/dq - Q + dV/dq from F with the
  * velocity and position slots seeded as a whole, A_r from Phi_r with slot
  * m_r seeded as a whole; products of series by Cauchy's rule on the
- * normalized coefficients (THEORY.md §3, §11). */
+ * normalized coefficients (docs/theory.md §3, §11). */
 #ifndef NZ_CONSTRAINED_SERIES_H
 #define NZ_CONSTRAINED_SERIES_H
 

@@ -1,7 +1,7 @@
 /* mech.c - residuals of the generalized equations (see mech.h).
  *
  * Every form is a combination of a few primitives, each one evaluation of a
- * piece on jets with tangent seeds placed as THEORY.md §3 says:
+ * piece on jets with tangent seeds placed as docs/theory.md §3 says:
  *   top_partials(m)   dF^(m)/dq^(m) (and dF^(m-1)/dq^(m-1)): order m jets,
  *                     seeds on q^(m), which moves a_{i,m} by 1/m! and
  *                     b_{i,m-1} by 1/(m-1)! (the same number in both series);
@@ -506,7 +506,7 @@ int nz_top_coefficient(const nz_system *s, int m, double t, const double *const 
 }
 
 /* Nielsen's form (n = 1) is affine in q'': h = r(0), M e_j = r(e_j) - r(0)
- * (THEORY.md §11).  dF/dq and the force are computed once. */
+ * (docs/theory.md §11).  dF/dq and the force are computed once. */
 int nz_mass_bias(const nz_system *s, double t, const double *q, const double *qd, double *M,
                  double *h)
 {

@@ -1,4 +1,4 @@
-/* mech.h - generalized equations of motion of any order (THEORY.md §2-§5, §11).
+/* mech.h - generalized equations of motion of any order (docs/theory.md §2-§5, §11).
  *
  * Plain C: the mechanics reaches the user's functions only through the
  * evaluator below ("evaluate this piece on these jets"), so that a faster
@@ -8,7 +8,7 @@
  * Notation: k coordinates; the state is given as derivative levels,
  * state[j][i] = q_i^(j) (state[0] = q, state[1] = q', state[2] = q'', ...).
  * A jet of q_i of order K holds a_{i,j} = q_i^(j)/j!; the jet of the velocity
- * slot holds b_{i,j} = q_i^(j+1)/j! (THEORY.md §3).  The function F is the
+ * slot holds b_{i,j} = q_i^(j+1)/j! (docs/theory.md §3).  The function F is the
  * kinetic part, T plus any general Lagrangian pieces; V enters every form
  * through its gradient only, and Q is the non-potential force. */
 #ifndef NZ_MECH_H
@@ -151,7 +151,7 @@ void nz_motion_free(nz_motion *m);
 /* Make the next evaluations also differentiate along the state direction
  * (until the next reset). */
 int nz_motion_set_direction(nz_motion *m, const nz_state_direction *d);
-/* Seed direction d on q_i^(level) wherever it appears (THEORY.md §3). */
+/* Seed direction d on q_i^(level) wherever it appears (docs/theory.md §3). */
 void nz_motion_seed_level(nz_motion *m, int i, int d, int level);
 /* Seed direction d on slot j of q_i as a whole: a partial derivative with
  * respect to that argument of the function, along the motion. */
@@ -164,7 +164,7 @@ nz_jet **nz_jets_alloc(int k, int K, int D);
 void nz_jets_free(nz_jet **v, int k);
 double nz_factorial(int n);
 
-/* The forms of the equations; all give the same residual (THEORY.md). */
+/* The forms of the equations; all give the same residual (docs/theory.md). */
 typedef enum nz_form {
   NZ_FORM_GENERALIZED,  /* (3.1)  (1/n)(dF^(n)/dq^(n) - (n+1) dF/dq)            */
   NZ_FORM_LAGRANGE,     /*        d/dt dF/dq' - dF/dq                          */
@@ -201,12 +201,12 @@ int nz_operator_E(const nz_system *s, int m, double t, const double *const *stat
 int nz_partial(const nz_system *s, int m, double t, const double *const *state, int nstate,
                double *out);
 /* dF^(m-1)/dq^(m) at t0, computed by seeding q^(m) (the coefficient of the top
- * derivative of F^(m-1): THEORY.md §3 says it is dF/dq'). */
+ * derivative of F^(m-1): docs/theory.md §3 says it is dF/dq'). */
 int nz_top_coefficient(const nz_system *s, int m, double t, const double *const *state,
                        int nstate, double *out);
 
 /* M and h of M q'' + h = 0, where h = r(q'' = 0) includes -Q + dV/dq
- * (THEORY.md §11): M is k x k row-major. */
+ * (docs/theory.md §11): M is k x k row-major. */
 int nz_mass_bias(const nz_system *s, double t, const double *q, const double *qd, double *M,
                  double *h);
 

@@ -1,7 +1,7 @@
 /* mech_graph.h - a system's pieces (T, V, Q, constraints, ...) as recorded
  * expression graphs (graph.h), evaluated in C behind the evaluator interface
  * of mech.h, and the graphs the mechanics derives from them once: the mass
- * matrix and the bias of M q'' + h = 0 (THEORY.md §11).
+ * matrix and the bias of M q'' + h = 0 (docs/theory.md §11).
  *
  * Inputs of the graph, numbered: 0 is t; 1 .. np the named parameters (in
  * the order the recorder chose); then slot j of q_i is 1 + np + j k + i.

@@ -1,6 +1,6 @@
 /* ode.h - the motion of a mechanical system as a first-order ODE for GSL's
  * odeiv2 steppers: y = (q, q'[, W]), y' = (q', q''(t, q, q')[, R_0]), where
- * W = integral R_0 dt is the work of moving constraints (THEORY.md §9),
+ * W = integral R_0 dt is the work of moving constraints (docs/theory.md §9),
  * carried only when asked for.
  *
  * The caller steps it one adaptive (or fixed) step at a time, so that the
