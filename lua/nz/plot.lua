@@ -21,6 +21,20 @@ end
 
 local function quote(s) return '"' .. tostring(s):gsub('"', "'") .. '"' end
 
+-- Run gnuplot on a script (a list of lines): true and what it printed, or
+-- false and its message.  (The terminal's plot is what it prints.)
+function M.gnuplot(script)
+  local sfile = os.tmpname()
+  local sf = assert(io.open(sfile, "w"))
+  sf:write(table.concat(script, "\n"), "\n")
+  sf:close()
+  local p = io.popen("gnuplot " .. sfile .. " 2>&1")
+  local out = p:read("a")
+  local ok = p:close()
+  os.remove(sfile)
+  return ok == true, out
+end
+
 -- plot.lines{ series = { {name =, x = {...}, y = {...} [, points = true, style =
 --             "points", labels = {...} (a text beside each point)]}, ... },
 --             title =, xlabel =, legend = false,
@@ -61,15 +75,8 @@ function M.lines(opts)
     end
   end
   script[#script + 1] = "plot " .. table.concat(parts, ", ")
-  local sfile = os.tmpname()
-  local sf = assert(io.open(sfile, "w"))
-  sf:write(table.concat(script, "\n"), "\n")
-  sf:close()
-  local p = io.popen("gnuplot " .. sfile .. " 2>&1")
-  local out = p:read("a")
-  local ok = p:close()
+  local ok, out = M.gnuplot(script)
   os.remove(data)
-  os.remove(sfile)
   if not ok then error("plot: gnuplot failed: " .. out, 3) end
   if opts.file then return opts.file end
   if not opts.quiet then io.write(out) end

@@ -82,6 +82,7 @@ local function show(v)
 end
 
 local function finite(v) return type(v) == "number" and v == v and math.abs(v) ~= math.huge end
+M.show, M.finite = show, finite   -- an option's value in a message; a finite number (nz/sweep.lua too)
 
 local function check_vector(sys, v, what)
   if type(v) ~= "table" or #v ~= sys.k then

@@ -36,14 +36,7 @@ local known = { system = true, file = true, grid = true, list = true, sample = t
 
 local function fail(msg, ...) error(user_where() .. ("sweep: " .. msg):format(...), 0) end
 
-local function show(v)
-  if type(v) == "string" then return ("%q"):format(v) end
-  if type(v) == "number" then return require("nz.repl").number(v) end
-  if type(v) == "table" then return "a table" end
-  return tostring(v)
-end
-
-local function finite(v) return type(v) == "number" and v == v and math.abs(v) ~= math.huge end
+local show, finite = require("nz.simulate").show, require("nz.simulate").finite
 
 local function is_name(s) return type(s) == "string" and s:match("^[%a_][%w_]*$") ~= nil and s ~= "error" end
 

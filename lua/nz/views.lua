@@ -170,15 +170,8 @@ function M.animate(tr, opts)
     script[#script + 1] = ("plot %q index %d with lines lw 2, %q index %d with points pt 7 ps 1.5"):format(
       data, 2 * (f - 1), data, 2 * (f - 1) + 1)
   end
-  local sfile = os.tmpname()
-  local sf = assert(io.open(sfile, "w"))
-  sf:write(table.concat(script, "\n"), "\n")
-  sf:close()
-  local p = io.popen("gnuplot " .. sfile .. " 2>&1")
-  local out = p:read("a")
-  local ok = p:close()
+  local ok, out = plot.gnuplot(script)
   os.remove(data)
-  os.remove(sfile)
   if not ok then fail("animate", "gnuplot failed: %s", out) end
   if not file then
     -- the terminal: frames one after another, the screen cleared between
