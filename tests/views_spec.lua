@@ -34,6 +34,28 @@ describe("tr:plot", function()
   end)
 end)
 
+describe("tr:csv", function()
+  it("writes each number in the shortest form that reads back exactly", function()
+    local tr = osc():simulate{ q0 = { 1 }, t1 = math.pi, dt = math.pi / 2 }
+    local file = os.tmpname()
+    tr:csv(file)
+    local text = slurp(file)
+    os.remove(file)
+    assert.truthy(text:find("\n3.141592653589793,", 1, true), text)
+    assert.falsy(text:find("3.1415926535897931", 1, true), text)
+    -- and every number reads back as the trajectory's
+    local row = 0
+    for line in text:gmatch("[^\n]+") do
+      if row > 0 then
+        local t, x = line:match("^([^,]+),([^,]+)")
+        assert.are.equal(tr.t[row], tonumber(t))
+        assert.are.equal(tr.q[row][1], tonumber(x))
+      end
+      row = row + 1
+    end
+  end)
+end)
+
 describe("tr:section", function()
   it("the oscillator's section x = 0, x' > 0 is one point: x' = amplitude, crossings every 2 pi", function()
     local tr = osc():simulate{ q0 = { 0.7 }, qd0 = { 0 }, t1 = 40, dt = 40, rtol = 1e-12, atol = 1e-12,

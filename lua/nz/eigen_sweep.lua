@@ -140,10 +140,10 @@ function Sweep:csv(file)
   head[#head + 1] = "status"
   local lines = { table.concat(head, ",") }
   for _, r in ipairs(self.rows) do
-    local row = { ("%.17g"):format(r.value) }
+    local row = { require("nz.formula").number(r.value) }
     for j = 1, n do
       local e = r.eigenvalues[j]
-      row[#row + 1] = e and ("%.17g,%.17g"):format(e[1], e[2]) or ","
+      row[#row + 1] = e and (require("nz.formula").number(e[1]) .. "," .. require("nz.formula").number(e[2])) or ","
     end
     row[#row + 1] = r.status
     lines[#lines + 1] = table.concat(row, ",")

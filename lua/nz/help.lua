@@ -234,6 +234,15 @@ Methods (t a number, q, qd, qdd tables of k numbers):
   sys:equations(n, t, q, qd [, qdd])  print the terms of (3.1) per coordinate
   sys:simulate{q0 =, qd0 =, t1 = [, t0, dt, method, rtol, atol, step, h0, events,
         event_tol, project, baumgarte, monitors, progress, check, dense]}  a trajectory.
+        Defaults: t0 = 0; qd0 at rest; dt = (t1 - t0)/200 (the output grid);
+        method = "rk8pd"; rtol = 1e-10, atol = 1e-12; step none (adaptive;
+        step = h: fixed steps of at most h); h0 = min(dt, 1e-3) (the first
+        step); events none (a list of {name =, f = function(t, q, qd) ... end,
+        direction = 0 | 1 | -1, stop = false}); event_tol = 1e-12;
+        project = false (true: back onto the constraints when they drift past
+        1e-10); baumgarte = nil ({alpha =, beta =}); monitors none ({energy =
+        true, work = true}); progress on a terminal only; check = true (the
+        start must satisfy the constraints); dense = true.
         Each option is checked (which, what it got, what it accepts; the
         output points must fit in 1 GB, require('nz.simulate').MAX_MEMORY); a
         fixed step with rtol, atol or h0 warns once that they do nothing; a run
@@ -439,7 +448,7 @@ rows is accepted.  It says which equation is wrong, where, with the true
 accelerations and the value your equation gives.  Returns ok, text; options
 {states =, tol = 1e-8, quiet = true}.  Write the equations with nz.sin etc.]] },
   { name = "workprecision", section = "mechanics",
-    usage = "nz.workprecision(sys, {q0 =, qd0 =, t1 =, methods =, tols =, reference =, plot =})",
+    usage = "nz.workprecision(sys, {q0 =, qd0 =, t1 =, dt =, methods =, tols =, reference =, plot =})",
     summary = "what accuracy costs in time: error, time, evaluations per method and tolerance",
     text = [[
 Runs the same motion with each method at each tolerance (rtol = tol, atol = tol/100),
@@ -456,7 +465,11 @@ diagram (log-log error against time, a line per method) in the terminal;
 plot = "file.svg" (or .png) writes it.  Returns the rows.
 Defaults: methods rk4, rkf45, rkck, rk8pd, rk4imp, bsimp, msadams, msbdf, taylor
 (taylor skipped, with the reason, where it does not apply: constraints, not recorded);
-tols 1e-4, 1e-6, 1e-8, 1e-10.  Ctrl-C stops the sweep, keeping the rows done.]] },
+tols 1e-4, 1e-6, 1e-8, 1e-10; dt as simulate's (the output grid the error is
+measured on: with dense output it adds no steps).  The table ends with the
+cheapest method for each accuracy; the diagram labels each point with its
+tolerance and gives each method its own mark.  Ctrl-C stops the study, keeps
+the rows done and marks the interrupted one ("stopped by Ctrl-C", once).]] },
   { name = "sweep", section = "mechanics",
     usage = "nz.sweep{system = sys | file =, grid = | list = | sample =, run = function(sys, point), jobs =, out =}",
     summary = "a system at many points on every core: one row per point, appended to a CSV as each finishes",

@@ -108,12 +108,14 @@ local function write_csv(self, f)
     if ok and col then extra[#extra + 1] = col; head[#head + 1] = name end
   end
   assert(f:write(table.concat(head, ","), "\n"))
+  -- each number in the shortest form that reads back exactly (as the session prints it)
+  local number = require("nz.formula").number
   for i = 1, #self.t do
-    local row = { ("%.17g"):format(self.t[i]) }
+    local row = { number(self.t[i]) }
     for _, src in ipairs{ self.q[i], self.qd[i], self.qdd[i], self.lambda[i] } do
-      for j = 1, #src do row[#row + 1] = ("%.17g"):format(src[j]) end
+      for j = 1, #src do row[#row + 1] = number(src[j]) end
     end
-    for _, col in ipairs(extra) do row[#row + 1] = ("%.17g"):format(col[i]) end
+    for _, col in ipairs(extra) do row[#row + 1] = number(col[i]) end
     assert(f:write(table.concat(row, ","), "\n"))
   end
   assert(f:flush())
