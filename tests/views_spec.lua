@@ -32,6 +32,15 @@ describe("tr:plot", function()
     assert.truthy(plain:find("E - E(0)", 1, true), plain)
     h.checkerror("trajectory:plot: unknown option 'colour'", tr.plot, tr, { colour = "red" })
   end)
+  it("a short terminal plot keeps its y tick labels apart: at most five, each on a line of its own", function()
+    local tr = osc():simulate{ q0 = { 1.2345 }, t1 = 10 }
+    local text = tr:plot{ y = { "x" }, quiet = true, size = { 60, 12 } }
+    local ticks = 0
+    for line in text:gmatch("[^\n]+") do
+      if line:match("^%s*%-?[%d%.]+e?[%-%d]*%s+[%+|]") then ticks = ticks + 1 end
+    end
+    assert(ticks >= 2 and ticks <= 5, text)
+  end)
 end)
 
 describe("tr:csv", function()

@@ -46,17 +46,28 @@ function M.lines(opts)
   if type(series) ~= "table" or #series == 0 then error("plot: no series to draw", 3) end
   local data = os.tmpname()
   local f = assert(io.open(data, "w"))
+  local ylo, yhi = math.huge, -math.huge
   for si, s in ipairs(series) do
     if #s.x ~= #s.y then error(("plot: series %d has %d x and %d y values"):format(si, #s.x, #s.y), 3) end
     for i = 1, #s.x do
       local x, y = s.x[i], s.y[i]
       if x == x and y == y and (not opts.logy or y > 0) and (not opts.logx or x > 0) then
         f:write(("%.17g %.17g %s\n"):format(x, y, s.labels and quote(s.labels[i] or "") or ""))
+        ylo, yhi = math.min(ylo, y), math.max(yhi, y)
       end
     end
     f:write("\n\n")
   end
   f:close()
+  -- A short terminal plot: gnuplot's own ticks would crowd into each other,
+  -- so at most four, at a round step, with short labels.
+  local yticks = ""
+  if not opts.file and not opts.logy and (opts.height or 30) < 20 and yhi > ylo then
+    local raw = (yhi - ylo) / 3
+    local mag = 10 ^ math.floor(math.log(raw, 10))
+    local step = mag * (raw / mag <= 1 and 1 or raw / mag <= 2 and 2 or raw / mag <= 5 and 5 or 10)
+    yticks = ("set ytics %.17g\nset format y \"%%.3g\""):format(step)
+  end
   local script = {
     "set terminal " .. terminal_for(opts),
     opts.file and ("set output " .. quote(opts.file)) or "set output",
@@ -64,6 +75,7 @@ function M.lines(opts)
     opts.xlabel and ("set xlabel " .. quote(opts.xlabel)) or "",
     opts.ylabel and ("set ylabel " .. quote(opts.ylabel)) or "",
     opts.logx and 'set logscale x\nset format x "%.0e"' or "", opts.logy and 'set logscale y\nset format y "%.0e"' or "",
+    yticks,
     opts.legend == false and "unset key" or "set key outside right", "set grid",
   }
   local parts = {}
