@@ -98,13 +98,7 @@ local function script(text)
   return name
 end
 
-local function slurp(name)
-  local f = io.open(name, "rb")
-  if not f then return nil end
-  local text = f:read("a")
-  f:close()
-  return text
-end
+local slurp = h.slurp
 
 local OSCILLATOR = [[
 local osc = nz.system{ name = "osc", coords = {"x"}, T = function(t, q, v) return 0.5 * v[1]^2 end,

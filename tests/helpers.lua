@@ -29,6 +29,22 @@ function M.assert_series(got, want, K, tol, what, scale)
     what, at, e, tol))
 end
 
+-- A file's whole text, or nil when it cannot be read.
+function M.slurp(path)
+  local f = io.open(path, "rb")
+  if not f then return nil end
+  local text = f:read("a")
+  f:close()
+  return text
+end
+
+-- The non-empty lines of a text.
+function M.lines(text)
+  local out = {}
+  for line in text:gmatch("[^\n]+") do out[#out + 1] = line end
+  return out
+end
+
 -- Run a shell command; returns exit code, stdout, stderr.
 function M.run(cmd, stdin)
   local out, err = os.tmpname(), os.tmpname()

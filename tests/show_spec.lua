@@ -37,12 +37,6 @@ local function knife_edge()
     constraints = { function(t, q, qd) return nz.sin(q[3]) * qd[1] - nz.cos(q[3]) * qd[2] end } }
 end
 
-local function lines_of(text)
-  local out = {}
-  for line in text:gmatch("[^\n]+") do out[#out + 1] = line end
-  return out
-end
-
 describe("sys:show: the equations as text", function()
   it("the simple pendulum: l^2 m th'' + g l m sin(th) = 0", function()
     local text = pendulum():show{}

@@ -10,13 +10,7 @@ local sweep = require "nz.sweep"
 local SCENE = "tests/data/sweep_pendulum.lua"
 local GRID = { amp = { 0.3, 0.9, 1.5, 2.1 }, l = { 1, 2.5 } }
 
-local function slurp(path)
-  local f = io.open(path, "rb")
-  if not f then return nil end
-  local s = f:read("a")
-  f:close()
-  return s
-end
+local slurp = h.slurp
 
 local function write(path, text)
   local f = assert(io.open(path, "wb"))
@@ -24,11 +18,7 @@ local function write(path, text)
   f:close()
 end
 
-local function lines(text)
-  local t = {}
-  for l in text:gmatch("[^\n]+") do t[#t + 1] = l end
-  return t
-end
+local lines = h.lines
 
 local function quiet(opts)
   opts.progress = false

@@ -12,12 +12,7 @@ local function osc()
     T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end, V = function(t, q) return 0.5 * q[1] ^ 2 end }
 end
 
-local function slurp(path)
-  local f = assert(io.open(path, "rb"))
-  local s = f:read("a")
-  f:close()
-  return s
-end
+local function slurp(path) return assert(h.slurp(path), path) end
 
 describe("tr:plot", function()
   it("writes the title, axis labels and legend to the SVG, and refuses unknown options", function()
