@@ -140,6 +140,7 @@ describe("sys:show: the equations as text", function()
     for _, sys in ipairs{ double_pendulum(), spherical_pendulum(), polar } do
       local eq = show.equations(sys)
       local S = show.appell(sys, eq)
+      local force = show.forces(sys, eq)
       -- dS/dq''_i = (M q'' + h)_i + (dV/dq - Q)_i: S loaded back as Lua and
       -- differenced in q''_i (exact up to rounding: S is quadratic in q'')
       local f = assert(load("return function(t, q, qd, qdd, lambda, params) return " .. formula.print(S, "lua") .. " end",
@@ -156,7 +157,7 @@ describe("sys:show: the equations as text", function()
           local dS = (f(0, q, qd, up, {}, sys.params) - f(0, q, qd, dn, {}, sys.params)) / (2 * hh)
           -- dS/dq''_i = (M q'' + h)_i - (force part of h)_i: compare with the
           -- residual less the applied forces (-dV/dq + Q) of the formula
-          local fi = assert(load("return function(t, q, qd, qdd, lambda, params) return " .. formula.print(eq.force[i], "lua") .. " end",
+          local fi = assert(load("return function(t, q, qd, qdd, lambda, params) return " .. formula.print(force[i], "lua") .. " end",
             "=(F)", "t", { math = math, nz = nz }))()(0, q, qd, qdd, {}, sys.params)
           assert(math.abs(dS - (res[i] + fi)) <= 1e-9 * (1 + math.abs(res[i])), ("%s: dS/dq''_%d %.15g, residual + forces %.15g"):format(
             sys.name, i, dS, res[i] + fi))

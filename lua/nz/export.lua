@@ -42,7 +42,7 @@ local function outputs(sys, jacobian)
   for i = 1, k do out.h[i] = ids[k * k + i] end
   local orders, linear = {}, {}
   if sys.nc > 0 then orders, linear = constraints.orders(sys) end
-  local one, zero = c:const(1), c:const(0)
+  local one = c:const(1)
   -- d/dt along the motion: t -> 1, q^(j) -> q^(j+1) (constraints receive q to q''')
   local motion = { [0] = one }
   if sys.nc > 0 then for j = 0, 2 do for i = 1, k do motion[input(j, i)] = c:slot(j + 1, i) end end end
@@ -82,7 +82,6 @@ local function outputs(sys, jacobian)
       end
     end
   end
-  out.zero = zero
   return out
 end
 

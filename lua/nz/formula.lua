@@ -491,7 +491,6 @@ local function term_rank(t)
   end
   return top, coord
 end
-M.category = category
 
 -- A term without its sign: coefficient and factors, a quotient when some
 -- power is negative.

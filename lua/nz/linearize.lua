@@ -255,9 +255,10 @@ local function prepare(sys, opts, name, hold_rest)
     local Vd = {}
     for r = 1, #V do Vd[r] = { table.unpack(V[r], k + 1, 2 * k) } end
     local first, rest = {}, {}
+    local kept = set_of(coords)
     for i = 1, k do
       if not moving[i] and not held[i] then
-        if is_dep[i] or not set_of(coords)[i] then first[#first + 1] = i else rest[#rest + 1] = i end
+        if is_dep[i] or not kept[i] then first[#first + 1] = i else rest[#rest + 1] = i end
       end
     end
     dep_speeds = pick_columns(Vd, first)
@@ -335,6 +336,7 @@ local function differentiate(sys, c)
   for i = 1, k do y[i], y[k + i] = c.q[i], c.qd[i] end
   c.J = mech.ode_jacobian(ode, sys.engine, c.t, y)
   c.qdd = mech.ode_accel(ode, sys.engine, c.t, y)
+  local _
   if #c.dependent > 0 then
     _, c.P = constraint_rows(sys, c.t, c.q, c.qd, c.pos)
     c.P_dep = columns(c.P, c.dependent)
@@ -430,7 +432,6 @@ local function assemble(sys, c, check_left_out)
       end
     end
   end
-  if not c.coords_given then for _, i in ipairs(c.ignorable) do kept[i] = nil end end
   c.colq, c.cols = colq, cols
 end
 
@@ -520,7 +521,6 @@ end
 -- maxit steps, is an error that says so with the last iterate.
 function M.equilibrium(sys, opts)
   opts = opts or {}
-  local k = sys.k
   local tol, maxit = opts.tol or 1e-12, opts.maxit or 50
   -- every coordinate the constraints leave free, unless told
   local point = { t = opts.t, q = opts.q, qd = opts.qd, coords = opts.coords, speeds = opts.coords, hold = opts.hold,
@@ -620,14 +620,14 @@ M.stability = stability
 -- (rad/s and Hz), damping ratio, whether it grows, and its shape.
 function Linear:modes()
   local rows = {}
-  local ev = self:eigenvalues()
+  local ev, thr = self:eigenvalues(), threshold(self.A)
   for n, e in ipairs(ev) do
     local re, im = e[1], e[2]
     if im >= 0 then
       local w = math.sqrt(re * re + im * im)
       local amp, phase = shape(self, self.vectors[n])
       rows[#rows + 1] = { re = re, im = im, omega = math.abs(im), hz = math.abs(im) / (2 * math.pi),
-        damping = w > 0 and -re / w or 0, stable = stability(re, threshold(self.A)), shape = amp, phase = phase }
+        damping = w > 0 and -re / w or 0, stable = stability(re, thr), shape = amp, phase = phase }
     end
   end
   return rows

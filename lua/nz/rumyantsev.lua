@@ -191,10 +191,12 @@ function M.energy_integral(sys)
   local states = constraints.sample_states(sys, 8)
   local dLdt, at = 0, nil
   local scleronomic = true      -- T1 = T0 = 0: then H = T + V
-  local power = 0
+  local power, size = 0, 1      -- size: the energies' scale, for the tests below
   local Qf = forces(sys)
   for _, st in ipairs(states) do
     local q, qd = st[1], st[2]
+    local _, H = mech.energy(sys.engine, st.t, q, qd)
+    size = math.max(size, math.abs(H))
     local d, T0, T1 = mech.energy_terms(sys.engine, st.t, q, qd)
     if math.abs(d) > math.abs(dLdt) then dLdt, at = d, st.t end
     if math.abs(T0) + math.abs(T1) > 1e-12 then scleronomic = false end
@@ -204,11 +206,6 @@ function M.energy_integral(sys)
       for i = 1, sys.k do pw = pw + f[i] * qd[i] end
       power = math.max(power, math.abs(pw))
     end
-  end
-  local size = 1
-  for _, st in ipairs(states) do
-    local _, H = mech.energy(sys.engine, st.t, st[1], st[2])
-    size = math.max(size, math.abs(H))
   end
   if math.abs(dLdt) > 1e-10 * size then
     rep.holds = false
@@ -402,7 +399,6 @@ local function hermite5(y0, d0, a0, y1, d1, a1, hh, s)
   local dy = (g00 * y0 + g01 * y1 + g10 * D0 + g11 * D1 + g20 * A0 + g21 * A1) / hh
   return y, dy
 end
-M.hermite5 = hermite5
 
 function M.elapsed(path, tr)
   if type(tr) ~= "table" or not tr.t or not tr.q or not tr.qd or not tr.qdd then

@@ -37,8 +37,16 @@ local function reader(sys)
     return formula.symbol(name, { lua = ("%s[%d]"):format(lua, i), base = sys.coords[i], dots = j, slot = j, coord = i })
   end
   local rd = { c = c, k = k, np = np, memo = {}, sym = sym }
+  -- the graph grows as derivatives are taken: only its new nodes are read
   function rd.poly(id)
-    if not rd.nodes or id + 1 > #rd.nodes.op then rd.nodes = c:nodes() end
+    if not rd.nodes then rd.nodes = c:nodes() end
+    if id + 1 > #rd.nodes.op then
+      -- c:nodes(from) keys its lists by id + 1 from from + 1 on, as the whole dump does
+      for field, list in pairs(c:nodes(#rd.nodes.op)) do
+        local dst = rd.nodes[field]
+        for x, v in pairs(list) do dst[x] = v end
+      end
+    end
     return formula.from_graph(rd.nodes, id, sym, rd.memo)
   end
   function rd.input(j, i) return 1 + np + j * k + (i - 1) end
@@ -94,17 +102,22 @@ function M.equations(sys)
       for i = 1, k do rhs[i] = formula.add(rhs[i], formula.mul(As[r][i], lam)) end
     end
   end
-  -- the applied forces -dV/dq + Q, for Appell's function (appell = true)
-  local force = {}
+  return { lhs = lhs, rhs = rhs, M = Mp, h = h, phi = phis, A = As, orders = orders, reader = rd }
+end
+
+-- The applied forces -dV/dq + Q, per coordinate (Appell's function needs them).
+function M.forces(sys, eq)
+  local rd = eq.reader
   local V, Q = rd.c:piece_outputs("V", 1), rd.c:piece_outputs("Q", 1)
   local one = rd.c:const(1)
-  for i = 1, k do
+  local force = {}
+  for i = 1, sys.k do
     local f = formula.const(0)
     if #V > 0 then f = formula.neg(rd.poly(rd.c:derivative(V[1], { [rd.input(0, i)] = one }))) end
     if #Q >= i then f = formula.add(f, rd.poly(Q[i])) end
     force[i] = f
   end
-  return { lhs = lhs, rhs = rhs, M = Mp, h = h, phi = phis, A = As, orders = orders, force = force, sym = rd.sym, input = rd.input }
+  return force
 end
 
 -- Appell's function of the accelerations up to terms free of q'' (docs/theory.md
@@ -112,14 +125,15 @@ end
 -- S = 1/2 q''^T M q'' + q''^T (h + dV/dq - Q), so that dS/dq''_i = Q_i - dV/dq_i
 -- are the equations.
 function M.appell(sys, eq)
-  local k = sys.k
+  local k, rd = sys.k, eq.reader
+  local force = M.forces(sys, eq)
   local S = formula.const(0)
   for i = 1, k do
-    local ai = eq.sym(eq.input(2, i))
+    local ai = rd.sym(rd.input(2, i))
     for j = 1, k do
-      S = formula.add(S, formula.mul(formula.mul(formula.const(0.5), eq.M[i][j]), formula.mul(ai, eq.sym(eq.input(2, j)))))
+      S = formula.add(S, formula.mul(formula.mul(formula.const(0.5), eq.M[i][j]), formula.mul(ai, rd.sym(rd.input(2, j)))))
     end
-    S = formula.add(S, formula.mul(ai, formula.add(eq.h[i], eq.force[i])))
+    S = formula.add(S, formula.mul(ai, formula.add(eq.h[i], force[i])))
   end
   return S
 end

@@ -50,22 +50,11 @@ end
 ----------------------------------------------------------------------------
 -- Values as text: CSV cells and the worker's records
 
--- A number as the shortest of %.15g .. %.17g that reads back exactly (an
--- integral float keeps ".0", so that its type reads back too); strings are
+-- A number as the session prints it: the shortest of %.15g .. %.17g that
+-- reads back exactly, an integral float keeping ".0" so that its type reads
+-- back too (NaN, inf, -inf as words the parser below knows); strings are
 -- quoted, so an unquoted cell is always a number or a boolean.
-function M.number(v)
-  if math.type(v) == "integer" then return ("%d"):format(v) end
-  if v ~= v then return "nan" end
-  if v == math.huge then return "inf" end
-  if v == -math.huge then return "-inf" end
-  local s
-  for _, f in ipairs{ "%.15g", "%.16g", "%.17g" } do
-    s = f:format(v)
-    if tonumber(s) == v then break end
-  end
-  if s:match("^%-?%d+$") then s = s .. ".0" end
-  return s
-end
+M.number = require("nz.repl").number
 
 local specials = { nan = 0 / 0, ["-nan"] = 0 / 0, NaN = 0 / 0, inf = math.huge, ["+inf"] = math.huge, ["-inf"] = -math.huge }
 
