@@ -195,7 +195,7 @@ function M.energy_integral(sys)
   local Qf = forces(sys)
   for _, st in ipairs(states) do
     local q, qd = st[1], st[2]
-    local _, H = mech.energy(sys.engine, st.t, q, qd)
+    local _, _, _, H = mech.energy(sys.engine, st.t, q, qd)   -- T, V, F, H
     size = math.max(size, math.abs(H))
     local d, T0, T1 = mech.energy_terms(sys.engine, st.t, q, qd)
     if math.abs(d) > math.abs(dLdt) then dLdt, at = d, st.t end
