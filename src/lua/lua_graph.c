@@ -249,6 +249,16 @@ static int lg_nodes(lua_State *L)
   return 1;
 }
 
+/* A list of n node ids on the stack. */
+static void push_ids(lua_State *L, const int *ids, int n)
+{
+  lua_createtable(L, n, 0);
+  for (int i = 0; i < n; i++) {
+    lua_pushinteger(L, ids[i]);
+    lua_rawseti(L, -2, i + 1);
+  }
+}
+
 /* mass_bias_outputs() -> {M (k k, row-major), h (k)} node ids, or nil when
  * M and h cannot be built from the recording */
 static int lg_mass_bias_outputs(lua_State *L)
@@ -257,11 +267,7 @@ static int lg_mass_bias_outputs(lua_State *L)
   int k = (int)luaL_checkinteger(L, 2);
   int *out = lua_newuserdatauv(L, ((size_t)k * (size_t)k + (size_t)k) * sizeof(int), 0);
   if (nz_compiled_mass_bias_outputs(c, out)) { lua_pushnil(L); return 1; }
-  lua_createtable(L, k * k + k, 0);
-  for (int i = 0; i < k * k + k; i++) {
-    lua_pushinteger(L, out[i]);
-    lua_rawseti(L, -2, i + 1);
-  }
+  push_ids(L, out, k * k + k);
   return 1;
 }
 
@@ -270,13 +276,11 @@ static int lg_piece_outputs(lua_State *L)
 {
   nz_compiled *c = check(L);
   nz_piece piece = (nz_piece)luaL_checkoption(L, 2, NULL, piece_names);
-  int out[1024];
-  int n = nz_compiled_piece_outputs(c, piece, (int)luaL_optinteger(L, 3, 1) - 1, out, 1024);
-  lua_createtable(L, n, 0);
-  for (int i = 0; i < n; i++) {
-    lua_pushinteger(L, out[i]);
-    lua_rawseti(L, -2, i + 1);
-  }
+  int index = (int)luaL_optinteger(L, 3, 1) - 1;
+  int n = nz_compiled_piece_outputs(c, piece, index, NULL, 0);   /* how many: Q has k */
+  int *out = lua_newuserdatauv(L, (size_t)(n > 0 ? n : 1) * sizeof(int), 0);
+  nz_compiled_piece_outputs(c, piece, index, out, n);
+  push_ids(L, out, n);
   return 1;
 }
 

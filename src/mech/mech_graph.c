@@ -771,9 +771,8 @@ int nz_compiled_piece_outputs(const nz_compiled *c, nz_piece piece, int index, i
 {
   const compiled_piece *p = piece_of(c, piece, index);
   if (!p || !p->n) return 0;
-  int n = p->n < max ? p->n : max;
-  for (int i = 0; i < n; i++) out[i] = p->nodes[i];
-  return n;
+  for (int i = 0; i < p->n && i < max; i++) out[i] = p->nodes[i];
+  return p->n;
 }
 
 /* ------------------------------------------------------------------ */

@@ -145,8 +145,8 @@ int nz_compiled_mass_bias_nodes(const nz_compiled *c);
 /* Reading the equations out of the graph (sys:show, sys:export): the node
  * ids of M (k x k, row-major) and h (k) into out (k k + k), built at the
  * first call (NZ_EARG when they cannot be: a piece not recorded); and the
- * output nodes of a piece into out (at most max; returns how many, 0 when
- * the piece is not recorded). */
+ * output nodes of a piece into out (at most max of them; returns how many
+ * the piece has, 0 when it is not recorded: call with max = 0 to size out). */
 int nz_compiled_mass_bias_outputs(nz_compiled *c, int *out);
 int nz_compiled_piece_outputs(const nz_compiled *c, nz_piece piece, int index, int *out, int max);
 
