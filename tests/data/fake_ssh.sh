@@ -12,4 +12,8 @@ host=$1
 shift
 [ "$1" = "--" ] && shift
 [ -n "$FAKE_SSH_LOG" ] && echo "$host" >>"$FAKE_SSH_LOG"
+# A login over ssh sets SHELL and HOME; GNU parallel's remote wrapper runs the
+# job with $SHELL, so without it (a CI job started with a bare environment)
+# every job would silently run nothing.
+export SHELL="${SHELL:-/bin/sh}" HOME="${HOME:-/tmp}"
 exec sh -c "$*"
