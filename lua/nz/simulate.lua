@@ -144,7 +144,7 @@ local function check_stepping(sys, cfg)
     fail(sys, "'method' must be the name of a GSL stepper (%s) or \"taylor\", got %s", table.concat(method_names(), " "), show(cfg.method))
   end
   if not is_method(cfg.method) then
-    fail(sys, "unknown method '%s'; GSL's steppers are: %s; and taylor (Taylor's method, free systems) (option 'method')", cfg.method, table.concat(method_names(), " "))
+    fail(sys, "unknown method '%s'; GSL's steppers are: %s; and taylor (Taylor's method: the series of the motion, with or without constraints) (option 'method')", cfg.method, table.concat(method_names(), " "))
   end
   check_positive(sys, cfg, "rtol", "the relative tolerance")
   if not (cfg.rtol >= M.MIN_RTOL and cfg.rtol <= 1) then
