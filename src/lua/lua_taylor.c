@@ -287,7 +287,17 @@ int nz_lua_taylor_raise(lua_State *L, nz_stepper *st, int status)
   lua_createtable(L, 0, 2);
   lua_pushstring(L, why);
   lua_setfield(L, -2, "taylor_stop");
-  lua_pushstring(L, what);
+  const double *y = NULL;
+  nz_taylor_last_failure(st, NULL, NULL, &y);
+  if (strcmp(why, "step") == 0 && y) {   /* the state where the steps ran out, not only the time */
+    luaL_Buffer msg;
+    luaL_buffinit(L, &msg);
+    luaL_addstring(&msg, "stopped");
+    nz_lua_add_state(&msg, t, y, y + b.sys.k, b.sys.k);
+    luaL_addstring(&msg, ": the step size became too small");
+    luaL_pushresult(&msg);
+  } else
+    lua_pushstring(L, what);
   lua_setfield(L, -2, "message");
   return lua_error(L);
 }
