@@ -156,6 +156,11 @@ describe("sys:export{lang = 'c'}", function()
     h.checkerror("constraint 1 is nonlinear in q''", ham.export, ham, { lang = "c" })
     local lua_only = nz.system{ name = "not recorded", coords = { "x" }, compile = false, T = function(t, q, qd) return qd[1] ^ 2 end }
     h.checkerror("the system is not recorded", lua_only.export, lua_only, { lang = "c" })
+    -- a piece that fell back to Lua is not in the graph: exporting M and h
+    -- without it would write wrong equations (the first version wrote h = 0)
+    local branch = nz.system{ name = "branch", coords = { "x" }, T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end,
+      V = function(t, q) if q[1] > 0 then return q[1] ^ 2 else return 0 end end }
+    h.checkerror("nothing to export: V runs in Lua", branch.export, branch, { lang = "c" })
     local dp = double_pendulum()
     h.checkerror("lang = 'fortran'", dp.export, dp, { lang = "fortran" })
     h.checkerror("main.q0: 2 numbers expected", dp.export, dp, { lang = "c", main = { q0 = { 1 }, t1 = 1, dt = 0.1 } })

@@ -169,6 +169,13 @@ describe("sys:show: the equations as text", function()
   it("refuses a system it cannot read, and unknown options", function()
     local lua_only = nz.system{ name = "not recorded", coords = { "x" }, compile = false, T = function(t, q, qd) return qd[1] ^ 2 end }
     h.checkerror("the system is not recorded", lua_only.show, lua_only, {})
+    -- V with a Lua branch on the state runs in Lua beside a recorded T: the
+    -- graph's M and h lack V, so the formula would be x'' = 0 while the
+    -- motion is x'' = -2x (the first version printed exactly that)
+    local branch = nz.system{ name = "branch", coords = { "x" }, T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end,
+      V = function(t, q) if q[1] > 0 then return q[1] ^ 2 else return 0 end end }
+    assert.are.equal(-2, branch:accel(0, { 1 }, { 0 })[1])
+    h.checkerror("V runs in Lua: compares a traced value", branch.show, branch, {})
     local p = pendulum()
     h.checkerror("unknown option 'latex'", p.show, p, { latex = true })
   end)

@@ -155,5 +155,13 @@ describe("what taylor refuses under constraints", function()
       constraints = { function(t, q, qd, qdd, q3) return q3[1] + q3[2] end } }
     h.checkerror("method 'taylor' takes constraints of order 0, 1 and 2", jerk.simulate, jerk,
       { q0 = { 0, 0 }, t1 = 1, method = "taylor" })
+    -- a constraint with a Lua branch on the state is not in the graph the
+    -- series are built on: refused with the reason (it was a "series failed
+    -- ... the motion may be singular" at t = 0)
+    local branch = nz.system{ name = "branch", coords = { "x", "y" },
+      T = function(t, q, qd) return 0.5 * (qd[1] ^ 2 + qd[2] ^ 2) end,
+      constraints = { function(t, q) if q[1] > 0 then return q[1] - q[2] else return q[1] + q[2] end end } }
+    h.checkerror("method 'taylor' cannot run this system: the Taylor method needs the constraints recorded, "
+      .. "and constraint 1 runs in Lua", branch.simulate, branch, { q0 = { 1, 1 }, t1 = 1, method = "taylor" })
   end)
 end)

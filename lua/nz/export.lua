@@ -35,6 +35,8 @@ local function outputs(sys, jacobian)
   if not c then fail(sys, "the system is not recorded (made with compile = false): there is no graph to export") end
   local k, np = sys.k, #(e.compiled_params or {})
   local function input(j, i) return 1 + np + j * k + (i - 1) end
+  local in_lua = require("nz.record").mass_bias_in_lua(sys)
+  if in_lua then fail(sys, "nothing to export: %s. Only recorded functions can be exported", in_lua) end
   local ids = c:mass_bias_outputs(k)
   if not ids then fail(sys, "M and h could not be built from the recording: a piece of T, V or Q runs in Lua (print(sys) says why)") end
   local out = { M = {}, h = {}, A = {}, b = {}, phi = {} }

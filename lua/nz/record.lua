@@ -360,6 +360,21 @@ function M.compile(engine, levels, native)
   return report
 end
 
+-- What of T, V, Q (or L, the forces) runs in Lua, as "V: why" text, or nil
+-- when M and h come whole from the graph.  Readers of the graph (sys:show,
+-- sys:export) must refuse then: the graph's M and h would lack that piece
+-- and print or export wrong equations without a word.
+function M.mass_bias_in_lua(sys)
+  local e = sys.engine
+  if not e.compiled then return "every function runs in Lua (the system was made with compile = false)" end
+  if e.compiled_mass_bias then return nil end
+  local parts = {}
+  for _, r in ipairs(sys.recording or {}) do
+    if not r.compiled and not r.label:find("^constraint") then parts[#parts + 1] = ("%s runs in Lua: %s"):format(r.label, r.why) end
+  end
+  return #parts > 0 and table.concat(parts, "; ") or "a piece of T, V or Q runs in Lua (print(sys) says which)"
+end
+
 -- ------------------------------------------------------------------ --
 -- Functions of the state (simulate's event functions)                  --
 

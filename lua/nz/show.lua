@@ -55,6 +55,8 @@ end
 
 -- M (k x k) and h (k) as polynomials.
 local function mass_bias(sys, rd)
+  local in_lua = require("nz.record").mass_bias_in_lua(sys)
+  if in_lua then fail(sys, "no formulas: %s. Only recorded functions can be shown", in_lua) end
   local ids = rd.c:mass_bias_outputs(sys.k)
   if not ids then fail(sys, "M and h could not be built from the recording (a piece of T, V or Q runs in Lua)") end
   local k, Mp, h = sys.k, {}, {}

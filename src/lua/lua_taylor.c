@@ -41,6 +41,10 @@ static void bind_recorded(lua_State *L, bound_system *b, const char *fname)
   if (!b->sys.mass_bias)
     luaL_error(L, "system '%s': '%s': the Taylor method needs T, V and Q recorded, and one of them fell back "
                "to Lua (print(sys) says which and why)", name, fname);
+  for (int r = 0; r < b->sys.nc; r++)   /* else the first series would fail with a status, not this reason */
+    if (!nz_compiled_has(b->comp, NZ_PIECE_PHI, r))
+      luaL_error(L, "system '%s': '%s': the Taylor method needs the constraints recorded, and constraint %d "
+                 "runs in Lua (print(sys) says why)", name, fname, r + 1);
 }
 
 /* The context of the series and accel functions: the free motion, or the
