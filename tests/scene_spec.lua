@@ -131,6 +131,12 @@ describe("a scene that names an effect wrongly gets an error naming the effect a
       nz.scene, { name = "bad", coords = { "x" }, T = T, effects = { E.damper{ coordinate = "y", c = 1 } } })
     h.checkerror("nz.scene 'bad': effects[1] is not an effect: make one with nz.effects.NAME{...}",
       nz.scene, { name = "bad", coords = { "x" }, T = T, effects = { { kind = "spring" } } })
+    -- one effect or one body without the list's braces: ipairs saw nothing
+    -- in it, and the scene silently had no spring (x'' = 0, not -x)
+    h.checkerror("nz.scene 'bad': 'effects' must be a list of effects: effects = { nz.effects.NAME{...}, ... } (one effect too goes in braces)",
+      nz.scene, { name = "bad", coords = { "x" }, T = T, effects = E.spring{ coordinate = "x", k = 1 } })
+    h.checkerror("nz.scene 'bad': nz.bodies: a list of bodies expected: bodies = { {mass = ..., pos = ...}, ... } (one body too goes in braces)",
+      nz.scene, { name = "bad", coords = { "x" }, bodies = { mass = 1, pos = function(t, q) return { q[1], 0, 0 } end } })
     h.checkerror("effect 'rolling_ball': parameter 'body' 'p' has no rotation (rot)",
       nz.scene, { name = "bad", coords = { "x", "y" }, bodies = particle(1), effects = { E.rolling_ball{ body = "p", radius = 1 } } })
   end)

@@ -48,7 +48,13 @@ local function validate(spec)
     if b.rot ~= nil and type(b.rot) ~= "function" then fail(i, "'rot' must be a function(t, q, params) returning a 3x3 rotation matrix") end
     bodies[i] = { mass = b.mass, pos = b.pos, rot = b.rot, inertia = b.inertia and inertia_matrix(b.inertia, i), name = b.name or ("body " .. i) }
   end
-  if #bodies == 0 then error("nz.bodies: no bodies given", 3) end
+  if #bodies == 0 then
+    -- a single body given bare: a table with fields, not a list
+    if spec.mass ~= nil or spec.pos ~= nil then
+      error("nz.bodies: a list of bodies expected: bodies = { {mass = ..., pos = ...}, ... } (one body too goes in braces)", 3)
+    end
+    error("nz.bodies: no bodies given", 3)
+  end
   if spec.gravity ~= nil then check_vector(spec.gravity, 3, "gravity", 0) end
   return bodies, spec.gravity
 end

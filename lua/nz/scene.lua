@@ -34,7 +34,8 @@ function M.scene(def)
   local by_name, names = {}, {}
   if def.bodies then
     local ok, list = pcall(bodies.validate, def.bodies)
-    if not ok then error(("nz.scene '%s': %s"):format(name, list), 2) end
+    -- validate's position is this line, not the user's: keep only its text
+    if not ok then error(("nz.scene '%s': %s"):format(name, tostring(list):gsub("^[^:]*:%d+: ", "")), 2) end
     local particles = true
     for i, b in ipairs(list) do
       local n = def.bodies[i].name or ("body " .. i)
@@ -56,6 +57,12 @@ function M.scene(def)
   end
 
   local kinds = {}
+  -- one effect given bare would be a table ipairs sees nothing in: the scene
+  -- would silently have no effects
+  if def.effects ~= nil and (type(def.effects) ~= "table" or getmetatable(def.effects) == effects.Effect) then
+    error(("nz.scene '%s': 'effects' must be a list of effects: effects = { nz.effects.NAME{...}, ... }%s"):format(name,
+      getmetatable(def.effects) == effects.Effect and " (one effect too goes in braces)" or ""), 2)
+  end
   for i, e in ipairs(def.effects or {}) do
     if getmetatable(e) ~= effects.Effect then
       error(("nz.scene '%s': effects[%d] is not an effect: make one with nz.effects.NAME{...}"):format(name, i), 2)
