@@ -164,6 +164,10 @@ describe("sys:export{lang = 'c'}", function()
     local dp = double_pendulum()
     h.checkerror("lang = 'fortran'", dp.export, dp, { lang = "fortran" })
     h.checkerror("main.q0: 2 numbers expected", dp.export, dp, { lang = "c", main = { q0 = { 1 }, t1 = 1, dt = 0.1 } })
+    -- a misspelled key of main was ignored (the file used the default method)
+    h.checkerror("main: unknown option 'metod' (options: q0, qd0, t0, t1, dt, rtol, atol)", dp.export, dp,
+      { lang = "c", main = { q0 = { 1, 0 }, t1 = 1, dt = 0.1, metod = "rk4" } })
+    h.checkerror("unknown option 'jacobain' (did you mean 'jacobian'?)", dp.export, dp, { lang = "c", jacobain = false })
   end)
 end)
 

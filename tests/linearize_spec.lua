@@ -98,6 +98,12 @@ describe("sys:linearize without constraints", function()
     h.checkerror("the speed of 'ph' is left out but appears", hoop.linearize, hoop,
       { q = { 0.3, 0 }, qd = { 0, 2 }, coords = { "th" } })
     h.checkerror("'x' is not a coordinate", dp.linearize, dp, { q = { 0, 0 }, coords = { "x" } })
+    -- a misspelled option was dropped: the linearization kept every
+    -- coordinate and speed, and said nothing
+    h.checkerror("sys:linearize 'driven hoop': unknown option 'held' (did you mean 'hold'?)", hoop.linearize, hoop,
+      { q = { 0, 0 }, qd = { 0, 2 }, coords = { "th" }, held = { "ph" } })
+    h.checkerror("sys:equilibrium 'driven hoop': unknown option 'hodl' (did you mean 'hold'?)", hoop.equilibrium, hoop,
+      { q = { 1, 0 }, qd = { 0, 4 }, coords = { "th" }, hodl = { "ph" } })
   end)
 
   it("sys:equilibrium: Newton from a guess to the hoop's off-axis equilibrium and to the double pendulum's inverted one", function()
@@ -320,5 +326,33 @@ describe("sys:linearize with constraints", function()
     h.checkerror("unknown option 'valus'", tp.eigen_sweep, tp, { valus = { 1, 2 } })
     h.checkerror("at(1) must return the options of sys:linearize", tp.eigen_sweep, tp,
       { values = { 1, 2 }, at = function() return 3 end })
+    h.checkerror("at(1) returned unknown option 'bogus'", tp.eigen_sweep, tp,
+      { values = { 1, 2 }, at = function() return { q = { 0, 0, 0 }, bogus = 1 } end })
+  end)
+
+  it("sys:eigen_sweep through the axis: the damped oscillator's one change at c = 0, and its params restored", function()
+    -- m x'' + c x' + k x = 0: lambda = -c/2m +- i sqrt(k/m - c^2/4m^2), so
+    -- the only change is unstable -> stable at c = 0, at 2 rad/s.  A row at
+    -- c = 0 itself is neutral; the first version reported two changes, at
+    -- the edges of the neutral band (c = -+2e-7), each "located to 2e-10".
+    local osc = nz.system{ name = "damped", coords = { "x" }, params = { m = 2, k = 8, c = 0.4 },
+      T = function(t, q, qd, p) return 0.5 * p.m * qd[1] ^ 2 end,
+      V = function(t, q, p) return 0.5 * p.k * q[1] ^ 2 end,
+      Q = function(t, q, qd, p) return { -p.c * qd[1] } end }
+    local values = {}
+    for i = 0, 10 do values[#values + 1] = -1 + 0.2 * i end
+    local sw = osc:eigen_sweep{ parameter = "c", values = values, tol = 1e-12,
+      at = function(c) osc.params.c = c; return { q = { 0 }, qd = { 0 } } end }
+    assert.are.equal("neutral", sw.rows[6].status)
+    assert.are.equal(1, #sw.crossings)
+    local c = sw.crossings[1]
+    assert.are.same({ "unstable", "stable", "oscillatory" }, { c.from, c.to, c.kind })
+    assert(math.abs(c.value) <= 1e-11, ("c = %.3g, want 0"):format(c.value))
+    assert(math.abs(c.frequency - 2) <= 1e-9, ("frequency %.15g, want 2"):format(c.frequency))
+    assert.are.equal(0.4, osc.params.c)
+    -- and restored when at() fails half-way
+    assert.is_false(pcall(osc.eigen_sweep, osc, { values = { 0, 1 },
+      at = function(v) osc.params.c = v; if v > 0 then error("stop") end; return { q = { 0 } } end }))
+    assert.are.equal(0.4, osc.params.c)
   end)
 end)

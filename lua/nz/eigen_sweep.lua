@@ -21,6 +21,7 @@
 -- change to or from neutral: two modes meeting on the imaginary axis, as
 -- when a top starts to sleep, where the largest real part only touches 0).
 local linearize = require "nz.linearize"
+local options = require "nz.options"
 
 local M = {}
 
@@ -37,6 +38,7 @@ local function finite(v) return type(v) == "number" and v == v and math.abs(v) ~
 local function at_value(sys, opts, v)
   local lopts = opts.at(v)
   if type(lopts) ~= "table" then fail(sys, "at(%g) must return the options of sys:linearize (a table), got %s", v, type(lopts)) end
+  options.check(lopts, linearize.OPTIONS, function(fmt, ...) fail(sys, "at(%g) returned " .. fmt, v, ...) end)
   local lin = sys:linearize(lopts)
   local ev = lin:eigenvalues()
   local top, which = -math.huge, nil
@@ -75,13 +77,59 @@ local function locate(sys, opts, a, b, tol)
     kind = math.abs(lead[2]) > there.threshold and "oscillatory" or "real", frequency = math.abs(lead[2]), eigenvalue = lead }
 end
 
-function M.sweep(sys, opts)
-  if type(opts) ~= "table" then fail(sys, "options expected: sys:eigen_sweep{ values = {...}, at = function(v) return {...} end }") end
-  for key in pairs(opts) do
-    if not ({ values = true, at = true, parameter = true, tol = true })[key] then
-      fail(sys, "unknown option '%s' (options: values, at, parameter, tol)", tostring(key))
+-- A run of neutral rows between an unstable and a stable row (either way
+-- round) is one change through the axis when the largest real part has a
+-- simple root there: Brent's root, with the two statuses found just on
+-- either side of it (a hundredth of the bracket away, wider than the
+-- neutral band ~ threshold / slope).  nil when the rows around the root are
+-- neutral too: a neutral interval, whose two edges are changes of their own.
+local function through(sys, opts, a, b, tol)
+  local c = locate(sys, opts, a, b, tol)
+  local d = 0.01 * (b.value - a.value)
+  if at_value(sys, opts, c.value - d).status == a.status and at_value(sys, opts, c.value + d).status == b.status then
+    return c
+  end
+end
+
+-- The changes of stability along the rows.
+local function crossings(sys, opts, rows, tol)
+  local out = {}
+  local function pairwise(i, j)
+    for m = i, j - 1 do
+      if rows[m].status ~= rows[m + 1].status then out[#out + 1] = locate(sys, opts, rows[m], rows[m + 1], tol) end
     end
   end
+  local i = 1
+  while i < #rows do
+    local j = i + 1
+    if rows[i].status ~= "neutral" then
+      while j < #rows and rows[j].status == "neutral" do j = j + 1 end
+    end
+    local c = j > i + 1 and rows[j].status ~= "neutral" and rows[j].status ~= rows[i].status
+      and through(sys, opts, rows[i], rows[j], tol)
+    if c then out[#out + 1] = c else pairwise(i, j) end
+    i = j
+  end
+  return out
+end
+
+local SWEEP_OPTIONS = { "values", "at", "parameter", "tol" }
+
+function M.sweep(sys, opts)
+  if type(opts) ~= "table" then fail(sys, "options expected: sys:eigen_sweep{ values = {...}, at = function(v) return {...} end }") end
+  options.check(opts, SWEEP_OPTIONS, function(...) fail(sys, ...) end)
+  -- at(v) may set sys.params: they are restored after the sweep, as
+  -- nz.sweep does, even when it fails
+  local saved = {}
+  for key, val in pairs(sys.params) do saved[key] = val end
+  local ok, res = pcall(M.run, sys, opts)
+  for key in pairs(sys.params) do if saved[key] == nil then sys.params[key] = nil end end
+  for key, val in pairs(saved) do sys.params[key] = val end
+  if not ok then error(res, 0) end
+  return res
+end
+
+function M.run(sys, opts)
   local values = opts.values
   if type(values) ~= "table" or #values < 2 then fail(sys, "values: a list of at least 2 increasing numbers expected") end
   for i, v in ipairs(values) do
@@ -97,10 +145,7 @@ function M.sweep(sys, opts)
   local sw = setmetatable({ system = sys, parameter = opts.parameter or "parameter", rows = {}, crossings = {},
     tol = tol }, Sweep)
   for i, v in ipairs(values) do sw.rows[i] = at_value(sys, opts, v) end
-  for i = 2, #values do
-    local a, b = sw.rows[i - 1], sw.rows[i]
-    if a.status ~= b.status then sw.crossings[#sw.crossings + 1] = locate(sys, opts, a, b, tol) end
-  end
+  sw.crossings = crossings(sys, opts, sw.rows, tol)
   return sw
 end
 

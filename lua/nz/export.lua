@@ -18,6 +18,7 @@
 -- drift is the integrator's error (as in nzlua without projection).
 local constraints = require "nz.constraints"
 local formula = require "nz.formula"
+local options = require "nz.options"
 
 local M = {}
 
@@ -698,19 +699,18 @@ end
 
 -- ------------------------------------------------------------------ --
 
-local OPTIONS = { lang = true, file = true, main = true, jacobian = true }
+local OPTIONS = { "lang", "file", "main", "jacobian" }
 
 function M.export(sys, opts)
   if type(opts) ~= "table" then fail(sys, "options expected: sys:export{ lang = \"c\", file = \"name.c\" [, main = {...}] }") end
-  for key in pairs(opts) do
-    if not OPTIONS[key] then fail(sys, "unknown option '%s' (options: lang, file, main, jacobian)", tostring(key)) end
-  end
+  options.check(opts, OPTIONS, function(...) fail(sys, ...) end)
   local lang = opts.lang or "c"
   local L = M.languages[lang]
   if not L then fail(sys, "lang = '%s': one of \"c\", \"python\", \"octave\"", tostring(lang)) end
   if opts.main ~= nil then
     local m = opts.main
     if type(m) ~= "table" then fail(sys, "main: a table {q0 =, qd0 =, t1 =, dt = [, t0, rtol, atol]} expected") end
+    options.check(m, { "q0", "qd0", "t0", "t1", "dt", "rtol", "atol" }, function(fmt, ...) fail(sys, "main: " .. fmt, ...) end)
     if type(m.q0) ~= "table" or #m.q0 ~= sys.k then fail(sys, "main.q0: %d numbers expected", sys.k) end
     if m.qd0 ~= nil and (type(m.qd0) ~= "table" or #m.qd0 ~= sys.k) then fail(sys, "main.qd0: %d numbers expected", sys.k) end
     if type(m.t1) ~= "number" or type(m.dt) ~= "number" or m.dt <= 0 or m.t1 <= (m.t0 or 0) then

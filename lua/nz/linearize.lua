@@ -37,6 +37,7 @@
 local core = require "nz.core"
 local mech = core.mech
 local constraints = require "nz.constraints"
+local options = require "nz.options"
 
 local M = {}
 
@@ -504,8 +505,14 @@ local function build(sys, c)
   return lin
 end
 
+M.OPTIONS = { "t", "q", "qd", "coords", "speeds", "hold", "dependent" }
+local EQUILIBRIUM_OPTIONS = { "t", "q", "qd", "coords", "hold", "dependent", "tol", "maxit" }
+
 function M.linearize(sys, opts)
   opts = opts or {}
+  method = "linearize"
+  if type(opts) ~= "table" then fail(sys, "options {q = {...}, qd = {...}, coords =, speeds =, hold =} expected") end
+  options.check(opts, M.OPTIONS, function(...) fail(sys, ...) end)
   local c = prepare(sys, opts, "linearize")
   differentiate(sys, c)
   assemble(sys, c, true)
@@ -521,6 +528,9 @@ end
 -- maxit steps, is an error that says so with the last iterate.
 function M.equilibrium(sys, opts)
   opts = opts or {}
+  method = "equilibrium"
+  if type(opts) ~= "table" then fail(sys, "options {q = {...} [, qd =, coords =, hold =, tol =, maxit =]} expected") end
+  options.check(opts, EQUILIBRIUM_OPTIONS, function(...) fail(sys, ...) end)
   local tol, maxit = opts.tol or 1e-12, opts.maxit or 50
   -- every coordinate the constraints leave free, unless told
   local point = { t = opts.t, q = opts.q, qd = opts.qd, coords = opts.coords, speeds = opts.coords, hold = opts.hold,

@@ -17,6 +17,7 @@
 -- arguments), so they are recorded, evaluated, printed and integrated like
 -- any other.
 local constraints = require "nz.constraints"
+local options = require "nz.options"
 local mech = require("nz.core").mech
 
 local M = {}
@@ -107,9 +108,7 @@ function M.parametric(sys, opts)
   local fname = "parametric"
   opts = opts or {}
   if type(opts) ~= "table" then fail(sys, fname, "options must be a table {time =, tau =}") end
-  for key in pairs(opts) do
-    if key ~= "time" and key ~= "tau" then fail(sys, fname, "unknown option '%s' (options: time, tau)", tostring(key)) end
-  end
+  options.check(opts, { "time", "tau" }, function(...) fail(sys, fname, ...) end)
   local tname = opts.time or "t"
   for _, c in ipairs(sys.coords) do
     if c == tname then fail(sys, fname, "a coordinate is already named '%s': name time otherwise (time = \"...\")", tname) end
@@ -286,11 +285,7 @@ end
 function M.jacobi_whittaker(sys, opts)
   local fname = "jacobi_whittaker"
   if type(opts) ~= "table" then fail(sys, fname, "options {h = ..., independent = ...} expected") end
-  for key in pairs(opts) do
-    if key ~= "h" and key ~= "independent" then
-      fail(sys, fname, "unknown option '%s' (options: h, independent)", tostring(key))
-    end
-  end
+  options.check(opts, { "h", "independent" }, function(...) fail(sys, fname, ...) end)
   local h = opts.h
   if type(h) ~= "number" or h ~= h or math.abs(h) == math.huge then
     fail(sys, fname, "h: the value of the energy integral H = h (a finite number) expected, got %s", tostring(h))

@@ -8,6 +8,7 @@
 -- and compare with sys:residual).
 local formula = require "nz.formula"
 local constraints = require "nz.constraints"
+local options = require "nz.options"
 
 local M = {}
 
@@ -237,11 +238,7 @@ end
 function M.show(sys, opts)
   opts = opts or {}
   if type(opts) ~= "table" then fail(sys, "options must be a table {tex =, lua =, mass =, bias =, width =}") end
-  for key in pairs(opts) do
-    if not ({ tex = true, lua = true, mass = true, bias = true, width = true, names = true, reduced = true, appell = true })[key] then
-      fail(sys, "unknown option '%s' (options: tex, lua, mass, bias, reduced, appell, width, names)", tostring(key))
-    end
-  end
+  options.check(opts, { "tex", "lua", "mass", "bias", "reduced", "appell", "width", "names" }, function(...) fail(sys, ...) end)
   local eq = M.equations(sys)
   local k = sys.k
   if opts.lua then
