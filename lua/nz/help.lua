@@ -341,7 +341,8 @@ Methods (t a number, q, qd, qdd tables of k numbers):
                              sample states; print it for the statement
   sys:energy_theorem(tr)     along a trajectory simulated with monitors =
                              {energy = true, work = true}: the drift of H and
-                             of T + V - integral R_0 dt (Rumyantsev eq. 3.3-3.7)
+                             of T + V - W, W = integral (R_0 + Q.q') dt: the
+                             work of moving constraints and forces Q (eq. 3.3-3.7)
   sys:parametric{[time = "t", tau = function(s) return t end]}  the system in
                              (q, t) with a parameter as its time and
                              Lambda = L(t, q, x'/t') t' (eq. 1.14-1.17): k + 1

@@ -243,15 +243,16 @@ function Integral:__tostring()
   end
   local lines = { ("'%s': H = T2 - T0 + V is not a first integral:"):format(sys.name) }
   for _, r in ipairs(self.reasons) do lines[#lines + 1] = "  - " .. r end
-  lines[#lines + 1] = "  What holds instead: dH/dt = -dL/dt + sum_l lambda_l sum_i (df_l/dq'_i) q'_i (eq. 1.19), and T + V - integral R_0 dt"
-    .. " is constant (eq. 3.3-3.7): simulate with monitors = {energy = true, work = true} and see sys:energy_theorem(tr)."
+  lines[#lines + 1] = "  What holds instead: dH/dt = -dL/dt + sum_i Q_i q'_i + sum_l lambda_l sum_i (df_l/dq'_i) q'_i (eq. 1.19 with the"
+    .. " forces' power), and T + V - W is constant, W = integral (R_0 + sum_i Q_i q'_i) dt the work of the moving constraints"
+    .. " and of the forces Q (eq. 3.3-3.7): simulate with monitors = {energy = true, work = true} and see sys:energy_theorem(tr)."
   return table.concat(lines, "\n")
 end
 
 -- Along a trajectory recorded with monitors = {energy = true, work = true}:
 -- the drift of H (its conservation, when energy_integral holds) and of
--- T + V - W, W = integral R_0 dt (always: eq. 3.3-3.7), each relative to
--- the size of the energy.
+-- T + V - W, W = integral (R_0 + Q.q') dt (always: eq. 3.3-3.7 with the
+-- forces' work), each relative to the size of the energy.
 function M.energy_theorem(sys, tr)
   local fname = "energy_theorem"
   if type(tr) ~= "table" or not tr.t then fail(sys, fname, "a trajectory of sys:simulate expected") end

@@ -574,6 +574,21 @@ int nz_force_velocity_jacobian(const nz_system *s, double t, const double *q, co
   return st;
 }
 
+int nz_force_power(const nz_system *s, double t, const double *q, const double *qd, double *P)
+{
+  int k = s->k, st;
+  const double *state[2] = { q, qd };
+  *P = 0.0;
+  if (!nz_system_has(s, NZ_PIECE_Q)) return NZ_OK;
+  nz_motion mo;
+  if ((st = nz_motion_init(&mo, k, 2, 0, 0, t, state, 2))) return st;
+  st = nz_motion_eval(s, NZ_PIECE_Q, 0, &mo, NULL);
+  if (!st)
+    for (int i = 0; i < k; i++) *P += mo.out[i]->c[0] * qd[i];
+  nz_motion_free(&mo);
+  return st;
+}
+
 int nz_lagrangian_time_partial(const nz_system *s, double t, const double *q, const double *qd,
                                double *dLdt)
 {

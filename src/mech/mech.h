@@ -214,6 +214,10 @@ int nz_mass_bias(const nz_system *s, double t, const double *q, const double *qd
 int nz_force_velocity_jacobian(const nz_system *s, double t, const double *q, const double *qd,
                                double *J);
 
+/* The power of the forces Q, sum_i Q_i q'_i (0 without Q): with the
+ * reactions' R_0 (§9), the rate of T + V along the motion. */
+int nz_force_power(const nz_system *s, double t, const double *q, const double *qd, double *P);
+
 /* dL/dt with q and q' held (L = F - V): the explicit time dependence (§9). */
 int nz_lagrangian_time_partial(const nz_system *s, double t, const double *q, const double *qd,
                                double *dLdt);

@@ -141,7 +141,8 @@ static int accelerations(nz_ode *o, double t, const double *y, double *out)
   return st;
 }
 
-/* R_0 of (9.1): d/dt(T1 + 2 T0) - dL/dt + sum_r lambda_r A_r . q' */
+/* W' = R_0 of (9.1), d/dt(T1 + 2 T0) - dL/dt + sum_r lambda_r A_r . q', plus
+ * the forces' power Q . q' */
 static int reaction_power(nz_ode *o, double t, const double *y, const double *acc, double *R0)
 {
   int k = o->k;
@@ -149,7 +150,12 @@ static int reaction_power(nz_ode *o, double t, const double *y, const double *ac
   int st = nz_lagrangian_time_partial(o->s, t, y, y + k, &dLdt);
   if (!st) st = nz_kinetic_parts(o->s, t, y, y + k, acc, &T0, &T1, &rate);
   if (st) return st;
-  *R0 = rate - dLdt;
+  /* the forces' power too: W is then the work of everything outside V, and
+   * T + V - W is constant along every motion (Q does work on T + V as the
+   * moving constraints' reactions do) */
+  double PQ = 0.0;
+  if ((st = nz_force_power(o->s, t, y, y + k, &PQ))) return st;
+  *R0 = rate - dLdt + PQ;
   for (int r = 0; r < o->nc; r++) {
     double p = 0.0;
     for (int i = 0; i < k; i++) p += o->A[(size_t)r * k + i] * y[k + i];

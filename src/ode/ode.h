@@ -1,7 +1,7 @@
 /* ode.h - the motion of a mechanical system as a first-order ODE for GSL's
- * odeiv2 steppers: y = (q, q'[, W]), y' = (q', q''(t, q, q')[, R_0]), where
- * W = integral R_0 dt is the work of moving constraints (docs/theory.md §9),
- * carried only when asked for.
+ * odeiv2 steppers: y = (q, q'[, W]), y' = (q', q''(t, q, q')[, R_0 + Q.q']),
+ * where W is the work of moving constraints and of the forces Q
+ * (docs/theory.md §9), carried only when asked for.
  *
  * The caller steps it one adaptive (or fixed) step at a time, so that the
  * output grid, events, projection and monitors stay in the caller's hands
@@ -23,7 +23,7 @@ typedef struct nz_ode_config {
   const char *method;        /* a GSL odeiv2 stepper name: rk8pd, msbdf, ...        */
   double rtol, atol;         /* adaptive control; ignored by fixed steps            */
   double h0;                 /* first step                                          */
-  int work;                  /* carry W = integral R_0 dt                           */
+  int work;                  /* carry W = integral (R_0 + Q.q') dt                  */
   int nc;                    /* constraints, with their classification:             */
   const int *orders, *linear;
   nz_accel_options accel;    /* including Baumgarte's alpha, beta                   */
