@@ -195,6 +195,19 @@ describe("sys:show{tex = true}", function()
     assert.are.equal(lefts, rights)
     assert.truthy(dp:find("\\ddot{\\theta}_{1}", 1, true) or dp:find("\\ddot{\\theta_{1}}", 1, true), dp)
   end)
+  it("the mass matrix, the bias, Appell's S and Tsenov's reduced equations in LaTeX too (they were left out)", function()
+    local tex = pendulum():show{ tex = true, mass = true, bias = true, appell = true }
+    assert.truthy(tex:find("% the mass matrix M(q)\n\\begin{aligned}\n  M_{\\theta \\theta} &= l^{2} \\, m\n\\end{aligned}", 1, true), tex)
+    assert.truthy(tex:find("h_{\\theta} &= g \\, l \\, m \\, \\sin\\left(\\theta\\right)", 1, true), tex)
+    assert.truthy(tex:find("S &= 0.5 \\, l^{2} \\, m \\, \\ddot{\\theta}^{2}", 1, true), tex)
+    local knife = nz.system{ name = "knife", coords = { "x", "y", "th" },
+      T = function(t, q, qd) return 0.5 * (qd[1] ^ 2 + qd[2] ^ 2 + qd[3] ^ 2) end,
+      constraints = { function(t, q, qd) return qd[2] * nz.cos(q[3]) - qd[1] * nz.sin(q[3]) end } }
+    -- y dependent: x'' + tan(th) y'' = 0 multiplied by cos(th), by hand
+    local red = knife:show{ tex = true, reduced = true }
+    assert.truthy(red:find("\\cos\\left(\\theta\\right) \\, \\ddot{x} + \\sin\\left(\\theta\\right) \\, \\ddot{y} &= 0", 1, true), red)
+    for block in red:gmatch("\\begin{aligned}(.-)\\end{aligned}") do assert.is_nil(block:find("\\begin", 1, true)) end
+  end)
 end)
 
 describe("sys:show{lua = true}: the formulas loaded back equal the engine's residual", function()

@@ -235,6 +235,56 @@ local function short_names(polys)
   return names, where
 end
 
+-- What sys:show prints beside the equations when asked (reduced, appell,
+-- mass, bias): a list of {title, rows = {{left, right}, ...}} in lang.
+local function extras(sys, eq, opts, lang, names)
+  local k, out = sys.k, {}
+  local tex = lang == "tex"
+  -- a coordinate as the equations write it (th -> \theta in LaTeX)
+  local function name(i)
+    return formula.print(formula.symbol(sys.coords[i], { base = sys.coords[i], dots = 0, slot = 0, coord = i }), lang)
+  end
+  local width = 0
+  for i = 1, k do width = math.max(width, #sys.coords[i]) end
+  if opts.reduced then
+    local red, why = M.reduced(sys, eq)
+    if not red then fail(sys, "reduced = true: %s", why) end
+    local dn = {}
+    for n, i in ipairs(red.dependent) do dn[n] = sys.coords[i] end
+    local x = { title = ("Tsenov's reduced equations, without multipliers (dependent: %s; the coupled ones multiplied by %s), "
+      .. "one per independent coordinate"):format(table.concat(dn, ", "), formula.print(red.det, "text", names, true)), rows = {} }
+    for n, e in ipairs(red.equations) do
+      local left = formula.print(formula.ordered(e, rank), lang, names)
+      x.rows[n] = tex and { left, "0" } or { ("%-" .. width .. "s:  %s"):format(sys.coords[red.independent[n]], left), "0" }
+    end
+    out[#out + 1] = x
+  end
+  if opts.appell then
+    out[#out + 1] = { title = "Appell's function of the accelerations (up to terms free of q''; dS/dq''_i = Q_i - dV/dq_i + (A^T lambda)_i)",
+      rows = { { "S", formula.print(formula.ordered(M.appell(sys, eq), rank), lang, names) } } }
+  end
+  if opts.mass then
+    local x = { title = "the mass matrix M(q)", rows = {} }
+    for i = 1, k do
+      for j = i, k do
+        if #eq.M[i][j].terms > 0 then
+          local left = tex and ("M_{%s %s}"):format(name(i), name(j)) or ("M[%s, %s]"):format(sys.coords[i], sys.coords[j])
+          x.rows[#x.rows + 1] = { left, formula.print(eq.M[i][j], lang, names, true) }
+        end
+      end
+    end
+    out[#out + 1] = x
+  end
+  if opts.bias then
+    local x = { title = "the bias h(q, q') (with the forces: dV/dq - Q)", rows = {} }
+    for i = 1, k do
+      x.rows[i] = { tex and ("h_{%s}"):format(name(i)) or ("h[%s]"):format(sys.coords[i]), formula.print(eq.h[i], lang, names, true) }
+    end
+    out[#out + 1] = x
+  end
+  return out
+end
+
 function M.show(sys, opts)
   opts = opts or {}
   if type(opts) ~= "table" then fail(sys, "options must be a table {tex =, lua =, mass =, bias =, width =}") end
@@ -317,6 +367,19 @@ function M.show(sys, opts)
     end
     out[#out] = out[#out]:gsub(" \\\\$", "")
     out[#out + 1] = "\\end{aligned}"
+    -- what was asked for beside the equations: a block each, named in a
+    -- LaTeX comment, so that each compiles on its own
+    local function block(title, lines)
+      out[#out + 1] = "% " .. title
+      out[#out + 1] = "\\begin{aligned}"
+      for n, l in ipairs(lines) do out[#out + 1] = "  " .. l .. (n < #lines and " \\\\" or "") end
+      out[#out + 1] = "\\end{aligned}"
+    end
+    for _, x in ipairs(extras(sys, eq, opts, "tex", names)) do
+      local lines = {}
+      for _, row in ipairs(x.rows) do lines[#lines + 1] = ("%s &= %s"):format(row[1], row[2]) end
+      block(x.title, lines)
+    end
     local s = table.concat(out, "\n")
     if names then   -- short names are plain letters in text; typeset them with an index
       for _, e in ipairs(where) do
@@ -346,34 +409,9 @@ function M.show(sys, opts)
       out[#out + 1] = ("  %s = %s"):format(names[e.key], formula.print_atom(e.atom, formula.printers.text, nil))
     end
   end
-  if opts.reduced then
-    local red, why = M.reduced(sys, eq)
-    if not red then fail(sys, "reduced = true: %s", why) end
-    local dn = {}
-    for n, i in ipairs(red.dependent) do dn[n] = sys.coords[i] end
-    out[#out + 1] = ("Tsenov's reduced equations, without multipliers (dependent: %s; the coupled ones multiplied by %s):"):format(
-      table.concat(dn, ", "), formula.print(red.det, "text", names, true))
-    for n, e in ipairs(red.equations) do
-      out[#out + 1] = ("  %-" .. width .. "s:  %s = 0"):format(sys.coords[red.independent[n]], formula.print(formula.ordered(e, rank), "text", names))
-    end
-  end
-  if opts.appell then
-    out[#out + 1] = "Appell's function of the accelerations (up to terms free of q''; dS/dq''_i = Q_i - dV/dq_i + (A^T lambda)_i):"
-    out[#out + 1] = "  S = " .. formula.print(formula.ordered(M.appell(sys, eq), rank), "text", names)
-  end
-  if opts.mass then
-    out[#out + 1] = "the mass matrix M(q):"
-    for i = 1, k do
-      for j = i, k do
-        if #eq.M[i][j].terms > 0 then
-          out[#out + 1] = ("  M[%s, %s] = %s"):format(sys.coords[i], sys.coords[j], formula.print(eq.M[i][j], "text", names, true))
-        end
-      end
-    end
-  end
-  if opts.bias then
-    out[#out + 1] = "the bias h(q, q') (with the forces: dV/dq - Q):"
-    for i = 1, k do out[#out + 1] = ("  h[%s] = %s"):format(sys.coords[i], formula.print(eq.h[i], "text", names, true)) end
+  for _, x in ipairs(extras(sys, eq, opts, "text", names)) do
+    out[#out + 1] = x.title .. ":"
+    for _, row in ipairs(x.rows) do out[#out + 1] = ("  %s = %s"):format(row[1], row[2]) end
   end
   return table.concat(out, "\n")
 end
