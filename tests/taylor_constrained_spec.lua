@@ -164,4 +164,29 @@ describe("what taylor refuses under constraints", function()
     h.checkerror("method 'taylor' cannot run this system: the Taylor method needs the constraints recorded, "
       .. "and constraint 1 runs in Lua", branch.simulate, branch, { q0 = { 1, 1 }, t1 = 1, method = "taylor" })
   end)
+
+  it("a singular constrained solve is said as the GSL steppers say it, with the constraints involved (it crashed)", function()
+    -- the reading of the constraints in a dependence had no storage under
+    -- taylor: every singular [M A^T; A 0] ended in a segmentation fault
+    local T2 = function(t, q, qd) return 0.5 * (qd[1] ^ 2 + qd[2] ^ 2) end
+    local redundant = nz.system{ name = "redundant", coords = { "x", "y" }, T = T2,
+      constraints = { function(t, q) return q[1] ^ 2 + q[2] ^ 2 - 1 end, function(t, q) return 2 * (q[1] ^ 2 + q[2] ^ 2 - 1) end } }
+    h.checkerror("system 'redundant': dependent constraints: constraints 1 and 2 (the rank of their gradients A is 1 < 2)",
+      redundant.simulate, redundant, { q0 = { 1, 0 }, t1 = 1, method = "taylor" })
+    -- qd1 + qd2 = 0 and qd1 + t qd2 = 0 become dependent at t = 1 (by hand)
+    local later = nz.system{ name = "later", coords = { "x", "y" }, T = T2,
+      constraints = { function(t, q, qd) return qd[1] + qd[2] end, function(t, q, qd) return qd[1] + t * qd[2] end } }
+    local ok, e = pcall(later.simulate, later, { q0 = { 0, 0 }, t1 = 2, method = "taylor" })
+    assert.is_false(ok)
+    assert.truthy(tostring(e):find("dependent constraints: constraints 1 and 2", 1, true), e)
+    assert(math.abs(tonumber(tostring(e):match("at t = ([%d.e+-]+)")) - 1) <= 1e-12, e)
+    local cone = nz.system{ name = "cone", coords = { "x", "y" }, T = T2,
+      constraints = { function(t, q) return q[1] ^ 2 - q[2] ^ 2 end } }
+    h.checkerror("constraint 1 has a zero gradient dPhi/dq^(m) here", cone.simulate, cone,
+      { q0 = { 0, 0 }, t1 = 1, method = "taylor" })
+    local massless = nz.system{ name = "massless z", coords = { "x", "y", "z" }, T = T2,
+      constraints = { function(t, q) return q[1] - q[2] end } }
+    h.checkerror("the mass matrix is singular on the directions the constraints allow", massless.simulate, massless,
+      { q0 = { 0, 0, 0 }, t1 = 1, method = "taylor" })
+  end)
 end)

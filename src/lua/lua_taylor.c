@@ -58,6 +58,7 @@ typedef struct series_ctx {
   int *orders, *linear;   /* nc each (NULL: free)                           */
   double *qdd, *lam;      /* the start's, k and nc                           */
   nz_accel_report rep;    /* of the last constrained solve                   */
+  int *involved;          /* nc + 1: rep.involved, the constraints in a dependence */
   int accel_failed;       /* a constrained solve failed (rep says why)       */
   nz_solve_info mass;     /* of the last unconstrained solve                 */
   int mass_failed;        /* M was singular there                            */
@@ -85,6 +86,7 @@ static int motion_series(void *ctx, const nz_system *s, double t0, const double 
   int k = c->k;
   nz_accel_options opt = NZ_ACCEL_DEFAULTS;
   memset(&c->rep, 0, sizeof c->rep);
+  c->rep.involved = c->involved;   /* read by the error that names dependent constraints */
   int st = nz_accel_constrained(s, c->orders, c->linear, t0, q0, qd0, &opt, c->qdd, c->lam, &c->rep);
   if (st) {
     c->accel_failed = 1;
@@ -115,6 +117,7 @@ static int accel_at(void *ctx, const nz_system *s, double t, const double *q, co
     return st;
   }
   memset(&c->rep, 0, sizeof c->rep);
+  c->rep.involved = c->involved;   /* read by the error that names dependent constraints */
   int st = nz_accel_constrained(s, c->orders, c->linear, t, q, qd, &opt, out, out + c->k, &c->rep);
   if (st) {
     c->accel_failed = 1;
@@ -150,7 +153,7 @@ static series_ctx *series_new(lua_State *L, bound_system *b, int idx, const char
     }
     lua_pop(L, 2);
   }
-  size_t ints = 2 * ((size_t)nc + 1), doubles = 3 * (size_t)k + (size_t)nc + 1;
+  size_t ints = 3 * ((size_t)nc + 1), doubles = 3 * (size_t)k + (size_t)nc + 1;
   size_t size = sizeof(series_ctx) + ints * sizeof(int) + doubles * sizeof(double);
   series_ctx *c = lua_owned ? lua_newuserdatauv(L, size, 0) : malloc(size);
   if (!c) {
@@ -164,9 +167,10 @@ static series_ctx *series_new(lua_State *L, bound_system *b, int idx, const char
   c->nc = nc;
   c->qdd = d, c->q = d + k, c->qd = d + 2 * k, c->lam = d + 3 * k;
   if (nc > 0) {
-    memcpy(iw, flags, ints * sizeof(int));
+    memcpy(iw, flags, 2 * ((size_t)nc + 1) * sizeof(int));
     c->orders = iw;
     c->linear = iw + nc + 1;
+    c->involved = iw + 2 * (nc + 1);
   }
   lua_remove(L, fidx);
   return c;
@@ -266,11 +270,8 @@ static const char *failure_text(nz_stepper *st, nz_compiled *comp, char *what, s
   }
   if (f != NZ_TAYLOR_SERIES) return NULL;
   if (status == NZ_ENOMEM) snprintf(what, n, "not enough memory");
-  else if (c->accel_failed)   /* the start of the series under constraints */
-    snprintf(what, n, "the accelerations under the constraints could not be solved at t = %s (%s)", num,
-             c->rep.failure == NZ_ACCEL_SINGULAR ? "the matrix [M A^T; A 0] is singular there"
-             : c->rep.failure == NZ_ACCEL_NEWTON ? "Newton's method did not converge"
-             : "the solution failed its check");
+  else if (c->accel_failed)   /* the start of the series under constraints: said as the GSL steppers say it */
+    return NULL;
   else snprintf(what, n, "the series of the motion failed at t = %s: %s (status %d)", num, nz_compiled_failure(comp),
                 status);
   return "series";

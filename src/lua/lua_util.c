@@ -295,12 +295,15 @@ int nz_lua_raise_accel_failure(lua_State *L, int def, const nz_accel_report *rep
     }
   } else {
     int ninvolved = 0, lone = 0;
+    const char *advice = ": remove a redundant constraint or move away from this configuration";
     for (int r = 0; r < nc; r++)
       if (involved[r]) { ninvolved++; lone = r; }
     if (rep.rank_A < nc && ninvolved == 1) {
       snprintf(num, sizeof num, "constraint %d has a zero gradient dPhi/dq^(m) here (a singular "
                "configuration of the constraint)", lone + 1);
       luaL_addstring(&msg, num);
+      advice = ": the motion is not determined there; move away from this configuration, or write the "
+               "constraint so that its gradient does not vanish on the motion";
     } else if (rep.rank_A < nc) {
       luaL_addstring(&msg, "dependent constraints: ");
       int first = 1;
@@ -314,12 +317,14 @@ int nz_lua_raise_accel_failure(lua_State *L, int def, const nz_accel_report *rep
       luaL_addstring(&msg, num);
     } else {
       luaL_addstring(&msg, "the mass matrix is singular on the directions the constraints allow");
+      advice = ": give every direction the constraints leave free a mass (T positive definite on them), "
+               "or move away from this configuration";
     }
     snprintf(num, sizeof num, ": [M A^T; A 0] is singular or badly conditioned (reciprocal condition %.2g)",
              rep.rcond);
     luaL_addstring(&msg, num);
     nz_lua_add_state(&msg, t, q, qd, k);
-    luaL_addstring(&msg, ": remove a redundant constraint or move away from this configuration");
+    luaL_addstring(&msg, advice);
   }
   luaL_pushresult(&msg);
   return lua_error(L);
