@@ -3,6 +3,7 @@
  * and the errors raised with the state.  It calls no other binding, so the
  * bindings depend on it and never on each other for these. */
 #include <math.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -19,6 +20,57 @@ void nz_lua_fmt_num(char *buf, size_t n, double v)
   }
   snprintf(buf, n, "%.15g", v);
   if (strtod(buf, NULL) != v) snprintf(buf, n, "%.17g", v);
+}
+
+/* Is this chunk one of the nz library's own files: embedded as
+ * "@lua/nz/NAME.lua", or loaded from a checkout (".../lua/nz/NAME.lua")?
+ * The same test as nz/where.lua's is_library. */
+int nz_lua_library_source(const char *source)
+{
+  if (strncmp(source, "@lua/nz/", 8) == 0) return 1;
+  const char *dir = strstr(source, "/lua/nz/");
+  if (!dir || source[0] != '@') return 0;
+  const char *name = dir + strlen("/lua/nz/");
+  size_t n = strlen(name);
+  return n > 4 && strcmp(name + n - 4, ".lua") == 0 && !strchr(name, '/');
+}
+
+void nz_lua_user_location(lua_State *L, int level, char *where, size_t n)
+{
+  lua_Debug ar;
+  where[0] = '\0';
+  for (; lua_getstack(L, level, &ar); level++) {
+    lua_getinfo(L, "Sl", &ar);
+    if (ar.currentline <= 0 || nz_lua_library_source(ar.source)) continue;
+    snprintf(where, n, "%s:%d:", ar.short_src, ar.currentline);
+    return;
+  }
+}
+
+/* Every error of the bindings about the user's input or state goes out
+ * here, so that it starts with the user's file:line as the README promises
+ * (a binding is called from the library's Lua files, so luaL_error's level 1
+ * would name lua/nz/...; lua_error alone names nothing). */
+int nz_lua_raise_located(lua_State *L)
+{
+  char where[512];
+  nz_lua_user_location(L, 0, where, sizeof where);
+  size_t n = strlen(where);
+  const char *msg = lua_tostring(L, -1);
+  if (n > 0 && msg && !(strncmp(msg, where, n) == 0 && msg[n] == ' ')) {
+    lua_pushfstring(L, "%s %s", where, msg);
+    lua_remove(L, -2);
+  }
+  return lua_error(L);
+}
+
+int nz_lua_error(lua_State *L, const char *fmt, ...)
+{
+  va_list ap;
+  va_start(ap, fmt);
+  lua_pushvfstring(L, fmt, ap);
+  va_end(ap);
+  return nz_lua_raise_located(L);
 }
 
 /* The interrupt: one object per Lua state, kept in the registry, that the
@@ -82,10 +134,10 @@ void nz_lua_read_vector(lua_State *L, int idx, int k, double *v, const char *wha
     return;
   }
   if (!lua_istable(L, idx))
-    luaL_error(L, "bad argument to '%s' (%s: a table of %d numbers expected, got %s)", fname, what,
+    nz_lua_error(L, "bad argument to '%s' (%s: a table of %d numbers expected, got %s)", fname, what,
                k, luaL_typename(L, idx));
   if (luaL_len(L, idx) != k)
-    luaL_error(L, "bad argument to '%s' (%s: %d numbers expected, one per coordinate, got %d)",
+    nz_lua_error(L, "bad argument to '%s' (%s: %d numbers expected, one per coordinate, got %d)",
                fname, what, k, (int)luaL_len(L, idx));
   for (int i = 0; i < k; i++) {
     lua_geti(L, idx, i + 1);
@@ -93,7 +145,7 @@ void nz_lua_read_vector(lua_State *L, int idx, int k, double *v, const char *wha
     v[i] = lua_tonumberx(L, -1, &isnum);
     lua_pop(L, 1);
     if (!isnum || !isfinite(v[i]))
-      luaL_error(L, "bad argument to '%s' (%s[%d] must be a finite number)", fname, what, i + 1);
+      nz_lua_error(L, "bad argument to '%s' (%s[%d] must be a finite number)", fname, what, i + 1);
   }
 }
 
@@ -189,7 +241,7 @@ int nz_lua_raise_singular_mass(lua_State *L, int def, double t, const double *q,
   }
   luaL_addstring(&msg, "): check T, or move away from this configuration");
   luaL_pushresult(&msg);
-  return lua_error(L);
+  return nz_lua_raise_located(L);
 }
 
 /* What the check after the solve found (NZ_ACCEL_CHECK). */
@@ -322,6 +374,6 @@ int nz_lua_raise_accel_failure(lua_State *L, int def, const nz_accel_report *rep
     luaL_addstring(&msg, ": remove a redundant constraint or move away from this configuration");
   }
   luaL_pushresult(&msg);
-  return lua_error(L);
+  return nz_lua_raise_located(L);
 }
 
