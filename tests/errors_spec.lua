@@ -318,6 +318,58 @@ describe("errors raised by the engine start with the caller's file:line", functi
   end)
 end)
 
+describe("a parameter that is no longer a finite number is named", function()
+  -- Checked once per call of the mechanics, before any function runs: once
+  -- params.g = 0/0 surfaced as "bad argument #1 to 'mul' (got NaN ...)"
+  -- inside V, and params.g = nil at lua/nz/simulate.lua:600.
+  local function pend(compile)
+    return nz.system{ name = "pend", coords = { "th" }, params = { g = g, l = 2.0 }, compile = compile,
+      T = function(t, q, qd, p) return 0.5 * p.l ^ 2 * qd[1] ^ 2 end,
+      V = function(t, q, p) return -p.g * p.l * nz.cos(q[1]) end }
+  end
+  local SPEC_PAT = SPEC:gsub("%p", "%%%0")
+  for _, compile in ipairs{ true, false } do
+    it(("NaN, inf, nil, a string: accel, simulate, energy, linearize (%s)"):format(compile and "recorded" or "in Lua"), function()
+      local sys = pend(compile)
+      local good = sys:accel(0, { 0.385 }, { 0 })[1]
+      local cases = {
+        { 0 / 0, "params.g is NaN (a NaN comes from an earlier computation, such as 0/0" },
+        { math.huge, "params.g is inf: set sys.params.g to a finite number" },
+        { nil, "params.g is nil (removed, or never set again), and it was a number when the system was made" },
+        { "9.81", "params.g is the string \"9.81\", and it was a number when the system was made" },
+      }
+      for _, case in ipairs(cases) do
+        sys.params.g = case[1]
+        local calls = {
+          function() return (sys:accel(0, { 0.385 }, { 0 })) end,
+          function() return (sys:simulate{ q0 = { 0.385 }, t1 = 1 }) end,
+          function() return (sys:energy(0, { 0.385 }, { 0 })) end,
+          function() return (sys:linearize{ q = { 0 } }) end,
+        }
+        for n, f in ipairs(calls) do
+          local info = debug.getinfo(f, "S")
+          local ok, err = pcall(f)
+          assert.are.equal(false, ok)
+          err = tostring(err)
+          assert.are.equal(info.linedefined, tonumber(err:match("^" .. SPEC_PAT .. ":(%d+): ")), err)
+          assert.truthy(err:find("system 'pend': " .. case[2], 1, true), ("call %d: %s"):format(n, err))
+          assert.falsy(err:find("'mul'", 1, true), err)
+        end
+      end
+      sys.params.g = g              -- and it works again
+      assert.are.equal(good, sys:accel(0, { 0.385 }, { 0 })[1])
+      sys.params.g = 2 * g          -- a new value is read: th'' = -(g/l) sin th
+      assert(math.abs(sys:accel(0, { 0.385 }, { 0 })[1] - 2 * good) <= 1e-14 * math.abs(good))
+    end)
+  end
+  it("parameters that were not numbers are not checked", function()
+    local sys = nz.system{ name = "tabled", coords = { "x" }, params = { k = 4, data = { 1, 2 } },
+      T = function(t, q, qd, p) return 0.5 * qd[1] ^ 2 end, V = function(t, q, p) return 0.5 * p.k * q[1] ^ 2 end }
+    sys.params.data = "anything"
+    assert.are.equal(-4 * 0.5, sys:accel(0, { 0.5 }, { 0 })[1])
+  end)
+end)
+
 describe("a recorded function that fails at a state", function()
   it("hands the evaluation to Lua, whose error names the user's line, the system and the state", function()
     local line = here() + 2

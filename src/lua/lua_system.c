@@ -479,8 +479,51 @@ static system_object *system_object_of(lua_State *L, int def)
   return o;
 }
 
+/* A parameter declared as a number (a named number of params when the
+ * system was made) must still be a finite number: the value at the top of
+ * the stack, its name below it.  Raises, naming it, for NaN, an infinity,
+ * nil or anything else (a numeric string too: T and V would do arithmetic
+ * on it), so that `sys.params.g = 0/0` is said here, at the user's line,
+ * and not met later as a NaN deep inside V. */
+static void check_param(lua_State *L, int def)
+{
+  double v = lua_tonumber(L, -1);
+  if (lua_type(L, -1) == LUA_TNUMBER && isfinite(v)) return;
+  const char *name = lua_tostring(L, -2), *sys = nz_lua_system_name(L, def);
+  if (lua_type(L, -1) == LUA_TNUMBER)
+    nz_lua_error(L, "system '%s': params.%s is %s%s: set sys.params.%s to a finite number (every function of the "
+                 "system reads it as one)", sys, name, isnan(v) ? "NaN" : v > 0 ? "inf" : "-inf",
+                 isnan(v) ? " (a NaN comes from an earlier computation, such as 0/0 or inf - inf)" : "", name);
+  const char *what = lua_isnil(L, -1) ? "nil (removed, or never set again)"
+                   : lua_type(L, -1) == LUA_TSTRING ? lua_pushfstring(L, "the string \"%s\"", lua_tostring(L, -1))
+                   : lua_pushfstring(L, "a %s", luaL_typename(L, -1));
+  nz_lua_error(L, "system '%s': params.%s is %s, and it was a number when the system was made (its functions "
+               "read it as one): set sys.params.%s to a finite number", sys, name, what, name);
+}
+
+/* Every parameter declared as a number (def.param_names, lua/nz/system.lua)
+ * is still one: checked once per call of the mechanics (each binding binds
+ * once; a run once per chunk of steps), not per evaluation. */
+static void check_params(lua_State *L, int def)
+{
+  if (lua_getfield(L, def, "param_names") != LUA_TTABLE) {
+    lua_pop(L, 1);
+    return;
+  }
+  lua_getfield(L, def, "params");
+  lua_Integer n = (lua_Integer)lua_rawlen(L, -2);
+  for (lua_Integer p = 1; p <= n && lua_istable(L, -1); p++) {
+    lua_rawgeti(L, -2, p);
+    lua_pushvalue(L, -1);
+    lua_gettable(L, -3);
+    check_param(L, def);
+    lua_pop(L, 2);
+  }
+  lua_pop(L, 2);
+}
+
 /* The recording's parameters take their current values from def.params
- * (def.compiled_params lists their names in input order). */
+ * (def.compiled_params lists their names in input order), each checked. */
 static void read_params(lua_State *L, int def, struct nz_compiled *comp, int np)
 {
   double *pv = nz_compiled_params(comp);
@@ -488,15 +531,11 @@ static void read_params(lua_State *L, int def, struct nz_compiled *comp, int np)
   lua_getfield(L, def, "params");
   for (int p = 0; p < np; p++) {
     lua_geti(L, -2, p + 1);
-    lua_gettable(L, -2);
-    int isnum;
-    pv[p] = lua_tonumberx(L, -1, &isnum);
-    if (!isnum) {
-      lua_geti(L, -3, p + 1);
-      luaL_error(L, "system '%s': params.%s must stay a number (its functions were recorded reading it as one), got %s",
-                 nz_lua_system_name(L, def), lua_tostring(L, -1), luaL_typename(L, -2));
-    }
-    lua_pop(L, 1);
+    lua_pushvalue(L, -1);
+    lua_gettable(L, -3);
+    check_param(L, def);
+    pv[p] = lua_tonumber(L, -1);
+    lua_pop(L, 2);
   }
   lua_pop(L, 2);
 }
@@ -513,6 +552,9 @@ void nz_lua_bind_system(lua_State *L, int def, bound_system *b)
   b->ev.k = o->sys.k;
   b->ev.where[0] = '\0';
   b->ev.interrupted = 0;
+  /* The recorded parameters are the declared ones (both: the named numbers
+   * of params when the system was made), checked as they are read. */
+  if (!b->comp || o->np == 0) check_params(L, def);
   if (b->comp) {
     if (o->np > 0) read_params(L, def, b->comp, o->np);
     b->sys.ev.eval = hybrid_eval;
