@@ -4,6 +4,7 @@
 local h = require "tests.helpers"
 local nz = h.nz
 local cs = require "tests.constraint_systems"
+local mech = require("nz.core").mech
 
 local function max_abs(v) local m = 0; for i = 1, #v do m = math.max(m, math.abs(v[i])) end; return m end
 local function max_diff(a, b) local m = 0; for i = 1, #a do m = math.max(m, math.abs(a[i] - b[i])) end; return m end
@@ -181,6 +182,17 @@ describe("singular systems and failures are reported, never NaN", function()
     h.checkerror("system 'free': dependent constraints: constraints 1 and 2 (the rank of their gradients A is 1 < 2): [M A^T; A 0] is singular or badly conditioned",
       s.accel, s, 0, { 0, 0 }, { 1, -1 })
     h.checkerror("at t = 0, q = {0, 0}, qd = {1, -1}: remove a redundant constraint", s.accel, s, 0, { 0, 0 }, { 1, -1 })
+  end)
+  it("the exact Jacobian of the motion reports dependent constraints as the right-hand side does", function()
+    -- It once reported any failed solve as a singular mass matrix, with
+    -- eigenvalues from 0 to 0.
+    local s = free2{ function(t, q, qd) return qd[1] + qd[2] end, function(t, q, qd) return 2 * qd[1] + 2 * qd[2] end }
+    local orders, linear = require("nz.constraints").orders(s)
+    local ode = mech.ode_new(s.engine, { method = "bsimp", orders = orders, linear = linear })
+    local ok, err = pcall(mech.ode_jacobian, ode, s.engine, 0, { 0, 0, 1, -1 })
+    assert.is_false(ok)
+    assert.truthy(err:find("system 'free': dependent constraints: constraints 1 and 2", 1, true), err)
+    assert.falsy(err:find("mass matrix", 1, true), err)
   end)
   it("a constraint at a singular configuration is named", function()
     local s = free2{ function(t, q) return q[1] ^ 2 + q[2] ^ 2 - 1 end }

@@ -99,6 +99,24 @@ describe("sys:linearize without constraints", function()
       { q = { 0.3, 0 }, qd = { 0, 2 }, coords = { "th" } })
     h.checkerror("'x' is not a coordinate", dp.linearize, dp, { q = { 0, 0 }, coords = { "x" } })
   end)
+  it("a singular M is reported as accel reports it: the eigenvalues of M at that state", function()
+    -- The spherical pendulum at its pole: M = diag(1, sin^2 th) is singular.
+    -- linearize's path (the exact Jacobian) once filled no diagnosis and said
+    -- "eigenvalues from 0 to 0" where accel said "from 0 to 1".
+    local sp = nz.system{ name = "sph", coords = { "th", "ph" },
+      T = function(t, q, qd) return 0.5 * (qd[1] ^ 2 + nz.sin(q[1]) ^ 2 * qd[2] ^ 2) end,
+      V = function(t, q) return g * nz.cos(q[1]) end }
+    local Mm = sp:mass(0, { 0, 0 })
+    local mid, half = 0.5 * (Mm[1][1] + Mm[2][2]), math.sqrt(0.25 * (Mm[1][1] - Mm[2][2]) ^ 2 + Mm[1][2] ^ 2)
+    local want = ("(eigenvalues from %.3g to %.3g, condition number infinite)"):format(mid - half, mid + half)
+    local ok, err = pcall(sp.linearize, sp, { q = { 0, 0 }, qd = { 0, 0 } })
+    assert.is_false(ok)
+    assert.truthy(err:find("system 'sph': the mass matrix M = d2T/dqd2 is not positive definite at t = 0, q = {0, 0}", 1, true), err)
+    assert.truthy(err:find(want, 1, true), err .. "\nwanted " .. want)
+    -- the same words as accel's at that state
+    local _, aerr = pcall(sp.accel, sp, 0, { 0, 0 }, { 0, 0 })
+    assert.are.equal(aerr:match("%(eigenvalues.-%)"), err:match("%(eigenvalues.-%)"))
+  end)
 
   it("sys:equilibrium: Newton from a guess to the hoop's off-axis equilibrium and to the double pendulum's inverted one", function()
     local W = 4
