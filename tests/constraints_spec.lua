@@ -183,6 +183,17 @@ describe("singular systems and failures are reported, never NaN", function()
       s.accel, s, 0, { 0, 0 }, { 1, -1 })
     h.checkerror("at t = 0, q = {0, 0}, qd = {1, -1}: remove a redundant constraint", s.accel, s, 0, { 0, 0 }, { 1, -1 })
   end)
+  it("more constraints than coordinates: the dependent ones are named, and only those", function()
+    -- x, y, x + y on two coordinates: the three together (the thin SVD of A
+    -- once found no dependence direction and named none: "dependent constraints:  (")
+    local s = free2{ function(t, q) return q[1] end, function(t, q) return q[2] end, function(t, q) return q[1] + q[2] end }
+    h.checkerror("system 'free': dependent constraints: constraints 1, 2 and 3 (the rank of their gradients A is 2 < 3)",
+      s.accel, s, 0, { 0, 0 }, { 0, 0 })
+    -- x, 2 x, y: constraints 1 and 2, not 3
+    s = free2{ function(t, q) return q[1] end, function(t, q) return 2 * q[1] end, function(t, q) return q[2] end }
+    h.checkerror("system 'free': dependent constraints: constraints 1 and 2 (the rank of their gradients A is 2 < 3)",
+      s.accel, s, 0, { 0, 0 }, { 0, 0 })
+  end)
   it("the exact Jacobian of the motion reports dependent constraints as the right-hand side does", function()
     -- It once reported any failed solve as a singular mass matrix, with
     -- eigenvalues from 0 to 0.

@@ -355,13 +355,15 @@ int nz_lua_raise_accel_failure(lua_State *L, int def, const nz_accel_report *rep
       luaL_addstring(&msg, num);
     } else if (rep.rank_A < nc) {
       luaL_addstring(&msg, "dependent constraints: ");
-      int first = 1;
+      int seen = 0;
       for (int r = 0; r < nc; r++)
         if (involved[r]) {
-          snprintf(num, sizeof num, "%s%d", first ? "constraints " : " and ", r + 1);
+          seen++;
+          snprintf(num, sizeof num, "%s%d", seen == 1 ? "constraints " : seen == ninvolved ? " and " : ", ", r + 1);
           luaL_addstring(&msg, num);
-          first = 0;
         }
+      if (ninvolved == 0)       /* (the diagnosis could not run: out of memory) */
+        luaL_addstring(&msg, "which ones could not be found");
       snprintf(num, sizeof num, " (the rank of their gradients A is %d < %d)", rep.rank_A, nc);
       luaL_addstring(&msg, num);
     } else {

@@ -178,15 +178,26 @@ int nz_constraint_hessian(const nz_system *s, int r, double t, const double *con
 static void diagnose_dependence(int nc, int k, const double *A, nz_accel_report *rep)
 {
   nz_svd d;
-  int transpose = nc <= k;          /* decompose A^T: its V spans constraint space */
-  if (nz_svd_of(&d, nc, k, A, transpose)) return;
-  int C = transpose ? nc : k;
+  /* Decompose A^T, whose V (nc x nc) spans constraint space.  With more
+   * constraints than coordinates A is first padded with zero columns to
+   * nc x nc (same singular values, and zeros): GSL's thin SVD of A itself
+   * would give only k of the nc directions, none of them the dependence, so
+   * x, y, x + y on two coordinates were called dependent without naming one. */
+  int cols = k < nc ? nc : k;
+  double *P = NULL;
+  if (cols > k) {
+    if (!(P = calloc((size_t)nc * (size_t)cols, sizeof(double)))) return;
+    for (int r = 0; r < nc; r++) memcpy(P + (size_t)r * cols, A + (size_t)r * k, (size_t)k * sizeof(double));
+  }
+  int st = nz_svd_of(&d, nc, cols, P ? P : A, 1);
+  free(P);
+  if (st) return;
   double smax = gsl_vector_get(d.S, 0);
   rep->rank_A = 0;
-  for (int c = 0; c < C; c++)
+  for (int c = 0; c < nc; c++)
     if (gsl_vector_get(d.S, (size_t)c) > 1e-10 * smax) rep->rank_A++;
-  if (rep->involved && transpose)
-    for (int c = rep->rank_A; c < C; c++)
+  if (rep->involved)
+    for (int c = rep->rank_A; c < nc; c++)
       for (int r = 0; r < nc; r++)
         if (fabs(gsl_matrix_get(d.V, (size_t)r, (size_t)c)) > 0.1) rep->involved[r] = 1;
   nz_svd_free(&d);
