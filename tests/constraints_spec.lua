@@ -81,6 +81,18 @@ describe("classification and Dolapchiev's rule", function()
     local none = nz.system{ name = "idle", coords = { "x" }, T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end,
       constraints = { function(t, q, qd) return 0 * qd[1] end } }
     h.checkerror("system 'idle': constraint 1 depends on no coordinate or derivative", none.constraints, none, { quiet = true })
+    h.checkerror("else leave it out: it is zero there and constrains nothing", none.constraints, none, { quiet = true })
+    -- one that is not zero can never hold: inconsistent, not harmless, with its value and where
+    for _, c in ipairs{ 1, -2.5 } do
+      local impossible = nz.system{ name = "impossible", coords = { "x" }, T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end,
+        constraints = { function(t, q) return c + 0 * q[1] end } }
+      local ok, err = pcall(impossible.accel, impossible, 0, { 0 }, { 0 })
+      assert.is_false(ok)
+      assert.truthy(err:find("system 'impossible': constraint 1 is inconsistent: it depends on no coordinate", 1, true), err)
+      assert.are.equal(c, tonumber(err:match("%(Phi = (%S+) at t = ")), err)
+      assert.truthy(err:find("so Phi = 0 can never hold", 1, true), err)
+      assert.falsy(err:find("constrains nothing", 1, true), err)
+    end
     local odd = nz.system{ name = "odd", coords = { "x" }, T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end,
       constraints = { function(t, q, qd) if q[1] > 0.2 then return qd[1] end return q[1] - q[1] + 1 end } }
     local c = odd:constraints{ quiet = true }[1]

@@ -225,10 +225,23 @@ end
 local function vanishing(sys, r, rows)
   local lo, hi = math.huge, -math.huge
   for _, row in ipairs(rows) do lo, hi = math.min(lo, row.state.t), math.max(hi, row.state.t) end
+  -- Not zero there, it can never hold: Phi = 1 is no harmless constraint
+  -- but an impossible one (nothing moves its value to 0).  "Zero" leaves
+  -- rounding (M.TOL) to an expression like (q1 + 0.1) - q1 - 0.1.
+  local worst
+  for _, row in ipairs(rows) do
+    if math.abs(row.value) > M.TOL and (not worst or math.abs(row.value) > math.abs(worst.value)) then worst = row end
+  end
+  if worst then
+    return ("%ssystem '%s': constraint %d is inconsistent: it depends on no coordinate or derivative at the %d "
+      .. "sample states (t from %.3g to %.3g) and is not zero there (Phi = %.6g at %s), so Phi = 0 can never "
+      .. "hold: a constraint returns the expression that must vanish (q[1] - 1 for q1 = 1, not 1); check what it "
+      .. "returns"):format(M.user_where(), sys.name, r, #rows, lo, hi, worst.value, fmt_state(worst.state))
+  end
   return ("%ssystem '%s': constraint %d depends on no coordinate or derivative at the %d sample states "
     .. "(t from %.3g to %.3g): its partial derivatives vanish there; if it is switched on elsewhere "
     .. "(a factor in t or q that is zero at these states), give a state where it acts as "
-    .. "sample = {t = ..., q = {...}} in nz.system, else leave it out: it constrains nothing")
+    .. "sample = {t = ..., q = {...}} in nz.system, else leave it out: it is zero there and constrains nothing")
     :format(M.user_where(), sys.name, r, #rows, lo, hi)
 end
 
