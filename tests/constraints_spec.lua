@@ -222,9 +222,26 @@ describe("singular systems and failures are reported, never NaN", function()
     h.checkerror("system 'free': constraint 1 has a zero gradient dPhi/dq^(m) here", s.accel, s, 0, { 0, 0 }, { 0, 0 })
   end)
   it("Newton's failure when the constraint has no real solution", function()
+    -- qdd1^2 + 1 >= 1: at the start (the free qdd = 0) its gradient 2 qdd1 vanishes, the Jacobian is
+    -- singular and the hybrid step is not finite: said so, with the constraint's value there (1), never
+    -- "did not converge in 0 iterations"
     local s = free2{ function(t, q, qd, qdd) return qdd[1] ^ 2 + 1 end }
-    h.checkerror("system 'free': Newton's method on (6.2) and the constraints did not converge", s.accel, s, 0, { 0, 0 }, { 1, -1 })
-    h.checkerror("started from the unconstrained accelerations: give another start", s.accel, s, 0, { 0, 0 }, { 1, -1 })
+    local ok, err = pcall(s.accel, s, 0, { 0, 0 }, { 1, -1 })
+    assert.is_false(ok)
+    assert.truthy(err:find("system 'free': Newton's method on (6.2) and the constraints stopped at its start: its "
+      .. "first step was not finite: the Jacobian in (qdd, lambda) is singular there", 1, true), err)
+    assert.truthy(err:find("(residual 1; constraint 1 is 1 there, not 0) at t = 0, q = {0, 0}, qd = {1, -1}", 1, true), err)
+    assert.falsy(err:find("in 0 iterations", 1, true), err)
+    assert.truthy(err:find("started from the unconstrained accelerations: the constraints may have no real solution at "
+      .. "this state (check them there); if they have one, give Newton another start", 1, true), err)
+    -- qdd1^2 + qdd1 + 1 has no real root either, and a nonzero gradient at the start: the steps stop
+    -- reducing the residual near its minimum (3/4 at qdd1 = -1/2), the value the message gives
+    s = free2{ function(t, q, qd, qdd) return qdd[1] ^ 2 + qdd[1] + 1 end }
+    ok, err = pcall(s.accel, s, 0, { 0, 0 }, { 1, -1 })
+    assert.is_false(ok)
+    assert.truthy(err:find("no longer reduced the residual", 1, true), err)
+    local value = tonumber(err:match("constraint 1 is (%S+) there, not 0"))
+    assert(value and value >= 0.75 and value <= 0.76, err)
   end)
 end)
 

@@ -277,11 +277,54 @@ static void add_top_failure(luaL_Buffer *msg, const nz_accel_report *rep, const 
     snprintf(num, sizeof num, "a constraint nonlinear in q^(%d) fixes q^(%d) only through lambda "
              "d2Phi/dq^(%d)2 in (6.2): the Jacobian of (6.2) and the constraints in (q^(%d), lambda) is "
              "singular (reciprocal condition %.2g), as where the multipliers vanish", p, p, p, p, rep->rcond);
-  else
-    snprintf(num, sizeof num, "Newton's method on (6.2) and the constraints for (q^(%d), lambda) did not "
-             "converge in %d iterations (residual %.3g, started from %s%s)", p, rep->iterations, rep->residual,
+  else {
+    char how[80];
+    if (rep->newton_stop == NZ_NEWTON_NO_PROGRESS && rep->iterations == 0)
+      snprintf(how, sizeof how, "stopped at its start: its first step is zero");
+    else if (rep->newton_stop == NZ_NEWTON_NO_PROGRESS)
+      snprintf(how, sizeof how, "stopped after %d iterations: its step is zero", rep->iterations);
+    else if (rep->newton_stop == NZ_NEWTON_VALUE_NOT_FINITE)
+      snprintf(how, sizeof how, "stopped after %d iterations on a value that is not finite", rep->iterations);
+    else
+      snprintf(how, sizeof how, "did not converge in %d iterations", rep->iterations);
+    snprintf(num, sizeof num, "Newton's method on (6.2) and the constraints for (q^(%d), lambda) %s "
+             "(residual %.3g, started from %s%s)", p, how, rep->residual,
              rep->from_guess ? "the last root or the guess" : "q^(p) = 0 and least-squares multipliers",
              rep->rcond < 1e-13 ? "; the Jacobian is singular at the last iterate and no step reduces the residual" : "");
+  }
+  luaL_addstring(msg, num);
+}
+
+/* Why Newton's method on (6.2) and the constraints stopped: it ran out of
+ * iterations, or (GSL's hybrid method) could not go on from where it stood
+ * -- from its start, "did not converge in 0 iterations" said nothing true --
+ * and the constraint farthest from 0 there. */
+static void add_newton_failure(luaL_Buffer *msg, const nz_accel_report *rep)
+{
+  char num[480], worst[120] = "", at[64] = "at its start: its first step";
+  if (rep->newton_row >= 0)
+    snprintf(worst, sizeof worst, "; constraint %d is %.6g there, not 0", rep->newton_row + 1, rep->newton_value);
+  if (rep->iterations > 0) snprintf(at, sizeof at, "after %d iterations: its step", rep->iterations);
+  switch (rep->newton_stop) {
+  case NZ_NEWTON_MAXIT:
+    snprintf(num, sizeof num, "Newton's method on (6.2) and the constraints did not converge in %d "
+             "iterations (residual %.3g%s)", rep->iterations, rep->residual, worst);
+    break;
+  case NZ_NEWTON_STEP_NOT_FINITE:
+    snprintf(num, sizeof num, "Newton's method on (6.2) and the constraints stopped %s was not finite: the "
+             "Jacobian in (qdd, lambda) is singular there, as where a constraint's gradient in qdd vanishes "
+             "(residual %.3g%s)", at, rep->residual, worst);
+    break;
+  case NZ_NEWTON_VALUE_NOT_FINITE:
+    snprintf(num, sizeof num, "Newton's method on (6.2) and the constraints stopped after %d iterations: the "
+             "constraints or (6.2) were not finite at its next iterate (residual %.3g before%s)", rep->iterations,
+             rep->residual, worst);
+    break;
+  default:
+    snprintf(num, sizeof num, "Newton's method on (6.2) and the constraints stopped %s no longer reduced the "
+             "residual (%.3g%s), as where there is no real solution near its start or the Jacobian is singular",
+             at, rep->residual, worst);
+  }
   luaL_addstring(msg, num);
 }
 
@@ -316,14 +359,13 @@ int nz_lua_raise_accel_failure(lua_State *L, int def, const nz_accel_report *rep
                    : ": check that the constraint is smooth here and consistent with its jet "
                      "(sys:constraints() shows its order and linearity at the sample states)");
   } else if (rep.failure == NZ_ACCEL_NEWTON) {
-    snprintf(num, sizeof num, "Newton's method on (6.2) and the constraints did not converge in %d "
-             "iterations (residual %.3g)", rep.iterations, rep.residual);
-    luaL_addstring(&msg, num);
+    add_newton_failure(&msg, &rep);
     nz_lua_add_state(&msg, t, q, qd, k);
     luaL_addstring(&msg, rep.from_guess ? "; started from the guess given"
                                         : "; started from the unconstrained accelerations");
-    luaL_addstring(&msg, ": give another start with sys:accel(t, q, qd, {qdd = ..., lambda = ...}), "
-                         "or check that the constraints have a real solution here");
+    luaL_addstring(&msg, ": the constraints may have no real solution at this state (check them there); "
+                         "if they have one, give Newton another start with sys:accel(t, q, qd, {qdd = ..., "
+                         "lambda = ...})");
   } else if (rep.failure == NZ_ACCEL_TOP_SINGULAR || rep.failure == NZ_ACCEL_TOP_NEWTON) {
     add_top_failure(&msg, &rep, orders, nc);
     nz_lua_add_state(&msg, t, q, qd, k);
