@@ -306,6 +306,12 @@ describe("sys:linearize with constraints", function()
       { q = { 0, 0, 0, 0, 0 }, qd = { 0, 0, 0, 0, 5 }, coords = { "th" }, hold = { "phi" } })
     h.checkerror("velocity constraints cannot be solved for the speeds left free", disk.linearize, disk,
       { q = { 0, 0, 0, 0, 0 }, qd = { 0, 0, 0, 0, 5 }, coords = { "th" }, speeds = { "x", "th", "psi" }, hold = { "phi" } })
+    -- two dependent velocity constraints: the speeds are listed as they were tried (once "(, x, y)")
+    local dup = nz.system{ name = "dup", coords = { "x", "y" }, T = function(t, q, qd) return 0.5 * (qd[1] ^ 2 + qd[2] ^ 2) end,
+      V = function(t, q) return g * q[2] end,
+      constraints = { function(t, q, qd) return qd[1] + qd[2] end, function(t, q, qd) return 2 * (qd[1] + qd[2]) end } }
+    h.checkerror("the 2 velocity constraints cannot be solved for the speeds left free (x, y) here", dup.linearize, dup,
+      { q = { 0, -1 }, qd = { 1, -1 } })
     local p = cartesian_pendulum()
     h.checkerror("'y' is both kept (coords) and dependent", p.linearize, p,
       { q = { 0, -L }, coords = { "y" }, dependent = { "y" } })
