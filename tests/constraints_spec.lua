@@ -4,6 +4,7 @@
 local h = require "tests.helpers"
 local nz = h.nz
 local cs = require "tests.constraint_systems"
+local mech = require("nz.core").mech
 
 local function max_abs(v) local m = 0; for i = 1, #v do m = math.max(m, math.abs(v[i])) end; return m end
 local function max_diff(a, b) local m = 0; for i = 1, #a do m = math.max(m, math.abs(a[i] - b[i])) end; return m end
@@ -80,6 +81,18 @@ describe("classification and Dolapchiev's rule", function()
     local none = nz.system{ name = "idle", coords = { "x" }, T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end,
       constraints = { function(t, q, qd) return 0 * qd[1] end } }
     h.checkerror("system 'idle': constraint 1 depends on no coordinate or derivative", none.constraints, none, { quiet = true })
+    h.checkerror("else leave it out: it is zero there and constrains nothing", none.constraints, none, { quiet = true })
+    -- one that is not zero can never hold: inconsistent, not harmless, with its value and where
+    for _, c in ipairs{ 1, -2.5 } do
+      local impossible = nz.system{ name = "impossible", coords = { "x" }, T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end,
+        constraints = { function(t, q) return c + 0 * q[1] end } }
+      local ok, err = pcall(impossible.accel, impossible, 0, { 0 }, { 0 })
+      assert.is_false(ok)
+      assert.truthy(err:find("system 'impossible': constraint 1 is inconsistent: it depends on no coordinate", 1, true), err)
+      assert.are.equal(c, tonumber(err:match("%(Phi = (%S+) at t = ")), err)
+      assert.truthy(err:find("so Phi = 0 can never hold", 1, true), err)
+      assert.falsy(err:find("constrains nothing", 1, true), err)
+    end
     local odd = nz.system{ name = "odd", coords = { "x" }, T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end,
       constraints = { function(t, q, qd) if q[1] > 0.2 then return qd[1] end return q[1] - q[1] + 1 end } }
     local c = odd:constraints{ quiet = true }[1]
@@ -182,14 +195,53 @@ describe("singular systems and failures are reported, never NaN", function()
       s.accel, s, 0, { 0, 0 }, { 1, -1 })
     h.checkerror("at t = 0, q = {0, 0}, qd = {1, -1}: remove a redundant constraint", s.accel, s, 0, { 0, 0 }, { 1, -1 })
   end)
+  it("more constraints than coordinates: the dependent ones are named, and only those", function()
+    -- x, y, x + y on two coordinates: the three together (the thin SVD of A
+    -- once found no dependence direction and named none: "dependent constraints:  (")
+    local s = free2{ function(t, q) return q[1] end, function(t, q) return q[2] end, function(t, q) return q[1] + q[2] end }
+    h.checkerror("system 'free': dependent constraints: constraints 1, 2 and 3 (the rank of their gradients A is 2 < 3)",
+      s.accel, s, 0, { 0, 0 }, { 0, 0 })
+    -- x, 2 x, y: constraints 1 and 2, not 3
+    s = free2{ function(t, q) return q[1] end, function(t, q) return 2 * q[1] end, function(t, q) return q[2] end }
+    h.checkerror("system 'free': dependent constraints: constraints 1 and 2 (the rank of their gradients A is 2 < 3)",
+      s.accel, s, 0, { 0, 0 }, { 0, 0 })
+  end)
+  it("the exact Jacobian of the motion reports dependent constraints as the right-hand side does", function()
+    -- It once reported any failed solve as a singular mass matrix, with
+    -- eigenvalues from 0 to 0.
+    local s = free2{ function(t, q, qd) return qd[1] + qd[2] end, function(t, q, qd) return 2 * qd[1] + 2 * qd[2] end }
+    local orders, linear = require("nz.constraints").orders(s)
+    local ode = mech.ode_new(s.engine, { method = "bsimp", orders = orders, linear = linear })
+    local ok, err = pcall(mech.ode_jacobian, ode, s.engine, 0, { 0, 0, 1, -1 })
+    assert.is_false(ok)
+    assert.truthy(err:find("system 'free': dependent constraints: constraints 1 and 2", 1, true), err)
+    assert.falsy(err:find("mass matrix", 1, true), err)
+  end)
   it("a constraint at a singular configuration is named", function()
     local s = free2{ function(t, q) return q[1] ^ 2 + q[2] ^ 2 - 1 end }
     h.checkerror("system 'free': constraint 1 has a zero gradient dPhi/dq^(m) here", s.accel, s, 0, { 0, 0 }, { 0, 0 })
   end)
   it("Newton's failure when the constraint has no real solution", function()
+    -- qdd1^2 + 1 >= 1: at the start (the free qdd = 0) its gradient 2 qdd1 vanishes, the Jacobian is
+    -- singular and the hybrid step is not finite: said so, with the constraint's value there (1), never
+    -- "did not converge in 0 iterations"
     local s = free2{ function(t, q, qd, qdd) return qdd[1] ^ 2 + 1 end }
-    h.checkerror("system 'free': Newton's method on (6.2) and the constraints did not converge", s.accel, s, 0, { 0, 0 }, { 1, -1 })
-    h.checkerror("started from the unconstrained accelerations: give another start", s.accel, s, 0, { 0, 0 }, { 1, -1 })
+    local ok, err = pcall(s.accel, s, 0, { 0, 0 }, { 1, -1 })
+    assert.is_false(ok)
+    assert.truthy(err:find("system 'free': Newton's method on (6.2) and the constraints stopped at its start: its "
+      .. "first step was not finite: the Jacobian in (qdd, lambda) is singular there", 1, true), err)
+    assert.truthy(err:find("(residual 1; constraint 1 is 1 there, not 0) at t = 0, q = {0, 0}, qd = {1, -1}", 1, true), err)
+    assert.falsy(err:find("in 0 iterations", 1, true), err)
+    assert.truthy(err:find("started from the unconstrained accelerations: the constraints may have no real solution at "
+      .. "this state (check them there); if they have one, give Newton another start", 1, true), err)
+    -- qdd1^2 + qdd1 + 1 has no real root either, and a nonzero gradient at the start: the steps stop
+    -- reducing the residual near its minimum (3/4 at qdd1 = -1/2), the value the message gives
+    s = free2{ function(t, q, qd, qdd) return qdd[1] ^ 2 + qdd[1] + 1 end }
+    ok, err = pcall(s.accel, s, 0, { 0, 0 }, { 1, -1 })
+    assert.is_false(ok)
+    assert.truthy(err:find("no longer reduced the residual", 1, true), err)
+    local value = tonumber(err:match("constraint 1 is (%S+) there, not 0"))
+    assert(value and value >= 0.75 and value <= 0.76, err)
   end)
 end)
 

@@ -255,6 +255,121 @@ describe("messages name the user's code first", function()
   end)
 end)
 
+describe("errors raised by the engine start with the caller's file:line", function()
+  -- Raised in C (a singular M, dependent constraints, a parameter that is no
+  -- longer a number) or in the library's Lua (a wrong quantity name in
+  -- tr:plot), they once began with lua/nz/simulate.lua:600, lua/nz/
+  -- trajectory.lua:196 or nothing; README: a failing script prints
+  -- file:line: message.
+  local SPEC_PAT = SPEC:gsub("%p", "%%%0")
+  -- f() must fail with a message that starts with this file and the line
+  -- the call is on (given), and names no library file; returns the rest.
+  local function fails_at(line, f)
+    local ok, err = pcall(f)
+    assert.are.equal(false, ok)
+    err = tostring(err)
+    assert.truthy(err:find(("^%s:%d: "):format(SPEC_PAT, line)), err)
+    assert.falsy(err:find("lua/nz/", 1, true), err)
+    return (err:gsub("^[^:]+:%d+: ", "", 1))
+  end
+  -- The spherical pendulum at its pole: M = diag(1, sin^2 th) = diag(1, 0).
+  local function spherical()
+    return nz.system{ name = "sph", coords = { "th", "ph" },
+      T = function(t, q, qd) return 0.5 * (qd[1] ^ 2 + nz.sin(q[1]) ^ 2 * qd[2] ^ 2) end,
+      V = function(t, q) return g * nz.cos(q[1]) end }
+  end
+
+  it("a singular M: accel, simulate, linearize (raised in C)", function()
+    local sp = spherical()
+    local line = here() + 1
+    local msg = fails_at(line, function() return (sp:accel(0, { 0, 0 }, { 1, 0 })) end)
+    assert.truthy(msg:find("^system 'sph': the mass matrix M = d2T/dqd2 is not positive definite at t = 0"), msg)
+    line = here() + 1
+    fails_at(line, function() return (sp:simulate{ q0 = { 0, 0 }, qd0 = { 1, 0 }, t1 = 1 }) end)
+    line = here() + 1
+    fails_at(line, function() return (sp:linearize{ q = { 0, 0 }, qd = { 0, 0 } }) end)
+  end)
+  it("dependent constraints (raised in C), a projection that fails (in Lua)", function()
+    local T = function(t, q, qd) return 0.5 * (qd[1] ^ 2 + qd[2] ^ 2) end
+    local dup = nz.system{ name = "dup", coords = { "x", "y" }, T = T, constraints = {
+      function(t, q) return q[1] ^ 2 + q[2] ^ 2 - 1 end, function(t, q) return 2 * (q[1] ^ 2 + q[2] ^ 2 - 1) end } }
+    local line = here() + 1
+    local msg = fails_at(line, function() return (dup:accel(0, { 0, -1 }, { 1, 0 })) end)
+    assert.truthy(msg:find("^system 'dup': dependent constraints: constraints 1 and 2"), msg)
+    -- two circles that do not meet
+    local apart = nz.system{ name = "apart", coords = { "x", "y" }, T = T, constraints = {
+      function(t, q) return q[1] ^ 2 + q[2] ^ 2 - 1 end, function(t, q) return (q[1] - 5) ^ 2 + q[2] ^ 2 - 1 end } }
+    line = here() + 1
+    msg = fails_at(line, function() return (apart:project(0, { 1, 0 }, { 0, 0 })) end)
+    assert.truthy(msg:find("the constraints may have no common solution near the start", 1, true), msg)
+  end)
+  it("a wrong quantity in tr:plot or tr:column, with the quantities the trajectory has", function()
+    local tr = pendulum:simulate{ q0 = { 0.385 }, t1 = 0.1 }
+    local line = here() + 1
+    local msg = fails_at(line, function() return (tr:plot{ y = { "thx" }, quiet = true }) end)
+    assert.are.equal("trajectory: no quantity 'thx' (quantities: t, th, th', th'')", msg)
+    line = here() + 1
+    msg = fails_at(line, function() return (tr:column("E")) end)
+    assert.truthy(msg:find("trajectory: 'E' was not recorded: ask for it with monitors", 1, true), msg)
+    -- plot's own refusals (a file it cannot write; gnuplot missing) too: once lua/nz/trajectory.lua
+    line = here() + 1
+    msg = fails_at(line, function() return (tr:plot{ file = "motion.jpg" }) end)
+    assert.truthy(msg == "plot: file 'motion.jpg' must end in .svg or .png" or msg:find("gnuplot is not installed", 1, true), msg)
+  end)
+end)
+
+describe("a parameter that is no longer a finite number is named", function()
+  -- Checked once per call of the mechanics, before any function runs: once
+  -- params.g = 0/0 surfaced as "bad argument #1 to 'mul' (got NaN ...)"
+  -- inside V, and params.g = nil at lua/nz/simulate.lua:600.
+  local function pend(compile)
+    return nz.system{ name = "pend", coords = { "th" }, params = { g = g, l = 2.0 }, compile = compile,
+      T = function(t, q, qd, p) return 0.5 * p.l ^ 2 * qd[1] ^ 2 end,
+      V = function(t, q, p) return -p.g * p.l * nz.cos(q[1]) end }
+  end
+  local SPEC_PAT = SPEC:gsub("%p", "%%%0")
+  for _, compile in ipairs{ true, false } do
+    it(("NaN, inf, nil, a string: accel, simulate, energy, linearize (%s)"):format(compile and "recorded" or "in Lua"), function()
+      local sys = pend(compile)
+      local good = sys:accel(0, { 0.385 }, { 0 })[1]
+      local cases = {
+        { 0 / 0, "params.g is NaN (a NaN comes from an earlier computation, such as 0/0" },
+        { math.huge, "params.g is inf: set sys.params.g to a finite number" },
+        { nil, "params.g is nil (removed, or never set again), and it was a number when the system was made" },
+        { "9.81", "params.g is the string \"9.81\", and it was a number when the system was made" },
+      }
+      for _, case in ipairs(cases) do
+        sys.params.g = case[1]
+        local calls = {
+          function() return (sys:accel(0, { 0.385 }, { 0 })) end,
+          function() return (sys:simulate{ q0 = { 0.385 }, t1 = 1 }) end,
+          function() return (sys:energy(0, { 0.385 }, { 0 })) end,
+          function() return (sys:linearize{ q = { 0 } }) end,
+        }
+        for n, f in ipairs(calls) do
+          local info = debug.getinfo(f, "S")
+          local ok, err = pcall(f)
+          assert.are.equal(false, ok)
+          err = tostring(err)
+          assert.are.equal(info.linedefined, tonumber(err:match("^" .. SPEC_PAT .. ":(%d+): ")), err)
+          assert.truthy(err:find("system 'pend': " .. case[2], 1, true), ("call %d: %s"):format(n, err))
+          assert.falsy(err:find("'mul'", 1, true), err)
+        end
+      end
+      sys.params.g = g              -- and it works again
+      assert.are.equal(good, sys:accel(0, { 0.385 }, { 0 })[1])
+      sys.params.g = 2 * g          -- a new value is read: th'' = -(g/l) sin th
+      assert(math.abs(sys:accel(0, { 0.385 }, { 0 })[1] - 2 * good) <= 1e-14 * math.abs(good))
+    end)
+  end
+  it("parameters that were not numbers are not checked", function()
+    local sys = nz.system{ name = "tabled", coords = { "x" }, params = { k = 4, data = { 1, 2 } },
+      T = function(t, q, qd, p) return 0.5 * qd[1] ^ 2 end, V = function(t, q, p) return 0.5 * p.k * q[1] ^ 2 end }
+    sys.params.data = "anything"
+    assert.are.equal(-4 * 0.5, sys:accel(0, { 0.5 }, { 0 })[1])
+  end)
+end)
+
 describe("a recorded function that fails at a state", function()
   it("hands the evaluation to Lua, whose error names the user's line, the system and the state", function()
     local line = here() + 2

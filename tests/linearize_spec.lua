@@ -105,6 +105,24 @@ describe("sys:linearize without constraints", function()
     h.checkerror("sys:equilibrium 'driven hoop': unknown option 'hodl' (did you mean 'hold'?)", hoop.equilibrium, hoop,
       { q = { 1, 0 }, qd = { 0, 4 }, coords = { "th" }, hodl = { "ph" } })
   end)
+  it("a singular M is reported as accel reports it: the eigenvalues of M at that state", function()
+    -- The spherical pendulum at its pole: M = diag(1, sin^2 th) is singular.
+    -- linearize's path (the exact Jacobian) once filled no diagnosis and said
+    -- "eigenvalues from 0 to 0" where accel said "from 0 to 1".
+    local sp = nz.system{ name = "sph", coords = { "th", "ph" },
+      T = function(t, q, qd) return 0.5 * (qd[1] ^ 2 + nz.sin(q[1]) ^ 2 * qd[2] ^ 2) end,
+      V = function(t, q) return g * nz.cos(q[1]) end }
+    local Mm = sp:mass(0, { 0, 0 })
+    local mid, half = 0.5 * (Mm[1][1] + Mm[2][2]), math.sqrt(0.25 * (Mm[1][1] - Mm[2][2]) ^ 2 + Mm[1][2] ^ 2)
+    local want = ("(eigenvalues from %.3g to %.3g, condition number infinite)"):format(mid - half, mid + half)
+    local ok, err = pcall(sp.linearize, sp, { q = { 0, 0 }, qd = { 0, 0 } })
+    assert.is_false(ok)
+    assert.truthy(err:find("system 'sph': the mass matrix M = d2T/dqd2 is not positive definite at t = 0, q = {0, 0}", 1, true), err)
+    assert.truthy(err:find(want, 1, true), err .. "\nwanted " .. want)
+    -- the same words as accel's at that state
+    local _, aerr = pcall(sp.accel, sp, 0, { 0, 0 }, { 0, 0 })
+    assert.are.equal(aerr:match("%(eigenvalues.-%)"), err:match("%(eigenvalues.-%)"))
+  end)
 
   it("sys:equilibrium: Newton from a guess to the hoop's off-axis equilibrium and to the double pendulum's inverted one", function()
     local W = 4
@@ -294,6 +312,12 @@ describe("sys:linearize with constraints", function()
       { q = { 0, 0, 0, 0, 0 }, qd = { 0, 0, 0, 0, 5 }, coords = { "th" }, hold = { "phi" } })
     h.checkerror("velocity constraints cannot be solved for the speeds left free", disk.linearize, disk,
       { q = { 0, 0, 0, 0, 0 }, qd = { 0, 0, 0, 0, 5 }, coords = { "th" }, speeds = { "x", "th", "psi" }, hold = { "phi" } })
+    -- two dependent velocity constraints: the speeds are listed as they were tried (once "(, x, y)")
+    local dup = nz.system{ name = "dup", coords = { "x", "y" }, T = function(t, q, qd) return 0.5 * (qd[1] ^ 2 + qd[2] ^ 2) end,
+      V = function(t, q) return g * q[2] end,
+      constraints = { function(t, q, qd) return qd[1] + qd[2] end, function(t, q, qd) return 2 * (qd[1] + qd[2]) end } }
+    h.checkerror("the 2 velocity constraints cannot be solved for the speeds left free (x, y) here", dup.linearize, dup,
+      { q = { 0, -1 }, qd = { 1, -1 } })
     local p = cartesian_pendulum()
     h.checkerror("'y' is both kept (coords) and dependent", p.linearize, p,
       { q = { 0, -L }, coords = { "y" }, dependent = { "y" } })

@@ -306,4 +306,25 @@ describe("the Jacobi-Whittaker reduction (eq. 2.8-2.12)", function()
     -- r = 10 is beyond the reach of h = -0.5 (h + mu / r < 0)
     h.checkerror("the motion does not reach here", path.time_rate, path, 0, { 10 }, { 0 })
   end)
+  it("an energy h below what the start allows is said so, with h + L0 and the start, not as sqrt's domain error", function()
+    -- Kepler from r0 = 1 at rest in r: L0 = mu / r0, so h = -2 leaves h + L0 = -1 < 0 there
+    -- (it was "L raised an error: lua/nz/rumyantsev.lua:346: 'sqrt' of a negative value (got -0.5)")
+    local k, hh, r0 = kepler(), -2, 1
+    local path = k:jacobi_whittaker{ h = hh, independent = "phi" }
+    local line = debug.getinfo(1, "l").currentline + 1
+    local ok, err = pcall(function() return (path:simulate{ q0 = { r0 }, qd0 = { 0 }, t1 = 1 }) end)
+    assert.is_false(ok)
+    err = tostring(err)
+    assert.truthy(err:find(("^[^:]*rumyantsev_spec.lua:%d: "):format(line)), err)
+    assert.falsy(err:find("sqrt", 1, true), err)
+    assert.falsy(err:find("rumyantsev.lua", 1, true), err)
+    local e = hh + mu / r0
+    assert.truthy(err:find(("the energy h = %.6g is too low here: raise h above %.6g (= -L0 here), or start where "
+      .. "h + L0 > 0"):format(hh, -mu / r0), 1, true), err)
+    assert.truthy(err:find(("h + L0 = %.6g is not positive at r = %.6g, phi = 0"):format(e, r0), 1, true), err)
+    assert.truthy(err:find(("at t = 0, q = {%.6g}, qd = {0}"):format(r0), 1, true), err)
+    -- from r0 = 0.4 the same h is allowed (h + mu / r0 = 0.5 > 0)
+    local tr = path:simulate{ q0 = { 0.4 }, qd0 = { 0 }, t1 = 0.1 }
+    assert.are.equal("done", tr.status)
+  end)
 end)

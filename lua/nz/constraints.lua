@@ -158,8 +158,10 @@ local function slot_sizes(st)
   return sizes
 end
 
+local function vector_text(v) local p = {}; for i = 1, #v do p[i] = ("%.6g"):format(v[i]) end; return "{" .. table.concat(p, ", ") .. "}" end
+
 local function fmt_state(st)
-  local function vec(v) local p = {}; for i = 1, #v do p[i] = ("%.6g"):format(v[i]) end; return "{" .. table.concat(p, ", ") .. "}" end
+  local vec = vector_text
   return ("t = %.6g, q = %s, qd = %s, qdd = %s"):format(st.t, vec(st[1]), vec(st[2]), vec(st[3]))
 end
 
@@ -223,10 +225,23 @@ end
 local function vanishing(sys, r, rows)
   local lo, hi = math.huge, -math.huge
   for _, row in ipairs(rows) do lo, hi = math.min(lo, row.state.t), math.max(hi, row.state.t) end
+  -- Not zero there, it can never hold: Phi = 1 is no harmless constraint
+  -- but an impossible one (nothing moves its value to 0).  "Zero" leaves
+  -- rounding (M.TOL) to an expression like (q1 + 0.1) - q1 - 0.1.
+  local worst
+  for _, row in ipairs(rows) do
+    if math.abs(row.value) > M.TOL and (not worst or math.abs(row.value) > math.abs(worst.value)) then worst = row end
+  end
+  if worst then
+    return ("%ssystem '%s': constraint %d is inconsistent: it depends on no coordinate or derivative at the %d "
+      .. "sample states (t from %.3g to %.3g) and is not zero there (Phi = %.6g at %s), so Phi = 0 can never "
+      .. "hold: a constraint returns the expression that must vanish (q[1] - 1 for q1 = 1, not 1); check what it "
+      .. "returns"):format(M.user_where(), sys.name, r, #rows, lo, hi, worst.value, fmt_state(worst.state))
+  end
   return ("%ssystem '%s': constraint %d depends on no coordinate or derivative at the %d sample states "
     .. "(t from %.3g to %.3g): its partial derivatives vanish there; if it is switched on elsewhere "
     .. "(a factor in t or q that is zero at these states), give a state where it acts as "
-    .. "sample = {t = ..., q = {...}} in nz.system, else leave it out: it constrains nothing")
+    .. "sample = {t = ..., q = {...}} in nz.system, else leave it out: it is zero there and constrains nothing")
     :format(M.user_where(), sys.name, r, #rows, lo, hi)
 end
 
@@ -478,7 +493,9 @@ function M.project(sys, t, q, qd, opts)
   for it = 1, maxit + 1 do
     local vals, rows = violations(sys, t, q, qd, holonomic)
     if #vals == 0 or max_abs(vals) <= tol then break end
-    if it > maxit then error(("system '%s': projection onto the holonomic constraints did not converge in %d steps (violation %.3g)"):format(sys.name, maxit, max_abs(vals)), 0) end
+    if it > maxit then error(M.user_where() .. ("system '%s': projection onto the holonomic constraints did not converge in %d steps (violation %.3g at its last "
+      .. "iterate q = %s): the constraints may have no common solution near the start (check them), or start nearer to one"):format(sys.name, maxit,
+      max_abs(vals), vector_text(q)), 0) end
     local A, b = {}, {}
     for i, row in ipairs(rows) do A[i], b[i] = row.partials[1], -vals[i] end
     local dq = mech.lstsq(A, b)
@@ -502,7 +519,8 @@ function M.project(sys, t, q, qd, opts)
       b[i] = -vals[i]
     end
     if max_abs(vals) <= tol then break end
-    if it > maxit then error(("system '%s': projection onto the velocity constraints did not converge in %d steps (violation %.3g)"):format(sys.name, maxit, max_abs(vals)), 0) end
+    if it > maxit then error(M.user_where() .. ("system '%s': projection onto the velocity constraints did not converge in %d steps (violation %.3g) at q = %s: "
+      .. "check that the velocity constraints can hold together there"):format(sys.name, maxit, max_abs(vals), vector_text(q)), 0) end
     local dv = mech.lstsq(A, b)
     for i = 1, sys.k do qd[i] = qd[i] + dv[i] end
     report.velocity_iterations = it
@@ -624,7 +642,7 @@ function M.top_level(sys)
   if not p then return nil end
   for r, c in ipairs(M.classify(sys)) do
     if c.order > p then
-      error(("system '%s': constraint %d (order %d, linear in q^(%d)) and constraint %d (order %d, nonlinear in "
+      error(M.user_where() .. ("system '%s': constraint %d (order %d, linear in q^(%d)) and constraint %d (order %d, nonlinear in "
         .. "q^(%d)) cannot be integrated together: the nonlinear one is solved with (6.2) undifferentiated at level %d, "
         .. "the linear one needs (6.2) differentiated %d times"):format(sys.name, r, c.order, c.order, which, p, p, p,
         c.order - 2), 0)
@@ -691,7 +709,7 @@ function M.project_top(sys, t, q, qd, p, opts, report)
       local b = residual()
       if #rows == 0 or max_abs(b) <= tol then break end
       if it > maxit then
-        error(("system '%s': completing %s of the start state did not converge in %d steps (violation %.3g)"):format(
+        error(M.user_where() .. ("system '%s': completing %s of the start state did not converge in %d steps (violation %.3g)"):format(
           sys.name, M.level_name(l), maxit, max_abs(b)), 0)
       end
       local x, J = levels[l + 1], {}
@@ -777,7 +795,7 @@ function M.project_levels(sys, t, q, qd, p, opts, report)
   local out, lambdas, its = mech.series_project(sys.engine, M.orders(sys), p, t, levels, tol, opts and opts.maxit or 50,
     opts and opts.lambdas)
   if not out then
-    error(("system '%s': completing the start state (qdd and higher, with the multipliers) did not converge in %d steps"):format(sys.name, lambdas), 0)
+    error(M.user_where() .. ("system '%s': completing the start state (qdd and higher, with the multipliers) did not converge in %d steps"):format(sys.name, lambdas), 0)
   end
   for j = 2, p - 1 do report[M.level_name(j)] = out[j + 1] end
   report.lambda, report.lambdas, report.level_iterations = lambdas[1], lambdas, its
@@ -835,7 +853,7 @@ end
 -- completed with the partition and the reduced matrix.
 local function eliminate(sys, B, b, equations, info)
   local dep, ind, a, a0 = partition(B, b, sys.k)
-  if not dep then error(("system '%s': the constraints are dependent at this state: no set of dependent coordinates"):format(sys.name), 0) end
+  if not dep then error(M.user_where() .. ("system '%s': the constraints are dependent at this state: no set of dependent coordinates"):format(sys.name), 0) end
   local function full(xi)              -- x from its independent components
     local x = {}
     for l, j in ipairs(ind) do x[j] = xi[l] end
@@ -884,14 +902,14 @@ local function reduced_level(sys, t, q, qd, p, opts)
   for j = 2, p - 1 do
     levels[j + 1] = opts[M.level_name(j)]
     if levels[j + 1] == nil then
-      error(("system '%s': constraints of order %d make %s part of the state: give it, "
+      error(M.user_where() .. ("system '%s': constraints of order %d make %s part of the state: give it, "
         .. "sys:reduced(t, q, qd, nil, {%s = ..., lambdas = {lambda, ...}})"):format(
         sys.name, p, M.level_name(j), M.level_name(j)), 0)
     end
   end
   local lambdas = opts.lambdas or (opts.lambda and { opts.lambda })
   if type(lambdas) ~= "table" or #lambdas < p - 2 then
-    error(("system '%s': constraints of order %d make the multipliers lambda .. lambda^(%d) part of the state: "
+    error(M.user_where() .. ("system '%s': constraints of order %d make the multipliers lambda .. lambda^(%d) part of the state: "
       .. "give lambdas = {...} (%d lists of %d)"):format(sys.name, p, p - 3, p - 2, sys.nc), 0)
   end
   local orders = M.orders(sys)
@@ -926,7 +944,7 @@ end
 function M.reduced(sys, t, q, qd, n, form)
   local top = M.top_level(sys)
   if top then
-    error(("system '%s': a constraint of order %d nonlinear in q^(%d) fixes q^(%d) only together with its multiplier: "
+    error(M.user_where() .. ("system '%s': a constraint of order %d nonlinear in q^(%d) fixes q^(%d) only together with its multiplier: "
       .. "Tsenov's elimination does not apply; use the multiplier form (sys:residual, sys:simulate)"):format(
       sys.name, top, top, top), 0)
   end
@@ -938,7 +956,7 @@ function M.reduced(sys, t, q, qd, n, form)
   for i = 1, sys.k do zero[i] = 0 end
   for r, c in ipairs(classes) do
     if c.order > 2 or (c.order == 2 and not c.linear) then
-      error(("system '%s': Tsenov's elimination needs constraints linear at the acceleration level; "
+      error(M.user_where() .. ("system '%s': Tsenov's elimination needs constraints linear at the acceleration level; "
         .. "constraint %d is not: use the multiplier form sys:accel"):format(sys.name, r), 0)
     end
     A[r], b[r] = mech.constraint_row(sys.engine, r, c.order, t, q, qd, zero)

@@ -155,7 +155,8 @@ Fields:
            +-10); the states given to accel and simulate add samples near
            them the first time they are far from all others
   params   a table of named numbers passed to every function; change
-           sys.params.m and the next call uses it
+           sys.params.m and the next call uses it (each call checks that
+           they are still finite numbers, and names one that is not)
   name     a name for messages
   compile  false: run every function in Lua (default: record them in C)
   native   true: compile the recorded plans to machine code at first use;

@@ -269,9 +269,12 @@ local function prepare(sys, opts, name, hold_rest)
       dep_speeds = pick_columns(Vd, all)
     end
     if not dep_speeds then
+      local free = { table.unpack(first) }
+      for _, i in ipairs(rest) do free[#free + 1] = i end
       fail(sys, "the %d velocity constraints cannot be solved for the speeds left free (%s) here: keep or hold fewer "
         .. "speeds (%d of the %d must be dependent)", #c.vel,
-        #first + #rest > 0 and table.concat(names(sys, first), ", ") .. (#rest > 0 and ", " .. table.concat(names(sys, rest), ", ") or "") or "none",
+        -- first, then rest, as pick_columns took them ("(, x, y)" when first was empty)
+        #free > 0 and table.concat(names(sys, free), ", ") or "none",
         #c.vel, k)
     end
     c.velocity_newton = { newton(sys, t, q, qd, c.vel, dep_speeds, sys.k, "velocity constraints for the dependent speeds") }

@@ -5,6 +5,11 @@ local M = {}
 
 M.INSTALL_HINT = "gnuplot is not installed: install it with 'sudo apt-get install gnuplot-nox' (or run 'make deps')"
 
+-- An error about the caller's input, at the user's file:line: plot.lines is
+-- called from the library (tr:plot, tr:section, ...), so error's levels
+-- named lua/nz/trajectory.lua.
+local function fail(msg) error(require("nz.where").user_where() .. msg, 0) end
+
 local function have_gnuplot()
   local ok = os.execute("command -v gnuplot >/dev/null 2>&1")
   return ok == true or ok == 0
@@ -16,7 +21,7 @@ local function terminal_for(opts)
   local ext = file:match("%.(%w+)$")
   if ext == "svg" then return ("svg size %d,%d"):format(opts.width or 800, opts.height or 500) end
   if ext == "png" then return ("pngcairo size %d,%d"):format(opts.width or 800, opts.height or 500) end
-  error(("plot: file '%s' must end in .svg or .png"):format(file), 3)
+  fail(("plot: file '%s' must end in .svg or .png"):format(file))
 end
 
 local function quote(s) return '"' .. tostring(s):gsub('"', "'") .. '"' end
@@ -41,14 +46,15 @@ end
 --             ylabel =, logx =, logy =, file = "out.svg", width =, height = }
 -- Returns the text drawn (terminal) or the file name.
 function M.lines(opts)
-  if not have_gnuplot() then error(M.INSTALL_HINT, 3) end
+  if not have_gnuplot() then fail(M.INSTALL_HINT) end
   local series = opts.series
-  if type(series) ~= "table" or #series == 0 then error("plot: no series to draw", 3) end
+  if type(series) ~= "table" or #series == 0 then fail("plot: no series to draw") end
+  local terminal = terminal_for(opts)     -- a bad file name is refused before any file is made
   local data = os.tmpname()
   local f = assert(io.open(data, "w"))
   local ylo, yhi = math.huge, -math.huge
   for si, s in ipairs(series) do
-    if #s.x ~= #s.y then error(("plot: series %d has %d x and %d y values"):format(si, #s.x, #s.y), 3) end
+    if #s.x ~= #s.y then f:close(); os.remove(data); fail(("plot: series %d has %d x and %d y values"):format(si, #s.x, #s.y)) end
     for i = 1, #s.x do
       local x, y = s.x[i], s.y[i]
       if x == x and y == y and (not opts.logy or y > 0) and (not opts.logx or x > 0) then
@@ -69,7 +75,7 @@ function M.lines(opts)
     yticks = ("set ytics %.17g\nset format y \"%%.3g\""):format(step)
   end
   local script = {
-    "set terminal " .. terminal_for(opts),
+    "set terminal " .. terminal,
     opts.file and ("set output " .. quote(opts.file)) or "set output",
     opts.title and ("set title " .. quote(opts.title)) or "",
     opts.xlabel and ("set xlabel " .. quote(opts.xlabel)) or "",
@@ -89,7 +95,7 @@ function M.lines(opts)
   script[#script + 1] = "plot " .. table.concat(parts, ", ")
   local ok, out = M.gnuplot(script)
   os.remove(data)
-  if not ok then error("plot: gnuplot failed: " .. out, 3) end
+  if not ok then fail("plot: gnuplot failed: " .. out) end
   if opts.file then return opts.file end
   if not opts.quiet then io.write(out) end
   return out

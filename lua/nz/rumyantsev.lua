@@ -289,7 +289,8 @@ function M.jacobi_whittaker(sys, opts)
   options.check(opts, { "h", "independent" }, function(...) fail(sys, fname, ...) end)
   local h = opts.h
   if type(h) ~= "number" or h ~= h or math.abs(h) == math.huge then
-    fail(sys, fname, "h: the value of the energy integral H = h (a finite number) expected, got %s", tostring(h))
+    fail(sys, fname, "h: the value of the energy integral H = h (a finite number) expected, got %s",
+      type(h) == "number" and require("nz.repl").number(h) or tostring(h))   -- NaN as "NaN", not the C library's "-nan"
   end
   if opts.independent == nil then fail(sys, fname, "independent: the coordinate that plays the part of time, by name or number") end
   local j = coordinate(sys, fname, opts.independent, "independent")
@@ -336,9 +337,29 @@ function M.jacobi_whittaker(sys, opts)
   local def = { name = ("%s: path in %s (Jacobi-Whittaker, h = %.6g)"):format(sys.name, sys.coords[j], h), params = sys.params }
   def.coords = {}
   for n, i in ipairs(others) do def.coords[n] = sys.coords[i] end
+  -- The value a number, jet or dualjet carries (nil for the recorder's
+  -- tracers: a recorded L that meets h + L0 < 0 fails in its graph, which
+  -- hands that evaluation back to this function, on jets).
+  local function value_of(x)
+    if type(x) == "number" then return x end
+    local mt = getmetatable(x)
+    local name = type(mt) == "table" and mt.__name
+    if name == "nz.jet" or name == "nz.dualjet" then return x:value() end
+  end
   def.L = function(q1, qs, qsd, params)
     local q, v = full(q1, qs, qsd)
     local G, P, L0 = parts(q, v, params)
+    -- Where h + L0 <= 0 the motion with H = h cannot be: say so, with the
+    -- numbers, rather than let sqrt fail ("'sqrt' of a negative value" at a
+    -- line of this file, which told the user nothing).
+    local e = value_of(h + L0)
+    if e and not (e > 0) then
+      local at = {}
+      for i = 1, k do at[i] = ("%s = %.6g"):format(sys.coords[i], value_of(q[i]) or 0 / 0) end
+      error(("the energy h = %.6g is too low here: raise h above %.6g (= -L0 here), or start where h + L0 > 0; L0 = "
+        .. "%.6g is the part of L free of the velocities (-V for a natural system), and h + L0 = %.6g is not positive "
+        .. "at %s, so no motion with H = h reaches it"):format(h, h - e, e - h, e, table.concat(at, ", ")), 0)
+    end
     return 2 * sqrt((h + L0) * G) + P
   end
   if sys.nc > 0 then

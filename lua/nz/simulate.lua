@@ -592,7 +592,8 @@ function M.simulate(sys, opts)
     local ok, res = pcall(mech.ode_new, engine, ode_cfg)
     if not ok then
       if type(res) ~= "string" then error(res, 0) end
-      local what = strip_library(res):gsub("^system '[^']*': '[%w_]+': ", ""):gsub("^system '[^']*': ", "")
+      local what = strip_library(res):gsub("^[^%s:]+:%d+: ", "", 1):gsub("^system '[^']*': '[%w_]+': ", "")
+        :gsub("^system '[^']*': ", "")
       refuse("cannot run this system: %s; take rk8pd", what)
     end
     ode = res

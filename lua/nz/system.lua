@@ -208,7 +208,14 @@ function M.system(def)
     k = #coords, name = name, coords = self.coords, params = self.params,
     F = F, T = T, V = V, Q = Q, S = S, constraints = C, constraint_levels = mech.constraint_levels(Clevels),
     labels = { F = Flab, T = lab.T, V = lab.V, Q = lab.Q, S = lab.S, constraints = Clab },
+    -- the parameters declared as numbers: each call of the mechanics checks
+    -- that they still are finite numbers (sys.params.g = 0/0 is named there)
+    param_names = {},
   }
+  for key, v in pairs(self.params) do
+    if type(key) == "string" and type(v) == "number" then self.engine.param_names[#self.engine.param_names + 1] = key end
+  end
+  table.sort(self.engine.param_names)
   -- Record the functions once as graphs evaluated in C (nz/record.lua);
   -- compile = false keeps every function in Lua.
   if def.compile ~= false then self.recording = record.compile(self.engine, Clevels, def.native) end

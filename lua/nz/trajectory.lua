@@ -65,18 +65,42 @@ function Trajectory:__tostring()
   return table.concat(lines, "\n")
 end
 
+-- The names tr:column takes for this trajectory, for a message.
+local function quantities(self)
+  local names = { "t" }
+  for _, suffix in ipairs{ "", "'", "''" } do
+    for _, c in ipairs(self.coords) do names[#names + 1] = c .. suffix end
+  end
+  for r = 1, self.system.nc do names[#names + 1] = "lambda" .. r end
+  if self.energy then names[#names + 1] = "E"; names[#names + 1] = "H" end
+  if self.work then names[#names + 1] = "work" end
+  if self.violation then names[#names + 1] = "violation" end
+  return table.concat(names, ", ")
+end
+
+-- A wrong name is the caller's mistake: said at the user's line (tr:plot
+-- and tr:column are called from the user's code; level 2 named trajectory.lua
+-- when tr:plot asked), with the names this trajectory has.
+local function column_error(fmt, ...)
+  error(require("nz.where").user_where() .. fmt:format(...), 0)
+end
+
 -- Values of a named quantity over the trajectory: a coordinate name, its
 -- velocity "name'" or acceleration "name''", "t", "E" (T + V), "H",
 -- "work", "violation", or "lambda1", "lambda2", ...
 function Trajectory:column(name)
   if name == "t" then return self.t end
+  if type(name) ~= "string" then
+    column_error("trajectory: a quantity is named by a string, got %s (quantities: %s)", type(name), quantities(self))
+  end
   local lists = { E = self.energy, H = self.generalized_energy, work = self.work, violation = self.violation }
   if lists[name] then return lists[name] end
   if lists[name] == nil and (name == "E" or name == "H" or name == "work") then
-    error(("trajectory: '%s' was not recorded: ask for it with monitors = {energy = true, work = true}"):format(name), 2)
+    column_error("trajectory: '%s' was not recorded: ask for it with monitors = {energy = true, work = true} "
+      .. "in simulate (quantities of this one: %s)", name, quantities(self))
   end
   local r = name:match("^lambda(%d+)$")
-  if r then
+  if r and tonumber(r) >= 1 and tonumber(r) <= self.system.nc then
     local out = {}
     for i = 1, #self.t do out[i] = self.lambda[i][tonumber(r)] end
     return out
@@ -91,8 +115,7 @@ function Trajectory:column(name)
       return out
     end
   end
-  error(("trajectory: no quantity '%s' (coordinates %s, with ' for velocities and '' for accelerations; t, E, H, work, violation, lambda1..)")
-    :format(name, table.concat(self.coords, ", ")), 2)
+  column_error("trajectory: no quantity '%s' (quantities: %s)", name, quantities(self))
 end
 
 -- The header and the rows of tr:csv, to the open file f.

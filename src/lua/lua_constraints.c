@@ -22,7 +22,7 @@ static int bind_constraint(lua_State *L, int nargs, bound_system *b)
   nz_lua_bind_system(L, 1, b);
   lua_Integer r = luaL_checkinteger(L, 2);
   if (r < 1 || r > b->sys.nc)
-    return (int)luaL_error(L, "system '%s': no constraint %I (it has %d)", nz_lua_system_name(L, 1),
+    return (int)nz_lua_error(L, "system '%s': no constraint %I (it has %d)", nz_lua_system_name(L, 1),
                            (lua_Integer)r, b->sys.nc);
   return (int)r - 1;
 }

@@ -68,7 +68,7 @@ static int ls_eigen(lua_State *L)
   double *re = w, *im = w + n, *vr = im + n, *vi = vr + (size_t)n * (size_t)n;
   int st = nz_eigen(n, A, re, im, vr, vi);
   if (st == NZ_ENOMEM) return luaL_error(L, "eigen: not enough memory");
-  if (st) return luaL_error(L, "eigen: the QR iteration did not converge (a matrix with entries not finite, or "
+  if (st) return nz_lua_error(L, "eigen: the QR iteration did not converge (a matrix with entries not finite, or "
                             "badly scaled)");
   lua_createtable(L, n, 0);
   for (int i = 0; i < n; i++) {

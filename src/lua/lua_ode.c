@@ -102,7 +102,7 @@ static int lo_new(lua_State *L)
       luaL_addstring(&msg, nz_ode_methods[i]);
     }
     luaL_pushresult(&msg);
-    return lua_error(L);
+    return nz_lua_raise_located(L);
   }
   cfg.rtol = number_field(L, 2, "rtol", 1e-10);
   cfg.atol = number_field(L, 2, "atol", 1e-12);
@@ -198,7 +198,7 @@ static int raise_failure(lua_State *L, ode_box *box, bound_system *b, int st)
     nz_lua_add_state(&msg, f->t, q, qd, k);
     luaL_addstring(&msg, ": check the system near this state, or change the method or the tolerances");
     luaL_pushresult(&msg);
-    return lua_error(L);
+    return nz_lua_raise_located(L);
   }
   default:
     return nz_lua_raise_core(L, b, st ? st : NZ_EFUNC, "simulate");
@@ -589,7 +589,7 @@ static int lo_run_new(lua_State *L)
   rb->ode = ob;
   rb->events = eb;
   if (!(rb->r = nz_run_alloc(ob->st, &c, y)))
-    return luaL_error(L, "simulate: the run could not start (no memory, or a bad grid: t0 = %f, t1 = %f, dt = %f, step = %f)",
+    return nz_lua_error(L, "simulate: the run could not start (no memory, or a bad grid: t0 = %f, t1 = %f, dt = %f, step = %f)",
                       c.t0, c.t1, c.dt, c.step);
   return 1;
 }
@@ -694,7 +694,7 @@ static int lo_run(lua_State *L)
         lua_setfield(L, -2, "message");
         return lua_error(L);
       }
-      return luaL_error(L, "simulate: the events could not be evaluated (status %d)", st);
+      return nz_lua_error(L, "simulate: the events could not be evaluated (status %d)", st);
     case NZ_RUN_FAIL_VIOLATION: return nz_lua_raise_core(L, &b, st, "constraint_partials");
     case NZ_RUN_FAIL_ODE: break;
     }

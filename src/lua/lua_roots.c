@@ -13,6 +13,7 @@
 #include <gsl/gsl_errno.h>
 #include <gsl/gsl_roots.h>
 #include "lua/lua_roots.h"
+#include "lua/lua_util.h"
 
 typedef struct brent_call {
   lua_State *L;
@@ -48,12 +49,12 @@ static int rt_brent(lua_State *L)
   gsl_function F = { call_f, &c };
   double fa = call_f(a, &c), fb = call_f(b, &c);
   if (c.failed) return lua_error(L);
-  if (c.bad) return luaL_error(L, "'root_brent': f(%g) is not a finite number", c.bad_x);
-  if (fa * fb > 0) return luaL_error(L, "'root_brent': f(%g) = %g and f(%g) = %g have the same sign", a, fa, b, fb);
+  if (c.bad) return nz_lua_error(L, "'root_brent': f(%g) is not a finite number", c.bad_x);
+  if (fa * fb > 0) return nz_lua_error(L, "'root_brent': f(%g) = %g and f(%g) = %g have the same sign", a, fa, b, fb);
   if (fa == 0) { lua_pushnumber(L, a); lua_pushinteger(L, 0); return 2; }
   if (fb == 0) { lua_pushnumber(L, b); lua_pushinteger(L, 0); return 2; }
   gsl_root_fsolver *s = gsl_root_fsolver_alloc(gsl_root_fsolver_brent);
-  if (!s) return luaL_error(L, "'root_brent': not enough memory");
+  if (!s) return nz_lua_error(L, "'root_brent': not enough memory");
   int st = gsl_root_fsolver_set(s, &F, a, b);
   lua_Integer it = 0;
   while (st == GSL_SUCCESS && it < maxit) {
@@ -68,9 +69,9 @@ static int rt_brent(lua_State *L)
   double x = gsl_root_fsolver_root(s), lo = gsl_root_fsolver_x_lower(s), hi = gsl_root_fsolver_x_upper(s);
   gsl_root_fsolver_free(s);
   if (c.failed) return lua_error(L);
-  if (c.bad) return luaL_error(L, "'root_brent': f(%g) is not a finite number", c.bad_x);
+  if (c.bad) return nz_lua_error(L, "'root_brent': f(%g) is not a finite number", c.bad_x);
   if (st != GSL_SUCCESS || hi - lo > xtol)
-    return luaL_error(L, "'root_brent': no convergence to %g in %d iterations (bracket [%.17g, %.17g]; %s)", xtol,
+    return nz_lua_error(L, "'root_brent': no convergence to %g in %d iterations (bracket [%.17g, %.17g]; %s)", xtol,
                       (int)it, lo, hi, gsl_strerror(st));
   lua_pushnumber(L, x);
   lua_pushinteger(L, it);

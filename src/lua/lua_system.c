@@ -70,26 +70,6 @@ static void record_failure(lua_evaluator *ev, nz_piece piece, int index, const n
   lua_rawsetp(L, LUA_REGISTRYINDEX, ev);
 }
 
-/* Is this chunk one of the nz library's own (the embedded lua/nz/ files)? */
-static int library_source(const char *source)
-{
-  return strncmp(source, "@lua/nz/", 8) == 0;
-}
-
-/* "file:line:" of the innermost frame, from `level` on, that is the user's
- * Lua code (not C, not the library), or "" when there is none. */
-static void user_location(lua_State *L, int level, char *where, size_t n)
-{
-  lua_Debug ar;
-  where[0] = '\0';
-  for (; lua_getstack(L, level, &ar); level++) {
-    lua_getinfo(L, "Sl", &ar);
-    if (ar.currentline <= 0 || library_source(ar.source)) continue;
-    snprintf(where, n, "%s:%d:", ar.short_src, ar.currentline);
-    return;
-  }
-}
-
 /* Message handler of the calls of user functions: notes where in the
  * user's code the error happened, in the registry under where_key, for
  * note_error to read as soon as lua_pcall returns (the error itself is left
@@ -100,7 +80,7 @@ static int user_error_handler(lua_State *L)
 {
   char where[sizeof ((lua_evaluator *)0)->where];
   if (nz_lua_is_interrupt(L, 1)) return 1;
-  user_location(L, 1, where, sizeof where);
+  nz_lua_user_location(L, 1, where, sizeof where);
   lua_pushstring(L, where);
   lua_rawsetp(L, LUA_REGISTRYINDEX, &where_key);
   return 1;
@@ -133,7 +113,7 @@ static void definition_location(lua_State *L, int fn, char *where, size_t n)
   where[0] = '\0';
   lua_pushvalue(L, fn);
   lua_getinfo(L, ">S", &ar);
-  if (ar.linedefined > 0 && !library_source(ar.source))
+  if (ar.linedefined > 0 && !nz_lua_library_source(ar.source))
     snprintf(where, n, "%s:%d:", ar.short_src, ar.linedefined);
 }
 
@@ -499,8 +479,51 @@ static system_object *system_object_of(lua_State *L, int def)
   return o;
 }
 
+/* A parameter declared as a number (a named number of params when the
+ * system was made) must still be a finite number: the value at the top of
+ * the stack, its name below it.  Raises, naming it, for NaN, an infinity,
+ * nil or anything else (a numeric string too: T and V would do arithmetic
+ * on it), so that `sys.params.g = 0/0` is said here, at the user's line,
+ * and not met later as a NaN deep inside V. */
+static void check_param(lua_State *L, int def)
+{
+  double v = lua_tonumber(L, -1);
+  if (lua_type(L, -1) == LUA_TNUMBER && isfinite(v)) return;
+  const char *name = lua_tostring(L, -2), *sys = nz_lua_system_name(L, def);
+  if (lua_type(L, -1) == LUA_TNUMBER)
+    nz_lua_error(L, "system '%s': params.%s is %s%s: set sys.params.%s to a finite number (every function of the "
+                 "system reads it as one)", sys, name, isnan(v) ? "NaN" : v > 0 ? "inf" : "-inf",
+                 isnan(v) ? " (a NaN comes from an earlier computation, such as 0/0 or inf - inf)" : "", name);
+  const char *what = lua_isnil(L, -1) ? "nil (removed, or never set again)"
+                   : lua_type(L, -1) == LUA_TSTRING ? lua_pushfstring(L, "the string \"%s\"", lua_tostring(L, -1))
+                   : lua_pushfstring(L, "a %s", luaL_typename(L, -1));
+  nz_lua_error(L, "system '%s': params.%s is %s, and it was a number when the system was made (its functions "
+               "read it as one): set sys.params.%s to a finite number", sys, name, what, name);
+}
+
+/* Every parameter declared as a number (def.param_names, lua/nz/system.lua)
+ * is still one: checked once per call of the mechanics (each binding binds
+ * once; a run once per chunk of steps), not per evaluation. */
+static void check_params(lua_State *L, int def)
+{
+  if (lua_getfield(L, def, "param_names") != LUA_TTABLE) {
+    lua_pop(L, 1);
+    return;
+  }
+  lua_getfield(L, def, "params");
+  lua_Integer n = (lua_Integer)lua_rawlen(L, -2);
+  for (lua_Integer p = 1; p <= n && lua_istable(L, -1); p++) {
+    lua_rawgeti(L, -2, p);
+    lua_pushvalue(L, -1);
+    lua_gettable(L, -3);
+    check_param(L, def);
+    lua_pop(L, 2);
+  }
+  lua_pop(L, 2);
+}
+
 /* The recording's parameters take their current values from def.params
- * (def.compiled_params lists their names in input order). */
+ * (def.compiled_params lists their names in input order), each checked. */
 static void read_params(lua_State *L, int def, struct nz_compiled *comp, int np)
 {
   double *pv = nz_compiled_params(comp);
@@ -508,15 +531,11 @@ static void read_params(lua_State *L, int def, struct nz_compiled *comp, int np)
   lua_getfield(L, def, "params");
   for (int p = 0; p < np; p++) {
     lua_geti(L, -2, p + 1);
-    lua_gettable(L, -2);
-    int isnum;
-    pv[p] = lua_tonumberx(L, -1, &isnum);
-    if (!isnum) {
-      lua_geti(L, -3, p + 1);
-      luaL_error(L, "system '%s': params.%s must stay a number (its functions were recorded reading it as one), got %s",
-                 nz_lua_system_name(L, def), lua_tostring(L, -1), luaL_typename(L, -2));
-    }
-    lua_pop(L, 1);
+    lua_pushvalue(L, -1);
+    lua_gettable(L, -3);
+    check_param(L, def);
+    pv[p] = lua_tonumber(L, -1);
+    lua_pop(L, 2);
   }
   lua_pop(L, 2);
 }
@@ -533,6 +552,9 @@ void nz_lua_bind_system(lua_State *L, int def, bound_system *b)
   b->ev.k = o->sys.k;
   b->ev.where[0] = '\0';
   b->ev.interrupted = 0;
+  /* The recorded parameters are the declared ones (both: the named numbers
+   * of params when the system was made), checked as they are read. */
+  if (!b->comp || o->np == 0) check_params(L, def);
   if (b->comp) {
     if (o->np > 0) read_params(L, def, b->comp, o->np);
     b->sys.ev.eval = hybrid_eval;
@@ -556,10 +578,11 @@ int nz_lua_raise_core(lua_State *L, bound_system *b, int st, const char *fname)
     const char *msg = lua_tostring(L, -1);
     lua_pushfstring(L, "%s%ssystem '%s': %s", b->ev.where, b->ev.where[0] ? " " : "", name,
                     msg ? msg : "a function failed");
-    return lua_error(L);
+    /* where the function failed when it is the user's; else the user's call */
+    return b->ev.where[0] ? lua_error(L) : nz_lua_raise_located(L);
   }
-  if (st == NZ_ENOMEM) return luaL_error(L, "system '%s': not enough memory in '%s'", name, fname);
-  return luaL_error(L, "system '%s': '%s' failed (status %d)", name, fname, st);
+  if (st == NZ_ENOMEM) return nz_lua_error(L, "system '%s': not enough memory in '%s'", name, fname);
+  return nz_lua_error(L, "system '%s': '%s' failed (status %d)", name, fname, st);
 }
 
 /* Arguments (def, ..., t, q, qd, qdd, higher) from `at` on: the state levels. */
@@ -573,7 +596,7 @@ static void read_state(lua_State *L, int at, int k, state_buf *s, const char *fn
 {
   int extra = 0;
   if (lua_istable(L, at + 3)) extra = (int)luaL_len(L, at + 3);
-  if (extra > NZ_MAX_LEVELS - 3) luaL_error(L, "bad argument to '%s' (too many higher derivatives)", fname);
+  if (extra > NZ_MAX_LEVELS - 3) nz_lua_error(L, "bad argument to '%s' (too many higher derivatives)", fname);
   s->n = 3 + extra;
   s->data = lua_newuserdatauv(L, (size_t)s->n * (size_t)k * sizeof(double), 0);
   static const char *const names[] = { "q", "qd", "qdd" };
@@ -593,7 +616,7 @@ static int check_order(lua_State *L, int idx, int lo, const char *fname)
 {
   lua_Integer n = luaL_checkinteger(L, idx);
   if (n < lo || n > NZ_MAX_EQ_ORDER)
-    return (int)luaL_error(L, "bad argument #1 to '%s' (order between %d and %d expected, got %I)",
+    return (int)nz_lua_error(L, "bad argument #1 to '%s' (order between %d and %d expected, got %I)",
                            fname, lo, NZ_MAX_EQ_ORDER, (lua_Integer)n);
   return (int)n;
 }
@@ -627,9 +650,9 @@ static int ls_residual(lua_State *L)
   double *buf = lua_newuserdatauv(L, 4 * (size_t)k * sizeof(double), 0);
   nz_terms terms = { buf + k, buf + 2 * k, buf + 3 * k };
   if (form == NZ_FORM_WASSMUTH && n < 2)
-    return luaL_error(L, "system '%s': Wassmuth's form needs n >= 2 (got %d)", nz_lua_system_name(L, 1), n);
+    return nz_lua_error(L, "system '%s': Wassmuth's form needs n >= 2 (got %d)", nz_lua_system_name(L, 1), n);
   if (form == NZ_FORM_WASSMUTH && !nz_system_has(&b.sys, NZ_PIECE_S))
-    return luaL_error(L, "system '%s': Wassmuth's form needs the acceleration energy S: build "
+    return nz_lua_error(L, "system '%s': Wassmuth's form needs the acceleration energy S: build "
                       "the system from particles (bodies = {...}) or give S", nz_lua_system_name(L, 1));
   int st = nz_residual(&b.sys, form, n, t, s.levels, s.n, buf, want_terms ? &terms : NULL);
   if (st) return nz_lua_raise_core(L, &b, st, "residual");

@@ -36,10 +36,10 @@ static void bind_recorded(lua_State *L, bound_system *b, const char *fname)
   nz_lua_bind_system(L, 1, b);
   const char *name = nz_lua_system_name(L, 1);
   if (!b->comp)
-    luaL_error(L, "system '%s': '%s': the Taylor method needs a recorded system (made with compile = true, "
+    nz_lua_error(L, "system '%s': '%s': the Taylor method needs a recorded system (made with compile = true, "
                "the default), whose series it builds on the graphs", name, fname);
   if (!b->sys.mass_bias)
-    luaL_error(L, "system '%s': '%s': the Taylor method needs T, V and Q recorded, and one of them fell back "
+    nz_lua_error(L, "system '%s': '%s': the Taylor method needs T, V and Q recorded, and one of them fell back "
                "to Lua (print(sys) says which and why)", name, fname);
   for (int r = 0; r < b->sys.nc; r++)   /* else the first series would fail with a status, not this reason */
     if (!nz_compiled_has(b->comp, NZ_PIECE_PHI, r))
@@ -137,7 +137,7 @@ static series_ctx *series_new(lua_State *L, bound_system *b, int idx, const char
   int fidx = lua_gettop(L);
   if (nc > 0) {
     if (!idx || lua_getfield(L, idx, "orders") != LUA_TTABLE)
-      luaL_error(L, "system '%s': '%s': a system with constraints needs their classification (orders, linear; "
+      nz_lua_error(L, "system '%s': '%s': a system with constraints needs their classification (orders, linear; "
                  "sys:simulate{method = \"taylor\"} passes it)", nz_lua_system_name(L, 1), fname);
     lua_getfield(L, idx, "linear");
     int top = lua_gettop(L);
@@ -148,7 +148,7 @@ static series_ctx *series_new(lua_State *L, bound_system *b, int idx, const char
       flags[nc + 1 + r] = lua_toboolean(L, -1);
       lua_pop(L, 2);
       if (flags[r] < 0 || flags[r] > 2)
-        luaL_error(L, "system '%s': '%s': constraint %d is of order %d; the Taylor method takes constraints of order "
+        nz_lua_error(L, "system '%s': '%s': constraint %d is of order %d; the Taylor method takes constraints of order "
                    "0, 1 and 2", nz_lua_system_name(L, 1), fname, r + 1, flags[r]);
     }
     lua_pop(L, 2);
@@ -189,10 +189,10 @@ static int raise_series(lua_State *L, bound_system *b, int st, double t, const c
   const char *name = nz_lua_system_name(L, 1);
   char num[64];
   nz_lua_fmt_num(num, sizeof num, t);
-  if (st == NZ_ENOMEM) return luaL_error(L, "system '%s': not enough memory in '%s'", name, fname);
+  if (st == NZ_ENOMEM) return nz_lua_error(L, "system '%s': not enough memory in '%s'", name, fname);
   if (st == NZ_EARG)
-    return luaL_error(L, "system '%s': '%s': the mass matrix and bias are not recorded", name, fname);
-  return luaL_error(L, "system '%s': '%s': the series of the motion failed at t = %s: %s (status %d)", name,
+    return nz_lua_error(L, "system '%s': '%s': the mass matrix and bias are not recorded", name, fname);
+  return nz_lua_error(L, "system '%s': '%s': the series of the motion failed at t = %s: %s (status %d)", name,
                     fname, num, nz_compiled_failure(b->comp), st);
 }
 
@@ -204,7 +204,7 @@ static double opt_number(lua_State *L, int idx, const char *name, double def, co
   if (type != LUA_TNIL) {
     int isnum;
     v = lua_tonumberx(L, -1, &isnum);
-    if (!isnum) luaL_error(L, "bad argument to '%s' (%s must be a number, got %s)", fname, name, luaL_typename(L, -1));
+    if (!isnum) nz_lua_error(L, "bad argument to '%s' (%s must be a number, got %s)", fname, name, luaL_typename(L, -1));
   }
   lua_pop(L, 1);
   return v;
@@ -222,7 +222,7 @@ nz_stepper *nz_lua_taylor_new(lua_State *L, int cfg, const char *fname)
    * every order, and one step to t1). */
   int branches = nz_compiled_motion_branches(b.comp);
   if (branches > 0)
-    luaL_error(L, "system '%s': '%s': the Taylor method does not step across branches yet, and "
+    nz_lua_error(L, "system '%s': '%s': the Taylor method does not step across branches yet, and "
                "M or h has %d (comparisons, nz.ifelse, min, max, abs or sign on the state)",
                nz_lua_system_name(L, 1), fname, branches);
   nz_taylor_config tc;
@@ -234,9 +234,9 @@ nz_stepper *nz_lua_taylor_new(lua_State *L, int cfg, const char *fname)
   tc.atol = opt_number(L, cfg, "atol", tol, fname);
   double order = opt_number(L, cfg, "order", 0.0, fname);
   if (!(tc.rtol >= 0.0 && tc.rtol < 1.0 && tc.atol >= 0.0 && tc.atol < 1.0) || (tc.rtol == 0.0 && tc.atol == 0.0))
-    luaL_error(L, "bad argument to '%s' (tolerances must lie in [0, 1), not both 0)", fname);
+    nz_lua_error(L, "bad argument to '%s' (tolerances must lie in [0, 1), not both 0)", fname);
   if (!(order == 0.0 || (order >= 2.0 && order <= 1000.0 && order == floor(order))))
-    luaL_error(L, "bad argument to '%s' (order must be a whole number in 2 .. 1000)", fname);
+    nz_lua_error(L, "bad argument to '%s' (order must be a whole number in 2 .. 1000)", fname);
   tc.order = (int)order;
   series_ctx *c = series_new(L, &b, cfg, fname, 0);
   if (!c) luaL_error(L, "not enough memory for the integrator");
@@ -384,13 +384,13 @@ static int lt_taylor_run(lua_State *L)
   c.dt = opt_number(L, 2, "dt", c.t1 - c.t0, "taylor_run");
   double max_steps = opt_number(L, 2, "max_steps", 0.0, "taylor_run");
   if (!isfinite(c.t0) || !isfinite(c.t1) || !(c.t1 > c.t0))
-    return luaL_error(L, "bad argument to 'taylor_run' (t1 must be a finite number after t0)");
+    return nz_lua_error(L, "bad argument to 'taylor_run' (t1 must be a finite number after t0)");
   if (!(c.dt > 0.0) || !isfinite(c.dt))
-    return luaL_error(L, "bad argument to 'taylor_run' (dt must be a positive finite number)");
+    return nz_lua_error(L, "bad argument to 'taylor_run' (dt must be a positive finite number)");
   if (!(max_steps >= 0.0 && max_steps == floor(max_steps) && max_steps < 1e18))
-    return luaL_error(L, "bad argument to 'taylor_run' (max_steps must be a whole number >= 0)");
+    return nz_lua_error(L, "bad argument to 'taylor_run' (max_steps must be a whole number >= 0)");
   if (!(ceil((c.t1 - c.t0) / c.dt - 1e-9) <= 1e9))
-    return luaL_error(L, "bad argument to 'taylor_run' (the output grid t0 .. t1 by dt is too long)");
+    return nz_lua_error(L, "bad argument to 'taylor_run' (the output grid t0 .. t1 by dt is too long)");
   double *y0 = lua_newuserdatauv(L, 2 * (size_t)k * sizeof(double), 0);
   lua_getfield(L, 2, "q0");
   nz_lua_read_vector(L, lua_gettop(L), k, y0, "q0", 0, "taylor_run");
@@ -431,15 +431,15 @@ static int lt_taylor_run(lua_State *L)
     char num[64];
     nz_lua_fmt_num(num, sizeof num, nz_run_time(tb->r));
     if (rs == NZ_RUN_PAUSED)
-      return luaL_error(L, "system '%s': 'taylor_run' stopped at t = %s: max_steps reached", nz_lua_system_name(L, 1), num);
-    if (rs != NZ_RUN_FAILED) return luaL_error(L, "system '%s': 'taylor_run' failed (%d)", nz_lua_system_name(L, 1), (int)rs);
+      return nz_lua_error(L, "system '%s': 'taylor_run' stopped at t = %s: max_steps reached", nz_lua_system_name(L, 1), num);
+    if (rs != NZ_RUN_FAILED) return nz_lua_error(L, "system '%s': 'taylor_run' failed (%d)", nz_lua_system_name(L, 1), (int)rs);
     char what[512];
     double t;
     const char *why = failure_text(tb->st, b.comp, what, sizeof what, &t);
     series_ctx *sc = nz_taylor_ctx(tb->st);
     if (!why || sc->accel_failed) return raise_accel(L, sc);
     if (!strcmp(why, "series")) return raise_series(L, &b, st, t, "taylor_run");
-    return luaL_error(L, "system '%s': 'taylor_run' %s", nz_lua_system_name(L, 1), what);
+    return nz_lua_error(L, "system '%s': 'taylor_run' %s", nz_lua_system_name(L, 1), what);
   }
   lua_setfield(L, res, "qd");
   lua_setfield(L, res, "q");

@@ -3,6 +3,7 @@
  * and the errors raised with the state.  It calls no other binding, so the
  * bindings depend on it and never on each other for these. */
 #include <math.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -19,6 +20,57 @@ void nz_lua_fmt_num(char *buf, size_t n, double v)
   }
   snprintf(buf, n, "%.15g", v);
   if (strtod(buf, NULL) != v) snprintf(buf, n, "%.17g", v);
+}
+
+/* Is this chunk one of the nz library's own files: embedded as
+ * "@lua/nz/NAME.lua", or loaded from a checkout (".../lua/nz/NAME.lua")?
+ * The same test as nz/where.lua's is_library. */
+int nz_lua_library_source(const char *source)
+{
+  if (strncmp(source, "@lua/nz/", 8) == 0) return 1;
+  const char *dir = strstr(source, "/lua/nz/");
+  if (!dir || source[0] != '@') return 0;
+  const char *name = dir + strlen("/lua/nz/");
+  size_t n = strlen(name);
+  return n > 4 && strcmp(name + n - 4, ".lua") == 0 && !strchr(name, '/');
+}
+
+void nz_lua_user_location(lua_State *L, int level, char *where, size_t n)
+{
+  lua_Debug ar;
+  where[0] = '\0';
+  for (; lua_getstack(L, level, &ar); level++) {
+    lua_getinfo(L, "Sl", &ar);
+    if (ar.currentline <= 0 || nz_lua_library_source(ar.source)) continue;
+    snprintf(where, n, "%s:%d:", ar.short_src, ar.currentline);
+    return;
+  }
+}
+
+/* Every error of the bindings about the user's input or state goes out
+ * here, so that it starts with the user's file:line as the README promises
+ * (a binding is called from the library's Lua files, so luaL_error's level 1
+ * would name lua/nz/...; lua_error alone names nothing). */
+int nz_lua_raise_located(lua_State *L)
+{
+  char where[512];
+  nz_lua_user_location(L, 0, where, sizeof where);
+  size_t n = strlen(where);
+  const char *msg = lua_tostring(L, -1);
+  if (n > 0 && msg && !(strncmp(msg, where, n) == 0 && msg[n] == ' ')) {
+    lua_pushfstring(L, "%s %s", where, msg);
+    lua_remove(L, -2);
+  }
+  return lua_error(L);
+}
+
+int nz_lua_error(lua_State *L, const char *fmt, ...)
+{
+  va_list ap;
+  va_start(ap, fmt);
+  lua_pushvfstring(L, fmt, ap);
+  va_end(ap);
+  return nz_lua_raise_located(L);
 }
 
 /* The interrupt: one object per Lua state, kept in the registry, that the
@@ -82,10 +134,10 @@ void nz_lua_read_vector(lua_State *L, int idx, int k, double *v, const char *wha
     return;
   }
   if (!lua_istable(L, idx))
-    luaL_error(L, "bad argument to '%s' (%s: a table of %d numbers expected, got %s)", fname, what,
+    nz_lua_error(L, "bad argument to '%s' (%s: a table of %d numbers expected, got %s)", fname, what,
                k, luaL_typename(L, idx));
   if (luaL_len(L, idx) != k)
-    luaL_error(L, "bad argument to '%s' (%s: %d numbers expected, one per coordinate, got %d)",
+    nz_lua_error(L, "bad argument to '%s' (%s: %d numbers expected, one per coordinate, got %d)",
                fname, what, k, (int)luaL_len(L, idx));
   for (int i = 0; i < k; i++) {
     lua_geti(L, idx, i + 1);
@@ -93,7 +145,7 @@ void nz_lua_read_vector(lua_State *L, int idx, int k, double *v, const char *wha
     v[i] = lua_tonumberx(L, -1, &isnum);
     lua_pop(L, 1);
     if (!isnum || !isfinite(v[i]))
-      luaL_error(L, "bad argument to '%s' (%s[%d] must be a finite number)", fname, what, i + 1);
+      nz_lua_error(L, "bad argument to '%s' (%s[%d] must be a finite number)", fname, what, i + 1);
   }
 }
 
@@ -189,7 +241,7 @@ int nz_lua_raise_singular_mass(lua_State *L, int def, double t, const double *q,
   }
   luaL_addstring(&msg, "): check T, or move away from this configuration");
   luaL_pushresult(&msg);
-  return lua_error(L);
+  return nz_lua_raise_located(L);
 }
 
 /* What the check after the solve found (NZ_ACCEL_CHECK). */
@@ -225,11 +277,54 @@ static void add_top_failure(luaL_Buffer *msg, const nz_accel_report *rep, const 
     snprintf(num, sizeof num, "a constraint nonlinear in q^(%d) fixes q^(%d) only through lambda "
              "d2Phi/dq^(%d)2 in (6.2): the Jacobian of (6.2) and the constraints in (q^(%d), lambda) is "
              "singular (reciprocal condition %.2g), as where the multipliers vanish", p, p, p, p, rep->rcond);
-  else
-    snprintf(num, sizeof num, "Newton's method on (6.2) and the constraints for (q^(%d), lambda) did not "
-             "converge in %d iterations (residual %.3g, started from %s%s)", p, rep->iterations, rep->residual,
+  else {
+    char how[80];
+    if (rep->newton_stop == NZ_NEWTON_NO_PROGRESS && rep->iterations == 0)
+      snprintf(how, sizeof how, "stopped at its start: its first step is zero");
+    else if (rep->newton_stop == NZ_NEWTON_NO_PROGRESS)
+      snprintf(how, sizeof how, "stopped after %d iterations: its step is zero", rep->iterations);
+    else if (rep->newton_stop == NZ_NEWTON_VALUE_NOT_FINITE)
+      snprintf(how, sizeof how, "stopped after %d iterations on a value that is not finite", rep->iterations);
+    else
+      snprintf(how, sizeof how, "did not converge in %d iterations", rep->iterations);
+    snprintf(num, sizeof num, "Newton's method on (6.2) and the constraints for (q^(%d), lambda) %s "
+             "(residual %.3g, started from %s%s)", p, how, rep->residual,
              rep->from_guess ? "the last root or the guess" : "q^(p) = 0 and least-squares multipliers",
              rep->rcond < 1e-13 ? "; the Jacobian is singular at the last iterate and no step reduces the residual" : "");
+  }
+  luaL_addstring(msg, num);
+}
+
+/* Why Newton's method on (6.2) and the constraints stopped: it ran out of
+ * iterations, or (GSL's hybrid method) could not go on from where it stood
+ * -- from its start, "did not converge in 0 iterations" said nothing true --
+ * and the constraint farthest from 0 there. */
+static void add_newton_failure(luaL_Buffer *msg, const nz_accel_report *rep)
+{
+  char num[480], worst[120] = "", at[64] = "at its start: its first step";
+  if (rep->newton_row >= 0)
+    snprintf(worst, sizeof worst, "; constraint %d is %.6g there, not 0", rep->newton_row + 1, rep->newton_value);
+  if (rep->iterations > 0) snprintf(at, sizeof at, "after %d iterations: its step", rep->iterations);
+  switch (rep->newton_stop) {
+  case NZ_NEWTON_MAXIT:
+    snprintf(num, sizeof num, "Newton's method on (6.2) and the constraints did not converge in %d "
+             "iterations (residual %.3g%s)", rep->iterations, rep->residual, worst);
+    break;
+  case NZ_NEWTON_STEP_NOT_FINITE:
+    snprintf(num, sizeof num, "Newton's method on (6.2) and the constraints stopped %s was not finite: the "
+             "Jacobian in (qdd, lambda) is singular there, as where a constraint's gradient in qdd vanishes "
+             "(residual %.3g%s)", at, rep->residual, worst);
+    break;
+  case NZ_NEWTON_VALUE_NOT_FINITE:
+    snprintf(num, sizeof num, "Newton's method on (6.2) and the constraints stopped after %d iterations: the "
+             "constraints or (6.2) were not finite at its next iterate (residual %.3g before%s)", rep->iterations,
+             rep->residual, worst);
+    break;
+  default:
+    snprintf(num, sizeof num, "Newton's method on (6.2) and the constraints stopped %s no longer reduced the "
+             "residual (%.3g%s), as where there is no real solution near its start or the Jacobian is singular",
+             at, rep->residual, worst);
+  }
   luaL_addstring(msg, num);
 }
 
@@ -264,14 +359,13 @@ int nz_lua_raise_accel_failure(lua_State *L, int def, const nz_accel_report *rep
                    : ": check that the constraint is smooth here and consistent with its jet "
                      "(sys:constraints() shows its order and linearity at the sample states)");
   } else if (rep.failure == NZ_ACCEL_NEWTON) {
-    snprintf(num, sizeof num, "Newton's method on (6.2) and the constraints did not converge in %d "
-             "iterations (residual %.3g)", rep.iterations, rep.residual);
-    luaL_addstring(&msg, num);
+    add_newton_failure(&msg, &rep);
     nz_lua_add_state(&msg, t, q, qd, k);
     luaL_addstring(&msg, rep.from_guess ? "; started from the guess given"
                                         : "; started from the unconstrained accelerations");
-    luaL_addstring(&msg, ": give another start with sys:accel(t, q, qd, {qdd = ..., lambda = ...}), "
-                         "or check that the constraints have a real solution here");
+    luaL_addstring(&msg, ": the constraints may have no real solution at this state (check them there); "
+                         "if they have one, give Newton another start with sys:accel(t, q, qd, {qdd = ..., "
+                         "lambda = ...})");
   } else if (rep.failure == NZ_ACCEL_TOP_SINGULAR || rep.failure == NZ_ACCEL_TOP_NEWTON) {
     add_top_failure(&msg, &rep, orders, nc);
     nz_lua_add_state(&msg, t, q, qd, k);
@@ -306,13 +400,15 @@ int nz_lua_raise_accel_failure(lua_State *L, int def, const nz_accel_report *rep
                "constraint so that its gradient does not vanish on the motion";
     } else if (rep.rank_A < nc) {
       luaL_addstring(&msg, "dependent constraints: ");
-      int first = 1;
+      int seen = 0;
       for (int r = 0; r < nc; r++)
         if (involved[r]) {
-          snprintf(num, sizeof num, "%s%d", first ? "constraints " : " and ", r + 1);
+          seen++;
+          snprintf(num, sizeof num, "%s%d", seen == 1 ? "constraints " : seen == ninvolved ? " and " : ", ", r + 1);
           luaL_addstring(&msg, num);
-          first = 0;
         }
+      if (ninvolved == 0)       /* (the diagnosis could not run: out of memory) */
+        luaL_addstring(&msg, "which ones could not be found");
       snprintf(num, sizeof num, " (the rank of their gradients A is %d < %d)", rep.rank_A, nc);
       luaL_addstring(&msg, num);
     } else {
@@ -327,6 +423,6 @@ int nz_lua_raise_accel_failure(lua_State *L, int def, const nz_accel_report *rep
     luaL_addstring(&msg, advice);
   }
   luaL_pushresult(&msg);
-  return lua_error(L);
+  return nz_lua_raise_located(L);
 }
 

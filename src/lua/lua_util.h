@@ -14,6 +14,18 @@
  * every C library (not "-nan"). */
 void nz_lua_fmt_num(char *buf, size_t n, double v);
 
+/* Where in the user's code: the library's own chunks ("@lua/nz/NAME.lua",
+ * or .../lua/nz/NAME.lua from a checkout), and "file:line:" of the innermost
+ * frame from `level` on that is the user's Lua code (not C, not the
+ * library), or "" (nz/where.lua's user_where, for C). */
+int nz_lua_library_source(const char *source);
+void nz_lua_user_location(lua_State *L, int level, char *where, size_t n);
+/* Raise the message on top of the stack with the user's "file:line: " first
+ * (unless it already starts so), and luaL_error's equivalent: the one way
+ * the bindings raise an error about the user's input or state. */
+int nz_lua_raise_located(lua_State *L);
+int nz_lua_error(lua_State *L, const char *fmt, ...);
+
 /* Arguments and results. */
 /* Read k finite numbers from the table at idx (nil gives zeros if allow_nil). */
 /* The same without raising: 1 when idx is a plain table (no metatable) of

@@ -178,15 +178,26 @@ int nz_constraint_hessian(const nz_system *s, int r, double t, const double *con
 static void diagnose_dependence(int nc, int k, const double *A, nz_accel_report *rep)
 {
   nz_svd d;
-  int transpose = nc <= k;          /* decompose A^T: its V spans constraint space */
-  if (nz_svd_of(&d, nc, k, A, transpose)) return;
-  int C = transpose ? nc : k;
+  /* Decompose A^T, whose V (nc x nc) spans constraint space.  With more
+   * constraints than coordinates A is first padded with zero columns to
+   * nc x nc (same singular values, and zeros): GSL's thin SVD of A itself
+   * would give only k of the nc directions, none of them the dependence, so
+   * x, y, x + y on two coordinates were called dependent without naming one. */
+  int cols = k < nc ? nc : k;
+  double *P = NULL;
+  if (cols > k) {
+    if (!(P = calloc((size_t)nc * (size_t)cols, sizeof(double)))) return;
+    for (int r = 0; r < nc; r++) memcpy(P + (size_t)r * cols, A + (size_t)r * k, (size_t)k * sizeof(double));
+  }
+  int st = nz_svd_of(&d, nc, cols, P ? P : A, 1);
+  free(P);
+  if (st) return;
   double smax = gsl_vector_get(d.S, 0);
   rep->rank_A = 0;
-  for (int c = 0; c < C; c++)
+  for (int c = 0; c < nc; c++)
     if (gsl_vector_get(d.S, (size_t)c) > 1e-10 * smax) rep->rank_A++;
-  if (rep->involved && transpose)
-    for (int c = rep->rank_A; c < C; c++)
+  if (rep->involved)
+    for (int c = rep->rank_A; c < nc; c++)
       for (int r = 0; r < nc; r++)
         if (fabs(gsl_matrix_get(d.V, (size_t)r, (size_t)c)) > 0.1) rep->involved[r] = 1;
   nz_svd_free(&d);
@@ -206,6 +217,8 @@ typedef struct kkt {
   int k, nc, N;
   double *M, *h, *A, *phi, *H, *x;   /* x: the point of the last evaluation */
   int status;                         /* first failure of a user function  */
+  int nonfinite;                      /* Newton: 1, an iterate was not finite; */
+                                      /* 2, G was not finite at a finite one   */
   nz_motion mo;                       /* the jets of every evaluation of the solve */
 } kkt;
 
@@ -277,7 +290,7 @@ static int gsl_fdf(const gsl_vector *x, void *p, gsl_vector *f, gsl_matrix *J)
   int N = c->N;
   double *G = f ? f->data : NULL, *Jm = NULL, *scratch = NULL;
   for (int i = 0; i < N; i++)          /* the solver diverged: never feed NaN to the user */
-    if (!isfinite(gsl_vector_get(x, (size_t)i))) return GSL_EBADFUNC;
+    if (!isfinite(gsl_vector_get(x, (size_t)i))) { c->nonfinite = 1; return GSL_EBADFUNC; }
   if (!G) G = scratch = malloc((size_t)N * sizeof(double));
   if (J) Jm = malloc((size_t)N * N * sizeof(double));
   int st = (!G || (J && !Jm)) ? NZ_ENOMEM : kkt_eval(c, x->data, G, Jm);
@@ -288,7 +301,7 @@ static int gsl_fdf(const gsl_vector *x, void *p, gsl_vector *f, gsl_matrix *J)
   free(scratch);
   if (st) { if (!c->status) c->status = st; return GSL_EBADFUNC; }
   for (int i = 0; f && i < N; i++)
-    if (!isfinite(gsl_vector_get(f, (size_t)i))) return GSL_EBADFUNC;
+    if (!isfinite(gsl_vector_get(f, (size_t)i))) { c->nonfinite = 2; return GSL_EBADFUNC; }
   return GSL_SUCCESS;
 }
 static int gsl_f(const gsl_vector *x, void *p, gsl_vector *f) { return gsl_fdf(x, p, f, NULL); }
@@ -304,7 +317,8 @@ static int solve_nonlinear(kkt *c, double *x, const nz_accel_options *opt, doubl
   gsl_multiroot_fdfsolver *solver = gsl_multiroot_fdfsolver_alloc(gsl_multiroot_fdfsolver_hybridsj, (size_t)N);
   if (!solver) return NZ_ENOMEM;
   gsl_vector_view xv = gsl_vector_view_array(x, (size_t)N);
-  int gs = gsl_multiroot_fdfsolver_set(solver, &fn, &xv.vector);
+  c->nonfinite = 0;
+  int gs = gsl_multiroot_fdfsolver_set(solver, &fn, &xv.vector), started = gs == GSL_SUCCESS;
   int it = 0;
   while (gs == GSL_SUCCESS) {
     double gmax = 0.0;
@@ -317,7 +331,22 @@ static int solve_nonlinear(kkt *c, double *x, const nz_accel_options *opt, doubl
     it++;
   }
   if (c->status) st = c->status;
-  else if (gs != GSL_SUCCESS) { rep->failure = NZ_ACCEL_NEWTON; st = NZ_EARG; }
+  else if (gs != GSL_SUCCESS) {
+    /* How it stopped and the worst constraint at the last iterate, for a
+     * message that says what happened (ran out of iterations, or could not
+     * reduce the residual from where it stood: often no real root). */
+    rep->failure = NZ_ACCEL_NEWTON;
+    rep->newton_stop = gs == GSL_EMAXITER ? NZ_NEWTON_MAXIT
+                     : c->nonfinite == 1 ? NZ_NEWTON_STEP_NOT_FINITE
+                     : c->nonfinite == 2 ? NZ_NEWTON_VALUE_NOT_FINITE : NZ_NEWTON_NO_PROGRESS;
+    rep->newton_row = -1;
+    rep->newton_value = 0.0;
+    for (int r = 0; started && r < c->nc; r++) {
+      double v = gsl_vector_get(solver->f, (size_t)(c->k + r));
+      if (rep->newton_row < 0 || fabs(v) > fabs(rep->newton_value)) { rep->newton_row = r; rep->newton_value = v; }
+    }
+    st = NZ_EARG;
+  }
   else memcpy(x, solver->x->data, (size_t)N * sizeof(double));
   gsl_multiroot_fdfsolver_free(solver);
   return st;
@@ -567,7 +596,7 @@ int nz_accel_constrained(const nz_system *s, const int *orders, const int *linea
   memcpy(ord, orders, (size_t)nc * sizeof(int));
   memcpy(lin, linear, (size_t)nc * sizeof(int));
   kkt c = { s, ord, lin, opt->baumgarte_alpha, opt->baumgarte_beta, t, q, qd, k, nc, N,
-            NULL, NULL, NULL, NULL, NULL, NULL, NZ_OK, { 0 } };
+            NULL, NULL, NULL, NULL, NULL, NULL, NZ_OK, 0, { 0 } };
   c.M = buf;
   c.H = c.M + kk;
   double *J = c.H + kk, *Jc = J + NN;

@@ -112,7 +112,23 @@ typedef struct nz_accel_report {
    * and size are those of its terms above and at its classified order. */
   int check_row, check_order;
   double check_violation, check_size;
+  /* NZ_ACCEL_NEWTON, NZ_ACCEL_TOP_NEWTON: how it stopped (nz_newton_stop),
+   * and (NZ_ACCEL_NEWTON) the constraint farthest from zero at the last
+   * iterate (newton_row, 0-based, -1 for none) with its value. */
+  int newton_stop, newton_row;
+  double newton_value;
 } nz_accel_report;
+
+/* How Newton's method stopped without a root: the iterations ran out; its
+ * steps stopped reducing the residual; its step was not finite (the
+ * Jacobian is singular there: GSL's hybrid step divides by its zero pivot);
+ * the equations were not finite at an iterate. */
+typedef enum nz_newton_stop {
+  NZ_NEWTON_MAXIT = 0,
+  NZ_NEWTON_NO_PROGRESS,
+  NZ_NEWTON_STEP_NOT_FINITE,
+  NZ_NEWTON_VALUE_NOT_FINITE
+} nz_newton_stop;
 
 /* Rank of the gradients A (nc x k) into rep->rank_A, and rep->involved[r]
  * set for the constraints that take part in a dependence. */

@@ -390,14 +390,24 @@ int nz_top_solve(const nz_system *s, const int *orders, const int *linear, int p
     rep->residual = norm;
     rep->iterations = it;
     if (norm <= opt->newton_tol * (1.0 + max_abs(N, x) + max_abs(k, F))) break;
-    if (it >= opt->newton_maxit || !isfinite(norm)) { rep->failure = NZ_ACCEL_TOP_NEWTON; st = NZ_EARG; goto done; }
+    if (it >= opt->newton_maxit || !isfinite(norm)) {
+      rep->failure = NZ_ACCEL_TOP_NEWTON;
+      rep->newton_stop = isfinite(norm) ? NZ_NEWTON_MAXIT : NZ_NEWTON_VALUE_NOT_FINITE;
+      st = NZ_EARG;
+      goto done;
+    }
     for (int i = 0; i < N; i++) F[i] = -F[i];
     /* A singular Jacobian at an iterate (the start from q^(p) = 0 often
      * has one) is not yet a verdict on the root: take the least-squares
      * step, and give up only when it does not move. */
     if ((st = nz_solve_svd(N, J, F, dx, &rep->rcond))) goto done;
     if (!(rep->rcond >= opt->rcond_min) && (st = nz_lstsq(N, N, J, F, dx))) goto done;
-    if (!(max_abs(N, dx) > 0.0)) { rep->failure = NZ_ACCEL_TOP_NEWTON; st = NZ_EARG; goto done; }
+    if (!(max_abs(N, dx) > 0.0)) {          /* stuck: said as such, not "did not converge" */
+      rep->failure = NZ_ACCEL_TOP_NEWTON;
+      rep->newton_stop = NZ_NEWTON_NO_PROGRESS;
+      st = NZ_EARG;
+      goto done;
+    }
     double step = 1.0;
     for (int half = 0; half < 30; half++, step *= 0.5) {
       for (int i = 0; i < N; i++) xt[i] = x[i] + step * dx[i];

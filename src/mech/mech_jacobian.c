@@ -1,4 +1,5 @@
 /* mech_jacobian.c - exact Jacobian of the motion (see mech_jacobian.h). */
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #include "core/linalg.h"
@@ -6,7 +7,7 @@
 
 int nz_ode_jacobian(const nz_system *s, const int *orders, const int *linear,
                     const nz_accel_options *opt, int work, double t, const double *y, double *dfdy,
-                    double *dfdt)
+                    double *dfdt, nz_solve_info *mass, nz_accel_report *rep)
 {
   int k = s->k, nc = s->nc, N = k + nc, dim = 2 * k + (work ? 1 : 0), st;
   const double *q = y, *qd = y + k;
@@ -23,16 +24,13 @@ int nz_ode_jacobian(const nz_system *s, const int *orders, const int *linear,
    * constraints: M qdd = -h by Cholesky on a copy, J is scratch until below). */
   if ((st = nz_mass_bias(s, t, q, qd, M, h))) goto done;
   if (nc == 0) {
-    nz_solve_info info;
     memcpy(J, M, kk * sizeof(double));
     for (int i = 0; i < k; i++) rhs[i] = -h[i];
-    st = nz_solve_spd(k, J, rhs, x, opt->rcond_min, &info);
+    st = nz_solve_spd(k, J, rhs, x, opt->rcond_min, mass);   /* its eigenvalues when singular */
   } else {
-    nz_accel_report rep;
-    memset(&rep, 0, sizeof rep);
-    rep.involved = flags;
-    rep.used = flags + nc;
-    st = nz_accel_constrained(s, orders, linear, t, q, qd, opt, x, x + k, &rep);
+    rep->used = flags + nc;
+    st = nz_accel_constrained(s, orders, linear, t, q, qd, opt, x, x + k, rep);
+    rep->used = NULL;              /* flags is freed below */
     orders = flags + nc;           /* the classification the check settled on here */
     linear = flags + 2 * nc;
   }
@@ -78,7 +76,18 @@ int nz_ode_jacobian(const nz_system *s, const int *orders, const int *linear,
     }
     double rcond;
     if ((st = nz_solve_svd(N, J, rhs, dx, &rcond))) goto done;
-    if (!(rcond >= opt->rcond_min)) { st = NZ_ESINGULAR; goto done; }
+    if (!(rcond >= opt->rcond_min)) {          /* said as the right-hand side says it */
+      st = NZ_ESINGULAR;
+      /* M's eigenvalues for the message: a threshold no matrix meets makes
+       * the SPD solve diagnose it */
+      if (nc == 0) nz_solve_spd(k, memcpy(H, M, kk * sizeof(double)), rhs, dx, INFINITY, mass);
+      else {
+        rep->failure = NZ_ACCEL_SINGULAR;
+        rep->rcond = rcond;
+        nz_constraint_dependence(nc, k, A, rep);
+      }
+      goto done;
+    }
     for (int i = 0; i < k; i++) {
       if (j < 2 * k) dfdy[(k + i) * dim + j] = dx[i];
       else dfdt[k + i] = dx[i];

@@ -287,7 +287,18 @@ static int jacobian(double t, const double y[], double *dfdy, double dfdt[], voi
     opt.guess_qdd = o->last;
     opt.guess_lambda = o->last + o->k;
   }
-  int st = nz_ode_jacobian(o->s, o->orders, o->linear, &opt, o->work, t, y, dfdy, dfdt);
+  /* A failed solve is reported as the right-hand side's (accelerations()):
+   * M's eigenvalues, or the constraints' report; the first version filled
+   * neither, and a singular M read "eigenvalues from 0 to 0". */
+  nz_accel_report rep;
+  memset(&rep, 0, sizeof rep);
+  if (o->nc > 0) memset(o->involved, 0, (size_t)o->nc * sizeof(int));
+  rep.involved = o->involved;           /* (A stays the right-hand side's) */
+  int st = nz_ode_jacobian(o->s, o->orders, o->linear, &opt, o->work, t, y, dfdy, dfdt, &o->failure.mass, &rep);
+  if (o->nc > 0 && (st == NZ_ESINGULAR || st == NZ_EARG)) {
+    o->failure.accel = rep;
+    return fail(o, NZ_ODE_FAIL_CONSTRAINTS, st, t, y);
+  }
   if (st) return fail(o, st == NZ_ESINGULAR ? NZ_ODE_FAIL_MASS : NZ_ODE_FAIL_FUNCTION, st, t, y);
   return o->work ? work_row(o, t, y, dfdy, dfdt) : GSL_SUCCESS;
 }
