@@ -223,7 +223,38 @@ describe("tr:animate", function()
       os.remove(f)
     end
     h.checkerror("the system has no bodies to draw", tr.animate, tr, { frames = 2 })
-    h.checkerror("must end in .gif or .svg", tr.animate, tr, { file = "x.png", draw = function() return {} end })
+    h.checkerror("must end in .gif (one animated GIF) or .svg", tr.animate, tr, { file = "x.png", draw = function() return {} end })
+  end)
+  it("refuses each bad option before drawing: the caller's line, the option, what it accepts", function()
+    local tr = pendulum():simulate{ q0 = { 1 }, t1 = 1, dt = 0.1 }
+    local gif = os.tmpname() .. ".gif"
+    for _, case in ipairs{
+      { { frames = 0 }, "frames = 0: a whole number of frames, 1 or more, expected" },
+      { { frames = 2.5 }, "frames = 2.5: a whole number of frames" },
+      { { plane = "xq" }, 'plane = "xq": "xy", "xz" or "yz" expected' },
+      { { fps = 0 }, "fps = 0: frames per second, a number above 0 and at most 100, expected" },
+      { { links = "yes" }, 'links = "yes": true (lines from the origin through the bodies' },
+      { { range = { 0, 1 } }, "range = {0, 1}: {xmin, xmax, ymin, ymax} expected" },
+      { { range = { 1, 0, 0, 1 } }, "range = {1, 0, 0, 1}: {xmin, xmax, ymin, ymax} expected, four numbers with xmin < xmax" },
+      { { width = 3 }, "width = 3: a whole number from 50 to 10000 expected (pixels)" },
+      { { title = 3 }, "title = 3: a string expected" },
+      { { draw = "circle" }, 'draw = "circle": a function(t, q) returning {points = ' },
+      { { draw = function() return 1 end }, "draw(t, q) at t = 0 returned 1: a table {points = " },
+      { { draw = function() return { points = { { 0 / 0, 1 } } } end }, "draw(t, q) at t = 0: point 1 is {" },
+      { { draw = function() return { segments = { { 0, 0, 1 } } } end },
+        "draw(t, q) at t = 0: segment 1 is {0, 0, 1}: {x1, y1, x2, y2}, four finite numbers, expected" },
+      { { draw = function() return {} end }, "nothing to draw: draw(t, q) returned no points and no segments" },
+      { { draw = function() return {} end, plane = "xy" }, "plane draws the bodies, and draw = function(t, q) ... replaces them" },
+    } do
+      case[1].file = gif
+      local ok, msg = pcall(tr.animate, tr, case[1])
+      assert.is_false(ok)
+      assert(msg:match("^[^:]*views_spec%.lua:%d+: trajectory:animate: ") and msg:find(case[2], 1, true),
+        ("expected %q from the caller's line, got %q"):format(case[2], msg))
+      assert.is_nil(io.open(gif), "nothing written")
+    end
+    -- and in the terminal, where sizes are characters
+    h.checkerror("height = 5: a whole number from 20 to 10000 expected (characters of the terminal)", tr.animate, tr, { height = 5 })
   end)
 end)
 

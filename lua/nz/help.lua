@@ -394,7 +394,10 @@ tr.qdd[i][j], tr.lambda[i][r], tr.status, tr.stats, tr.violation, monitors:
                              as an animated GIF, or SVG frames; from the
                              bodies (a point each, linked as a chain from the
                              origin) or draw(t, q) -> {points = {{x, y}},
-                             segments = {{x1, y1, x2, y2}}}
+                             segments = {{x1, y1, x2, y2}}}; frames a whole
+                             number >= 1, fps in (0, 100], plane "xy", "xz"
+                             or "yz" (bodies only), links true or false,
+                             range four numbers: checked before drawing
   print(tr)                  a summary: cost, status, drift, monitors
   print(sys)                 a summary]] },
   { name = "forms", section = "mechanics", usage = "nz.forms",
