@@ -72,6 +72,11 @@ describe("tr:plot", function()
     local plain = tr:plot{ y = { "E" }, quiet = true, size = { 70, 16 } }
     assert.truthy(plain:find("E - E(0)", 1, true), plain)
     h.checkerror("trajectory:plot: unknown option 'colour'", tr.plot, tr, { colour = "red" })
+    h.checkerror("trajectory:plot: y = 3: a quantity's name or a list of names expected", tr.plot, tr, { y = 3 })
+    h.checkerror("trajectory:plot: size = 70: {width, height} expected", tr.plot, tr, { size = 70 })
+    -- a quantity it does not have: from the caller's line, not the library's
+    local ok, msg = pcall(tr.plot, tr, { y = { "z" } })
+    assert(not ok and msg:match("^[^:]*views_spec%.lua:%d+: trajectory: no quantity 'z'"), msg)
   end)
   it("a short terminal plot keeps its y tick labels apart: at most five, each on a line of its own", function()
     local tr = osc():simulate{ q0 = { 1.2345 }, t1 = 10 }
@@ -189,6 +194,8 @@ describe("tr:section", function()
     h.checkerror("the run has several events (a, b): say which with when", two.section, two, { draw = false })
     local none = osc():simulate{ q0 = { 0.7 }, t1 = 1 }
     h.checkerror("the run recorded no event crossing", none.section, none, { draw = false })
+    h.checkerror("trajectory:section: plot: two quantities' names {\"y\", \"y'\"} expected", tr.section, tr, { plot = { "x", 2 } })
+    h.checkerror('trajectory:section: draw = "no": true or false expected', tr.section, tr, { draw = "no" })
   end)
 end)
 

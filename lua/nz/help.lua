@@ -375,7 +375,7 @@ tr.qdd[i][j], tr.lambda[i][r], tr.status, tr.stats, tr.violation, monitors:
            xlabel, ylabel, legend = false, size = {w, h}, drift]}  a plot in
                              the terminal (sized to it) or to a file; E and H
                              are drawn as their drift from the first value;
-                             unknown options are refused.
+                             unknown options and wrong values are refused.
                              In the terminal the ticks follow the width (the
                              labels apart and distinct) and a point on the
                              edge of the data is drawn inside the frame

@@ -73,7 +73,8 @@ function Trajectory:column(name)
   local lists = { E = self.energy, H = self.generalized_energy, work = self.work, violation = self.violation }
   if lists[name] then return lists[name] end
   if lists[name] == nil and (name == "E" or name == "H" or name == "work") then
-    error(("trajectory: '%s' was not recorded: ask for it with monitors = {energy = true, work = true}"):format(name), 2)
+    error(("%strajectory: '%s' was not recorded: ask for it with monitors = {energy = true, work = true}"):format(
+      require("nz.where").user_where(), name), 0)
   end
   local r = name:match("^lambda(%d+)$")
   if r then
@@ -91,8 +92,9 @@ function Trajectory:column(name)
       return out
     end
   end
-  error(("trajectory: no quantity '%s' (coordinates %s, with ' for velocities and '' for accelerations; t, E, H, work, violation, lambda1..)")
-    :format(name, table.concat(self.coords, ", ")), 2)
+  -- (from the user's line, also when tr:plot asked: a library line says nothing)
+  error(("%strajectory: no quantity '%s' (coordinates %s, with ' for velocities and '' for accelerations; t, E, H, work, violation, lambda1..)")
+    :format(require("nz.where").user_where(), tostring(name), table.concat(self.coords, ", ")), 0)
 end
 
 -- The header and the rows of tr:csv, to the open file f.
@@ -172,6 +174,32 @@ local function terminal_size()
   return tonumber(c), tonumber(l)
 end
 
+-- The values of tr:plot's options, checked before anything is drawn (the
+-- sizes and the file are plot.lines's to check).
+local function check_plot_options(opts)
+  local function bad(key, want)
+    local v = opts[key]
+    error(("%strajectory:plot: %s = %s: %s"):format(require("nz.where").user_where(), key,
+      type(v) == "string" and ("%q"):format(v) or tostring(v), want), 0)
+  end
+  local y = opts.y
+  local names = type(y) == "table" and #y > 0
+  for _, v in ipairs(type(y) == "table" and y or {}) do names = names and type(v) == "string" end
+  if y ~= nil and type(y) ~= "string" and not names then
+    bad("y", "a quantity's name or a list of names expected, e.g. y = {\"th\", \"th'\"}")
+  end
+  for _, key in ipairs{ "x", "phase", "title", "xlabel", "ylabel" } do
+    if opts[key] ~= nil and type(opts[key]) ~= "string" then bad(key, "a string expected") end
+  end
+  for _, key in ipairs{ "legend", "quiet", "drift" } do
+    if opts[key] ~= nil and type(opts[key]) ~= "boolean" then bad(key, "true or false expected") end
+  end
+  local size = opts.size
+  if size ~= nil and not (type(size) == "table" and #size == 2 and type(size[1]) == "number" and type(size[2]) == "number") then
+    bad("size", "{width, height} expected (characters in the terminal, pixels in a file)")
+  end
+end
+
 function Trajectory:plot(opts)
   opts = opts or {}
   for key in pairs(opts) do
@@ -183,6 +211,7 @@ function Trajectory:plot(opts)
         table.concat(names, ", ")), 0)
     end
   end
+  check_plot_options(opts)
   local series = {}
   local ylabel = opts.ylabel
   if opts.phase then

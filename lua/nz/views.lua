@@ -23,6 +23,9 @@ local function check_options(fname, opts, known)
   end
 end
 
+-- A value as the user wrote it, for messages.
+local function shown(v) return type(v) == "string" and ("%q"):format(v) or tostring(v) end
+
 -- The value of a named quantity at an event's state: a coordinate, or its
 -- velocity "name'".
 local function value_at(tr, ev, name)
@@ -46,6 +49,10 @@ local SECTION = { when = true, plot = true, file = true, title = true, draw = tr
 function M.section(tr, opts)
   opts = opts or {}
   check_options("section", opts, SECTION)
+  -- (the sizes and the file are plot.lines's to check)
+  if opts.when ~= nil and type(opts.when) ~= "string" then fail("section", "when = %s: an event's name (a string) expected", shown(opts.when)) end
+  if opts.draw ~= nil and type(opts.draw) ~= "boolean" then fail("section", "draw = %s: true or false expected", shown(opts.draw)) end
+  if opts.title ~= nil and type(opts.title) ~= "string" then fail("section", "title = %s: a string expected", shown(opts.title)) end
   local evs = tr.events or {}
   local names, seen = {}, {}
   for _, e in ipairs(evs) do
@@ -63,7 +70,9 @@ function M.section(tr, opts)
   end
   if not seen[when] then fail("section", "no event named '%s' crossed (events: %s)", tostring(when), table.concat(names, ", ")) end
   local pair = opts.plot or { tr.coords[1], tr.coords[1] .. "'" }
-  if type(pair) ~= "table" or #pair ~= 2 then fail("section", "plot: two quantities {\"y\", \"y'\"} expected") end
+  if type(pair) ~= "table" or #pair ~= 2 or type(pair[1]) ~= "string" or type(pair[2]) ~= "string" then
+    fail("section", "plot: two quantities' names {\"y\", \"y'\"} expected")
+  end
   local out = { x = {}, y = {}, t = {}, names = pair }
   for _, e in ipairs(evs) do
     if e.name == when then
@@ -107,9 +116,6 @@ local function shapes_of(tr, opts)
     return { points = points, segments = segments }
   end
 end
-
--- A value as the user wrote it, for messages.
-local function shown(v) return type(v) == "string" and ("%q"):format(v) or tostring(v) end
 
 local function whole(v, lo, hi) return type(v) == "number" and v == math.floor(v) and v >= lo and v <= hi end
 local function finite(v) return type(v) == "number" and v == v and math.abs(v) < math.huge end
