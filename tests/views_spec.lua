@@ -14,6 +14,52 @@ end
 
 local function slurp(path) return assert(h.slurp(path), path) end
 
+-- A terminal plot taken apart: its lines, the frame (first and last line,
+-- first and last column), the x tick labels (the line under the frame), the
+-- y tick labels (each ending one blank left of the frame), and count(c):
+-- how often the character c is drawn inside the frame.
+local function dissect(text)
+  local rows = {}
+  for line in (text .. "\n"):gmatch("([^\n]*)\n") do rows[#rows + 1] = line end
+  local p = { rows = rows, xlabels = {}, ylabels = {} }
+  for r, line in ipairs(rows) do
+    local s, e = line:find("%+%-+%+")
+    if s and e - s > 8 then
+      if not p.top then p.top, p.left, p.right = r, s, e end
+      p.bottom = r
+    end
+  end
+  assert(p.top and p.bottom > p.top, "no frame in:\n" .. text)
+  for tok in rows[p.bottom + 1]:gmatch("%S+") do p.xlabels[#p.xlabels + 1] = tok end
+  for r = p.top, p.bottom do
+    local tok = rows[r]:sub(1, p.left - 1):match("(%S+) $")
+    if tok then p.ylabels[#p.ylabels + 1] = tok end
+  end
+  function p.inside(r) return rows[r]:sub(p.left + 1, p.right - 1) end
+  function p.count(c)
+    local n = 0
+    for r = p.top + 1, p.bottom - 1 do
+      for _ in p.inside(r):gmatch(c:gsub("%p", "%%%0")) do n = n + 1 end
+    end
+    return n
+  end
+  return p
+end
+
+-- Tick labels that can be told apart: each reads as one number (labels
+-- run together do not), no two alike, in order.
+local function assert_ticks(labels, increasing, text)
+  assert(#labels >= 2, "fewer than two tick labels:\n" .. text)
+  for i, l in ipairs(labels) do
+    assert(tonumber(l), ("tick label %q is not one number (labels run together?):\n%s"):format(l, text))
+    if i > 1 then
+      local a, b = tonumber(labels[i - 1]), tonumber(l)
+      assert(increasing and a < b or not increasing and a > b, ("tick labels %q, %q repeat or are out of order:\n%s")
+        :format(labels[i - 1], l, text))
+    end
+  end
+end
+
 describe("tr:plot", function()
   it("writes the title, axis labels and legend to the SVG, and refuses unknown options", function()
     local tr = osc():simulate{ q0 = { 1 }, t1 = 3, monitors = { energy = true } }
@@ -26,6 +72,11 @@ describe("tr:plot", function()
     local plain = tr:plot{ y = { "E" }, quiet = true, size = { 70, 16 } }
     assert.truthy(plain:find("E - E(0)", 1, true), plain)
     h.checkerror("trajectory:plot: unknown option 'colour'", tr.plot, tr, { colour = "red" })
+    h.checkerror("trajectory:plot: y = 3: a quantity's name or a list of names expected", tr.plot, tr, { y = 3 })
+    h.checkerror("trajectory:plot: size = 70: {width, height} expected", tr.plot, tr, { size = 70 })
+    -- a quantity it does not have: from the caller's line, not the library's
+    local ok, msg = pcall(tr.plot, tr, { y = { "z" } })
+    assert(not ok and msg:match("^[^:]*views_spec%.lua:%d+: trajectory: no quantity 'z'"), msg)
   end)
   it("a short terminal plot keeps its y tick labels apart: at most five, each on a line of its own", function()
     local tr = osc():simulate{ q0 = { 1.2345 }, t1 = 10 }
@@ -35,6 +86,72 @@ describe("tr:plot", function()
       if line:match("^%s*%-?[%d%.]+e?[%-%d]*%s+[%+|]") then ticks = ticks + 1 end
     end
     assert(ticks >= 2 and ticks <= 5, text)
+  end)
+end)
+
+describe("terminal plots (one path for every caller: nz.plot.lines)", function()
+  local plot = require "nz.plot"
+  it("choose the ticks from the plot's width: labels apart, each telling its tick from the next", function()
+    -- the reviewer's ranges (henon_chaos's energies, a phase plot, planet_path's x)
+    -- and some that need many digits or an exponent, at several widths
+    local ranges = { { 1 / 12, 1 / 6.5 }, { -2.5, 2.5 }, { -1.6, 0.4 }, { 1000.1, 1000.25 }, { 0, 3e-9 },
+      { -3e6, 5e6 }, { 1e-4, 0.3, log = true }, { 0.007, 0.023, log = true } }
+    for _, r in ipairs(ranges) do
+      for _, width in ipairs{ 40, 60, 72, 80, 120 } do
+        local x = { r[1], (r[1] + r[2]) / 2, r[2] }
+        local text = plot.lines{ series = { { name = "a curve", x = x, y = { 1, 3, 2 } } }, logx = r.log, quiet = true,
+          width = width, height = 14, xlabel = "x", ylabel = "y" }
+        local p = dissect(text)
+        assert_ticks(p.xlabels, true, text)
+        assert_ticks(p.ylabels, false, text)
+      end
+    end
+  end)
+  it("draw a point on the edge of the data's range inside the frame, not on it", function()
+    for _, size in ipairs{ { 40, 10 }, { 60, 15 }, { 100, 30 } } do
+      -- the four corners of the data and its middle, each an A (point type 1)
+      local text = plot.lines{ series = { { x = { 0, 1, 0, 1, 0.5 }, y = { 0, 0, 2, 2, 1 }, style = "points pt 1" } },
+        legend = false, quiet = true, width = size[1], height = size[2] }
+      assert.are.equal(5, dissect(text).count("A"), text)
+    end
+    -- the reviewer's eigenvalue sweep: Im(lambda) = 2 (its largest value, point type 6: F) at c = 0
+    local osc = nz.system{ name = "osc", coords = { "x" }, params = { m = 2, k = 8, c = 0.4 },
+      T = function(t, q, qd, p) return 0.5 * p.m * qd[1] ^ 2 end, V = function(t, q, p) return 0.5 * p.k * q[1] ^ 2 end,
+      Q = function(t, q, qd, p) return { -p.c * qd[1] } end }
+    local values = {}
+    for i = 0, 10 do values[#values + 1] = -1 + 0.2 * i end
+    local sw = osc:eigen_sweep{ parameter = "c", values = values, at = function(c) osc.params.c = c; return { q = { 0 }, qd = { 0 } } end }
+    local text = sw:plot{ width = 70, height = 15, quiet = true }
+    assert.are.equal(#values, dissect(text).count("F"), text)
+  end)
+  it("write the y axis' label apart from its tick labels", function()
+    local tr = osc():simulate{ q0 = { 1.2 }, t1 = 10 }
+    for _, size in ipairs{ { 70, 15 }, { 50, 12 }, { 100, 30 } } do
+      local text = tr:plot{ y = { "x", "x'" }, quiet = true, size = size }   -- its y label: "x, x'"
+      local p = dissect(text)
+      local found = false
+      for r = p.top, p.bottom do
+        local margin = p.rows[r]:sub(1, p.left - 1)
+        if margin:find("x, x'", 1, true) then
+          found = true
+          assert(margin:match("^x, x'%s+%S* $"), ("the y label runs into a tick label: %q\n%s"):format(margin, text))
+        end
+      end
+      assert(found, "no y label:\n" .. text)
+      assert_ticks(p.ylabels, false, text)
+    end
+  end)
+  it("refuse a bad file or size, and values with nothing to draw, from the caller's line", function()
+    local s = { { x = { 1, 2 }, y = { 1, 2 } } }
+    local function from_here(msg) return msg:match("^[^:]*views_spec%.lua:%d+: plot: ") end
+    for _, case in ipairs{ { { series = s, file = "out.pdf" }, "file 'out.pdf' must end in .svg or .png" },
+        { { series = s, width = 0 }, "width = 0: a whole number from 30 to 10000 expected" },
+        { { series = s, height = "big" }, "height = \"big\": a whole number" },
+        { { series = { { x = { 0 / 0, 1 / 0 }, y = { 1, 2 } } } }, "nothing to draw: every value is NaN or infinite" } } do
+      local ok, msg = pcall(plot.lines, case[1])
+      assert.is_false(ok)
+      assert(from_here(msg) and msg:find(case[2], 1, true), msg)
+    end
   end)
 end)
 
@@ -77,6 +194,8 @@ describe("tr:section", function()
     h.checkerror("the run has several events (a, b): say which with when", two.section, two, { draw = false })
     local none = osc():simulate{ q0 = { 0.7 }, t1 = 1 }
     h.checkerror("the run recorded no event crossing", none.section, none, { draw = false })
+    h.checkerror("trajectory:section: plot: two quantities' names {\"y\", \"y'\"} expected", tr.section, tr, { plot = { "x", 2 } })
+    h.checkerror('trajectory:section: draw = "no": true or false expected', tr.section, tr, { draw = "no" })
   end)
 end)
 
@@ -111,7 +230,38 @@ describe("tr:animate", function()
       os.remove(f)
     end
     h.checkerror("the system has no bodies to draw", tr.animate, tr, { frames = 2 })
-    h.checkerror("must end in .gif or .svg", tr.animate, tr, { file = "x.png", draw = function() return {} end })
+    h.checkerror("must end in .gif (one animated GIF) or .svg", tr.animate, tr, { file = "x.png", draw = function() return {} end })
+  end)
+  it("refuses each bad option before drawing: the caller's line, the option, what it accepts", function()
+    local tr = pendulum():simulate{ q0 = { 1 }, t1 = 1, dt = 0.1 }
+    local gif = os.tmpname() .. ".gif"
+    for _, case in ipairs{
+      { { frames = 0 }, "frames = 0: a whole number of frames, 1 or more, expected" },
+      { { frames = 2.5 }, "frames = 2.5: a whole number of frames" },
+      { { plane = "xq" }, 'plane = "xq": "xy", "xz" or "yz" expected' },
+      { { fps = 0 }, "fps = 0: frames per second, a number above 0 and at most 100, expected" },
+      { { links = "yes" }, 'links = "yes": true (lines from the origin through the bodies' },
+      { { range = { 0, 1 } }, "range = {0, 1}: {xmin, xmax, ymin, ymax} expected" },
+      { { range = { 1, 0, 0, 1 } }, "range = {1, 0, 0, 1}: {xmin, xmax, ymin, ymax} expected, four numbers with xmin < xmax" },
+      { { width = 3 }, "width = 3: a whole number from 50 to 10000 expected (pixels)" },
+      { { title = 3 }, "title = 3: a string expected" },
+      { { draw = "circle" }, 'draw = "circle": a function(t, q) returning {points = ' },
+      { { draw = function() return 1 end }, "draw(t, q) at t = 0 returned 1: a table {points = " },
+      { { draw = function() return { points = { { 0 / 0, 1 } } } end }, "draw(t, q) at t = 0: point 1 is {" },
+      { { draw = function() return { segments = { { 0, 0, 1 } } } end },
+        "draw(t, q) at t = 0: segment 1 is {0, 0, 1}: {x1, y1, x2, y2}, four finite numbers, expected" },
+      { { draw = function() return {} end }, "nothing to draw: draw(t, q) returned no points and no segments" },
+      { { draw = function() return {} end, plane = "xy" }, "plane draws the bodies, and draw = function(t, q) ... replaces them" },
+    } do
+      case[1].file = gif
+      local ok, msg = pcall(tr.animate, tr, case[1])
+      assert.is_false(ok)
+      assert(msg:match("^[^:]*views_spec%.lua:%d+: trajectory:animate: ") and msg:find(case[2], 1, true),
+        ("expected %q from the caller's line, got %q"):format(case[2], msg))
+      assert.is_nil(io.open(gif), "nothing written")
+    end
+    -- and in the terminal, where sizes are characters
+    h.checkerror("height = 5: a whole number from 20 to 10000 expected (characters of the terminal)", tr.animate, tr, { height = 5 })
   end)
 end)
 
@@ -136,6 +286,41 @@ describe("nz.workprecision's table and diagram", function()
     local s = slurp(svg)
     assert.truthy(s:find(">1e-08<", 1, true) or s:find("1e-08", 1, true), "a point's tolerance label")
     os.remove(svg)
+  end)
+  it("in the terminal: each method's points with its mark, the key showing each mark, tolerance labels whole and apart", function()
+    local wp = require "nz.workprecision"
+    -- rows as a study returns them: rk8pd at one tolerance, in the top right
+    -- corner (where a label beside it would be cut by the frame), the others
+    -- at three
+    local rows = {}
+    local function add(method, tol, err, time)
+      rows[#rows + 1] = { method = method, tol = tol, error = err, time = time, nfev = 1, steps = 1, status = "done" }
+    end
+    add("rk8pd", 1e-8, 1e-5, 0.02)
+    add("taylor", 1e-6, 1e-7, 2e-4); add("taylor", 1e-8, 1e-9, 4e-4); add("taylor", 1e-10, 1e-11, 8e-4)
+    add("rk4", 1e-6, 3e-6, 1e-3); add("rk4", 1e-8, 1e-7, 3e-3); add("rk4", 1e-10, 1e-9, 1e-2)
+    for _, size in ipairs{ { 100, 30 }, { 80, 20 } } do
+      local text = wp.diagram(rows, { quiet = true, width = size[1], height = size[2] })
+      local p = dissect(text)
+      local tols = {}
+      for _, r in ipairs(rows) do tols[("%g"):format(r.tol)] = true end
+      for i, m in ipairs{ "rk8pd", "taylor", "rk4" } do
+        local mark, n = string.char(64 + i), 0     -- point types 1, 2, 3: A, B, C
+        for _, r in ipairs(rows) do if r.method == m then n = n + 1 end end
+        assert.are.equal(n, p.count(mark), ("%s's %d points as %s in:\n%s"):format(m, n, mark, text))
+        assert(text:find("\n[^\n]-" .. m .. " [^\n%w]*" .. mark), ("the key shows %s's mark %s:\n%s"):format(m, mark, text))
+      end
+      local labels = 0
+      for r = p.top + 1, p.bottom - 1 do
+        for word in p.inside(r):gmatch("[^%s%.:]*e[%-+][^%s%.:]*") do
+          assert(tols[word], ("a tolerance label cut or run into something: %q in:\n%s"):format(word, text))
+          labels = labels + 1
+        end
+      end
+      assert(labels >= 3, "tolerance labels drawn where they fit:\n" .. text)
+      assert_ticks(p.xlabels, true, text)
+      assert_ticks(p.ylabels, false, text)
+    end
   end)
   it("Ctrl-C keeps the rows measured and marks the interrupted one, once", function()
     local script = [[

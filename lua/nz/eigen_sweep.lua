@@ -205,7 +205,8 @@ end
 
 -- The real parts and the (positive) imaginary parts against the parameter,
 -- as points (modes are not followed from one value to the next), with the
--- changes of stability marked on the axis.  opts: file, title, width, height.
+-- changes of stability marked on the axis.  opts: file, title, width, height,
+-- quiet.
 function Sweep:plot(opts)
   opts = opts or {}
   local re = { name = "Re(lambda)", x = {}, y = {}, style = "points pt 7 ps 0.4" }
@@ -225,7 +226,9 @@ function Sweep:plot(opts)
   local out = require("nz.plot").lines{ series = series, file = opts.file, width = opts.width, height = opts.height,
     title = opts.title or ("eigenvalues of %s against %s"):format(self.system.name, self.parameter),
     xlabel = self.parameter, ylabel = "eigenvalue (1/s)", quiet = opts.quiet }
-  if opts.file then return out end   -- the terminal's plot is printed already: nothing for the session to print again
+  -- the terminal's plot is printed already: nothing for the session to print
+  -- again (quiet = true: not printed, returned, as tr:plot does)
+  if opts.file or opts.quiet then return out end
 end
 
 return M

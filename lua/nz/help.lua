@@ -311,8 +311,10 @@ Methods (t a number, q, qd, qdd tables of k numbers):
                              where the largest real part changes sign,
                              bisection where modes meet on the imaginary
                              axis), print(sw), sw:csv([file]),
-                             sw:plot{[file =, width =, height =]} (real and
-                             imaginary parts against the parameter).
+                             sw:plot{[file =, width =, height =, quiet =]}
+                             (real and imaginary parts against the
+                             parameter; quiet = true returns the terminal's
+                             plot as text instead of printing it).
   sys:show{[tex = true, lua = true, mass = true, bias = true, reduced = true, appell = true, names = true]}
                              the equations as formulas read from the recorded
                              graphs: per coordinate M(q) q'' + h(q, q') =
@@ -375,7 +377,10 @@ tr.qdd[i][j], tr.lambda[i][r], tr.status, tr.stats, tr.violation, monitors:
            xlabel, ylabel, legend = false, size = {w, h}, drift]}  a plot in
                              the terminal (sized to it) or to a file; E and H
                              are drawn as their drift from the first value;
-                             unknown options are refused
+                             unknown options and wrong values are refused.
+                             In the terminal the ticks follow the width (the
+                             labels apart and distinct) and a point on the
+                             edge of the data is drawn inside the frame
   tr:csv([file])             CSV with a header naming every column (written
                              beside the file and renamed: never half a file)
   tr:residuals([n] [, {quiet = true}])  residuals of the equations of order n
@@ -391,7 +396,10 @@ tr.qdd[i][j], tr.lambda[i][r], tr.status, tr.stats, tr.violation, monitors:
                              as an animated GIF, or SVG frames; from the
                              bodies (a point each, linked as a chain from the
                              origin) or draw(t, q) -> {points = {{x, y}},
-                             segments = {{x1, y1, x2, y2}}}
+                             segments = {{x1, y1, x2, y2}}}; frames a whole
+                             number >= 1, fps in (0, 100], plane "xy", "xz"
+                             or "yz" (bodies only), links true or false,
+                             range four numbers: checked before drawing
   print(tr)                  a summary: cost, status, drift, monitors
   print(sys)                 a summary]] },
   { name = "forms", section = "mechanics", usage = "nz.forms",
@@ -470,7 +478,9 @@ Defaults: methods rk4, rkf45, rkck, rk8pd, rk4imp, bsimp, msadams, msbdf, taylor
 tols 1e-4, 1e-6, 1e-8, 1e-10; dt as simulate's (the output grid the error is
 measured on: with dense output it adds no steps).  The table ends with the
 cheapest method for each accuracy; the diagram labels each point with its
-tolerance and gives each method its own mark.  Ctrl-C stops the study, keeps
+tolerance and gives each method its own mark (A, B, C ... in the terminal,
+shown in the key; there a tolerance label is written only where it covers
+nothing and stays inside the frame: the table gives every tolerance).  Ctrl-C stops the study, keeps
 the rows done and marks the interrupted one ("stopped by Ctrl-C", once).]] },
   { name = "sweep", section = "mechanics",
     usage = "nz.sweep{system = sys | file =, grid = | list = | sample =, run = function(sys, point), jobs =, out =}",

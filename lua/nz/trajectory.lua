@@ -195,6 +195,32 @@ local function terminal_size()
   return tonumber(c), tonumber(l)
 end
 
+-- The values of tr:plot's options, checked before anything is drawn (the
+-- sizes and the file are plot.lines's to check).
+local function check_plot_options(opts)
+  local function bad(key, want)
+    local v = opts[key]
+    error(("%strajectory:plot: %s = %s: %s"):format(require("nz.where").user_where(), key,
+      type(v) == "string" and ("%q"):format(v) or tostring(v), want), 0)
+  end
+  local y = opts.y
+  local names = type(y) == "table" and #y > 0
+  for _, v in ipairs(type(y) == "table" and y or {}) do names = names and type(v) == "string" end
+  if y ~= nil and type(y) ~= "string" and not names then
+    bad("y", "a quantity's name or a list of names expected, e.g. y = {\"th\", \"th'\"}")
+  end
+  for _, key in ipairs{ "x", "phase", "title", "xlabel", "ylabel" } do
+    if opts[key] ~= nil and type(opts[key]) ~= "string" then bad(key, "a string expected") end
+  end
+  for _, key in ipairs{ "legend", "quiet", "drift" } do
+    if opts[key] ~= nil and type(opts[key]) ~= "boolean" then bad(key, "true or false expected") end
+  end
+  local size = opts.size
+  if size ~= nil and not (type(size) == "table" and #size == 2 and type(size[1]) == "number" and type(size[2]) == "number") then
+    bad("size", "{width, height} expected (characters in the terminal, pixels in a file)")
+  end
+end
+
 function Trajectory:plot(opts)
   opts = opts or {}
   for key in pairs(opts) do
@@ -206,6 +232,7 @@ function Trajectory:plot(opts)
         table.concat(names, ", ")), 0)
     end
   end
+  check_plot_options(opts)
   local series = {}
   local ylabel = opts.ylabel
   if opts.phase then

@@ -23,6 +23,9 @@ local function check_options(fname, opts, known)
   end
 end
 
+-- A value as the user wrote it, for messages.
+local function shown(v) return type(v) == "string" and ("%q"):format(v) or tostring(v) end
+
 -- The value of a named quantity at an event's state: a coordinate, or its
 -- velocity "name'".
 local function value_at(tr, ev, name)
@@ -46,6 +49,10 @@ local SECTION = { when = true, plot = true, file = true, title = true, draw = tr
 function M.section(tr, opts)
   opts = opts or {}
   check_options("section", opts, SECTION)
+  -- (the sizes and the file are plot.lines's to check)
+  if opts.when ~= nil and type(opts.when) ~= "string" then fail("section", "when = %s: an event's name (a string) expected", shown(opts.when)) end
+  if opts.draw ~= nil and type(opts.draw) ~= "boolean" then fail("section", "draw = %s: true or false expected", shown(opts.draw)) end
+  if opts.title ~= nil and type(opts.title) ~= "string" then fail("section", "title = %s: a string expected", shown(opts.title)) end
   local evs = tr.events or {}
   local names, seen = {}, {}
   for _, e in ipairs(evs) do
@@ -63,7 +70,9 @@ function M.section(tr, opts)
   end
   if not seen[when] then fail("section", "no event named '%s' crossed (events: %s)", tostring(when), table.concat(names, ", ")) end
   local pair = opts.plot or { tr.coords[1], tr.coords[1] .. "'" }
-  if type(pair) ~= "table" or #pair ~= 2 then fail("section", "plot: two quantities {\"y\", \"y'\"} expected") end
+  if type(pair) ~= "table" or #pair ~= 2 or type(pair[1]) ~= "string" or type(pair[2]) ~= "string" then
+    fail("section", "plot: two quantities' names {\"y\", \"y'\"} expected")
+  end
   local out = { x = {}, y = {}, t = {}, names = pair }
   for _, e in ipairs(evs) do
     if e.name == when then
@@ -78,6 +87,9 @@ function M.section(tr, opts)
   return out
 end
 
+-- The two axes of the bodies' positions that plane = "xy", "xz", "yz" draws.
+local PLANES = { xy = { 1, 2 }, xz = { 1, 3 }, yz = { 2, 3 } }
+
 -- The shapes of the frame at (t, q): points {x, y} and segments {x1, y1,
 -- x2, y2} in the plane of the first two coordinates of `plane` (default
 -- x, y).  From `draw(t, q)` when given; else from the system's bodies: a
@@ -90,18 +102,101 @@ local function shapes_of(tr, opts)
     fail("animate", "the system has no bodies to draw: give draw = function(t, q) return {points = {{x, y}, ...}, "
       .. "segments = {{x1, y1, x2, y2}, ...}} end")
   end
-  local axes = opts.plane == "xz" and { 1, 3 } or opts.plane == "yz" and { 2, 3 } or { 1, 2 }
+  local axes = PLANES[opts.plane or "xy"]
   return function(t, q)
     local points, segments = {}, {}
     local px, py = 0, 0
     for _, b in ipairs(bodies) do
       local r = b.pos(t, q, tr.system.params)
       local x, y = r[axes[1]], r[axes[2]]
-      points[#points + 1] = { x, y }
+      points[#points + 1] = { x, y, body = b.name }
       if opts.links ~= false then segments[#segments + 1] = { px, py, x, y } end
       px, py = x, y
     end
     return { points = points, segments = segments }
+  end
+end
+
+local function whole(v, lo, hi) return type(v) == "number" and v == math.floor(v) and v >= lo and v <= hi end
+local function finite(v) return type(v) == "number" and v == v and math.abs(v) < math.huge end
+
+-- A point or segment as given, for messages.
+local function listed(v)
+  if type(v) ~= "table" then return tostring(v) end
+  local o = {}
+  for i = 1, math.max(#v, 2) do o[i] = tostring(v[i]) end
+  return "{" .. table.concat(o, ", ") .. "}"
+end
+
+-- tr:animate's options, each checked before anything is computed or drawn
+-- (gnuplot's own messages about them name its script, not the option).
+local function check_animate(tr, opts)
+  local function bad(key, want, ...) fail("animate", "%s = %s: " .. want, key, shown(opts[key]), ...) end
+  local file = opts.file
+  if file ~= nil then
+    if type(file) ~= "string" then bad("file", "a file name ending in .gif or .svg expected") end
+    local kind = file:match("%.(%w+)$")
+    if kind ~= "gif" and kind ~= "svg" then
+      fail("animate", "file '%s' must end in .gif (one animated GIF) or .svg (one file per frame); "
+        .. "leave file out to draw in the terminal", file)
+    end
+  end
+  if opts.frames ~= nil and not whole(opts.frames, 1, math.huge) then
+    bad("frames", "a whole number of frames, 1 or more, expected (at most one per output point: this trajectory has %d)", #tr.t)
+  end
+  if opts.fps ~= nil and not (finite(opts.fps) and opts.fps > 0 and opts.fps <= 100) then
+    bad("fps", "frames per second, a number above 0 and at most 100, expected")
+  end
+  if opts.draw ~= nil and type(opts.draw) ~= "function" then
+    bad("draw", "a function(t, q) returning {points = {{x, y}, ...}, segments = {{x1, y1, x2, y2}, ...}} expected")
+  end
+  if opts.plane ~= nil and not PLANES[opts.plane] then
+    bad("plane", "\"xy\", \"xz\" or \"yz\" expected (the two coordinates of the bodies' positions drawn)")
+  end
+  if opts.links ~= nil and type(opts.links) ~= "boolean" then
+    bad("links", "true (lines from the origin through the bodies in turn, the default) or false expected")
+  end
+  if opts.draw and (opts.plane ~= nil or opts.links ~= nil) then
+    fail("animate", "%s draws the bodies, and draw = function(t, q) ... replaces them: give one or the other",
+      opts.plane ~= nil and "plane" or "links")
+  end
+  local r = opts.range
+  if r ~= nil and not (type(r) == "table" and #r == 4 and finite(r[1]) and finite(r[2]) and finite(r[3])
+      and finite(r[4]) and r[1] < r[2] and r[3] < r[4]) then
+    fail("animate", "range = %s: {xmin, xmax, ymin, ymax} expected, four numbers with xmin < xmax and ymin < ymax",
+      listed(r))
+  end
+  local min = file and 50 or 20   -- pixels of a file, characters of the terminal
+  for _, key in ipairs{ "width", "height" } do
+    if opts[key] ~= nil and not whole(opts[key], min, 10000) then
+      bad(key, "a whole number from %d to 10000 expected (%s)", min, file and "pixels" or "characters of the terminal")
+    end
+  end
+  if opts.title ~= nil and type(opts.title) ~= "string" then bad("title", "a string expected") end
+end
+
+-- The shapes one frame drew, checked: numbers gnuplot cannot place (nil,
+-- NaN, infinite) would make it fail with a message about its script.
+local function check_shapes(s, t)
+  local shape = "{points = {{x, y}, ...}, segments = {{x1, y1, x2, y2}, ...}}"
+  if type(s) ~= "table" or (s.points ~= nil and type(s.points) ~= "table")
+      or (s.segments ~= nil and type(s.segments) ~= "table") then
+    fail("animate", "draw(t, q) at t = %.6g returned %s: a table %s expected", t, listed(s), shape)
+  end
+  for k, p in ipairs(s.points or {}) do
+    if type(p) ~= "table" or not (finite(p[1]) and finite(p[2])) then
+      if type(p) == "table" and p.body then
+        fail("animate", "body '%s' at t = %.6g is at %s in the plane drawn: two finite numbers expected "
+          .. "(plane = \"xz\" or \"yz\" needs positions of three coordinates)", tostring(p.body), t, listed(p))
+      end
+      fail("animate", "draw(t, q) at t = %.6g: point %d is %s: {x, y}, two finite numbers, expected", t, k, listed(p))
+    end
+  end
+  for k, g in ipairs(s.segments or {}) do
+    if type(g) ~= "table" or not (finite(g[1]) and finite(g[2]) and finite(g[3]) and finite(g[4])) then
+      fail("animate", "draw(t, q) at t = %.6g: segment %d is %s: {x1, y1, x2, y2}, four finite numbers, expected",
+        t, k, listed(g))
+    end
   end
 end
 
@@ -116,6 +211,7 @@ local ANIMATE = { file = true, frames = true, fps = true, draw = true, plane = t
 function M.animate(tr, opts)
   opts = opts or {}
   check_options("animate", opts, ANIMATE)
+  check_animate(tr, opts)
   if #tr.t == 0 then fail("animate", "the trajectory is empty") end
   local draw = shapes_of(tr, opts)
   local nframes = math.min(opts.frames or 60, #tr.t)
@@ -125,6 +221,7 @@ function M.animate(tr, opts)
   local xmin, xmax, ymin, ymax = math.huge, -math.huge, math.huge, -math.huge
   for f, i in ipairs(idx) do
     local s = draw(tr.t[i], tr.q[i])
+    check_shapes(s, tr.t[i])
     frames[f] = { t = tr.t[i], shapes = s }
     for _, p in ipairs(s.points or {}) do
       xmin, xmax, ymin, ymax = math.min(xmin, p[1]), math.max(xmax, p[1]), math.min(ymin, p[2]), math.max(ymax, p[2])
@@ -134,12 +231,15 @@ function M.animate(tr, opts)
       ymin, ymax = math.min(ymin, g[2], g[4]), math.max(ymax, g[2], g[4])
     end
   end
-  if opts.range then xmin, xmax, ymin, ymax = table.unpack(opts.range) end
+  if opts.range then xmin, xmax, ymin, ymax = table.unpack(opts.range, 1, 4) end
+  if xmin > xmax then
+    fail("animate", "nothing to draw: draw(t, q) returned no points and no segments in any frame "
+      .. "(or give the view: range = {xmin, xmax, ymin, ymax})")
+  end
   local pad = 0.05 * math.max(xmax - xmin, ymax - ymin, 1e-9)
   xmin, xmax, ymin, ymax = xmin - pad, xmax + pad, ymin - pad, ymax + pad
   local file = opts.file
   local kind = file and file:match("%.(%w+)$")
-  if file and kind ~= "gif" and kind ~= "svg" then fail("animate", "file '%s' must end in .gif or .svg", file) end
   local data = os.tmpname()
   local d = assert(io.open(data, "w"))
   for _, fr in ipairs(frames) do      -- per frame: block 2f of segments, block 2f+1 of points
