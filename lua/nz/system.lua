@@ -340,9 +340,9 @@ function System:reaction_power(t, q, qd)
   return constraints.reaction_power(self, t, q, qd, qdd, lambda)
 end
 
--- Classification of the constraints (printed unless opts.quiet).
--- The classification, a list that prints as its table (print(sys:constraints())
--- in a script; typed at the prompt, the session prints it once).
+-- The classification of the constraints, a list that prints as its table
+-- (print(sys:constraints()) in a script; typed at the prompt, the session
+-- prints it once).  It prints nothing itself, so opts (quiet) change nothing.
 function System:constraints(opts)
   local classes = constraints.classify(self)
   local out = {}

@@ -248,11 +248,13 @@ function Trajectory:residuals(n, opts)
     result[j] = { coordinate = self.coords[j], max = worst[j], rms = math.sqrt(sq[j] / math.max(#self.t, 1)) }
     rows[#rows + 1] = { self.coords[j], ("%.3e"):format(result[j].max), ("%.3e"):format(result[j].rms) }
   end
-  if not (opts and opts.quiet) then
-    print(("Residuals of the equations of order %d along %d points of '%s':"):format(n, #self.t, sys.name))
-    print(require("nz.system").table_text(rows))
-  end
-  return result
+  local text = ("Residuals of the equations of order %d along %d points of '%s':\n%s"):format(n, #self.t, sys.name,
+    require("nz.system").table_text(rows))
+  -- the list prints as its table (print(r) in a script, r typed at the prompt)
+  setmetatable(result, { __tostring = function() return text end })
+  if opts and opts.quiet then return result end
+  print(text)
+  return require("nz.repl").shown(result)      -- typed at the prompt: the table once
 end
 
 return M
