@@ -183,4 +183,8 @@ function Sweep:plot(opts)
   if opts.file then return out end   -- the terminal's plot is printed already: nothing for the session to print again
 end
 
+-- sw.plot{} (a dot) is named as such (nz/where.lua); help finds the methods here.
+require("nz.where").methods(Sweep, "sw", "eigenvalue sweep")
+M.Sweep = Sweep
+
 return M

@@ -541,4 +541,7 @@ function M.euler_op(m, f, t, q, qd, qdd, higher) return operator("E", m, f, t, q
 function M.top_coefficient(m, f, t, q, qd, qdd, higher) return operator("top", m, f, t, q, qd, qdd, higher) end
 function M.partial(m, f, t, q, qd, qdd, higher) return operator("partial", m, f, t, q, qd, qdd, higher) end
 
+-- sys.simulate{...} (a dot) is named as such by every method (nz/where.lua).
+require("nz.where").methods(System, "sys", "system")
+
 return M

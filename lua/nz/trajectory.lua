@@ -257,4 +257,7 @@ function Trajectory:residuals(n, opts)
   return require("nz.repl").shown(result)      -- typed at the prompt: the table once
 end
 
+-- tr.plot{...} (a dot) is named as such by every method (nz/where.lua).
+require("nz.where").methods(Trajectory, "tr", "trajectory")
+
 return M

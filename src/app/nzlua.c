@@ -135,6 +135,9 @@ static int traceback_is_deep(const char *msg)
     size_t n = end ? (size_t)(end - s) : strlen(s);
     if (n >= 13 && memmem(s, n, "in main chunk", 13)) continue;
     if (memmem(s, n, "(...tail calls...)", 18)) continue;
+    /* nz's own Lua files (embedded as lua/nz/NAME.lua, or a checkout's):
+     * their messages name the user's line already */
+    if (strncmp(s, "lua/nz/", 7) == 0 || memmem(s, n, "/lua/nz/", 8)) continue;
     return 1;
   }
   return 0;
@@ -360,11 +363,16 @@ static int pushline(lua_State *L, int firstline)
   return READ_OK;
 }
 
-/* Try the line as an expression whose value prints. */
+/* Try the line as an expression whose value prints.  Not `return <line>`:
+ * a call there is a tail call, which removes the typed chunk's frame, and
+ * an error from a library function would then not start with "stdin:1:"
+ * (nz/where.lua looks for the user's frame).  The values pass through a
+ * function called after they are computed; the newline keeps a trailing
+ * comment from swallowing the parenthesis. */
 static int addreturn(lua_State *L)
 {
   const char *line = lua_tostring(L, -1);
-  const char *retline = lua_pushfstring(L, "return %s;", line);
+  const char *retline = lua_pushfstring(L, "return (function(...) return ... end)(%s\n)", line);
   int status = luaL_loadbuffer(L, retline, strlen(retline), "=stdin");
   if (status == LUA_OK) {
     lua_remove(L, -2);
