@@ -60,6 +60,21 @@ describe("tr:csv", function()
   end)
 end)
 
+describe("tr:csv without a file", function()
+  it("returns the CSV text, the same as the file's, and the session shows it", function()
+    local tr = osc():simulate{ q0 = { 1 }, t1 = 1, dt = 0.5 }
+    local file = os.tmpname()
+    assert.are.equal(file, tr:csv(file))
+    assert.are.equal(slurp(file), tr:csv())
+    os.remove(file)
+    h.checkerror("bad argument #1 to 'csv' (a file name, or nothing for the CSV text, expected, got number)", tr.csv, tr, 5)
+    local rc, out = h.run(h.nzlua .. " -i", "o = nz.system{ coords = {'x'}, T = function(t, q, qd) return qd[1]^2 / 2 end,"
+      .. " V = function(t, q) return q[1]^2 / 2 end }\notr = o:simulate{ q0 = {1}, t1 = 1, dt = 0.5 }\notr:csv()\n")
+    assert.are.equal(0, rc)
+    assert.truthy(out:find("t,x,x',x''\n0,1,0,-1\n0.5,", 1, true), out)
+  end)
+end)
+
 -- What a view prints at the prompt, it prints once: a function that prints
 -- its result returns it for scripts, and the session does not print it again.
 describe("views typed at the prompt", function()

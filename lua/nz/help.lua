@@ -374,8 +374,11 @@ tr.qdd[i][j], tr.lambda[i][r], tr.status, tr.stats, tr.violation, monitors:
                              the terminal (sized to it) or to a file; E and H
                              are drawn as their drift from the first value;
                              unknown options are refused
-  tr:csv([file])             CSV with a header naming every column (written
-                             beside the file and renamed: never half a file)
+  tr:csv([file])             CSV with a header naming every column: to the
+                             file (written beside it and renamed: never half
+                             a file; returns its name), or without a file
+                             the CSV text (the session shows it; a script
+                             can io.write it)
   tr:residuals([n] [, {quiet = true}])  residuals of the equations of order n
                              along the motion, max and RMS per equation
   tr:section{[when = "event name", plot = {"y", "y'"}, draw = false, file =]}

@@ -138,8 +138,21 @@ local function write_beside(self, file)
   return ok, failure
 end
 
+-- Without a file, the CSV text: typed at the prompt the session shows it,
+-- a script can io.write it (as sw:csv() does).
 function Trajectory:csv(file)
-  if type(file) ~= "string" then error(("bad argument #1 to 'csv' (a file name expected, got %s)"):format(type(file)), 2) end
+  if file == nil then
+    local parts = {}
+    local buffer = { write = function(b, ...)
+      for i = 1, select("#", ...) do parts[#parts + 1] = select(i, ...) end
+      return b
+    end, flush = function(b) return b end }
+    write_csv(self, buffer)
+    return table.concat(parts)
+  end
+  if type(file) ~= "string" then
+    error(("bad argument #1 to 'csv' (a file name, or nothing for the CSV text, expected, got %s)"):format(type(file)), 2)
+  end
   core.mech.hold_term(true)
   local called, ok, failure = pcall(write_beside, self, file)
   if not called then ok, failure = false, ok end
