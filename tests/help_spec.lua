@@ -139,6 +139,22 @@ describe("nz.help", function()
     end
     assert(n >= 10, n)
   end)
+  it("explains every function inside a table of nz (nz.rotations.z, nz.special.elljac) by its table's entry", function()
+    local n = 0
+    for name, t in pairs(nz) do
+      if type(t) == "table" and not getmetatable(t) then
+        for field, f in pairs(t) do
+          if type(f) == "function" then
+            local text = nz.help(f, { quiet = true })
+            assert.falsy(text:find("^no help"), ("nz.%s.%s: %s"):format(name, field, text))
+            n = n + 1
+          end
+        end
+      end
+    end
+    assert(n >= 15, n)
+    assert.truthy(nz.help(nz.rotations.z, { quiet = true }):find("^nz.rotations.z: explained in help%(nz.rotations%)"))
+  end)
   it("help(nz.workprecision) says that taylor runs constrained systems, as it does", function()
     local sleigh = nz.system{ name = "sleigh", coords = { "x", "y", "th" },
       T = function(t, q, qd) return 0.5 * (qd[1] ^ 2 + qd[2] ^ 2) + 0.5 * 0.3 * qd[3] ^ 2 end,

@@ -792,6 +792,20 @@ local function effect_kind(nz, what)
   end
 end
 
+-- A function inside a table of nz (nz.rotations.z, nz.special.elljac):
+-- the table's entry and the function's name.
+local function member(nz, what)
+  if type(what) ~= "function" then return nil end
+  for _, e in ipairs(entries) do
+    local t = nz[e.name]
+    if type(t) == "table" and not getmetatable(t) then
+      for name, f in pairs(t) do
+        if rawequal(f, what) then return e, name end
+      end
+    end
+  end
+end
+
 -- ------------------------------------------------------------------ --
 -- The listing                                                          --
 
@@ -846,6 +860,8 @@ function M.bind(nz)
       if not e then c, name = find_method(what) end
       local kind = not e and not c and effect_kind(nz, what)
       local jet = not e and not c and not kind and type(what) == "function" and jet_method(nz, what)
+      local parent, field = nil, nil
+      if not (e or c or kind or jet) then parent, field = member(nz, what) end
       if e then
         text = entry_text(e)
       elseif c then
@@ -854,6 +870,8 @@ function M.bind(nz)
         text = effect_text(nz, kind)
       elseif jet then
         text = ("x:%s: a method of every jet, explained in help(nz.jet):\n\n%s"):format(jet, entry_text(find(nz, "jet")))
+      elseif parent then
+        text = ("nz.%s.%s: explained in help(nz.%s):\n\n%s"):format(parent.name, field, parent.name, entry_text(parent))
       end
       if not text then
         -- one line, not an error: at the prompt a traceback would bury it
