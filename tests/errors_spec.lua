@@ -253,6 +253,45 @@ describe("messages name the user's code first", function()
     h.checkerror("bad argument #3 to 'accel' (qd[1]: a finite number expected, got NaN)", pendulum.accel, pendulum, 0, { 0.385 }, { 0 / 0 })
     h.checkerror("bad argument #3 to 'accel' (qd[1]: a finite number expected, got -inf)", pendulum.accel, pendulum, 0, { 0.385 }, { -math.huge })
   end)
+  it("a method called with a dot says so and to write a colon, for every method of each object nz makes", function()
+    local tr = pendulum:simulate{ q0 = { 0.3 }, t1 = 0.1 }
+    local lin = pendulum:linearize{ q = { 0 }, qd = { 0 } }
+    local sw = pendulum:eigen_sweep{ values = { 1, 2 }, at = function() return { q = { 0 }, qd = { 0 } } end }
+    local objects = { { pendulum, "sys", "system" }, { tr, "tr", "trajectory" }, { lin, "lin", "linearization" },
+      { sw, "sw", "eigenvalue sweep" } }
+    local count = 0
+    for _, o in ipairs(objects) do
+      for name, f in pairs(getmetatable(o[1]).__index) do
+        if type(f) == "function" and not name:match("^__") then
+          -- x.f{...}: the options arrive as the object; x.f(): nothing does
+          for _, arg in ipairs{ { q0 = { 1 }, t1 = 1 }, false } do
+            local ok, err = pcall(f, arg or nil)
+            assert.is_false(ok, name)
+            local args = arg and "{...}" or "(...)"
+            local want = ("%s called with a dot: write %s:%s%s (%s: your %s), with a colon, so that the method gets its %s")
+              :format(name, o[2], name, args, o[2], o[3], o[3])
+            assert.truthy(tostring(err):find(want, 1, true), tostring(err))
+            count = count + 1
+          end
+        end
+      end
+    end
+    assert(count > 2 * 30, count)
+    -- the colon (or the object given explicitly) still works
+    assert.are.equal(#pendulum:accel(0, { 0.3 }, { 0 }), #pendulum.accel(pendulum, 0, { 0.3 }, { 0 }))
+  end)
+  it("in a script, the dot's message names the user's line and object", function()
+    local script = os.tmpname()
+    local f = assert(io.open(script, "w"))
+    f:write("pend = nz.system{ coords = { 'th' }, T = function(t, q, qd) return qd[1]^2 / 2 end }\n",
+      "tr = pend.simulate{ q0 = { 1 }, t1 = 1 }\n")
+    f:close()
+    local rc, _, err = h.run(h.nzlua .. " " .. script)
+    os.remove(script)
+    assert.are.equal(1, rc)
+    assert.truthy(err:find(script .. ":2: pend.simulate called with a dot: write pend:simulate{...}, with a colon, "
+      .. "so that the method gets its system", 1, true), err)
+  end)
 end)
 
 describe("errors raised by the engine start with the caller's file:line", function()

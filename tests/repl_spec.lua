@@ -175,6 +175,36 @@ describe("the nzlua session", function()
     local tail = s:sub((s:find("sl:constraints()", 1, true)))
     assert.falsy(tail:find("{{", 1, true), tail)   -- no raw dump of the classes after the table
   end)
+  it("a call that prints its result shows it once (nz.check, sys:report); the values kept from it print later", function()
+    local function count(s, text)
+      local _, n = s:gsub(text:gsub("%p", "%%%0"), "")
+      return n
+    end
+    type_line("ck = nz.system{name = 'once', coords = {'x'}, T = function(t, q, v) return v[1]^2 / 2 end,"
+      .. " V = function(t, q) return q[1]^2 / 2 end}")
+    type_line("nz.check(ck, function(t, q, qd, qdd) return { qdd[1] + q[1] } end)")
+    type_line("ck:report{ q = {1}, plot = false }")
+    type_line("print('mark E')")
+    local s = wait_for("mark E", 2)
+    local tail = s:sub((s:find("nz.check(ck", 1, true)))
+    assert.are.equal(1, count(tail, "Your equations are equivalent"), tail)
+    assert.falsy(tail:find("\ntrue\t", 1, true), tail)                 -- not ok, text again
+    assert.are.equal(1, count(tail, "trajectory of 'once'"), tail)      -- not tr, n again
+    -- kept in variables (an assignment prints nothing), they print when typed
+    type_line("ok1, text1 = nz.check(ck, function(t, q, qd, qdd) return { 2 * qdd[1] + 2 * q[1] } end)")
+    type_line("ok1")
+    s = wait_for("ok1\ntrue\n")
+  end)
+  it("a method called with a dot says what to write, after the typed line's place, without a traceback", function()
+    type_line("dt_sys = nz.system{coords = {'x'}, T = function(t, q, v) return v[1]^2 / 2 end}")
+    type_line("dt_sys.simulate{ q0 = {1}, t1 = 1 }")
+    local s = wait_for("stdin:1: simulate called with a dot: write sys:simulate{...} (sys: your system), with a colon,"
+      .. " so that the method gets its system")
+    type_line("print('mark F')")
+    s = wait_for("mark F", 2)
+    local tail = s:sub((s:find("dt_sys.simulate{", 1, true)))
+    assert.falsy(tail:find("stack traceback", 1, true), tail)
+  end)
   it("a plot typed at the prompt is drawn once", function()
     type_line("po = nz.system{coords = {'x'}, T = function(t, q, v) return v[1]^2 / 2 end, V = function(t, q) return q[1]^2 / 2 end}")
     type_line("ptr = po:simulate{q0 = {1}, t1 = 3}")

@@ -177,6 +177,55 @@ describe("tr:csv", function()
   end)
 end)
 
+describe("tr:csv without a file", function()
+  it("returns the CSV text, the same as the file's, and the session shows it", function()
+    local tr = osc():simulate{ q0 = { 1 }, t1 = 1, dt = 0.5 }
+    local file = os.tmpname()
+    assert.are.equal(file, tr:csv(file))
+    assert.are.equal(slurp(file), tr:csv())
+    os.remove(file)
+    h.checkerror("bad argument #1 to 'csv' (a file name, or nothing for the CSV text, expected, got number)", tr.csv, tr, 5)
+    local rc, out = h.run(h.nzlua .. " -i", "o = nz.system{ coords = {'x'}, T = function(t, q, qd) return qd[1]^2 / 2 end,"
+      .. " V = function(t, q) return q[1]^2 / 2 end }\notr = o:simulate{ q0 = {1}, t1 = 1, dt = 0.5 }\notr:csv()\n")
+    assert.are.equal(0, rc)
+    assert.truthy(out:find("t,x,x',x''\n0,1,0,-1\n0.5,", 1, true), out)
+  end)
+end)
+
+-- What a view prints at the prompt, it prints once: a function that prints
+-- its result returns it for scripts, and the session does not print it again.
+describe("views typed at the prompt", function()
+  local setup_lines = "o = nz.system{ coords = {'x'}, T = function(t, q, qd) return qd[1]^2 / 2 end,"
+    .. " V = function(t, q) return q[1]^2 / 2 end }\n"
+    .. "otr = o:simulate{ q0 = {0.7}, t1 = 20, events = { { name = 'x=0', f = function(t, q) return q[1] end, direction = 1 } } }\n"
+  it("tr:section drawn in the terminal and tr:animate in the terminal print nothing after the drawing", function()
+    local rc, out = h.run(h.nzlua .. " -i", setup_lines .. "otr:section{ width = 60, height = 15 }\nprint('mark S')\n"
+      .. "otr:animate{ frames = 2, draw = function(t, q) return { points = { { q[1], 0 } } } end }\nprint('mark A')\n")
+    assert.are.equal(0, rc)
+    local section = out:match("Poincare section of(.-)mark S")
+    assert(section, out)
+    assert.falsy(section:find("{names =", 1, true), section)    -- no dump of the section's lists
+    local frames = out:match("mark S(.-)mark A")
+    assert.falsy(frames:find("\n2\t{}", 1, true), frames)       -- no "2 {}" after the frames
+  end)
+  it("tr:residuals and nz.workprecision: the table once, and their results print as that table", function()
+    local rc, out = h.run(h.nzlua .. " -i", setup_lines .. "r = otr:residuals(2)\nr\notr:residuals(2)\nprint('mark R')\n"
+      .. "nz.workprecision(o, { q0 = {1}, t1 = 1, methods = {'rk8pd'}, tols = {1e-6} })\nprint('mark W')\n")
+    assert.are.equal(0, rc)
+    local _, n = out:gsub("Residuals of the equations of order 2", "")
+    assert.are.equal(3, n, out)     -- printed by the call, r typed, the bare call: once each
+    assert.falsy(out:find("{{coordinate", 1, true), out)
+    local wp = out:match("mark R(.-)mark W")
+    local _, m = wp:gsub("cheapest for each accuracy", "")
+    assert.are.equal(1, m, wp)
+    assert.falsy(wp:find("{{error", 1, true), wp)
+    -- in a script, print(rows) is the same table
+    local rows = nz.workprecision(osc(), { q0 = { 1 }, t1 = 1, methods = { "rk8pd" }, tols = { 1e-6 }, quiet = true })
+    assert.truthy(tostring(rows):find(require("nz.workprecision").table(rows), 1, true))
+    assert.are.equal(1, #rows)
+  end)
+end)
+
 describe("tr:section", function()
   it("the oscillator's section x = 0, x' > 0 is one point: x' = amplitude, crossings every 2 pi", function()
     local tr = osc():simulate{ q0 = { 0.7 }, qd0 = { 0 }, t1 = 40, dt = 40, rtol = 1e-12, atol = 1e-12,

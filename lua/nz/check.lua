@@ -146,8 +146,9 @@ function M.check(sys, eqs, opts)
       .. "the true accelerations (largest relative residual %.1e) and determine them."):format(checked, worst)
   end
   local text = table.concat(lines, "\n")
-  if not opts.quiet then print(text) end
-  return ok, text
+  if opts.quiet then return ok, text end
+  print(text)
+  return require("nz.repl").shown(ok, text)     -- typed at the prompt: the verdict once
 end
 
 return M

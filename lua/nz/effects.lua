@@ -69,6 +69,8 @@ local function define(kind, spec, contribute, doc)
   end
   M.docs = M.docs or {}
   M.docs[kind] = doc
+  M.specs = M.specs or {}        -- the parameters, for help(nz.effects.NAME)
+  M.specs[kind] = spec
 end
 
 -- ------------------------------------------------------------------ --

@@ -231,4 +231,8 @@ function Sweep:plot(opts)
   if opts.file or opts.quiet then return out end
 end
 
+-- sw.plot{} (a dot) is named as such (nz/where.lua); help finds the methods here.
+require("nz.where").methods(Sweep, "sw", "eigenvalue sweep")
+M.Sweep = Sweep
+
 return M

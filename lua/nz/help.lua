@@ -81,7 +81,9 @@ A Lua `if q[1] > 0 then ... end` on a jet (or on the tracer that records a
 function once as a graph) cannot be recorded: the function then falls back to
 Lua evaluation.  Write the choice as a value instead:
 
-  V = function(t, q) return nz.ifelse(nz.gt(q[1], 0), k1 * q[1]^2, k2 * q[1]^2) end
+  V = function(t, q)
+    return nz.ifelse(nz.gt(q[1], 0), k1 * q[1]^2, k2 * q[1]^2)
+  end
 
 c is a number or a jet, usually from nz.lt, nz.le, nz.gt, nz.ge; it is true
 when its value is nonzero (a Lua boolean is refused: x > 0 cannot be
@@ -133,7 +135,7 @@ with |x| must stay differentiable (an integrator with a Jacobian, a Taylor
 series through x = 0).  Built from * + - and sqrt, so it is recorded with no
 node of its own; eps may be a parameter (p.eps), a plain number must be > 0.]] },
   { name = "system", section = "mechanics", usage = "nz.system{coords = {...}, T = f, V = f, Q = f, ...}",
-    summary = "define a mechanical system; methods residual, accel, mass, energy, equations",
+    summary = "define a mechanical system: help(nz.system) explains its fields and every method (listed below)",
     text = [[
 Fields:
   coords   names of the k generalized coordinates, {"th1", "th2"}
@@ -177,14 +179,16 @@ from upvalues or globals are baked in when the system is made; numbers in
 params stay inputs.  sys:graph_info() gives the graph's size, the recording
 time and what runs as machine code; compile = false keeps everything in Lua.
 
-Methods (t a number, q, qd, qdd tables of k numbers):
+Methods (t a number, q, qd, qdd tables of k numbers); help(sys.NAME) shows
+one, e.g. help(sys.simulate):
   sys:residual(n, t, q, qd, qdd [, lambda] [, form])  k residuals of order n,
-        (1/n)(dT^(n)/dq^(n) - (n+1) dT/dq) - Q (docs/theory.md (3.1)), n = 1..100;
-        form: "generalized" (default), "lagrange", "difference" (3.2), "euler" (3.3),
-        "appell" (4.2), "extremal" (4.3), "wassmuth" (particles, n >= 2).
-        Or {form = ..., higher = {q3, q4, ...}}: derivatives beyond qdd (default 0;
-        the equations do not depend on them).  With multipliers lambda the terms
-        -A^T lambda of (6.2) are included.  n = nil: the rule's n.
+        (1/n)(dT^(n)/dq^(n) - (n+1) dT/dq) - Q (docs/theory.md (3.1)),
+        n = 1..100; form: "generalized" (default), "lagrange", "difference"
+        (3.2), "euler" (3.3), "appell" (4.2), "extremal" (4.3), "wassmuth"
+        (particles, n >= 2).  Or {form = ..., higher = {q3, q4, ...}}:
+        derivatives beyond qdd (default 0; the equations do not depend on
+        them).  With multipliers lambda the terms -A^T lambda of (6.2) are
+        included.  n = nil: the rule's n.
   sys:accel(t, q, qd [, opts]) accelerations qdd, multipliers lambda and, with
         constraints, a report {iterations, residual, rcond, start}.  Without
         constraints: Cholesky of M.  With constraints closed at the acceleration
@@ -199,42 +203,43 @@ Methods (t a number, q, qd, qdd tables of k numbers):
         the check (to measure its cost).  Singular systems name the
         constraints involved.  opts: qdd, lambda, tol, maxit, rcond_min,
         check; any other key is an error.  Every method checks its arguments
-        (t, q, qd: k finite numbers each) and names the one that is wrong.
+        (t, q, qd: k finite numbers each) and names the one that is wrong; a
+        method called with a dot (sys.accel(...)) says to write a colon.
   sys:constraints()          the classification, one entry per constraint:
                              order, linear in the top derivative, holonomic,
                              homogeneous in qd (Euler's theorem), evidence;
                              it prints as a table (print(sys:constraints())
                              in a script; the session prints it once)
   sys:rule([{extremal = true}])  Dolapchiev's n and a paragraph saying why
-  sys:reduced(t, q, qd [, n] [, form])  accelerations from Tsenov's reduced equations (7.1);
-                             order >= 3: q^(p) from the level-p equations, form =
-                             {qdd =, q3d =, ..., lambdas = {lambda, lambda', ...}}
-  sys:project(t, q, qd [, opts])  the nearest state on the constraints of order <= 1;
-                             with constraints of order p >= 3 also the start's
-                             higher levels: opts {qdd =, q3d =, ...} are corrected
-                             (0 if absent) and returned as report.qdd, report.q3d,
-                             ... with report.lambda (and report.lambdas)
-  sys:simulate{..., qdd0 =, q3d0 = ...}  constraints of order p >= 3 (linear in
-                             their top derivative): the state is q, qd, .., q^(p-1)
-                             and lambda, .., lambda^(p-3); (6.2) differentiated
-                             p-2 times gives q^(p) and lambda^(p-2).  The start
-                             levels are required and checked.  Nonlinear in q^(p):
-                             the state is q .. q^(p-1), and (q^(p), lambda) solve
-                             (6.2) with the constraints by Newton at each time
-                             (needs lambda ~= 0); guess = {lambda =, q3d =} picks
-                             the first root, tr.branch tells it, tr.top[i] = q^(p).
-                             Implicit methods: Jacobian by central differences;
-                             project = true also projects qdd .. and lambda ..
+  sys:reduced(t, q, qd [, n] [, form])  accelerations from Tsenov's reduced
+                             equations (7.1); order >= 3: q^(p) from the
+                             level-p equations, form = {qdd =, q3d =, ...,
+                             lambdas = {lambda, lambda', ...}}
+  sys:project(t, q, qd [, opts])  the nearest state on the constraints of
+                             order <= 1; with constraints of order p >= 3
+                             also the start's higher levels: opts {qdd =,
+                             q3d =, ...} are corrected (0 if absent) and
+                             returned as report.qdd, report.q3d, ... with
+                             report.lambda (and report.lambdas)
   sys:check_state(t, q, qd [, tol])  error if a constraint is violated by more
                              than tol (1e-8) of the size of its terms
   sys:reaction_power(t, q, qd)   R_0 of (9.1): the power of moving constraints
   sys:mass(t, q [, qd]), sys:bias(t, q, qd), sys:mass_bias(t, q, qd)
                              M and h of M qdd + h = 0 (h includes -Q + dV/dq)
-  sys:energy(t, q, qd)       T + V (nil with L only), H = sum qd dL/dqd - L, and
-                             whether H is a first integral: {holds, reasons, ...}
-  sys:equations(n, t, q, qd [, qdd])  print the terms of (3.1) per coordinate
-  sys:simulate{q0 =, qd0 =, t1 = [, t0, dt, method, rtol, atol, step, h0, events,
-        event_tol, project, baumgarte, monitors, progress, check, dense]}  a trajectory.
+  sys:energy(t, q, qd)       T + V (nil with L only), H = sum qd dL/dqd - L,
+                             and whether H is a first integral: {holds,
+                             reasons, ...}
+  sys:equations(n, t, q, qd [, qdd] [, {quiet = true}])  print the terms of
+                             (3.1) per coordinate (qdd: the system's own by
+                             default); quiet: return the text and the
+                             residuals instead
+  sys:graph_info()           the recording's figures: nodes, record_seconds,
+                             mass_bias_nodes, functions compiled (recorded)
+                             and interpreted, native_plans, native_series,
+                             native_seconds, native_why (why no machine code)
+  sys:simulate{q0 =, qd0 =, t1 = [, t0, dt, method, rtol, atol, step, h0,
+        events, event_tol, project, baumgarte, monitors, progress, check,
+        dense]}  a trajectory (help(tr.NAME): its methods).
         Defaults: t0 = 0; qd0 at rest; dt = (t1 - t0)/200 (the output grid);
         method = "rk8pd"; rtol = 1e-10, atol = 1e-12; step none (adaptive;
         step = h: fixed steps of at most h); h0 = min(dt, 1e-3) (the first
@@ -267,15 +272,28 @@ Methods (t a number, q, qd, qdd tables of k numbers):
         method: a GSL stepper (nz.methods; rk8pd by default) or "taylor":
         Taylor's method on the recorded series of the motion, for a system
         whose T, V, Q and constraints are recorded and do not branch on the
-        state, with constraints of order 0, 1, 2 (their series kept at 0 to
-        the method's order, nothing projected: tr.violation shows the drift);
-        order ceil(-ln(tol)/2 + 1) (18 at 1e-14) and steps from rtol/atol,
-        no rejected step; the output grid is read off each step's
+        state, free or with constraints of order 0, 1, 2 (their series kept
+        at 0 to the method's order, nothing projected: tr.violation shows
+        the drift); order ceil(-ln(tol)/2 + 1) (18 at 1e-14) and steps from
+        rtol/atol, no rejected step; the output grid is read off each step's
         polynomial, so a fine dt costs no extra step (tr.stats.order: the
         order used); events are located on each step's polynomial (no
         integration again; their functions must be recordable).  Not with
         taylor: constraints of order 3 or more, project and baumgarte, the
         work monitor, step and h0 (each refused with the method to take).
+  sys:simulate{..., qdd0 =, q3d0 = ...}  constraints of order p >= 3 (linear
+                             in their top derivative): the state is q, qd,
+                             .., q^(p-1) and lambda, .., lambda^(p-3); (6.2)
+                             differentiated p-2 times gives q^(p) and
+                             lambda^(p-2).  The start levels are required and
+                             checked.  Nonlinear in q^(p): the state is q ..
+                             q^(p-1), and (q^(p), lambda) solve (6.2) with the
+                             constraints by Newton at each time (needs
+                             lambda ~= 0); guess = {lambda =, q3d =} picks the
+                             first root, tr.branch tells it, tr.top[i] =
+                             q^(p).  Implicit methods: Jacobian by central
+                             differences; project = true also projects qdd ..
+                             and lambda ..
   sys:linearize{q =, qd = [, t, coords, speeds, hold, dependent]}  the motion
                              linearized about an equilibrium or a steady
                              motion, with or without constraints (order 0, 1,
@@ -301,8 +319,8 @@ Methods (t a number, q, qd, qdd tables of k numbers):
                              pivoting on the constraints' gradients unless
                              named (dependent = {...}), and print(lin) says
                              which.  lin.q, lin.qd: the point, solved.
-  sys:eigen_sweep{values = {...}, at = function(v) return {linearize options} end
-                  [, parameter = "v", tol]}  the eigenvalues against a
+  sys:eigen_sweep{values = {...}, at = function(v) return {linearize options}
+                  end [, parameter = "v", tol]}  the eigenvalues against a
                              parameter (at may also set sys.params): sw.rows
                              ({value, eigenvalues, status}: stable, neutral or
                              unstable), sw.crossings ({value, from, to, kind,
@@ -310,12 +328,13 @@ Methods (t a number, q, qd, qdd tables of k numbers):
                              tol, default 1e-10 of the span: Brent's method
                              where the largest real part changes sign,
                              bisection where modes meet on the imaginary
-                             axis), print(sw), sw:csv([file]),
-                             sw:plot{[file =, width =, height =, quiet =]}
-                             (real and imaginary parts against the
-                             parameter; quiet = true returns the terminal's
-                             plot as text instead of printing it).
-  sys:show{[tex = true, lua = true, mass = true, bias = true, reduced = true, appell = true, names = true]}
+                             axis), print(sw), sw:csv([file]) (without a
+                             file: the CSV text), sw:plot{[file =, width =,
+                             height =, quiet =]} (real and imaginary parts
+                             against the parameter; quiet = true returns the
+                             terminal's plot as text instead of printing it).
+  sys:show{[tex = true, lua = true, mass = true, bias = true, reduced = true,
+            appell = true, names = true]}
                              the equations as formulas read from the recorded
                              graphs: per coordinate M(q) q'' + h(q, q') =
                              A^T lambda (the equations of every order n
@@ -327,9 +346,11 @@ Methods (t a number, q, qd, qdd tables of k numbers):
                              shown by name, repeated parts named when long
                              (where c1 = cos(th1 - th2)); tex = true: a LaTeX
                              aligned block; lua = true: a Lua chunk returning
-                             function(t, q, qd, qdd, lambda, params) -> residuals
-  sys:export{lang = "c" | "python" | "octave", file = "name.c" [, jacobian = false,
-             main = {q0 =, qd0 =, t1 =, dt = [, t0, rtol, atol]}]}
+                             function(t, q, qd, qdd, lambda, params) ->
+                             residuals
+  sys:export{lang = "c" | "python" | "octave", file = "name.c"
+             [, jacobian = false, main = {q0 =, qd0 =, t1 =, dt = [, t0,
+             rtol, atol]}]}
                              the equations as code that runs without nzlua:
                              nzx_accel (q'' and lambda: the saddle-point
                              system by an included LU), nzx_rhs (f = (q', q'')),
@@ -337,7 +358,10 @@ Methods (t a number, q, qd, qdd tables of k numbers):
                              integrates (C: GSL rk8pd, cc -O2 f.c -lgsl
                              -lgslcblas -lm; Python: NumPy; Octave: ode45) and
                              prints CSV "t,<coords>,<coords>'" every dt.
-                             Constraints of order 0, 1, 2 linear in q''
+                             Constraints of order 0, 1 and 2 are exported (one
+                             of order 2 must be linear in q''); the others,
+                             and functions that run in Lua, are refused with
+                             the reason
   sys:energy_integral()      whether H = T2 - T0 + V is a first integral and why
                              (L free of t, constraints homogeneous in the
                              velocities, no force doing work), checked at
@@ -345,7 +369,8 @@ Methods (t a number, q, qd, qdd tables of k numbers):
   sys:energy_theorem(tr)     along a trajectory simulated with monitors =
                              {energy = true, work = true}: the drift of H and
                              of T + V - W, W = integral (R_0 + Q.q') dt: the
-                             work of moving constraints and forces Q (eq. 3.3-3.7)
+                             work of moving constraints and forces Q
+                             (Rumyantsev eq. 3.3-3.7)
   sys:parametric{[time = "t", tau = function(s) return t end]}  the system in
                              (q, t) with a parameter as its time and
                              Lambda = L(t, q, x'/t') t' (eq. 1.14-1.17): k + 1
@@ -364,12 +389,15 @@ Methods (t a number, q, qd, qdd tables of k numbers):
                              coordinates, the dependent coordinates and speeds
                              solved at every step, the other speeds held as
                              given; returns q and {iterations, residual, qd}
-  sys:report{q =, qd = [, n, simulate = {...}, plot = {...} | false]}  a
-                             classroom summary: the rule, residuals of two
-                             orders at the state, a short integration and a
-                             plot
+  sys:report{q = [, qd, t, orders = {n, n + 1}, extremal = true, simulate =
+             {...} | false, plot = {...} | false]}  a classroom summary:
+                             the system, the rule, residuals of two orders at
+                             the state, a short integration and a plot;
+                             returns the trajectory and the rule's n (the
+                             session does not print them again)
 The trajectory tr = sys:simulate{...}: tr.t[i], tr.q[i][j], tr.qd[i][j],
-tr.qdd[i][j], tr.lambda[i][r], tr.status, tr.stats, tr.violation, monitors:
+tr.qdd[i][j], tr.lambda[i][r], tr.status, tr.stats, tr.violation, monitors;
+help(tr.NAME) shows one method, e.g. help(tr.plot):
   tr:column(name)            the values of a quantity along the motion: a
                              coordinate, "name'" (velocity), "name''", "t",
                              "E" (T + V), "H", "work", "violation", "lambda1"
@@ -381,10 +409,16 @@ tr.qdd[i][j], tr.lambda[i][r], tr.status, tr.stats, tr.violation, monitors:
                              In the terminal the ticks follow the width (the
                              labels apart and distinct) and a point on the
                              edge of the data is drawn inside the frame
-  tr:csv([file])             CSV with a header naming every column (written
-                             beside the file and renamed: never half a file)
+  tr:csv([file])             CSV with a header naming every column: to the
+                             file (written beside it and renamed: never half
+                             a file; returns its name), or without a file
+                             the CSV text (the session shows it; a script
+                             can io.write it)
   tr:residuals([n] [, {quiet = true}])  residuals of the equations of order n
-                             along the motion, max and RMS per equation
+                             along the motion, max and RMS per equation: a
+                             list {coordinate =, max =, rms =} that prints as
+                             the table (printed unless quiet; the session
+                             shows it once)
   tr:section{[when = "event name", plot = {"y", "y'"}, draw = false, file =]}
                              a Poincare section: the two quantities at each
                              crossing of the event (simulate with events =
@@ -409,32 +443,36 @@ tr.qdd[i][j], tr.lambda[i][r], tr.status, tr.stats, tr.violation, monitors:
     text = [[
 Each body: mass (a positive number), pos = function(t, q, params) returning its
 centre of mass {x, y, z}; a rigid body also has rot = function(t, q, params)
-returning its 3x3 rotation matrix (body axes to space) and inertia = {I1, I2, I3}
-(principal, about the centre of mass) or a symmetric 3x3 matrix, in body axes.
-gravity = {gx, gy, gz} adds V = -sum m g.r.  Velocities come from the jets.
-Returns {T = ..., V = ..., S = ...} (S, for Wassmuth's form, for particles only);
-nz.system{coords = ..., bodies = {...}} does the same inline.]] },
+returning its 3x3 rotation matrix (body axes to space) and inertia =
+{I1, I2, I3} (principal, about the centre of mass) or a symmetric 3x3 matrix,
+in body axes.  gravity = {gx, gy, gz} adds V = -sum m g.r.  Velocities come
+from the jets.  Returns {T = ..., V = ..., S = ...} (S, for Wassmuth's form,
+for particles only); nz.system{coords = ..., bodies = {...}} does the same
+inline.]] },
   { name = "scene", section = "scenes",
     usage = "nz.scene{coords =, bodies = {{name =, mass =, pos = ...}}, effects = {...}}",
     summary = "a system built from bodies and the effects the scene declares",
     text = [[
-A scene is a system assembled from named bodies ({name =, mass =, pos = [, rot =,
-inertia =]}: T comes from them) and the effects it declares (help(nz.effects)).
-Only what is declared is built, so only that is ever computed: an effect that a
-scene does not name costs nothing (make bench: bench/scene_cost.lua).  It also
-takes T, V, Q, L, constraints, params and sample as nz.system does, and returns
-a system (print(sys) lists its effects).]] },
+A scene is a system assembled from named bodies ({name =, mass =, pos =
+[, rot =, inertia =]}: T comes from them) and the effects it declares
+(help(nz.effects)).  Only what is declared is built, so only that is ever
+computed: an effect that a scene does not name costs nothing (make bench:
+bench/scene_cost.lua).  It also takes T, V, Q, L, constraints, params and
+sample as nz.system does, and returns a system (print(sys) lists its
+effects).]] },
   { name = "effects", section = "scenes", usage = "nz.effects.NAME{...}",
     summary = "gravity, spring, damper, force, driven, knife_edge, rolling_disk, rolling_ball, constant_speed, constraint",
     text = [[
-Points are body names, functions (t, q, params) -> {x, y, z} (moving supports) or
-fixed {x, y, z}; coordinates are given by name.  A wrong or missing parameter is an
-error naming the effect and the parameter.
+Points are body names, functions (t, q, params) -> {x, y, z} (moving
+supports) or fixed {x, y, z}; coordinates are given by name.  A wrong or
+missing parameter is an error naming the effect and the parameter.
+help(nz.effects.NAME) explains one, with its parameters.
   gravity{g = {0, 0, -9.81}, bodies = {names}}     V = -sum m g . r
   spring{between = {A, B}, k =, length =, cubic =, energy = f(s)}  or
   spring{coordinate = "x", k =, rest =, cubic =}   V = k s^2/2 + cubic s^4/4
   damper{between = {A, B}, c =} or {coordinate =, c =}   Rayleigh: D = c s'^2/2
-  force{f = function(t, q, qd) return {Q...} end} or {at = point, F = function(t, q, qd) return {Fx, Fy, Fz} end}
+  force{f = function(t, q, qd) return {Q...} end}  generalized forces, or
+  force{at = point, F = function(t, q, qd) return {Fx, Fy, Fz} end}
   driven{coordinate =, motion = function(t)}       q = motion(t), rheonomic
   knife_edge{x =, y =, heading =}                   no sideways velocity
   rolling_disk{x =, y =, heading =, angle =, radius =}
@@ -455,33 +493,42 @@ admissible states (projected onto the constraints) nz.check tests that each
 expression vanishes at the true accelerations and that together they determine
 them (full rank in qdd, by dual numbers), so a recombination or scaling of the
 rows is accepted.  It says which equation is wrong, where, with the true
-accelerations and the value your equation gives.  Returns ok, text; options
-{states =, tol = 1e-8, quiet = true}.  Write the equations with nz.sin etc.]] },
+accelerations and the value your equation gives.  Prints the verdict and
+returns ok, text (typed at the prompt, the verdict shows once); options
+{states = 10, tol = 1e-8, seed = 4711, quiet = true (print nothing)}.  Write
+the equations with nz.sin etc.]] },
   { name = "workprecision", section = "mechanics",
     usage = "nz.workprecision(sys, {q0 =, qd0 =, t1 =, dt =, methods =, tols =, reference =, plot =})",
     summary = "what accuracy costs in time: error, time, evaluations per method and tolerance",
     text = [[
-Runs the same motion with each method at each tolerance (rtol = tol, atol = tol/100),
-measures the error (max over the output grid of |q - q_ref|) against
-reference = function(t) return {q1, ...} end when the scene has a closed form,
-or else against rk8pd at rtol 1e-13, and prints a table of error, wall time,
-right-hand-side evaluations and steps; "(grid)" marks the rows whose steps the
-output grid set (tr.stats.grid_why: the GSL steppers read their points off an
-interpolant, but msadams and msbdf, and any run with dense = false, stop at
-every output time, and a run whose interpolant missed the tolerance at many
-points made them step ends; a larger dt shows the method's own cost; taylor
-reads its points off the series and is never limited).  plot = true draws the work-precision
-diagram (log-log error against time, a line per method) in the terminal;
-plot = "file.svg" (or .png) writes it.  Returns the rows.
-Defaults: methods rk4, rkf45, rkck, rk8pd, rk4imp, bsimp, msadams, msbdf, taylor
-(taylor skipped, with the reason, where it does not apply: constraints, not recorded);
+Runs the same motion with each method at each tolerance (rtol = tol,
+atol = tol/100), measures the error (max over the output grid of
+|q - q_ref|) against reference = function(t) return {q1, ...} end when the
+scene has a closed form, or else against rk8pd at rtol 1e-13, and prints a
+table of error, wall time, right-hand-side evaluations and steps; "(grid)"
+marks the rows whose steps the output grid set (tr.stats.grid_why: the GSL
+steppers read their points off an interpolant, but msadams and msbdf, and any
+run with dense = false, stop at every output time, and a run whose
+interpolant missed the tolerance at many points made them step ends; a
+larger dt shows the method's own cost; taylor reads its points off the series
+and is never limited).  plot = true draws the work-precision diagram (log-log
+error against time, a line per method) in the terminal; plot = "file.svg"
+(or .png) writes it.  quiet = true prints no table; simulate = {...} adds
+options to every run.  Returns the rows {method, tol, error, time, nfev,
+steps, status}, which print as the table (typed at the prompt: the table
+once).
+Defaults: methods rk4, rkf45, rkck, rk8pd, rk4imp, bsimp, msadams, msbdf,
+taylor (taylor runs free and constrained recorded systems; it is skipped, with
+the reason, for constraints of order 3 or more, a system that is not
+recorded, the work monitor, or whatever else it cannot run);
 tols 1e-4, 1e-6, 1e-8, 1e-10; dt as simulate's (the output grid the error is
 measured on: with dense output it adds no steps).  The table ends with the
 cheapest method for each accuracy; the diagram labels each point with its
 tolerance and gives each method its own mark (A, B, C ... in the terminal,
 shown in the key; there a tolerance label is written only where it covers
-nothing and stays inside the frame: the table gives every tolerance).  Ctrl-C stops the study, keeps
-the rows done and marks the interrupted one ("stopped by Ctrl-C", once).]] },
+nothing and stays inside the frame: the table gives every tolerance).
+Ctrl-C stops the study, keeps the rows done and marks the interrupted one
+("stopped by Ctrl-C", once).]] },
   { name = "sweep", section = "mechanics",
     usage = "nz.sweep{system = sys | file =, grid = | list = | sample =, run = function(sys, point), jobs =, out =}",
     summary = "a system at many points on every core: one row per point, appended to a CSV as each finishes",
@@ -506,8 +553,10 @@ table of outputs {name = number | string | boolean, ...}.
                        (resume = false starts over; a file of other columns is
                        refused, never overwritten).  A cut last line is dropped.
   retry = true         with a resume, compute the points recorded with an error
-                       again (the new row is appended: a point's last row counts)
-  progress = false     no progress bar (shown on a terminal: points done, time left)
+                       again (the new row is appended: a point's last row
+                       counts)
+  progress = false     no progress bar (shown on a terminal: points done, time
+                       left)
   todo = "points.txt"  write the points still missing, one per line, and run
                        nothing: the input of nzlua --sweep-worker (see
                        help("sweep_worker")) under GNU parallel or a job array
@@ -522,10 +571,10 @@ table of outputs {name = number | string | boolean, ...}.
 A point whose run fails is recorded with its message in the column error (its
 outputs empty) and the others go on; a worker that dies loses only its point.
 Returns the rows in the order of the points (inputs, outputs, error), with
-rows.status ("complete", "interrupted", "incomplete", "todo"), rows.computed, rows.resumed,
-rows.failed.  Ctrl-C stops dispatching, ends the workers and returns the rows
-finished (rows.missing says how many are not; they are in out); the next
-nz.sweep in the script raises nz.interrupted.
+rows.status ("complete", "interrupted", "incomplete", "todo"), rows.computed,
+rows.resumed, rows.failed.  Ctrl-C stops dispatching, ends the workers and
+returns the rows finished (rows.missing says how many are not; they are in
+out); the next nz.sweep in the script raises nz.interrupted.
 Limits: at most 1e7 points (require("nz.sweep").MAX_POINTS).]] },
   { name = "sweep_worker", section = "mechanics", optional = true,
     usage = "nzlua --sweep-worker file.lua < points.txt > results.txt",
@@ -538,7 +587,8 @@ stdout is the point's inputs, its outputs and, when run failed, error="...",
 in the same format, flushed as each point finishes.  A line that is not a point
 is reported on stderr (the others go on; the exit status is then 1).
 Across machines (the same nzlua and file on each), in one call:
-  nz.sweep{file = "f.lua", grid = {...}, out = "r.csv", parallel = "--sshloginfile hosts"}
+  nz.sweep{file = "f.lua", grid = {...}, out = "r.csv",
+           parallel = "--sshloginfile hosts"}
 or in three steps (the points, GNU parallel, the rows into r.csv):
   nz.sweep{file = "f.lua", grid = {...}, out = "r.csv", todo = "todo.txt"}
   parallel --pipe -N 10 --sshloginfile hosts nzlua --sweep-worker f.lua \
@@ -557,9 +607,9 @@ then from = {"done.1.txt", ...} (or cat them into one file).]] },
   { name = "partial", section = "operators", usage = "nz.partial(n, f, t, q, qd [, qdd, higher])",
     summary = "d f^(n) / d q^(n): the n-th time derivative of f, differentiated by q^(n)",
     text = [[
-Computed with jets as docs/theory.md §3 says (f differentiated n times along the motion,
-the partial taken by a tangent seeded on q^(n)).  n = 0 gives df/dq.  By (2.1) it
-equals n d/dt(df/dqd) + df/dq.  k values.]] },
+Computed with jets as docs/theory.md §3 says (f differentiated n times along
+the motion, the partial taken by a tangent seeded on q^(n)).  n = 0 gives
+df/dq.  By (2.1) it equals n d/dt(df/dqd) + df/dq.  k values.]] },
   { name = "top_coefficient", section = "operators", usage = "nz.top_coefficient(m, f, t, q, qd [, qdd])",
     summary = "d f^(m-1) / d q^(m): the coefficient of the top derivative (equals df/dqd)" },
   { name = "nielsen_op", section = "operators", usage = "nz.nielsen_op(m, f, t, q, qd [, qdd, higher])",
@@ -567,7 +617,8 @@ equals n d/dt(df/dqd) + df/dq.  k values.]] },
   { name = "euler_op", section = "operators", usage = "nz.euler_op(m, f, t, q, qd [, qdd, higher])",
     summary = "E^m(f) = d/dt(d f^(m-1)/dq^(m)) - d f^(m-1)/dq^(m-1)  (docs/theory.md (5.2))" },
   { name = "help", section = "session", usage = "nz.help([f])",
-    summary = "list what nz offers, or explain one function (help(nz.jet))" },
+    summary = "list what nz offers, or explain one function (help(nz.jet)), method (help(sys.simulate)) or effect "
+      .. "(help(nz.effects.spring)); help(nil), a misspelled name, says so" },
   { name = "version", section = "session", usage = "nz.version", summary = "the version string" },
   { name = "interrupted", section = "session", usage = "err == nz.interrupted",
     summary = "the error Ctrl-C raises (prints as 'interrupted!'); compare by identity",
@@ -585,38 +636,260 @@ Ctrl-C reached exits with status 130 (128 + SIGINT).]] },
 
 M.entries = entries
 
+-- Help is read in a terminal: every line fits in M.WIDTH columns (a test
+-- checks every text); the usages and summaries are wrapped here.
+M.WIDTH = 80
+
+local function width(s) return utf8.len(s) or #s end
+
+-- The words of `text` in lines of at most M.WIDTH columns, the first line
+-- starting with `first`, the others with `rest`.
+local function wrap(text, first, rest)
+  local lines, line, empty = {}, first, true
+  for word in text:gmatch("%S+") do
+    if not empty and width(line) + 1 + width(word) > M.WIDTH then
+      lines[#lines + 1] = line
+      line = rest .. word
+    else
+      line = line .. (empty and "" or " ") .. word
+    end
+    empty = false
+  end
+  lines[#lines + 1] = line
+  return table.concat(lines, "\n")
+end
+M.wrap = wrap
+
 local function find(nz, what)
   for _, e in ipairs(entries) do
     if what == e.name or (type(what) ~= "string" and rawequal(nz[e.name], what)) then return e end
   end
 end
 
+local function entry_text(e)
+  return ("%s\n%s\n%s"):format(wrap(e.usage, "", "    "), wrap(e.summary, "  ", "  "), e.text and ("\n" .. e.text) or "")
+end
+
+-- ------------------------------------------------------------------ --
+-- Methods: help(sys.simulate), help(tr.plot), help(lin.modes)          --
+
+-- The objects nz makes and where their methods are explained.  A system's
+-- and a trajectory's methods have paragraphs of their own in
+-- help(nz.system), read from there (one text, never two that differ); a
+-- linearization's and an eigenvalue sweep's are explained in the paragraph
+-- of the method that makes them.
+local function classes()
+  return {
+    { class = require("nz.system").System, prefix = "sys", what = "a system" },
+    { class = require("nz.trajectory").Trajectory, prefix = "tr", what = "a trajectory" },
+    { class = require("nz.linearize").Linear, prefix = "lin", what = "a linearization (sys:linearize)",
+      under = "sys:linearize" },
+    { class = require("nz.eigen_sweep").Sweep, prefix = "sw", what = "an eigenvalue sweep (sys:eigen_sweep)",
+      under = "sys:eigen_sweep" },
+  }
+end
+
+-- The paragraphs after "Methods" in help(nz.system): each starts with a
+-- line indented by two spaces ("  sys:accel(t, q, qd ...)") and goes on
+-- with the lines indented further.
+local function paragraphs()
+  local out, cur, started = {}, nil, false
+  local text = find({}, "system").text
+  for line in (text .. "\n"):gmatch("(.-)\n") do
+    if line:match("^Methods") then
+      started = true
+    elseif started then
+      if line:match("^  %S") then
+        cur = { line }
+        out[#out + 1] = cur
+      elseif line:match("^%S") then
+        cur = nil
+      elseif cur then
+        cur[#cur + 1] = line
+      end
+    end
+  end
+  return out
+end
+
+-- The paragraphs whose first line names `call` ("sys:simulate") as a call.
+local function paragraphs_of(call)
+  local found = {}
+  for _, p in ipairs(paragraphs()) do
+    if p[1]:find(call:gsub("%p", "%%%0") .. "[%({]") then found[#found + 1] = table.concat(p, "\n") end
+  end
+  return found
+end
+M.paragraphs_of = paragraphs_of
+
+-- The method `what` (a function, or a name "sys:simulate", "simulate"):
+-- its class's record and its name, or nil.
+local function find_method(what)
+  for _, c in ipairs(classes()) do
+    for name, f in pairs(c.class) do
+      if type(f) == "function" and not name:match("^__") then
+        if rawequal(f, what) or what == name or what == c.prefix .. ":" .. name then return c, name end
+      end
+    end
+  end
+end
+
+local function method_text(c, name)
+  local call = c.prefix .. ":" .. name
+  local found = paragraphs_of(c.under or call)
+  local head = c.under and ("%s: a method of %s, explained with %s:"):format(call, c.what, c.under)
+    or ("%s: a method of %s (help(nz.system) describes them all):"):format(call, c.what)
+  if #found == 0 then return nil end
+  return head .. "\n\n" .. table.concat(found, "\n")
+end
+
+-- A jet's methods (x:coef, ...) are explained in help(nz.jet).
+local function jet_method(nz, what)
+  local mt = getmetatable(nz.jet(0, 1))
+  if type(mt.__index) ~= "table" then return nil end
+  for name, f in pairs(mt.__index) do
+    if rawequal(f, what) then return name end
+  end
+end
+
+-- ------------------------------------------------------------------ --
+-- Effects: help(nz.effects.spring)                                     --
+
+local KINDS = { number = "a number", coordinate = "a coordinate's name", coordinates = "a list of coordinate names",
+  ["function"] = "a function", vector = "a vector {x, y, z}", point = "a point", pair = "two points {A, B}" }
+
+local function effect_text(nz, kind)
+  local effects = nz.effects
+  local lines = {}
+  -- its lines in help(nz.effects): the parameters as they are written
+  for line in find(nz, "effects").text:gmatch("[^\n]+") do
+    if line:match("^  " .. kind .. "{") then
+      lines[#lines + 1] = line
+    end
+  end
+  local out = { wrap(("nz.effects.%s{...}: an effect of a scene (help(nz.effects) lists them)"):format(kind),
+    "", "    "), wrap(effects.docs[kind] or "", "  ", "  "), "" }
+  for _, l in ipairs(lines) do out[#out + 1] = l end
+  local spec = effects.specs[kind]
+  local names = {}
+  for name in pairs(spec) do names[#names + 1] = name end
+  table.sort(names)
+  out[#out + 1] = ""
+  out[#out + 1] = "Parameters (* required):"
+  local points = false
+  for _, name in ipairs(names) do
+    local s = spec[name]
+    local doc = s.doc
+    if not doc then
+      doc = KINDS[s.type] or s.type
+      if s.positive then doc = doc .. ", positive" elseif s.nonnegative then doc = doc .. ", not negative" end
+    end
+    out[#out + 1] = wrap(doc, ("  %-12s "):format(name .. (s.required and " *" or "")), (" "):rep(15))
+    points = points or s.type == "point" or s.type == "pair"
+  end
+  if points then
+    out[#out + 1] = wrap("A point is a body's name, a function (t, q, params) -> {x, y, z} (a moving support) or a "
+      .. "fixed {x, y, z}.", "", "")
+  end
+  out[#out + 1] = "A wrong or missing parameter is an error naming the effect and the parameter."
+  return table.concat(out, "\n")
+end
+
+local function effect_kind(nz, what)
+  for kind, f in pairs(nz.effects) do
+    if rawequal(f, what) and nz.effects.docs[kind] then return kind end
+  end
+  if type(what) == "string" then
+    local kind = what:match("^effects%.([%w_]+)$")
+    if kind and nz.effects.docs[kind] then return kind end
+  end
+end
+
+-- A function inside a table of nz (nz.rotations.z, nz.special.elljac):
+-- the table's entry and the function's name.
+local function member(nz, what)
+  if type(what) ~= "function" then return nil end
+  for _, e in ipairs(entries) do
+    local t = nz[e.name]
+    if type(t) == "table" and not getmetatable(t) then
+      for name, f in pairs(t) do
+        if rawequal(f, what) then return e, name end
+      end
+    end
+  end
+end
+
+-- ------------------------------------------------------------------ --
+-- The listing                                                          --
+
 local function listing(nz)
   local out = { ("nz %s: analytical mechanics with Taylor jets.  help(f) explains f."):format(nz.version) }
+  local pad = (" "):rep(31)
   for _, s in ipairs(sections) do
     out[#out + 1] = ""
     out[#out + 1] = s.title
     for _, e in ipairs(entries) do
-      if e.section == s.id then out[#out + 1] = ("  %-28s %s"):format(e.usage:match("^[^|]*"):gsub("%s+$", ""), e.summary) end
+      if e.section == s.id then
+        local usage = e.usage:match("^(.-)  |  ") or e.usage    -- the first of two forms
+        if width(usage) <= 28 then
+          out[#out + 1] = wrap(e.summary, ("  %-28s "):format(usage), pad)
+        else
+          out[#out + 1] = wrap(usage, "  ", "      ")
+          out[#out + 1] = wrap(e.summary, pad, pad)
+        end
+      end
+    end
+  end
+  -- the methods, by name: help(sys.NAME) or help("sys:NAME") explains one
+  for _, c in ipairs(classes()) do
+    if not c.under then
+      local names = {}
+      for name, f in pairs(c.class) do
+        if type(f) == "function" and not name:match("^__") then names[#names + 1] = name end
+      end
+      table.sort(names)
+      out[#out + 1] = ""
+      out[#out + 1] = ("Methods of %s (help(%s.NAME) explains one)"):format(c.what, c.prefix)
+      out[#out + 1] = wrap(table.concat(names, ", "), "  ", "  ")
     end
   end
   return table.concat(out, "\n")
 end
 
--- bind(nz) returns the help function of that module table.
+-- bind(nz) returns the help function of that module table: help() lists,
+-- help(f) explains f (a function of nz, a method found by its value, an
+-- effect), help(nil) says the value is nil (a misspelled name gives nil).
 function M.bind(nz)
-  return function(what, opts)
+  return function(...)
+    local what, opts = ...
     local text
-    if what == nil then
+    if what == nil and select("#", ...) == 1 then
+      text = "help(nil): the value is nil (a misspelled name?): help() lists what nz offers"
+    elseif what == nil then
       text = listing(nz)
     else
       local e = find(nz, what)
-      if not e then
+      local c, name = nil, nil
+      if not e then c, name = find_method(what) end
+      local kind = not e and not c and effect_kind(nz, what)
+      local jet = not e and not c and not kind and type(what) == "function" and jet_method(nz, what)
+      local parent, field = nil, nil
+      if not (e or c or kind or jet) then parent, field = member(nz, what) end
+      if e then
+        text = entry_text(e)
+      elseif c then
+        text = method_text(c, name)
+      elseif kind then
+        text = effect_text(nz, kind)
+      elseif jet then
+        text = ("x:%s: a method of every jet, explained in help(nz.jet):\n\n%s"):format(jet, entry_text(find(nz, "jet")))
+      elseif parent then
+        text = ("nz.%s.%s: explained in help(nz.%s):\n\n%s"):format(parent.name, field, parent.name, entry_text(parent))
+      end
+      if not text then
         -- one line, not an error: at the prompt a traceback would bury it
         text = ("no help for %s: help() lists what nz offers"):format(
           type(what) == "string" and ("'" .. what .. "'") or ("this " .. type(what)))
-      else
-        text = ("%s\n  %s\n%s"):format(e.usage, e.summary, e.text and ("\n" .. e.text) or "")
       end
     end
     if opts and opts.quiet then return text end

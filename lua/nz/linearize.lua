@@ -680,4 +680,8 @@ function Linear:__tostring()
   return table.concat(lines, "\n")
 end
 
+-- lin.modes() (a dot) is named as such (nz/where.lua); help finds the methods here.
+require("nz.where").methods(Linear, "lin", "linearization")
+M.Linear = Linear
+
 return M

@@ -65,16 +65,43 @@ end
 
 M.format = function(v) return format(v, 0) end
 
+-- What a function printed itself during the chunk being run.  A function
+-- that prints its result and also returns it for scripts (nz.check's ok,
+-- text; tr:residuals' table; nz.workprecision's rows) ends with
+-- `return repl.shown(...)`: typed at the prompt, those same values are not
+-- printed a second time.  The session forgets them before each chunk
+-- (M.begin), so the values kept in a variable and typed later do print.
+-- Weak: a record never keeps a script's tables alive.
+local shown = setmetatable({}, { __mode = "v" })
+
+function M.shown(...)
+  shown = setmetatable({ n = select("#", ...), ... }, { __mode = "v" })
+  return ...
+end
+
+function M.begin() shown = setmetatable({}, { __mode = "v" }) end
+
+local function already_shown(...)
+  local n = select("#", ...)
+  if shown.n ~= n then return false end
+  for i = 1, n do
+    if not rawequal(shown[i], (select(i, ...))) then return false end
+  end
+  return true
+end
+
 -- Print the values of an expression typed at the prompt, tab-separated,
 -- and keep the first in `_` (as GSL Shell and IPython do).  Nothing at all
 -- is printed when every value is nil: a function that printed its result
--- and returned nothing leaves no stray "nil".
+-- and returned nothing leaves no stray "nil"; nor when the values are those
+-- the function printed itself (M.shown).
 function M.print(...)
   local n = select("#", ...)
   local any = false
   for i = 1, n do if select(i, ...) ~= nil then any = true end end
   if not any then return end
   rawset(_G, "_", (...))
+  if already_shown(...) then return end
   local parts = {}
   for i = 1, n do parts[i] = format((select(i, ...)), 0) end
   print(table.concat(parts, "\t"))

@@ -10,7 +10,8 @@ local function max_abs(v) local m = 0; for i = 1, #v do m = math.max(m, math.abs
 -- opts: t, q, qd (the state; projected onto the constraints), orders
 -- ({n, n + 1} by default), simulate = {t1 =, dt =, ...} (the run from the
 -- state; false for none), plot = {y = ..., phase = ..., file = ...} or false.
--- Returns the trajectory (or nil) and the rule's n.
+-- Returns the trajectory (or nil) and the rule's n (the session does not
+-- print them again: the summary above showed them).
 function M.report(sys, opts)
   opts = opts or {}
   print(tostring(sys))
@@ -40,7 +41,7 @@ function M.report(sys, opts)
       tr:plot(p)
     end
   end
-  return tr, n
+  return require("nz.repl").shown(tr, n)
 end
 
 return M

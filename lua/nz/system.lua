@@ -347,9 +347,9 @@ function System:reaction_power(t, q, qd)
   return constraints.reaction_power(self, t, q, qd, qdd, lambda)
 end
 
--- Classification of the constraints (printed unless opts.quiet).
--- The classification, a list that prints as its table (print(sys:constraints())
--- in a script; typed at the prompt, the session prints it once).
+-- The classification of the constraints, a list that prints as its table
+-- (print(sys:constraints()) in a script; typed at the prompt, the session
+-- prints it once).  It prints nothing itself, so opts (quiet) change nothing.
 function System:constraints(opts)
   local classes = constraints.classify(self)
   local out = {}
@@ -547,5 +547,8 @@ function M.nielsen_op(m, f, t, q, qd, qdd, higher) return operator("N", m, f, t,
 function M.euler_op(m, f, t, q, qd, qdd, higher) return operator("E", m, f, t, q, qd, qdd, higher) end
 function M.top_coefficient(m, f, t, q, qd, qdd, higher) return operator("top", m, f, t, q, qd, qdd, higher) end
 function M.partial(m, f, t, q, qd, qdd, higher) return operator("partial", m, f, t, q, qd, qdd, higher) end
+
+-- sys.simulate{...} (a dot) is named as such by every method (nz/where.lua).
+require("nz.where").methods(System, "sys", "system")
 
 return M

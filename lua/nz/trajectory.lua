@@ -161,8 +161,21 @@ local function write_beside(self, file)
   return ok, failure
 end
 
+-- Without a file, the CSV text: typed at the prompt the session shows it,
+-- a script can io.write it (as sw:csv() does).
 function Trajectory:csv(file)
-  if type(file) ~= "string" then error(("bad argument #1 to 'csv' (a file name expected, got %s)"):format(type(file)), 2) end
+  if file == nil then
+    local parts = {}
+    local buffer = { write = function(b, ...)
+      for i = 1, select("#", ...) do parts[#parts + 1] = select(i, ...) end
+      return b
+    end, flush = function(b) return b end }
+    write_csv(self, buffer)
+    return table.concat(parts)
+  end
+  if type(file) ~= "string" then
+    error(("bad argument #1 to 'csv' (a file name, or nothing for the CSV text, expected, got %s)"):format(type(file)), 2)
+  end
   core.mech.hold_term(true)
   local called, ok, failure = pcall(write_beside, self, file)
   if not called then ok, failure = false, ok end
@@ -298,11 +311,16 @@ function Trajectory:residuals(n, opts)
     result[j] = { coordinate = self.coords[j], max = worst[j], rms = math.sqrt(sq[j] / math.max(#self.t, 1)) }
     rows[#rows + 1] = { self.coords[j], ("%.3e"):format(result[j].max), ("%.3e"):format(result[j].rms) }
   end
-  if not (opts and opts.quiet) then
-    print(("Residuals of the equations of order %d along %d points of '%s':"):format(n, #self.t, sys.name))
-    print(require("nz.system").table_text(rows))
-  end
-  return result
+  local text = ("Residuals of the equations of order %d along %d points of '%s':\n%s"):format(n, #self.t, sys.name,
+    require("nz.system").table_text(rows))
+  -- the list prints as its table (print(r) in a script, r typed at the prompt)
+  setmetatable(result, { __tostring = function() return text end })
+  if opts and opts.quiet then return result end
+  print(text)
+  return require("nz.repl").shown(result)      -- typed at the prompt: the table once
 end
+
+-- tr.plot{...} (a dot) is named as such by every method (nz/where.lua).
+require("nz.where").methods(Trajectory, "tr", "trajectory")
 
 return M

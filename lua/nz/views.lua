@@ -83,6 +83,8 @@ function M.section(tr, opts)
     plot.lines{ series = { { name = ("%s at %s"):format(pair[2], tostring(when)), x = out.x, y = out.y, style = "points pt 7 ps 0.3" } },
       file = opts.file, title = opts.title or ("Poincare section of %s: %s crossings"):format(tr.system.name, tostring(when)),
       xlabel = pair[1], ylabel = pair[2], width = opts.width, height = opts.height, legend = false }
+    -- drawn in the terminal: the session prints nothing more (not the lists)
+    if not opts.file then return require("nz.repl").shown(out) end
   end
   return out
 end
@@ -285,6 +287,7 @@ function M.animate(tr, opts)
       io.flush()
       if tty then os.execute(("sleep %g"):format(1 / (opts.fps or 20))) end
     end
+    return require("nz.repl").shown(nframes, outputs)   -- the frames were the output: nothing more at the prompt
   end
   return nframes, outputs
 end

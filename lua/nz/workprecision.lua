@@ -3,7 +3,8 @@
 -- form, or the most accurate method at a much tighter tolerance), the wall
 -- time and the right-hand-side evaluations it took; a table, and the
 -- work-precision diagram (error against time, log-log, a line per method).
--- "taylor" (Taylor's method) runs where it applies: a free recorded system.
+-- "taylor" (Taylor's method) runs where it applies: a recorded system, free
+-- or with constraints of order 0, 1, 2.
 local plot = require "nz.plot"
 local core = require "nz.core"
 
@@ -90,15 +91,16 @@ function M.run(sys, opts)
     if stopped then break end
   end
   rows.interrupted = stopped or nil
-  if not opts.quiet then
-    print(("Work-precision of '%s', t = %g .. %g, error = max over the output grid of |q - q_ref| (reference: %s)")
-      :format(sys.name, base.t0 or 0, base.t1, ref_text))
-    print(M.table(rows))
-  end
+  local text = ("Work-precision of '%s', t = %g .. %g, error = max over the output grid of |q - q_ref| (reference: %s)\n%s")
+    :format(sys.name, base.t0 or 0, base.t1, ref_text, M.table(rows))
+  -- the rows print as their table (print(rows) in a script, rows typed at the prompt)
+  setmetatable(rows, { __tostring = function() return text end })
+  if not opts.quiet then print(text) end
   if opts.plot and not stopped then
     M.diagram(rows, { file = type(opts.plot) == "string" and opts.plot or nil, title = "work-precision: " .. sys.name })
   end
-  return rows
+  if opts.quiet then return rows end
+  return require("nz.repl").shown(rows)       -- typed at the prompt: the table once
 end
 
 function M.table(rows)

@@ -135,6 +135,9 @@ static int traceback_is_deep(const char *msg)
     size_t n = end ? (size_t)(end - s) : strlen(s);
     if (n >= 13 && memmem(s, n, "in main chunk", 13)) continue;
     if (memmem(s, n, "(...tail calls...)", 18)) continue;
+    /* nz's own Lua files (embedded as lua/nz/NAME.lua, or a checkout's):
+     * their messages name the user's line already */
+    if (strncmp(s, "lua/nz/", 7) == 0 || memmem(s, n, "/lua/nz/", 8)) continue;
     return 1;
   }
   return 0;
@@ -360,11 +363,16 @@ static int pushline(lua_State *L, int firstline)
   return READ_OK;
 }
 
-/* Try the line as an expression whose value prints. */
+/* Try the line as an expression whose value prints.  Not `return <line>`:
+ * a call there is a tail call, which removes the typed chunk's frame, and
+ * an error from a library function would then not start with "stdin:1:"
+ * (nz/where.lua looks for the user's frame).  The values pass through a
+ * function called after they are computed; the newline keeps a trailing
+ * comment from swallowing the parenthesis. */
 static int addreturn(lua_State *L)
 {
   const char *line = lua_tostring(L, -1);
-  const char *retline = lua_pushfstring(L, "return %s;", line);
+  const char *retline = lua_pushfstring(L, "return (function(...) return ... end)(%s\n)", line);
   int status = luaL_loadbuffer(L, retline, strlen(retline), "=stdin");
   if (status == LUA_OK) {
     lua_remove(L, -2);
@@ -436,21 +444,41 @@ static int loadline(lua_State *L, int *eof)
   }
 }
 
+/* Push nz.repl's function `name` (plain `fallback` when the module cannot
+ * be loaded, or nil). */
+static void push_repl_function(lua_State *L, const char *name, const char *fallback)
+{
+  lua_getglobal(L, "require");
+  lua_pushliteral(L, "nz.repl");
+  if (lua_pcall(L, 1, 1, 0) != LUA_OK || !lua_istable(L, -1)) {
+    lua_pop(L, 1);
+    if (fallback) lua_getglobal(L, fallback);
+    else lua_pushnil(L);
+  } else {
+    lua_getfield(L, -1, name);
+    lua_remove(L, -2);
+  }
+}
+
+/* Before each chunk: nz.repl forgets what the previous chunk's functions
+ * printed themselves (so that a value kept from them and typed later shows). */
+static void begin_chunk(lua_State *L)
+{
+  push_repl_function(L, "begin", NULL);
+  if (lua_isfunction(L, -1)) {
+    if (lua_pcall(L, 0, 0, 0) != LUA_OK) lua_pop(L, 1);
+  } else {
+    lua_pop(L, 1);
+  }
+}
+
 /* Print the values left by a chunk with nz.repl's printer. */
 static void print_results(lua_State *L)
 {
   int n = lua_gettop(L);
   if (n == 0) return;
   luaL_checkstack(L, LUA_MINSTACK, "too many results to print");
-  lua_getglobal(L, "require");
-  lua_pushliteral(L, "nz.repl");
-  if (lua_pcall(L, 1, 1, 0) != LUA_OK) {
-    lua_pop(L, 1);
-    lua_getglobal(L, "print");
-  } else {
-    lua_getfield(L, -1, "print");
-    lua_remove(L, -2);
-  }
+  push_repl_function(L, "print", "print");
   lua_insert(L, 1);
   if (lua_pcall(L, n, 0, 0) != LUA_OK)
     l_message(progname, lua_pushfstring(L, "error calling 'print' (%s)", lua_tostring(L, -1)));
@@ -467,7 +495,10 @@ static void do_repl(lua_State *L)
   for (;;) {
     int status = loadline(L, &eof);
     if (eof) break;
-    if (status == LUA_OK) status = docall(L, 0, LUA_MULTRET);
+    if (status == LUA_OK) {
+      begin_chunk(L);
+      status = docall(L, 0, LUA_MULTRET);
+    }
     if (status == LUA_OK) print_results(L);
     else report(L, status, 1);
     run_interrupted = 0;
