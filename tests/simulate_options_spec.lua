@@ -303,7 +303,7 @@ describe("a long run says so once, and goes on", function()
     -- the check at 2048 steps sees (steps, not the clock; the clock's
     -- criterion, 60 s, gives the same single message).
     assert.are.equal(1, #said)
-    contains(said[1], THIS .. ":", "warning: this run will take about", "steps", "rk1imp", "rk8pd", "looser rtol")
+    contains(said[1], THIS .. ":", "warning: at its pace so far this run will take about", "steps", "rk1imp", "rk8pd", "looser rtol")
     assert.is_nil(said[1]:find("larger 'dt'", 1, true))      -- the adaptive steps cost here, not the grid
     assert.are.equal(said[1], tr.warnings[1])
   end)
@@ -338,6 +338,24 @@ describe("a long run says so once, and goes on", function()
     assert.is_nil(msg:find("looser rtol", 1, true))
     assert.is_nil(msg:find("rtol = ", 1, true))
     assert.are.equal(2500, tr.stats.steps)                            -- 2.5 / 1e-3 fixed steps
+  end)
+  it("a stiff system under an explicit method (rk8pd): the advice names the implicit ones, which take far fewer steps", function()
+    -- x'' + 1e4 x' + x = 0: the fast mode e^(-1e4 t) is gone after 1e-3 s,
+    -- yet rk8pd's stability keeps its steps near 3e-4 for the whole run
+    -- (a looser rtol hardly changes that); bsimp's grow with the slow mode.
+    local stiff = nz.system{ name = "stiff", coords = { "x" }, T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end,
+      V = function(t, q) return 0.5 * q[1] ^ 2 end, Q = function(t, q, qd) return { -1e4 * qd[1] } end }
+    local said, saved_warn, saved_limits = {}, simulate.warn, simulate.LONG_RUN
+    simulate.warn = function(msg) said[#said + 1] = msg end
+    simulate.LONG_RUN = { steps = 5e4, seconds = math.huge, check_steps = 2000 }
+    local ok, tr = pcall(stiff.simulate, stiff, { q0 = { 1 }, t1 = 100, method = "rk8pd",
+      events = { { f = function(t) return t - 2 end, stop = true } } })
+    simulate.warn, simulate.LONG_RUN = saved_warn, saved_limits
+    assert(ok, tostring(tr))
+    assert.are.equal(1, #said)
+    contains(said[1], "bsimp or msbdf if the system is stiff")
+    local implicit = stiff:simulate{ q0 = { 1 }, t1 = 2, method = "bsimp" }
+    assert(implicit.stats.steps * 20 < tr.stats.steps, ("bsimp %d steps, rk8pd %d"):format(implicit.stats.steps, tr.stats.steps))
   end)
 end)
 

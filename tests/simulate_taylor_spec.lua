@@ -164,7 +164,7 @@ describe("simulate with method = 'taylor'", function()
     assert.are.equal(1, #said)
     assert.are.equal(said[1], tr.warnings[1])
     local msg = said[1]
-    assert.truthy(msg:find("simulate 'oscillator': warning: this run will take about", 1, true), msg)
+    assert.truthy(msg:find("simulate 'oscillator': warning: at its pace so far this run will take about", 1, true), msg)
     local mech = require("nz.core").mech
     local p, lp = mech.taylor_order(1e-14), mech.taylor_order(1e-11)
     assert.truthy(msg:find(("a looser rtol (taylor's order comes from it: rtol = 1e-11 takes order %d instead of %d"):format(lp, p),

@@ -185,7 +185,10 @@ one, e.g. help(sys.simulate):
         (1/n)(dT^(n)/dq^(n) - (n+1) dT/dq) - Q (docs/theory.md (3.1)),
         n = 1..100; form: "generalized" (default), "lagrange", "difference"
         (3.2), "euler" (3.3), "appell" (4.2), "extremal" (4.3), "wassmuth"
-        (particles, n >= 2).  Or {form = ..., higher = {q3, q4, ...}}:
+        (particles, n >= 2).  "extremal" is dK_n/dq^(n), the equations only
+        when Q does not depend on q^(n): with forces that depend on q', at
+        n = 1 it differs by sum_j q'_j dQ_j/dq'_i (sys:rule{extremal = true}
+        picks an n where it holds).  Or {form = ..., higher = {q3, ...}}:
         derivatives beyond qdd (default 0; the equations do not depend on
         them).  With multipliers lambda the terms -A^T lambda of (6.2) are
         included.  n = nil: the rule's n.

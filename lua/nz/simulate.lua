@@ -379,13 +379,17 @@ end
 -- least one step, whatever the tolerance), or the adaptive steps, which
 -- for an order-p method grow like rtol^(-1/p): then a low order at a tight
 -- tolerance is what costs.  nsteps: the steps taken up to tt.
+local IMPLICIT = { rk1imp = true, rk2imp = true, rk4imp = true, bsimp = true, msbdf = true }
+local STIFF = "bsimp or msbdf if the system is stiff (then stability, not accuracy, sets the steps of an explicit "
+  .. "method, and a looser rtol hardly helps)"
+
 local function cheaper(cfg, nsteps, tt)
   if cfg.method == "taylor" then
     -- its steps do not depend on the grid, and hardly on the tolerance
     -- (Jorba-Zou): the order does, and a step costs about its square
     local p, lp = mech.taylor_order(cfg.rtol), mech.taylor_order(cfg.rtol * 1e3)
     return ("a looser rtol (taylor's order comes from it: rtol = %g takes order %d instead of %d, "
-      .. "about %.2gx cheaper per step), or rk8pd"):format(cfg.rtol * 1e3, lp, p, (p / lp) ^ 2)
+      .. "about %.2gx cheaper per step), or rk8pd, or %s"):format(cfg.rtol * 1e3, lp, p, (p / lp) ^ 2, STIFF)
   end
   if cfg.step then
     return ("the steps are fixed ('step' = %g; rtol does nothing for fixed steps): a larger 'step', "
@@ -399,7 +403,10 @@ local function cheaper(cfg, nsteps, tt)
   local p = method_order[cfg.method] or 4
   local advice = {}
   if p < 5 then
-    advice[#advice + 1] = ("a higher-order method (%s is of order %d): rk8pd, or bsimp or msbdf if the system is stiff"):format(cfg.method, p)
+    advice[#advice + 1] = ("a higher-order method (%s is of order %d): rk8pd, or %s"):format(cfg.method, p,
+      IMPLICIT[cfg.method] and "bsimp if the system is stiff" or STIFF)
+  elseif not IMPLICIT[cfg.method] then
+    advice[#advice + 1] = STIFF
   end
   advice[#advice + 1] = ("a looser rtol (the steps grow like rtol^(-1/%d) for this method; rtol = %g takes %.2gx fewer steps)")
     :format(p, cfg.rtol * 1e3, 1e3 ^ (1 / p))
@@ -425,7 +432,7 @@ local function long_run_notice(sys, cfg, tr, nsteps, tt, wall0, done, compiled0)
   local steps, seconds = nsteps / done_frac, elapsed / done_frac
   if not ((nsteps >= M.LONG_RUN.check_steps and steps > M.LONG_RUN.steps)
       or (elapsed >= 1 and seconds > M.LONG_RUN.seconds)) then return false end
-  local msg = ("%ssimulate '%s': warning: this run will take about %.3g steps and %s (t = %.4g of [%g, %g] after %d steps) "
+  local msg = ("%ssimulate '%s': warning: at its pace so far this run will take about %.3g steps and %s (t = %.4g of [%g, %g] after %d steps) "
     .. "with %s%s; it goes on (Ctrl-C stops it and keeps what is done); cheaper: %s"):format(user_where(), sys.name,
     steps, duration(seconds), tt, cfg.t0, cfg.t1, nsteps, cfg.method,
     cfg.step and (" at step = %g"):format(cfg.step) or (" at rtol = %g"):format(cfg.rtol), cheaper(cfg, nsteps, tt))
