@@ -335,3 +335,80 @@ describe("a nonlinear constraint over a long run #slow", function()
     end
   end)
 end)
+
+describe("a constraint whose gradient passes through zero on the motion", function()
+  -- Appell's cone z'^2 = a^2 (x'^2 + y'^2) going up: the horizontal
+  -- direction is fixed and s'' = -g a / (1 + a^2) with s the horizontal
+  -- speed, so the particle stops at t* = s0 (1 + a^2) / (g a), where the
+  -- gradient (-2a^2 x', -2a^2 y', 2 z') vanishes: the equations no longer
+  -- determine the motion (it may go down any line of the cone).  The
+  -- steppers go on along the smooth continuation, back down the same line
+  -- (s' = s0 - g a t / (1 + a^2) < 0 after t*); rk8pd and taylor did so
+  -- without a word, bsimp stopped blaming M.  Now each says so once.
+  local simulate = require "nz.simulate"
+  local g, a, s0 = 9.81, 0.6, 0.8
+  local tstar = s0 * (1 + a * a) / (g * a)
+  local cone = nz.system{ name = "appell-hamel", coords = { "x", "y", "z" },
+    T = function(t, q, qd) return 0.5 * (qd[1] ^ 2 + qd[2] ^ 2 + qd[3] ^ 2) end,
+    V = function(t, q) return g * q[3] end,
+    constraints = { function(t, q, qd) return qd[3] ^ 2 - a * a * (qd[1] ^ 2 + qd[2] ^ 2) end } }
+  local function warned(sys, opts)
+    local said, saved = {}, simulate.warn
+    simulate.warn = function(msg) said[#said + 1] = msg end
+    local ok, tr = pcall(sys.simulate, sys, opts)
+    simulate.warn = saved
+    assert(ok, tostring(tr))
+    return tr, said
+  end
+  for _, method in ipairs{ "rk8pd", "rkf45", "msbdf", "taylor" } do
+    it(method .. " says where Appell's particle comes to rest on the cone, and goes on back down its line", function()
+      local tr, said = warned(cone, { q0 = { 0, 0, 0 }, qd0 = { s0 * math.cos(0.4), s0 * math.sin(0.4), a * s0 },
+        t1 = 0.4, dt = 0.01, method = method })
+      assert.are.equal(1, #said)
+      assert.truthy(said[1]:find("constraint 1's gradient dPhi/dq' passed through zero between t = ", 1, true), said[1])
+      local rv = tr.stats.reversed
+      assert(rv.constraint == 1 and rv.ta <= tstar and tstar <= rv.tb, ("[%g, %g] does not hold t* = %.9g"):format(rv.ta, rv.tb, tstar))
+      -- the signed speed along the line (0.4 rad) on the closed form before and after t*
+      for i = 1, #tr.t do
+        local sd = tr.qd[i][1] * math.cos(0.4) + tr.qd[i][2] * math.sin(0.4)
+        assert(math.abs(sd - (s0 - g * a * tr.t[i] / (1 + a * a))) <= 1e-7, ("t = %g: s' = %.12g"):format(tr.t[i], sd))
+      end
+    end)
+  end
+  it("the holonomic x^2 = y^2 through its vertex at t = 1: said by rk8pd and bsimp; a pendulum's turning row is not", function()
+    local vertex = nz.system{ name = "vertex", coords = { "x", "y" }, T = function(t, q, qd) return 0.5 * (qd[1] ^ 2 + qd[2] ^ 2) end,
+      constraints = { function(t, q) return q[1] ^ 2 - q[2] ^ 2 end } }
+    for _, method in ipairs{ "rk8pd", "bsimp" } do
+      local tr, said = warned(vertex, { q0 = { -1, -1 }, qd0 = { 1, 1 }, t1 = 2, dt = 0.1, method = method })
+      assert.are.equal(1, #said, method)
+      assert(tr.stats.reversed.ta <= 1 + 1e-12 and 1 <= tr.stats.reversed.tb, said[1])
+    end
+    -- (2x, 2y) turns by up to 2 x 1.2 rad in a swing, and by 2 pi in a
+    -- revolution, at loose tolerances too: never reversed within one step
+    local cp = require("tests.constraint_systems").cartesian_pendulum().sys
+    for _, rtol in ipairs{ 1e-3, 1e-8 } do
+      for _, method in ipairs{ "rk8pd", "taylor" } do
+        local tr, said = warned(cp, { q0 = { 1.3, 0 }, qd0 = { 0, 8 }, t1 = 10, rtol = rtol, atol = rtol, method = method })
+        assert.are.equal(0, #said, said[1])
+        assert.is_nil(tr.stats.reversed)
+      end
+    end
+  end)
+end)
+
+describe("spans the steps cannot cover", function()
+  -- an oscillator whose steps are ~0.3 at the default tolerance: neither
+  -- failure is the motion's, and the messages said "the motion is singular"
+  local osc = nz.system{ name = "osc", coords = { "x" }, T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end,
+    V = function(t, q) return 0.5 * q[1] ^ 2 end }
+  it("t0 = 1e16, t1 = 1e16 + 4: a span of two ulps is refused with the way out", function()
+    h.checkerror("the span 4 is only 1.8 times the smallest step a double can take at that time (2.22): start the time at 0 "
+      .. "(t0 = 0, t1 = 4)", osc.simulate, osc, { q0 = { 1 }, t0 = 1e16, t1 = 1e16 + 4 })
+  end)
+  it("t1 = 1e300: the run stalls on ordinary steps, and says the span is the cause", function()
+    local ok, e = pcall(osc.simulate, osc, { q0 = { 1 }, t1 = 1e300, dt = 1e299 })
+    assert.is_false(ok)
+    assert.truthy(tostring(e):find("the span [0, 1e+300] is far longer than the steps this motion needs can cover", 1, true), e)
+    assert.is_nil(tostring(e):find("singular", 1, true))
+  end)
+end)

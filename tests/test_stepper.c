@@ -68,7 +68,7 @@ static int series_calls;
 static nz_stepper *make(const char *name, double tol)
 {
   if (!strcmp(name, "taylor")) {
-    nz_taylor_config tc = { 1, 0, tol, tol, 0, osc_series, osc_taylor_accel, &series_calls, NULL };
+    nz_taylor_config tc = { 1, 0, tol, tol, 0, osc_series, osc_taylor_accel, NULL, &series_calls, NULL };
     return nz_taylor_stepper_new(&tc);
   }
   nz_ode_config oc;
@@ -232,7 +232,7 @@ static void check_run(const char *name)
 /* What the interface refuses. */
 static void check_refusals(void)
 {
-  nz_taylor_config bad = { 1, 0, 0.0, 0.0, 0, osc_series, osc_taylor_accel, NULL, NULL };
+  nz_taylor_config bad = { 1, 0, 0.0, 0.0, 0, osc_series, osc_taylor_accel, NULL, NULL, NULL };
   gsl_test(nz_taylor_stepper_new(&bad) != NULL, "taylor: refuses rtol = atol = 0");
   nz_stepper *st = make("taylor", 1e-10);
   nz_run_config c;

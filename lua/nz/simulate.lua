@@ -117,6 +117,14 @@ local function check_times(sys, cfg)
   if not finite(cfg.t1) or not (cfg.t1 > cfg.t0) then
     fail(sys, "'t1' must be a number greater than t0 = %g (the end time, finite), got %s", cfg.t0, show(cfg.t1))
   end
+  -- a span of a few ulps of t leaves the steps no room: t + h rounds to t
+  -- (and the failure would read as a singular motion)
+  local ulp = math.max(math.abs(cfg.t0), math.abs(cfg.t1)) * 2.220446049250313e-16
+  if cfg.t1 - cfg.t0 < 1e4 * ulp then
+    fail(sys, "t0 = %.17g and t1 = %.17g: the span %.3g is only %.3g times the smallest step a double can take at that "
+      .. "time (%.3g): start the time at 0 (t0 = 0, t1 = %.17g) and shift it back afterwards", cfg.t0, cfg.t1,
+      cfg.t1 - cfg.t0, (cfg.t1 - cfg.t0) / ulp, ulp, cfg.t1 - cfg.t0)
+  end
   cfg.dt = cfg.dt or (cfg.t1 - cfg.t0) / cfg.points
   check_positive(sys, cfg, "dt", "the output spacing")
 end
@@ -800,6 +808,24 @@ function M.simulate(sys, opts)
   local nsteps, window_t, next_check, announced = 0, cfg.t0, 16, false
   local function stalled(tt, advance)
     local q, qd = split(y, k)
+    local window = M.STALL.window
+    -- Two causes that are not the motion's, both with steps that did not
+    -- shrink (the last window's as large as the run's average; near a
+    -- singular point they shrink by orders of magnitude): a time so large
+    -- that such steps hardly move it (a few ulps of t each), and a span so
+    -- long that they cover only a sliver of it.
+    local average = (tt - cfg.t0) / math.max(1, nsteps)
+    if advance >= 0.1 * window * average then
+      local ulp = math.abs(tt) * 2.220446049250313e-16
+      if advance <= 16 * window * ulp then
+        fail(sys, "the integrator (%s) stopped making progress at t = %s: the last %d steps advanced t by %.3g, a few "
+          .. "of its last digits each (an ulp of t is %.3g): t is too large for the steps this motion needs: start the "
+          .. "time at 0 (t0 = 0, t1 = the span) and shift it back afterwards", cfg.method, num(tt), window, advance, ulp)
+      end
+      fail(sys, "the span [%g, %g] is far longer than the steps this motion needs can cover: the last %d steps advanced t "
+        .. "by %.3g (about the run's average step, %.3g), so the run would take some %.3g steps: a shorter t1, or a "
+        .. "looser tolerance", cfg.t0, cfg.t1, window, advance, average, span / math.max(average, 1e-300))
+    end
     local sv = mech.singular_values(sys:mass(tt, q, qd))
     local sv0 = mech.singular_values(sys:mass(cfg.t0, cfg.q0, qd0))
     local smin, smax, smin0 = math.huge, 0, math.huge
@@ -1030,6 +1056,16 @@ function M.simulate(sys, opts)
   local s = mech.ode_stats(ode)
   tr.stats = { steps = s.steps, rejected = s.rejected, nfev = s.nfev, njev = s.njev, order = s.order,
     wall = mech.now() - wall0, loop = in_c and "c" or "lua", loop_why = loop_why }
+  if s.reversed then   -- a constraint's gradient passed through zero (src/ode/ode.c's check_gradients)
+    local r, ta, tb = s.reversed[1], s.reversed[2], s.reversed[3]
+    tr.stats.reversed = { constraint = r, ta = ta, tb = tb }
+    local msg = ("%ssimulate '%s': warning: constraint %d's gradient dPhi/d%s passed through zero between t = %s and "
+      .. "t = %s: the equations do not determine the motion there (its multiplier grows without bound, and other "
+      .. "continuations satisfy them too); the run went on along the one that continues the motion smoothly"):format(
+      user_where(), sys.name, r, orders[r] == 0 and "q" or "q'", num(ta), num(tb))
+    tr.warnings[#tr.warnings + 1] = msg
+    M.warn(msg)
+  end
   -- Dense output: how many output points came off an interpolant, how many
   -- its error control made step ends; grid_why: why the output grid capped
   -- the steps (nil when it did not).

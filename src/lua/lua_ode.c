@@ -323,7 +323,7 @@ static int lo_reset(lua_State *L)
   return 0;
 }
 
-/* ode_stats(ode) -> { steps, rejected, nfev, njev, order }: the
+/* ode_stats(ode) -> { steps, rejected, nfev, njev, order [, reversed] }: the
  * interface's statistics (Taylor: nfev counts the series of the motion,
  * order the highest used). */
 static int lo_stats(lua_State *L)
@@ -342,6 +342,16 @@ static int lo_stats(lua_State *L)
   lua_setfield(L, -2, "nfev");
   lua_pushinteger(L, (lua_Integer)st.njev);
   lua_setfield(L, -2, "njev");
+  if (st.reversed) {   /* { constraint, ta, tb }: a gradient passed through zero */
+    lua_createtable(L, 3, 0);
+    lua_pushinteger(L, st.reversed);
+    lua_rawseti(L, -2, 1);
+    lua_pushnumber(L, st.reversed_ta);
+    lua_rawseti(L, -2, 2);
+    lua_pushnumber(L, st.reversed_tb);
+    lua_rawseti(L, -2, 3);
+    lua_setfield(L, -2, "reversed");
+  }
   return 1;
 }
 

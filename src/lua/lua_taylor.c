@@ -59,6 +59,9 @@ typedef struct series_ctx {
   double *qdd, *lam;      /* the start's, k and nc                           */
   nz_accel_report rep;    /* of the last constrained solve                   */
   int *involved;          /* nc + 1: rep.involved, the constraints in a dependence */
+  double *A, *Aend;       /* nc x k each: the rows at the step's start and at its end */
+  double *zero;           /* k zeros: q'' for the rows of orders 0 and 1      */
+  int have_start;         /* A holds a step's start                          */
   int accel_failed;       /* a constrained solve failed (rep says why)       */
   nz_solve_info mass;     /* of the last unconstrained solve                 */
   int mass_failed;        /* M was singular there                            */
@@ -77,6 +80,28 @@ static void failed_at(series_ctx *c, double t, const double *q, const double *qd
   memcpy(c->qd, qd, (size_t)c->k * sizeof(double));
 }
 
+/* A row of order 0 or 1 reversed between a step's start (the rows of its
+ * solve, c->A) and its end: the constraint's gradient passed through zero
+ * inside the step (ode.c's check_gradients says what that means).  The
+ * stepper's check of each step's end: 1 + that constraint, or 0. */
+static int check_end(void *ctx, const nz_system *s, double t, const double *q, const double *qd)
+{
+  series_ctx *c = ctx;
+  int k = c->k;
+  if (!c->orders || !c->have_start) return 0;
+  const double *state[3] = { q, qd, c->zero };
+  for (int r = 0; r < c->nc; r++) {
+    if (c->orders[r] > 1) continue;
+    double *b = c->Aend + (size_t)r * (size_t)k, val;
+    if (nz_constraint_row(s, r, c->orders[r], t, state, 3, b, &val)) continue;   /* the next solve says why */
+    const double *a = c->A + (size_t)r * (size_t)k;
+    double ab = 0.0, aa = 0.0, bb = 0.0;
+    for (int i = 0; i < k; i++) ab += a[i] * b[i], aa += a[i] * a[i], bb += b[i] * b[i];
+    if (aa > 0.0 && bb > 0.0 && ab < -0.9999 * sqrt(aa * bb)) return r + 1;
+  }
+  return 0;
+}
+
 static int motion_series(void *ctx, const nz_system *s, double t0, const double *q0, const double *qd0, int p,
                          double *a)
 {
@@ -87,12 +112,14 @@ static int motion_series(void *ctx, const nz_system *s, double t0, const double 
   nz_accel_options opt = NZ_ACCEL_DEFAULTS;
   memset(&c->rep, 0, sizeof c->rep);
   c->rep.involved = c->involved;   /* read by the error that names dependent constraints */
+  c->rep.A = c->A;
   int st = nz_accel_constrained(s, c->orders, c->linear, t0, q0, qd0, &opt, c->qdd, c->lam, &c->rep);
   if (st) {
     c->accel_failed = 1;
     failed_at(c, t0, q0, qd0);
     return st;
   }
+  c->have_start = 1;                     /* c->A: the rows at the step's start, for check_end */
   if (p < 2) {
     memcpy(a, q0, (size_t)k * sizeof(double));
     if (p >= 1) memcpy(a + k, qd0, (size_t)k * sizeof(double));
@@ -153,7 +180,7 @@ static series_ctx *series_new(lua_State *L, bound_system *b, int idx, const char
     }
     lua_pop(L, 2);
   }
-  size_t ints = 3 * ((size_t)nc + 1), doubles = 3 * (size_t)k + (size_t)nc + 1;
+  size_t ints = 3 * ((size_t)nc + 1), doubles = 4 * (size_t)k + (size_t)nc + 1 + 2 * (size_t)nc * (size_t)k;
   size_t size = sizeof(series_ctx) + ints * sizeof(int) + doubles * sizeof(double);
   series_ctx *c = lua_owned ? lua_newuserdatauv(L, size, 0) : malloc(size);
   if (!c) {
@@ -166,6 +193,9 @@ static series_ctx *series_new(lua_State *L, bound_system *b, int idx, const char
   c->k = k;
   c->nc = nc;
   c->qdd = d, c->q = d + k, c->qd = d + 2 * k, c->lam = d + 3 * k;
+  c->A = d + 3 * k + nc + 1;
+  c->Aend = c->A + (size_t)nc * (size_t)k;
+  c->zero = c->Aend + (size_t)nc * (size_t)k;
   if (nc > 0) {
     memcpy(iw, flags, 2 * ((size_t)nc + 1) * sizeof(int));
     c->orders = iw;
@@ -242,6 +272,7 @@ nz_stepper *nz_lua_taylor_new(lua_State *L, int cfg, const char *fname)
   if (!c) luaL_error(L, "not enough memory for the integrator");
   tc.series = motion_series;
   tc.accel = accel_at;
+  tc.check = tc.nc > 0 ? check_end : NULL;   /* the rows' check only where there are constraints */
   tc.ctx = c;
   tc.ctx_free = free_ctx;
   nz_stepper *st = nz_taylor_stepper_new(&tc);

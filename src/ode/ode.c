@@ -51,6 +51,10 @@ struct nz_ode {
   double *last;                   /* k + nc: last q'' and lambda, Newton's next start */
   int have_last;
   double *A;                      /* nc x k gradients from the last solve */
+  double *Aprev, tprev;           /* the rows of orders 0 and 1 at the last step's end */
+  int have_prev;
+  int reversed;                   /* the first reversal: 1 + its constraint, and its step */
+  double reversed_ta, reversed_tb;
   double *yfail;                  /* the state of the last failure */
   double *wscratch;               /* dim + k + nc: the work row's evaluations */
   gsl_odeiv2_system gsys;
@@ -330,9 +334,10 @@ nz_ode *nz_ode_alloc(int k, const nz_ode_config *cfg)
   o->involved = calloc((size_t)nc + 1, sizeof(int));
   o->last = calloc(2 * ((size_t)k + (size_t)nc), sizeof(double));
   o->A = calloc((size_t)nc * (size_t)k + 1, sizeof(double));
+  o->Aprev = calloc(2 * (size_t)nc * (size_t)k + 1, sizeof(double));   /* and the rows at the new end */
   o->yfail = calloc((size_t)o->dim, sizeof(double));
   o->wscratch = calloc((size_t)o->dim + (size_t)k + (size_t)nc, sizeof(double));
-  if (!o->orders || !o->linear || !o->involved || !o->last || !o->A || !o->yfail || !o->wscratch) {
+  if (!o->orders || !o->linear || !o->involved || !o->last || !o->A || !o->Aprev || !o->yfail || !o->wscratch) {
     nz_ode_free(o);
     return NULL;
   }
@@ -365,6 +370,7 @@ void nz_ode_free(nz_ode *o)
   free(o->involved);
   free(o->last);
   free(o->A);
+  free(o->Aprev);
   free(o->yfail);
   free(o->wscratch);
   free(o);
@@ -374,11 +380,52 @@ int nz_ode_dim(const nz_ode *o) { return o->dim; }
 const char *nz_ode_method(const nz_ode *o) { return o->method; }
 int nz_ode_is_multistep(const nz_ode *o) { return o->multistep; }
 
+/* A constraint of order 0 or 1 whose gradient dPhi/dq^(m) passes through
+ * zero on the motion (a cone's vertex, Appell's particle at rest on its
+ * cone) does not determine the motion there: the multiplier grows without
+ * bound and other continuations satisfy the equations too.  The steppers
+ * go on along the one that continues the motion smoothly; a step across
+ * such a point ends with the row reversed, A_after ~ -A_before (A ~ (t -
+ * t*) v, its direction held), and the first one is recorded for
+ * simulate's warning.  cos < -0.9999 (reversed to within 0.8 degrees):
+ * a row that turns, as a pendulum's (2x, 2y), would have to turn by 180
+ * degrees in one step.  Only for systems with constraints; one evaluation
+ * of each row per step. */
+static void check_gradients(nz_ode *o, double t, const double *y)
+{
+  int k = o->k, nc = o->nc;
+  if (nc == 0 || o->level || o->top) return;
+  double *now = o->Aprev + (size_t)nc * (size_t)k, *zero = o->wscratch, val;
+  memset(zero, 0, (size_t)k * sizeof(double));
+  const double *state[3] = { y, y + k, zero };
+  for (int r = 0; r < nc; r++) {
+    double *row = now + (size_t)r * (size_t)k;
+    if (o->orders[r] > 1) { memset(row, 0, (size_t)k * sizeof(double)); continue; }
+    if (nz_constraint_row(o->s, r, o->orders[r], t, state, 3, row, &val)) return;   /* the next solve says why */
+  }
+  if (o->have_prev && !o->reversed)
+    for (int r = 0; r < nc; r++) {
+      const double *a = o->Aprev + (size_t)r * (size_t)k, *b = now + (size_t)r * (size_t)k;
+      double ab = 0.0, aa = 0.0, bb = 0.0;
+      for (int i = 0; i < k; i++) ab += a[i] * b[i], aa += a[i] * a[i], bb += b[i] * b[i];
+      if (aa > 0.0 && bb > 0.0 && ab < -0.9999 * sqrt(aa * bb)) {
+        o->reversed = r + 1;
+        o->reversed_ta = o->tprev;
+        o->reversed_tb = t;
+        break;
+      }
+    }
+  memcpy(o->Aprev, now, (size_t)nc * (size_t)k * sizeof(double));
+  o->tprev = t;
+  o->have_prev = 1;
+}
+
 static int finish_step(nz_ode *o, int gs, double t, const double *y)
 {
   if (gs == GSL_SUCCESS) {
     for (int i = 0; i < o->dim; i++)
       if (!isfinite(y[i])) { fail(o, NZ_ODE_FAIL_NONFINITE, NZ_ERANGE, t, y); return NZ_ERANGE; }
+    check_gradients(o, t, y);
     return NZ_OK;
   }
   if (o->failure.kind == NZ_ODE_FAIL_NONE) fail(o, NZ_ODE_FAIL_STEP, gs, t, y);
@@ -395,6 +442,7 @@ int nz_ode_step(nz_ode *o, const nz_system *s, double *t, double t1, double *h, 
   gsl_odeiv2_driver *d = o->driver;
   o->s = s;
   o->failure.kind = NZ_ODE_FAIL_NONE;
+  if (!o->have_prev) check_gradients(o, *t, y);   /* the rows at the run's start */
   shift_work(o, y, o->work_offset);
   int gs = gsl_odeiv2_evolve_apply(d->e, d->c, d->s, &o->gsys, t, t1, h, y);
   shift_work(o, y, -o->work_offset);
@@ -406,6 +454,7 @@ int nz_ode_step_fixed(nz_ode *o, const nz_system *s, double *t, double h, double
   gsl_odeiv2_driver *d = o->driver;
   o->s = s;
   o->failure.kind = NZ_ODE_FAIL_NONE;
+  if (!o->have_prev) check_gradients(o, *t, y);
   /* Explicit and implicit one-step methods take the step as it is; the
    * multistep methods read their control through the driver. */
   shift_work(o, y, o->work_offset);
@@ -459,6 +508,9 @@ void nz_ode_get_stats(const nz_ode *o, nz_ode_stats *st)
   st->nfev = o->nfev;
   st->njev = o->njev;
   st->order = (int)gsl_odeiv2_step_order(o->driver->s);
+  st->reversed = o->reversed;
+  st->reversed_ta = o->reversed_ta;
+  st->reversed_tb = o->reversed_tb;
 }
 
 const nz_ode_failure *nz_ode_last_failure(const nz_ode *o) { return &o->failure; }

@@ -75,6 +75,8 @@ int nz_ode_jacobian_at(nz_ode *o, const nz_system *s, double t, const double *y,
 typedef struct nz_ode_stats {
   unsigned long steps, rejected, nfev, njev;
   int order;                 /* the stepper's (msadams, msbdf: its current one) */
+  int reversed;              /* 1 + the first constraint whose row reversed in a  */
+  double reversed_ta, reversed_tb;   /* step (ta, tb), or 0: see check_gradients  */
 } nz_ode_stats;
 void nz_ode_get_stats(const nz_ode *o, nz_ode_stats *st);
 

@@ -44,6 +44,8 @@ typedef struct nz_stepper_stats {
                              /* series of the motion (one per Taylor step)      */
   unsigned long njev;        /* Jacobians (implicit steppers)                   */
   int order;                 /* the order used (the highest so far)             */
+  int reversed;              /* 1 + the first constraint whose gradient passed   */
+  double reversed_ta, reversed_tb;   /* through zero, in the step (ta, tb); or 0 */
 } nz_stepper_stats;
 
 typedef struct nz_stepper_ops {

@@ -235,6 +235,9 @@ static void gsl_stats(const nz_stepper *st, nz_stepper_stats *out)
   out->nfev = os.nfev;
   out->njev = os.njev;
   out->order = os.order;
+  out->reversed = os.reversed;
+  out->reversed_ta = os.reversed_ta;
+  out->reversed_tb = os.reversed_tb;
 }
 
 static void gsl_reset(nz_stepper *st) { nz_ode_reset(as_gsl(st)->o); }

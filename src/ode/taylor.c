@@ -114,6 +114,8 @@ typedef struct taylor_stepper {
   double *scale;                  /* 2k scales                                    */
   double t, tlo;                  /* where the last step ended (t + tlo)          */
   double *yfail;                  /* the state of the last failure (dim)          */
+  int reversed;                   /* the check's first report, and its step       */
+  double reversed_ta, reversed_tb;
   double tfail;
   nz_taylor_failure failure;
   int status;
@@ -200,6 +202,10 @@ static int taylor_step(nz_stepper *st, const nz_system *s, double *t, double tli
   ts->tlo_a = tlo;
   ts->h = hh;
   nz_taylor_eval(k, p + 1, a, hh, q, qd);
+  if (cfg->check && !ts->reversed) {
+    int r = cfg->check(cfg->ctx, s, last ? tlimit : tt + hh, q, qd);
+    if (r) ts->reversed = r, ts->reversed_ta = tt, ts->reversed_tb = last ? tlimit : tt + hh;
+  }
   if (last) {
     tt = tlimit;
     tlo = 0.0;
@@ -259,6 +265,9 @@ static void taylor_stats(const nz_stepper *st, nz_stepper_stats *out)
   out->nfev = ts->nseries;
   out->njev = 0;
   out->order = ts->order;
+  out->reversed = ts->reversed;
+  out->reversed_ta = ts->reversed_ta;
+  out->reversed_tb = ts->reversed_tb;
 }
 
 /* Nothing to forget: a step depends on its start alone. */

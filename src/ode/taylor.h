@@ -41,7 +41,11 @@ typedef struct nz_taylor_config {
   int order;             /* 0: from the tolerance; else this order (2 ..)   */
   nz_taylor_series_fn series;
   nz_taylor_accel_fn accel;
-  void *ctx;             /* of both                                          */
+  /* NULL, or a look at each step's end state: nonzero (1 + a constraint
+   * whose gradient passed through zero in the step) is recorded, once, in
+   * the statistics (stepper.h's reversed); the step is taken all the same */
+  int (*check)(void *ctx, const nz_system *s, double t, const double *q, const double *qd);
+  void *ctx;             /* of all three                                     */
   void (*ctx_free)(void *ctx);   /* called when the stepper is freed (NULL: none) */
 } nz_taylor_config;
 
