@@ -237,7 +237,7 @@ describe("messages name the user's code first", function()
       nz.check, {}, function() end)
     h.checkerror("bad argument #3 to 'check' (option 'quiet': true or false expected, got the string \"yes\")",
       nz.check, pendulum, function(t, q, qd, qdd) return { qdd[1] } end, { quiet = "yes" })
-    h.checkerror("bad argument #3 to 'check' (unknown option 'state' (options: quiet, seed, states, tol))",
+    h.checkerror("bad argument #3 to 'check' (unknown option 'state' (did you mean 'states'?) (options: quiet, seed, states, tol))",
       nz.check, pendulum, function(t, q, qd, qdd) return { qdd[1] } end, { state = 3 })
     h.checkerror("bad argument #2 to 'nielsen_op' (a function f(t, q, qd) expected, got nil)",
       nz.nielsen_op, 1, nil, 0, { 0.385 }, { 0 })

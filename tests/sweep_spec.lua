@@ -348,7 +348,7 @@ describe("nz.sweep", function()
   it("refuses bad options with the caller's file:line and what was expected", function()
     local run = function() return {} end
     local cases = {
-      { { grid = { x = { 1 } }, run = run, jbos = 2 }, "sweep: unknown option 'jbos' (options: file, from, grid, jobs, list, out, parallel, progress, resume, retry, run, sample, system, todo, worker)" },
+      { { grid = { x = { 1 } }, run = run, jbos = 2 }, "sweep: unknown option 'jbos' (did you mean 'jobs'?) (options: file, from, grid, jobs, list, out, parallel, progress, resume, retry, run, sample, system, todo, worker)" },
       { { run = run }, "sweep: no points: give 'grid', 'list' or 'sample'" },
       { { grid = { x = { 1 } }, list = { { x = 1 } }, run = run }, "sweep: give one of 'grid', 'list', 'sample', not grid and list" },
       { { grid = { x = {} }, run = run }, "sweep: 'grid.x' must be a non-empty list of values, got a table" },

@@ -32,13 +32,23 @@ function M.nearest(key, names)
   if bestd and bestd <= math.max(1, #key // 3) then return best end
 end
 
--- Refuse any key of opts not in names (a list, in the order the message
--- gives them): fail(fmt, ...) raises the caller's error.
-function M.check(opts, names, fail)
+-- Refuse any key of opts not in names: a list (in the order the message
+-- gives them) or a set {name = anything} (listed sorted; names starting
+-- with "_" are internal and not listed).  fail(fmt, ...) raises the
+-- caller's error; accept(key), when given, admits keys of a pattern (the
+-- levels of simulate's qNd0).
+function M.check(opts, names, fail, accept)
   local known = {}
-  for _, n in ipairs(names) do known[n] = true end
+  if #names == 0 and next(names) ~= nil then   -- a set
+    known = names
+    names = {}
+    for key in pairs(known) do if type(key) == "string" and key:sub(1, 1) ~= "_" then names[#names + 1] = key end end
+    table.sort(names)
+  else
+    for _, n in ipairs(names) do known[n] = true end
+  end
   for key in pairs(opts) do
-    if not known[key] then
+    if known[key] == nil and not (accept and accept(key)) then
       local near = type(key) == "string" and M.nearest(key, names)
       fail("unknown option '%s'%s (options: %s)", tostring(key), near and (" (did you mean '" .. near .. "'?)") or "",
         table.concat(names, ", "))

@@ -60,6 +60,7 @@ function M.warn(msg) io.stderr:write(msg, "\n") end
 
 -- The first frame outside the library (the user's call): "file:line: ".
 local user_where = require("nz.where").user_where
+local options = require "nz.options"
 
 -- A message with its library location prefixes ("lua/nz/simulate.lua:229: ")
 -- removed; whether what is left starts with some (user's) file:line.
@@ -267,14 +268,7 @@ end
 
 local function validate(sys, o)
   if type(o) ~= "table" then fail(sys, "a table {q0 = ..., qd0 = ..., t1 = ...} expected, got %s", show(o)) end
-  for key in pairs(o) do
-    if not known[key] and not level_option(key) then
-      local names = {}
-      for k in pairs(known) do if k:sub(1, 1) ~= "_" then names[#names + 1] = k end end
-      table.sort(names)
-      fail(sys, "unknown option '%s' (options: %s)", tostring(key), table.concat(names, ", "))
-    end
-  end
+  options.check(o, known, function(...) fail(sys, ...) end, level_option)
   check_vector(sys, o.q0, "q0")
   if o.qd0 ~= nil then check_vector(sys, o.qd0, "qd0") end
   local cfg = {}

@@ -670,12 +670,7 @@ end
 
 local function check_options(opts)
   if type(opts) ~= "table" then fail("options {system =, grid =, run =, ...} expected, got %s", show(opts)) end
-  for key in pairs(opts) do
-    if not known[key] then
-      local names = sorted_keys(known)
-      fail("unknown option '%s' (options: %s)", tostring(key), table.concat(names, ", "))
-    end
-  end
+  require("nz.options").check(opts, known, fail)
   local given = {}
   for _, key in ipairs{ "grid", "list", "sample" } do if opts[key] ~= nil then given[#given + 1] = key end end
   if #given ~= 1 then

@@ -78,13 +78,8 @@ end
 local function check_options(fname, i, opts, keys, check)
   if opts == nil then return end
   if type(opts) ~= "table" then arg_error(fname, i, "options: a table expected, got %s", shown(opts)) end
+  require("nz.options").check(opts, keys, function(...) arg_error(fname, i, ...) end)
   for key, v in pairs(opts) do
-    if keys[key] == nil then
-      local names = {}
-      for k in pairs(keys) do names[#names + 1] = k end
-      table.sort(names)
-      arg_error(fname, i, "unknown option '%s' (options: %s)", tostring(key), table.concat(names, ", "))
-    end
     local ok, want = keys[key](v)
     if not ok then arg_error(fname, i, "option '%s': %s expected, got %s", tostring(key), want, shown(v)) end
   end

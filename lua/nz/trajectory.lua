@@ -236,15 +236,9 @@ end
 
 function Trajectory:plot(opts)
   opts = opts or {}
-  for key in pairs(opts) do
-    if not PLOT_OPTIONS[key] then
-      local names = {}
-      for k in pairs(PLOT_OPTIONS) do names[#names + 1] = k end
-      table.sort(names)
-      error(("%strajectory:plot: unknown option '%s' (options: %s)"):format(require("nz.where").user_where(), tostring(key),
-        table.concat(names, ", ")), 0)
-    end
-  end
+  require("nz.options").check(opts, PLOT_OPTIONS, function(fmt, ...)
+    error(("%strajectory:plot: " .. fmt):format(require("nz.where").user_where(), ...), 0)
+  end)
   check_plot_options(opts)
   local series = {}
   local ylabel = opts.ylabel

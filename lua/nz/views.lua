@@ -13,14 +13,7 @@ local function fail(fname, fmt, ...)
 end
 
 local function check_options(fname, opts, known)
-  for key in pairs(opts) do
-    if not known[key] then
-      local names = {}
-      for k in pairs(known) do names[#names + 1] = k end
-      table.sort(names)
-      fail(fname, "unknown option '%s' (options: %s)", tostring(key), table.concat(names, ", "))
-    end
-  end
+  require("nz.options").check(opts, known, function(...) fail(fname, ...) end)
 end
 
 -- A value as the user wrote it, for messages.
