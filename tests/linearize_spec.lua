@@ -142,6 +142,23 @@ describe("sys:linearize without constraints", function()
     h.checkerror("sys:equilibrium 'driven hoop': the accelerations do not depend on the kept coordinates",
       hoop.equilibrium, hoop, { q = { 0.8, 0 }, qd = { 0, W } })
   end)
+
+  it("a degenerate equilibrium (V = x^4) keeps x: A = [0 1; 0 0], a Jordan block said as such, not an ignorable x", function()
+    -- x'' = -4 x^3: dx''/dx = 0 at x = 0 only; dropping x as ignorable (the
+    -- first version did) left one "neutral" mode and hid the double zero
+    local quartic = nz.system{ name = "quartic", coords = { "x" }, T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end,
+      V = function(t, q) return q[1] ^ 4 end }
+    local lin = quartic:linearize{ q = { 0 }, qd = { 0 } }
+    assert.are.same({ "x", "x'" }, lin.state)
+    assert.are.same({ { 0, 1 }, { 0, 0 } }, lin.A)
+    assert.truthy(tostring(lin):find("the eigenvalue 0 is 2-fold with 1 eigenvector (a Jordan block)", 1, true), tostring(lin))
+    -- a coordinate absent from the equations everywhere is still dropped
+    local free = nz.system{ name = "free x", coords = { "x", "y" }, T = function(t, q, qd) return 0.5 * (qd[1] ^ 2 + qd[2] ^ 2) end,
+      V = function(t, q) return 0.5 * q[2] ^ 2 end }
+    local lf = free:linearize{ q = { 0.3, 0 }, qd = { 0, 0 } }
+    assert.are.same({ "y", "x'", "y'" }, lf.state)
+    assert.is_nil(tostring(lf):find("Jordan", 1, true))
+  end)
 end)
 
 -- ------------------------------------------------------------------ --

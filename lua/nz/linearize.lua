@@ -361,6 +361,36 @@ local function column_rows(c, col)
   return out
 end
 
+-- Whether coordinate i is absent from the kept accelerations near the
+-- point too.  Its column can vanish at the point alone: at a degenerate
+-- equilibrium (V = x^4: dx''/dx = -12 x^2) dropping x would hide the
+-- double zero eigenvalue and its Jordan block (x = x0 + v0 t).  An
+-- ignorable coordinate (cyclic: a wheel's angle, a position on the ground)
+-- is absent from the equations everywhere, so its raw column vanishes at a
+-- nearby state as well (below 1e-9 of the rows' scale; V = x^4 gives 1e-5
+-- there).  One more Jacobian, only for a candidate to drop.
+local function absent_nearby(sys, c, i)
+  local k = sys.k
+  if not c.J_near then
+    local y = {}
+    for j = 1, k do
+      local d = 1e-3 * (1 + math.abs(c.q[j]))
+      y[j], y[k + j] = c.q[j] + d * (0.3 + 0.07 * j), c.qd[j] + d * (0.2 + 0.05 * j)
+    end
+    local ode = mech.ode_new(sys.engine, { method = "rk8pd", rtol = 1e-10, atol = 1e-10, orders = c.orders, linear = c.linear })
+    local ok, J = pcall(mech.ode_jacobian, ode, sys.engine, c.t, y)
+    c.J_near = ok and J or false
+  end
+  if not c.J_near then return true end       -- no Jacobian there: the point's verdict stands
+  local worst, scale = 0, 0
+  for _, m in ipairs(c.speeds) do
+    local row = c.J_near[k + m]
+    worst = math.max(worst, math.abs(row[i]))
+    for j = 1, 2 * k do scale = math.max(scale, math.abs(row[j])) end
+  end
+  return worst <= 1e-9 * math.max(scale, 1)
+end
+
 local function assemble(sys, c, check_left_out)
   local k = sys.k
   local colq, cols = {}, {}
@@ -394,7 +424,7 @@ local function assemble(sys, c, check_left_out)
       local tiny = scale_now()
       for n = #c.coords, 1, -1 do
         local i = c.coords[n]
-        if max_abs(column_rows(c, colq[i])) <= tiny then
+        if max_abs(column_rows(c, colq[i])) <= tiny and absent_nearby(sys, c, i) then
           table.remove(c.coords, n)
           table.insert(c.ignorable, 1, i)
           changed = true
@@ -677,6 +707,22 @@ function Linear:__tostring()
       ("%.6g"):format(m.hz), ("%.3g"):format(m.stable == "neutral" and 0 or m.damping), m.stable, table.concat(sh, ", ") }
   end
   lines[#lines + 1] = require("nz.system").table_text(t, "  ")
+  -- zero eigenvalues with fewer eigenvectors (A's null space) than their
+  -- multiplicity: a Jordan block, a degenerate point (V = x^4), where the
+  -- linear motion grows like t and decides nothing of the stability
+  local thr, zeros, n = threshold(self.A), 0, #self.A
+  for _, e in ipairs(self:eigenvalues()) do
+    if math.abs(e[1]) <= thr and math.abs(e[2]) <= thr then zeros = zeros + 1 end
+  end
+  if zeros > 1 then
+    local sv, null = mech.singular_values(self.A), 0
+    for _, x in ipairs(sv) do if x <= thr then null = null + 1 end end
+    if null < zeros then
+      lines[#lines + 1] = ("  the eigenvalue 0 is %d-fold with %d eigenvector%s (a Jordan block): the linear motion grows "
+        .. "like t there, and the nonlinear terms decide the stability (a degenerate point)"):format(zeros, null,
+        null == 1 and "" or "s")
+    end
+  end
   return table.concat(lines, "\n")
 end
 
