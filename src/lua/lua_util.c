@@ -245,7 +245,22 @@ int nz_lua_raise_singular_mass(lua_State *L, int def, double t, const double *q,
 }
 
 /* What the check after the solve found (NZ_ACCEL_CHECK). */
-static void add_check_failure(luaL_Buffer *msg, const nz_accel_report *rep, const int *orders, int k)
+/* "constraints 1, 2 and 3": the involved ones (how many in *count). */
+static void add_involved(luaL_Buffer *msg, const int *involved, int nc, int *count)
+{
+  char num[40];
+  int n = 0, seen = 0;
+  for (int r = 0; r < nc; r++) n += involved[r] != 0;
+  for (int r = 0; r < nc; r++)
+    if (involved[r]) {
+      seen++;
+      snprintf(num, sizeof num, "%s%d", seen == 1 ? "constraints " : seen == n ? " and " : ", ", r + 1);
+      luaL_addstring(msg, num);
+    }
+  *count = n;
+}
+
+static void add_check_failure(luaL_Buffer *msg, const nz_accel_report *rep, const int *orders, int k, int nc)
 {
   char num[240];
   int row = rep->check_row;
@@ -263,6 +278,14 @@ static void add_check_failure(luaL_Buffer *msg, const nz_accel_report *rep, cons
              "of size %.3g) after the solve, also after classifying the constraints again at this "
              "state", row + 1, rep->check_violation, rep->check_size);
   luaL_addstring(msg, num);
+  if (rep->involved && nc > 1 && rep->rank_A > 0 && rep->sigma_ratio < 1e-5) {
+    int n;
+    luaL_addstring(msg, ": the gradients of ");
+    add_involved(msg, rep->involved, nc, &n);
+    snprintf(num, sizeof num, " are nearly dependent here (A's smallest singular value is %.2g of its largest): "
+             "near a point where they lose rank the motion is not determined", rep->sigma_ratio);
+    luaL_addstring(msg, num);
+  }
 }
 
 /* A constraint of order p nonlinear in q^(p) (constrained_series.h): why
@@ -350,7 +373,7 @@ int nz_lua_raise_accel_failure(lua_State *L, int def, const nz_accel_report *rep
                          "accelerations come from the state: integrate with sys:simulate{..., qdd0 = ...} "
                          "(residuals, classification and sys:project work)");
   } else if (rep.failure == NZ_ACCEL_CHECK) {
-    add_check_failure(&msg, &rep, orders, k);
+    add_check_failure(&msg, &rep, orders, k, nc);
     nz_lua_add_state(&msg, t, q, qd, k);
     luaL_addstring(&msg, rep.check_order > 2
                    ? ": give a state where it has that order as sample = {...} in nz.system, so that "
@@ -400,13 +423,7 @@ int nz_lua_raise_accel_failure(lua_State *L, int def, const nz_accel_report *rep
                "constraint so that its gradient does not vanish on the motion";
     } else if (rep.rank_A < nc) {
       luaL_addstring(&msg, "dependent constraints: ");
-      int seen = 0;
-      for (int r = 0; r < nc; r++)
-        if (involved[r]) {
-          seen++;
-          snprintf(num, sizeof num, "%s%d", seen == 1 ? "constraints " : seen == ninvolved ? " and " : ", ", r + 1);
-          luaL_addstring(&msg, num);
-        }
+      add_involved(&msg, involved, nc, &ninvolved);
       if (ninvolved == 0)       /* (the diagnosis could not run: out of memory) */
         luaL_addstring(&msg, "which ones could not be found");
       snprintf(num, sizeof num, " (the rank of their gradients A is %d < %d)", rep.rank_A, nc);

@@ -175,7 +175,7 @@ int nz_constraint_hessian(const nz_system *s, int r, double t, const double *con
 
 /* Rank of A (nc x k) and the constraints that take part in a dependence:
  * the left singular vectors of A for zero singular values. */
-static void diagnose_dependence(int nc, int k, const double *A, nz_accel_report *rep)
+static void diagnose_dependence_at(int nc, int k, const double *A, nz_accel_report *rep, double tol)
 {
   nz_svd d;
   /* Decompose A^T, whose V (nc x nc) spans constraint space.  With more
@@ -195,12 +195,19 @@ static void diagnose_dependence(int nc, int k, const double *A, nz_accel_report 
   double smax = gsl_vector_get(d.S, 0);
   rep->rank_A = 0;
   for (int c = 0; c < nc; c++)
-    if (gsl_vector_get(d.S, (size_t)c) > 1e-10 * smax) rep->rank_A++;
+    if (gsl_vector_get(d.S, (size_t)c) > tol * smax) rep->rank_A++;
+  rep->sigma_ratio = smax > 0.0 ? gsl_vector_get(d.S, (size_t)nc - 1) / smax : 0.0;
   if (rep->involved)
     for (int c = rep->rank_A; c < nc; c++)
       for (int r = 0; r < nc; r++)
         if (fabs(gsl_matrix_get(d.V, (size_t)r, (size_t)c)) > 0.1) rep->involved[r] = 1;
   nz_svd_free(&d);
+}
+
+/* Rank below 1e-10 of the largest singular value: dependent. */
+static void diagnose_dependence(int nc, int k, const double *A, nz_accel_report *rep)
+{
+  diagnose_dependence_at(nc, k, A, rep, 1e-10);
 }
 
 /* ------------------------------------------------------------------ */
@@ -618,7 +625,15 @@ int nz_accel_constrained(const nz_system *s, const int *orders, const int *linea
       if ((st = check_solution(&c, x, phi_prev, bad, &failed, rep)) || !failed) break;
       changed = pass == 0 ? reclassify(&c, x, bad, ord, lin, dphi, rep, &st) : 0;
       if (st) break;
-      if (changed <= 0) { rep->failure = NZ_ACCEL_CHECK; st = NZ_EARG; break; }
+      if (changed <= 0) {
+        rep->failure = NZ_ACCEL_CHECK;
+        st = NZ_EARG;
+        /* a solve that misses its own check is often one near a rank
+         * loss of the gradients (two surfaces meeting tangentially): the
+         * message names the constraints when they are nearly dependent */
+        if (nc > 1) diagnose_dependence_at(nc, k, c.A, rep, 1e-5);
+        break;
+      }
       if ((st = solve(&c, opt, x, G, J, Jc, dx, rep))) break;
     }
     if (st) goto done;

@@ -99,6 +99,8 @@ typedef struct nz_accel_report {
                             /* 1-norm estimate, or sigma_min / sigma_max near   */
                             /* the threshold (nz_solve_square)                 */
   int rank_A;               /* rank of A (constraint gradients)               */
+  double sigma_ratio;       /* A's smallest singular value over its largest,  */
+                            /* when its rank was looked at                     */
   int *involved;            /* caller's nc ints: 1 for constraints in a dependence */
   int from_guess;           /* Newton started from the caller's guess         */
   double *A;                /* caller's nc x k, or NULL: the gradients A at the end */
