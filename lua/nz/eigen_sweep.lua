@@ -28,9 +28,7 @@ local M = {}
 local Sweep = {}
 Sweep.__index = Sweep
 
-local function fail(sys, fmt, ...)
-  error(("%ssys:eigen_sweep '%s': " .. fmt):format(require("nz.where").user_where(), sys.name, ...), 0)
-end
+local function fail(sys, ...) require("nz.where").method_error("eigen_sweep", sys, ...) end
 
 local function finite(v) return type(v) == "number" and v == v and math.abs(v) ~= math.huge end
 
@@ -113,23 +111,7 @@ local function crossings(sys, opts, rows, tol)
   return out
 end
 
-local SWEEP_OPTIONS = { "values", "at", "parameter", "tol" }
-
-function M.sweep(sys, opts)
-  if type(opts) ~= "table" then fail(sys, "options expected: sys:eigen_sweep{ values = {...}, at = function(v) return {...} end }") end
-  options.check(opts, SWEEP_OPTIONS, function(...) fail(sys, ...) end)
-  -- at(v) may set sys.params: they are restored after the sweep, as
-  -- nz.sweep does, even when it fails
-  local saved = {}
-  for key, val in pairs(sys.params) do saved[key] = val end
-  local ok, res = pcall(M.run, sys, opts)
-  for key in pairs(sys.params) do if saved[key] == nil then sys.params[key] = nil end end
-  for key, val in pairs(saved) do sys.params[key] = val end
-  if not ok then error(res, 0) end
-  return res
-end
-
-function M.run(sys, opts)
+local function run(sys, opts)
   local values = opts.values
   if type(values) ~= "table" or #values < 2 then fail(sys, "values: a list of at least 2 increasing numbers expected") end
   for i, v in ipairs(values) do
@@ -147,6 +129,22 @@ function M.run(sys, opts)
   for i, v in ipairs(values) do sw.rows[i] = at_value(sys, opts, v) end
   sw.crossings = crossings(sys, opts, sw.rows, tol)
   return sw
+end
+
+local SWEEP_OPTIONS = { "values", "at", "parameter", "tol" }
+
+function M.sweep(sys, opts)
+  if type(opts) ~= "table" then fail(sys, "options expected: sys:eigen_sweep{ values = {...}, at = function(v) return {...} end }") end
+  options.check(opts, SWEEP_OPTIONS, function(...) fail(sys, ...) end)
+  -- at(v) may set sys.params: they are restored after the sweep, as
+  -- nz.sweep does, even when it fails
+  local saved = {}
+  for key, val in pairs(sys.params) do saved[key] = val end
+  local ok, res = pcall(run, sys, opts)
+  for key in pairs(sys.params) do if saved[key] == nil then sys.params[key] = nil end end
+  for key, val in pairs(saved) do sys.params[key] = val end
+  if not ok then error(res, 0) end
+  return res
 end
 
 -- The eigenvalues of a row as text: a complex pair once, as re +- im i.

@@ -22,9 +22,7 @@ local options = require "nz.options"
 
 local M = {}
 
-local function fail(sys, fmt, ...)
-  error(("%ssys:export '%s': " .. fmt):format(require("nz.where").user_where(), sys.name, ...), 0)
-end
+local function fail(sys, ...) require("nz.where").method_error("export", sys, ...) end
 
 -- ------------------------------------------------------------------ --
 -- The graph outputs to write

@@ -46,9 +46,7 @@ Linear.__index = Linear
 
 local method = "linearize"   -- the public function running, for messages
 
-local function fail(sys, fmt, ...)
-  error(("%ssys:%s '%s': " .. fmt):format(require("nz.where").user_where(), method, sys.name, ...), 0)
-end
+local function fail(sys, ...) require("nz.where").method_error(method, sys, ...) end
 
 -- Coordinate numbers from names or 1-based indices.
 local function indices(sys, list, what)

@@ -22,9 +22,7 @@ local mech = require("nz.core").mech
 
 local M = {}
 
-local function fail(sys, fname, fmt, ...)
-  error(("%ssys:%s '%s': " .. fmt):format(require("nz.where").user_where(), fname, sys.name, ...), 0)
-end
+local function fail(sys, fname, ...) require("nz.where").method_error(fname, sys, ...) end
 
 local function coordinate(sys, fname, v, what)
   if type(v) == "string" then

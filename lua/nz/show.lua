@@ -12,9 +12,7 @@ local options = require "nz.options"
 
 local M = {}
 
-local function fail(sys, fmt, ...)
-  error(("%ssys:show '%s': " .. fmt):format(require("nz.where").user_where(), sys.name, ...), 0)
-end
+local function fail(sys, ...) require("nz.where").method_error("show", sys, ...) end
 
 -- The graph of a system, read once per call: the node dump, its symbols,
 -- and a memo of the polynomials already made.

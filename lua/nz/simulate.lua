@@ -113,6 +113,9 @@ local function is_method(name)
   return false
 end
 
+-- The spacing of doubles at t: the smallest step that moves it.
+local function ulp(t) return math.abs(t) * 2.220446049250313e-16 end
+
 local function check_times(sys, cfg)
   if not finite(cfg.t0) then fail(sys, "'t0' (the start time) must be a finite number, got %s", show(cfg.t0)) end
   if not finite(cfg.t1) or not (cfg.t1 > cfg.t0) then
@@ -120,11 +123,11 @@ local function check_times(sys, cfg)
   end
   -- a span of a few ulps of t leaves the steps no room: t + h rounds to t
   -- (and the failure would read as a singular motion)
-  local ulp = math.max(math.abs(cfg.t0), math.abs(cfg.t1)) * 2.220446049250313e-16
-  if cfg.t1 - cfg.t0 < 1e4 * ulp then
+  local spacing = ulp(math.max(math.abs(cfg.t0), math.abs(cfg.t1)))
+  if cfg.t1 - cfg.t0 < 1e4 * spacing then
     fail(sys, "t0 = %.17g and t1 = %.17g: the span %.3g is only %.3g times the smallest step a double can take at that "
       .. "time (%.3g): start the time at 0 (t0 = 0, t1 = %.17g) and shift it back afterwards", cfg.t0, cfg.t1,
-      cfg.t1 - cfg.t0, (cfg.t1 - cfg.t0) / ulp, ulp, cfg.t1 - cfg.t0)
+      cfg.t1 - cfg.t0, (cfg.t1 - cfg.t0) / spacing, spacing, cfg.t1 - cfg.t0)
   end
   cfg.dt = cfg.dt or (cfg.t1 - cfg.t0) / cfg.points
   check_positive(sys, cfg, "dt", "the output spacing")
@@ -381,7 +384,8 @@ end
 -- least one step, whatever the tolerance), or the adaptive steps, which
 -- for an order-p method grow like rtol^(-1/p): then a low order at a tight
 -- tolerance is what costs.  nsteps: the steps taken up to tt.
-local IMPLICIT = { rk1imp = true, rk2imp = true, rk4imp = true, bsimp = true, msbdf = true }
+local IMPLICIT = {}   -- as the engine classifies its steppers (src/ode/ode.c)
+for _, m in ipairs(mech.ode_methods()) do IMPLICIT[m.name] = m.implicit end
 local STIFF = "bsimp or msbdf if the system is stiff (then stability, not accuracy, sets the steps of an explicit "
   .. "method, and a looser rtol hardly helps)"
 
@@ -810,11 +814,11 @@ function M.simulate(sys, opts)
     -- long that they cover only a sliver of it.
     local average = (tt - cfg.t0) / math.max(1, nsteps)
     if advance >= 0.1 * window * average then
-      local ulp = math.abs(tt) * 2.220446049250313e-16
-      if advance <= 16 * window * ulp then
+      local spacing = ulp(tt)
+      if advance <= 16 * window * spacing then
         fail(sys, "the integrator (%s) stopped making progress at t = %s: the last %d steps advanced t by %.3g, a few "
           .. "of its last digits each (an ulp of t is %.3g): t is too large for the steps this motion needs: start the "
-          .. "time at 0 (t0 = 0, t1 = the span) and shift it back afterwards", cfg.method, num(tt), window, advance, ulp)
+          .. "time at 0 (t0 = 0, t1 = the span) and shift it back afterwards", cfg.method, num(tt), window, advance, spacing)
       end
       fail(sys, "the span [%g, %g] is far longer than the steps this motion needs can cover: the last %d steps advanced t "
         .. "by %.3g (about the run's average step, %.3g), so the run would take some %.3g steps: a shorter t1, or a "
@@ -1050,7 +1054,7 @@ function M.simulate(sys, opts)
   local s = mech.ode_stats(ode)
   tr.stats = { steps = s.steps, rejected = s.rejected, nfev = s.nfev, njev = s.njev, order = s.order,
     wall = mech.now() - wall0, loop = in_c and "c" or "lua", loop_why = loop_why }
-  if s.reversed then   -- a constraint's gradient passed through zero (src/ode/ode.c's check_gradients)
+  if s.reversed then   -- a constraint's gradient passed through zero (nz_constraint_row_reversed, src/mech/constrained.h)
     local r, ta, tb = s.reversed[1], s.reversed[2], s.reversed[3]
     tr.stats.reversed = { constraint = r, ta = ta, tb = tb }
     local msg = ("%ssimulate '%s': warning: constraint %d's gradient dPhi/d%s passed through zero between t = %s and "

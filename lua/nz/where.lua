@@ -23,6 +23,12 @@ function M.user_where()
   return info and (info.short_src .. ":" .. info.currentline .. ": ") or ""
 end
 
+-- The error of a method of a system about its input: "file:line: sys:NAME
+-- 'system': ..." (sys:show, sys:export, sys:linearize, ... say it so).
+function M.method_error(name, sys, fmt, ...)
+  error(("%ssys:%s '%s': " .. fmt):format(M.user_where(), name, sys.name, ...), 0)
+end
+
 -- A method called with a dot (sys.simulate{...}) instead of a colon gets
 -- its first argument as the object and no object at all: every method of
 -- `class` checks its self first, one wrapper for all, and says what to

@@ -80,26 +80,15 @@ static void failed_at(series_ctx *c, double t, const double *q, const double *qd
   memcpy(c->qd, qd, (size_t)c->k * sizeof(double));
 }
 
-/* A row of order 0 or 1 reversed between a step's start (the rows of its
- * solve, c->A) and its end: the constraint's gradient passed through zero
- * inside the step (ode.c's check_gradients says what that means).  The
- * stepper's check of each step's end: 1 + that constraint, or 0. */
+/* The stepper's look at each step's end: 1 + a constraint whose row
+ * reversed since the step's start (the rows of its solve, c->A), or 0
+ * (nz_constraint_row_reversed says what that means). */
 static int check_end(void *ctx, const nz_system *s, double t, const double *q, const double *qd)
 {
   series_ctx *c = ctx;
-  int k = c->k;
   if (!c->orders || !c->have_start) return 0;
-  const double *state[3] = { q, qd, c->zero };
-  for (int r = 0; r < c->nc; r++) {
-    if (c->orders[r] > 1) continue;
-    double *b = c->Aend + (size_t)r * (size_t)k, val;
-    if (nz_constraint_row(s, r, c->orders[r], t, state, 3, b, &val)) continue;   /* the next solve says why */
-    const double *a = c->A + (size_t)r * (size_t)k;
-    double ab = 0.0, aa = 0.0, bb = 0.0;
-    for (int i = 0; i < k; i++) ab += a[i] * b[i], aa += a[i] * a[i], bb += b[i] * b[i];
-    if (aa > 0.0 && bb > 0.0 && ab < -0.9999 * sqrt(aa * bb)) return r + 1;
-  }
-  return 0;
+  if (nz_constraint_rows_01(s, c->nc, c->orders, t, q, qd, c->zero, c->Aend)) return 0;   /* the next solve says why */
+  return nz_constraint_row_reversed(c->nc, c->k, c->orders, c->A, c->Aend);
 }
 
 static int motion_series(void *ctx, const nz_system *s, double t0, const double *q0, const double *qd0, int p,

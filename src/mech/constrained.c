@@ -98,6 +98,40 @@ int nz_constraint_row_stabilized(const nz_system *s, int r, int m, double t,
   return nz_constraint_row_along(s, r, m, t, state, nstate, alpha, beta, NULL, A, value, NULL, NULL);
 }
 
+int nz_constraint_rows_01(const nz_system *s, int nc, const int *orders, double t, const double *q,
+                          const double *qd, double *zero, double *rows)
+{
+  int k = s->k;
+  double val;
+  memset(zero, 0, (size_t)k * sizeof(double));
+  const double *state[3] = { q, qd, zero };
+  for (int r = 0; r < nc; r++) {
+    double *row = rows + (size_t)r * (size_t)k;
+    if (orders[r] > 1) {
+      memset(row, 0, (size_t)k * sizeof(double));
+      continue;
+    }
+    int st = nz_constraint_row(s, r, orders[r], t, state, 3, row, &val);
+    if (st) return st;
+  }
+  return NZ_OK;
+}
+
+/* A ~ (t - t*) v through the zero, its direction held, so the row comes out
+ * reversed; a row that turns (a pendulum's (2x, 2y)) would have to turn by
+ * 180 degrees within 0.8 degrees in one step to look the same. */
+int nz_constraint_row_reversed(int nc, int k, const int *orders, const double *before, const double *after)
+{
+  for (int r = 0; r < nc; r++) {
+    if (orders[r] > 1) continue;
+    const double *a = before + (size_t)r * (size_t)k, *b = after + (size_t)r * (size_t)k;
+    double ab = 0.0, aa = 0.0, bb = 0.0;
+    for (int i = 0; i < k; i++) ab += a[i] * b[i], aa += a[i] * a[i], bb += b[i] * b[i];
+    if (aa > 0.0 && bb > 0.0 && ab < -0.9999 * sqrt(aa * bb)) return r + 1;
+  }
+  return 0;
+}
+
 /* The row's value and gradient read from one output jet (the value or its
  * derivative along a direction: the reading is linear). */
 static void read_row(const nz_jet *out, int m, int k, double alpha, double beta, double *A, double *value)

@@ -34,6 +34,20 @@ int nz_constraint_state_gradient(const nz_system *s, int r, int level, double t,
 int nz_constraint_curvature(const nz_system *s, int r, int m, double t, const double *const *state,
                             int nstate, const double *v, double c[3]);
 
+/* The rows dPhi_r/dq^(m) of the constraints of order m = 0 and 1 at (t, q,
+ * q') into rows (nc x k; the rows of higher orders zero); zero is k doubles
+ * of scratch (their q'', which these rows do not read). */
+int nz_constraint_rows_01(const nz_system *s, int nc, const int *orders, double t, const double *q,
+                          const double *qd, double *zero, double *rows);
+/* 1 + the first constraint of order 0 or 1 whose row reversed from before
+ * to after (cos < -0.9999), or 0.  A constraint whose gradient passes
+ * through zero on the motion (a cone's vertex, Appell's particle at rest
+ * on its cone) does not determine the motion there: the multiplier grows
+ * without bound and other continuations satisfy the equations too; the
+ * steppers go on along the smooth one, and a step across the point ends
+ * with the row reversed.  Used on each step's ends by every integrator. */
+int nz_constraint_row_reversed(int nc, int k, const int *orders, const double *before, const double *after);
+
 /* The constraint at the acceleration level: Phi^(2-m) at the state's q'' in
  * *value, and its gradient A = d Phi^(2-m) / d q'' (= dPhi/dq^(m) by (2.1)). */
 int nz_constraint_row(const nz_system *s, int r, int m, double t, const double *const *state,

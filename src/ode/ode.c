@@ -380,41 +380,22 @@ int nz_ode_dim(const nz_ode *o) { return o->dim; }
 const char *nz_ode_method(const nz_ode *o) { return o->method; }
 int nz_ode_is_multistep(const nz_ode *o) { return o->multistep; }
 
-/* A constraint of order 0 or 1 whose gradient dPhi/dq^(m) passes through
- * zero on the motion (a cone's vertex, Appell's particle at rest on its
- * cone) does not determine the motion there: the multiplier grows without
- * bound and other continuations satisfy the equations too.  The steppers
- * go on along the one that continues the motion smoothly; a step across
- * such a point ends with the row reversed, A_after ~ -A_before (A ~ (t -
- * t*) v, its direction held), and the first one is recorded for
- * simulate's warning.  cos < -0.9999 (reversed to within 0.8 degrees):
- * a row that turns, as a pendulum's (2x, 2y), would have to turn by 180
- * degrees in one step.  Only for systems with constraints; one evaluation
- * of each row per step. */
+/* The rows of the constraints of orders 0 and 1 at each step's end,
+ * compared with the last step's (nz_constraint_row_reversed says why): the
+ * first reversal is recorded for simulate's warning.  Only for systems
+ * with constraints; one evaluation of each row per step. */
 static void check_gradients(nz_ode *o, double t, const double *y)
 {
   int k = o->k, nc = o->nc;
   if (nc == 0 || o->level || o->top) return;
-  double *now = o->Aprev + (size_t)nc * (size_t)k, *zero = o->wscratch, val;
-  memset(zero, 0, (size_t)k * sizeof(double));
-  const double *state[3] = { y, y + k, zero };
-  for (int r = 0; r < nc; r++) {
-    double *row = now + (size_t)r * (size_t)k;
-    if (o->orders[r] > 1) { memset(row, 0, (size_t)k * sizeof(double)); continue; }
-    if (nz_constraint_row(o->s, r, o->orders[r], t, state, 3, row, &val)) return;   /* the next solve says why */
+  double *now = o->Aprev + (size_t)nc * (size_t)k;
+  if (nz_constraint_rows_01(o->s, nc, o->orders, t, y, y + k, o->wscratch, now)) return;   /* the next solve says why */
+  int r = o->have_prev && !o->reversed ? nz_constraint_row_reversed(nc, k, o->orders, o->Aprev, now) : 0;
+  if (r) {
+    o->reversed = r;
+    o->reversed_ta = o->tprev;
+    o->reversed_tb = t;
   }
-  if (o->have_prev && !o->reversed)
-    for (int r = 0; r < nc; r++) {
-      const double *a = o->Aprev + (size_t)r * (size_t)k, *b = now + (size_t)r * (size_t)k;
-      double ab = 0.0, aa = 0.0, bb = 0.0;
-      for (int i = 0; i < k; i++) ab += a[i] * b[i], aa += a[i] * a[i], bb += b[i] * b[i];
-      if (aa > 0.0 && bb > 0.0 && ab < -0.9999 * sqrt(aa * bb)) {
-        o->reversed = r + 1;
-        o->reversed_ta = o->tprev;
-        o->reversed_tb = t;
-        break;
-      }
-    }
   memcpy(o->Aprev, now, (size_t)nc * (size_t)k * sizeof(double));
   o->tprev = t;
   o->have_prev = 1;
