@@ -441,7 +441,7 @@ void nz_native_cache_prune(int dfd, const char *keep)
       if (!e) break;
       objs = e;
     }
-    snprintf(objs[n].name, sizeof objs[n].name, "%s", de->d_name);
+    memcpy(objs[n].name, de->d_name, strlen(de->d_name) + 1);   /* shorter than name: checked above */
     objs[n].size = (long long)st.st_size;
     objs[n].mtime = st.st_mtim;
     total += objs[n].size;
