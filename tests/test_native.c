@@ -423,6 +423,36 @@ static void check_cache(void)
   nz_graph_free(g2);
 }
 
+/* The same object loaded again (the loader finds it by its file and keeps
+ * the second name as an alias), freed, then other objects loaded: each
+ * must be its own (a descriptor name reused while an alias holds it made
+ * the loader hand back the first object). */
+static void check_loaded_twice(void)
+{
+  enum { N = 6 };
+  nz_graph *g[N];
+  int root[N], bad = 0;
+  for (int i = 0; i < N; i++) g[i] = small_graph(1.5 + i, &root[i]);
+  for (int i = 0; i < N; i++) nz_native_free(compile(g[i], &root[i], 1));   /* in the cache */
+  nz_native *keep = compile(g[0], &root[0], 1);
+  for (int round = 0; round < 3; round++) {
+    nz_native *again = compile(g[0], &root[0], 1);
+    nz_native_free(again);
+    for (int i = 1; i < N; i++) {
+      nz_native *f = nz_native_load(g[i], &root[i], 1, cache, why, sizeof why);
+      double in[2] = { 0.5, 0.25 }, out = 0, c = 1.5 + i;
+      if (!f || nz_native_eval(f, in, &out) != NZ_OK || out != 0.125 * sin(0.25) + c) {
+        printf("# graph %d, round %d: %s\n", i, round, f ? "wrong value" : why);
+        bad++;
+      }
+      nz_native_free(f);
+    }
+  }
+  nz_native_free(keep);
+  for (int i = 0; i < N; i++) nz_graph_free(g[i]);
+  gsl_test(bad, "objects loaded, loaded again and freed in turn are each their own (%d wrong)", bad);
+}
+
 /* Two processes compile the same new graph into the same directory at once. */
 static void check_concurrent(void)
 {
@@ -919,6 +949,7 @@ int main(void)
   check_cache_dir();
   check_refusals();
   check_cache();
+  check_loaded_twice();
   check_concurrent();
   check_failures();
   check_specials();

@@ -4,7 +4,6 @@
 #include <dlfcn.h>
 #include <errno.h>
 #include <fcntl.h>
-#include <link.h>
 #include <math.h>
 #include <signal.h>
 #include <spawn.h>
@@ -359,37 +358,26 @@ done:
 /* ------------------------------------------------------------------ */
 /* Loading a checked object                                             */
 
-static int name_match(struct dl_phdr_info *info, size_t size, void *data)
-{
-  (void)size;
-  return info->dlpi_name && !strcmp(info->dlpi_name, data);
-}
-
 /* dlopen the object open in fd through /proc/self/fd/N.  The loader
- * returns an object already loaded under the same name (a descriptor number
- * reused after an earlier object's file was closed), so N is chosen among
- * names that no loaded object has. */
+ * hands back an object it already has under the same name, and a name
+ * stays with an object for as long as it is loaded (also as an alias,
+ * when a second load found the same file): a descriptor number reused
+ * after its file was closed would then load the wrong object.  So every
+ * load goes through a path of its own: /proc/self/fd, then one segment per
+ * bit of a counter ("/." for 0, "/../fd" for 1), then N; all of them name
+ * the same directory. */
 static void *open_fd(int fd, char *why, size_t whylen)
 {
-  char path[64];
-  int use = fd, extra = -1;
-  for (int tries = 0;; tries++) {
-    snprintf(path, sizeof path, "/proc/self/fd/%d", use);
-    if (!dl_iterate_phdr(name_match, path)) break;
-    int d = fcntl(fd, F_DUPFD_CLOEXEC, use + 1);
-    if (extra >= 0) close(extra);
-    if (d < 0 || tries == 256) {
-      nz_native_say(why, whylen, "cannot find a free descriptor name to load the object through");
-      return NULL;
-    }
-    extra = use = d;
-  }
+  static unsigned long loads;
+  char path[512];
+  int k = snprintf(path, sizeof path, "/proc/self/fd");
+  for (unsigned long c = loads++; c; c >>= 1) k += snprintf(path + k, sizeof path - (size_t)k, (c & 1) ? "/../fd" : "/.");
+  snprintf(path + k, sizeof path - (size_t)k, "/%d", fd);
   void *dl = dlopen(path, RTLD_NOW | RTLD_LOCAL);
   if (!dl) {
     const char *e = dlerror();
     nz_native_say(why, whylen, "cannot load it: %s", e ? e : "dlopen failed");
   }
-  if (extra >= 0) close(extra);
   return dl;
 }
 
