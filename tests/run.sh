@@ -10,6 +10,11 @@
 mode=${1:-all}
 cd "$(dirname "$0")/.." || exit 1
 log=$(mktemp -d)
+# Everything the tests write stays under $log: the machine code's cache
+# (never the user's ~/.cache/nzlua) and GNU parallel's own files (never
+# ~/.parallel).
+export NZLUA_CACHE="$log/cache"
+export PARALLEL_HOME="$log/parallel"
 passed=0
 failed=0
 skipped=0
@@ -57,12 +62,12 @@ if [ "$mode" = plain ] || [ "$mode" = all ]; then
   # made, against the Lua evaluator (values, jets, state directions); the
   # compiled code of the plans goes to a fresh cache.
   suite "Lua specs (lua5.4 + build/nz.so)" env LUA_CPATH="build/?.so;;" NZLUA=build/nzlua \
-    NZ_GRAPH_CHECK=1 NZLUA_CACHE="$log/cache" lua5.4 $BUSTED $specs
+    NZ_GRAPH_CHECK=1 lua5.4 $BUSTED $specs
   # The same comparisons with every plan on doubles compiled to machine code
   # at its first use (M and h, the constraint rows, q'' for a constant M),
   # and the series of Taylor's method too.
   suite "Graphs compiled to machine code (NZLUA_NATIVE=1)" env LUA_CPATH="build/?.so;;" NZLUA=build/nzlua \
-    NZLUA_NATIVE=1 NZLUA_CACHE="$log/cache" lua5.4 $BUSTED tests/graph_diff_spec.lua tests/record_spec.lua \
+    NZLUA_NATIVE=1 lua5.4 $BUSTED tests/graph_diff_spec.lua tests/record_spec.lua \
     tests/branch_spec.lua tests/constraint_checks_spec.lua tests/taylor_spec.lua tests/simulate_taylor_spec.lua \
     tests/taylor_constrained_spec.lua
 fi

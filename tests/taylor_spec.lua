@@ -286,7 +286,8 @@ describe("the series as machine code (src/graph/series_native.c)", function()
       local cfg = { t1 = 20, dt = 20, q0 = starts[i].q0, qd0 = starts[i].qd0, tol = 1e-13 }
       local a = mech.taylor_run(plain[i].engine, cfg)
       local b = mech.taylor_run(native[i].engine, cfg)
-      assert.equal(1, native[i]:graph_info().native_series, native[i].name .. ": no machine code for the series")
+      assert.equal(1, native[i]:graph_info().native_series, native[i].name .. ": no machine code for the series: "
+        .. tostring(native[i]:graph_info().native_why))
       assert.equal(0, plain[i]:graph_info().native_series)
       assert.equal(a.stats.steps, b.stats.steps)
       local n = #a.t

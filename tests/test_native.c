@@ -398,11 +398,20 @@ static void check_cache(void)
   nz_native *f3 = compile(g2, &root2, 1);
   gsl_test(!f3 || !f1 || !strcmp(nz_native_path(f1), nz_native_path(f3)),
            "another graph gets another file");
-  /* The source is kept beside the object, under the same name. */
+  /* The source is not kept beside the object (NZLUA_KEEP_C=1 keeps it). */
   char src[600];
   struct stat st;
   if (f1) snprintf(src, sizeof src, "%.*s.c", (int)strlen(nz_native_path(f1)) - 3, nz_native_path(f1));
-  gsl_test(!f1 || stat(src, &st) || st.st_size == 0, "the generated source is kept in the cache");
+  gsl_test(!f1 || stat(src, &st) == 0, "the generated source is not kept in the cache");
+  int root4;
+  nz_graph *g4 = small_graph(0.625, &root4);
+  setenv("NZLUA_KEEP_C", "1", 1);
+  nz_native *f4 = compile(g4, &root4, 1);
+  unsetenv("NZLUA_KEEP_C");
+  if (f4) snprintf(src, sizeof src, "%.*s.c", (int)strlen(nz_native_path(f4)) - 3, nz_native_path(f4));
+  gsl_test(!f4 || stat(src, &st) || st.st_size == 0, "NZLUA_KEEP_C=1 keeps the generated source beside the object");
+  nz_native_free(f4);
+  nz_graph_free(g4);
   /* in and out may be the same array. */
   double io[2] = { 0.7, -0.3 };
   if (f1) nz_native_eval(f1, io, io);
@@ -412,6 +421,36 @@ static void check_cache(void)
   nz_native_free(f3);
   nz_graph_free(g);
   nz_graph_free(g2);
+}
+
+/* The same object loaded again (the loader finds it by its file and keeps
+ * the second name as an alias), freed, then other objects loaded: each
+ * must be its own (a descriptor name reused while an alias holds it made
+ * the loader hand back the first object). */
+static void check_loaded_twice(void)
+{
+  enum { N = 6 };
+  nz_graph *g[N];
+  int root[N], bad = 0;
+  for (int i = 0; i < N; i++) g[i] = small_graph(1.5 + i, &root[i]);
+  for (int i = 0; i < N; i++) nz_native_free(compile(g[i], &root[i], 1));   /* in the cache */
+  nz_native *keep = compile(g[0], &root[0], 1);
+  for (int round = 0; round < 3; round++) {
+    nz_native *again = compile(g[0], &root[0], 1);
+    nz_native_free(again);
+    for (int i = 1; i < N; i++) {
+      nz_native *f = nz_native_load(g[i], &root[i], 1, cache, why, sizeof why);
+      double in[2] = { 0.5, 0.25 }, out = 0, c = 1.5 + i;
+      if (!f || nz_native_eval(f, in, &out) != NZ_OK || out != 0.125 * sin(0.25) + c) {
+        printf("# graph %d, round %d: %s\n", i, round, f ? "wrong value" : why);
+        bad++;
+      }
+      nz_native_free(f);
+    }
+  }
+  nz_native_free(keep);
+  for (int i = 0; i < N; i++) nz_graph_free(g[i]);
+  gsl_test(bad, "objects loaded, loaded again and freed in turn are each their own (%d wrong)", bad);
 }
 
 /* Two processes compile the same new graph into the same directory at once. */
@@ -490,23 +529,32 @@ static void check_cache_dir(void)
     had[i] = e != NULL;
     if (e) snprintf(saved[i], sizeof saved[i], "%s", e);
   }
+  char why2[400];
   setenv("NZLUA_CACHE", "/x/nz", 1);
   setenv("XDG_CACHE_HOME", "/x/xdg", 1);
   setenv("HOME", "/x/home", 1);
-  int bad = strcmp(nz_native_cache_dir(buf, sizeof buf), "/x/nz");
+  int bad = strcmp(nz_native_cache_dir(buf, sizeof buf, why2, sizeof why2), "/x/nz");
   unsetenv("NZLUA_CACHE");
-  bad += strcmp(nz_native_cache_dir(buf, sizeof buf), "/x/xdg/nzlua") != 0;
+  bad += strcmp(nz_native_cache_dir(buf, sizeof buf, why2, sizeof why2), "/x/xdg/nzlua") != 0;
+  setenv("XDG_CACHE_HOME", "relative/xdg", 1);   /* the XDG rule: a relative path is ignored */
+  bad += strcmp(nz_native_cache_dir(buf, sizeof buf, why2, sizeof why2), "/x/home/.cache/nzlua") != 0;
   unsetenv("XDG_CACHE_HOME");
-  bad += strcmp(nz_native_cache_dir(buf, sizeof buf), "/x/home/.cache/nzlua") != 0;
+  bad += strcmp(nz_native_cache_dir(buf, sizeof buf, why2, sizeof why2), "/x/home/.cache/nzlua") != 0;
   unsetenv("HOME");
-  snprintf(want, sizeof want, "/tmp/nzlua-%lu", (unsigned long)getuid());
-  bad += strcmp(nz_native_cache_dir(buf, sizeof buf), want) != 0;
-  bad += nz_native_cache_dir(buf, 4) != NULL;
+  why2[0] = 0;
+  /* no fallback under /tmp: anyone could make /tmp/nzlua-<uid> first */
+  bad += nz_native_cache_dir(buf, sizeof buf, why2, sizeof why2) != NULL || !strstr(why2, "HOME");
+  setenv("HOME", "relative", 1);
+  bad += nz_native_cache_dir(buf, sizeof buf, why2, sizeof why2) != NULL;
+  setenv("HOME", "/x/home", 1);
+  bad += nz_native_cache_dir(buf, 4, why2, sizeof why2) != NULL;
   for (int i = 0; i < 3; i++) {
     if (had[i]) setenv(names[i], saved[i], 1);
     else unsetenv(names[i]);
   }
-  gsl_test(bad, "the cache directory: $NZLUA_CACHE, $XDG_CACHE_HOME/nzlua, $HOME/.cache/nzlua, /tmp/nzlua-<uid>");
+  (void)want;
+  gsl_test(bad, "the cache directory: $NZLUA_CACHE, an absolute $XDG_CACHE_HOME/nzlua, an absolute "
+           "$HOME/.cache/nzlua, else none (no /tmp fallback)");
 }
 
 /* ------------------------------------------------------------------ */
@@ -901,6 +949,7 @@ int main(void)
   check_cache_dir();
   check_refusals();
   check_cache();
+  check_loaded_twice();
   check_concurrent();
   check_failures();
   check_specials();

@@ -161,9 +161,10 @@ Fields:
            they are still finite numbers, and names one that is not)
   name     a name for messages
   compile  false: run every function in Lua (default: record them in C)
-  native   true: compile the recorded plans to machine code at first use;
-           false: never (default: once interpreting has cost what compiling
-           would, or at once when cached; NZLUA_NATIVE)
+  native   true: compile the recorded plans to machine code at first use,
+           waiting for the compiler; false: never (default: in the
+           background once a run has used a plan a little, switching to it
+           when ready, or at once when cached; NZLUA_NATIVE; help(nz.cache))
 T, V, Q and L may also be lists of functions whose contributions add up.
 Functions receive jets (see help(nz.jet)): write them with nz.sin, nz.exp, ...
 and plain arithmetic, and return a number or a jet.
@@ -239,7 +240,9 @@ one, e.g. help(sys.simulate):
   sys:graph_info()           the recording's figures: nodes, record_seconds,
                              mass_bias_nodes, functions compiled (recorded)
                              and interpreted, native_plans, native_series,
-                             native_seconds, native_why (why no machine code)
+                             native_compiling (in the background),
+                             native_seconds (compiling took), native_waited
+                             (runs waited), native_why (why no machine code)
   sys:simulate{q0 =, qd0 =, t1 = [, t0, dt, method, rtol, atol, step, h0,
         events, event_tol, project, baumgarte, monitors, progress, check,
         dense]}  a trajectory (help(tr.NAME): its methods).
@@ -607,6 +610,24 @@ then from = {"done.1.txt", ...} (or cat them into one file).]] },
     summary = "GSL's steppers for sys:simulate: {name =, implicit =} each" },
   { name = "last", section = "mechanics", usage = "nz.last", optional = true,
     summary = "the trajectory a failed or interrupted sys:simulate had computed" },
+  { name = "cache", section = "session", usage = "nz.cache.info(), nz.cache.clear(), nz.cache.dir()",
+    summary = "the cache of machine code: where, how big, whether trusted; empty it",
+    text = [[
+Recorded systems compile their plans to machine code with the system's C
+compiler and keep the objects in $NZLUA_CACHE, else $XDG_CACHE_HOME/nzlua,
+else ~/.cache/nzlua (no HOME: no cache, the interpreter runs).
+  nz.cache.info()   {dir, objects, bytes, limit, trusted [, why], sources,
+                    others}: trusted when it is yours alone (owner, not
+                    writable by group or others): nothing is loaded otherwise
+  nz.cache.clear()  remove nzlua's files there (the count); they are
+                    compiled again when needed (nzlua --cache-clear)
+  nz.cache.dir()    the directory, or nil and why there is none
+Each object is checked before it is loaded (owner, mode, size, a checksum,
+its ELF segments); a damaged one is removed and compiled again.  Compiles
+run in the background (sys.engine.compiled:native_wait() waits for them);
+NZLUA_CACHE_MAX bounds the cache (default 100M, least recently used out
+first), NZLUA_CC_TIMEOUT limits a compile (300 s), NZLUA_CC_JOBS the
+compiles at once (2), NZLUA_KEEP_C=1 keeps the generated C.]] },
   { name = "special", section = "session", usage = "nz.special.ellint_K(k), nz.special.elljac(u, m)",
     summary = "GSL's complete elliptic integral K(k) and Jacobi's sn, cn, dn (for closed forms)" },
   { name = "partial", section = "operators", usage = "nz.partial(n, f, t, q, qd [, qdd, higher])",

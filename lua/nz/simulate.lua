@@ -423,11 +423,31 @@ end
 -- (tr.warnings, and the terminal): nsteps steps have brought it to tt,
 -- wall0 was its start, done() clears the progress bar's line.  True when
 -- it said so.
--- Seconds the system's recording has spent compiling machine code so far
--- (0 when it is not recorded): a one-time cost, not the run's pace.
+-- Seconds the run has waited for the compiler so far (native = true; 0 when
+-- the system is not recorded): a one-time cost, not the run's pace.  A
+-- compile in the background costs the run nothing.
 local function compile_seconds(sys)
   local c = sys.engine.compiled
-  return c and c:info().native_seconds or 0
+  return c and c:info().native_waited or 0
+end
+
+-- Which evaluator ran the steps (tr.stats.evaluator), from the loop's
+-- nz_run_native_from: machine code from step `from` on, none (0), or no
+-- machine code at all (-1); and that step, when machine code took over
+-- during the run.
+local function evaluator(sys, from)
+  if from == 1 then return "machine code" end
+  if from > 1 then
+    return ("interpreted graph for steps 1-%d, machine code from step %d (compiled in the background)")
+      :format(from - 1, from), from
+  end
+  local info = sys.engine.compiled and sys.engine.compiled:info()
+  if from == 0 then
+    return "interpreted graph" .. (info.native_compiling > 0 and " (machine code was still compiling)" or "")
+  end
+  if not info then return "jets, the functions in Lua (compile = false)" end
+  if info.native_mode == 0 then return "interpreted graph (native = false)" end
+  return "jets (a function of the system runs in Lua: print(sys) says which)"
 end
 
 local function long_run_notice(sys, cfg, tr, nsteps, tt, wall0, done, compiled0)
@@ -1067,7 +1087,10 @@ function M.simulate(sys, opts)
   -- Dense output: how many output points came off an interpolant, how many
   -- its error control made step ends; grid_why: why the output grid capped
   -- the steps (nil when it did not).
-  if crun then tr.stats.interpolated, tr.stats.forced = mech.ode_run_dense(crun) end
+  if crun then
+    tr.stats.interpolated, tr.stats.forced = mech.ode_run_dense(crun)
+    tr.stats.evaluator, tr.stats.native_from_step = evaluator(sys, mech.ode_run_native(crun))
+  end
   -- grid_why: the output grid set the steps, because every output point
   -- was a step end (about one step per point) or because the interpolant's
   -- error control made many of them step ends (over 10% of the steps).

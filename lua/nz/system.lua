@@ -514,7 +514,10 @@ end
 
 -- The recording's figures: nodes in the graph, seconds it took, nodes of the
 -- mass-bias graph (0 until the first accelerations), functions in C and in Lua,
--- plans running as machine code (native_series of them: series for taylor).
+-- plans running as machine code (native_series of them: series for taylor),
+-- compiles still under way in the background, the seconds compiling took and
+-- of those the seconds runs waited (native = true), and why a plan has no
+-- machine code.
 function System:graph_info()
   if not self.recording then return { nodes = 0, record_seconds = 0, mass_bias_nodes = 0, compiled = 0, interpreted = 0 } end
   local info = self.engine.compiled:info()
@@ -522,8 +525,8 @@ function System:graph_info()
   for _, r in ipairs(self.recording) do if r.compiled then nc = nc + 1 else ni = ni + 1 end end
   return { nodes = info.nodes, record_seconds = self.recording.seconds, mass_bias_nodes = info.mass_bias_nodes,
     compiled = nc, interpreted = ni, native_plans = info.native_plans, native_series = info.native_series,
-    native_seconds = info.native_seconds,
-    native_why = info.native_why }
+    native_seconds = info.native_seconds, native_waited = info.native_waited,
+    native_compiling = info.native_compiling, native_why = info.native_why }
 end
 
 -- ------------------------------------------------------------------ --

@@ -37,6 +37,7 @@
 #include <lualib.h>
 
 #include "core/interrupt.h"
+#include "graph/native_cache.h"
 #include "lua/lua_util.h"
 #include "lua/nz.h"
 #include "app/repl_complete.h"
@@ -84,6 +85,8 @@ static void print_usage(FILE *f)
           "  -i         enter interactive mode after running the script\n"
           "  -l mod     require library 'mod' into global 'mod'\n"
           "  -v         show version information\n"
+          "  --cache-info   where the machine code of recorded systems is kept, its size\n"
+          "  --cache-clear  remove that machine code (it is compiled again when needed)\n"
           "  --sweep-worker file\n"
           "             run the points of a sweep: 'file' returns {system =, run =};\n"
           "             points on stdin, one per line (name=value ...), result rows on\n"
@@ -512,10 +515,43 @@ static void do_repl(lua_State *L)
 /* ------------------------------------------------------------------ */
 /* Arguments                                                            */
 
-enum { HAS_ERROR = 1, HAS_I = 2, HAS_V = 4, HAS_E = 8, HAS_H = 16, HAS_W = 32 };
+enum { HAS_ERROR = 1, HAS_I = 2, HAS_V = 4, HAS_E = 8, HAS_H = 16, HAS_W = 32, HAS_CACHE = 64 };
 
 /* --sweep-worker FILE: the file of the sweep whose points stdin brings. */
 static const char *sweep_worker_file = NULL;
+static const char *cache_option = NULL;   /* --cache-info or --cache-clear */
+
+/* nzlua --cache-info | --cache-clear: the machine code's cache
+ * (src/graph/native_object.h).  0 on success. */
+static int docache(void)
+{
+  char dir[4096], why[400];
+  if (!nz_native_cache_dir(dir, sizeof dir, why, sizeof why)) {
+    fprintf(stderr, "%s: %s\n", progname, why);
+    return 1;
+  }
+  if (!strcmp(cache_option, "--cache-clear")) {
+    int n = nz_native_cache_clear(dir, why, sizeof why);
+    if (n < 0) {
+      fprintf(stderr, "%s: %s\n", progname, why);
+      return 1;
+    }
+    printf("%s: removed %d file%s from the cache '%s'\n", progname, n, n == 1 ? "" : "s", dir);
+    return 0;
+  }
+  nz_native_cache_stat st;
+  if (nz_native_cache_info(dir, &st, why, sizeof why)) {
+    fprintf(stderr, "%s: %s\n", progname, why);
+    return 1;
+  }
+  printf("cache of machine code: %s\n"
+         "  %d object%s, %.1f MB in all (limit %.0f MB: NZLUA_CACHE_MAX; the least recently used go first)\n",
+         dir, st.objects, st.objects == 1 ? "" : "s", st.bytes / 1048576.0, st.limit / 1048576.0);
+  if (st.sources) printf("  %d generated source%s kept (NZLUA_KEEP_C=1)\n", st.sources, st.sources == 1 ? "" : "s");
+  if (st.trusted) printf("  trusted: yours alone, machine code is loaded from it\n");
+  else printf("  NOT trusted: %s\n", st.why);
+  return 0;
+}
 
 /* Scan options; *first is the index of the script (or argc). */
 static int collectargs(char **argv, int *first)
@@ -529,7 +565,10 @@ static int collectargs(char **argv, int *first)
     if (strcmp(argv[i], "--help") == 0 || strcmp(argv[i], "-h") == 0) args |= HAS_H;
     else if (strcmp(argv[i], "--version") == 0 || strcmp(argv[i], "-v") == 0) args |= HAS_V;
     else if (strcmp(argv[i], "-i") == 0) args |= HAS_I | HAS_V;
-    else if (strcmp(argv[i], "--sweep-worker") == 0) {
+    else if (strcmp(argv[i], "--cache-info") == 0 || strcmp(argv[i], "--cache-clear") == 0) {
+      cache_option = argv[i];
+      args |= HAS_CACHE;
+    } else if (strcmp(argv[i], "--sweep-worker") == 0) {
       if (argv[i + 1] == NULL) { *first = i; return HAS_ERROR; }
       sweep_worker_file = argv[++i];
       args |= HAS_W;
@@ -619,6 +658,10 @@ static int pmain(lua_State *L)
     return 1;
   }
   if (args & HAS_V) print_version();
+  if (args & HAS_CACHE) {
+    lua_pushboolean(L, docache() == 0);
+    return 1;
+  }
   luaL_openlibs(L);
   open_nz(L);
   createargtable(L, argv, argc, script);

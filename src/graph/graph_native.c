@@ -403,10 +403,11 @@ done:
   return rc;
 }
 
-/* The object for these outputs: from the cache, else compiled (compile = 1)
- * or NULL (compile = 0). */
+/* The object for these outputs: from the cache, else obtained as `how`
+ * says (native_object.h: look up only, compile and wait, compile in the
+ * background). */
 static nz_native *native_get(const nz_graph *g, const int *outputs, int n, const char *cache_dir,
-                             char *why, size_t whylen, int compile)
+                             char *why, size_t whylen, int how)
 {
   double t0 = nz_native_now();
   char *src = NULL;
@@ -432,11 +433,11 @@ static nz_native *native_get(const nz_graph *g, const int *outputs, int n, const
     nz_native_say(why, whylen, "out of memory");
     goto fail;
   }
-  if (nz_native_object_get(src, GEN_VERSION, "nzg", "nzn_eval", info.nodes > BIG_GRAPH, compile, cache_dir, t0,
-                           &f->obj, why, whylen))
-    goto fail;
+  int got = nz_native_object_get(src, GEN_VERSION, "nzg", "nzn_eval", info.nodes > BIG_GRAPH, how, cache_dir, t0,
+                                 &f->obj, why, whylen);
+  if (got < 0) goto fail;
   /* POSIX: a data pointer from dlsym converts to a function pointer. */
-  memcpy(&f->eval, &f->obj.entry, sizeof f->eval);
+  if (got == 0) memcpy(&f->eval, &f->obj.entry, sizeof f->eval);
   free(src);
   return f;
 fail:
@@ -448,13 +449,27 @@ fail:
 nz_native *nz_native_compile(const nz_graph *g, const int *outputs, int n, const char *cache_dir,
                              char *why, size_t whylen)
 {
-  return native_get(g, outputs, n, cache_dir, why, whylen, 1);
+  return native_get(g, outputs, n, cache_dir, why, whylen, NZ_NATIVE_WAIT);
 }
 
 nz_native *nz_native_load(const nz_graph *g, const int *outputs, int n, const char *cache_dir,
                           char *why, size_t whylen)
 {
-  return native_get(g, outputs, n, cache_dir, why, whylen, 0);
+  return native_get(g, outputs, n, cache_dir, why, whylen, NZ_NATIVE_LOOKUP);
+}
+
+nz_native *nz_native_start(const nz_graph *g, const int *outputs, int n, const char *cache_dir,
+                           char *why, size_t whylen)
+{
+  return native_get(g, outputs, n, cache_dir, why, whylen, NZ_NATIVE_BACKGROUND);
+}
+
+int nz_native_ready(nz_native *f, int wait, char *why, size_t whylen)
+{
+  if (f->eval) return 0;
+  int r = nz_native_object_ready(&f->obj, wait, why, whylen);
+  if (r == 0) memcpy(&f->eval, &f->obj.entry, sizeof f->eval);
+  return r;
 }
 
 nz_status nz_native_eval(const nz_native *f, const double *in, double *out)
@@ -484,16 +499,6 @@ void nz_native_free(nz_native *f)
 }
 
 double nz_native_compile_seconds(const nz_native *f) { return f->obj.seconds; }
+double nz_native_waited(const nz_native *f) { return f->obj.waited; }
 const char *nz_native_path(const nz_native *f) { return f->obj.path; }
 int nz_native_nodes(const nz_native *f) { return f->nodes; }
-
-const char *nz_native_cache_dir(char *buf, size_t n)
-{
-  const char *e;
-  int k;
-  if ((e = getenv("NZLUA_CACHE")) && *e) k = snprintf(buf, n, "%s", e);
-  else if ((e = getenv("XDG_CACHE_HOME")) && *e) k = snprintf(buf, n, "%s/nzlua", e);
-  else if ((e = getenv("HOME")) && *e) k = snprintf(buf, n, "%s/.cache/nzlua", e);
-  else k = snprintf(buf, n, "/tmp/nzlua-%lu", (unsigned long)getuid());
-  return k < 0 || (size_t)k >= n ? NULL : buf;
-}

@@ -6,10 +6,10 @@
  * per node, the scalar kernels of graph.c copied in so that the results are
  * the interpreter's bit for bit), compiles it with the system's C compiler
  * into a shared object, and loads it back with dlopen.  The object is cached
- * on disk under a name made of a 64-bit hash of the source and the compiler
- * command: the same graph compiled again, by this process or another, is
- * loaded from the cache without running the compiler.  Nothing prunes the
- * cache (a few kB to a few MB per graph).
+ * in a cache on disk (native_object.h has its rules: trust, integrity, the
+ * compiler in a background worker, the size bound): the same graph compiled
+ * again, by this process or another, is loaded from the cache without
+ * running the compiler.
  *
  * The compiler is $CC if set (words split on blanks, e.g. "ccache gcc"),
  * else "cc", run with -O2 (-O1 above 5000 nodes: half the compile time, the
@@ -31,6 +31,7 @@
 
 #include <stddef.h>
 #include "graph/graph.h"
+#include "graph/native_cache.h"
 
 typedef struct nz_native nz_native;
 
@@ -51,6 +52,15 @@ nz_native *nz_native_compile(const nz_graph *g, const int *outputs, int n, const
  * (the cost of generating the source and hashing it: microseconds per node). */
 nz_native *nz_native_load(const nz_graph *g, const int *outputs, int n, const char *cache_dir,
                           char *why, size_t whylen);
+/* The same object if it is in the cache, else one whose compile has started
+ * in the background (NULL, with why, when neither can be had: no compiler,
+ * an untrusted cache, ...).  Before nz_native_eval, nz_native_ready must
+ * have returned 0. */
+nz_native *nz_native_start(const nz_graph *g, const int *outputs, int n, const char *cache_dir,
+                           char *why, size_t whylen);
+/* 0 when f is loaded, 1 while it compiles (wait = 1: block until done, or
+ * until a Ctrl-C request), -1 when compiling failed (why says why; free f). */
+int nz_native_ready(nz_native *f, int wait, char *why, size_t whylen);
 
 nz_status nz_native_eval(const nz_native *f, const double *in, double *out);
 /* The machine code itself, for a caller on a hot path whose in and out
@@ -61,16 +71,13 @@ nz_native_fn nz_native_entry(const nz_native *f, double **work);
 
 void nz_native_free(nz_native *f);   /* NULL is harmless */
 
-/* Seconds the compile took (generation, compiler, loading); 0 when the
- * object came from the cache. */
+/* Seconds the compile took (generation, compiler, loading: wall time, in
+ * the background or not); 0 when the object came from the cache.  Of
+ * those, the seconds a caller waited for it (nz_native_compile). */
 double nz_native_compile_seconds(const nz_native *f);
+double nz_native_waited(const nz_native *f);
 /* The shared object's path, and the number of computed nodes it evaluates. */
 const char *nz_native_path(const nz_native *f);
 int nz_native_nodes(const nz_native *f);
-
-/* The cache directory nzlua uses: $NZLUA_CACHE, else $XDG_CACHE_HOME/nzlua,
- * else $HOME/.cache/nzlua, else /tmp/nzlua-<uid>.  Written into buf[n];
- * returns buf, or NULL if it does not fit. */
-const char *nz_native_cache_dir(char *buf, size_t n);
 
 #endif

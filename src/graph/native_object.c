@@ -1,21 +1,27 @@
-/* native_object.c - compiling generated C into a cached shared object and
- * loading it back (see native_object.h). */
+/* native_object.c - compiling generated C into a shared object in a worker
+ * process, and loading a checked object back (the rules: native_object.h;
+ * the cache's files: native_cache.c). */
 #include <dlfcn.h>
 #include <errno.h>
 #include <fcntl.h>
+#include <math.h>
+#include <signal.h>
 #include <spawn.h>
 #include <stdarg.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <math.h>
+#include <sys/file.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
+#include <sys/statvfs.h>
 #include <sys/types.h>
 #include <sys/utsname.h>
 #include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
+#include "core/interrupt.h"
 #include "graph/native_object.h"
 
 extern char **environ;
@@ -55,11 +61,21 @@ void nz_sb_printf(nz_sbuf *b, const char *fmt, ...)
   }
 }
 
+double nz_native_now(void)
+{
+  struct timespec t;
+  clock_gettime(CLOCK_MONOTONIC, &t);
+  return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+/* ------------------------------------------------------------------ */
+/* The compiler: its command, its identity                              */
+
 #define MAXWORDS 48
 
-/* $CC split into words, then the flags: argv ready but for the last four
- * slots (-o out src -lm NULL).  Returns the count, or -1. */
-static int compiler_argv(char *buf, size_t n, char **argv, const char *opt)
+/* $CC split into words (*ncc of them), then the flags: argv ready but for
+ * the last five slots (-o out src -lm NULL).  Returns the count, or -1. */
+static int compiler_argv(char *buf, size_t n, char **argv, const char *opt, int *ncc)
 {
   const char *cc = getenv("CC");
   if (!cc || !*cc) cc = "cc";
@@ -68,10 +84,11 @@ static int compiler_argv(char *buf, size_t n, char **argv, const char *opt)
   int k = 0;
   char *save = NULL;
   for (char *s = strtok_r(buf, " \t", &save); s; s = strtok_r(NULL, " \t", &save)) {
-    if (k == MAXWORDS - 12) return -1;
+    if (k == MAXWORDS - 14) return -1;
     argv[k++] = s;
   }
   if (!k) return -1;
+  *ncc = k;
   static const char *const flags[] = { "-fPIC", "-shared", "-ffp-contract=off", "-fno-builtin", "-fno-math-errno", "-g0", "-w" };
   const char *o = getenv("NZLUA_COPT");   /* e.g. -O1, to measure */
   argv[k++] = (char *)(o && *o ? o : opt);
@@ -79,49 +96,174 @@ static int compiler_argv(char *buf, size_t n, char **argv, const char *opt)
   return k;
 }
 
-static uint64_t fnv(uint64_t h, const char *s)
+/* A flag that lets the compiler round differently from the interpreter
+ * (machine code must give its results bit for bit), or NULL. */
+static const char *unsafe_flag(char **argv, int k)
 {
-  for (; *s; s++) {
-    h ^= (unsigned char)*s;
+  static const char *const bad[] = { "-Ofast", "-ffast-math", "-funsafe-math-optimizations",
+                                     "-fassociative-math", "-freciprocal-math", "-ffinite-math-only",
+                                     "-fno-signed-zeros", "-ffp-contract=fast", "-ffp-contract=on",
+                                     "-fcx-limited-range", "-mrecip" };
+  for (int i = 0; i < k; i++)
+    for (size_t j = 0; j < sizeof bad / sizeof bad[0]; j++)
+      if (!strncmp(argv[i], bad[j], strlen(bad[j]))) return argv[i];
+  return NULL;
+}
+
+static uint64_t fnv(uint64_t h, const char *s, size_t n)
+{
+  for (size_t i = 0; i < n; i++) {
+    h ^= (unsigned char)s[i];
     h *= 0x100000001b3ULL;
   }
   return h;
 }
 
-double nz_native_now(void)
+static uint64_t fnvs(uint64_t h, const char *s) { return fnv(h, s, strlen(s)); }
+
+/* Wait for pid until deadline (a monotonic time; <= 0: forever); on
+ * timeout kill its process group.  The status, or -1 (timeout, or an
+ * error: *timed_out tells which). */
+static int wait_child(pid_t pid, double deadline, int *timed_out)
 {
-  struct timespec t;
-  clock_gettime(CLOCK_MONOTONIC, &t);
-  return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+  int st;
+  *timed_out = 0;
+  for (;;) {
+    pid_t r = waitpid(pid, &st, deadline > 0 ? WNOHANG : 0);
+    if (r == pid) return st;
+    if (r < 0 && errno != EINTR) return -1;
+    if (r == 0) {
+      if (nz_native_now() > deadline) {
+        kill(-pid, SIGKILL);
+        kill(pid, SIGKILL);
+        while (waitpid(pid, &st, 0) < 0 && errno == EINTR) {}
+        *timed_out = 1;
+        return -1;
+      }
+      struct timespec ts = { 0, 5000000 };
+      nanosleep(&ts, NULL);
+    }
+  }
 }
 
-/* mkdir -p, 0700 for what it creates. */
-static int make_dirs(const char *dir, char *why, size_t whylen)
+/* Run argv (in a process group of its own, so that a timeout kills the
+ * compiler's own children too) with stdin from /dev/null and stdout and
+ * stderr into the descriptor out.  The exit status, or -1 with why. */
+static int run(char **argv, int out, double seconds, char *why, size_t whylen)
 {
-  char p[4096];
-  if (!*dir || strlen(dir) >= sizeof p) {
-    nz_native_say(why, whylen, "cache directory '%s': empty or too long a path", dir);
+  posix_spawn_file_actions_t fa;
+  posix_spawnattr_t at;
+  pid_t pid;
+  if (posix_spawn_file_actions_init(&fa)) {
+    nz_native_say(why, whylen, "cannot run the C compiler: out of memory");
     return -1;
   }
-  strcpy(p, dir);
-  for (char *s = p + 1;; s++) {
-    if (*s != '/' && *s) continue;
-    char c = *s;
-    *s = 0;
-    if (mkdir(p, 0700) && errno != EEXIST) {
-      nz_native_say(why, whylen, "cannot create the cache directory '%s': %s (set NZLUA_CACHE to a writable directory)",
-          p, strerror(errno));
-      return -1;
-    }
-    *s = c;
-    if (!c) break;
-  }
-  struct stat st;
-  if (stat(dir, &st) || !S_ISDIR(st.st_mode)) {
-    nz_native_say(why, whylen, "cache directory '%s' is not a directory (set NZLUA_CACHE to a writable directory)", dir);
+  posix_spawnattr_init(&at);
+  posix_spawnattr_setflags(&at, POSIX_SPAWN_SETPGROUP);
+  posix_spawnattr_setpgroup(&at, 0);
+  posix_spawn_file_actions_addopen(&fa, 0, "/dev/null", O_RDONLY, 0);
+  posix_spawn_file_actions_adddup2(&fa, out, 1);
+  posix_spawn_file_actions_adddup2(&fa, out, 2);
+  int rc = posix_spawnp(&pid, argv[0], &fa, &at, argv, environ);
+  posix_spawn_file_actions_destroy(&fa);
+  posix_spawnattr_destroy(&at);
+  if (rc) {
+    nz_native_say(why, whylen, "cannot run the C compiler '%s': %s (set CC to a C compiler; the interpreter runs "
+                  "meanwhile)", argv[0], strerror(rc));
     return -1;
   }
-  return 0;
+  int timed_out, st = wait_child(pid, nz_native_now() + seconds, &timed_out);
+  if (timed_out) {
+    nz_native_say(why, whylen, "the C compiler '%s' ran longer than %g s and was stopped (NZLUA_CC_TIMEOUT sets the "
+                  "limit; the interpreter runs meanwhile)", argv[0], seconds);
+    return -1;
+  }
+  if (st < 0) {
+    nz_native_say(why, whylen, "waiting for the C compiler '%s': %s", argv[0], strerror(errno));
+    return -1;
+  }
+  if (WIFEXITED(st) && WEXITSTATUS(st) == 127) {
+    nz_native_say(why, whylen, "cannot run the C compiler '%s': not found (set CC to a C compiler; the interpreter "
+                  "runs meanwhile)", argv[0]);
+    return -1;
+  }
+  return st;
+}
+
+/* What `$CC --version` prints (and its status), hashed: a CC that now
+ * names another compiler makes other keys.  Asked once per process and CC
+ * (about 2 ms). */
+static uint64_t compiler_identity(char **argv, int ncc)
+{
+  static char last_cc[2048];
+  static uint64_t last;
+  static int known;
+  const char *cc = getenv("CC");
+  if (!cc) cc = "";
+  if (known && !strcmp(cc, last_cc)) return last;
+  uint64_t h = 0xcbf29ce484222325ULL;
+  char *av[MAXWORDS];
+  for (int i = 0; i < ncc; i++) av[i] = argv[i];
+  av[ncc] = "--version";
+  av[ncc + 1] = NULL;
+  FILE *tmp = tmpfile();
+  int st = tmp ? run(av, fileno(tmp), 30, NULL, 0) : -1;
+  if (tmp) {
+    char buf[4096];
+    size_t n;
+    rewind(tmp);
+    while ((n = fread(buf, 1, sizeof buf, tmp)) > 0) h = fnv(h, buf, n);
+    fclose(tmp);
+  }
+  h = fnv(h, (const char *)&st, sizeof st);
+  snprintf(last_cc, sizeof last_cc, "%s", cc);
+  last = h;
+  known = 1;
+  return h;
+}
+
+/* The first line of the compiler's messages that says "error" (or the
+ * first line) into msg; 1 when a line says the disk is full. */
+static int compiler_message(int log, char *msg, size_t n)
+{
+  char line[512], first[512] = "";
+  int full = 0;
+  msg[0] = 0;
+  FILE *f = fdopen(dup(log), "r");
+  if (!f) return 0;
+  rewind(f);
+  while (fgets(line, sizeof line, f)) {
+    line[strcspn(line, "\n")] = 0;
+    if (strstr(line, "No space left on device")) full = 1;
+    if (!first[0]) snprintf(first, sizeof first, "%s", line);
+    if (!msg[0] && strstr(line, "error")) snprintf(msg, n, "%s", line);
+  }
+  if (!msg[0]) snprintf(msg, n, "%s", first);
+  fclose(f);
+  return full;
+}
+
+/* The disk under dir is (nearly) full. */
+static int disk_full(const char *dir)
+{
+  struct statvfs v;
+  return statvfs(dir, &v) == 0 && (double)v.f_bavail * (double)v.f_frsize < 64.0 * 1024;
+}
+
+/* ------------------------------------------------------------------ */
+/* A compile (inside the worker)                                        */
+
+/* A new file <base>.tmp-<pid>-<n><ext> in dfd, 0600, never through a
+ * link; its name into name[n]. */
+static int temp_file(int dfd, const char *base, const char *ext, int flags, char *name, size_t n)
+{
+  static unsigned counter;
+  for (int tries = 0; tries < 100; tries++) {
+    snprintf(name, n, "%s.tmp-%ld-%u%s", base, (long)getpid(), counter++, ext);
+    int fd = openat(dfd, name, flags | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0600);
+    if (fd >= 0 || errno != EEXIST) return fd;
+  }
+  return -1;
 }
 
 static int write_all(int fd, const char *s, size_t n)
@@ -136,191 +278,430 @@ static int write_all(int fd, const char *s, size_t n)
   return 0;
 }
 
-/* The first line of the compiler's messages that says "error" (or the
- * first line), for why[]. */
-static void compiler_message(const char *log, char *msg, size_t n)
+/* Write src, compile it, seal the object and rename it into place as
+ * <base>.so (the source too, as <base>.c, with NZLUA_KEEP_C=1). */
+static int compile_into(int dfd, const char *dir, const char *base, const char *key, const char *src, char **argv,
+                        int k, char *why, size_t whylen)
 {
-  FILE *f = fopen(log, "r");
-  char line[512], first[512] = "";
-  msg[0] = 0;
-  if (!f) return;
-  while (fgets(line, sizeof line, f)) {
-    line[strcspn(line, "\n")] = 0;
-    if (!first[0]) snprintf(first, sizeof first, "%s", line);
-    if (strstr(line, "error")) { snprintf(msg, n, "%s", line); break; }
+  char cname[96], soname[96], logname[96], final[96], path_c[4200], path_so[4200];
+  int cfd = -1, sofd = -1, logfd = -1, rc = -1;
+  const char *keep_c = getenv("NZLUA_KEEP_C");
+  cname[0] = soname[0] = logname[0] = 0;
+  if ((cfd = temp_file(dfd, base, ".c", O_WRONLY, cname, sizeof cname)) < 0 ||
+      (sofd = temp_file(dfd, base, ".so", O_RDWR, soname, sizeof soname)) < 0 ||
+      (logfd = temp_file(dfd, base, ".log", O_RDWR, logname, sizeof logname)) < 0) {
+    nz_native_say(why, whylen, "cannot write in the cache directory '%s': %s", dir, strerror(errno));
+    goto done;
   }
-  if (!msg[0]) snprintf(msg, n, "%s", first);
-  fclose(f);
+  if (write_all(cfd, src, strlen(src)) || close(cfd)) {
+    cfd = -1;
+    nz_native_say(why, whylen, "cannot write the generated C in the cache directory '%s': %s", dir, strerror(errno));
+    goto done;
+  }
+  cfd = -1;
+  snprintf(path_c, sizeof path_c, "%s/%s", dir, cname);
+  snprintf(path_so, sizeof path_so, "%s/%s", dir, soname);
+  argv[k] = "-o";
+  argv[k + 1] = path_so;
+  argv[k + 2] = path_c;
+  argv[k + 3] = "-lm";
+  argv[k + 4] = NULL;
+  int st = run(argv, logfd, nz_native_setting("NZLUA_CC_TIMEOUT", 300, 0), why, whylen);
+  if (st < 0) goto done;
+  if (!WIFEXITED(st) || WEXITSTATUS(st) != 0) {
+    char msg[600];
+    int full = compiler_message(logfd, msg, sizeof msg);
+    if (full || disk_full(dir))
+      nz_native_say(why, whylen, "No space left on device in the cache directory '%s': the C compiler could not "
+                    "write the object (free some space, or empty the cache with nzlua --cache-clear)", dir);
+    else if (!WIFEXITED(st))
+      nz_native_say(why, whylen, "the C compiler '%s' was killed by signal %d", argv[0], WTERMSIG(st));
+    else if (!msg[0])
+      nz_native_say(why, whylen, "the C compiler '%s' failed (exit status %d) and printed nothing", argv[0],
+                    WEXITSTATUS(st));
+    else
+      nz_native_say(why, whylen, "the C compiler '%s' failed (exit status %d): %s", argv[0], WEXITSTATUS(st), msg);
+    goto done;
+  }
+  /* The compiler may have replaced the file: seal what is under the name. */
+  close(sofd);
+  sofd = openat(dfd, soname, O_RDWR | O_NOFOLLOW | O_CLOEXEC);
+  if (sofd < 0 || nz_native_cache_seal(sofd, key, why, whylen)) {
+    if (sofd < 0) nz_native_say(why, whylen, "the C compiler '%s' exited 0 but wrote no object", argv[0]);
+    else if (disk_full(dir))
+      nz_native_say(why, whylen, "No space left on device in the cache directory '%s' (free some space, or empty "
+                    "the cache with nzlua --cache-clear)", dir);
+    goto done;
+  }
+  snprintf(final, sizeof final, "%s.so", base);
+  if (renameat(dfd, soname, dfd, final)) {
+    nz_native_say(why, whylen, "cannot rename the object into place in '%s': %s", dir, strerror(errno));
+    goto done;
+  }
+  soname[0] = 0;
+  if (keep_c && !strcmp(keep_c, "1")) {
+    snprintf(final, sizeof final, "%s.c", base);
+    if (renameat(dfd, cname, dfd, final) == 0) cname[0] = 0;
+  }
+  fsync(dfd);   /* the rename itself survives a power loss */
+  rc = 0;
+done:
+  if (cfd >= 0) close(cfd);
+  if (sofd >= 0) close(sofd);
+  if (logfd >= 0) close(logfd);
+  if (cname[0]) unlinkat(dfd, cname, 0);
+  if (soname[0]) unlinkat(dfd, soname, 0);
+  if (logname[0]) unlinkat(dfd, logname, 0);
+  return rc;
 }
 
-/* Run argv with stdout and stderr into log; 0 when it exited 0. */
-static int run_compiler(char **argv, const char *log, char *why, size_t whylen)
-{
-  posix_spawn_file_actions_t fa;
-  pid_t pid;
-  int st = 0, rc;
-  if (posix_spawn_file_actions_init(&fa)) {
-    nz_native_say(why, whylen, "cannot run the C compiler: out of memory");
-    return -1;
-  }
-  posix_spawn_file_actions_addopen(&fa, 1, log, O_WRONLY | O_CREAT | O_TRUNC, 0600);
-  posix_spawn_file_actions_adddup2(&fa, 1, 2);
-  rc = posix_spawnp(&pid, argv[0], &fa, NULL, argv, environ);
-  posix_spawn_file_actions_destroy(&fa);
-  if (rc) {
-    nz_native_say(why, whylen, "cannot run the C compiler '%s': %s (set CC to a C compiler; the interpreter is used meanwhile)",
-        argv[0], strerror(rc));
-    return -1;
-  }
-  while (waitpid(pid, &st, 0) < 0) {
-    if (errno == EINTR) continue;
-    nz_native_say(why, whylen, "waiting for the C compiler '%s': %s", argv[0], strerror(errno));
-    return -1;
-  }
-  if (WIFEXITED(st) && WEXITSTATUS(st) == 0) return 0;
-  if (WIFEXITED(st) && WEXITSTATUS(st) == 127) {
-    nz_native_say(why, whylen, "cannot run the C compiler '%s': not found (set CC to a C compiler; the interpreter is used meanwhile)",
-        argv[0]);
-    return -1;
-  }
-  char msg[600];
-  compiler_message(log, msg, sizeof msg);
-  if (WIFEXITED(st))
-    nz_native_say(why, whylen, "the C compiler '%s' failed (exit status %d): %s", argv[0], WEXITSTATUS(st), msg);
-  else
-    nz_native_say(why, whylen, "the C compiler '%s' was killed by signal %d", argv[0], WIFSIGNALED(st) ? WTERMSIG(st) : 0);
-  return -1;
-}
+/* ------------------------------------------------------------------ */
+/* Loading a checked object                                             */
 
-/* Load so_path; check that it is the object of this hash. */
-static int load(nz_native_object *o, const char *so_path, const char *hash, const char *entry, char *why,
-                size_t whylen)
+/* dlopen the object open in fd through /proc/self/fd/N.  The loader
+ * hands back an object it already has under the same name, and a name
+ * stays with an object for as long as it is loaded (also as an alias,
+ * when a second load found the same file): a descriptor number reused
+ * after its file was closed would then load the wrong object.  So every
+ * load goes through a path of its own: /proc/self/fd, then one segment per
+ * bit of a counter ("/." for 0, "/../fd" for 1), then N; all of them name
+ * the same directory. */
+static void *open_fd(int fd, char *why, size_t whylen)
 {
-  void *dl = dlopen(so_path, RTLD_NOW | RTLD_LOCAL);
+  static unsigned long loads;
+  char path[512];
+  int k = snprintf(path, sizeof path, "/proc/self/fd");
+  for (unsigned long c = loads++; c; c >>= 1) k += snprintf(path + k, sizeof path - (size_t)k, (c & 1) ? "/../fd" : "/.");
+  snprintf(path + k, sizeof path - (size_t)k, "/%d", fd);
+  void *dl = dlopen(path, RTLD_NOW | RTLD_LOCAL);
   if (!dl) {
     const char *e = dlerror();
-    nz_native_say(why, whylen, "cannot load '%s': %s", so_path, e ? e : "dlopen failed");
+    nz_native_say(why, whylen, "cannot load it: %s", e ? e : "dlopen failed");
+  }
+  return dl;
+}
+
+/* Open cache_dir (trusted), check the object <base>.so and load it.  1
+ * loaded, 0 absent, -1 failed; *damaged when the file was there but failed
+ * its checks (it is then removed, and why says what was wrong). */
+static int load(const char *cache_dir, const char *base, const char *key, const char *entry,
+                nz_native_object *o, int *damaged, char *why, size_t whylen)
+{
+  char name[96], fwhy[300];
+  int fd = -1, dfd = nz_native_cache_open(cache_dir, 1, why, whylen);
+  *damaged = 0;
+  if (dfd < 0) return -1;
+  snprintf(name, sizeof name, "%s.so", base);
+  int ok = nz_native_cache_check(dfd, name, key, &fd, fwhy, sizeof fwhy);
+  if (ok < 0) {
+    *damaged = 1;
+    unlinkat(dfd, name, 0);
+    nz_native_say(why, whylen, "the cached object '%s/%s' %s", cache_dir, name, fwhy);
+  }
+  close(dfd);
+  if (ok <= 0) return ok;
+  void *dl = open_fd(fd, fwhy, sizeof fwhy);
+  close(fd);
+  if (!dl) {
+    nz_native_say(why, whylen, "the cached object '%s/%s': %s", cache_dir, name, fwhy);
     return -1;
   }
   const char *id = dlsym(dl, "nzn_id");
   void *ev = dlsym(dl, entry);
-  if (!id || !ev || strcmp(id, hash) != 0) {
-    nz_native_say(why, whylen, "'%s' is not the object it is named after", so_path);
+  if (!id || !ev || strcmp(id, key) != 0) {
+    nz_native_say(why, whylen, "'%s/%s' is not the object it is named after", cache_dir, name);
     dlclose(dl);
     return -1;
   }
   o->dl = dl;
   o->entry = ev;
-  return 0;
+  return 1;
 }
 
-/* Write src under a temporary name, compile it, rename both into place. */
-static int compile_into(const char *dir, const char *base, const char *src, char **argv, int k,
-                        char *why, size_t whylen)
+/* ------------------------------------------------------------------ */
+/* Workers                                                              */
+
+typedef struct nz_native_job {
+  pid_t pid;          /* the worker, 0 while it waits for its turn */
+  int done, status;   /* it has ended, with this wait status (-1: lost) */
+  int pipe;           /* its reason for failing comes through here */
+  char *src;          /* the source, until the worker starts */
+  char ccbuf[2048];   /* argv's words live here */
+  char *argv[MAXWORDS];
+  int k;
+  char *dir, *entry;
+  char base[64], key[17];
+  double t_start, t_wait;
+} nz_native_job;
+
+static void job_ended(nz_native_job *j, int status)
 {
-  size_t L = strlen(dir) + strlen(base) + 32;
-  char *tc = malloc(L), *tso = malloc(L), *tlog = malloc(L), *fc = malloc(L), *fso = malloc(L);
-  int rc = -1, fd = -1;
-  if (!tc || !tso || !tlog || !fc || !fso) {
-    nz_native_say(why, whylen, "out of memory");
-    goto done;
+  j->done = 1;
+  j->status = status;
+}
+
+/* Workers of this process still running, each with its job (NULL when
+ * the job was forgotten while it ran): reaped when they end, so that none
+ * stays a zombie, their status kept in their job. */
+typedef struct worker_slot {
+  pid_t pid;
+  struct nz_native_job *job;
+} worker_slot;
+static worker_slot workers[256];
+static int nworkers;
+
+static worker_slot *slot_of(pid_t pid)
+{
+  for (int i = 0; i < nworkers; i++)
+    if (workers[i].pid == pid) return &workers[i];
+  return NULL;
+}
+
+static void drop_slot(worker_slot *w) { *w = workers[--nworkers]; }
+
+
+/* Reap what has ended; the number still running. */
+static int running_workers(void)
+{
+  for (int i = 0; i < nworkers;) {
+    int st = 0;
+    pid_t r = waitpid(workers[i].pid, &st, WNOHANG);
+    if (r == workers[i].pid || (r < 0 && errno == ECHILD)) {
+      if (workers[i].job) job_ended(workers[i].job, r < 0 ? -1 : st);
+      drop_slot(&workers[i]);
+    } else i++;
   }
-  snprintf(tc, L, "%s/%s-XXXXXX.c", dir, base);
-  fd = mkstemps(tc, 2);
-  if (fd < 0) {
-    nz_native_say(why, whylen, "cannot write in the cache directory '%s': %s (set NZLUA_CACHE to a writable directory)",
-        dir, strerror(errno));
-    tc[0] = 0;
-    goto done;
+  return nworkers;
+}
+
+/* The worker's body: the lock, the cache looked at again (another process
+ * may have compiled it meanwhile), the compile, the bound. */
+static int worker(nz_native_job *j, char *why, size_t whylen)
+{
+  int dfd = nz_native_cache_open(j->dir, 1, why, whylen);
+  if (dfd < 0) return -1;
+  char name[96];
+  snprintf(name, sizeof name, "%s.lock", j->base);
+  int lock = openat(dfd, name, O_RDWR | O_CREAT | O_NOFOLLOW | O_CLOEXEC, 0600);
+  if (lock >= 0) while (flock(lock, LOCK_EX) && errno == EINTR) {}
+  snprintf(name, sizeof name, "%s.so", j->base);
+  int fd = -1, rc = 0;
+  char fwhy[300];
+  int have = nz_native_cache_check(dfd, name, j->key, &fd, fwhy, sizeof fwhy);
+  if (have > 0) close(fd);
+  else {
+    if (have < 0) unlinkat(dfd, name, 0);
+    rc = compile_into(dfd, j->dir, j->base, j->key, j->src, j->argv, j->k, why, whylen);
+    if (rc == 0) nz_native_cache_prune(dfd, name);
   }
-  if (write_all(fd, src, strlen(src)) || close(fd)) {
-    fd = -1;
-    nz_native_say(why, whylen, "cannot write '%s': %s", tc, strerror(errno));
-    goto done;
+  if (lock >= 0) {
+    snprintf(name, sizeof name, "%s.lock", j->base);
+    unlinkat(dfd, name, 0);
+    close(lock);
   }
-  fd = -1;
-  size_t tl = strlen(tc);
-  snprintf(tso, L, "%.*s.so", (int)(tl - 2), tc);
-  snprintf(tlog, L, "%.*s.log", (int)(tl - 2), tc);
-  snprintf(fc, L, "%s/%s.c", dir, base);
-  snprintf(fso, L, "%s/%s.so", dir, base);
-  argv[k] = "-o";
-  argv[k + 1] = tso;
-  argv[k + 2] = tc;
-  argv[k + 3] = "-lm";
-  argv[k + 4] = NULL;
-  if (run_compiler(argv, tlog, why, whylen)) goto done;
-  if (rename(tso, fso)) {
-    nz_native_say(why, whylen, "cannot rename '%s' to '%s': %s", tso, fso, strerror(errno));
-    goto done;
-  }
-  if (rename(tc, fc) == 0) tc[0] = 0;   /* the source stays beside the object */
-  rc = 0;
-done:
-  if (fd >= 0) close(fd);
-  if (tc && tc[0]) unlink(tc);
-  if (tso && tso[0]) unlink(tso);
-  if (tlog && tlog[0]) unlink(tlog);
-  free(tc);
-  free(tso);
-  free(tlog);
-  free(fc);
-  free(fso);
+  close(dfd);
   return rc;
 }
 
-
-int nz_native_object_get(const char *src, const char *version, const char *prefix, const char *entry,
-                         int big, int compile, const char *cache_dir, double t_start,
-                         nz_native_object *o, char *why, size_t whylen)
+static int start_worker(nz_native_job *j, char *why, size_t whylen)
 {
-  char ccbuf[2048], *argv[MAXWORDS], hash[17], base[64];
-  memset(o, 0, sizeof *o);
-  int k = compiler_argv(ccbuf, sizeof ccbuf, argv, big ? "-O1" : "-O2");
-  if (k < 0) {
-    nz_native_say(why, whylen, "CC is empty or too long a command");
+  int p[2];
+  if (pipe2(p, O_CLOEXEC)) {
+    nz_native_say(why, whylen, "cannot start a compile: %s", strerror(errno));
     return -1;
   }
-  /* The machine too: a cache shared between machines (a network home)
-   * keeps one object per architecture. */
-  struct utsname u;
-  uint64_t h = fnv(fnv(0xcbf29ce484222325ULL, version), "\n");
-  if (uname(&u) == 0) h = fnv(fnv(h, u.sysname), u.machine);
-  for (int i = 0; i < k; i++) h = fnv(fnv(h, argv[i]), " ");
-  h = fnv(h, src);
-  snprintf(hash, sizeof hash, "%016llx", (unsigned long long)h);
-  snprintf(base, sizeof base, "%s-%s", prefix, hash);
-  if (make_dirs(cache_dir, why, whylen)) return -1;
-  o->path = malloc(strlen(cache_dir) + strlen(base) + 8);
-  if (!o->path) {
+  if (running_workers() == (int)(sizeof workers / sizeof workers[0])) {
+    nz_native_say(why, whylen, "too many compiles under way");
+    close(p[0]);
+    close(p[1]);
+    return -1;
+  }
+  pid_t pid = fork();
+  if (pid < 0) {
+    nz_native_say(why, whylen, "cannot start a compile: %s", strerror(errno));
+    close(p[0]);
+    close(p[1]);
+    return -1;
+  }
+  if (pid == 0) {
+    /* A session of its own: Ctrl-C at the terminal stops the run, not the
+     * compile that will serve the next one. */
+    close(p[0]);
+    setsid();
+    signal(SIGINT, SIG_DFL);
+    signal(SIGPIPE, SIG_IGN);
+    char w[700] = "";
+    int rc = worker(j, w, sizeof w);
+    if (rc && write(p[1], w, strlen(w)) < 0) rc = 2;
+    _exit(rc ? 1 : 0);
+  }
+  close(p[1]);
+  j->pid = pid;
+  j->pipe = p[0];
+  free(j->src);
+  j->src = NULL;
+  workers[nworkers++] = (worker_slot){ pid, j };
+  return 0;
+}
+
+static void job_free(nz_native_job *j)
+{
+  if (!j) return;
+  if (j->pipe >= 0) close(j->pipe);
+  free(j->src);
+  free(j->dir);
+  free(j->entry);
+  free(j);
+}
+
+/* ------------------------------------------------------------------ */
+/* The public face                                                      */
+
+int nz_native_object_get(const char *src, const char *version, const char *prefix, const char *entry,
+                         int big, int how, const char *cache_dir, double t_start,
+                         nz_native_object *o, char *why, size_t whylen)
+{
+  nz_native_job *j = calloc(1, sizeof *j);
+  memset(o, 0, sizeof *o);
+  if (!j) {
     nz_native_say(why, whylen, "out of memory");
     return -1;
   }
-  sprintf(o->path, "%s/%s.so", cache_dir, base);
-  int cached = access(o->path, R_OK) == 0 && load(o, o->path, hash, entry, NULL, 0) == 0;
-  if (!cached && !compile) {
+  j->pipe = -1;
+  int ncc = 0;
+  j->k = compiler_argv(j->ccbuf, sizeof j->ccbuf, j->argv, big ? "-O1" : "-O2", &ncc);
+  if (j->k < 0) {
+    nz_native_say(why, whylen, "CC is empty or too long a command");
+    goto fail;
+  }
+  const char *bad = unsafe_flag(j->argv, j->k);
+  if (bad) {
+    nz_native_say(why, whylen, "'%s' in %s would let the compiler round differently from the interpreter (machine "
+                  "code must give its results bit for bit): remove it (the interpreter runs meanwhile)", bad,
+                  strstr(getenv("CC") ? getenv("CC") : "", bad) ? "CC" : "NZLUA_COPT");
+    goto fail;
+  }
+  /* The key: the generator, the machine (a cache shared between machines
+   * keeps one object per architecture), the compiler's words and identity,
+   * the source. */
+  struct utsname u;
+  uint64_t h = fnvs(fnvs(0xcbf29ce484222325ULL, version), "\n");
+  if (uname(&u) == 0) h = fnvs(fnvs(h, u.sysname), u.machine);
+  for (int i = 0; i < j->k; i++) h = fnvs(fnvs(h, j->argv[i]), " ");
+  uint64_t id = compiler_identity(j->argv, ncc);
+  h = fnv(h, (const char *)&id, sizeof id);
+  h = fnvs(h, src);
+  snprintf(j->key, sizeof j->key, "%016llx", (unsigned long long)h);
+  snprintf(j->base, sizeof j->base, "%s-%s", prefix, j->key);
+  j->dir = strdup(cache_dir);
+  j->entry = strdup(entry);
+  o->path = malloc(strlen(cache_dir) + strlen(j->base) + 8);
+  if (!j->dir || !j->entry || !o->path) {
+    nz_native_say(why, whylen, "out of memory");
+    goto fail;
+  }
+  sprintf(o->path, "%s/%s.so", cache_dir, j->base);
+  int damaged, got = load(cache_dir, j->base, j->key, entry, o, &damaged, why, whylen);
+  if (got > 0) {
+    job_free(j);
+    return 0;
+  }
+  if (damaged) nz_native_notice("%s: removed; it is compiled again", why);
+  else if (got < 0) goto fail;   /* the directory is not trusted, or the object will not load */
+  if (how == NZ_NATIVE_LOOKUP) {
     nz_native_say(why, whylen, "not in the cache");
     goto fail;
   }
-  if (!cached) {
-    /* The object names itself, so that loading can check it. */
-    nz_sbuf b = { 0 };
-    nz_sb_printf(&b, "%s\nconst char nzn_id[] = \"%s\";\n", src, hash);
-    int rc = b.oom ? -1 : compile_into(cache_dir, base, b.s, argv, k, why, whylen);
-    if (b.oom) nz_native_say(why, whylen, "out of memory");
+  /* The object names itself, so that loading can check it. */
+  nz_sbuf b = { 0 };
+  nz_sb_printf(&b, "%s\nconst char nzn_id[] = \"%s\";\n", src, j->key);
+  if (b.oom) {
     free(b.s);
-    if (rc || load(o, o->path, hash, entry, why, whylen)) goto fail;
+    nz_native_say(why, whylen, "out of memory");
+    goto fail;
   }
-  o->seconds = cached ? 0.0 : nz_native_now() - t_start;
+  j->src = b.s;
+  j->t_start = t_start;
+  o->job = j;
+  if (how == NZ_NATIVE_BACKGROUND && running_workers() >= (int)nz_native_setting("NZLUA_CC_JOBS", 2, 0)) return 1;
+  if (start_worker(j, why, whylen)) {
+    o->job = NULL;
+    goto fail;
+  }
+  if (how == NZ_NATIVE_BACKGROUND) return 1;
+  int r = nz_native_object_ready(o, 1, why, whylen);
+  return r < 0 ? -1 : r;
+fail:
+  job_free(j);
+  free(o->path);
+  o->path = NULL;
+  return -1;
+}
+
+int nz_native_object_ready(nz_native_object *o, int wait, char *why, size_t whylen)
+{
+  nz_native_job *j = o->job;
+  if (o->dl) return 0;
+  if (!j) {
+    nz_native_say(why, whylen, "no object and no compile under way");
+    return -1;
+  }
+  if (!j->pid) {
+    if (!wait && running_workers() >= (int)nz_native_setting("NZLUA_CC_JOBS", 2, 0)) return 1;
+    if (start_worker(j, why, whylen)) goto fail;
+  }
+  double t0 = nz_native_now();
+  while (!j->done) {
+    int status = 0;
+    pid_t r = waitpid(j->pid, &status, wait ? 0 : WNOHANG);
+    if (r == 0) return 1;
+    if (r < 0 && errno == EINTR) {
+      if (!nz_interrupt_requested()) continue;
+      o->waited += nz_native_now() - t0;
+      return 1;   /* Ctrl-C: the run goes on interpreted, and stops */
+    }
+    worker_slot *w = slot_of(j->pid);
+    if (w) drop_slot(w);
+    job_ended(j, r == j->pid ? status : -1);
+  }
+  if (j->status == -1) {
+    nz_native_say(why, whylen, "lost the compile's worker (process %ld)", (long)j->pid);
+    goto fail;
+  }
+  int st = j->status;
+  if (wait) o->waited += nz_native_now() - t0;
+  char msg[700];
+  ssize_t n = read(j->pipe, msg, sizeof msg - 1);
+  msg[n > 0 ? n : 0] = 0;
+  if (!WIFEXITED(st) || WEXITSTATUS(st) != 0) {
+    if (msg[0]) nz_native_say(why, whylen, "%s", msg);
+    else nz_native_say(why, whylen, "the compile's worker ended without a reason (status %d)", st);
+    goto fail;
+  }
+  int damaged;
+  if (load(j->dir, j->base, j->key, j->entry, o, &damaged, why, whylen) <= 0) {
+    if (why && !why[0]) nz_native_say(why, whylen, "the compiled object is not in the cache");
+    goto fail;
+  }
+  o->seconds = nz_native_now() - j->t_start;
+  job_free(j);
+  o->job = NULL;
   return 0;
 fail:
-  nz_native_object_close(o);
+  job_free(j);
+  o->job = NULL;
   return -1;
 }
 
 void nz_native_object_close(nz_native_object *o)
 {
   if (o->dl) dlclose(o->dl);
+  /* A compile under way finishes alone (running_workers reaps it). */
+  if (o->job) {
+    worker_slot *w = o->job->pid && !o->job->done ? slot_of(o->job->pid) : NULL;
+    if (w) w->job = NULL;
+    job_free(o->job);
+  }
   free(o->path);
   memset(o, 0, sizeof *o);
 }

@@ -1,25 +1,65 @@
 /* native_object.h - generated C compiled by the system's C compiler into a
- * shared object, cached on disk under a hash of its source, and loaded
- * back with dlopen: the machinery shared by the code generators of
- * src/graph (graph_native.c: plans on doubles; series_native.c: series
- * built order by order).
+ * shared object, kept in a cache on disk, checked, and loaded back: the one
+ * place of nzlua that writes and runs machine code, shared by the code
+ * generators of src/graph (graph_native.c: plans on doubles;
+ * series_native.c: series built order by order).
+ *
+ * Trust.  An object is loaded only from a cache directory that belongs to
+ * the user (the effective uid) and that neither group nor others can write,
+ * and only when the file itself is a regular file of the user's that
+ * neither group nor others can write: otherwise another local user could
+ * plant code that runs as this one (the rules of ccache and of Python's
+ * __pycache__).  The directory is opened once per lookup and every file is
+ * reached through that descriptor; the object is opened with O_NOFOLLOW,
+ * checked on the open descriptor and loaded from that descriptor
+ * (/proc/self/fd/N), so the file checked is the file loaded.  There is no
+ * fallback under /tmp: without $NZLUA_CACHE, an absolute $XDG_CACHE_HOME or
+ * an absolute $HOME there is no cache and the interpreter runs.  Directories
+ * are created 0700 and objects written 0600 whatever the umask.
+ *
+ * Integrity.  Every object carries a trailer of 40 bytes appended after the
+ * compiler's output: a magic, the key it is named after, the length of the
+ * shared object before the trailer and a 64-bit checksum of those bytes.
+ * Before loading, the trailer is read, the checksum recomputed and the ELF
+ * headers' segments checked to lie inside the file (a truncated object
+ * would fault with SIGBUS inside dlopen; a flipped bit with SIGILL later).
+ * An object that fails is removed and compiled again, with one notice
+ * line.  Objects are written under a temporary name, fsync'ed and renamed
+ * into place (then the directory fsync'ed), so a crash or a power loss
+ * leaves either nothing or a whole object.  The checksum guards against
+ * damage, not against an attacker: trust comes from ownership and modes.
+ *
+ * Key.  The file's name is <prefix>-<16 hex digits>.so, the digits a 64-bit
+ * hash of the generator's version, the machine (uname), the compiler's
+ * words and flags, the compiler's identity (what `$CC --version` prints, so
+ * a CC that now points at another compiler does not reuse an old object)
+ * and the source.
  *
  * The compiler is $CC if set (words split on blanks, e.g. "ccache gcc"),
  * else "cc", run with -O2 (or the -O1 a caller asks for big sources;
  * $NZLUA_COPT overrides), -fPIC -shared -ffp-contract=off -fno-builtin
  * -fno-math-errno: a fused multiply-add, or sin(atan(x)) rewritten as
  * x / sqrt(1 + x^2), would round differently from the interpreter the code
- * stands in for; never -ffast-math.
+ * stands in for.  Flags that break that promise (-Ofast, -ffast-math,
+ * -funsafe-math-optimizations, ...) in CC or NZLUA_COPT are refused.
  *
- * Files.  The cache holds <prefix>-<hash>.c and <prefix>-<hash>.so, hash =
- * 64-bit FNV-1a of the generator's version, the machine, the compiler
- * command and the source.  Both are written under unique temporary names
- * and renamed into place, so two processes compiling the same source at
- * once both succeed and the files are always whole.  The object names
- * itself (a string nzn_id holding the hash), so that loading checks it is
- * the object it is named after.  Nothing prunes the cache.
+ * Time.  A compile runs in a worker process (forked, in a session of its
+ * own so that Ctrl-C at the terminal does not kill it), which takes a lock
+ * file for the key (two processes needing the same object share one
+ * compile), runs the compiler under a time limit ($NZLUA_CC_TIMEOUT
+ * seconds, default 300), writes the object and bounds the cache; the
+ * caller goes on and polls.  A worker whose caller has exited finishes
+ * alone: a short run still leaves its object for the next one.  At most
+ * $NZLUA_CC_JOBS workers (default 2) run at once per process; more wait
+ * their turn.
  *
- * Internal to src/graph.  Plain C: no Lua, no printing. */
+ * Size.  After each compile the cache is kept under $NZLUA_CACHE_MAX bytes
+ * (default 100 MB; suffixes K, M, G), the least recently used objects
+ * removed first (loading an object marks it used).  The generated source is
+ * removed unless NZLUA_KEEP_C=1.
+ *
+ * Internal to src/graph (graph_native.h has the public face).  Plain C: no
+ * Lua, no printing (notices go to the callback nz_native_set_notice). */
 #ifndef NZ_NATIVE_OBJECT_H
 #define NZ_NATIVE_OBJECT_H
 
@@ -41,26 +81,72 @@ void nz_native_say(char *why, size_t n, const char *fmt, ...) __attribute__((for
  * HUGE_VAL or (-HUGE_VAL). */
 void nz_native_literal(char *s, size_t n, double v);
 
+struct nz_native_job;
+
 typedef struct nz_native_object {
-  void *dl;          /* dlopen's handle */
+  void *dl;          /* dlopen's handle (NULL while compiling) */
   void *entry;       /* the symbol asked for */
-  double seconds;    /* generation to loading, 0 when it came from the cache */
+  double seconds;    /* the compile's wall time, 0 when it came from the cache */
+  double waited;     /* of which the caller waited (a compile asked to wait) */
   char *path;        /* the shared object's path (malloc'd) */
+  struct nz_native_job *job;   /* a compile under way */
 } nz_native_object;
 
-/* The object of src: loaded from cache_dir (created if missing) when it is
- * there, else compiled (compile = 1) or refused (compile = 0, "not in the
- * cache").  version is the generator's (a new version never loads an old
- * object); prefix names the files; entry is the symbol to return; big asks
- * for -O1 (half the compile time of a huge source, the same speed).
- * t_start: when generating began (nz_native_now), for o->seconds.
- * 0, or -1 with a one-line reason in why. */
+/* How nz_native_object_get may obtain an object that is not in the cache. */
+enum {
+  NZ_NATIVE_LOOKUP = 0,      /* not at all: "not in the cache" */
+  NZ_NATIVE_WAIT = 1,        /* compile it now and wait */
+  NZ_NATIVE_BACKGROUND = 2   /* start compiling it and return at once */
+};
+
+/* The object of src: loaded from cache_dir when it is there and passes the
+ * checks, else obtained as `how` says.  version is the generator's (a new
+ * version never loads an old object); prefix names the files; entry is the
+ * symbol to return; big asks for -O1.  t_start: when generating began
+ * (nz_native_now).  Returns 0 with the object loaded, 1 when a background
+ * compile is under way (poll with nz_native_object_ready), -1 with a
+ * one-line reason in why. */
 int nz_native_object_get(const char *src, const char *version, const char *prefix, const char *entry,
-                         int big, int compile, const char *cache_dir, double t_start,
+                         int big, int how, const char *cache_dir, double t_start,
                          nz_native_object *o, char *why, size_t whylen);
-void nz_native_object_close(nz_native_object *o);   /* and free its path */
+/* A background compile: 0 once the object is loaded, 1 while it is under
+ * way (or waiting for a free worker), -1 with the reason when it failed.
+ * wait = 1 blocks until it is done (a Ctrl-C request, nz_interrupt, stops
+ * the wait and returns 1). */
+int nz_native_object_ready(nz_native_object *o, int wait, char *why, size_t whylen);
+/* Unload, or forget a compile under way (its worker finishes the cache
+ * entry alone), and free the path. */
+void nz_native_object_close(nz_native_object *o);
 
 /* A monotonic clock in seconds. */
 double nz_native_now(void);
+
+/* -- The cache's files (native_cache.c), for native_object.c ------------ */
+
+/* Bytes of the trailer after the compiler's output. */
+#define NZ_NATIVE_TRAILER 40
+
+/* A descriptor of the cache directory dir (created 0700 with its missing
+ * parents when create is set) when it is trusted, else -1 with the reason. */
+int nz_native_cache_open(const char *dir, int create, char *why, size_t whylen);
+/* The object called name in the directory dfd, for the key: 1 with *fd
+ * open on it (O_NOFOLLOW) when it passes every check (owner, mode, a regular
+ * file, the trailer, the checksum, the ELF segments inside the file; its
+ * modification time is set to now, for the least-recently-used rule); 0
+ * when there is none; -1 when it is there but fails, why saying what. */
+int nz_native_cache_check(int dfd, const char *name, const char *key, int *fd, char *why, size_t whylen);
+/* The compiler's output open in fd, of the user's: check that it is a
+ * whole shared object, append the trailer for key, make it 0600, fsync it.
+ * 0, or -1 with the reason. */
+int nz_native_cache_seal(int fd, const char *key, char *why, size_t whylen);
+/* After a compile: temporaries and locks left by dead workers removed,
+ * then objects, least recently used first, until the cache is under its
+ * limit (never keep, the one just made). */
+void nz_native_cache_prune(int dfd, const char *keep);
+/* A one-line notice to the binding's callback. */
+void nz_native_notice(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+/* A setting from the environment: a positive number (with K, M, G when
+ * bytes is set), else def. */
+double nz_native_setting(const char *name, double def, int bytes);
 
 #endif

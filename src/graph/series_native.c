@@ -51,11 +51,29 @@ static void (*const kernel_table[K_COUNT])(void) = {
 
 struct nz_series_native {
   nz_native_object obj;
-  nz_series_code code;
+  nz_series_code code;   /* NULL while it compiles */
   nz_series_loop ode2;   /* NULL: made without a second-order ODE */
+  int ode2_wanted;
   unsigned long sig;
   int slots;
 };
+
+/* The loaded object's functions. */
+static int entries(nz_series_native *s, char *why, size_t whylen)
+{
+  /* POSIX: a data pointer from dlsym converts to a function pointer. */
+  memcpy(&s->code, &s->obj.entry, sizeof s->code);
+  if (s->ode2_wanted) {
+    void *e = dlsym(s->obj.dl, "nzs_ode2");
+    if (!e) {
+      nz_native_say(why, whylen, "'%s' has no nzs_ode2", s->obj.path);
+      s->code = NULL;
+      return -1;
+    }
+    memcpy(&s->ode2, &e, sizeof s->ode2);
+  }
+  return 0;
+}
 
 /* series.c's recurrences, written the same way. */
 static const char preamble[] =
@@ -333,7 +351,7 @@ static char *generate(const nz_graph_plan *p, const nz_series_ode2 *ode2, const 
 }
 
 nz_series_native *nz_series_native_get(const nz_graph_plan *p, const nz_series_ode2 *ode2, const char *cache_dir,
-                                       int compile, char *why, size_t whylen)
+                                       int how, char *why, size_t whylen)
 {
   double t0 = nz_native_now();
   int nseries, n = nz_graph_series_layout(p, NULL, &nseries);
@@ -363,18 +381,10 @@ nz_series_native *nz_series_native_get(const nz_graph_plan *p, const nz_series_o
    * 1e-15, NZLUA_COPT to compare), which pays for the compiler's extra
    * ~0.2 s within a few runs; -O1 above 60 slots, where -O2's time to
    * compile grows faster than what it saves */
-  if (nz_native_object_get(src, SER_VERSION, "nzs", "nzs_next", n > INLINE_SLOTS, compile, cache_dir, t0, &s->obj, why, whylen))
-    goto fail;
-  /* POSIX: a data pointer from dlsym converts to a function pointer. */
-  memcpy(&s->code, &s->obj.entry, sizeof s->code);
-  if (ode2) {
-    void *e = dlsym(s->obj.dl, "nzs_ode2");
-    if (!e) {
-      nz_native_say(why, whylen, "'%s' has no nzs_ode2", s->obj.path);
-      goto fail;
-    }
-    memcpy(&s->ode2, &e, sizeof s->ode2);
-  }
+  s->ode2_wanted = ode2 != NULL;
+  int got = nz_native_object_get(src, SER_VERSION, "nzs", "nzs_next", n > INLINE_SLOTS, how, cache_dir, t0, &s->obj,
+                                 why, whylen);
+  if (got < 0 || (got == 0 && entries(s, why, whylen))) goto fail;
   s->sig = nz_graph_series_signature(p);
   s->slots = n;
   free(src);
@@ -385,6 +395,14 @@ fail:
   free(slots);
   nz_series_native_free(s);
   return NULL;
+}
+
+int nz_series_native_ready(nz_series_native *s, int wait, char *why, size_t whylen)
+{
+  if (s->code) return 0;
+  int r = nz_native_object_ready(&s->obj, wait, why, whylen);
+  if (r == 0 && entries(s, why, whylen)) return -1;
+  return r;
 }
 
 void nz_series_native_attach(const nz_series_native *s, nz_graph_plan *p)
@@ -408,5 +426,6 @@ void nz_series_native_free(nz_series_native *s)
 }
 
 double nz_series_native_seconds(const nz_series_native *s) { return s->obj.seconds; }
+double nz_series_native_waited(const nz_series_native *s) { return s->obj.waited; }
 int nz_series_native_slots(const nz_series_native *s) { return s->slots; }
 const char *nz_series_native_path(const nz_series_native *s) { return s->obj.path; }

@@ -37,11 +37,15 @@ typedef struct nz_series_ode2 {
 
 /* Machine code for the kernels the last successful nz_graph_series_begin
  * on p chose (and for the loop of ode2, which may be NULL): from
- * cache_dir, or compiled there (compile = 1; with compile = 0, NULL "not in
- * the cache").  NULL with a one-line reason in why (a branch, no compiler,
- * ...). */
+ * cache_dir, else as how says: 0 not at all (NULL, "not in the cache"), 1
+ * compiled now, 2 compiled in the background (then nz_series_native_ready
+ * says when it can be attached).  NULL with a one-line reason in why (a
+ * branch, no compiler, an untrusted cache, ...). */
 nz_series_native *nz_series_native_get(const nz_graph_plan *p, const nz_series_ode2 *ode2, const char *cache_dir,
-                                       int compile, char *why, size_t whylen);
+                                       int how, char *why, size_t whylen);
+/* 0 when s is loaded (attach it), 1 while it compiles (wait = 1: block),
+ * -1 when compiling failed (why; free s). */
+int nz_series_native_ready(nz_series_native *s, int wait, char *why, size_t whylen);
 /* With an object made with ode2, after a begin of p to order N at q0, q'0
  * = a[0 .. 2k): a[(n + 2) k + i] = q_i''s coefficient n / ((n + 1)(n + 2))
  * for n = 0 .. N, the numbers nz_graph_series_next would give order by
@@ -58,6 +62,7 @@ void nz_series_native_free(nz_series_native *s);   /* NULL is harmless */
 /* Seconds it took to generate, compile and load (0: from the cache); the
  * computed slots it evaluates; its shared object's path. */
 double nz_series_native_seconds(const nz_series_native *s);
+double nz_series_native_waited(const nz_series_native *s);   /* of which a caller waited */
 int nz_series_native_slots(const nz_series_native *s);
 const char *nz_series_native_path(const nz_series_native *s);
 

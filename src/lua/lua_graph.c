@@ -203,11 +203,24 @@ static int lg_info(lua_State *L)
   lua_setfield(L, -2, "native_series");
   lua_pushnumber(L, secs);
   lua_setfield(L, -2, "native_seconds");
+  lua_pushnumber(L, nz_compiled_native_waited(c));
+  lua_setfield(L, -2, "native_waited");
+  lua_pushinteger(L, nz_compiled_native_compiling(c));
+  lua_setfield(L, -2, "native_compiling");
+  lua_pushinteger(L, nz_compiled_native_mode(c));
+  lua_setfield(L, -2, "native_mode");
   if (why) {
     lua_pushstring(L, why);
     lua_setfield(L, -2, "native_why");
   }
   return 1;
+}
+
+/* native_wait(): wait for the compiles under way (a Ctrl-C stops the wait). */
+static int lg_native_wait(lua_State *L)
+{
+  nz_compiled_native_wait(check(L));
+  return 0;
 }
 
 /* ------------------------------------------------------------------ */
@@ -360,7 +373,7 @@ static const luaL_Reg methods[] = {
   { "op", lg_op }, { "fn", lg_fn }, { "powc", lg_powc }, { "constant", lg_constant },
   { "cmp", lg_cmp }, { "select", lg_select },
   { "set_piece", lg_set_piece }, { "info", lg_info }, { "piece_nodes", lg_piece_nodes },
-  { "eval", lg_eval }, { "set_native", lg_set_native }, { "nodes", lg_nodes },
+  { "eval", lg_eval }, { "set_native", lg_set_native }, { "native_wait", lg_native_wait }, { "nodes", lg_nodes },
   { "mass_bias_outputs", lg_mass_bias_outputs }, { "piece_outputs", lg_piece_outputs }, { "derivative", lg_derivative },
   { NULL, NULL }
 };

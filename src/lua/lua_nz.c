@@ -19,6 +19,7 @@
 #include "lua/lua_graph.h"
 #include "lua/lua_jet.h"
 #include "lua/lua_linalg.h"
+#include "lua/lua_native.h"
 #include "lua/lua_roots.h"
 #include "lua/lua_ode.h"
 #include "lua/lua_series.h"
@@ -130,6 +131,7 @@ static int open_core(lua_State *L)
   lua_setfield(L, -2, "mech");
   nz_lua_open_dualjet(L);        /* after the jets (its branches call them) and core.mech */
   nz_lua_open_special(L);
+  nz_lua_open_native(L);         /* nz.cache: the machine code's cache */
   lua_pushstring(L, NZ_VERSION);
   lua_setfield(L, -2, "version");
   lua_getfield(L, -1, "mech");          /* the library's own services */

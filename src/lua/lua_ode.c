@@ -767,6 +767,14 @@ static int lo_run_dense(lua_State *L)
   return 2;
 }
 
+/* ode_run_native(run) -> n: the first step of machine code throughout
+ * (1: all of them), 0 none, -1 no machine code (nz_run_native_from). */
+static int lo_run_native(lua_State *L)
+{
+  lua_pushinteger(L, (lua_Integer)nz_run_native_from(check_run(L, 1)->r));
+  return 1;
+}
+
 /* ode_run_interpolate(run, def, tau) -> y | nil: the state at tau in the
  * last step from its interpolant, nil when dense output is off or its
  * estimate misses the tolerance there (the caller integrates again). */
@@ -847,7 +855,7 @@ static const luaL_Reg ode_functions[] = {
   { "ode_accel", lo_accel }, { "ode_rhs", lo_rhs }, { "ode_reset", lo_reset }, { "ode_jacobian", lo_jacobian }, { "ode_stats", lo_stats },
   { "now", lo_now }, { "isatty", lo_isatty }, { "interrupted", lo_interrupted },
   { "ode_methods", lo_methods }, { "ode_run_new", lo_run_new }, { "ode_run", lo_run },
-  { "ode_run_state", lo_run_state }, { "ode_run_dense", lo_run_dense }, { "ode_run_interpolate", lo_run_interpolate }, { "ode_run_set_state", lo_run_set_state },
+  { "ode_run_state", lo_run_state }, { "ode_run_dense", lo_run_dense }, { "ode_run_native", lo_run_native }, { "ode_run_interpolate", lo_run_interpolate }, { "ode_run_set_state", lo_run_set_state },
   { "ode_run_violation", lo_run_violation }, { "ode_events_new", lo_events_new },
   { "ode_event_value", lo_event_value }, { "_set_interrupt", lo_set_interrupt },
   { NULL, NULL }

@@ -97,7 +97,12 @@ typedef struct nz_system {
    * system at y = (q, q'), when the recording has its fastest form (a
    * constant M's q'' in machine code); NZ_EARG: take accel. */
   int (*free_rhs)(void *ctx, double t, const double *y, double rcond_min, double *f);
-  void *mass_bias_ctx;   /* of all four */
+  /* Optional: 1 when every plan evaluated so far runs as machine code, 0
+   * when one is still interpreted (compiling in the background), -1 when
+   * machine code is off: the stepping loop asks after each step until it
+   * is 1, to say which evaluator ran which steps. */
+  int (*native_ready)(void *ctx);
+  void *mass_bias_ctx;   /* of all five */
 } nz_system;
 
 static inline int nz_system_has(const nz_system *s, nz_piece p) { return (s->has >> p) & 1u; }

@@ -9,23 +9,27 @@
 #include "core/linalg.h"
 #include "mech/mech_graph.h"
 
-/* A plan on doubles that runs as machine code once it has earned it
- * (graph_native.h): in auto mode once interpreting has cost what compiling
- * would (earn, below) or at once when its object is cached, at its first use
- * with native on, never with native off or when compiling fails (the reason
- * is kept for graph_info). */
+/* A plan on doubles that runs as machine code (graph_native.h): in auto
+ * mode its compile starts in the background once interpreting it has cost
+ * a sixteenth of what compiling would (start, below) and the plan switches
+ * to the object when it is ready, between two evaluations (the results are
+ * the same bit for bit); at once when its object is cached; at its first
+ * use, waiting for the compiler, with native on; never with native off or
+ * when compiling fails (the reason is kept for graph_info). */
 typedef struct dplan {
   nz_graph_plan *plan;
   int *outs, nout;
-  nz_native *native;
-  double work;          /* nodes interpreted so far */
-  double earn;          /* ... before compiling pays (auto mode) */
-  int tried;
+  nz_native *native;      /* the loaded object (NULL: interpreted) */
+  nz_native *compiling;   /* a compile under way in the background */
+  double work;            /* nodes interpreted so far */
+  double start;           /* ... before its compile starts (auto mode) */
+  unsigned polls;         /* evaluations since the compile was last polled */
+  int tried, used;
   /* The plan's series (Taylor's method) as machine code, on the same
-   * policy: node coefficients interpreted so far, and whether it was tried. */
-  nz_series_native *ser;
+   * policy: node coefficients interpreted so far, whether it was tried. */
+  nz_series_native *ser, *ser_compiling;
   double ser_work;
-  int ser_tried, ser_looked;
+  int ser_tried, ser_looked, ser_used;
 } dplan;
 
 typedef struct compiled_piece {
@@ -48,11 +52,14 @@ struct nz_compiled {
   int mb_built;
   dplan *mb_plan;
   double *mb_in, *mb_out;
-  /* Native code: mode (-1 auto, 0 off, 1 on), plans compiled, seconds spent
-   * compiling, and why the last attempt failed. */
+  /* Native code: mode (-1 auto, 0 off, 1 on), plans compiled, seconds
+   * compiling took and how many of them runs waited, why the last attempt
+   * failed; plans (and series) evaluated so far and how many of those run
+   * as machine code, compiles under way. */
   int native_mode, native_count, native_series;
-  double native_seconds;
-  char native_why[200];
+  double native_seconds, native_waited;
+  char native_why[300];
+  int plans_used, plans_native, series_used, series_native, compiling;
   /* nz_compiled_accel's workspace: A (k x k), rhs (k), the solver's. */
   double *acc_A, *acc_rhs, *acc_work;
   /* With a constant M, q'' = -M^-1 h as a plan of its own (M^-1's entries
@@ -84,8 +91,10 @@ static void dplan_free(dplan *d)
   if (!d) return;
   if (d->ser) nz_series_native_detach(d->plan);
   nz_series_native_free(d->ser);
+  nz_series_native_free(d->ser_compiling);
   nz_graph_plan_free(d->plan);
   nz_native_free(d->native);
+  nz_native_free(d->compiling);
   free(d->outs);
   free(d);
 }
@@ -99,81 +108,190 @@ static dplan *dplan_new(const nz_graph *g, const int *outs, int n)
   if (!d->outs || !d->plan) { dplan_free(d); return NULL; }
   memcpy(d->outs, outs, (size_t)n * sizeof(int));
   d->nout = n;
-  /* Compile once interpreting has cost what compiling would (about
-   * NZ_NATIVE_BASE of node evaluations plus NZ_NATIVE_PER_NODE per node of
-   * the plan): a run pays at most twice what the better choice in hindsight
-   * would have cost. */
-  d->earn = NZ_NATIVE_BASE + NZ_NATIVE_PER_NODE * nz_graph_plan_nodes(d->plan);
+  /* Compiling costs about NZ_NATIVE_BASE node evaluations plus
+   * NZ_NATIVE_PER_NODE per node of the plan; in the background it costs
+   * the run nothing but a core for a while, so it starts once the plan has
+   * shown it is used (a sixteenth of that): a one-off sys:accel does not
+   * compile, a run of a few milliseconds leaves the object in the cache. */
+  d->start = (NZ_NATIVE_BASE + NZ_NATIVE_PER_NODE * nz_graph_plan_nodes(d->plan)) / NZ_NATIVE_START_FRACTION;
   return d;
 }
 
+/* The cache directory, or 0 with the reason kept for graph_info. */
+static int cache_dir(nz_compiled *c, char *dir, size_t n)
+{
+  char why[300];
+  if (nz_native_cache_dir(dir, n, why, sizeof why)) return 1;
+  snprintf(c->native_why, sizeof c->native_why, "%s", why);
+  return 0;
+}
+
 /* A plan whose object is already in the cache runs natively at once
- * (auto and on; loading costs microseconds per node). */
+ * (auto and on; loading costs microseconds per node).  An untrusted cache
+ * says why. */
 static void dplan_load_cached(nz_compiled *c, dplan *d)
 {
-  char dir[1024], why[200];
-  if (c->native_mode == 0 || !nz_native_cache_dir(dir, sizeof dir)) return;
+  char dir[1024], why[300];
+  if (c->native_mode == 0 || !cache_dir(c, dir, sizeof dir)) return;
   if ((d->native = nz_native_load(c->g, d->outs, d->nout, dir, why, sizeof why))) {
     d->tried = 1;
     c->native_count++;
-  }
+  } else if (strcmp(why, "not in the cache"))
+    snprintf(c->native_why, sizeof c->native_why, "%s", why);
 }
 
-static void dplan_compile(nz_compiled *c, dplan *d)
+/* The object is loaded: count it, and its compile's time. */
+static void dplan_switch(nz_compiled *c, dplan *d, nz_native *f)
+{
+  d->native = f;
+  c->native_count++;
+  c->native_seconds += nz_native_compile_seconds(f);
+  c->native_waited += nz_native_waited(f);
+  if (d->used) c->plans_native++;
+}
+
+/* Compile d: in the background (auto mode), or now, waiting (native on). */
+static void dplan_compile(nz_compiled *c, dplan *d, int wait)
 {
   char dir[1024];
   d->tried = 1;
-  if (!nz_native_cache_dir(dir, sizeof dir)) {
-    snprintf(c->native_why, sizeof c->native_why, "no cache directory for compiled code");
-    return;
-  }
-  d->native = nz_native_compile(c->g, d->outs, d->nout, dir, c->native_why, sizeof c->native_why);
-  if (d->native) {
-    c->native_count++;
-    c->native_seconds += nz_native_compile_seconds(d->native);
+  if (!cache_dir(c, dir, sizeof dir)) return;
+  nz_native *f = wait ? nz_native_compile(c->g, d->outs, d->nout, dir, c->native_why, sizeof c->native_why)
+                      : nz_native_start(c->g, d->outs, d->nout, dir, c->native_why, sizeof c->native_why);
+  if (!f) return;
+  if (nz_native_ready(f, 0, NULL, 0) == 0) dplan_switch(c, d, f);
+  else {
+    d->compiling = f;
+    c->compiling++;
   }
 }
 
-/* After a begin of d's series to order N: its machine code, when it has
- * earned it as the plans on doubles do (in node coefficients, about 4 ns
- * each interpreted: NZ_SERIES_NATIVE_PER_NODE), or at once when cached. */
+/* A compile under way: loaded now (wait = 1: once it is done)? */
+static void dplan_poll(nz_compiled *c, dplan *d, int wait)
+{
+  int r = nz_native_ready(d->compiling, wait, c->native_why, sizeof c->native_why);
+  if (r == 1) return;
+  nz_native *f = d->compiling;
+  d->compiling = NULL;
+  c->compiling--;
+  if (r == 0) dplan_switch(c, d, f);
+  else nz_native_free(f);
+}
+
+/* A series compile under way: attached now (wait = 1: once it is done)? */
+static void dplan_series_poll(nz_compiled *c, dplan *d, int wait)
+{
+  int r = nz_series_native_ready(d->ser_compiling, wait, c->native_why, sizeof c->native_why);
+  if (r == 1) return;
+  nz_series_native *s = d->ser_compiling;
+  d->ser_compiling = NULL;
+  c->compiling--;
+  if (r < 0) {
+    nz_series_native_free(s);
+    return;
+  }
+  d->ser = s;
+  nz_series_native_attach(s, d->plan);
+  c->native_count++;
+  c->native_series++;
+  if (d->ser_used) c->series_native++;
+  c->native_seconds += nz_series_native_seconds(s);
+  c->native_waited += nz_series_native_waited(s);
+}
+
+/* After a begin of d's series to order N: its machine code, on the policy
+ * of the plans on doubles (in node coefficients, about 4 ns each
+ * interpreted: NZ_SERIES_NATIVE_PER_NODE), or at once when cached.  A
+ * compile in the background is attached at a later begin, once ready. */
 static void dplan_series_native(nz_compiled *c, dplan *d, int N, const nz_series_ode2 *ode2)
 {
+  if (!d->ser_used) {
+    d->ser_used = 1;
+    c->series_used++;
+    if (d->ser) c->series_native++;
+  }
+  if (d->ser_compiling) {
+    /* a system call: not at every step */
+    if (c->native_mode == 1 || ++d->polls % 16 == 0) dplan_series_poll(c, d, c->native_mode == 1);
+    return;
+  }
   if (d->ser_tried || c->native_mode == 0) return;
   int nodes = nz_graph_plan_nodes(d->plan);
   d->ser_work += (double)nodes * N;
-  int compile = c->native_mode == 1 || d->ser_work >= NZ_SERIES_NATIVE_BASE + NZ_SERIES_NATIVE_PER_NODE * nodes;
+  int compile = c->native_mode == 1 ||
+                d->ser_work >= (NZ_SERIES_NATIVE_BASE + NZ_SERIES_NATIVE_PER_NODE * nodes) / NZ_NATIVE_START_FRACTION;
   /* the first call looks in the cache (generating and hashing the source
    * costs microseconds per node, once); later ones only count, until
-   * compiling pays */
+   * compiling is worth starting */
   if (!compile && d->ser_looked) return;
   d->ser_looked = 1;
-  char dir[1024], why[200];
-  if (!nz_native_cache_dir(dir, sizeof dir)) {
+  char dir[1024], why[300];
+  if (!cache_dir(c, dir, sizeof dir)) {
     d->ser_tried = 1;
     return;
   }
-  d->ser = nz_series_native_get(d->plan, ode2, dir, compile, why, sizeof why);
-  if (d->ser) {
-    nz_series_native_attach(d->ser, d->plan);
-    c->native_count++;
-    c->native_series++;
-    c->native_seconds += nz_series_native_seconds(d->ser);
-  } else if (compile)
-    snprintf(c->native_why, sizeof c->native_why, "%s", why);
-  d->ser_tried = d->ser || compile;
+  nz_series_native *s = nz_series_native_get(d->plan, ode2, dir, compile ? (c->native_mode == 1 ? 1 : 2) : 0, why,
+                                             sizeof why);
+  d->ser_tried = s || compile;
+  if (!s) {
+    if (compile || strcmp(why, "not in the cache")) snprintf(c->native_why, sizeof c->native_why, "%s", why);
+    return;
+  }
+  d->ser_compiling = s;
+  c->compiling++;
+  dplan_series_poll(c, d, c->native_mode == 1);   /* it may be loaded already */
 }
 
 /* Evaluate on doubles: natively when compiled (its refusal is confirmed by
  * the interpreter, which names the node), else interpreted. */
 static inline nz_status dplan_eval(nz_compiled *c, dplan *d, const double *in, double *out)
 {
-  if (!d->tried && (c->native_mode == 1 || (c->native_mode < 0 && d->work >= d->earn)))
-    dplan_compile(c, d);
-  if (d->native && nz_native_eval(d->native, in, out) == NZ_OK) return NZ_OK;
+  if (!d->native) {
+    if (!d->used) {
+      d->used = 1;
+      c->plans_used++;
+    }
+    if (d->compiling) {
+      if (++d->polls % 64 == 0) dplan_poll(c, d, 0);   /* a system call: not at every evaluation */
+    } else if (!d->tried && (c->native_mode == 1 || (c->native_mode < 0 && d->work >= d->start)))
+      dplan_compile(c, d, c->native_mode == 1);
+  }
+  if (d->native) {
+    if (!d->used) {
+      d->used = 1;
+      c->plans_used++;
+      c->plans_native++;
+    }
+    if (nz_native_eval(d->native, in, out) == NZ_OK) return NZ_OK;
+  }
   d->work += nz_graph_plan_nodes(d->plan);
   return nz_graph_eval(d->plan, in, out);
 }
+
+/* Every plan on doubles and every series evaluated so far runs as machine
+ * code (the evaluator of the steps from now on). */
+int nz_compiled_all_native(void *ctx)
+{
+  const nz_compiled *c = ctx;
+  if (c->native_mode == 0) return -1;
+  return c->plans_used == c->plans_native && c->series_used == c->series_native;
+}
+
+/* Wait for every compile under way. */
+void nz_compiled_native_wait(nz_compiled *c)
+{
+  dplan *all[3] = { c->mb_plan, c->acc_plan, NULL };
+  for (int i = 0; i < 2; i++)
+    if (all[i] && all[i]->compiling) dplan_poll(c, all[i], 1);
+  for (int r = 0; c->rows && r < 3 * c->nc; r++)
+    if (c->rows[r] && c->rows[r]->compiling) dplan_poll(c, c->rows[r], 1);
+  for (int i = 0; i < 2; i++)
+    if (all[i] && all[i]->ser_compiling) dplan_series_poll(c, all[i], 1);
+}
+
+int nz_compiled_native_compiling(const nz_compiled *c) { return c->compiling; }
+int nz_compiled_native_mode(const nz_compiled *c) { return c->native_mode; }
+double nz_compiled_native_waited(const nz_compiled *c) { return c->native_waited; }
 
 int nz_compiled_native_series(const nz_compiled *c) { return c->native_series; }
 

@@ -78,14 +78,17 @@ int nz_compiled_constraint_row(void *ctx, int r, int m, double t, const double *
                                int nstate, double alpha, double beta, double *A, double *value,
                                const double *slot_sizes, double *high);
 /* Machine code for the plans on doubles (M and h, constraint rows):
- * mode 1 compiles each at its first use, 0 never, -1 (the default, or the
- * environment's NZLUA_NATIVE=0/1) once interpreting the plan has cost about
- * what compiling it would: NZ_NATIVE_BASE + NZ_NATIVE_PER_NODE x its nodes
+ * mode 1 compiles each at its first use and waits for it, 0 never, -1 (the
+ * default, or the environment's NZLUA_NATIVE=0/1) in the background once
+ * interpreting the plan has cost a sixteenth (NZ_NATIVE_START_FRACTION) of
+ * what compiling it would, NZ_NATIVE_BASE + NZ_NATIVE_PER_NODE x its nodes
  * node evaluations (at ~3 ns each: 0.05 s + 0.25 ms per node, the measured
- * cost of compiling).  An object already in the cache (by the graph's hash)
- * is loaded at once, except in mode 0. */
+ * cost of compiling), switching to the object when it is ready.  An object
+ * already in the cache (by the graph's hash) is loaded at once, except in
+ * mode 0. */
 #define NZ_NATIVE_BASE 1.7e7
 #define NZ_NATIVE_PER_NODE 8e4
+#define NZ_NATIVE_START_FRACTION 16.0
 /* The same for the series of a plan (Taylor's method), counted in node
  * coefficients at ~4 ns each interpreted: compiling costs about 0.35 s for
  * a small plan (Henon-Heiles: its second-order ODE is written out order by
@@ -93,11 +96,22 @@ int nz_compiled_constraint_row(void *ctx, int r, int m, double t, const double *
 #define NZ_SERIES_NATIVE_BASE 1e8
 #define NZ_SERIES_NATIVE_PER_NODE 8e5
 void nz_compiled_set_native(nz_compiled *c, int mode);
+int nz_compiled_native_mode(const nz_compiled *c);
 /* Plans running natively; seconds spent compiling; why the last attempt
  * failed (NULL if none did). */
 int nz_compiled_native(const nz_compiled *c, double *seconds, const char **why);
 /* Of those, the series of plans (Taylor's method) running as machine code. */
 int nz_compiled_native_series(const nz_compiled *c);
+/* Compiles under way in the background; seconds runs waited for compiles
+ * (native on); wait for every compile under way (a Ctrl-C request stops
+ * the wait). */
+int nz_compiled_native_compiling(const nz_compiled *c);
+double nz_compiled_native_waited(const nz_compiled *c);
+void nz_compiled_native_wait(nz_compiled *c);
+/* The nz_system hook native_ready: 1 when every plan on doubles and every
+ * series evaluated so far runs as machine code, 0 when one is interpreted,
+ * -1 when machine code is off. */
+int nz_compiled_all_native(void *ctx);
 /* The Taylor coefficients of the free motion from (t0, q0, qd0): a[n k + i]
  * is coefficient n of q_i(t0 + tau), n = 0 .. p, from M q'' + h = 0 built
  * order by order on the plans of M and h (graph.h's series: coefficient n

@@ -25,6 +25,7 @@ struct nz_run {
   double t, h, tout, hfixed, nfixed;
   double *y, *ytry;               /* the state, and the copy a step works on */
   unsigned long nsteps;
+  long native_from;               /* the first step of machine code throughout (nz_run_native_from) */
   double window_t, advance;       /* stall detection */
   unsigned long window_left;      /* steps to the end of the window (nsteps % window == 0 there) */
   int cap, n;                     /* the output buffer: n of cap points */
@@ -404,6 +405,16 @@ static int locate_step(nz_run *r, const nz_system *s)
   return NZ_OK;
 }
 
+/* Before a step: does every plan the run has used run as machine code now
+ * (a compile in the background may have finished)?  Asked until it does. */
+static void native_check(nz_run *r, const nz_system *s)
+{
+  int v = s->native_ready ? s->native_ready(s->mass_bias_ctx) : -1;
+  if (v) r->native_from = v > 0 ? (long)r->nsteps + 1 : -1;
+}
+
+long nz_run_native_from(const nz_run *r) { return r->native_from; }
+
 static int fail(nz_run *r, nz_run_failure what, int st, int *status)
 {
   r->failure = what;
@@ -434,6 +445,7 @@ nz_run_status nz_run_advance(nz_run *r, const nz_system *s, unsigned long pause_
     while (r->phase != PH_STEP || r->t < r->tout) {
       if (r->phase == PH_STEP) {
         if (nz_interrupt_requested()) return NZ_RUN_INTERRUPTED;
+        if (r->native_from == 0) native_check(r, s);
         r->ta = r->t;
         if ((*status = r->exact ? exact_step(r, s) : r->c.dense ? dense_step(r, s) : one_step(r, s, r->tout)))
           return NZ_RUN_FAILED;

@@ -165,6 +165,12 @@ double nz_run_time(const nz_run *r);
 const double *nz_run_state(const nz_run *r);
 unsigned long nz_run_steps(const nz_run *r);
 double nz_run_stall_advance(const nz_run *r);
+/* Which evaluator ran the steps (nz_system's native_ready hook, asked
+ * before each step until it says yes): n >= 1 when every plan the run used
+ * ran as machine code from step n on (1: throughout), 0 when some stayed
+ * interpreted to the end, -1 when the system has no machine code (not
+ * recorded, or native = false). */
+long nz_run_native_from(const nz_run *r);
 
 /* The buffered output points, oldest first: t, the state y (dim values),
  * q'' and lambda (k + nc), and the root q^(p) of a top integrator (k values)
