@@ -115,6 +115,20 @@ describe("tr:residuals measures the motion", function()
     assert(rms[1] >= 100 * rms[2], ("RMS %.3g at rtol 1e-3, %.3g at 1e-6"):format(rms[1], rms[2]))
   end)
 
+  it("sys:report shows the defect of its run beside the forms' rounding", function()
+    local lines = {}
+    local saved = _G.print       -- report prints with the global print (busted gives a spec its own _ENV)
+    _G.print = function(...) lines[#lines + 1] = table.concat({ ... }, "\t") end
+    local ok, err = pcall(sys.report, sys, { q = { 2.5 }, simulate = { t1 = 5, dt = 0.01, method = "rkf45", rtol = 1e-3 },
+      plot = false })
+    _G.print = saved
+    assert(ok, err)
+    local out = table.concat(lines, "\n")
+    assert.truthy(out:find("at the solved accelerations (the forms agree)", 1, true), out)
+    local d = tonumber(out:match("defect of the motion %(tr:residuals%): max (%S+), above the floor"))
+    assert(d and d >= 0.05, out)
+  end)
+
   it("a run stopped by an event is measured up to its end", function()
     local tr = sys:simulate{ q0 = { 2.5 }, qd0 = { 0 }, t1 = 10, dt = 0.01, method = "rkf45", rtol = 1e-8,
       events = { { name = "down", f = function(t, q) return q[1] end, stop = true } } }
@@ -251,7 +265,7 @@ describe("the names and the errors", function()
     assert.truthy(err:find(want, 1, true), ("expected %q in: %s"):format(want, err))
   end
 
-  it("tr:residuals(0), tr:consistency(1.5): the error names the function called", function()
+  it("tr:residuals(0), tr:consistency(1.5): the error names the function called; too few points are named", function()
     fails("bad argument #1 to 'residuals' (n: an integer order from 1 to 100 expected, got 0)", function()
       return tr:residuals(0) end)
     fails("bad argument #1 to 'residuals' (n: an integer order from 1 to 100 expected, got the string \"2\")",
@@ -260,6 +274,9 @@ describe("the names and the errors", function()
       return tr:consistency(1.5) end)
     fails("bad argument #2 to 'residuals' (unknown option 'quite' (did you mean 'quiet'?)", function()
       return tr:residuals(1, { quite = true }) end)
+    fails("tr:residuals: the 3 points of this run are too few for the curve through them (8 in a run at least): "
+      .. "simulate with a smaller dt", function()
+      return sys:simulate{ q0 = { 2.5 }, t1 = 0.02, dt = 0.01 }:residuals() end)
     fails("bad argument #1 to 'residuals_of' (n: an integer order from 1 to 100 expected, got 0)", function()
       return sys:residuals_of{ t = { 0 }, q = { 0 }, n = 0 } end)
   end)

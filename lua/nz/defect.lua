@@ -352,12 +352,13 @@ function M.text(sys, result, source, last)
     ("floor: what the curve through the points adds (~dt^%s, and rounding ~eps/dt%s): a defect near it is set by "
       .. "the spacing dt of the points, not by the motion."):format(result.with_qd and "7" or "6",
       result.with_qd and "" or "^2"),
-    (result.skipped > 0 or result.dropped > 0) and ("Not measured: %d intervals in runs of fewer than %d points "
-      .. "(t did not increase between runs); %d points left out, closer than %g of the spacing to the one "
-      .. "before."):format(result.skipped, M.NODES, result.dropped, M.MIN_GAP) or nil,
+    result.skipped > 0 and ("Not measured: %d intervals in runs of fewer than %d points (a run ends where t "
+      .. "does not increase)."):format(result.skipped, M.NODES) or nil,
+    result.dropped > 0 and ("Left out: %d points closer than %g of the spacing to the one before."):format(
+      result.dropped, M.MIN_GAP) or nil,
     last,
   }
-  for i = 1, 6 do if words[i] then out[#out + 1] = fill(words[i]) end end
+  for i = 1, 7 do if words[i] then out[#out + 1] = fill(words[i]) end end
   return table.concat(out, "\n")
 end
 

@@ -409,7 +409,9 @@ one, e.g. help(sys.simulate):
   sys:report{q = [, qd, t, orders = {n, n + 1}, extremal = true, simulate =
              {...} | false, plot = {...} | false]}  a classroom summary:
                              the system, the rule, residuals of two orders at
-                             the state, a short integration and a plot;
+                             the state's solved accelerations (the forms
+                             agree), a short integration with the defect of
+                             its motion (tr:residuals) and a plot;
                              returns the trajectory and the rule's n (the
                              session does not print them again)
 The trajectory tr = sys:simulate{...}: tr.t[i], tr.q[i][j], tr.qd[i][j],

@@ -299,9 +299,14 @@ function Trajectory:residuals(n, opts)
   local sys, defect = self.system, require "nz.defect"
   n = check_order_options(sys, "residuals", n, opts)
   local result = defect.measure(sys, { t = self.t, q = self.q, qd = self.qd }, n)
+  if result.intervals == 0 then
+    error(("%str:residuals: the %d points of this run are too few for the curve through them (%d in a run "
+      .. "at least): simulate with a smaller dt"):format(require("nz.where").user_where(), #self.t, defect.NODES), 0)
+  end
   local run = self.step and ("fixed step %g"):format(self.step) or ("rtol %g"):format(self.rtol)
   local text = defect.text(sys, result, ("the %d points of its run (%s, %s)"):format(#self.t, self.method, run),
-    "It falls as rtol tightens. tr:consistency(n) checks instead that the forms agree with the run's own q''.")
+    (self.step and "It falls as the step shrinks (as h^p)." or "It falls as rtol tightens.")
+    .. " tr:consistency(n) checks instead that the forms agree with the run's own q''.")
   return defect.show(result, text, opts and opts.quiet)
 end
 
