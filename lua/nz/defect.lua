@@ -32,10 +32,12 @@
 -- integration's global error, give a defect e' - J e: the error the
 -- integration makes per unit time (the principal error function's source,
 -- Hairer-Norsett-Wanner II.8), about C h^p for a method of order p with
--- steps h (p = 4: 16 times smaller for half the step), and about rtol for
--- an adaptive pair that keeps each step's estimated error near rtol.  Not
--- the error accumulated: that is the defect carried by the motion's own
--- sensitivity.  The curves add their own error, ~dt^7 in V' and Q' and
+-- steps h (p = 4: 16 times smaller for half the step); for an adaptive
+-- pair that keeps each step's estimated error near rtol, between rtol^(p-1)/p
+-- and rtol (points read off a stepper's interpolant carry its q'' error:
+-- rkf45 measured rtol^0.7..0.8, README).  Not the error accumulated: that
+-- is the defect carried by the motion's own sensitivity (the variational
+-- equation).  The curves add their own error, ~dt^7 in V' and Q' and
 -- ~dt^6 in Q'' for points dt apart, and rounding, ~eps |v| / dt and ~eps
 -- |q| / dt^2: the floor, estimated here (the next Newton term through one
 -- more point; the data's rounding through the curve's weights) and
@@ -102,34 +104,21 @@ end
 local factorial = { [0] = 1 }
 for l = 1, 40 do factorial[l] = factorial[l - 1] * l end
 
--- The derivatives of the polynomial p at s, levels[l+1] = p^(l)(s) for
--- l = 0..L (exactly 0 beyond its degree), and, per coordinate, two bounds
--- on the error of level lf: the next Newton term (0 without the extra
--- point) and the rounding of the data carried to it (eps times the data's
--- sizes weighted by their weights in p^(lf)(s), which the divided
--- differences give when run backwards).
-local function derivatives(p, s, L, lf)
-  local z, n, top = p.z, #p.z, math.max(L, lf)
-  -- W[i][l+1]: coefficient of (x - s)^l in (x - z_1)...(x - z_i-1)
-  local W = { {} }
-  local w = W[1]
-  w[1] = 1
+-- The Newton basis of the nodes z (m of them, and the extra point when
+-- there is one) at s, W[i][l+1] = coefficient of (x - s)^l in
+-- (x - z_1)...(x - z_i-1), l = 0..top; and the weights g[i] of the data
+-- in the derivative of level lf at s (the divided differences run
+-- backwards), for the rounding bound.  One per sample: the positions and
+-- the velocities share their nodes.
+local function basis(z, m, s, top, lf)
+  local w = { 1 }
   for l = 2, top + 1 do w[l] = 0 end
-  for i = 2, n do
+  local W = { w }
+  for i = 2, #z do
     local nw, d = {}, s - z[i - 1]
     nw[1] = d * w[1]
     for l = 2, top + 1 do nw[l] = d * w[l] + w[l - 1] end
     W[i], w = nw, nw
-  end
-  local m, levels = p.m, {}
-  for l = 0, L do
-    local v = {}
-    for c = 1, p.k do
-      local sum, cc = 0, p.coef[c]
-      for i = l + 1, m do sum = sum + W[i][l + 1] * cc[i] end
-      v[c] = sum * factorial[l]
-    end
-    levels[l + 1] = v
   end
   local g = {}
   for i = 1, m do g[i] = factorial[lf] * W[i][lf + 1] end
@@ -138,6 +127,25 @@ local function derivatives(p, s, L, lf)
       local x = g[i] / (z[i] - z[i - j])
       g[i], g[i - 1] = x, g[i - 1] - x
     end
+  end
+  return { W = W, g = g, lf = lf }
+end
+
+-- The derivatives of the polynomial p at the point of basis b,
+-- levels[l+1] = p^(l)(s) for l = 0..L (exactly 0 beyond its degree), and,
+-- per coordinate, two bounds on the error of level b.lf: the next Newton
+-- term (0 without the extra point) and the data's rounding carried to it
+-- (eps times the data's sizes weighted by b.g).
+local function derivatives(p, b, L)
+  local W, g, lf, m, levels = b.W, b.g, b.lf, p.m, {}
+  for l = 0, L do
+    local v = {}
+    for c = 1, p.k do
+      local sum, cc = 0, p.coef[c]
+      for i = l + 1, m do sum = sum + W[i][l + 1] * cc[i] end
+      v[c] = sum * factorial[l]
+    end
+    levels[l + 1] = v
   end
   local trunc, round = {}, {}
   for c = 1, p.k do
@@ -148,7 +156,7 @@ local function derivatives(p, s, L, lf)
   end
   return levels, trunc, round
 end
-M.newton, M.derivatives = newton, derivatives
+M.newton, M.basis, M.derivatives = newton, basis, derivatives
 
 -- ------------------------------------------------------------------ --
 -- The defect along the points                                          --
@@ -232,12 +240,13 @@ function M.measure(sys, pts, n)
           local s = sub.t[a] + x * h
           local lev, trunc, round, Ql, Qt, Qr
           if with_qd then
-            Ql, Qt, Qr = derivatives(P, s, 1, 1)
+            local b = basis(P.z, P.m, s, math.max(L - 1, 1), 1)
+            Ql, Qt, Qr = derivatives(P, b, 1)
             local Vl
-            Vl, trunc, round = derivatives(V, s, L - 1, 1)
+            Vl, trunc, round = derivatives(V, b, L - 1)
             lev = { Ql[1], table.unpack(Vl) }
           else
-            lev, trunc, round = derivatives(P, s, L, 2)
+            lev, trunc, round = derivatives(P, basis(P.z, P.m, s, L, 2), L)
           end
           local higher = L >= 3 and { table.unpack(lev, 4, L + 1) } or nil
           local r = mech.residual(sys.engine, "generalized", n, s, lev[1], lev[2], lev[3], higher)
