@@ -271,12 +271,12 @@ describe("monitors and cost", function()
     assert(drift <= 1e-8, ("T + V - W drifted by %.3g"):format(drift))
     assert(change >= 1e-2, ("T + V changed by only %.3g"):format(change))
   end)
-  it("tr:residuals(n) along the trajectory, with multipliers", function()
+  it("tr:consistency(n): the forms of order n agree with the run's own q'' and multipliers", function()
     local case = cs.sleigh()
     local t, q, qd = case.draw()
     local tr = case.sys:simulate{ t0 = t, q0 = q, qd0 = qd, t1 = t + 2 }
     for _, n in ipairs{ 1, 2, 12 } do
-      local res = tr:residuals(n, { quiet = true })
+      local res = tr:consistency(n, { quiet = true })
       for _, r in ipairs(res) do assert(r.max <= 1e-12 * n, ("n = %d: %s max %.3g"):format(n, r.coordinate, r.max)) end
     end
   end)

@@ -298,9 +298,9 @@ describe("high orders along a trajectory", function()
   it("the equations of order 30 and 40 hold along a double pendulum's motion, as order 1 does", function()
     local sys = require("tests.mech_systems").double_pendulum(false).sys
     local tr = sys:simulate{ q0 = { 1.2, -0.5 }, qd0 = { 0.3, 0.8 }, t1 = 2, dt = 0.25 }
-    local r1 = tr:residuals(1, { quiet = true })
+    local r1 = tr:consistency(1, { quiet = true })
     for _, n in ipairs{ 30, 40 } do
-      local rn = tr:residuals(n, { quiet = true })
+      local rn = tr:consistency(n, { quiet = true })
       for j = 1, 2 do
         -- Normalized coefficients keep order 40 finite; the residual is a
         -- sum of O(n) rounded terms of size ~10: 1e-11 n.

@@ -212,7 +212,7 @@ describe("views typed at the prompt", function()
     local rc, out = h.run(h.nzlua .. " -i", setup_lines .. "r = otr:residuals(2)\nr\notr:residuals(2)\nprint('mark R')\n"
       .. "nz.workprecision(o, { q0 = {1}, t1 = 1, methods = {'rk8pd'}, tols = {1e-6} })\nprint('mark W')\n")
     assert.are.equal(0, rc)
-    local _, n = out:gsub("Residuals of the equations of order 2", "")
+    local _, n = out:gsub("Defect of the motion of 'unnamed'", "")
     assert.are.equal(3, n, out)     -- printed by the call, r typed, the bare call: once each
     assert.falsy(out:find("{{coordinate", 1, true), out)
     local wp = out:match("mark R(.-)mark W")

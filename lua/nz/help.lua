@@ -234,9 +234,21 @@ one, e.g. help(sys.simulate):
                              and whether H is a first integral: {holds,
                              reasons, ...}
   sys:equations(n, t, q, qd [, qdd] [, {quiet = true}])  print the terms of
-                             (3.1) per coordinate (qdd: the system's own by
-                             default); quiet: return the text and the
-                             residuals instead
+                             (3.1) per coordinate and the residual at qdd
+                             (e.g. measured accelerations).  Without qdd the
+                             system's own accelerations are used: the last
+                             column is then the rounding of that solve in
+                             the form of order n (the forms agree), not a
+                             check of a motion.  quiet: return the text and
+                             the residuals instead
+  sys:residuals_of{t = {...}, q = {{...}, ...} [, qd = {{...}, ...}] [, n =]
+        [, quiet = true]} or {csv = "file.csv"}  the defect of points that
+        did not come from nzlua (your integrator, a measurement), as
+        tr:residuals gives it: positions alone (curve through q at 8 points,
+        floor ~dt^6 and ~eps/dt^2) or with velocities.  csv: a header with t
+        and each coordinate (and name' for each velocity), as tr:csv writes.
+        t must increase; at least 8 points.  An integrator of order p shows
+        its defect falling by 2^p when its step is halved
   sys:graph_info()           the recording's figures: nodes, record_seconds,
                              mass_bias_nodes, functions compiled (recorded)
                              and interpreted, native_plans, native_series,
@@ -400,7 +412,9 @@ one, e.g. help(sys.simulate):
   sys:report{q = [, qd, t, orders = {n, n + 1}, extremal = true, simulate =
              {...} | false, plot = {...} | false]}  a classroom summary:
                              the system, the rule, residuals of two orders at
-                             the state, a short integration and a plot;
+                             the state's solved accelerations (the forms
+                             agree), a short integration with the defect of
+                             its motion (tr:residuals) and a plot;
                              returns the trajectory and the rule's n (the
                              session does not print them again)
 The trajectory tr = sys:simulate{...}: tr.t[i], tr.q[i][j], tr.qd[i][j],
@@ -422,11 +436,28 @@ help(tr.NAME) shows one method, e.g. help(tr.plot):
                              a file; returns its name), or without a file
                              the CSV text (the session shows it; a script
                              can io.write it)
-  tr:residuals([n] [, {quiet = true}])  residuals of the equations of order n
-                             along the motion, max and RMS per equation: a
-                             list {coordinate =, max =, rms =} that prints as
-                             the table (printed unless quiet; the session
-                             shows it once)
+  tr:residuals([n] [, {quiet = true}])  the defect of the motion: the
+                             equations of order n on the curve through the
+                             points (q and q' each through 8 points, degree
+                             7: no right-hand side enters), at 2 points in
+                             each interval; 0 only on an exact motion, it is
+                             the error made per unit time (~h^p for steps h
+                             of order p, ~rtol when adaptive), not the error
+                             accumulated.  Per equation {coordinate, max,
+                             t_max, rms, floor}; .kinematic: q' - dq/dt per
+                             coordinate; .constraints: Phi per constraint
+                             (multipliers by least squares at each point);
+                             .t, .dynamic, .phi: the values at each sample.
+                             floor: what the curve adds (~dt^7, rounding
+                             ~eps/dt); a defect near it is set by dt.  It
+                             prints as its table (printed unless quiet; the
+                             session shows it once)
+  tr:consistency([n] [, {quiet = true}])  the forms of order n at the run's
+                             own q'' and multipliers, max and RMS per
+                             equation: rounding by construction (the solver
+                             took q'' from the equations at the same
+                             points); it checks that the forms agree, not
+                             the motion
   tr:section{[when = "event name", plot = {"y", "y'"}, draw = false, file =]}
                              a Poincare section: the two quantities at each
                              crossing of the event (simulate with events =

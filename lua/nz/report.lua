@@ -1,6 +1,7 @@
 -- nz/report.lua - sys:report{...}: what a scene shows, in one call: the
 -- system, its constraints and Dolapchiev's choice of n with the reason, the
--- residuals of two orders at a state, a short integration and a plot.
+-- residuals of two orders at a state (the forms agree), a short
+-- integration with the defect of its motion, and a plot.
 local constraints = require "nz.constraints"
 
 local M = {}
@@ -26,7 +27,9 @@ function M.report(sys, opts)
   local orders = opts.orders or { n, n + 1 }
   for _, order in ipairs(orders) do
     local r = sys:residual(order, t, q, qd, qdd, sys.nc > 0 and lambda or nil)
-    print(("residual of order %d (%s) at the motion: max |r| = %.1e"):format(order,
+    -- qdd and lambda were solved from these equations: this shows that the
+    -- forms of each order agree (rounding), not how good a motion is
+    print(("residual of order %d (%s) at the solved accelerations (the forms agree): max |r| = %.1e"):format(order,
       require("nz.system").principle(order), max_abs(r)))
   end
   local tr
@@ -35,6 +38,14 @@ function M.report(sys, opts)
     for key, v in pairs(opts.simulate or {}) do s[key] = v end
     tr = sys:simulate(s)
     print(tostring(tr))
+    if #tr.t >= require("nz.defect").NODES then
+      -- the motion itself on the equations (nz/defect.lua): can fail, unlike the line above
+      local d, worst, floor = tr:residuals(n, { quiet = true }), 0, 0
+      for _, e in ipairs(d) do worst, floor = math.max(worst, e.max), math.max(floor, e.floor) end
+      print(("  defect of the motion (tr:residuals): max %.1e, %s of the curve through its points (%.1e)%s"):format(
+        worst, worst > 3 * floor and "above the floor" or "at the floor", floor,
+        worst > 3 * floor and "" or ": the spacing dt limits what is seen"))
+    end
     if opts.plot ~= false then
       local p = { width = 72, height = 18 }
       for key, v in pairs(opts.plot or {}) do p[key] = v end

@@ -237,6 +237,8 @@ local function check_order(fname, n)
   end
 end
 
+M.args.order = check_order
+
 -- A list of numbers (not an options table): multipliers.
 local function is_list(v) return type(v) == "table" and getmetatable(v) == nil and v[1] ~= nil end
 
@@ -386,6 +388,10 @@ end
 -- What a scene shows, in one call (lua/nz/report.lua).
 function System:report(opts) return require("nz.report").report(self, opts) end
 
+-- The defect of points from anywhere (a student's integrator, a lab's
+-- measurement): the equations on the curve through them (nz/defect.lua).
+function System:residuals_of(opts) return require("nz.defect").of(self, opts) end
+
 -- Integrate the motion (lua/nz/simulate.lua): returns a trajectory.
 function System:simulate(opts) return require("nz.simulate").simulate(self, opts) end
 -- The motion linearized about an equilibrium or a steady motion (nz/linearize.lua).
@@ -447,8 +453,12 @@ function M.table_text(rows, indent)
   return table.concat(out, "\n")
 end
 
--- The terms of (3.1) of order n at a state, per coordinate.  Without qdd,
--- the accelerations of the motion are used (the residual is then ~0).
+-- The terms of (3.1) of order n at a state, per coordinate, and the
+-- residual at the accelerations qdd.  Without qdd, the system's own
+-- accelerations (and multipliers) are used: the last column is then the
+-- rounding of that solve seen in the form of order n, which says that the
+-- forms agree and nothing about a motion, so it is headed and explained
+-- as such (tr:residuals and sys:residuals_of measure a motion).
 function System:equations(n, t, q, qd, qdd, opts)
   check_order("equations", n)
   check_state(self, "equations", 2, t, q, qd)
@@ -456,9 +466,9 @@ function System:equations(n, t, q, qd, qdd, opts)
   check_options("equations", 6, opts, EQUATIONS_OPTIONS)
   n = n or self:rule()
   local given = qdd ~= nil
-  qdd = qdd or self:accel(t, q, qd)
   local lambda
-  if self.nc > 0 and not given then qdd, lambda = self:accel(t, q, qd) end
+  if not given then qdd, lambda = self:accel(t, q, qd) end
+  if self.nc == 0 then lambda = nil end
   local r, terms = mech.residual(self.engine, "generalized", n, t, q, qd, qdd, nil, true)
   local reaction = {}
   for i = 1, self.k do reaction[i] = 0 end
@@ -467,16 +477,18 @@ function System:equations(n, t, q, qd, qdd, opts)
     for c = 1, self.nc do for i = 1, self.k do reaction[i] = reaction[i] + A[c][i] * lambda[c] end end
     for i = 1, self.k do r[i] = r[i] - reaction[i] end
   end
+  local last = given and "residual" or "rounding"
   local lines = {
     ("System '%s', order n = %d: %s"):format(self.name, n, M.principle(n)),
-    ("  (1/%d) (dT^(%d)/dq^(%d) - %d dT/dq) - Q = residual,  Q includes -dV/dq"):format(n, n, n, n + 1),
+    ("  (1/%d) (dT^(%d)/dq^(%d) - %d dT/dq) - Q%s = %s,  Q includes -dV/dq"):format(n, n, n, n + 1,
+      lambda and " - A^T lambda" or "", last),
     ("  at t = %s, q = %s, qd = %s, qdd = %s%s"):format(repl.number(t), vector_text(q), vector_text(qd),
       vector_text(qdd), given and "" or " (the system's accelerations)"),
     "",
   }
   local rows = { { "coordinate", ("dT^(%d)/dq^(%d)"):format(n, n), ("%d dT/dq"):format(n + 1), "Q" } }
   if lambda then rows[1][#rows[1] + 1] = "A^T lambda" end
-  rows[1][#rows[1] + 1] = "residual"
+  rows[1][#rows[1] + 1] = last
   for i = 1, self.k do
     local row = { self.coords[i], fmt(terms.dFn[i]), fmt((n + 1) * terms.dFq[i]), fmt(terms.force[i]) }
     if lambda then row[#row + 1] = fmt(reaction[i]) end
@@ -484,6 +496,13 @@ function System:equations(n, t, q, qd, qdd, opts)
     rows[#rows + 1] = row
   end
   lines[#lines + 1] = M.table_text(rows)
+  if not given then
+    lines[#lines + 1] = ("  %s solved from these equations: the last column is the"):format(
+      lambda and "qdd and lambda were" or "qdd was")
+    lines[#lines + 1] = "  rounding of that solve (the forms agree), not a check of a motion.  Give"
+    lines[#lines + 1] = "  qdd (measured, say) to see a residual; tr:residuals and sys:residuals_of"
+    lines[#lines + 1] = "  measure the defect of a motion."
+  end
   local text = table.concat(lines, "\n")
   if opts and opts.quiet then return text, r end
   print(text)

@@ -2,7 +2,7 @@
 -- grid (tr.t[i], tr.q[i][j], tr.qd[i][j], tr.qdd[i][j], tr.lambda[i][r]),
 -- what it cost (tr.stats), how it ended (tr.status), the constraint
 -- violation, and the monitors a scene asked for.  Methods: a summary
--- (tostring), column, csv, plot, residuals, section, animate.
+-- (tostring), column, csv, plot, residuals, consistency, section, animate.
 local core = require "nz.core"
 local plot = require "nz.plot"
 
@@ -284,11 +284,40 @@ end
 function Trajectory:section(opts) return require("nz.views").section(self, opts) end
 function Trajectory:animate(opts) return require("nz.views").animate(self, opts) end
 
--- Residuals of the generalized equations of order n (with the multipliers)
--- along the trajectory: max and RMS per equation; printed unless quiet.
+-- The order n (argument #1) and the options of tr:residuals and
+-- tr:consistency, named as the user called them.
+local function check_order_options(sys, fname, n, opts)
+  local args = require("nz.system").args
+  args.order(fname, n)
+  args.options(fname, 2, opts, { quiet = args.boolean })
+  return n or sys:rule()
+end
+
+-- The defect of the motion (nz/defect.lua): the equations of order n on
+-- the curve through the points' q and q', at points inside the intervals.
 function Trajectory:residuals(n, opts)
+  local sys, defect = self.system, require "nz.defect"
+  n = check_order_options(sys, "residuals", n, opts)
+  local result = defect.measure(sys, { t = self.t, q = self.q, qd = self.qd }, n)
+  if result.intervals == 0 then
+    error(("%str:residuals: the %d points of this run are too few for the curve through them (%d in a run "
+      .. "at least): simulate with a smaller dt"):format(require("nz.where").user_where(), #self.t, defect.NODES), 0)
+  end
+  local run = self.step and ("fixed step %g"):format(self.step) or ("rtol %g"):format(self.rtol)
+  local text = defect.text(sys, result, ("the %d points of its run (%s, %s)"):format(#self.t, self.method, run),
+    (self.step and "It falls as the step shrinks (as h^p)." or "It falls as rtol tightens.")
+    .. " tr:consistency(n) checks instead that the forms agree with the run's own q''.")
+  return defect.show(result, text, opts and opts.quiet)
+end
+
+-- The forms of order n at the trajectory's own q'' and multipliers, which
+-- the solver computed from the equations at the same points: rounding by
+-- construction, whatever the integration did.  It checks the engine (the
+-- equations of order n agree with the form the accelerations were solved
+-- from), not the motion: tr:residuals does that.  max and RMS per equation.
+function Trajectory:consistency(n, opts)
   local sys = self.system
-  n = n or sys:rule()
+  n = check_order_options(sys, "consistency", n, opts)
   local k, worst, sq = sys.k, {}, {}
   for j = 1, k do worst[j], sq[j] = 0, 0 end
   for i = 1, #self.t do
@@ -305,13 +334,16 @@ function Trajectory:residuals(n, opts)
     result[j] = { coordinate = self.coords[j], max = worst[j], rms = math.sqrt(sq[j] / math.max(#self.t, 1)) }
     rows[#rows + 1] = { self.coords[j], ("%.3e"):format(result[j].max), ("%.3e"):format(result[j].rms) }
   end
-  local text = ("Residuals of the equations of order %d along %d points of '%s':\n%s"):format(n, #self.t, sys.name,
-    require("nz.system").table_text(rows))
-  -- the list prints as its table (print(r) in a script, r typed at the prompt)
-  setmetatable(result, { __tostring = function() return text end })
-  if opts and opts.quiet then return result end
-  print(text)
-  return require("nz.repl").shown(result)      -- typed at the prompt: the table once
+  local text = table.concat({
+    ("Consistency of the forms of order %d with the run's own q''%s at %d points of '%s':"):format(n,
+      sys.nc > 0 and " and multipliers" or "", #self.t, sys.name),
+    require("nz.system").table_text(rows),
+    "The run's q'' came from the equations at these same points, so this is",
+    "rounding whatever the integration did: it checks that the equations of order",
+    ("%d agree with the form the accelerations were solved from, not the motion"):format(n),
+    "(tr:residuals(n) measures the motion).",
+  }, "\n")
+  return require("nz.defect").show(result, text, opts and opts.quiet)
 end
 
 -- tr.plot{...} (a dot) is named as such by every method (nz/where.lua).
