@@ -535,9 +535,10 @@ x = "nfev" or "steps" puts the right-hand-side evaluations or the steps on
 its x axis instead of the time (taylor is left out of "nfev": its
 evaluations are series).  quiet = true prints no table; simulate = {...}
 adds options to every run (not method, rtol, atol).  Returns the rows
-{method, tol, error, time, time_median, time_max, runs, nfev, steps,
-status, flag}, which print as the table (typed at the prompt: the table
-once); rows.study says how they were measured.  A bad option (an unknown
+{method, tol, error, time, time_median, time_max, runs, wall (the least
+wall time of the stepping alone), nfev, steps, status, flag}, which print
+as the table (typed at the prompt: the table once); rows.study says how
+they were measured.  A bad option (an unknown
 method, a tolerance <= 0, ...) is one error naming it.
 Defaults: methods rk4, rkf45, rkck, rk8pd, rk4imp, bsimp, msadams, msbdf,
 taylor (taylor runs free and constrained recorded systems; it is skipped, with

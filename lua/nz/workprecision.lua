@@ -33,12 +33,12 @@
 --     budget (the garbage of the runs before is not collected inside the
 --     next one).
 --  4. A run's time is the processor time of the call (os.clock: this
---     process only, the checks of sys:simulate and the trajectory's
---     assembly included, about 0.05-0.1 ms), not the wall time: on a
---     loaded machine a run longer than the scheduler's time slice shares
---     its core with other programs, which added up to 35 % to every run of
---     a point (Kepler, rk4 at 1e-9, load average 4 on 2 cores) and broke
---     the comparison of two studies.
+--     process only, so the time another program holds the core is not
+--     counted; the checks of sys:simulate and the trajectory's assembly
+--     are included, about 0.1-0.2 ms, since the clock is read around the
+--     call).  The least wall time of the stepping (tr.stats.wall) is kept
+--     in each row too: in four Kepler studies at load average 4 both
+--     minima moved alike, by at most 3 %.
 --  5. A point's time is the minimum of its runs, as DiffEqDevTools takes it
 --     (and BenchmarkTools: Chen & Revels, "Robust benchmarking in noisy
 --     environments", 2016): noise (interrupts, caches, page faults) only
@@ -276,6 +276,7 @@ local function time_points(points, budget, run)
     else
       p.tr = p.tr or tr
       p.times[#p.times + 1] = cpu
+      p.wall = math.min(p.wall or math.huge, tr.stats.wall)
     end
   end
 end
@@ -286,7 +287,7 @@ local function measured_row(p, reference)
   local r, tr = p.row, p.tr
   r.error, r.nfev, r.steps, r.status = max_error(tr, reference), tr.stats.nfev, tr.stats.steps, tr.status
   r.time, r.time_median, r.time_max = sorted_stats(p.times)
-  r.runs = #p.times
+  r.runs, r.wall = #p.times, p.wall      -- wall: the least wall time of the stepping (tr.stats.wall)
   -- the grid set the steps: a GSL stepper without dense output
   -- (msadams, msbdf, dense = false) stopped at about every output
   -- point, or the interpolant's error control made many points step
@@ -352,7 +353,7 @@ local function measure(sys, opts, methods, tols, budget, run)
     wait_for_compiles(sys)
     study.retimed, warm = true, native_state(sys)
     for _, p in ipairs(points) do
-      if p.tr then p.times, p.spent, p.active, p.tr = {}, 0, true, nil end
+      if p.tr then p.times, p.spent, p.active, p.tr, p.wall = {}, 0, true, nil, nil end
     end
     cut = time_points(points, budget, run)
     final = native_state(sys)
@@ -378,8 +379,8 @@ end
 --   budget = 0.2, x = "time" | "nfev" | "steps",
 --   plot = true | "file.svg", quiet = false, simulate = {extra options}})
 -- Returns the rows {method, tol, error, time (the minimum), time_median,
--- time_max, runs, nfev, steps, status, flag}; rows.study says how they
--- were measured.
+-- time_max, runs, wall, nfev, steps, status, flag}; rows.study says how
+-- they were measured.
 function M.run(sys, opts)
   check(sys, opts)
   local methods = opts.methods or M.defaults.methods
@@ -485,7 +486,7 @@ function M.table(rows)
       compiled_text(study))
     if study.retimed then text = text .. "; a plan compiled during the timed runs: every point was timed again" end
     if study.evaluator_changed then
-      text = text .. "\nwarning: the evaluator changed during the timed runs (a plan was compiled): the times mix two"
+      text = text .. "\nwarning: a plan was compiled during the timed runs, twice: the times mix two evaluators"
     end
   end
   if #flagged > 0 then
