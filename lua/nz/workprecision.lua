@@ -464,7 +464,7 @@ function M.table(rows)
       t[#t + 1] = { r.method, ("%g"):format(r.tol), "failed", "-", "-", "-", "-", "-", r.message or "" }
     elseif r.status == "interrupted" then
       t[#t + 1] = { r.method, ("%g"):format(r.tol), "interrupted", "-", "-", "-", "-", "-",
-        "stopped by Ctrl-C: the rows above were measured" }
+        "stopped by Ctrl-C: the other rows shown were measured" }
     else
       t[#t + 1] = { r.method, ("%g"):format(r.tol), ("%.2e"):format(r.error) .. (r.flag and " !" or ""),
         ("%.3g"):format(r.time), r.time_median and ("%.3g"):format(r.time_median) or "-",
@@ -480,7 +480,8 @@ function M.table(rows)
   if study then
     text = text .. ("\ntime: processor time of a run (this process only), the minimum of the runs (drawn), their "
       .. "median and maximum beside it; each point ran at least %d times and until it had spent %g s (budget), "
-      .. "its runs spread over the whole timing"):format(M.MIN_RUNS, study.budget)
+      .. "its runs spread over the whole timing%s"):format(M.MIN_RUNS, study.budget,
+        rows.interrupted and " (until Ctrl-C stopped the study: fewer runs where the table says so)" or "")
     text = text .. ("\nnot timed: %sa warm-up run per method (%.3g s in all%s)"):format(
       study.reference_run and "the reference run and " or "", study.untimed_seconds or 0,
       compiled_text(study))
