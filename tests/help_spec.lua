@@ -159,7 +159,7 @@ describe("nz.help", function()
     local sleigh = nz.system{ name = "sleigh", coords = { "x", "y", "th" },
       T = function(t, q, qd) return 0.5 * (qd[1] ^ 2 + qd[2] ^ 2) + 0.5 * 0.3 * qd[3] ^ 2 end,
       constraints = { function(t, q, qd) return -qd[1] * nz.sin(q[3]) + qd[2] * nz.cos(q[3]) end } }
-    local rows = nz.workprecision(sleigh, { q0 = { 0, 0, 0 }, qd0 = { 1, 0, 0.5 }, t1 = 1, methods = { "taylor" },
+    local rows = nz.workprecision(sleigh, { budget = 0.01, q0 = { 0, 0, 0 }, qd0 = { 1, 0, 0.5 }, t1 = 1, methods = { "taylor" },
       tols = { 1e-8 }, quiet = true })
     assert.are.equal("done", rows[1].status)
     local text = nz.help(nz.workprecision, { quiet = true }):gsub("%s+", " ")

@@ -210,7 +210,7 @@ describe("views typed at the prompt", function()
   end)
   it("tr:residuals and nz.workprecision: the table once, and their results print as that table", function()
     local rc, out = h.run(h.nzlua .. " -i", setup_lines .. "r = otr:residuals(2)\nr\notr:residuals(2)\nprint('mark R')\n"
-      .. "nz.workprecision(o, { q0 = {1}, t1 = 1, methods = {'rk8pd'}, tols = {1e-6} })\nprint('mark W')\n")
+      .. "nz.workprecision(o, { budget = 0.01, q0 = {1}, t1 = 1, methods = {'rk8pd'}, tols = {1e-6} })\nprint('mark W')\n")
     assert.are.equal(0, rc)
     local _, n = out:gsub("Defect of the motion of 'unnamed'", "")
     assert.are.equal(3, n, out)     -- printed by the call, r typed, the bare call: once each
@@ -220,7 +220,7 @@ describe("views typed at the prompt", function()
     assert.are.equal(1, m, wp)
     assert.falsy(wp:find("{{error", 1, true), wp)
     -- in a script, print(rows) is the same table
-    local rows = nz.workprecision(osc(), { q0 = { 1 }, t1 = 1, methods = { "rk8pd" }, tols = { 1e-6 }, quiet = true })
+    local rows = nz.workprecision(osc(), { budget = 0.01, q0 = { 1 }, t1 = 1, methods = { "rk8pd" }, tols = { 1e-6 }, quiet = true })
     assert.truthy(tostring(rows):find(require("nz.workprecision").table(rows), 1, true))
     assert.are.equal(1, #rows)
   end)
@@ -316,7 +316,7 @@ end)
 
 describe("nz.workprecision's table and diagram", function()
   it("ends with the cheapest method for each accuracy, and labels the diagram's points with their tolerances", function()
-    local rows = nz.workprecision(osc(), { q0 = { 1 }, t1 = 5, methods = { "rk4", "rk8pd" }, tols = { 1e-4, 1e-8 },
+    local rows = nz.workprecision(osc(), { budget = 0.01, q0 = { 1 }, t1 = 5, methods = { "rk4", "rk8pd" }, tols = { 1e-4, 1e-8 },
       reference = function(t) return { math.cos(t) } end, quiet = true })
     local text = require("nz.workprecision").table(rows)
     local line = text:match("cheapest for each accuracy: ([^\n]+)")

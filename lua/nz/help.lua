@@ -537,35 +537,55 @@ returns ok, text (typed at the prompt, the verdict shows once); options
 {states = 10, tol = 1e-8, seed = 4711, quiet = true (print nothing)}.  Write
 the equations with nz.sin etc.]] },
   { name = "workprecision", section = "mechanics",
-    usage = "nz.workprecision(sys, {q0 =, qd0 =, t1 =, dt =, methods =, tols =, reference =, plot =})",
+    usage = "nz.workprecision(sys, {q0 =, qd0 =, t1 =, dt =, methods =, tols =, reference =, budget =, x =, plot =})",
     summary = "what accuracy costs in time: error, time, evaluations per method and tolerance",
     text = [[
 Runs the same motion with each method at each tolerance (rtol = tol,
 atol = tol/100), measures the error (max over the output grid of
 |q - q_ref|) against reference = function(t) return {q1, ...} end when the
 scene has a closed form, or else against rk8pd at rtol 1e-13, and prints a
-table of error, wall time, right-hand-side evaluations and steps; "(grid)"
-marks the rows whose steps the output grid set (tr.stats.grid_why: the GSL
-steppers read their points off an interpolant, but msadams and msbdf, and any
-run with dense = false, stop at every output time, and a run whose
-interpolant missed the tolerance at many points made them step ends; a
-larger dt shows the method's own cost; taylor reads its points off the series
-and is never limited).  plot = true draws the work-precision diagram (log-log
-error against time, a line per method) in the terminal; plot = "file.svg"
-(or .png) writes it.  quiet = true prints no table; simulate = {...} adds
-options to every run.  Returns the rows {method, tol, error, time, nfev,
-steps, status}, which print as the table (typed at the prompt: the table
-once).
+table of error, time, right-hand-side evaluations and steps.
+How the time is measured: first, not timed, the reference run and one
+warm-up run per method, which build the plans the method uses and compile
+them to machine code (the study compiles every plan at its first use, as
+native = true does, then restores the system's setting; a system made with
+native = false runs interpreted throughout); the table says how long that
+took and the title which evaluator ran.  Then each point runs at least 3
+times and until it has spent budget = 0.2 seconds, the next run always the
+point that has spent least (each point's runs spread over the study).  A
+run's time is its processor time (os.clock: other programs on the machine
+add none); a point's time is the minimum of its runs (the machine only adds
+noise, so the minimum is the method's own cost), with the median and the
+maximum beside it.  "!" marks a row whose error is larger than at a looser
+tolerance of the same method (the error does not follow the tolerance
+there); the diagram draws those apart.  "(grid)" marks the rows whose steps
+the output grid set (tr.stats.grid_why: msadams and msbdf, and any run with
+dense = false, stop at every output time, and a run whose interpolant missed
+the tolerance at many points made them step ends; a larger dt shows the
+method's own cost; taylor reads its points off the series).  plot = true
+draws the work-precision diagram (log-log, error against the minimum time, a
+line per method) in the terminal; plot = "file.svg" (or .png) writes it;
+x = "nfev" or "steps" puts the right-hand-side evaluations or the steps on
+its x axis instead of the time (taylor is left out of "nfev": its
+evaluations are series).  quiet = true prints no table; simulate = {...}
+adds options to every run (not method, rtol, atol).  Returns the rows
+{method, tol, error, time, time_median, time_max, runs, wall (the least
+wall time of the stepping alone), nfev, steps, status, flag}, which print
+as the table (typed at the prompt: the table once); rows.study says how
+they were measured.  A bad option (an unknown
+method, a tolerance <= 0, ...) is one error naming it.
 Defaults: methods rk4, rkf45, rkck, rk8pd, rk4imp, bsimp, msadams, msbdf,
 taylor (taylor runs free and constrained recorded systems; it is skipped, with
 the reason, for constraints of order 3 or more, a system that is not
 recorded, the work monitor, or whatever else it cannot run);
 tols 1e-4, 1e-6, 1e-8, 1e-10; dt as simulate's (the output grid the error is
 measured on: with dense output it adds no steps).  The table ends with the
-cheapest method for each accuracy; the diagram labels each point with its
-tolerance and gives each method its own mark (A, B, C ... in the terminal,
-shown in the key; there a tolerance label is written only where it covers
-nothing and stays inside the frame: the table gives every tolerance).
+cheapest method for each accuracy, and the methods within the noise of it
+(the slower one's fastest run no slower than the faster one's median, or
+the two within 20 %); the diagram labels each point with its tolerance and
+gives each method its own mark (A, B, C ... in the terminal, shown in the
+key; there a tolerance label is written only where it covers nothing and
+stays inside the frame: the table gives every tolerance).
 Ctrl-C stops the study, keeps the rows done and marks the interrupted one
 ("stopped by Ctrl-C", once).]] },
   { name = "sweep", section = "mechanics",
