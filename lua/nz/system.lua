@@ -194,7 +194,6 @@ function M.system(def)
     constraint_levels = Clevels,
     params = def.params or {},
     sample = def.sample,
-    native = def.native,      -- machine code: true at first use, false never, nil once earned (nz.workprecision restores it)
     bodies = def.bodies,      -- kept for drawing (tr:animate)
     pieces = { T = #T, V = #V, Q = #Q, L = #L, S = #S },
   }, System)

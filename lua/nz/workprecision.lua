@@ -158,16 +158,15 @@ end
 -- The evaluator: machine code for every plan the study uses, unless the
 -- system said never (native = false, or NZLUA_NATIVE=0 in the environment,
 -- which sets the mode when the system is made).  Returns a function that
--- restores the system's own mode.
+-- restores the system's own mode (-1: in the background once a plan is
+-- used, 1: at first use, 0: never; graph_info's native_mode).
 local function one_evaluator(sys)
   local c = sys.recording and sys.engine.compiled
   if not c then return function() end end
-  local env = os.getenv("NZLUA_NATIVE")
-  local own = sys.native
-  if own == nil and (env == "0" or env == "1") then own = env == "1" end
-  if own == false then return function() end end
+  local own = c:info().native_mode
+  if own == 0 then return function() end end
   c:set_native(true)
-  return function() c:set_native(own) end     -- nil: compile once it has earned it
+  return function() c:set_native(own == 1 or nil) end
 end
 
 local function wait_for_compiles(sys)
@@ -179,7 +178,7 @@ local function native_state(sys)
   if not sys.recording then return nil end
   local info = sys:graph_info()
   return { plans = info.native_plans or 0, series = info.native_series or 0, seconds = info.native_seconds or 0,
-    why = info.native_why }
+    why = info.native_why, mode = sys.engine.compiled:info().native_mode }
 end
 
 -- What the timed runs ran on, in words.
@@ -187,8 +186,7 @@ local function evaluator_text(sys, state)
   if not state then return "Lua functions (the system is not recorded: compile = false)" end
   if state.plans == 0 then
     return "interpreted graphs" .. (state.why and (" (no machine code: " .. state.why .. ")")
-      or sys.native == false and " (the system was made with native = false)"
-      or os.getenv("NZLUA_NATIVE") == "0" and " (NZLUA_NATIVE=0)" or " (no plan was compiled)")
+      or state.mode == 0 and " (machine code off: native = false, or NZLUA_NATIVE=0)" or " (no plan was compiled)")
   end
   local what = ("machine code (%d plan%s%s)"):format(state.plans, state.plans == 1 and "" or "s",
     state.series > 0 and (", of them " .. state.series .. " series") or "")
