@@ -179,11 +179,13 @@ static uint64_t get64(const unsigned char *p)
   return v;
 }
 
-static int read_at(int fd, void *buf, size_t n, off_t at)
+/* All n bytes read (out = 0) or written (out = 1) at offset at, through
+ * interrupted calls; 0, or -1. */
+static int transfer(int fd, void *buf, size_t n, off_t at, int out)
 {
   unsigned char *p = buf;
   while (n) {
-    ssize_t k = pread(fd, p, n, at);
+    ssize_t k = out ? pwrite(fd, p, n, at) : pread(fd, p, n, at);
     if (k < 0 && errno == EINTR) continue;
     if (k <= 0) return -1;
     p += k;
@@ -193,19 +195,7 @@ static int read_at(int fd, void *buf, size_t n, off_t at)
   return 0;
 }
 
-static int write_at(int fd, const void *buf, size_t n, off_t at)
-{
-  const unsigned char *p = buf;
-  while (n) {
-    ssize_t k = pwrite(fd, p, n, at);
-    if (k < 0 && errno == EINTR) continue;
-    if (k <= 0) return -1;
-    p += k;
-    n -= (size_t)k;
-    at += k;
-  }
-  return 0;
-}
+static int read_at(int fd, void *buf, size_t n, off_t at) { return transfer(fd, buf, n, at, 0); }
 
 /* The checksum of the first n bytes: words folded in by a bijection of the
  * state each (xor, an odd multiplier, a shift-xor), so one damaged word
@@ -359,7 +349,7 @@ int nz_native_cache_seal(int fd, const char *key, char *why, size_t whylen)
     return -1;
   }
   put64(t + 32, h);
-  if (write_at(fd, t, sizeof t, st.st_size) || fchmod(fd, 0600) || fsync(fd)) {
+  if (transfer(fd, t, sizeof t, st.st_size, 1) || fchmod(fd, 0600) || fsync(fd)) {
     nz_native_say(why, whylen, "cannot write the object in the cache: %s", strerror(errno));
     return -1;
   }

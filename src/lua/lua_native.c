@@ -37,16 +37,13 @@ static int cache_info(lua_State *L)
   lua_createtable(L, 0, 8);
   lua_pushstring(L, dir);
   lua_setfield(L, -2, "dir");
-  lua_pushinteger(L, st.objects);
-  lua_setfield(L, -2, "objects");
-  lua_pushinteger(L, st.sources);
-  lua_setfield(L, -2, "sources");
-  lua_pushinteger(L, st.others);
-  lua_setfield(L, -2, "others");
-  lua_pushinteger(L, st.bytes);
-  lua_setfield(L, -2, "bytes");
-  lua_pushinteger(L, st.limit);
-  lua_setfield(L, -2, "limit");
+  const struct { const char *name; long long v; } counts[] = {
+    { "objects", st.objects }, { "sources", st.sources }, { "others", st.others }, { "bytes", st.bytes },
+    { "limit", st.limit } };
+  for (size_t i = 0; i < sizeof counts / sizeof counts[0]; i++) {
+    lua_pushinteger(L, (lua_Integer)counts[i].v);
+    lua_setfield(L, -2, counts[i].name);
+  }
   lua_pushboolean(L, st.trusted);
   lua_setfield(L, -2, "trusted");
   if (!st.trusted) {
