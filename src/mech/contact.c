@@ -1,0 +1,886 @@
+/* contact.c - unilateral contacts, impacts and Coulomb friction (see
+ * contact.h; the equations are docs/theory.md §13).
+ *
+ * Three solves, each a few lines of linear algebra on the system's M, h and
+ * constraint rows (mech.h, constrained.h):
+ *   the mode's saddle point (mode_solve), one QR with its condition per
+ *   right-hand side of the integrator;
+ *   the bilateral saddle point K = [M -A_b^T; A_b 0], factored once per
+ *   transition, whose solves give the response of the motion to a force
+ *   (respond) and the accelerations without any contact force (a0): the
+ *   columns of the LCPs (Delassus' operator J M^-1 J^T with the bilateral
+ *   constraints held);
+ *   the LCPs of the impact and of the new mode (lcp_*), by Lemke. */
+#include <float.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <gsl/gsl_errno.h>
+#include <gsl/gsl_linalg.h>
+#include "core/linalg.h"
+#include "mech/constrained.h"
+#include "mech/contact.h"
+
+struct nz_contacts {
+  int k, nc, nb, n;
+  int *orders;                 /* nc */
+  nz_contact_def *def;         /* n */
+  int *mode;                   /* n: nz_contact_state */
+  double zeno_speed, rcond_min;
+  /* the last transition: its time, and per contact bit 1 (a gap left open
+   * at zero) and bit 2 (a slip started at zero slip velocity) */
+  double entry_t;
+  int has_entry, *entry;
+  /* Zeno: the last three impacts of each contact, and its velocity scales */
+  double *ht, *hv, *vmax, *vtmax;
+  int *nh;
+  /* the frame at a state */
+  double *M, *h;               /* k k, k */
+  double *A, *b;               /* nc x k rows at the acceleration level, nc rests (q'' = 0) */
+  double *phi, *vn, *vt;       /* n each */
+  double *zero;                /* k zeros: q'' for the rows */
+  nz_motion mo;                /* value and rate of a constraint */
+  /* the mode's saddle point */
+  int *rows, *couple;
+  double *coef;                /* nc each */
+  double *S, *rhs, *x;         /* (k + nc)^2, k + nc, k + nc */
+  /* the last mode solve */
+  int cvalid;
+  double ct, *cy, *cqdd, *clam;   /* 2k, k, nc */
+  /* the bilateral saddle point, equilibrated (kscale: 1/max|M|, then 1/|A_r|) */
+  gsl_matrix *K;
+  gsl_vector *tau, *norm, *kwork, *kb, *kx;
+  gsl_permutation *perm;
+  double *kscale;              /* 1 + nb */
+  double *a0;                  /* k: q'' without contact forces */
+  /* the LCPs: up to 4n unknowns */
+  int *var_c, *var_kind, *var_at;   /* 4n; var_at: n x 4, the unknown of each kind (-1) */
+  double *resp, *F, *scr;      /* 4n x k responses, k force, 3k scratch */
+  double *L, *lq, *lz, *lw, *lwork;
+  int *touch, *sliding, *appr, *mode0;   /* n each */
+  double *e_eff;               /* n */
+  nz_contact_report_failure fail;
+  double *fq, *fqd;            /* k each */
+};
+
+/* ------------------------------------------------------------------ */
+/* Making and configuring                                               */
+
+void nz_contacts_free(nz_contacts *c)
+{
+  if (!c) return;
+  free(c->orders);
+  free(c->def);
+  free(c->mode);
+  free(c->ht);
+  free(c->M);
+  free(c->rows);
+  free(c->S);
+  free(c->cy);
+  free(c->var_c);
+  free(c->resp);
+  free(c->L);
+  free(c->touch);
+  free(c->kscale);
+  free(c->fq);
+  nz_motion_free(&c->mo);
+  if (c->K) gsl_matrix_free(c->K);
+  if (c->tau) gsl_vector_free(c->tau);
+  if (c->norm) gsl_vector_free(c->norm);
+  if (c->kwork) gsl_vector_free(c->kwork);
+  if (c->kb) gsl_vector_free(c->kb);
+  if (c->kx) gsl_vector_free(c->kx);
+  if (c->perm) gsl_permutation_free(c->perm);
+  free(c);
+}
+
+nz_contacts *nz_contacts_new(int k, const nz_contacts_config *cfg)
+{
+  int nc = cfg->nc, nb = cfg->nb, n = cfg->n;
+  if (k < 1 || n < 1 || nb < 0 || nb > nc || !cfg->orders || !cfg->defs) return NULL;
+  for (int r = 0; r < nb; r++)
+    if (cfg->orders[r] < 0 || cfg->orders[r] > 1) return NULL;
+  for (int j = 0; j < n; j++) {
+    const nz_contact_def *d = &cfg->defs[j];
+    if (d->gap < nb || d->gap >= nc || cfg->orders[d->gap] != 0) return NULL;
+    if (d->slip >= 0 && (d->slip < nb || d->slip >= nc || d->slip == d->gap || cfg->orders[d->slip] > 1)) return NULL;
+    if (!(d->e >= 0.0 && d->e <= 1.0) || !(d->mu >= 0.0) || !(d->mu_s >= d->mu) || !isfinite(d->mu_s)) return NULL;
+    if (d->slip < 0 && d->mu > 0.0) return NULL;
+  }
+  nz_contacts *c = calloc(1, sizeof *c);
+  if (!c) return NULL;
+  c->k = k, c->nc = nc, c->nb = nb, c->n = n;
+  c->zeno_speed = cfg->zeno_speed > 0.0 ? cfg->zeno_speed : NZ_CONTACT_ZENO_SPEED;
+  c->rcond_min = cfg->rcond_min > 0.0 ? cfg->rcond_min : NZ_RCOND_MIN;
+  size_t K = (size_t)k, C = (size_t)nc, N = (size_t)n, V = 4 * N, D = K + C, NK = K + (size_t)nb;
+  c->orders = malloc(C * sizeof(int));
+  c->def = malloc(N * sizeof *c->def);
+  c->mode = calloc(3 * N, sizeof(int));                 /* mode, entry, nh */
+  c->ht = calloc(12 * N, sizeof(double));               /* ht, hv (3n each), vmax, vtmax, phi, vn, vt, e_eff */
+  c->M = calloc(K * K + 3 * K + C * K + C, sizeof(double));   /* M, h, zero, a0, A, b */
+  c->rows = calloc(3 * C + 1, sizeof(int));             /* rows, couple (ints), coef below */
+  c->S = calloc(D * D + 2 * D + C + 1, sizeof(double)); /* S, rhs, x, coef */
+  c->cy = calloc(4 * K + C + 3 * K, sizeof(double));    /* cy, cqdd, clam, F, scr */
+  c->var_c = calloc(3 * V + 4 * N, sizeof(int));        /* var_c, var_kind, var_at, then touch.. below */
+  c->resp = calloc(V * K + 1, sizeof(double));
+  c->L = calloc(V * V + 3 * V + nz_lcp_work_len((int)V), sizeof(double));
+  c->touch = calloc(4 * N, sizeof(int));                /* touch, sliding, appr, mode0 */
+  c->kscale = calloc(1 + (size_t)nb + 1, sizeof(double));
+  c->fq = calloc(2 * K, sizeof(double));
+  c->K = gsl_matrix_alloc(NK, NK);
+  c->tau = gsl_vector_alloc(NK);
+  c->norm = gsl_vector_alloc(NK);
+  c->kwork = gsl_vector_alloc(3 * NK);
+  c->kb = gsl_vector_alloc(NK);
+  c->kx = gsl_vector_alloc(NK);
+  c->perm = gsl_permutation_alloc(NK);
+  if (!c->orders || !c->def || !c->mode || !c->ht || !c->M || !c->rows || !c->S || !c->cy || !c->var_c ||
+      !c->resp || !c->L || !c->touch || !c->kscale || !c->fq || !c->K || !c->tau || !c->norm || !c->kwork ||
+      !c->kb || !c->kx || !c->perm) {
+    nz_contacts_free(c);
+    return NULL;
+  }
+  memcpy(c->orders, cfg->orders, C * sizeof(int));
+  memcpy(c->def, cfg->defs, N * sizeof *c->def);
+  c->entry = c->mode + N;
+  c->nh = c->entry + N;
+  c->hv = c->ht + 3 * N;
+  c->vmax = c->hv + 3 * N;
+  c->vtmax = c->vmax + N;
+  c->phi = c->vtmax + N;
+  c->vn = c->phi + N;
+  c->vt = c->vn + N;
+  c->e_eff = c->vt + N;
+  c->h = c->M + K * K;
+  c->zero = c->h + K;
+  c->a0 = c->zero + K;
+  c->A = c->a0 + K;
+  c->b = c->A + C * K;
+  c->couple = c->rows + C;
+  c->rhs = c->S + D * D;
+  c->x = c->rhs + D;
+  c->coef = c->x + D;
+  c->cqdd = c->cy + 2 * K;
+  c->clam = c->cqdd + K;
+  c->F = c->clam + C;
+  c->scr = c->F + K;
+  c->var_kind = c->var_c + V;
+  c->var_at = c->var_kind + V;
+  c->lq = c->L + V * V;
+  c->lz = c->lq + V;
+  c->lw = c->lz + V;
+  c->lwork = c->lw + V;
+  c->sliding = c->touch + N;
+  c->appr = c->sliding + N;
+  c->mode0 = c->appr + N;
+  c->fail.q = c->fq;
+  c->fail.qd = c->fq + K;
+  gsl_set_error_handler_off();
+  return c;
+}
+
+int nz_contacts_count(const nz_contacts *c) { return c->n; }
+int nz_contacts_bilateral(const nz_contacts *c) { return c->nb; }
+int nz_contacts_nevents(const nz_contacts *c) { return 2 * c->n; }
+const nz_contact_report_failure *nz_contacts_failure(const nz_contacts *c) { return &c->fail; }
+
+void nz_contacts_get_mode(const nz_contacts *c, int *state) { memcpy(state, c->mode, (size_t)c->n * sizeof(int)); }
+
+static int allowed(const nz_contact_def *d, int st)
+{
+  if (st == NZ_CONTACT_OPEN) return 1;
+  if (st == NZ_CONTACT_CLOSED) return d->slip < 0;
+  return d->slip >= 0 && st <= NZ_CONTACT_SLIP_NEG;
+}
+
+int nz_contacts_set_mode(nz_contacts *c, const int *state)
+{
+  for (int j = 0; j < c->n; j++)
+    if (!allowed(&c->def[j], state[j])) return NZ_EARG;
+  memcpy(c->mode, state, (size_t)c->n * sizeof(int));
+  c->cvalid = 0;
+  c->has_entry = 0;
+  return NZ_OK;
+}
+
+void nz_contacts_reset(nz_contacts *c)
+{
+  size_t N = (size_t)c->n;
+  memset(c->nh, 0, N * sizeof(int));
+  memset(c->vmax, 0, N * sizeof(double));
+  memset(c->vtmax, 0, N * sizeof(double));
+  memset(c->entry, 0, N * sizeof(int));
+  c->has_entry = 0;
+  c->cvalid = 0;
+}
+
+static void fail_at(nz_contacts *c, nz_contact_failure kind, int status, int contact, double t, const double *q,
+                    const double *qd)
+{
+  c->fail.kind = kind;
+  c->fail.status = status;
+  c->fail.contact = contact;
+  c->fail.t = t;
+  memcpy(c->fq, q, (size_t)c->k * sizeof(double));
+  memcpy(c->fq + c->k, qd, (size_t)c->k * sizeof(double));
+}
+
+static void clear_failure(nz_contacts *c)
+{
+  c->fail.kind = NZ_CONTACT_OK;
+  c->fail.status = NZ_OK;
+  c->fail.contact = -1;
+  c->fail.value = c->fail.an = 0.0;
+}
+
+/* ------------------------------------------------------------------ */
+/* The system's quantities                                              */
+
+/* Constraint r and its first derivative along the motion at (t, q, q')
+ * (q'' = 0): the first two coefficients of its jet of order 1.  A gap's
+ * value and normal velocity; a slip function's value and, for one of
+ * order 0, the slip velocity. */
+static int value_rate(nz_contacts *c, const nz_system *s, int r, double t, const double *q, const double *qd,
+                      double out[2])
+{
+  const double *state[3] = { q, qd, c->zero };
+  int st = nz_motion_reset(&c->mo, c->k, nz_constraint_levels(s, r), 1, 0, t, state, 3);
+  if (!st) st = nz_motion_eval(s, NZ_PIECE_PHI, r, &c->mo, NULL);
+  if (!st) {
+    out[0] = c->mo.out[0]->c[0];
+    out[1] = c->mo.out[0]->c[1];
+  }
+  return st;
+}
+
+/* The slip velocity of contact j at (t, q, q'). */
+static int slip_velocity(nz_contacts *c, const nz_system *s, int j, double t, const double *q, const double *qd,
+                         double *vt)
+{
+  double v[2];
+  int r = c->def[j].slip, st = value_rate(c, s, r, t, q, qd, v);
+  if (!st) *vt = c->orders[r] == 1 ? v[0] : v[1];
+  return st;
+}
+
+/* Row r at the acceleration level into A[r], b[r]: A q'' + b = Phi^(2-m). */
+static int row(nz_contacts *c, const nz_system *s, int r, double t, const double *q, const double *qd)
+{
+  const double *state[3] = { q, qd, c->zero };
+  return nz_constraint_row(s, r, c->orders[r], t, state, 3, c->A + (size_t)r * (size_t)c->k, &c->b[r]);
+}
+
+static double dot(int k, const double *a, const double *b)
+{
+  double s = 0.0;
+  for (int i = 0; i < k; i++) s += a[i] * b[i];
+  return s;
+}
+
+static double abs_dot(int k, const double *a, const double *b)
+{
+  double s = 0.0;
+  for (int i = 0; i < k; i++) s += fabs(a[i] * b[i]);
+  return s;
+}
+
+static double max_abs(int k, const double *a)
+{
+  double m = 0.0;
+  for (int i = 0; i < k; i++) m = fmax(m, fabs(a[i]));
+  return m;
+}
+
+static const double *row_of(const nz_contacts *c, int r) { return c->A + (size_t)r * (size_t)c->k; }
+
+/* Everything a transition reads at (t, q, q'): M, h, the bilateral rows,
+ * and every contact's gap, normal velocity, slip velocity and rows. */
+static int frame(nz_contacts *c, const nz_system *s, double t, const double *q, const double *qd)
+{
+  int st = nz_mass_bias(s, t, q, qd, c->M, c->h);
+  for (int r = 0; r < c->nb && !st; r++) st = row(c, s, r, t, q, qd);
+  for (int j = 0; j < c->n && !st; j++) {
+    double v[2];
+    const nz_contact_def *d = &c->def[j];
+    if (!(st = value_rate(c, s, d->gap, t, q, qd, v)) && !(st = row(c, s, d->gap, t, q, qd))) {
+      c->phi[j] = v[0];
+      c->vn[j] = v[1];
+      c->vt[j] = 0.0;
+      if (d->slip >= 0 && !(st = slip_velocity(c, s, j, t, q, qd, &c->vt[j]))) st = row(c, s, d->slip, t, q, qd);
+    }
+  }
+  if (st) fail_at(c, NZ_CONTACT_EVAL, st, -1, t, q, qd);
+  return st;
+}
+
+/* ------------------------------------------------------------------ */
+/* The mode's saddle point                                              */
+
+int nz_contacts_active(const nz_contacts *c, int *rows, int *couple, double *coef)
+{
+  int na = 0;
+  for (int r = 0; r < c->nb; r++, na++) rows[na] = r, couple[na] = -1, coef[na] = 0.0;
+  for (int j = 0; j < c->n; j++) {
+    const nz_contact_def *d = &c->def[j];
+    switch (c->mode[j]) {
+    case NZ_CONTACT_OPEN: break;
+    case NZ_CONTACT_CLOSED: rows[na] = d->gap, couple[na] = -1, coef[na] = 0.0, na++; break;
+    case NZ_CONTACT_STICK:
+      rows[na] = d->gap, couple[na] = -1, coef[na] = 0.0, na++;
+      rows[na] = d->slip, couple[na] = -1, coef[na] = 0.0, na++;
+      break;
+    case NZ_CONTACT_SLIP_POS:
+    case NZ_CONTACT_SLIP_NEG:
+      /* the friction force -mu s lambda_n D^T rides on the normal one */
+      rows[na] = d->gap, couple[na] = d->slip;
+      coef[na] = (c->mode[j] == NZ_CONTACT_SLIP_POS ? -1.0 : 1.0) * d->mu;
+      na++;
+      break;
+    }
+  }
+  return na;
+}
+
+static int diagnose_singular(nz_contacts *c, const nz_system *s, double t, const double *q, const double *qd,
+                             double rcond);
+
+/* The gradient of the mode's row r vanished: the contact it belongs to. */
+static int contact_of_row(const nz_contacts *c, int r)
+{
+  for (int j = 0; j < c->n; j++)
+    if (c->def[j].gap == r || c->def[j].slip == r) return j;
+  return -1;
+}
+
+/* [M -W^T; R 0] [q''; lambda] = [-h; -b] for the mode, each block
+ * equilibrated (M by its largest entry, each row R_a by its own), solved by
+ * QR with its condition (core/linalg.h's nz_solve_square). */
+static int mode_solve(nz_contacts *c, const nz_system *s, double t, const double *q, const double *qd)
+{
+  int k = c->k, na = nz_contacts_active(c, c->rows, c->couple, c->coef), n2 = k + na;
+  int st = nz_mass_bias(s, t, q, qd, c->M, c->h);
+  for (int a = 0; a < na && !st; a++) {
+    st = row(c, s, c->rows[a], t, q, qd);
+    if (!st && c->couple[a] >= 0) st = row(c, s, c->couple[a], t, q, qd);
+  }
+  if (st) {
+    fail_at(c, NZ_CONTACT_EVAL, st, -1, t, q, qd);
+    return st;
+  }
+  double mmax = max_abs(k * k, c->M), sig[na > 0 ? na : 1];
+  if (!(mmax > 0.0)) mmax = 1.0;
+  double *S = c->S;
+  memset(S, 0, (size_t)n2 * (size_t)n2 * sizeof(double));
+  for (int i = 0; i < k; i++) {
+    for (int l = 0; l < k; l++) S[(size_t)i * n2 + l] = c->M[(size_t)i * k + l] / mmax;
+    c->rhs[i] = -c->h[i] / mmax;
+  }
+  for (int a = 0; a < na; a++) {
+    const double *R = row_of(c, c->rows[a]), *D = c->couple[a] >= 0 ? row_of(c, c->couple[a]) : NULL;
+    double rm = max_abs(k, R);
+    if (!(rm > 0.0)) {                 /* a gap (or a slip, a constraint) without a gradient here */
+      fail_at(c, NZ_CONTACT_GRADIENT, NZ_EARG, contact_of_row(c, c->rows[a]), t, q, qd);
+      return NZ_EARG;
+    }
+    sig[a] = 1.0 / rm;
+    for (int i = 0; i < k; i++) {
+      double f = R[i] + (D ? c->coef[a] * D[i] : 0.0);
+      S[(size_t)i * n2 + k + a] = -f * sig[a];
+      S[(size_t)(k + a) * n2 + i] = R[i] * sig[a];
+    }
+    c->rhs[k + a] = -c->b[c->rows[a]] * sig[a];
+  }
+  double rcond = 0.0;
+  if ((st = nz_solve_square(n2, S, c->rhs, c->x, c->rcond_min, &rcond))) {
+    fail_at(c, NZ_CONTACT_EVAL, st, -1, t, q, qd);
+    return st;
+  }
+  int finite = 1;
+  for (int i = 0; i < n2; i++) finite &= isfinite(c->x[i]) != 0;
+  if (!(rcond >= c->rcond_min) || !finite) return diagnose_singular(c, s, t, q, qd, rcond);
+  memcpy(c->cqdd, c->x, (size_t)k * sizeof(double));
+  memset(c->clam, 0, (size_t)c->nc * sizeof(double));
+  for (int a = 0; a < na; a++) {
+    double lam = c->x[k + a] * sig[a] * mmax;
+    c->clam[c->rows[a]] = lam;
+    if (c->couple[a] >= 0) c->clam[c->couple[a]] = c->coef[a] * lam;
+  }
+  c->ct = t;
+  memcpy(c->cy, q, (size_t)k * sizeof(double));
+  memcpy(c->cy + k, qd, (size_t)k * sizeof(double));
+  c->cvalid = 1;
+  return NZ_OK;
+}
+
+static int cached(const nz_contacts *c, double t, const double *q, const double *qd)
+{
+  size_t kb = (size_t)c->k * sizeof(double);
+  return c->cvalid && c->ct == t && !memcmp(c->cy, q, kb) && !memcmp(c->cy + c->k, qd, kb);
+}
+
+int nz_contacts_accel(nz_contacts *c, const nz_system *s, double t, const double *q, const double *qd,
+                      double *qdd, double *lambda)
+{
+  if (!cached(c, t, q, qd)) {
+    int st = mode_solve(c, s, t, q, qd);
+    if (st) return st;
+  }
+  clear_failure(c);
+  if (qdd) memcpy(qdd, c->cqdd, (size_t)c->k * sizeof(double));
+  if (lambda) memcpy(lambda, c->clam, (size_t)c->nc * sizeof(double));
+  return NZ_OK;
+}
+
+/* ------------------------------------------------------------------ */
+/* Events                                                               */
+
+int nz_contacts_event(nz_contacts *c, const nz_system *s, int e, double t, const double *y, double *g)
+{
+  int j = e / 2, friction = e % 2, k = c->k, st;
+  if (e < 0 || j >= c->n) return NZ_EARG;
+  const nz_contact_def *d = &c->def[j];
+  const double *q = y, *qd = y + k;
+  int state = c->mode[j], entering = c->has_entry && t == c->entry_t;
+  if (!friction) {
+    if (state == NZ_CONTACT_OPEN) {
+      double v[2];
+      if ((st = value_rate(c, s, d->gap, t, q, qd, v))) return st;
+      /* a gap left open at zero starts on the positive side */
+      *g = entering && (c->entry[j] & 1) ? fabs(v[0]) + DBL_MIN : v[0];
+      return NZ_OK;
+    }
+    if ((st = nz_contacts_accel(c, s, t, q, qd, NULL, NULL))) return st;
+    *g = c->clam[d->gap];
+    return NZ_OK;
+  }
+  if (d->slip < 0 || state == NZ_CONTACT_OPEN || state == NZ_CONTACT_CLOSED) {
+    *g = 1.0;
+    return NZ_OK;
+  }
+  if (state == NZ_CONTACT_STICK) {
+    if ((st = nz_contacts_accel(c, s, t, q, qd, NULL, NULL))) return st;
+    *g = d->mu_s * c->clam[d->gap] - fabs(c->clam[d->slip]);
+    return NZ_OK;
+  }
+  double vt;
+  if ((st = slip_velocity(c, s, j, t, q, qd, &vt))) return st;
+  double v = state == NZ_CONTACT_SLIP_POS ? vt : -vt;
+  *g = entering && (c->entry[j] & 2) ? fabs(v) + DBL_MIN : v;
+  return NZ_OK;
+}
+
+int nz_contacts_kinematics(nz_contacts *c, const nz_system *s, double t, const double *q, const double *qd,
+                           double *out)
+{
+  for (int j = 0; j < c->n; j++) {
+    double v[2];
+    int st = value_rate(c, s, c->def[j].gap, t, q, qd, v);
+    out[3 * j + 2] = 0.0;
+    if (!st && c->def[j].slip >= 0) st = slip_velocity(c, s, j, t, q, qd, &out[3 * j + 2]);
+    if (st) {
+      fail_at(c, NZ_CONTACT_EVAL, st, j, t, q, qd);
+      return st;
+    }
+    out[3 * j] = v[0];
+    out[3 * j + 1] = v[1];
+  }
+  clear_failure(c);
+  return NZ_OK;
+}
+
+/* ------------------------------------------------------------------ */
+/* The bilateral saddle point and the response to a force               */
+
+/* K = [M -A_b^T; A_b 0], equilibrated, by pivoted QR; its condition. */
+static int factor_bilateral(nz_contacts *c, double t, const double *q, const double *qd)
+{
+  int k = c->k, nb = c->nb, nk = k + nb;
+  double mmax = max_abs(k * k, c->M);
+  if (!(mmax > 0.0)) mmax = 1.0;
+  c->kscale[0] = 1.0 / mmax;
+  gsl_matrix *K = c->K;                  /* (nk x nk, as allocated) */
+  (void)nk;
+  gsl_matrix_set_zero(K);
+  for (int i = 0; i < k; i++)
+    for (int l = 0; l < k; l++) gsl_matrix_set(K, (size_t)i, (size_t)l, c->M[(size_t)i * k + l] / mmax);
+  for (int r = 0; r < nb; r++) {
+    const double *A = row_of(c, r);
+    double am = max_abs(k, A), sig = am > 0.0 ? 1.0 / am : 1.0;
+    c->kscale[1 + r] = sig;
+    for (int i = 0; i < k; i++) {
+      gsl_matrix_set(K, (size_t)i, (size_t)(k + r), -A[i] * sig);
+      gsl_matrix_set(K, (size_t)(k + r), (size_t)i, A[i] * sig);
+    }
+  }
+  int signum;
+  double rcond = 0.0;
+  if (gsl_linalg_QRPT_decomp(K, c->tau, c->perm, &signum, c->norm) != GSL_SUCCESS ||
+      gsl_linalg_QRPT_rcond(K, &rcond, c->kwork) != GSL_SUCCESS || !(rcond >= c->rcond_min)) {
+    fail_at(c, NZ_CONTACT_SINGULAR, NZ_ESINGULAR, -1, t, q, qd);
+    c->fail.value = rcond;
+    return NZ_ESINGULAR;
+  }
+  return NZ_OK;
+}
+
+/* x (k): the first k entries of K^-1 [f; g] for a force f (k) and the
+ * bilateral rows' right-hand side g (nb, NULL: 0). */
+static void solve_bilateral(nz_contacts *c, const double *f, const double *g, double *x)
+{
+  int k = c->k, nb = c->nb;
+  for (int i = 0; i < k; i++) gsl_vector_set(c->kb, (size_t)i, f[i] * c->kscale[0]);
+  for (int r = 0; r < nb; r++) gsl_vector_set(c->kb, (size_t)(k + r), g ? g[r] * c->kscale[1 + r] : 0.0);
+  gsl_linalg_QRPT_solve(c->K, c->tau, c->perm, c->kb, c->kx);
+  for (int i = 0; i < k; i++) x[i] = gsl_vector_get(c->kx, (size_t)i);
+}
+
+/* a0: the accelerations under the bilateral constraints alone. */
+static void free_accel(nz_contacts *c)
+{
+  int k = c->k;
+  double *f = c->scr;
+  for (int i = 0; i < k; i++) f[i] = -c->h[i];
+  for (int r = 0; r < c->nb; r++) c->rhs[r] = -c->b[r];   /* (rhs: free between mode solves) */
+  solve_bilateral(c, f, c->rhs, c->a0);
+}
+
+/* A sliding contact's normal effective mass J M^-1 W^T relative to the
+ * frictionless J M^-1 J^T (both with the bilateral constraints held), from
+ * the factored K. */
+static double effective_mass(nz_contacts *c, int j, int sign)
+{
+  int k = c->k;
+  const double *J = row_of(c, c->def[j].gap), *D = row_of(c, c->def[j].slip);
+  double *W = c->F, *rw = c->scr, *rj = c->scr + k;
+  for (int i = 0; i < k; i++) W[i] = J[i] - sign * c->def[j].mu * D[i];
+  solve_bilateral(c, W, NULL, rw);
+  solve_bilateral(c, J, NULL, rj);
+  double ref = dot(k, J, rj);
+  return ref > 0.0 ? dot(k, J, rw) / ref : dot(k, J, rw);
+}
+
+static int slip_sign(int state) { return state == NZ_CONTACT_SLIP_POS ? 1 : state == NZ_CONTACT_SLIP_NEG ? -1 : 0; }
+
+/* The mode's matrix was singular: Painleve's paradox when a sliding contact
+ * has lost its effective mass, else dependent contacts or constraints. */
+static int diagnose_singular(nz_contacts *c, const nz_system *s, double t, const double *q, const double *qd,
+                             double rcond)
+{
+  fail_at(c, NZ_CONTACT_SINGULAR, NZ_ESINGULAR, -1, t, q, qd);
+  c->fail.value = rcond;
+  if (frame(c, s, t, q, qd) || factor_bilateral(c, t, q, qd)) {
+    fail_at(c, NZ_CONTACT_SINGULAR, NZ_ESINGULAR, -1, t, q, qd);
+    c->fail.value = rcond;
+    return NZ_ESINGULAR;
+  }
+  free_accel(c);
+  int worst = -1;
+  double wm = INFINITY;
+  for (int j = 0; j < c->n; j++) {
+    int sg = slip_sign(c->mode[j]);
+    if (!sg) continue;
+    double m = effective_mass(c, j, sg);
+    if (m < wm) wm = m, worst = j;
+  }
+  if (worst >= 0 && wm <= 1e-6) {
+    fail_at(c, NZ_CONTACT_PAINLEVE, NZ_ESINGULAR, worst, t, q, qd);
+    c->fail.value = wm;
+    c->fail.an = dot(c->k, row_of(c, c->def[worst].gap), c->a0) + c->b[c->def[worst].gap];
+    return NZ_ESINGULAR;
+  }
+  fail_at(c, NZ_CONTACT_SINGULAR, NZ_ESINGULAR, -1, t, q, qd);
+  c->fail.value = rcond;
+  return NZ_ESINGULAR;
+}
+
+/* ------------------------------------------------------------------ */
+/* The LCPs                                                             */
+
+enum { VAR_N, VAR_TPOS, VAR_TNEG, VAR_SIGMA };
+
+/* The unknowns for the contacts in set[] (touching and taking part): a
+ * normal one each, and with friction where cone[j] the three of the planar
+ * cone (beta+, beta-, sigma).  Returns their number. */
+static int lcp_unknowns(nz_contacts *c, const int *set, const int *cone)
+{
+  int nv = 0;
+  for (int j = 0; j < c->n; j++) {
+    int *at = c->var_at + 4 * j;
+    at[0] = at[1] = at[2] = at[3] = -1;
+    if (!set[j]) continue;
+    c->var_c[nv] = j, c->var_kind[nv] = VAR_N, at[VAR_N] = nv++;
+    if (c->def[j].slip >= 0 && cone[j])
+      for (int kind = VAR_TPOS; kind <= VAR_SIGMA; kind++) c->var_c[nv] = j, c->var_kind[nv] = kind, at[kind] = nv++;
+  }
+  return nv;
+}
+
+/* Each unknown's response of q'' (or q') to a unit of it: K^-1 of its
+ * force, J (or W for a sliding contact at the acceleration level), +D, -D,
+ * none. */
+static void lcp_responses(nz_contacts *c, int nv)
+{
+  int k = c->k;
+  for (int v = 0; v < nv; v++) {
+    int j = c->var_c[v], kind = c->var_kind[v];
+    double *r = c->resp + (size_t)v * (size_t)k;
+    if (kind == VAR_SIGMA) {
+      memset(r, 0, (size_t)k * sizeof(double));
+      continue;
+    }
+    const double *J = row_of(c, c->def[j].gap), *D = c->def[j].slip >= 0 ? row_of(c, c->def[j].slip) : NULL;
+    int sg = kind == VAR_N ? (c->sliding[j]) : 0;
+    for (int i = 0; i < k; i++)
+      c->F[i] = kind == VAR_N ? J[i] - (sg ? sg * c->def[j].mu * D[i] : 0.0) : kind == VAR_TPOS ? D[i] : -D[i];
+    solve_bilateral(c, c->F, NULL, r);
+  }
+}
+
+/* The LCP's matrix and vector: row v is the complement of unknown v,
+ * base_n[j] and base_t[j] the normal and tangential rows without forces
+ * (velocities, or accelerations), mu[j] the cone's coefficient. */
+static void lcp_assemble(nz_contacts *c, int nv, const double *base_n, const double *base_t, const double *mu)
+{
+  int k = c->k;
+  for (int v = 0; v < nv; v++) {
+    int j = c->var_c[v], kind = c->var_kind[v], *at = c->var_at + 4 * j;
+    double *Lr = c->L + (size_t)v * (size_t)nv;
+    const double *J = row_of(c, c->def[j].gap), *D = c->def[j].slip >= 0 ? row_of(c, c->def[j].slip) : NULL;
+    memset(Lr, 0, (size_t)nv * sizeof(double));
+    switch (kind) {
+    case VAR_N:
+      c->lq[v] = base_n[j];
+      for (int u = 0; u < nv; u++) Lr[u] = dot(k, J, c->resp + (size_t)u * k);
+      break;
+    case VAR_TPOS:
+    case VAR_TNEG: {
+      double sg = kind == VAR_TPOS ? 1.0 : -1.0;
+      c->lq[v] = sg * base_t[j];
+      for (int u = 0; u < nv; u++) Lr[u] = sg * dot(k, D, c->resp + (size_t)u * k);
+      Lr[at[VAR_SIGMA]] += 1.0;
+      break;
+    }
+    case VAR_SIGMA:
+      c->lq[v] = 0.0;
+      Lr[at[VAR_N]] = mu[j];
+      Lr[at[VAR_TPOS]] = -1.0;
+      Lr[at[VAR_TNEG]] = -1.0;
+      break;
+    }
+  }
+}
+
+static int lcp_run(nz_contacts *c, int nv, nz_contact_report *rep)
+{
+  nz_lcp_info info;
+  int st = nz_lcp_solve(nv, c->L, c->lq, c->lz, c->lw, c->lwork, &info);
+  if (rep) rep->lcp = info;
+  return st;
+}
+
+static double zval(const nz_contacts *c, int j, int kind)
+{
+  int v = c->var_at[4 * j + kind];
+  return v >= 0 ? c->lz[v] : 0.0;
+}
+
+/* ------------------------------------------------------------------ */
+/* The transition                                                       */
+
+/* Zeno: contact j closes at t with approach speed v.  Its last three
+ * impacts and this one give two ratios of intervals; shrinking alike
+ * (within 5 %) and slow against its fastest impact, the sequence would
+ * accumulate at t + dt r / (1 - r): the impact is made plastic. */
+static int zeno(nz_contacts *c, int j, double t, double v, double *tinf)
+{
+  double *ht = c->ht + 3 * j, *hv = c->hv + 3 * j;
+  int n = c->nh[j], hit = 0;
+  if (n >= 3) {
+    double d1 = ht[1] - ht[0], d2 = ht[2] - ht[1], d3 = t - ht[2];
+    double r1 = d1 > 0.0 ? d2 / d1 : 2.0, r2 = d2 > 0.0 ? d3 / d2 : 2.0;
+    if (r1 > 0.0 && r1 < 1.0 && r2 > 0.0 && r2 < 1.0 && fabs(r2 - r1) <= 0.05 * r2 && v <= c->zeno_speed * c->vmax[j]) {
+      hit = 1;
+      *tinf = t + d3 * r2 / (1.0 - r2);
+    }
+  }
+  if (n == 3) {
+    ht[0] = ht[1], ht[1] = ht[2], hv[0] = hv[1], hv[1] = hv[2];
+    n = 2;
+  }
+  ht[n] = t, hv[n] = v;
+  c->nh[j] = n + 1;
+  return hit;
+}
+
+static int in_mode(int state) { return state != NZ_CONTACT_OPEN; }
+
+int nz_contacts_transition(nz_contacts *c, const nz_system *s, double t, const double *q, double *qd,
+                           int trigger, nz_contact_report *rep)
+{
+  int k = c->k, n = c->n, st;
+  clear_failure(c);
+  nz_contact_report local;
+  if (!rep) rep = &local, memset(rep, 0, sizeof local);
+  rep->impact = rep->changed = 0;
+  rep->zeno_contact = -1;
+  rep->zeno_time = 0.0;
+  memset(&rep->lcp, 0, sizeof rep->lcp);
+  memcpy(c->mode0, c->mode, (size_t)n * sizeof(int));
+  int tj = trigger >= 0 ? trigger / 2 : -1, tfric = trigger >= 0 ? trigger % 2 : 0;
+  if ((st = frame(c, s, t, q, qd))) return st;
+  double tscale = NZ_CONTACT_TOUCH_TIME * fmax(1.0, fabs(t));
+  double base_n[n], base_t[n], mu[n];
+  for (int j = 0; j < n; j++) {
+    const double *J = row_of(c, c->def[j].gap);
+    double tol = tscale * fmax(0.0, -c->vn[j]) + NZ_CONTACT_ROUND * abs_dot(k, J, q);
+    c->touch[j] = in_mode(c->mode[j]) || c->phi[j] <= tol || (j == tj && !tfric);
+    if (!c->touch[j]) continue;
+    if (!(max_abs(k, J) > 0.0)) {
+      fail_at(c, NZ_CONTACT_GRADIENT, NZ_EARG, j, t, q, qd);
+      return NZ_EARG;
+    }
+    c->vmax[j] = fmax(c->vmax[j], fabs(c->vn[j]));
+    if (c->def[j].slip >= 0) c->vtmax[j] = fmax(c->vtmax[j], fabs(c->vt[j]));
+  }
+  if ((st = factor_bilateral(c, t, q, qd))) return st;
+  /* the impact: every touching contact at once, the approaching ones with
+   * Newton's law (plastic where Zeno says so) */
+  int nappr = 0;
+  for (int j = 0; j < n; j++) {
+    const double *J = row_of(c, c->def[j].gap);
+    double tol = NZ_CONTACT_REST * c->vmax[j] + NZ_CONTACT_ROUND * (abs_dot(k, J, qd) + fabs(c->vn[j] - dot(k, J, qd)));
+    c->appr[j] = c->touch[j] && c->vn[j] < -tol;
+    c->e_eff[j] = c->def[j].e;
+    c->sliding[j] = 0;
+    if (rep->c) {
+      memset(&rep->c[j], 0, sizeof rep->c[j]);
+      rep->c[j].from = c->mode0[j];
+      rep->c[j].gap = c->phi[j];
+      rep->c[j].vn_before = c->vn[j];
+      rep->c[j].vt_before = c->vt[j];
+    }
+    if (!c->appr[j]) continue;
+    nappr++;
+    double tinf;
+    if (zeno(c, j, t, -c->vn[j], &tinf)) {
+      c->e_eff[j] = 0.0;
+      rep->zeno_contact = j;
+      rep->zeno_time = tinf;
+      if (rep->c) rep->c[j].zeno = 1;
+    }
+    if (rep->c) rep->c[j].impact = 1;
+  }
+  if (nappr) {
+    int cone[n];
+    for (int j = 0; j < n; j++) {
+      cone[j] = 1;
+      base_n[j] = c->vn[j] + (c->appr[j] ? c->e_eff[j] * c->vn[j] : 0.0);
+      base_t[j] = c->vt[j];
+      mu[j] = c->def[j].mu;
+    }
+    int nv = lcp_unknowns(c, c->touch, cone);
+    lcp_responses(c, nv);
+    lcp_assemble(c, nv, base_n, base_t, mu);
+    if ((st = lcp_run(c, nv, rep))) {
+      fail_at(c, NZ_CONTACT_LCP, st, tj, t, q, qd);
+      return st;
+    }
+    for (int v = 0; v < nv; v++)
+      for (int i = 0; i < k; i++) qd[i] += c->resp[(size_t)v * k + i] * c->lz[v];
+    rep->impact = 1;
+    for (int j = 0; j < n; j++)
+      if (c->touch[j] && rep->c) {
+        rep->c[j].Pn = zval(c, j, VAR_N);
+        rep->c[j].Pt = zval(c, j, VAR_TPOS) - zval(c, j, VAR_TNEG);
+      }
+    /* h and the rests at the new velocities (M, and so K, stay) */
+    if ((st = frame(c, s, t, q, qd)) || (st = factor_bilateral(c, t, q, qd))) return st;
+  }
+  free_accel(c);
+  /* the new mode: the LCP at the acceleration level for the touching
+   * contacts at rest (normal velocity zero) */
+  int rest[n], cone[n], any = 0;
+  for (int j = 0; j < n; j++) {
+    const double *J = row_of(c, c->def[j].gap);
+    double tol = NZ_CONTACT_REST * c->vmax[j] + NZ_CONTACT_ROUND * (abs_dot(k, J, qd) + fabs(c->vn[j] - dot(k, J, qd)));
+    rest[j] = c->touch[j] && c->vn[j] <= tol;
+    cone[j] = 0;
+    c->sliding[j] = 0;
+    if (!rest[j]) continue;
+    any = 1;
+    if (c->def[j].slip >= 0) {
+      const double *D = row_of(c, c->def[j].slip);
+      double tolt = NZ_CONTACT_REST * c->vtmax[j] + NZ_CONTACT_ROUND * (abs_dot(k, D, qd) + fabs(c->vt[j] - dot(k, D, qd)));
+      if (fabs(c->vt[j]) <= tolt) cone[j] = 1;
+      else c->sliding[j] = c->vt[j] > 0.0 ? 1 : -1;
+    }
+    base_n[j] = dot(k, J, c->a0) + c->b[c->def[j].gap];
+    if (c->def[j].slip >= 0) base_t[j] = dot(k, row_of(c, c->def[j].slip), c->a0) + c->b[c->def[j].slip];
+    mu[j] = c->def[j].mu_s;
+  }
+  int newmode[n];
+  for (int j = 0; j < n; j++) newmode[j] = NZ_CONTACT_OPEN;
+  if (any) {
+    for (int j = 0; j < n; j++) {          /* Painleve: a sliding contact's effective mass */
+      if (!rest[j] || !c->sliding[j]) continue;
+      double m = effective_mass(c, j, c->sliding[j]);
+      if (m <= 1e-9) {
+        fail_at(c, NZ_CONTACT_PAINLEVE, NZ_EARG, j, t, q, qd);
+        c->fail.value = m;
+        c->fail.an = base_n[j];
+        return NZ_EARG;
+      }
+    }
+    int nv = lcp_unknowns(c, rest, cone);
+    lcp_responses(c, nv);
+    lcp_assemble(c, nv, base_n, base_t, mu);
+    if ((st = lcp_run(c, nv, rep))) {
+      int j = -1;
+      for (int x = 0; x < n && j < 0; x++)
+        if (rest[x] && c->sliding[x]) j = x;
+      fail_at(c, j >= 0 ? NZ_CONTACT_PAINLEVE : NZ_CONTACT_LCP, st, j >= 0 ? j : tj, t, q, qd);
+      if (j >= 0) c->fail.value = effective_mass(c, j, c->sliding[j]), c->fail.an = base_n[j];
+      return NZ_EARG;
+    }
+    for (int j = 0; j < n; j++) {
+      if (!rest[j] || !(zval(c, j, VAR_N) > 0.0)) continue;
+      if (c->def[j].slip < 0) newmode[j] = NZ_CONTACT_CLOSED;
+      else if (c->sliding[j]) newmode[j] = c->sliding[j] > 0 ? NZ_CONTACT_SLIP_POS : NZ_CONTACT_SLIP_NEG;
+      else if (zval(c, j, VAR_SIGMA) > 0.0)  /* the cone is saturated: it slides, against the friction force */
+        newmode[j] = zval(c, j, VAR_TPOS) > zval(c, j, VAR_TNEG) ? NZ_CONTACT_SLIP_NEG : NZ_CONTACT_SLIP_POS;
+      else newmode[j] = NZ_CONTACT_STICK;
+    }
+  }
+  memcpy(c->mode, newmode, (size_t)n * sizeof(int));
+  c->cvalid = 0;
+  /* an event must change something: a force that reached zero opens its
+   * contact, a friction force that reached the cone slides (the LCP, at
+   * the very state where both are zero, may keep the mode by a rounding) */
+  if (!rep->impact && tj >= 0 && !memcmp(c->mode, c->mode0, (size_t)n * sizeof(int))) {
+    if (!tfric && in_mode(c->mode0[tj])) c->mode[tj] = NZ_CONTACT_OPEN;
+    else if (tfric && c->mode0[tj] == NZ_CONTACT_STICK) {
+      if ((st = nz_contacts_accel(c, s, t, q, qd, NULL, NULL))) return st;
+      c->mode[tj] = c->clam[c->def[tj].slip] > 0.0 ? NZ_CONTACT_SLIP_NEG : NZ_CONTACT_SLIP_POS;
+      c->cvalid = 0;
+    }
+  }
+  if ((st = nz_contacts_accel(c, s, t, q, qd, NULL, NULL))) return st;
+  /* the entry values of the events (nz_contacts_event) */
+  c->has_entry = 1;
+  c->entry_t = t;
+  for (int j = 0; j < n; j++) {
+    c->entry[j] = 0;
+    if (c->mode[j] == NZ_CONTACT_OPEN && c->touch[j]) c->entry[j] |= 1;
+    if (slip_sign(c->mode[j]) && !slip_sign(c->mode0[j])) c->entry[j] |= 2;
+    if (c->mode[j] != c->mode0[j]) rep->changed = 1;
+    if (!in_mode(c->mode[j]) && in_mode(c->mode0[j])) c->nh[j] = 0;   /* lifted off: a new run of impacts */
+    if (rep->c) {
+      rep->c[j].to = c->mode[j];
+      rep->c[j].vn_after = c->vn[j];
+      rep->c[j].vt_after = c->vt[j];
+      rep->c[j].lambda_n = c->clam[c->def[j].gap];
+      rep->c[j].lambda_t = c->def[j].slip >= 0 ? c->clam[c->def[j].slip] : 0.0;
+    }
+  }
+  return NZ_OK;
+}
