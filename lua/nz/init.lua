@@ -18,6 +18,7 @@ nz.bodies = require("nz.bodies").bodies
 nz.methods = core.mech.ode_methods()
 nz.workprecision = require("nz.workprecision").run
 nz.effects = require "nz.effects"
+nz.unilateral = require("nz.contact").unilateral   -- a contact in a system's constraints
 nz.scene = require("nz.scene").scene
 nz.check = require("nz.check").check
 nz.rotations = require "nz.rotations"

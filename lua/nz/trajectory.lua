@@ -62,7 +62,17 @@ function Trajectory:__tostring()
     lines[#lines + 1] = ("  work of moving constraints: %.6g; T + V - work: drift up to %.3g"):format(self.work[#self.work], max_abs_change(c))
   end
   if #self.events > 0 then lines[#lines + 1] = ("  events: %d (first '%s' at t = %.10g)"):format(#self.events, self.events[1].name, self.events[1].t) end
+  if self.contacts then lines[#lines + 1] = require("nz.contact_run").summary(self) end
   return table.concat(lines, "\n")
+end
+
+-- The names of the multipliers' columns: lambda1, lambda2, ..., and with
+-- contacts (nz/contact_run.lua) each contact's N.name and T.name.
+local function lambda_names(self)
+  if self.lambda_names then return self.lambda_names end
+  local names = {}
+  for r = 1, self.system.nc do names[r] = "lambda" .. r end
+  return names
 end
 
 -- The names tr:column takes for this trajectory, for a message.
@@ -71,7 +81,7 @@ local function quantities(self)
   for _, suffix in ipairs{ "", "'", "''" } do
     for _, c in ipairs(self.coords) do names[#names + 1] = c .. suffix end
   end
-  for r = 1, self.system.nc do names[#names + 1] = "lambda" .. r end
+  for _, name in ipairs(lambda_names(self)) do names[#names + 1] = name end
   if self.energy then names[#names + 1] = "E"; names[#names + 1] = "H" end
   if self.work then names[#names + 1] = "work" end
   if self.violation then names[#names + 1] = "violation" end
@@ -99,11 +109,12 @@ function Trajectory:column(name)
     column_error("trajectory: '%s' was not recorded: ask for it with monitors = {energy = true, work = true} "
       .. "in simulate (quantities of this one: %s)", name, quantities(self))
   end
-  local r = name:match("^lambda(%d+)$")
-  if r and tonumber(r) >= 1 and tonumber(r) <= self.system.nc then
-    local out = {}
-    for i = 1, #self.t do out[i] = self.lambda[i][tonumber(r)] end
-    return out
+  for r, lname in ipairs(lambda_names(self)) do
+    if lname == name then
+      local out = {}
+      for i = 1, #self.t do out[i] = self.lambda[i][r] end
+      return out
+    end
   end
   local base, primes = name:match("^(.-)('*)$")
   for j, c in ipairs(self.coords) do
@@ -124,7 +135,7 @@ local function write_csv(self, f)
   for _, c in ipairs(self.coords) do head[#head + 1] = c end
   for _, c in ipairs(self.coords) do head[#head + 1] = c .. "'" end
   for _, c in ipairs(self.coords) do head[#head + 1] = c .. "''" end
-  for r = 1, self.system.nc do head[#head + 1] = "lambda" .. r end
+  for _, name in ipairs(lambda_names(self)) do head[#head + 1] = name end
   local extra = {}
   for _, name in ipairs{ "violation", "E", "H", "work" } do
     local ok, col = pcall(self.column, self, name)
@@ -258,6 +269,7 @@ function Trajectory:plot(opts)
       end
       series[i] = { name = name, x = x, y = y }
     end
+    if self.contacts then require("nz.contact_run").marks(self, series, opts.x or "t") end
     if not ylabel then
       local names = {}
       for i, s in ipairs(series) do names[i] = s.name end

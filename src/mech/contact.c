@@ -27,10 +27,9 @@ struct nz_contacts {
   nz_contact_def *def;         /* n */
   int *mode;                   /* n: nz_contact_state */
   double zeno_speed, rcond_min;
-  /* the last transition: its time, and per contact bit 1 (a gap left open
-   * at zero) and bit 2 (a slip started at zero slip velocity) */
-  double entry_t;
-  int has_entry, *entry;
+  /* the offsets of the events (2n): a gap left open at zero, a slip
+   * started at zero slip velocity, start the new mode strictly positive */
+  double *offset;
   /* Zeno: the last three impacts of each contact, and its velocity scales */
   double *ht, *hv, *vmax, *vtmax;
   int *nh;
@@ -72,6 +71,7 @@ void nz_contacts_free(nz_contacts *c)
   free(c->orders);
   free(c->def);
   free(c->mode);
+  free(c->offset);
   free(c->ht);
   free(c->M);
   free(c->rows);
@@ -115,7 +115,8 @@ nz_contacts *nz_contacts_new(int k, const nz_contacts_config *cfg)
   size_t K = (size_t)k, C = (size_t)nc, N = (size_t)n, V = 4 * N, D = K + C, NK = K + (size_t)nb;
   c->orders = malloc(C * sizeof(int));
   c->def = malloc(N * sizeof *c->def);
-  c->mode = calloc(3 * N, sizeof(int));                 /* mode, entry, nh */
+  c->mode = calloc(2 * N, sizeof(int));                 /* mode, nh */
+  c->offset = calloc(2 * N, sizeof(double));
   c->ht = calloc(12 * N, sizeof(double));               /* ht, hv (3n each), vmax, vtmax, phi, vn, vt, e_eff */
   c->M = calloc(K * K + 3 * K + C * K + C, sizeof(double));   /* M, h, zero, a0, A, b */
   c->rows = calloc(3 * C + 1, sizeof(int));             /* rows, couple (ints), coef below */
@@ -134,7 +135,7 @@ nz_contacts *nz_contacts_new(int k, const nz_contacts_config *cfg)
   c->kb = gsl_vector_alloc(NK);
   c->kx = gsl_vector_alloc(NK);
   c->perm = gsl_permutation_alloc(NK);
-  if (!c->orders || !c->def || !c->mode || !c->ht || !c->M || !c->rows || !c->S || !c->cy || !c->var_c ||
+  if (!c->orders || !c->def || !c->mode || !c->offset || !c->ht || !c->M || !c->rows || !c->S || !c->cy || !c->var_c ||
       !c->resp || !c->L || !c->touch || !c->kscale || !c->fq || !c->K || !c->tau || !c->norm || !c->kwork ||
       !c->kb || !c->kx || !c->perm) {
     nz_contacts_free(c);
@@ -142,8 +143,7 @@ nz_contacts *nz_contacts_new(int k, const nz_contacts_config *cfg)
   }
   memcpy(c->orders, cfg->orders, C * sizeof(int));
   memcpy(c->def, cfg->defs, N * sizeof *c->def);
-  c->entry = c->mode + N;
-  c->nh = c->entry + N;
+  c->nh = c->mode + N;
   c->hv = c->ht + 3 * N;
   c->vmax = c->hv + 3 * N;
   c->vtmax = c->vmax + N;
@@ -198,8 +198,8 @@ int nz_contacts_set_mode(nz_contacts *c, const int *state)
   for (int j = 0; j < c->n; j++)
     if (!allowed(&c->def[j], state[j])) return NZ_EARG;
   memcpy(c->mode, state, (size_t)c->n * sizeof(int));
+  memset(c->offset, 0, 2 * (size_t)c->n * sizeof(double));
   c->cvalid = 0;
-  c->has_entry = 0;
   return NZ_OK;
 }
 
@@ -209,8 +209,7 @@ void nz_contacts_reset(nz_contacts *c)
   memset(c->nh, 0, N * sizeof(int));
   memset(c->vmax, 0, N * sizeof(double));
   memset(c->vtmax, 0, N * sizeof(double));
-  memset(c->entry, 0, N * sizeof(int));
-  c->has_entry = 0;
+  memset(c->offset, 0, 2 * N * sizeof(double));
   c->cvalid = 0;
 }
 
@@ -440,13 +439,12 @@ int nz_contacts_event(nz_contacts *c, const nz_system *s, int e, double t, const
   if (e < 0 || j >= c->n) return NZ_EARG;
   const nz_contact_def *d = &c->def[j];
   const double *q = y, *qd = y + k;
-  int state = c->mode[j], entering = c->has_entry && t == c->entry_t;
+  int state = c->mode[j];
   if (!friction) {
     if (state == NZ_CONTACT_OPEN) {
       double v[2];
       if ((st = value_rate(c, s, d->gap, t, q, qd, v))) return st;
-      /* a gap left open at zero starts on the positive side */
-      *g = entering && (c->entry[j] & 1) ? fabs(v[0]) + DBL_MIN : v[0];
+      *g = v[0] + c->offset[e];
       return NZ_OK;
     }
     if ((st = nz_contacts_accel(c, s, t, q, qd, NULL, NULL))) return st;
@@ -464,8 +462,7 @@ int nz_contacts_event(nz_contacts *c, const nz_system *s, int e, double t, const
   }
   double vt;
   if ((st = slip_velocity(c, s, j, t, q, qd, &vt))) return st;
-  double v = state == NZ_CONTACT_SLIP_POS ? vt : -vt;
-  *g = entering && (c->entry[j] & 2) ? fabs(v) + DBL_MIN : v;
+  *g = (state == NZ_CONTACT_SLIP_POS ? vt : -vt) + c->offset[e];
   return NZ_OK;
 }
 
@@ -473,16 +470,18 @@ int nz_contacts_kinematics(nz_contacts *c, const nz_system *s, double t, const d
                            double *out)
 {
   for (int j = 0; j < c->n; j++) {
-    double v[2];
+    double v[2], *o = out + 4 * j;
     int st = value_rate(c, s, c->def[j].gap, t, q, qd, v);
-    out[3 * j + 2] = 0.0;
-    if (!st && c->def[j].slip >= 0) st = slip_velocity(c, s, j, t, q, qd, &out[3 * j + 2]);
+    o[2] = 0.0;
+    if (!st && c->def[j].slip >= 0) st = slip_velocity(c, s, j, t, q, qd, &o[2]);
+    if (!st) st = row(c, s, c->def[j].gap, t, q, qd);
     if (st) {
       fail_at(c, NZ_CONTACT_EVAL, st, j, t, q, qd);
       return st;
     }
-    out[3 * j] = v[0];
-    out[3 * j + 1] = v[1];
+    o[0] = v[0];
+    o[1] = v[1];
+    o[3] = abs_dot(c->k, row_of(c, c->def[j].gap), q);
   }
   clear_failure(c);
   return NZ_OK;
@@ -714,7 +713,52 @@ static int zeno(nz_contacts *c, int j, double t, double v, double *tinf)
 
 static int in_mode(int state) { return state != NZ_CONTACT_OPEN; }
 
-int nz_contacts_transition(nz_contacts *c, const nz_system *s, double t, const double *q, double *qd,
+/* x += the least change (in the metric of M, the bilateral constraints
+ * held: K^-1) that brings the m rows rows[a] of x to the values target[a]
+ * from value[a]: Delassus' matrix G = R K^-1 R^T, G nu = target - value,
+ * by least squares (dependent rows are not an error here: the change is
+ * the same).  The rows are gap rows (q) or normal and slip rows (q'). */
+static void project_rows(nz_contacts *c, int m, const int *rows, const double *value, double *x)
+{
+  int k = c->k;
+  if (m <= 0 || m > 2 * c->n) return;
+  for (int a = 0; a < m; a++) solve_bilateral(c, row_of(c, rows[a]), NULL, c->resp + (size_t)a * k);
+  for (int a = 0; a < m; a++) {
+    for (int b = 0; b < m; b++) c->L[a * m + b] = dot(k, row_of(c, rows[a]), c->resp + (size_t)b * k);
+    c->lq[a] = -value[a];
+  }
+  if (nz_lstsq(m, m, c->L, c->lq, c->lz)) return;
+  for (int a = 0; a < m; a++)
+    for (int i = 0; i < k; i++) x[i] += c->resp[(size_t)a * k + i] * c->lz[a];
+}
+
+/* The state put on what the new mode holds: the gaps of the contacts
+ * held, and every touching gap below zero (the event's location leaves a
+ * penetration of its tolerance, and a bounce must start at zero, or the
+ * next landing is missed or found as deep), to zero; then the normal
+ * velocities of the contacts held and the slip velocities of those that
+ * stick, to zero.  One Newton step each: the corrections are of the
+ * tolerances.  K must be factored at (t, q). */
+static int project(nz_contacts *c, const nz_system *s, double t, double *q, double *qd)
+{
+  int n = c->n, m = 0, rows[2 * n];
+  double value[2 * n];
+  for (int j = 0; j < n; j++)
+    if (in_mode(c->mode[j]) || (c->touch[j] && c->phi[j] < 0.0)) rows[m] = c->def[j].gap, value[m++] = c->phi[j];
+  project_rows(c, m, rows, value, q);
+  int st = frame(c, s, t, q, qd);
+  if (st || (st = factor_bilateral(c, t, q, qd))) return st;
+  m = 0;
+  for (int j = 0; j < n; j++) {
+    if (!in_mode(c->mode[j])) continue;
+    rows[m] = c->def[j].gap, value[m++] = c->vn[j];
+    if (c->mode[j] == NZ_CONTACT_STICK) rows[m] = c->def[j].slip, value[m++] = c->vt[j];
+  }
+  project_rows(c, m, rows, value, qd);
+  return frame(c, s, t, q, qd);
+}
+
+int nz_contacts_transition(nz_contacts *c, const nz_system *s, double t, double *q, double *qd,
                            int trigger, nz_contact_report *rep)
 {
   int k = c->k, n = c->n, st;
@@ -749,7 +793,9 @@ int nz_contacts_transition(nz_contacts *c, const nz_system *s, double t, const d
   for (int j = 0; j < n; j++) {
     const double *J = row_of(c, c->def[j].gap);
     double tol = NZ_CONTACT_REST * c->vmax[j] + NZ_CONTACT_ROUND * (abs_dot(k, J, qd) + fabs(c->vn[j] - dot(k, J, qd)));
-    c->appr[j] = c->touch[j] && c->vn[j] < -tol;
+    /* an open contact closes with an impact; one held already only drifts
+     * (its normal velocity is set back to zero by the projection) */
+    c->appr[j] = c->touch[j] && !in_mode(c->mode0[j]) && c->vn[j] < -tol;
     c->e_eff[j] = c->def[j].e;
     c->sliding[j] = 0;
     if (rep->c) {
@@ -864,14 +910,20 @@ int nz_contacts_transition(nz_contacts *c, const nz_system *s, double t, const d
       c->cvalid = 0;
     }
   }
-  if ((st = nz_contacts_accel(c, s, t, q, qd, NULL, NULL))) return st;
-  /* the entry values of the events (nz_contacts_event) */
-  c->has_entry = 1;
-  c->entry_t = t;
+  if ((st = project(c, s, t, q, qd)) || (st = nz_contacts_accel(c, s, t, q, qd, NULL, NULL))) return st;
+  /* The events' offsets (nz_contacts_event): a gap left open at zero (a
+   * bounce, a lift-off) starts at least a rounding above zero, and so does
+   * the slip velocity of a contact set sliding from rest: shifted by the
+   * penetration the event's location left, so that it falls through zero
+   * only where the motion comes back, even within one long step. */
   for (int j = 0; j < n; j++) {
-    c->entry[j] = 0;
-    if (c->mode[j] == NZ_CONTACT_OPEN && c->touch[j]) c->entry[j] |= 1;
-    if (slip_sign(c->mode[j]) && !slip_sign(c->mode0[j])) c->entry[j] |= 2;
+    c->offset[2 * j] = c->offset[2 * j + 1] = 0.0;
+    if (c->mode[j] == NZ_CONTACT_OPEN && c->touch[j])
+      c->offset[2 * j] = fmax(0.0, -c->phi[j]) + 16 * DBL_EPSILON * abs_dot(k, row_of(c, c->def[j].gap), q) + DBL_MIN;
+    int sg = slip_sign(c->mode[j]);
+    if (sg && sg != slip_sign(c->mode0[j]))
+      c->offset[2 * j + 1] = fmax(0.0, -sg * c->vt[j]) +
+                             16 * DBL_EPSILON * abs_dot(k, row_of(c, c->def[j].slip), qd) + DBL_MIN;
     if (c->mode[j] != c->mode0[j]) rep->changed = 1;
     if (!in_mode(c->mode[j]) && in_mode(c->mode0[j])) c->nh[j] = 0;   /* lifted off: a new run of impacts */
     if (rep->c) {

@@ -177,21 +177,27 @@ int nz_contacts_accel(nz_contacts *c, const nz_system *s, double t, const double
 /* Event e (0 .. 2n-1) at (t, y = (q, q')) in the current mode, falling
  * through zero where the mode ends: the gap (open), lambda_n (closed);
  * +-v_t (sliding), mu_s lambda_n - |lambda_t| (sticking); 1 when the event
- * does not apply.  Right after a transition, at its time, a contact left
- * open at zero gap (or one set sliding at zero slip) gives a positive
- * value, so that the crossing is seen if the gap falls after all. */
+ * does not apply.  A contact left open at zero gap by a transition (a
+ * bounce), or set sliding at zero slip velocity, has its value offset by
+ * what it lacked to be positive there plus a rounding, so that it starts
+ * above zero and falls through it only where the motion comes back. */
 int nz_contacts_event(nz_contacts *c, const nz_system *s, int e, double t, const double *y, double *g);
 
 /* At (t, q, q'): the impact and the new mode.  trigger: the event that
  * brought the run here (e as for nz_contacts_event), or -1 at the start of a
- * run.  qd holds q'- on entry and q'+ on return.  NZ_OK; NZ_EARG with the
- * failure (PAINLEVE, LCP, GRADIENT); NZ_ESINGULAR; or an evaluation's
- * status.  The report (rep->c: n entries, or NULL) says what happened. */
-int nz_contacts_transition(nz_contacts *c, const nz_system *s, double t, const double *q, double *qd,
+ * run.  qd holds q'- on entry and q'+ on return; q and q'+ are then put on
+ * what the mode holds (the gaps of the contacts held, and any touching gap
+ * below zero, at zero; their normal velocities, and the slip velocities of
+ * those that stick, at zero: changes of the order of the event's
+ * tolerance).  NZ_OK; NZ_EARG with the failure (PAINLEVE, LCP, GRADIENT);
+ * NZ_ESINGULAR; or an evaluation's status.  The report (rep->c: n entries,
+ * or NULL) says what happened. */
+int nz_contacts_transition(nz_contacts *c, const nz_system *s, double t, double *q, double *qd,
                            int trigger, nz_contact_report *rep);
 
-/* Each contact's gap, normal velocity and slip velocity (0 without
- * friction) at (t, q, q'): 3n values. */
+/* Each contact's gap, normal velocity, slip velocity (0 without friction)
+ * and the size of its gap's terms sum |dPhi/dq_i q_i| at (t, q, q'): 4n
+ * values. */
 int nz_contacts_kinematics(nz_contacts *c, const nz_system *s, double t, const double *q, const double *qd,
                            double *out);
 
