@@ -713,6 +713,19 @@ static int zeno(nz_contacts *c, int j, double t, double v, double *tinf)
 
 static int in_mode(int state) { return state != NZ_CONTACT_OPEN; }
 
+/* Below this a normal or slip velocity v of row r at q' is zero: a
+ * fraction NZ_CONTACT_REST of the motion's velocity scale there (the
+ * larger of the fastest the contact has had, vmax, and |row|_1 max|q'_i|:
+ * what the velocity would be were the motion along it), and rounding of
+ * the row's explicit time dependence v - row . q'. */
+static double rest_tol(const nz_contacts *c, int r, const double *qd, double vmax, double v)
+{
+  const double *A = row_of(c, r);
+  double size = 0.0, qmax = 0.0;
+  for (int i = 0; i < c->k; i++) size += fabs(A[i]), qmax = fmax(qmax, fabs(qd[i]));
+  return NZ_CONTACT_REST * fmax(vmax, size * qmax) + NZ_CONTACT_ROUND * fabs(v - dot(c->k, A, qd));
+}
+
 /* x += the least change (in the metric of M, the bilateral constraints
  * held: K^-1) that brings the m rows rows[a] of x to the values target[a]
  * from value[a]: Delassus' matrix G = R K^-1 R^T, G nu = target - value,
@@ -791,8 +804,7 @@ int nz_contacts_transition(nz_contacts *c, const nz_system *s, double t, double 
    * Newton's law (plastic where Zeno says so) */
   int nappr = 0;
   for (int j = 0; j < n; j++) {
-    const double *J = row_of(c, c->def[j].gap);
-    double tol = NZ_CONTACT_REST * c->vmax[j] + NZ_CONTACT_ROUND * (abs_dot(k, J, qd) + fabs(c->vn[j] - dot(k, J, qd)));
+    double tol = rest_tol(c, c->def[j].gap, qd, c->vmax[j], c->vn[j]);
     /* an open contact closes with an impact; one held already only drifts
      * (its normal velocity is set back to zero by the projection) */
     c->appr[j] = c->touch[j] && !in_mode(c->mode0[j]) && c->vn[j] < -tol;
@@ -848,16 +860,14 @@ int nz_contacts_transition(nz_contacts *c, const nz_system *s, double t, double 
   int rest[n], cone[n], any = 0;
   for (int j = 0; j < n; j++) {
     const double *J = row_of(c, c->def[j].gap);
-    double tol = NZ_CONTACT_REST * c->vmax[j] + NZ_CONTACT_ROUND * (abs_dot(k, J, qd) + fabs(c->vn[j] - dot(k, J, qd)));
+    double tol = rest_tol(c, c->def[j].gap, qd, c->vmax[j], c->vn[j]);
     rest[j] = c->touch[j] && c->vn[j] <= tol;
     cone[j] = 0;
     c->sliding[j] = 0;
     if (!rest[j]) continue;
     any = 1;
     if (c->def[j].slip >= 0) {
-      const double *D = row_of(c, c->def[j].slip);
-      double tolt = NZ_CONTACT_REST * c->vtmax[j] + NZ_CONTACT_ROUND * (abs_dot(k, D, qd) + fabs(c->vt[j] - dot(k, D, qd)));
-      if (fabs(c->vt[j]) <= tolt) cone[j] = 1;
+      if (fabs(c->vt[j]) <= rest_tol(c, c->def[j].slip, qd, c->vtmax[j], c->vt[j])) cone[j] = 1;
       else c->sliding[j] = c->vt[j] > 0.0 ? 1 : -1;
     }
     base_n[j] = dot(k, J, c->a0) + c->b[c->def[j].gap];

@@ -79,11 +79,12 @@ typedef struct nz_contact_def {
 /* Contacts that touch together: a gap within this time (relative to
  * max(1, |t|)) of zero at its approach speed is part of the same impact. */
 #define NZ_CONTACT_TOUCH_TIME 1e-9
-/* Rounding: a gap, a normal or a slip velocity within this fraction of the
- * size of its terms (sum |J_i q_i|, sum |J_i q'_i|) is zero ... */
+/* Rounding: a gap within this fraction of the size of its terms
+ * (sum |J_i q_i|) is zero ... */
 #define NZ_CONTACT_ROUND 1e-12
-/* ... and a velocity within this fraction of the largest the contact has
- * had (the motion's scale) is zero: an approach that slow is no impact. */
+/* ... and a normal or slip velocity within this fraction of the motion's
+ * velocity scale (the fastest the contact has had, or |J|_1 max |q'_i|) is
+ * zero: an approach that slow is no impact, a slip that slow sticks. */
 #define NZ_CONTACT_REST 1e-9
 
 typedef struct nz_contacts_config {
