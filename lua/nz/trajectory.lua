@@ -269,12 +269,12 @@ function Trajectory:plot(opts)
       end
       series[i] = { name = name, x = x, y = y }
     end
-    if self.contacts then require("nz.contact_run").marks(self, series, opts.x or "t") end
     if not ylabel then
       local names = {}
       for i, s in ipairs(series) do names[i] = s.name end
       ylabel = table.concat(names, ", ")
     end
+    if self.contacts then require("nz.contact_run").marks(self, series, opts.x or "t") end
   end
   local width, height = opts.width, opts.height
   if type(opts.size) == "table" then width, height = opts.size[1], opts.size[2] end
