@@ -44,6 +44,9 @@ M.MAX_FIXED_STEPS = 1e9   -- steps of a fixed-step run
 M.MIN_RTOL = 1e-15        -- below this (~5 eps) no stepper can make progress
 M.PROJECT_TOL = 1e-10     -- project = true projects when the violation exceeds this
 M.PROJECT_MULTISTEP = 100  -- ... times max(rtol, atol) for msadams and msbdf (up to 1e-6)
+-- Locating an event: bisect where one end's value is below this fraction of
+-- the other's (src/ode/ode_run.c's NZ_RUN_SECANT_RATIO).
+M.SECANT_RATIO = 1e-12
 -- A long run is announced (once) when the first steps project more than
 -- this many steps or seconds; LONG_RUN.check_steps: when to look first
 -- (then at every doubling), so that the decision counts steps.
@@ -786,7 +789,11 @@ function M.simulate(sys, opts)
     for _ = 1, 100 do
       if tb - ta <= tol then break end
       tm = (ta * gb - tb * ga) / (gb - ga)
-      if not (tm > ta and tm < tb) then tm = 0.5 * (ta + tb) end
+      -- an end whose value is negligible against the other's (an event that
+      -- starts at zero: a bounce) pins the secant to it, and Illinois'
+      -- halvings would take hundreds of steps to leave it: bisect
+      if not (tm > ta and tm < tb) or math.abs(ga) < M.SECANT_RATIO * math.abs(gb)
+        or math.abs(gb) < M.SECANT_RATIO * math.abs(ga) then tm = 0.5 * (ta + tb) end
       ym = state_at(ta, ya, tm)
       local gm = event_value(ev, tm, ym)
       if gm == 0 then return tm, ym end

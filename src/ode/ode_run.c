@@ -351,7 +351,11 @@ static int locate(nz_run *r, const nz_system *s, int e, double ta, double ga, do
     int side = 0;
     for (int it = 0; it < 100 && b - a > tol; it++) {
       double m = (a * gb - b * ga) / (gb - ga);
-      if (!(m > a && m < b)) m = 0.5 * (a + b);
+      /* an end whose value is negligible against the other's (an event
+       * that starts at zero: a bounce) pins the secant to it, and Illinois'
+       * halvings would take hundreds of steps to leave it: bisect */
+      if (!(m > a && m < b) || fabs(ga) < NZ_RUN_SECANT_RATIO * fabs(gb) || fabs(gb) < NZ_RUN_SECANT_RATIO * fabs(ga))
+        m = 0.5 * (a + b);
       if ((st = interpolate(r, s, ta + m, ye, &ok))) return st;
       *all_ok &= ok;
       if ((st = r->event_fn(r->event_ctx, e, ta + m, ye, &gm))) return st;

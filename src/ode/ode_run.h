@@ -64,6 +64,11 @@
 
 #include "ode/stepper.h"
 
+/* Locating an event by regula falsi (Illinois), a step bisects instead
+ * where one end's value is below this fraction of the other's (simulate.lua's
+ * M.SECANT_RATIO): the secant would hug that end. */
+#define NZ_RUN_SECANT_RATIO 1e-12
+
 typedef struct nz_run_config {
   double t0, t1, dt;         /* the output grid, as simulate.lua makes it        */
   double step;               /* > 0: fixed steps no longer than this; 0: adaptive */
