@@ -174,7 +174,12 @@ function M.system(def)
   append(F, Flab, T, lab.T)
   append(F, Flab, L, lab.L)
   -- nz.unilateral entries are contacts (nz/contact.lua), the rest equalities
-  local bilateral, contacts = require("nz.contact").split(def.constraints)
+  local bilateral, contacts = def.constraints, nil
+  if type(bilateral) == "table" then
+    local any = getmetatable(bilateral) ~= nil
+    for _, c in ipairs(bilateral) do any = any or type(c) == "table" end
+    if any then bilateral, contacts = require("nz.contact").split(bilateral) end
+  end
   local C = as_list(bilateral, "constraints", name)
   local Clab = {}
   for i = 1, #C do Clab[i] = ("constraint %d"):format(i) end

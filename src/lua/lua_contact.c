@@ -156,6 +156,13 @@ int nz_lua_contacts_raise(lua_State *L, const nz_contacts *c, bound_system *b)
                     "a redundant contact (three legs on a plane in 2-D, four in 3-D) must be left out", num);
     luaL_addvalue(&msg);
     break;
+  case NZ_CONTACT_MASS:
+    nz_lua_fmt_num(num, sizeof num, f->value);
+    luaL_addstring(&msg, "the mass matrix M is singular or not positive definite");
+    nz_lua_add_state(&msg, f->t, f->q, f->qd, k);
+    lua_pushfstring(L, " (its reciprocal condition is %s): check T near this state", num);
+    luaL_addvalue(&msg);
+    break;
   case NZ_CONTACT_LCP:
     luaL_addstring(&msg, "no consistent contact mode was found");
     nz_lua_add_state(&msg, f->t, f->q, f->qd, k);

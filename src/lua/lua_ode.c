@@ -811,7 +811,7 @@ static int lo_run_jump(lua_State *L)
   nz_lua_bind_system(L, 1, &b);
   event_ctx ec = { L, rb->events, 5, 6, dim, 0, rb->ode->contacts, &b.sys, rb->nuser };
   nz_run_set_events(rb->r, rb->events || rb->ode->contacts ? run_event : NULL, &ec);
-  int st = nz_run_jump(rb->r, te, y);
+  int st = nz_run_jump(rb->r, &b.sys, te, y);
   nz_run_set_events(rb->r, NULL, NULL);
   if (ec.failed) {
     lua_pushvalue(L, 6);

@@ -3,8 +3,8 @@
  *
  * Three solves, each a few lines of linear algebra on the system's M, h and
  * constraint rows (mech.h, constrained.h):
- *   the mode's saddle point (mode_solve), one QR with its condition per
- *   right-hand side of the integrator;
+ *   the mode's saddle point (mode_solve), per right-hand side of the
+ *   integrator: M's Cholesky factor and Delassus' small matrix (Schur);
  *   the bilateral saddle point K = [M -A_b^T; A_b 0], factored once per
  *   transition, whose solves give the response of the motion to a force
  *   (respond) and the accelerations without any contact force (a0): the
@@ -42,7 +42,8 @@ struct nz_contacts {
   /* the mode's saddle point */
   int *rows, *couple;
   double *coef;                /* nc each */
-  double *S, *rhs, *x;         /* (k + nc)^2, k + nc, k + nc */
+  double *S, *rhs, *x;         /* the mode solve's workspace; k + nc, k + nc */
+  double *spd_work;            /* nz_solve_spd_in's */
   /* the last mode solve */
   int cvalid;
   double ct, *cy, *cqdd, *clam;   /* 2k, k, nc */
@@ -76,6 +77,7 @@ void nz_contacts_free(nz_contacts *c)
   free(c->M);
   free(c->rows);
   free(c->S);
+  free(c->spd_work);
   free(c->cy);
   free(c->var_c);
   free(c->resp);
@@ -120,7 +122,11 @@ nz_contacts *nz_contacts_new(int k, const nz_contacts_config *cfg)
   c->ht = calloc(12 * N, sizeof(double));               /* ht, hv (3n each), vmax, vtmax, phi, vn, vt, e_eff */
   c->M = calloc(K * K + 3 * K + C * K + C, sizeof(double));   /* M, h, zero, a0, A, b */
   c->rows = calloc(3 * C + 1, sizeof(int));             /* rows, couple (ints), coef below */
-  c->S = calloc(D * D + 2 * D + C + 1, sizeof(double)); /* S, rhs, x, coef */
+  /* S: the mode solve's X (k (nc + 1)), M's factor (k k), G and its
+   * inverse (nc nc each), lambda (nc); then rhs, x, coef */
+  size_t SL = K * (C + 1) + K * K + 2 * C * C + C;
+  c->S = calloc(SL + 2 * D + C + 1, sizeof(double));
+  c->spd_work = calloc(nz_solve_spd_work_len(k) + 1, sizeof(double));
   c->cy = calloc(4 * K + C + 3 * K, sizeof(double));    /* cy, cqdd, clam, F, scr */
   c->var_c = calloc(3 * V + 4 * N, sizeof(int));        /* var_c, var_kind, var_at, then touch.. below */
   c->resp = calloc(V * K + 1, sizeof(double));
@@ -135,7 +141,7 @@ nz_contacts *nz_contacts_new(int k, const nz_contacts_config *cfg)
   c->kb = gsl_vector_alloc(NK);
   c->kx = gsl_vector_alloc(NK);
   c->perm = gsl_permutation_alloc(NK);
-  if (!c->orders || !c->def || !c->mode || !c->offset || !c->ht || !c->M || !c->rows || !c->S || !c->cy || !c->var_c ||
+  if (!c->orders || !c->def || !c->mode || !c->offset || !c->spd_work || !c->ht || !c->M || !c->rows || !c->S || !c->cy || !c->var_c ||
       !c->resp || !c->L || !c->touch || !c->kscale || !c->fq || !c->K || !c->tau || !c->norm || !c->kwork ||
       !c->kb || !c->kx || !c->perm) {
     nz_contacts_free(c);
@@ -157,7 +163,7 @@ nz_contacts *nz_contacts_new(int k, const nz_contacts_config *cfg)
   c->A = c->a0 + K;
   c->b = c->A + C * K;
   c->couple = c->rows + C;
-  c->rhs = c->S + D * D;
+  c->rhs = c->S + SL;
   c->x = c->rhs + D;
   c->coef = c->x + D;
   c->cqdd = c->cy + 2 * K;
@@ -351,12 +357,54 @@ static int contact_of_row(const nz_contacts *c, int r)
   return -1;
 }
 
-/* [M -W^T; R 0] [q''; lambda] = [-h; -b] for the mode, each block
- * equilibrated (M by its largest entry, each row R_a by its own), solved by
- * QR with its condition (core/linalg.h's nz_solve_square). */
+/* Gaussian elimination with partial pivoting of the n x n matrix G in
+ * place (pivots in piv); 1 when a pivot is zero. */
+static int lu_small(int n, double *G, int *piv)
+{
+  for (int c = 0; c < n; c++) {
+    int p = c;
+    for (int r = c + 1; r < n; r++)
+      if (fabs(G[r * n + c]) > fabs(G[p * n + c])) p = r;
+    piv[c] = p;
+    if (!(G[p * n + c] != 0.0)) return 1;
+    if (p != c)
+      for (int x = 0; x < n; x++) {
+        double v = G[c * n + x];
+        G[c * n + x] = G[p * n + x], G[p * n + x] = v;
+      }
+    for (int r = c + 1; r < n; r++) {
+      double f = G[r * n + c] /= G[c * n + c];
+      for (int x = c + 1; x < n; x++) G[r * n + x] -= f * G[c * n + x];
+    }
+  }
+  return 0;
+}
+
+static void lu_small_solve(int n, const double *LU, const int *piv, double *b)
+{
+  for (int c = 0; c < n; c++) {
+    double v = b[c];
+    b[c] = b[piv[c]], b[piv[c]] = v;
+    for (int r = c + 1; r < n; r++) b[r] -= LU[r * n + c] * b[c];
+  }
+  for (int r = n - 1; r >= 0; r--) {
+    for (int x = r + 1; x < n; x++) b[r] -= LU[r * n + x] * b[x];
+    b[r] /= LU[r * n + r];
+  }
+}
+
+/* The mode's saddle point M q'' + h = W^T lambda, R q'' + b = 0 by its
+ * Schur complement: with M's Cholesky factor (its condition estimated,
+ * core/linalg.h), Delassus' matrix G = R M^-1 W^T and G lambda = R M^-1 h
+ * - b, then q'' = M^-1 (W^T lambda - h).  G is na x na (the rows the mode
+ * holds: a few), each row scaled by its largest entry, factored by LU with
+ * its condition computed from its inverse; below rcond_min the mode is
+ * singular (dependent rows, or Painleve: a sliding contact's J M^-1 W^T
+ * reaching zero).  No allocation: one right-hand side of the integrator
+ * costs a Cholesky of M, na + 1 solves with it and an na x na LU. */
 static int mode_solve(nz_contacts *c, const nz_system *s, double t, const double *q, const double *qd)
 {
-  int k = c->k, na = nz_contacts_active(c, c->rows, c->couple, c->coef), n2 = k + na;
+  int k = c->k, na = nz_contacts_active(c, c->rows, c->couple, c->coef);
   int st = nz_mass_bias(s, t, q, qd, c->M, c->h);
   for (int a = 0; a < na && !st; a++) {
     st = row(c, s, c->rows[a], t, q, qd);
@@ -366,43 +414,67 @@ static int mode_solve(nz_contacts *c, const nz_system *s, double t, const double
     fail_at(c, NZ_CONTACT_EVAL, st, -1, t, q, qd);
     return st;
   }
-  double mmax = max_abs(k * k, c->M), sig[na > 0 ? na : 1];
-  if (!(mmax > 0.0)) mmax = 1.0;
-  double *S = c->S;
-  memset(S, 0, (size_t)n2 * (size_t)n2 * sizeof(double));
-  for (int i = 0; i < k; i++) {
-    for (int l = 0; l < k; l++) S[(size_t)i * n2 + l] = c->M[(size_t)i * k + l] / mmax;
-    c->rhs[i] = -c->h[i] / mmax;
+  /* X = M^-1 [h, W_1^T, .., W_na^T] from one factorization */
+  double *X = c->S, *Mw = X + (size_t)k * (size_t)(na + 1), *G = Mw + (size_t)k * (size_t)k, *Gi = G + (size_t)na * na;
+  double *lam = Gi + (size_t)na * na;
+  memcpy(Mw, c->M, (size_t)k * (size_t)k * sizeof(double));
+  nz_solve_info info;
+  if ((st = nz_solve_spd_in(k, Mw, c->h, X, c->rcond_min, &info, c->spd_work))) {
+    fail_at(c, NZ_CONTACT_MASS, st, -1, t, q, qd);
+    c->fail.value = info.rcond;
+    return st;
   }
   for (int a = 0; a < na; a++) {
     const double *R = row_of(c, c->rows[a]), *D = c->couple[a] >= 0 ? row_of(c, c->couple[a]) : NULL;
-    double rm = max_abs(k, R);
-    if (!(rm > 0.0)) {                 /* a gap (or a slip, a constraint) without a gradient here */
+    double *xa = X + (size_t)k * (size_t)(a + 1);
+    if (!(max_abs(k, R) > 0.0)) {            /* a gap (or a slip, a constraint) without a gradient here */
       fail_at(c, NZ_CONTACT_GRADIENT, NZ_EARG, contact_of_row(c, c->rows[a]), t, q, qd);
       return NZ_EARG;
     }
-    sig[a] = 1.0 / rm;
-    for (int i = 0; i < k; i++) {
-      double f = R[i] + (D ? c->coef[a] * D[i] : 0.0);
-      S[(size_t)i * n2 + k + a] = -f * sig[a];
-      S[(size_t)(k + a) * n2 + i] = R[i] * sig[a];
+    for (int i = 0; i < k; i++) xa[i] = R[i] + (D ? c->coef[a] * D[i] : 0.0);
+    nz_cholesky_solve(k, Mw, xa);
+  }
+  for (int a = 0; a < na; a++) {
+    const double *R = row_of(c, c->rows[a]);
+    double big = 0.0;
+    for (int x = 0; x < na; x++) big = fmax(big, fabs(G[a * na + x] = dot(k, R, X + (size_t)k * (size_t)(x + 1))));
+    double sc = big > 0.0 ? 1.0 / big : 1.0;
+    lam[a] = (dot(k, R, X) - c->b[c->rows[a]]) * sc;
+    for (int x = 0; x < na; x++) G[a * na + x] *= sc;
+  }
+  if (na > 0) {
+    /* its condition in the 1-norm, from the inverse: na is a few */
+    double gnorm = 0.0, inorm = 0.0;
+    for (int x = 0; x < na; x++) {
+      double col = 0.0;
+      for (int a = 0; a < na; a++) col += fabs(G[a * na + x]);
+      gnorm = fmax(gnorm, col);
     }
-    c->rhs[k + a] = -c->b[c->rows[a]] * sig[a];
+    int piv[na];
+    if (lu_small(na, G, piv)) return diagnose_singular(c, s, t, q, qd, 0.0);
+    for (int x = 0; x < na; x++) {
+      double *e = Gi + (size_t)x * na;
+      for (int a = 0; a < na; a++) e[a] = a == x;
+      lu_small_solve(na, G, piv, e);
+      double col = 0.0;
+      for (int a = 0; a < na; a++) col += fabs(e[a]);
+      inorm = fmax(inorm, col);
+    }
+    double rcond = 1.0 / (gnorm * inorm);
+    if (!(rcond >= c->rcond_min)) return diagnose_singular(c, s, t, q, qd, rcond);
+    lu_small_solve(na, G, piv, lam);
   }
-  double rcond = 0.0;
-  if ((st = nz_solve_square(n2, S, c->rhs, c->x, c->rcond_min, &rcond))) {
-    fail_at(c, NZ_CONTACT_EVAL, st, -1, t, q, qd);
-    return st;
+  /* q'' = M^-1 (W^T lambda - h) = sum_a lambda_a X_a - X_0 */
+  for (int i = 0; i < k; i++) {
+    double v = -X[i];
+    for (int a = 0; a < na; a++) v += lam[a] * X[(size_t)k * (size_t)(a + 1) + i];
+    if (!isfinite(v)) return diagnose_singular(c, s, t, q, qd, 0.0);
+    c->cqdd[i] = v;
   }
-  int finite = 1;
-  for (int i = 0; i < n2; i++) finite &= isfinite(c->x[i]) != 0;
-  if (!(rcond >= c->rcond_min) || !finite) return diagnose_singular(c, s, t, q, qd, rcond);
-  memcpy(c->cqdd, c->x, (size_t)k * sizeof(double));
   memset(c->clam, 0, (size_t)c->nc * sizeof(double));
   for (int a = 0; a < na; a++) {
-    double lam = c->x[k + a] * sig[a] * mmax;
-    c->clam[c->rows[a]] = lam;
-    if (c->couple[a] >= 0) c->clam[c->couple[a]] = c->coef[a] * lam;
+    c->clam[c->rows[a]] = lam[a];
+    if (c->couple[a] >= 0) c->clam[c->couple[a]] = c->coef[a] * lam[a];
   }
   c->ct = t;
   memcpy(c->cy, q, (size_t)k * sizeof(double));

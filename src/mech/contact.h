@@ -107,7 +107,9 @@ typedef enum nz_contact_failure {
                            /* two (a_n >= 0)                                    */
   NZ_CONTACT_LCP,          /* the LCP has no solution Lemke could find           */
   NZ_CONTACT_GRADIENT,     /* a touching contact's gap has a zero gradient       */
-  NZ_CONTACT_EVAL          /* a function of the system failed (the status)       */
+  NZ_CONTACT_EVAL,         /* a function of the system failed (the status)       */
+  NZ_CONTACT_MASS          /* M is singular or not positive definite (value:     */
+                           /* its reciprocal condition)                          */
 } nz_contact_failure;
 
 /* What failed last, where. */

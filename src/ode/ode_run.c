@@ -45,6 +45,7 @@ struct nz_run {
    * points (deferred), their values at its end kept in gnext. */
   int nchange, deferred, gnext_ok;
   double *gnext, *gsave;          /* nev each: gsave, gvals before a location that falls back */
+  double *sacc;                   /* 2 (k + nc): accelerations for the step after a jump */
   int nev, ev_next;
   int *dirs;                      /* nev directions */
   double *gvals;                  /* nev: each event's value at the last accepted step */
@@ -110,6 +111,7 @@ nz_run *nz_run_alloc(nz_stepper *st, const nz_run_config *cfg, const double *y0)
   r->orders = malloc(ncc * sizeof(int) + 1);
   r->gnext = malloc((size_t)r->nev * sizeof(double) + 1);
   r->gsave = malloc((size_t)r->nev * sizeof(double) + 1);
+  r->sacc = malloc(2 * (kk + ncc) * sizeof(double));
   r->nchange = cfg->nchange > 0 && cfg->nchange <= r->nev ? cfg->nchange : 0;
   r->yi = malloc(dim * sizeof(double));
   r->locate = st->exact_dense && r->nev > 0;
@@ -121,7 +123,7 @@ nz_run *nz_run_alloc(nz_stepper *st, const nz_run_config *cfg, const double *y0)
   r->c.dense = cfg->dense && cfg->step == 0.0 && finite_positive(cfg->rtol + cfg->atol) && cfg->rtol >= 0.0 &&
                cfg->atol >= 0.0;
   r->exact = st->exact_dense && r->c.dense && !(cfg->project_tol > 0.0 && nc > 0);
-  if (!r->yi || !r->gnext || !r->gsave ||
+  if (!r->yi || !r->gnext || !r->gsave || !r->sacc ||
       !r->y || !r->ytry || !r->bt || !r->by || !r->bacc || !r->broot || !r->has_root || !r->dirs || !r->gvals ||
       !r->orders) {
     nz_run_free(r);
@@ -157,6 +159,7 @@ void nz_run_free(nz_run *r)
   free(r->orders);
   free(r->gnext);
   free(r->gsave);
+  free(r->sacc);
   free(r->yi);
   free(r->loc_t);
   free(r->loc_y);
@@ -614,12 +617,54 @@ nz_run_status nz_run_record_until(nz_run *r, const nz_system *s, double te, int 
   return NZ_RUN_DONE;
 }
 
-int nz_run_jump(nz_run *r, double te, const double *y)
+/* The first step from (t, y) after a jump, by Hairer, Norsett and Wanner's
+ * estimate (Solving ODEs I, II.4): the step that an explicit Euler step's
+ * change of f allows at the run's tolerance for a method of order p.  The
+ * step the run had before the jump belongs to other equations (a block that
+ * stuck for a second, then slips): trying it cost about five rejected steps
+ * per event. */
+static int starting_step(nz_run *r, const nz_system *s, double *h)
+{
+  int k = r->k, n = 2 * k, st;
+  double *a0 = r->sacc, *a1 = r->sacc + k + r->nc, *y1 = r->yi;
+  nz_stepper_stats ss;
+  r->st->ops->stats(r->st, &ss);
+  if ((st = r->st->ops->accel(r->st, s, r->t, r->y, a0))) return st;
+  double d0 = 0.0, d1 = 0.0, d2 = 0.0;
+  for (int i = 0; i < n; i++) {
+    double sc = r->c.atol + r->c.rtol * fabs(r->y[i]), f = i < k ? r->y[k + i] : a0[i - k];
+    d0 += (r->y[i] / sc) * (r->y[i] / sc);
+    d1 += (f / sc) * (f / sc);
+  }
+  d0 = sqrt(d0 / n), d1 = sqrt(d1 / n);
+  double h0 = d0 < 1e-5 || d1 < 1e-5 ? 1e-6 : 0.01 * d0 / d1;
+  memcpy(y1, r->y, (size_t)r->dim * sizeof(double));
+  for (int i = 0; i < k; i++) y1[i] += h0 * r->y[k + i], y1[k + i] += h0 * a0[i];
+  if ((st = r->st->ops->accel(r->st, s, r->t + h0, y1, a1))) return st;
+  for (int i = 0; i < n; i++) {
+    double sc = r->c.atol + r->c.rtol * fabs(r->y[i]);
+    double df = i < k ? y1[k + i] - r->y[k + i] : a1[i - k] - a0[i - k];
+    d2 += (df / sc) * (df / sc);
+  }
+  d2 = sqrt(d2 / n) / h0;
+  double dm = fmax(d1, d2), p = ss.order > 0 ? ss.order : 4;
+  double h1 = dm <= 1e-15 ? fmax(1e-6, 1e-3 * h0) : pow(0.01 / dm, 1.0 / (p + 1.0));
+  *h = fmin(100.0 * h0, h1);
+  return NZ_OK;
+}
+
+int nz_run_jump(nz_run *r, const nz_system *s, double te, const double *y)
 {
   if (!(te >= r->ta && te <= r->t) || (r->nev && !r->event_fn)) return NZ_EARG;
   memcpy(r->y, y, (size_t)r->dim * sizeof(double));
   r->t = r->ta = te;
   r->st->ops->reset(r->st);
+  if (!r->st->exact_dense && r->c.step == 0.0 && finite_positive(r->c.rtol + r->c.atol)) {
+    double h;
+    int st = starting_step(r, s, &h);
+    if (st) return st;
+    if (finite_positive(h)) r->h = h;
+  }
   r->start_ok = 0;
   r->phase = PH_STEP;
   r->ev_next = r->nev;

@@ -178,10 +178,12 @@ nz_run_status nz_run_record_until(nz_run *r, const nz_system *s, double te, int 
  * grid goes back to its first time after te (with dense output the step
  * recorded the points inside it; the caller drops those after te, the
  * buffer being handed over at every return).  A point at te itself keeps
- * the state before the jump if it was recorded, else it gets y.  NZ_OK,
+ * the state before the jump if it was recorded, else it gets y.  An
+ * adaptive step starts with Hairer, Norsett and Wanner's estimate at (te,
+ * y) (two evaluations of the accelerations), not the step before.  NZ_OK,
  * NZ_EARG (te outside the last step, no callback with events), or the
  * callback's status. */
-int nz_run_jump(nz_run *r, double te, const double *y);
+int nz_run_jump(nz_run *r, const nz_system *s, double te, const double *y);
 
 /* After NZ_RUN_FAILED: what failed. */
 nz_run_failure nz_run_failure_of(const nz_run *r);
