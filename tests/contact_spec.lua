@@ -231,6 +231,31 @@ describe("closed forms", function()
     end
   end)
 
+  it("equalities beside a contact: a Cartesian pendulum (x^2 + z^2 = l^2) against a wall hits at odd quarter periods", function()
+    local l, th0 = 0.8, 1.1
+    local cart = nz.system{ name = "Cartesian pendulum and wall", coords = { "x", "z" },
+      T = function(t, q, qd) return 0.5 * (qd[1] ^ 2 + qd[2] ^ 2) end,
+      V = function(t, q) return g * q[2] end,
+      constraints = { function(t, q) return q[1] ^ 2 + q[2] ^ 2 - l * l end,
+        nz.unilateral(function(t, q) return q[1] end, { e = 1, name = "wall" }) } }
+    local quarter = nz.special.ellint_K(math.sin(th0 / 2)) * math.sqrt(l / g)
+    for _, method in ipairs{ "rk8pd", "taylor" } do
+      local tr = cart:simulate{ q0 = { l * math.sin(th0), -l * math.cos(th0) }, t1 = 20 * quarter + 0.05, dt = 0.02,
+        method = method }
+      local impacts = events_of(tr, "impact")
+      assert(#impacts == 10, ("10 impacts (%d)"):format(#impacts))
+      for k, ev in ipairs(impacts) do
+        assert(math.abs(ev.t - (2 * k - 1) * quarter) <= 1e-8, ("%s: impact %d at %.12g, odd quarter period %.12g"):format(
+          method, k, ev.t, (2 * k - 1) * quarter))
+        -- the impulse keeps the rod: the velocity stays tangent, reversed
+        local v, w = ev.qd, ev.qd_after
+        assert(math.abs(ev.q[1] * w[1] + ev.q[2] * w[2]) <= 1e-10 and math.abs(w[1] + v[1]) <= 1e-9 and math.abs(w[2] + v[2]) <= 1e-9,
+          "q'+ = -q'- along the circle")
+      end
+      assert(max_abs(tr.violation) <= 1e-8, "on the circle throughout")
+    end
+  end)
+
   it("Newton's cradle under the simultaneous Newton law: v+ = (-1/3, 2/3, 2/3) v (docs/theory.md §13)", function()
     local r, v = 0.1, 1.3
     local cradle = nz.system{ name = "cradle", coords = { "x1", "x2", "x3" },
@@ -476,6 +501,17 @@ describe("errors", function()
     local msg = errmsg(block.simulate, block, { q0 = { 0.3, 0 }, t1 = 1 })
     assert(msg:find("the contacts held and the constraints are dependent at t = 0", 1, true), msg)
     assert(msg:find("their forces are not determined", 1, true), msg)
+  end)
+  it("a singular mass matrix in a contact mode, and an event function that cannot be recorded", function()
+    local bad = nz.system{ name = "bad mass", coords = { "x", "y" },
+      T = function(t, q, qd) return 0.5 * q[1] ^ 2 * qd[1] ^ 2 + 0.5 * qd[2] ^ 2 end, V = function(t, q) return g * q[2] end,
+      constraints = { nz.unilateral(function(t, q) return q[2] end, { name = "floor" }) } }
+    local msg = errmsg(bad.simulate, bad, { q0 = { 0, 0 }, t1 = 1 })
+    assert(msg:find("the mass matrix M is singular or not positive definite at t = 0, q = {0, 0}", 1, true), msg)
+    local sys = ball(0.5, 0.1)
+    msg = errmsg(sys.simulate, sys, { q0 = { 1 }, t1 = 1, events = { { name = "branchy",
+      f = function(t, q) if q[1] > 0.5 then return 1 end return -1 end } } })
+    assert(msg:find("unilateral contacts need the loop in C, and event 'branchy' cannot be recorded", 1, true), msg)
   end)
   it("a mode that keeps changing at one time stops the run", function()
     local Run = require("nz.contact_run").Run

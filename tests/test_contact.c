@@ -511,6 +511,22 @@ static void test_painleve(void)
     gsl_test(spin ? !(f->an > 0.0) : !(fabs(f->an + G) < 1e-12), "painleve: the free normal acceleration %.6g", f->an);
     nz_contacts_free(c);
   }
+  /* sliding at mu = 4/3 exactly at tan th = 2: the effective mass is zero,
+   * the mode's saddle point singular: Painleve again, from the integrator's
+   * solve (where a slide turns into the paradox) */
+  {
+    nz_contact_def d = { 0, 1, 0.0, 4.0 / 3.0, 4.0 / 3.0 };
+    nz_contacts *c = contacts_of(&ts, 0, 1, &d);
+    int slide = NZ_CONTACT_SLIP_NEG;
+    nz_contacts_set_mode(c, &slide);
+    double q[3] = { 0.0, l * sin(th), th }, qd[3] = { -1.0, 0.0, 0.0 }, qdd[3], lam[2];
+    int st = nz_contacts_accel(c, &s, 0.5, q, qd, qdd, lam);
+    const nz_contact_report_failure *f = nz_contacts_failure(c);
+    gsl_test(st != NZ_ESINGULAR || f->kind != NZ_CONTACT_PAINLEVE || f->contact != 0 || fabs(f->value) > 1e-12,
+             "painleve: a slide whose effective mass reaches zero is singular and named (status %d, kind %d, %.3g)", st,
+             f->kind, f->value);
+    nz_contacts_free(c);
+  }
   /* mu = 1 < 4/3: consistent, it slides */
   nz_contact_def d = { 0, 1, 0.0, 1.0, 1.0 };
   nz_contacts *c = contacts_of(&ts, 0, 1, &d);

@@ -55,7 +55,7 @@ function M.begin(sys, cfg, q0, qd0, fail)
   end
   local orders, linear = constraints.orders(csys, { t = cfg.t0, q = q0, qd = qd0 })
   for r = 1, c.nb do
-    if orders[r] > 1 or not linear[r] then
+    if orders[r] > 1 or (orders[r] == 1 and not linear[r]) then
       fail("constraint %d is %s: beside unilateral contacts the constraints must be holonomic or linear in the "
         .. "velocities (their impulses are the constraint's own)", r,
         orders[r] > 1 and ("of order %d"):format(orders[r]) or "nonlinear in the velocities")

@@ -434,16 +434,26 @@ static int mode_solve(nz_contacts *c, const nz_system *s, double t, const double
     for (int i = 0; i < k; i++) xa[i] = R[i] + (D ? c->coef[a] * D[i] : 0.0);
     nz_cholesky_solve(k, Mw, xa);
   }
+  /* each row scaled by its own effective mass R M^-1 R^T (> 0): a plain
+   * row's diagonal is then 1, a sliding one's the ratio J M^-1 W^T / J M^-1
+   * J^T that Painleve's paradox makes vanish (a 1 x 1 matrix's condition
+   * alone would always be 1) */
   for (int a = 0; a < na; a++) {
     const double *R = row_of(c, c->rows[a]);
-    double big = 0.0;
-    for (int x = 0; x < na; x++) big = fmax(big, fabs(G[a * na + x] = dot(k, R, X + (size_t)k * (size_t)(x + 1))));
-    double sc = big > 0.0 ? 1.0 / big : 1.0;
+    double ref;
+    if (c->couple[a] < 0) ref = dot(k, R, X + (size_t)k * (size_t)(a + 1));
+    else {
+      double *y = c->scr;
+      memcpy(y, R, (size_t)k * sizeof(double));
+      nz_cholesky_solve(k, Mw, y);
+      ref = dot(k, R, y);
+    }
+    double sc = ref > 0.0 ? 1.0 / ref : 1.0;
+    for (int x = 0; x < na; x++) G[a * na + x] = dot(k, R, X + (size_t)k * (size_t)(x + 1)) * sc;
     lam[a] = (dot(k, R, X) - c->b[c->rows[a]]) * sc;
-    for (int x = 0; x < na; x++) G[a * na + x] *= sc;
   }
   if (na > 0) {
-    /* its condition in the 1-norm, from the inverse: na is a few */
+    /* its condition in the 1-norm, from the inverse (na is a few) */
     double gnorm = 0.0, inorm = 0.0;
     for (int x = 0; x < na; x++) {
       double col = 0.0;
@@ -460,7 +470,9 @@ static int mode_solve(nz_contacts *c, const nz_system *s, double t, const double
       for (int a = 0; a < na; a++) col += fabs(e[a]);
       inorm = fmax(inorm, col);
     }
-    double rcond = 1.0 / (gnorm * inorm);
+    /* against the rows' own size 1, not only the matrix's norm: a sliding
+     * contact's lone row whose ratio reaches zero is singular too */
+    double rcond = 1.0 / (fmax(gnorm, 1.0) * inorm);
     if (!(rcond >= c->rcond_min)) return diagnose_singular(c, s, t, q, qd, rcond);
     lu_small_solve(na, G, piv, lam);
   }
@@ -562,10 +574,20 @@ int nz_contacts_kinematics(nz_contacts *c, const nz_system *s, double t, const d
 /* ------------------------------------------------------------------ */
 /* The bilateral saddle point and the response to a force               */
 
-/* K = [M -A_b^T; A_b 0], equilibrated, by pivoted QR; its condition. */
+/* K = [M -A_b^T; A_b 0], equilibrated, by pivoted QR; its condition.  M
+ * itself first (Cholesky with its condition: a singular M is said as such,
+ * not as dependent constraints). */
 static int factor_bilateral(nz_contacts *c, double t, const double *q, const double *qd)
 {
   int k = c->k, nb = c->nb, nk = k + nb;
+  nz_solve_info info;
+  double *Mw = c->S, *x = Mw + (size_t)k * (size_t)k;
+  memcpy(Mw, c->M, (size_t)k * (size_t)k * sizeof(double));
+  if (nz_solve_spd_in(k, Mw, c->h, x, c->rcond_min, &info, c->spd_work)) {
+    fail_at(c, NZ_CONTACT_MASS, NZ_ESINGULAR, -1, t, q, qd);
+    c->fail.value = info.rcond;
+    return NZ_ESINGULAR;
+  }
   double mmax = max_abs(k * k, c->M);
   if (!(mmax > 0.0)) mmax = 1.0;
   c->kscale[0] = 1.0 / mmax;
