@@ -412,6 +412,24 @@ describe("what the trajectory shows", function()
       assert(svg and svg:find("contact events", 1, true), "the events are marked and named in the key")
     end
   end)
+  it("tr:residuals and tr:consistency refuse a run with contacts, and sys:report says why it shows no defect", function()
+    for _, f in ipairs{ "residuals", "consistency" } do
+      local msg = errmsg(tr[f], tr, 1)
+      assert(msg:find(("tr:%s: the run of 'ball' has unilateral contacts: its motion is smooth only between its "):format(f),
+        1, true) and msg:find("contact_spec.lua:%d+: "), msg)
+    end
+    local printed, real = {}, _G.print
+    _G.print = function(...)
+      local parts = { ... }
+      for i = 1, select("#", ...) do parts[i] = tostring(parts[i]) end
+      printed[#printed + 1] = table.concat(parts, " ")
+    end
+    local b = ball(0.5, R)
+    local ok, err = pcall(b.report, b, { q = { 0.3 }, simulate = { t1 = 0.5 }, plot = false })
+    _G.print = real
+    assert(ok, err)
+    assert(table.concat(printed, "\n"):find("defect of the motion: not measured across contact events", 1, true))
+  end)
   it("tr:animate draws the contact point while the contact is held", function()
     local sys = nz.scene{ name = "ball", coords = { "y" },
       bodies = { { name = "b", mass = 1, pos = function(t, q) return { 0, q[1], 0 } end } },

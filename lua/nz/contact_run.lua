@@ -261,6 +261,17 @@ function M.summary(tr)
   return table.concat(lines, "\n")
 end
 
+-- tr:residuals and tr:consistency measure the system's smooth equations,
+-- without its contact forces and across its impacts: on a run with
+-- contacts they would report the contacts as a defect.
+function M.refuse_defect(tr, fname)
+  error(("%str:%s: the run of '%s' has unilateral contacts: its motion is smooth only between its %d contact "
+    .. "events, and its equations there hold the contact forces (tr.lambda, the columns N.name and T.name), "
+    .. "which the smooth system's equations leave out; measure a stretch between two events of a run without "
+    .. "them, or check the closed forms of the events (tr.events)"):format(require("nz.where").user_where(), fname,
+    tr.system.name, #tr.events), 0)
+end
+
 -- The contact events as marks on tr:plot's curves against t: at each, the
 -- value of each coordinate (q, and velocities before the event).
 function M.marks(tr, series, x)

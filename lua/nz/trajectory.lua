@@ -297,8 +297,10 @@ function Trajectory:section(opts) return require("nz.views").section(self, opts)
 function Trajectory:animate(opts) return require("nz.views").animate(self, opts) end
 
 -- The order n (argument #1) and the options of tr:residuals and
--- tr:consistency, named as the user called them.
-local function check_order_options(sys, fname, n, opts)
+-- tr:consistency, named as the user called them; a run with contacts is
+-- refused (nz/contact_run.lua).
+local function check_order_options(self, sys, fname, n, opts)
+  if self.contacts then require("nz.contact_run").refuse_defect(self, fname) end
   local args = require("nz.system").args
   args.order(fname, n)
   args.options(fname, 2, opts, { quiet = args.boolean })
@@ -309,7 +311,7 @@ end
 -- the curve through the points' q and q', at points inside the intervals.
 function Trajectory:residuals(n, opts)
   local sys, defect = self.system, require "nz.defect"
-  n = check_order_options(sys, "residuals", n, opts)
+  n = check_order_options(self, sys, "residuals", n, opts)
   local result = defect.measure(sys, { t = self.t, q = self.q, qd = self.qd }, n)
   if result.intervals == 0 then
     error(("%str:residuals: the %d points of this run are too few for the curve through them (%d in a run "
@@ -329,7 +331,7 @@ end
 -- from), not the motion: tr:residuals does that.  max and RMS per equation.
 function Trajectory:consistency(n, opts)
   local sys = self.system
-  n = check_order_options(sys, "consistency", n, opts)
+  n = check_order_options(self, sys, "consistency", n, opts)
   local k, worst, sq = sys.k, {}, {}
   for j = 1, k do worst[j], sq[j] = 0, 0 end
   for i = 1, #self.t do
