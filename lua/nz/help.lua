@@ -198,10 +198,14 @@ one, e.g. help(sys.simulate):
         level: one SVD solve of [M -A^T; A 0]; second-order constraints
         nonlinear in qdd: GSL's hybridsj (Newton with a trust region) from the
         unconstrained accelerations or opts = {qdd = guess, lambda = guess}.
-        Every solution is checked ((6.2) and each constraint against the size
-        of their terms, to 1e-10, and each constraint's order); where it fails
-        the constraint is classified again at this state and solved again
-        (report.reclassified counts them), else an error names the
+        Every solution is checked: the residual of (6.2) and of the
+        constraints (evaluated again at it) as a normwise backward error of
+        the equilibrated system, to 1e-10 (report.backward_error); the bound
+        on its error, max(backward error, eps) / rcond, to 1e-6
+        (report.error_bound: near a rank loss of the constraints' gradients
+        the motion is not determined); each constraint's order.  Where it
+        fails the constraint is classified again at this state and solved
+        again (report.reclassified counts them), else an error names the
         constraint, the state and the violation.  opts.check = false skips
         the check (to measure its cost).  Singular systems name the
         constraints involved.  opts: qdd, lambda, tol, maxit, rcond_min,

@@ -208,7 +208,13 @@ static int ls_accel_constrained(lua_State *L)
   if (st) return nz_lua_raise_accel_failure(L, 1, &rep, orders, t, q, qd, k, nc);
   nz_lua_push_vector(L, qdd, k);
   nz_lua_push_vector(L, lam, nc);
-  lua_createtable(L, 0, 5);
+  lua_createtable(L, 0, 7);
+  if (!opt.skip_check) {                     /* what the check measured */
+    lua_pushnumber(L, rep.check_backward);
+    lua_setfield(L, -2, "backward_error");
+    lua_pushnumber(L, rep.check_forward);
+    lua_setfield(L, -2, "error_bound");
+  }
   lua_pushinteger(L, rep.reclassified);
   lua_setfield(L, -2, "reclassified");
   lua_pushinteger(L, rep.iterations);
@@ -246,4 +252,6 @@ void nz_lua_open_constraints(lua_State *L)
   luaL_setfuncs(L, constraint_functions, 0);
   lua_pushnumber(L, NZ_ACCEL_CHECK_TOL);      /* what the check promises (tests, help) */
   lua_setfield(L, -2, "accel_check_tol");
+  lua_pushnumber(L, NZ_ACCEL_FORWARD_TOL);
+  lua_setfield(L, -2, "accel_forward_tol");
 }
