@@ -225,9 +225,14 @@ one, e.g. help(sys.simulate):
   sys:project(t, q, qd [, opts])  the nearest state on the constraints of
                              order <= 1; with constraints of order p >= 3
                              also the start's higher levels: opts {qdd =,
-                             q3d =, ...} are corrected (0 if absent) and
-                             returned as report.qdd, report.q3d, ... with
-                             report.lambda (and report.lambdas)
+                             q3d =, ...} (0 if absent) change least (a
+                             consistent one not at all) and come back as
+                             report.qdd, report.q3d, ...; the multipliers
+                             (report.lambda, report.lambdas = {lambda,
+                             lambda', ...}) are what the levels need, unless
+                             given as opts.lambda or opts.lambdas: then they
+                             change least together with the levels.  opts:
+                             tol, maxit, the levels, lambda, lambdas
   sys:check_state(t, q, qd [, tol])  error if a constraint is violated by more
                              than tol (1e-8) of the size of its terms
   sys:reaction_power(t, q, qd)   R_0 of (9.1): the power of moving constraints

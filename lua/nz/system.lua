@@ -369,11 +369,59 @@ function System:reduced(t, q, qd, n, form)
   return constraints.reduced(self, t, q, qd, n or self:rule(), form)
 end
 
+-- sys:project's options: tol, maxit, and for constraints of order p >= 3
+-- the start's levels qdd .. q^(p-1) and the multipliers the user chose
+-- (lambda, or lambdas = {lambda, lambda', ..., lambda^(p-3)}), which are
+-- otherwise whatever the equations need.
+local function check_project_options(self, opts)
+  local top = self.nc > 0 and constraints.top_level(self)
+  local p = top or (self.nc > 0 and constraints.level(self)) or nil
+  local keys = { tol = positive, maxit = count }
+  local vector = function(n, what) return function(v)
+    local want = ("a table of %d finite number%s (%s)"):format(n, n == 1 and "" or "s", what)
+    if type(v) ~= "table" or #v ~= n then return false, want end
+    for j = 1, n do if not finite(v[j]) then return false, want end end
+    return true
+  end end
+  for j = 2, (p or 2) - 1 do keys[constraints.level_name(j)] = vector(self.k, "one per coordinate") end
+  if p and not top then
+    local one = vector(self.nc, "one multiplier per constraint")
+    keys.lambda = one
+    keys.lambdas = function(v)
+      if type(v) ~= "table" then return false, ("a list of %d tables of multipliers (lambda, lambda', ...)"):format(p - 2) end
+      for j, l in pairs(v) do
+        if math.type(j) ~= "integer" or j < 1 or j > p - 2 or not one(l) then
+          return false, ("a list of %d tables of %d multipliers (lambda, lambda', ...)"):format(p - 2, self.nc)
+        end
+      end
+      return true
+    end
+  end
+  for key in pairs(opts) do
+    local j = type(key) == "string" and (key == "qdd" and 2 or tonumber(key:match("^q(%d+)d$")))
+    if j and not keys[key] then
+      arg_error("project", 4, "option '%s': %s", key, p and ("the constraints are of order %d at most, so the start "
+        .. "has levels q .. %s"):format(p, constraints.level_name(p - 1)) or "no constraint is of order 3 or more, so "
+        .. "the start is q and qd alone")
+    end
+    if (key == "lambda" or key == "lambdas") and not keys[key] then
+      arg_error("project", 4, "option '%s': %s", key, top and "with a constraint nonlinear in its top derivative the "
+        .. "multipliers are solved at each time, not part of the start" or "no constraint is of order 3 or more, so "
+        .. "the start has no multipliers")
+    end
+  end
+  check_options("project", 4, opts, keys)
+  if opts.lambda and opts.lambdas then
+    arg_error("project", 4, "options 'lambda' and 'lambdas': give one of them (lambda is lambdas[1])")
+  end
+end
+
 function System:project(t, q, qd, opts)
   check_state(self, "project", 1, t, q, qd)
   if opts ~= nil and (type(opts) ~= "table" or getmetatable(opts) ~= nil) then
     arg_error("project", 4, "options: a table {tol =, maxit =, qdd =, ...} expected, got %s", shown(opts))
   end
+  if opts then check_project_options(self, opts) end
   return constraints.project(self, t, q, qd, opts)
 end
 
