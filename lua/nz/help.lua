@@ -394,9 +394,9 @@ one, e.g. help(sys.simulate):
                              path:simulate{t0 = phi0, t1 = phi1, ...} gives
                              the other coordinates against phi, and
                              path:elapsed(tr) the physical time at each point
-                             (dt/dphi = sqrt(G / (h + L0)), between output
-                             points on their quintic interpolant: its error
-                             ~dt^6 is set by the grid dt, not by rtol)
+                             (dt/dphi = sqrt(G / (h + L0)), integrated with
+                             the path by tr's method and tolerances: as
+                             accurate as the path on any output grid)
   sys:equilibrium{q = guess [, qd, t, coords, hold, dependent, tol, maxit]}
                              an equilibrium or a steady motion near the guess:
                              Newton on the kept accelerations in the kept
