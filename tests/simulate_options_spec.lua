@@ -339,6 +339,62 @@ describe("a long run says so once, and goes on", function()
     assert.is_nil(msg:find("rtol = ", 1, true))
     assert.are.equal(2500, tr.stats.steps)                            -- 2.5 / 1e-3 fixed steps
   end)
+  it("the projection is the pace of the last window, not the start-up spread over the run", function()
+    -- A clock that the work drives: each call of Q costs 1 ms for the first
+    -- 3600 calls (a slow start: the first steps, plans built, a graph
+    -- evaluated before its machine code is ready), then 1 us.  The whole
+    -- run's cost on that clock is known at its end, and the notice at 2048
+    -- steps must project it from the pace after the start: rk4, 8000 fixed
+    -- steps.  Spreading the start over the run (elapsed / fraction done, as
+    -- it did) projects 4x too much.
+    local calls = 0
+    local function cost(n) return 1e-3 * math.min(n, 3600) + 1e-6 * math.max(0, n - 3600) end
+    local sys = nz.system{ name = "slow start", coords = { "x" }, compile = false,
+      T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end, V = function(t, q) return 0.5 * q[1] ^ 2 end,
+      Q = function() calls = calls + 1; return { 0 } end }
+    local mech = require("nz.core").mech
+    local said, saved_warn, saved_limits, saved_now = {}, simulate.warn, simulate.LONG_RUN, mech.now
+    simulate.warn = function(msg) said[#said + 1] = msg end
+    simulate.LONG_RUN = { steps = 5e3, seconds = math.huge, check_steps = 2000 }
+    mech.now = function() return cost(calls) end
+    local ok, tr = pcall(sys.simulate, sys, { q0 = { 1 }, t1 = 8, step = 1e-3, method = "rk4" })
+    simulate.warn, simulate.LONG_RUN, mech.now = saved_warn, saved_limits, saved_now
+    assert(ok, tostring(tr))
+    assert.are.equal(1, #said)
+    -- the message rounds to seconds: 4 s (it said 14 s)
+    local said_s = tonumber(said[1]:match("steps and (%d+) s"))
+    assert(said_s and math.abs(said_s - cost(calls)) <= 1, said[1])
+    contains(said[1], "at the pace of its last 1024 steps", "after 2048 steps")
+    local projected, actual = tr.stats.long_run.seconds, cost(calls)
+    -- the pace is steady after the start: the projection is the run's cost
+    -- (measured 3.692603 s against 3.692605 s)
+    assert(math.abs(projected - actual) <= 1e-3 * actual, ("projected %.6g s, the run cost %.6g s"):format(projected, actual))
+  end)
+  it("a chaotic but not stiff motion (the double pendulum, rk8pd) is not told to take an implicit method", function()
+    -- 20 % of rk8pd's steps are rejected, but by accuracy: its steps times
+    -- the Jacobian's spectral radius stay far below its stability boundary 6
+    local g = 9.81
+    local dp = nz.system{ name = "double pendulum", coords = { "a", "b" },
+      bodies = { gravity = { 0, -g, 0 },
+        { mass = 2.0, pos = function(t, q) return { nz.sin(q[1]), -nz.cos(q[1]), 0 } end },
+        { mass = 1.0, pos = function(t, q) return { nz.sin(q[1]) + 0.7 * nz.sin(q[2]), -nz.cos(q[1]) - 0.7 * nz.cos(q[2]), 0 } end } } }
+    local said, saved_warn, saved_limits = {}, simulate.warn, simulate.LONG_RUN
+    simulate.warn = function(msg) said[#said + 1] = msg end
+    simulate.LONG_RUN = { steps = 5e4, seconds = math.huge, check_steps = 2000 }
+    local ok, tr = pcall(dp.simulate, dp, { q0 = { 0.7, -0.4 }, qd0 = { 0.3, 1.1 }, t1 = 1e4, dt = 1,
+      events = { { f = function(t) return t - 60 end, stop = true } } })
+    simulate.warn, simulate.LONG_RUN = saved_warn, saved_limits
+    assert(ok, tostring(tr))
+    assert.are.equal(1, #said)
+    for _, word in ipairs{ "bsimp", "msbdf", "stiff", "implicit" } do
+      assert.is_nil(said[1]:find(word, 1, true), said[1])
+    end
+    contains(said[1], "cheaper: a looser rtol")
+    -- measured h |lambda|max = 0.20 (h = 0.026, |lambda| = 7.6; 20 % of the
+    -- steps rejected)
+    local lr = tr.stats.long_run
+    assert(lr.stiff == false and lr.h_rho < 0.5, ("h rho = %.3g"):format(lr.h_rho))
+  end)
   it("a stiff system under an explicit method (rk8pd): the advice names the implicit ones, which take far fewer steps", function()
     -- x'' + 1e4 x' + x = 0: the fast mode e^(-1e4 t) is gone after 1e-3 s,
     -- yet rk8pd's stability keeps its steps near 3e-4 for the whole run
@@ -353,7 +409,13 @@ describe("a long run says so once, and goes on", function()
     simulate.warn, simulate.LONG_RUN = saved_warn, saved_limits
     assert(ok, tostring(tr))
     assert.are.equal(1, #said)
-    contains(said[1], "bsimp or msbdf if the system is stiff")
+    -- the evidence: rk8pd's steps h times the Jacobian's spectral radius
+    -- (1e4) sit at its stability boundary 6 (measured h |lambda| = 5.2)
+    contains(said[1], "cheaper: bsimp or msbdf (its steps are held by stability, not accuracy: h |lambda|max = ",
+      "against rk8pd's stability boundary 6")
+    assert.is_true(tr.stats.long_run.stiff)
+    local x = tonumber(said[1]:match("h |lambda|max = ([%d.e+-]+)"))
+    assert(x >= 3 and x <= 6.5, said[1])
     local implicit = stiff:simulate{ q0 = { 1 }, t1 = 2, method = "bsimp" }
     assert(implicit.stats.steps * 20 < tr.stats.steps, ("bsimp %d steps, rk8pd %d"):format(implicit.stats.steps, tr.stats.steps))
   end)

@@ -264,9 +264,12 @@ one, e.g. help(sys.simulate):
         Each option is checked (which, what it got, what it accepts; the
         output points must fit in 1 GB, require('nz.simulate').MAX_MEMORY); a
         fixed step with rtol, atol or h0 warns once that they do nothing; a run
-        that will take over a minute or 1e7 steps says so once (with a larger
-        dt or step when the grid or fixed steps set the count) and goes on;
-        one whose steps stop advancing t stops with the state and M.
+        that will take over a minute or 1e7 steps at the pace of its last
+        steps says so once (with a larger dt or step when the grid or fixed
+        steps set the count; bsimp or msbdf only when its steps times the
+        Jacobian's spectral radius sit at the method's stability boundary)
+        and goes on (tr.stats.long_run); one whose steps stop advancing t
+        stops with the state and M.
         Event functions are recorded and watched in C; one that cannot be
         recorded keeps the run in Lua (tr.stats.loop_why says why).
         dense (true by default): a GSL stepper's output points inside a step

@@ -372,6 +372,12 @@ end
 local method_order = { rk2 = 2, rk4 = 4, rkf45 = 5, rkck = 5, rk8pd = 8, rk1imp = 1, rk2imp = 2, rk4imp = 4,
   bsimp = 6, msadams = 12, msbdf = 5 }
 
+local function duration_short(seconds)
+  if seconds < 1e-3 then return ("%.3g us"):format(1e6 * seconds) end
+  if seconds < 1 then return ("%.3g ms"):format(1e3 * seconds) end
+  return ("%.3g s"):format(seconds)
+end
+
 local function duration(seconds)
   if seconds < 120 then return ("%.0f s"):format(seconds) end
   if seconds < 7200 then return ("%.0f min"):format(seconds / 60) end
@@ -383,19 +389,71 @@ end
 -- fixed `step` (rtol does nothing there), the output grid (every dt is at
 -- least one step, whatever the tolerance), or the adaptive steps, which
 -- for an order-p method grow like rtol^(-1/p): then a low order at a tight
--- tolerance is what costs.  nsteps: the steps taken up to tt.
+-- tolerance is what costs.  nsteps: the steps taken up to tt.  An implicit
+-- method is named only on evidence of stiffness (stiff, below): a chaotic
+-- but non-stiff motion gets no such hint.
 local IMPLICIT = {}   -- as the engine classifies its steppers (src/ode/ode.c)
 for _, m in ipairs(mech.ode_methods()) do IMPLICIT[m.name] = m.implicit end
-local STIFF = "bsimp or msbdf if the system is stiff (then stability, not accuracy, sets the steps of an explicit "
-  .. "method, and a looser rtol hardly helps)"
 
-local function cheaper(cfg, nsteps, tt)
+-- Where an explicit method's stability region ends on the negative real
+-- axis (h |lambda| beyond it grows a mode whatever the tolerance): Hairer,
+-- Norsett and Wanner I, section II.7 (rk2, rk4: the Taylor polynomials'
+-- 2 and 2.79; Fehlberg 4(5) 3.0; Cash-Karp 3.6; Dormand-Prince 8(7) 6.0).
+local STABILITY_BOUNDARY = { rk2 = 2, rk4 = 2.79, rkf45 = 3.0, rkck = 3.6, rk8pd = 6.0 }
+
+-- Taylor's method of order p: its stability polynomial is e^z's Taylor
+-- polynomial of degree p; the boundary is where |sum_{j<=p} (-x)^j / j!|
+-- first exceeds 1 (scanned, then bisected).
+local function taylor_boundary(p)
+  local function amp(x)
+    local s, term = 1, 1
+    for j = 1, p do term = term * (-x) / j; s = s + term end
+    return math.abs(s)
+  end
+  local lo, hi = 0, 0.5
+  while amp(hi) <= 1 and hi < 100 do lo, hi = hi, hi + 0.5 end
+  for _ = 1, 40 do
+    local mid = 0.5 * (lo + hi)
+    if amp(mid) <= 1 then lo = mid else hi = mid end
+  end
+  return lo
+end
+
+-- The evidence of stiffness at the run's current pace: its average step h
+-- over the last window of steps times the spectral radius rho of the
+-- motion's Jacobian at the current state (ev.rho, nil when it could not be
+-- had), against the explicit method's stability boundary.  An explicit
+-- method whose step sits at that boundary (h rho >= half of it) is held
+-- there by stability, not by accuracy: at rtol 1e-10 accuracy alone keeps
+-- an order-8 step near h |lambda| ~ 0.06.  An implicit method on a motion
+-- that an explicit one would step as far (h rho below 1) is no help.
+local function stiffness(cfg, ev)
+  if not (ev and ev.rho and ev.h) then return nil end
+  local boundary = cfg.method == "taylor" and taylor_boundary(mech.taylor_order(cfg.rtol))
+    or STABILITY_BOUNDARY[cfg.method]
+  local x = ev.h * ev.rho
+  if boundary then
+    return { stiff = x >= 0.5 * boundary, x = x, boundary = boundary }
+  end
+  return { stiff = x >= 1, x = x }                -- an implicit method
+end
+
+local function stiff_words(cfg, s)
+  return s.boundary and ("its steps are held by stability, not accuracy: h |lambda|max = %.2g against %s's "
+    .. "stability boundary %.2g, and a looser rtol hardly helps"):format(s.x, cfg.method, s.boundary)
+    or ("the motion is stiff here: h |lambda|max = %.2g"):format(s.x)
+end
+
+local function cheaper(cfg, nsteps, tt, ev)
+  local s = stiffness(cfg, ev)
+  local stiff = s and s.stiff
   if cfg.method == "taylor" then
     -- its steps do not depend on the grid, and hardly on the tolerance
     -- (Jorba-Zou): the order does, and a step costs about its square
     local p, lp = mech.taylor_order(cfg.rtol), mech.taylor_order(cfg.rtol * 1e3)
-    return ("a looser rtol (taylor's order comes from it: rtol = %g takes order %d instead of %d, "
-      .. "about %.2gx cheaper per step), or rk8pd, or %s"):format(cfg.rtol * 1e3, lp, p, (p / lp) ^ 2, STIFF)
+    return ("%sa looser rtol (taylor's order comes from it: rtol = %g takes order %d instead of %d, "
+      .. "about %.2gx cheaper per step), or rk8pd"):format(stiff and ("bsimp or msbdf (%s), or "):format(stiff_words(cfg, s)) or "",
+      cfg.rtol * 1e3, lp, p, (p / lp) ^ 2)
   end
   if cfg.step then
     return ("the steps are fixed ('step' = %g; rtol does nothing for fixed steps): a larger 'step', "
@@ -408,21 +466,21 @@ local function cheaper(cfg, nsteps, tt)
   end
   local p = method_order[cfg.method] or 4
   local advice = {}
-  if p < 5 then
-    advice[#advice + 1] = ("a higher-order method (%s is of order %d): rk8pd, or %s"):format(cfg.method, p,
-      IMPLICIT[cfg.method] and "bsimp if the system is stiff" or STIFF)
-  elseif not IMPLICIT[cfg.method] then
-    advice[#advice + 1] = STIFF
+  if stiff and not IMPLICIT[cfg.method] then
+    advice[#advice + 1] = ("bsimp or msbdf (%s)"):format(stiff_words(cfg, s))
+  elseif stiff and cfg.method ~= "bsimp" and cfg.method ~= "msbdf" and p < 5 then
+    advice[#advice + 1] = ("a higher-order implicit method (%s is of order %d): bsimp (%s)"):format(cfg.method, p,
+      stiff_words(cfg, s))
+  elseif p < 5 then
+    advice[#advice + 1] = ("a higher-order method (%s is of order %d): rk8pd"):format(cfg.method, p)
+  elseif IMPLICIT[cfg.method] and s and not stiff then
+    advice[#advice + 1] = ("rk8pd (the motion is not stiff here: h |lambda|max = %.2g)"):format(s.x)
   end
   advice[#advice + 1] = ("a looser rtol (the steps grow like rtol^(-1/%d) for this method; rtol = %g takes %.2gx fewer steps)")
     :format(p, cfg.rtol * 1e3, 1e3 ^ (1 / p))
   return table.concat(advice, ", or ")
 end
 
--- A run that will take long says so once, with what would be cheaper
--- (tr.warnings, and the terminal): nsteps steps have brought it to tt,
--- wall0 was its start, done() clears the progress bar's line.  True when
--- it said so.
 -- Seconds the system's recording has spent compiling machine code so far
 -- (0 when it is not recorded): a one-time cost, not the run's pace.
 local function compile_seconds(sys)
@@ -430,18 +488,39 @@ local function compile_seconds(sys)
   return c and c:info().native_seconds or 0
 end
 
-local function long_run_notice(sys, cfg, tr, nsteps, tt, wall0, done, compiled0)
-  local done_frac = (tt - cfg.t0) / (cfg.t1 - cfg.t0)
-  -- the pace of the run: the time since its start less what compiling took
-  -- (a series compiled at the first step would otherwise read as a slow run)
-  local elapsed = mech.now() - wall0 - (compile_seconds(sys) - compiled0)
-  local steps, seconds = nsteps / done_frac, elapsed / done_frac
+-- A run that will take long says so once, with what would be cheaper
+-- (tr.warnings, and the terminal): nsteps steps have brought it to tt,
+-- wall0 was its start, done() clears the progress bar's line.  It looks at
+-- every doubling of the step count; pace holds the step count, t, clock
+-- and compile time of the previous look, so that the projection is the
+-- pace of the last window (half the steps so far): the run's start-up (the
+-- first calls, plans built, a graph evaluated before its machine code is
+-- ready) is not spread over what remains.  evidence(tt, h) gives the
+-- spectral radius of the motion's Jacobian at the current state (one
+-- Jacobian and its eigenvalues, once, when the notice is given).  True when
+-- it said so.
+local function long_run_notice(sys, cfg, tr, nsteps, tt, wall0, done, compiled0, pace, evidence)
+  local now, compiled = mech.now(), compile_seconds(sys)
+  local elapsed = now - wall0 - (compiled - compiled0)
+  local dsteps, dt_run = nsteps - pace.steps, tt - pace.t
+  local dwall = now - pace.wall - (compiled - pace.compiled)
+  pace.steps, pace.t, pace.wall, pace.compiled = nsteps, tt, now, compiled
+  if not (dsteps > 0 and dt_run > 0) then return false end
+  local windows = (cfg.t1 - tt) / dt_run          -- windows like the last one still to go
+  local steps, seconds = nsteps + windows * dsteps, elapsed + windows * math.max(dwall, 0)
   if not ((nsteps >= M.LONG_RUN.check_steps and steps > M.LONG_RUN.steps)
       or (elapsed >= 1 and seconds > M.LONG_RUN.seconds)) then return false end
-  local msg = ("%ssimulate '%s': warning: at its pace so far this run will take about %.3g steps and %s (t = %.4g of [%g, %g] after %d steps) "
-    .. "with %s%s; it goes on (Ctrl-C stops it and keeps what is done); cheaper: %s"):format(user_where(), sys.name,
-    steps, duration(seconds), tt, cfg.t0, cfg.t1, nsteps, cfg.method,
-    cfg.step and (" at step = %g"):format(cfg.step) or (" at rtol = %g"):format(cfg.rtol), cheaper(cfg, nsteps, tt))
+  local h = dt_run / dsteps
+  local ok, rho = pcall(evidence, tt)
+  local ev = { h = h, rho = ok and rho or nil }
+  local s = stiffness(cfg, ev)
+  -- what it said, in numbers (tr.stats.long_run)
+  pace.notice = { steps = steps, seconds = seconds, h = h, rho = ev.rho, h_rho = s and s.x, stiff = s and s.stiff }
+  local msg = ("%ssimulate '%s': warning: at its pace so far this run will take about %.3g steps and %s, at the pace of its "
+    .. "last %d steps, %s each (t = %.4g of [%g, %g] after %d steps) with %s%s; it goes on (Ctrl-C stops it and keeps what is "
+    .. "done); cheaper: %s"):format(user_where(), sys.name, steps, duration(seconds), dsteps, duration_short(dwall / dsteps), tt,
+    cfg.t0, cfg.t1, nsteps, cfg.method, cfg.step and (" at step = %g"):format(cfg.step) or (" at rtol = %g"):format(cfg.rtol),
+    cheaper(cfg, nsteps, tt, ev))
   tr.warnings[#tr.warnings + 1] = msg
   done()                                  -- the progress bar's line, if shown
   M.warn(msg)
@@ -836,7 +915,26 @@ function M.simulate(sys, opts)
       cfg.method, M.STALL.window, advance, state_text(tt, q, qd), smin, smax, smax / smin, smin0)
   end
 
-  local function long_run(tt) return long_run_notice(sys, cfg, tr, nsteps, tt, wall0, done, compiled0) end
+  -- The long-run notice: the pace of its last look, and the spectral radius
+  -- of the motion's exact Jacobian at the current state y (the implicit
+  -- steppers' own; Taylor's method has none, so a bsimp stepper of the
+  -- same motion gives it).
+  local pace = { steps = 0, t = cfg.t0, wall = wall0, compiled = compiled0 }
+  local function evidence(tt)
+    local o = ode
+    if taylor then
+      local jcfg = {}
+      for key, v in pairs(ode_cfg) do jcfg[key] = v end
+      jcfg.method = "bsimp"
+      o = mech.ode_new(engine, jcfg)
+    end
+    local rho = 0
+    for _, e in ipairs((mech.eigen((mech.ode_jacobian(o, engine, tt, y))))) do
+      rho = math.max(rho, math.sqrt(e[1] ^ 2 + e[2] ^ 2))
+    end
+    return rho
+  end
+  local function long_run(tt) return long_run_notice(sys, cfg, tr, nsteps, tt, wall0, done, compiled0, pace, evidence) end
 
   local t, h = cfg.t0, cfg.h0 or math.min(cfg.dt, 1e-3)
   local gvals = {}
@@ -1053,7 +1151,7 @@ function M.simulate(sys, opts)
   done()
   local s = mech.ode_stats(ode)
   tr.stats = { steps = s.steps, rejected = s.rejected, nfev = s.nfev, njev = s.njev, order = s.order,
-    wall = mech.now() - wall0, loop = in_c and "c" or "lua", loop_why = loop_why }
+    wall = mech.now() - wall0, loop = in_c and "c" or "lua", loop_why = loop_why, long_run = pace.notice }
   if s.reversed then   -- a constraint's gradient passed through zero (nz_constraint_row_reversed, src/mech/constrained.h)
     local r, ta, tb = s.reversed[1], s.reversed[2], s.reversed[3]
     tr.stats.reversed = { constraint = r, ta = ta, tb = tb }
