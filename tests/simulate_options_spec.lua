@@ -119,11 +119,16 @@ describe("simulate validates its options", function()
     sys:simulate{ q0 = { 0.3 }, qd0 = { 1.1 }, t1 = 0.5, step = 0.0625, rtol = 1e-6 }
     simulate.warn = saved
     assert(ok, tostring(tr))
-    assert.are.equal(3, #said)                  -- rtol, atol, h0 once each; not again on the second run
+    -- rtol, atol, h0 once each; not again on the second run; and the step,
+    -- longer than the output spacing (200 points: dt = 0.0025), is cut to it
+    assert.are.equal(4, #said)
     for i, key in ipairs{ "rtol", "atol", "h0" } do
       contains(said[i], ("%s:%d: simulate 'falling': warning: '%s' does nothing with a fixed 'step' = 0.0625"):format(THIS, line, key),
         "drop 'step' for adaptive steps")
     end
+    contains(said[4], "'step' = 0.0625 is longer than the output spacing 'dt' = 0.0025: every output point ends a step, "
+      .. "so the steps are 0.0025")
+    contains(tostring(tr), "fixed step 0.0025")
     -- x = x0 + v t - g t^2 / 2 (g = 2.385): the run itself is unaffected (rk8pd is exact on a quadratic)
     assert(math.abs(tr.q[#tr.q][1] - (0.3 + 1.1 * 0.5 - 2.385 * 0.125)) <= 1e-12)
   end)
@@ -141,7 +146,7 @@ describe("simulate's failures name the user's code first", function()
 
   it("an event that returns no number says so with the state", function()
     local msg = option_error(pendulum, { q0 = { 1 }, t1 = 1, events = { function() return "up" end } })
-    contains(msg, "event 'event 1' must return a number, got \"up\" at t = 0, q = {1}, qd = {0}")
+    contains(msg, "event 'event 1' must return a finite number, got \"up\" at t = 0, q = {1}, qd = {0}")
   end)
 
   it("a function that fails during the run: one location (where the user's function raised), no library prefix", function()
@@ -357,6 +362,7 @@ describe("a long run says so once, and goes on", function()
     simulate.warn = function(msg) said[#said + 1] = msg end
     simulate.LONG_RUN = { steps = 5e3, seconds = math.huge, check_steps = 2000 }
     mech.now = function() return cost(calls) end
+    calls = 0                          -- the run's calls only (nz.system made a few)
     local ok, tr = pcall(sys.simulate, sys, { q0 = { 1 }, t1 = 8, step = 1e-3, method = "rk4" })
     simulate.warn, simulate.LONG_RUN, mech.now = saved_warn, saved_limits, saved_now
     assert(ok, tostring(tr))

@@ -206,8 +206,10 @@ one, e.g. help(sys.simulate):
         the motion is not determined); each constraint's order.  Where it
         fails the constraint is classified again at this state and solved
         again (report.reclassified counts them), else an error names the
-        constraint, the state and the violation.  opts.check = false skips
-        the check (to measure its cost).  Singular systems name the
+        constraint, the state and the violation.  report.violation: how far
+        (q, qd) is from the constraints of order <= 1; off them by over 1e-8
+        of their terms, a warning once per system.  opts.check = false skips
+        both (to measure their cost).  Singular systems name the
         constraints involved.  opts: qdd, lambda, tol, maxit, rcond_min,
         check; any other key is an error.  Every method checks its arguments
         (t, q, qd: k finite numbers each) and names the one that is wrong; a

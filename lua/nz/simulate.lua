@@ -297,6 +297,15 @@ local function validate(sys, o)
           :format(key, show(cfg.step), key))
       end
     end
+    -- Both loops take equal steps no longer than 'step' that land on each
+    -- output point: dt / ceil(dt / step).  That is the step the trajectory
+    -- reports; one longer than the output spacing is said once.
+    cfg.step_used = cfg.dt / math.max(1, math.ceil(cfg.dt / cfg.step - 1e-9))
+    if cfg.step > cfg.dt * (1 + 1e-9) then
+      warn_once(sys, cfg, "step>dt", ("'step' = %s is longer than the output spacing 'dt' = %s: every output point ends a "
+        .. "step, so the steps are %s; give a larger 'dt' for longer steps"):format(show(cfg.step), show(cfg.dt),
+        show(cfg.step_used)))
+    end
   end
   return cfg
 end
@@ -660,7 +669,9 @@ function M.simulate(sys, opts)
       refuse("does not integrate the 'work' monitor yet (it is part of the GSL steppers' state): leave it out, "
         .. "or take rk8pd")
     end
-    if cfg.project or cfg.alpha then
+    -- without constraints both do nothing, said once by validate as for
+    -- every method; with them taylor has no use for either
+    if (cfg.project or cfg.alpha) and sys.nc > 0 then
       refuse("takes no 'project' or 'baumgarte': its series keeps the constraints to the order of the method "
         .. "along each step (their drift is the truncation's: tr:violation() shows it); take rk8pd to project")
     end
@@ -672,6 +683,14 @@ function M.simulate(sys, opts)
   end
   local qd0 = cfg.qd0
   if not qd0 then qd0 = {}; for i = 1, k do qd0[i] = 0 end end   -- at rest
+  -- T = ... + 1/0 or + 0/0 at the start: the motion has only its
+  -- derivatives, so it would run on with a T (or V) that means nothing
+  local piece, value = require("nz.system").nonfinite_piece(sys, cfg.t0, cfg.q0, qd0)
+  if piece then
+    fail(sys, "%s is %s at the start%s: a term such as 1/0 or 0/0 makes it so (only its derivatives enter the "
+      .. "motion, so the run would go on with a %s that means nothing)", piece, show(value), state_text(cfg.t0, cfg.q0, qd0),
+      piece)
+  end
   if sys.nc > 0 and cfg.check ~= false then constraints.check_state(sys, cfg.t0, cfg.q0, qd0) end
   local tail = p and start_levels(sys, cfg, orders, p, qd0, top)
   local guess = top and cfg.guess and top_guess(sys, cfg.guess, p)
@@ -697,6 +716,7 @@ function M.simulate(sys, opts)
     ode = mech.ode_new(engine, ode_cfg)
   end
   local tr = trajectory.new(sys, cfg)
+  tr.step = cfg.step_used            -- the step taken (the summary says it), not the one asked
   tr.warnings = cfg.warnings
   if cfg.monitors.energy then tr.energy, tr.generalized_energy = {}, {} end
   if cfg.monitors.work then tr.work = {} end
@@ -820,8 +840,8 @@ function M.simulate(sys, opts)
       error(("%ssimulate '%s': event '%s' raised an error%s: %s"):format(where or user_where(), sys.name, ev.name,
         state_text(t, q, qd), what or v), 0)
     end
-    if type(v) ~= "number" or v ~= v then
-      fail(sys, "event '%s' must return a number, got %s%s", ev.name, show(v), state_text(t, q, qd))
+    if type(v) ~= "number" or v - v ~= 0 then      -- nil, a jet, NaN or an infinity: no sign to follow
+      fail(sys, "event '%s' must return a finite number, got %s%s", ev.name, show(v), state_text(t, q, qd))
     end
     return v
   end

@@ -127,6 +127,32 @@ local function append(dst, dst_labels, src, src_labels)
   end
 end
 
+-- The first piece (T, L, V or Q) that is not finite at the state (t, q,
+-- qd), on plain numbers: T = ... + 1/0 or + 0/0.  Only M = d2T/dqd2 and the
+-- forces enter the motion, so such a T ran (a constant has no derivative).
+-- A piece that raises there is left to the first use, which names the
+-- user's line.  Its label and value, or nil.
+function M.nonfinite_piece(self, t, q, qd)
+  local e = self.engine
+  -- a parameter that is not a finite number is the mechanics' to name first
+  for _, name in ipairs(e.param_names) do if not finite(self.params[name]) then return nil end end
+  for _, list in ipairs{ { e.F, e.labels.F }, { e.V, e.labels.V, true }, { e.Q, e.labels.Q } } do
+    for n, f in ipairs(list[1]) do
+      local ok, v
+      if list[3] then ok, v = pcall(f, t, q, self.params) else ok, v = pcall(f, t, q, qd, self.params) end
+      if ok and type(v) == "table" then       -- Q: its first component that is not finite
+        local first
+        for i = 1, self.k do if type(v[i]) == "number" and not finite(v[i]) then first = first or v[i] end end
+        v = first
+      end
+      if ok and type(v) == "number" and not finite(v) then return list[2][n], v end
+    end
+  end
+end
+
+-- Where the methods' warnings go (tests replace it).
+function M.warn(msg) io.stderr:write(msg, "\n") end
+
 function M.system(def)
   if type(def) ~= "table" then error("nz.system: a table {coords = ..., T = ...} expected", 2) end
   local name = def.name
@@ -323,7 +349,19 @@ function System:accel(t, q, qd, opts)
   if opts and opts.lambda then check_vector(self, "accel", 4, "option 'lambda'", opts.lambda, self.nc, "one per constraint") end
   if self.nc == 0 then return mech.accel(self.engine, t, q, qd), {} end
   local orders, linear = constraints.orders(self, { t = t, q = q, qd = qd })
-  return mech.accel_constrained(self.engine, t, q, qd, orders, linear, opts)
+  local qdd, lambda, report = mech.accel_constrained(self.engine, t, q, qd, orders, linear, opts)
+  -- A state off the constraints of order <= 1 has accelerations all the
+  -- same (those of (6.2) there), but no motion on them passes through it:
+  -- said once per system, with the constraint and its value.
+  local v = report.violation
+  if v and v.relative > constraints.CHECK_TOL and not self._warned_off then
+    self._warned_off = true
+    M.warn(("%ssys:accel: warning: system '%s': the state at t = %s violates constraint %d at %s level by %.3g (%.3g of "
+      .. "the size of its terms): the accelerations are those of the equations at this state, which no motion on the "
+      .. "constraints passes through; q, qd = sys:project(t, q, qd) gives the nearest state on them (said once)")
+      :format(user_where(), self.name, shown(t), v.constraint, v.level, v.value, v.relative))
+  end
+  return qdd, lambda, report
 end
 
 -- Returns T + V (nil when the system is given by L without T), the

@@ -170,6 +170,25 @@ static int row_in(const nz_system *s, nz_motion *mo, int r, int m, double t,
   return st;
 }
 
+/* The rows of levels m + 1 and 2 of constraint r read as the constraint
+ * itself: the row of a constraint "of order 2" is Phi (K = 0), "of order
+ * 1" Phi' (K = 1); on doubles through the row hook where there is one. */
+int nz_constraint_state_values(const nz_system *s, const int *orders, double t, const double *const *state,
+                               int nstate, double *values)
+{
+  nz_motion mo = { 0 };   /* one workspace for every constraint (the jets' path) */
+  int st = NZ_OK;
+  for (int r = 0; r < s->nc && !st; r++) {
+    int m = orders[r];
+    values[2 * r] = values[2 * r + 1] = 0.0;
+    if (m > 1) continue;
+    st = row_in(s, &mo, r, 2, t, state, nstate, 0.0, 0.0, NULL, NULL, &values[2 * r], NULL, NULL);
+    if (!st && m == 0) st = row_in(s, &mo, r, 1, t, state, nstate, 0.0, 0.0, NULL, NULL, &values[2 * r + 1], NULL, NULL);
+  }
+  nz_motion_free(&mo);
+  return st;
+}
+
 int nz_constraint_row_along(const nz_system *s, int r, int m, double t, const double *const *state,
                             int nstate, double alpha, double beta, const nz_state_direction *dir,
                             double *A, double *value, double *dA, double *dvalue)

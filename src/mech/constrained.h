@@ -29,6 +29,15 @@ int nz_constraint_state_gradient(const nz_system *s, int r, int level, double t,
                                  const double *const *state, int nstate, double *value,
                                  double *grad);
 
+/* The constraints of order m <= 1 (orders[r], the classification) along
+ * the motion through the state (q, q', q'' in state): values[2r] = Phi_r
+ * and, for m = 0, values[2r + 1] = Phi_r' = Phi_t + Phi_q q' (0 for the
+ * others).  One evaluation of each on jets of order 1 - m without tangents,
+ * in one workspace: how far a state is from the constraints, for about the
+ * cost of its rows. */
+int nz_constraint_state_values(const nz_system *s, const int *orders, double t, const double *const *state,
+                               int nstate, double *values);
+
 /* Phi along q^(m) + s v, as a series in s: c[0] + c[1] s + c[2] s^2.
  * c[2] = v^T H v / 2 vanishes for every v exactly when Phi is affine in q^(m). */
 int nz_constraint_curvature(const nz_system *s, int r, int m, double t, const double *const *state,
