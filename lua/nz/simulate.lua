@@ -508,7 +508,7 @@ end
 -- and compile time of the previous look, so that the projection is the
 -- pace of the last window (half the steps so far): the run's start-up (the
 -- first calls, plans built, a graph evaluated before its machine code is
--- ready) is not spread over what remains.  evidence(tt, h) gives the
+-- ready) is not spread over what remains.  evidence(tt) gives the
 -- spectral radius of the motion's Jacobian at the current state (one
 -- Jacobian and its eigenvalues, once, when the notice is given).  True when
 -- it said so.
@@ -941,17 +941,14 @@ function M.simulate(sys, opts)
 
   -- The long-run notice: the pace of its last look, and the spectral radius
   -- of the motion's exact Jacobian at the current state y (the implicit
-  -- steppers' own; Taylor's method has none, so a bsimp stepper of the
-  -- same motion gives it).
+  -- steppers' own, from a bsimp stepper of the same motion made for it,
+  -- so that the run's stepper and its statistics are left alone).
   local pace = { steps = 0, t = cfg.t0, wall = wall0, compiled = compiled0 }
   local function evidence(tt)
-    local o = ode
-    if taylor then
-      local jcfg = {}
-      for key, v in pairs(ode_cfg) do jcfg[key] = v end
-      jcfg.method = "bsimp"
-      o = mech.ode_new(engine, jcfg)
-    end
+    local jcfg = {}
+    for key, v in pairs(ode_cfg) do jcfg[key] = v end
+    jcfg.method = "bsimp"
+    local o = mech.ode_new(engine, jcfg)
     local rho = 0
     for _, e in ipairs((mech.eigen((mech.ode_jacobian(o, engine, tt, y))))) do
       rho = math.max(rho, math.sqrt(e[1] ^ 2 + e[2] ^ 2))
