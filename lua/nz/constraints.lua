@@ -780,10 +780,12 @@ function M.level_violation(sys, t, levels, lambdas, p)
 end
 
 -- Complete the higher levels of a start state (p >= 3): given q, qd (already
--- projected) and opts.qdd, opts.q3d, ... (0 when absent; opts.lambdas the
--- multipliers' start, 0 when absent), the smallest
--- change of each level l = 2..p-1 and its multipliers lambda^(l-2) that
--- satisfies the equations of that level.
+-- projected) and opts.qdd, opts.q3d, ... (0 when absent), the smallest
+-- change of each level l = 2..p-1 that satisfies the equations of that
+-- level (a level that does is kept as it is), its multipliers lambda^(l-2)
+-- whatever the equations need.  Multipliers the caller chose (opts.lambda:
+-- lambda; opts.lambdas: {lambda, lambda', ...}, a list per level or nil
+-- there) count in the change: the least change of both together.
 function M.project_levels(sys, t, q, qd, p, opts, report)
   local levels = { q, qd }
   for j = 2, p - 1 do
@@ -792,8 +794,9 @@ function M.project_levels(sys, t, q, qd, p, opts, report)
     levels[j + 1] = v
   end
   local tol = opts and opts.tol or M.PROJECT_TOL
+  local chosen = opts and (opts.lambdas or (opts.lambda and { opts.lambda }))
   local out, lambdas, its = mech.series_project(sys.engine, M.orders(sys), p, t, levels, tol, opts and opts.maxit or 50,
-    opts and opts.lambdas)
+    chosen)
   if not out then
     error(M.user_where() .. ("system '%s': completing the start state (qdd and higher, with the multipliers) did not converge in %d steps"):format(sys.name, lambdas), 0)
   end

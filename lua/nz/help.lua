@@ -199,12 +199,18 @@ one, e.g. help(sys.simulate):
         level: one SVD solve of [M -A^T; A 0]; second-order constraints
         nonlinear in qdd: GSL's hybridsj (Newton with a trust region) from the
         unconstrained accelerations or opts = {qdd = guess, lambda = guess}.
-        Every solution is checked ((6.2) and each constraint against the size
-        of their terms, to 1e-10, and each constraint's order); where it fails
-        the constraint is classified again at this state and solved again
-        (report.reclassified counts them), else an error names the
-        constraint, the state and the violation.  opts.check = false skips
-        the check (to measure its cost).  Singular systems name the
+        Every solution is checked: the residual of (6.2) and of the
+        constraints (evaluated again at it) as a normwise backward error of
+        the equilibrated system, to 1e-10 (report.backward_error); the bound
+        on its error, max(backward error, eps) / rcond, to 1e-6
+        (report.error_bound: near a rank loss of the constraints' gradients
+        the motion is not determined); each constraint's order.  Where it
+        fails the constraint is classified again at this state and solved
+        again (report.reclassified counts them), else an error names the
+        constraint, the state and the violation.  report.violation: how far
+        (q, qd) is from the constraints of order <= 1; off them by over 1e-8
+        of their terms, a warning once per system.  opts.check = false skips
+        both (to measure their cost).  Singular systems name the
         constraints involved.  opts: qdd, lambda, tol, maxit, rcond_min,
         check; any other key is an error.  Every method checks its arguments
         (t, q, qd: k finite numbers each) and names the one that is wrong; a
@@ -222,9 +228,14 @@ one, e.g. help(sys.simulate):
   sys:project(t, q, qd [, opts])  the nearest state on the constraints of
                              order <= 1; with constraints of order p >= 3
                              also the start's higher levels: opts {qdd =,
-                             q3d =, ...} are corrected (0 if absent) and
-                             returned as report.qdd, report.q3d, ... with
-                             report.lambda (and report.lambdas)
+                             q3d =, ...} (0 if absent) change least (a
+                             consistent one not at all) and come back as
+                             report.qdd, report.q3d, ...; the multipliers
+                             (report.lambda, report.lambdas = {lambda,
+                             lambda', ...}) are what the levels need, unless
+                             given as opts.lambda or opts.lambdas: then they
+                             change least together with the levels.  opts:
+                             tol, maxit, the levels, lambda, lambdas
   sys:check_state(t, q, qd [, tol])  error if a constraint is violated by more
                              than tol (1e-8) of the size of its terms
   sys:reaction_power(t, q, qd)   R_0 of (9.1): the power of moving constraints
@@ -270,9 +281,12 @@ one, e.g. help(sys.simulate):
         Each option is checked (which, what it got, what it accepts; the
         output points must fit in 1 GB, require('nz.simulate').MAX_MEMORY); a
         fixed step with rtol, atol or h0 warns once that they do nothing; a run
-        that will take over a minute or 1e7 steps says so once (with a larger
-        dt or step when the grid or fixed steps set the count) and goes on;
-        one whose steps stop advancing t stops with the state and M.
+        that will take over a minute or 1e7 steps at the pace of its last
+        steps says so once (with a larger dt or step when the grid or fixed
+        steps set the count; bsimp or msbdf only when its steps times the
+        Jacobian's spectral radius sit at the method's stability boundary)
+        and goes on (tr.stats.long_run); one whose steps stop advancing t
+        stops with the state and M.
         Event functions are recorded and watched in C; one that cannot be
         recorded keeps the run in Lua (tr.stats.loop_why says why).
         dense (true by default): a GSL stepper's output points inside a step
@@ -400,9 +414,9 @@ one, e.g. help(sys.simulate):
                              path:simulate{t0 = phi0, t1 = phi1, ...} gives
                              the other coordinates against phi, and
                              path:elapsed(tr) the physical time at each point
-                             (dt/dphi = sqrt(G / (h + L0)), between output
-                             points on their quintic interpolant: its error
-                             ~dt^6 is set by the grid dt, not by rtol)
+                             (dt/dphi = sqrt(G / (h + L0)), integrated with
+                             the path by tr's method and tolerances: as
+                             accurate as the path on any output grid)
   sys:equilibrium{q = guess [, qd, t, coords, hold, dependent, tol, maxit]}
                              an equilibrium or a steady motion near the guess:
                              Newton on the kept accelerations in the kept

@@ -127,6 +127,32 @@ local function append(dst, dst_labels, src, src_labels)
   end
 end
 
+-- The first piece (T, L, V or Q) that is not finite at the state (t, q,
+-- qd), on plain numbers: T = ... + 1/0 or + 0/0.  Only M = d2T/dqd2 and the
+-- forces enter the motion, so such a T ran (a constant has no derivative).
+-- A piece that raises there is left to the first use, which names the
+-- user's line.  Its label and value, or nil.
+function M.nonfinite_piece(self, t, q, qd)
+  local e = self.engine
+  -- a parameter that is not a finite number is the mechanics' to name first
+  for _, name in ipairs(e.param_names) do if not finite(self.params[name]) then return nil end end
+  for _, list in ipairs{ { e.F, e.labels.F }, { e.V, e.labels.V, true }, { e.Q, e.labels.Q } } do
+    for n, f in ipairs(list[1]) do
+      local ok, v
+      if list[3] then ok, v = pcall(f, t, q, self.params) else ok, v = pcall(f, t, q, qd, self.params) end
+      if ok and type(v) == "table" then       -- Q: its first component that is not finite
+        local first
+        for i = 1, self.k do if type(v[i]) == "number" and not finite(v[i]) then first = first or v[i] end end
+        v = first
+      end
+      if ok and type(v) == "number" and not finite(v) then return list[2][n], v end
+    end
+  end
+end
+
+-- Where the methods' warnings go (tests replace it).
+function M.warn(msg) io.stderr:write(msg, "\n") end
+
 function M.system(def)
   if type(def) ~= "table" then error("nz.system: a table {coords = ..., T = ...} expected", 2) end
   local name = def.name
@@ -325,7 +351,19 @@ function System:accel(t, q, qd, opts)
   if opts and opts.lambda then check_vector(self, "accel", 4, "option 'lambda'", opts.lambda, self.nc, "one per constraint") end
   if self.nc == 0 then return mech.accel(self.engine, t, q, qd), {} end
   local orders, linear = constraints.orders(self, { t = t, q = q, qd = qd })
-  return mech.accel_constrained(self.engine, t, q, qd, orders, linear, opts)
+  local qdd, lambda, report = mech.accel_constrained(self.engine, t, q, qd, orders, linear, opts)
+  -- A state off the constraints of order <= 1 has accelerations all the
+  -- same (those of (6.2) there), but no motion on them passes through it:
+  -- said once per system, with the constraint and its value.
+  local v = report.violation
+  if v and v.relative > constraints.CHECK_TOL and not self._warned_off then
+    self._warned_off = true
+    M.warn(("%ssys:accel: warning: system '%s': the state at t = %s violates constraint %d at %s level by %.3g (%.3g of "
+      .. "the size of its terms): the accelerations are those of the equations at this state, which no motion on the "
+      .. "constraints passes through; q, qd = sys:project(t, q, qd) gives the nearest state on them (said once)")
+      :format(user_where(), self.name, shown(t), v.constraint, v.level, v.value, v.relative))
+  end
+  return qdd, lambda, report
 end
 
 -- Returns T + V (nil when the system is given by L without T), the
@@ -371,11 +409,59 @@ function System:reduced(t, q, qd, n, form)
   return constraints.reduced(self, t, q, qd, n or self:rule(), form)
 end
 
+-- sys:project's options: tol, maxit, and for constraints of order p >= 3
+-- the start's levels qdd .. q^(p-1) and the multipliers the user chose
+-- (lambda, or lambdas = {lambda, lambda', ..., lambda^(p-3)}), which are
+-- otherwise whatever the equations need.
+local function check_project_options(self, opts)
+  local top = self.nc > 0 and constraints.top_level(self)
+  local p = top or (self.nc > 0 and constraints.level(self)) or nil
+  local keys = { tol = positive, maxit = count }
+  local vector = function(n, what) return function(v)
+    local want = ("a table of %d finite number%s (%s)"):format(n, n == 1 and "" or "s", what)
+    if type(v) ~= "table" or #v ~= n then return false, want end
+    for j = 1, n do if not finite(v[j]) then return false, want end end
+    return true
+  end end
+  for j = 2, (p or 2) - 1 do keys[constraints.level_name(j)] = vector(self.k, "one per coordinate") end
+  if p and not top then
+    local one = vector(self.nc, "one multiplier per constraint")
+    keys.lambda = one
+    keys.lambdas = function(v)
+      if type(v) ~= "table" then return false, ("a list of %d tables of multipliers (lambda, lambda', ...)"):format(p - 2) end
+      for j, l in pairs(v) do
+        if math.type(j) ~= "integer" or j < 1 or j > p - 2 or not one(l) then
+          return false, ("a list of %d tables of %d multipliers (lambda, lambda', ...)"):format(p - 2, self.nc)
+        end
+      end
+      return true
+    end
+  end
+  for key in pairs(opts) do
+    local j = type(key) == "string" and (key == "qdd" and 2 or tonumber(key:match("^q(%d+)d$")))
+    if j and not keys[key] then
+      arg_error("project", 4, "option '%s': %s", key, p and ("the constraints are of order %d at most, so the start "
+        .. "has levels q .. %s"):format(p, constraints.level_name(p - 1)) or "no constraint is of order 3 or more, so "
+        .. "the start is q and qd alone")
+    end
+    if (key == "lambda" or key == "lambdas") and not keys[key] then
+      arg_error("project", 4, "option '%s': %s", key, top and "with a constraint nonlinear in its top derivative the "
+        .. "multipliers are solved at each time, not part of the start" or "no constraint is of order 3 or more, so "
+        .. "the start has no multipliers")
+    end
+  end
+  check_options("project", 4, opts, keys)
+  if opts.lambda and opts.lambdas then
+    arg_error("project", 4, "options 'lambda' and 'lambdas': give one of them (lambda is lambdas[1])")
+  end
+end
+
 function System:project(t, q, qd, opts)
   check_state(self, "project", 1, t, q, qd)
   if opts ~= nil and (type(opts) ~= "table" or getmetatable(opts) ~= nil) then
     arg_error("project", 4, "options: a table {tol =, maxit =, qdd =, ...} expected, got %s", shown(opts))
   end
+  if opts then check_project_options(self, opts) end
   return constraints.project(self, t, q, qd, opts)
 end
 

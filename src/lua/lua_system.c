@@ -55,8 +55,10 @@ static void record_failure(lua_evaluator *ev, nz_piece piece, int index, const n
   const char *label = lua_tostring(L, -1);
   lua_pop(L, 3);
   luaL_addstring(&b, label ? label : piece_fields[piece]);
-  luaL_addstring(&b, " ");
-  luaL_addstring(&b, what);
+  if (what[0]) {
+    luaL_addstring(&b, " ");
+    luaL_addstring(&b, what);
+  }
   nz_lua_fmt_num(num, sizeof num, t->c[0]);
   luaL_addstring(&b, " at t = ");
   luaL_addstring(&b, num);
@@ -289,6 +291,31 @@ static void error_hint(lua_State *L, lua_evaluator *ev, const char *msg)
   lua_pushliteral(L, "");
 }
 
+/* The last message nz_lua_raise_core raised, in the registry: a user
+ * function that called the mechanics again (T asking for sys:energy, a
+ * force for sys:accel) and let its error through hands back the engine's
+ * own message, which already names the system, the function and the
+ * state; wrapped once per level it repeated them (40 levels: 2.5 kB). */
+static const char engine_error_key = 0;
+#define NESTED_NOTE " (nested "
+
+/* The error object's text: a string (or number) as it is; another value by
+ * its __tostring, else by its type. */
+static const char *error_text(lua_State *L, int idx)
+{
+  if (lua_type(L, idx) == LUA_TSTRING || lua_type(L, idx) == LUA_TNUMBER) return lua_tostring(L, idx);
+  if (luaL_getmetafield(L, idx, "__tostring") != LUA_TNIL) {
+    lua_pop(L, 1);
+    luaL_tolstring(L, idx, NULL);       /* pushed, then put in the object's place */
+    lua_replace(L, idx < 0 ? idx - 1 : idx);
+    return lua_tostring(L, idx);
+  }
+  lua_pushfstring(L, "an error object of type %s (give error() a string, or the object a __tostring)",
+                  luaL_typename(L, idx));
+  lua_replace(L, idx < 0 ? idx - 1 : idx);
+  return lua_tostring(L, idx);
+}
+
 static void note_error(lua_evaluator *ev, const eval_call *c, nz_piece piece, int index,
                        const char *doing)
 {
@@ -298,10 +325,31 @@ static void note_error(lua_evaluator *ev, const eval_call *c, nz_piece piece, in
     return;
   }
   take_location(ev);
-  const char *msg = lua_tostring(L, -1);
-  error_hint(L, ev, msg ? msg : "");   /* pushes the hint, "" when none */
-  lua_pushfstring(L, "%s: %s%s", doing, msg ? strip_location(ev, msg) : "(error object is not a string)",
-                  lua_tostring(L, -1));
+  lua_rawgetp(L, LUA_REGISTRYINDEX, &engine_error_key);
+  int nested = lua_type(L, -2) == LUA_TSTRING && lua_rawequal(L, -1, -2);
+  lua_pop(L, 1);
+  if (nested) {
+    /* The root cause, whole and once, and the outermost call once: each
+     * level replaces the note of the level below, "(nested N deep; the
+     * outermost call: V at t = .., q = ..)", by its own. */
+    size_t len;
+    const char *msg = lua_tolstring(L, -1, &len), *note = NULL;
+    for (const char *p = strstr(msg, NESTED_NOTE); p; p = strstr(p + 1, NESTED_NOTE)) note = p;
+    int depth = note ? atoi(note + strlen(NESTED_NOTE)) + 1 : 1;
+    lua_pushlstring(L, msg, note ? (size_t)(note - msg) : len);
+    record_failure(ev, piece, index, c->t, c->levels, c->nlevels, "");   /* "LABEL  at t = .." in the registry */
+    lua_rawgetp(L, LUA_REGISTRYINDEX, ev);
+    const char *outer = lua_tostring(L, -1);
+    lua_pushfstring(L, "%s%s%d deep; the outermost call: %s)", lua_tostring(L, -2), NESTED_NOTE, depth,
+                    outer ? outer : "");
+    lua_rawsetp(L, LUA_REGISTRYINDEX, ev);
+    lua_pop(L, 2);
+    ev->passthrough = 1;
+    return;
+  }
+  const char *msg = error_text(L, -1);
+  error_hint(L, ev, msg);   /* pushes the hint, "" when none */
+  lua_pushfstring(L, "%s: %s%s", doing, strip_location(ev, msg), lua_tostring(L, -1));
   lua_remove(L, -2);
   record_failure(ev, piece, index, c->t, c->levels, c->nlevels, lua_tostring(L, -1));
 }
@@ -553,6 +601,7 @@ void nz_lua_bind_system(lua_State *L, int def, bound_system *b)
   b->ev.k = o->sys.k;
   b->ev.where[0] = '\0';
   b->ev.interrupted = 0;
+  b->ev.passthrough = 0;
   /* The recorded parameters are the declared ones (both: the named numbers
    * of params when the system was made), checked as they are read. */
   if (!b->comp || o->np == 0) check_params(L, def);
@@ -576,11 +625,21 @@ int nz_lua_raise_core(lua_State *L, bound_system *b, int st, const char *fname)
     lua_rawgetp(L, LUA_REGISTRYINDEX, &b->ev);
     lua_pushnil(L);
     lua_rawsetp(L, LUA_REGISTRYINDEX, &b->ev);
+    if (b->ev.passthrough && lua_type(L, -1) == LUA_TSTRING) {   /* a nested call's error, with its note */
+      lua_pushvalue(L, -1);
+      lua_rawsetp(L, LUA_REGISTRYINDEX, &engine_error_key);
+      return lua_error(L);
+    }
     const char *msg = lua_tostring(L, -1);
-    lua_pushfstring(L, "%s%ssystem '%s': %s", b->ev.where, b->ev.where[0] ? " " : "", name,
-                    msg ? msg : "a function failed");
     /* where the function failed when it is the user's; else the user's call */
-    return b->ev.where[0] ? lua_error(L) : nz_lua_raise_located(L);
+    char where[512];
+    if (b->ev.where[0]) snprintf(where, sizeof where, "%s", b->ev.where);
+    else nz_lua_user_location(L, 0, where, sizeof where);
+    lua_pushfstring(L, "%s%ssystem '%s': %s", where, where[0] ? " " : "", name, msg ? msg : "a function failed");
+    /* remembered: a user function that lets it through is seen to (note_error) */
+    lua_pushvalue(L, -1);
+    lua_rawsetp(L, LUA_REGISTRYINDEX, &engine_error_key);
+    return lua_error(L);
   }
   if (st == NZ_ENOMEM) return nz_lua_error(L, "system '%s': not enough memory in '%s'", name, fname);
   return nz_lua_error(L, "system '%s': '%s' failed (status %d)", name, fname, st);
