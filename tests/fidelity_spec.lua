@@ -202,3 +202,131 @@ describe("each recording is checked on jets with tangents, and a failed check na
     assert.are.equal(0, a:accel(0, { 1.5 }, { 0 })[1])
   end)
 end)
+describe("(a) a tie of a branch is decided by the same rule in the graph and on jets", function()
+  it("nz.gt(t, 0) at t = 0 is 1 (the motion goes to t > 0): M = 2, q'' = -0.5", function()
+    local a, b = twins{ name = "tie t", coords = { "x" },
+      T = function(t, q, qd) return 0.5 * (1 + nz.ifelse(nz.gt(t, 0), 1, 0)) * qd[1] ^ 2 end,
+      V = function(t, q) return q[1] ^ 2 / 2 end }
+    local _, qa = same(a, b, function(s) return s:accel(0, { 1 }, { 0 }) end, 1e-15, "accel")
+    assert.is_true(math.abs(qa[1] + 0.5) <= 1e-15, vec(qa))
+    same(a, b, function(s) return row(s:mass(0, { 1 }, { 0 }), 1) end, 0, "M")
+    assert.are.equal(2, a:mass(0, { 1 }, { 0 })[1][1])
+  end)
+
+  it("nz.clamp(t, -1, 1) at t = 1 is the bound from then on: no bias", function()
+    local a, b = twins{ name = "tie clamp", coords = { "x", "y" },
+      T = function(t, q, qd) return T2(t, q, qd) + 0.3 * nz.clamp(t, -1, 1) * qd[1] * qd[2] end }
+    local _, ha = same(a, b, function(s) return s:bias(1, { 0, 0 }, { -1, 0 }) end, 1e-15, "h")
+    assert.are.same({ 0, 0 }, { math.abs(ha[1]), math.abs(ha[2]) })
+  end)
+
+  it("nz.sign(q1) at q1 = 0 moving up is +1 in every term: q'' = {-0.4, 0.5} (by hand)", function()
+    local a, b = twins{ name = "tie sign", coords = { "x", "y" },
+      T = function(t, q, qd) return 0.5 * (2 + nz.sign(q[1]) * q[2]) * qd[1] ^ 2 + 0.5 * qd[2] ^ 2 end }
+    local _, qa = same(a, b, function(s) return s:accel(0, { 0, 0.5 }, { 1, 1 }) end, 1e-14, "accel")
+    -- sign = +1: M = diag(2.5, 1), h = (q1' q2', -q1'^2 / 2) = (1, -0.5)
+    assert.is_true(math.abs(qa[1] + 0.4) <= 1e-15 and math.abs(qa[2] - 0.5) <= 1e-15, vec(qa))
+    -- the graph's q'' solves its own equations
+    local r = a:residual(1, 0, { 0, 0.5 }, { 1, 1 }, qa)
+    assert.is_true(math.abs(r[1]) <= 1e-14 and math.abs(r[2]) <= 1e-14, vec(r))
+  end)
+
+  it("machine code hands a tie to the jets as the interpreter does", function()
+    local a, b = twins{ name = "tie native", coords = { "x" }, native = true,
+      T = T1, V = function(t, q) return nz.ifelse(nz.gt(t, 1), 3, 1) * q[1] ^ 2 / 2 end }
+    for _, t in ipairs{ 0.5, 1, 1.5 } do
+      same(a, b, function(s) return s:accel(t, { 1 }, { 0 }) end, 0, "accel at t = " .. t)
+    end
+    assert.are.equal(-3, a:accel(1, { 1 }, { 0 })[1])
+  end)
+end)
+
+describe("(b) a simplification never removes a part that fails at the state", function()
+  local cases = {
+    { "log(q2) * 0", function(q) return nz.log(q[2]) * 0 end, "'log'" },
+    { "sqrt(q2) ^ 0", function(q) return nz.sqrt(q[2]) ^ 0 end, "'sqrt'" },
+    { "L - 0.3 L - 0.7 L", function(q) local L = nz.log(q[2]); return L - 0.3 * L - 0.7 * L end, "'log'" },
+    { "ifelse(c, log q2, log q2)", function(q) return nz.ifelse(nz.gt(q[1], 0), nz.log(q[2]), nz.log(q[2])) end, "'log'" },
+    { "ifelse(1, q1, log q2)", function(q) return nz.ifelse(1, q[1], nz.log(q[2])) end, "'log'" },
+    { "gt(log q2, log q2)", function(q) return nz.gt(nz.log(q[2]), nz.log(q[2])) end, "'log'" },
+    { "(1 / (q2 - q2)) * 0", function(q) return (1 / (q[2] - q[2])) * 0 end, "divi" },
+    { "q2 ^ (q1 - q1)", function(q) return q[2] ^ (q[1] - q[1]) end, "'pow'" },
+  }
+  for _, c in ipairs(cases) do
+    it(c[1] .. " at q2 = -1 raises the function's error in both, and agrees at q2 = 2", function()
+      local a, b = twins{ name = c[1], coords = { "x", "y" }, T = T2,
+        V = function(t, q) return q[1] ^ 2 / 2 + c[2](q) end }
+      local ok, ea = same(a, b, function(s) return s:accel(0, { 0.5, -1 }, { 0.1, 0.2 }) end, 0, "accel")
+      assert.is_false(ok)
+      assert.truthy(tostring(ea):find(c[3], 1, true), tostring(ea))
+      assert.truthy(tostring(ea):find("fidelity_spec.lua:%d+"), tostring(ea))
+      same(a, b, function(s) local E, H = s:energy(0, { 0.5, -1 }, { 0.1, 0.2 }); return { E, H } end, 0, "energy")
+      same(a, b, function(s) return s:accel(0, { 0.5, 2 }, { 0.1, 0.2 }) end, 0, "accel at q2 = 2")
+    end)
+  end
+end)
+
+describe("(c) signed zero is kept as IEEE arithmetic (and Lua) keep it", function()
+  it("atan2(q1 * (-0.0), q2) at q2 < 0 is -pi, in Q and through nz.max in T", function()
+    local a, b = twins{ name = "signed zero Q", coords = { "x", "y" }, T = T2,
+      Q = function(t, q, qd) return { nz.atan2(q[1] * (-0.0), q[2]), 0 } end }
+    local _, qa = same(a, b, function(s) return s:accel(0, { 1.3, -1 }, { 0, 0 }) end, 0, "accel")
+    assert.are.equal(-math.pi, qa[1])
+    local c, d = twins{ name = "signed zero M", coords = { "x", "y" },
+      T = function(t, q, qd) return 0.5 * (1 + nz.max(0, nz.atan2(q[1] * (-0.0), q[2]))) * qd[1] ^ 2 + 0.5 * qd[2] ^ 2 end }
+    same(c, d, function(s) return row(s:mass(0, { 1.3, -1 }, { 0, 0 }), 1) end, 0, "M")
+    assert.are.equal(1, c:mass(0, { 1.3, -1 }, { 0, 0 })[1][1])
+    local e, f = twins{ name = "x * 0", coords = { "x", "y" }, T = T2,
+      Q = function(t, q, qd) return { nz.atan2(q[1] * 0, q[2]), nz.atan2(0 + q[1] * (-0.0), q[2]) } end }
+    local _, qe = same(e, f, function(s) return s:accel(0, { -1.3, -1 }, { 0, 0 }) end, 0, "accel")
+    assert.are.same({ -math.pi, math.pi }, qe)
+    _, qe = same(e, f, function(s) return s:accel(0, { 1.3, -1 }, { 0, 0 }) end, 0, "accel")
+    assert.are.same({ math.pi, math.pi }, qe)
+  end)
+end)
+
+describe("(d) like terms are computed as the function computes them", function()
+  it("q1 - 0.3 q1 - 0.7 q1 is Lua's rounding, also through nz.sign", function()
+    local a, b = twins{ name = "like terms", coords = { "x", "y" },
+      T = function(t, q, qd) return T2(t, q, qd) + 0.1 * (1 + nz.sign(q[1] - 0.3 * q[1] - 0.7 * q[1])) * qd[1] * qd[2] end }
+    assert.truthy(line_of(a, "T"):find("recorded, runs in C", 1, true), line_of(a, "T"))
+    for _, x in ipairs{ 1.3, 0.7, -2.1, 3 } do
+      same(a, b, function(s) return row(s:mass(0, { x, 0.2 }, { 0, 0 }), 1) end, 0, "M at q1 = " .. x)
+    end
+  end)
+end)
+
+describe("(e) singular points and overflow: one rule for both evaluators", function()
+  local cases = {
+    { "q^1.5 at q = 0", function(t, q) return q[1] ^ 1.5 end, 0, 0, "'pow'" },
+    { "sqrt(t) q^2 at t = 0", function(t, q) return nz.sqrt(t) * q[1] ^ 2 end, 0, 0.5, "'sqrt'" },
+    { "abs(t - 1) q at t = 1", function(t, q) return nz.abs(t - 1) * q[1] + q[1] ^ 2 end, 1, 0.5, "'abs'" },
+    { "asin(t) q at t = 1", function(t, q) return nz.asin(t) * q[1] + q[1] ^ 2 end, 1, 0.5, "'asin'" },
+    { "acos(t) q at t = -1", function(t, q) return nz.acos(t) * q[1] + q[1] ^ 2 end, -1, 0.5, "'acos'" },
+    { "atan2(t, t) q at t = 0", function(t, q) return nz.atan2(t, t) * q[1] + q[1] ^ 2 end, 0, 0.5, "'atan2'" },
+    { "hypot(t, t) q at t = 0", function(t, q) return nz.hypot(t, t) * q[1] + q[1] ^ 2 end, 0, 0.5, "'hypot'" },
+    { "0^t q at t = 1", function(t, q) return nz.pow(0, t) * q[1] + q[1] ^ 2 end, 1, 0.5, "'pow'" },
+    { "q^2/2 + tanh(exp(t)) at t = 800", function(t, q) return q[1] ^ 2 / 2 + nz.tanh(nz.exp(t)) end, 800, 0.5, "'exp'" },
+  }
+  for _, c in ipairs(cases) do
+    it(c[1] .. ": both refuse, naming the operation", function()
+      local a, b = twins{ name = c[1], coords = { "x" }, T = T1, V = c[2] }
+      local ok, ea = same(a, b, function(s) return s:accel(c[3], { c[4] }, { 1 }) end, 0, "accel")
+      assert.is_false(ok)
+      assert.truthy(tostring(ea):find(c[5], 1, true), tostring(ea))
+      -- and both answer a little away from the point
+      same(a, b, function(s) return s:accel(c[3] + 0.25, { c[4] + 0.25 }, { 1 }) end, 1e-14, "accel nearby")
+    end)
+  end
+end)
+
+describe("(f) the Lua evaluator's mass matrix beside a large term linear in q'", function()
+  it("T = q'^2/2 + q'/(-1.5 q): M = 1 at q = 1e-8 and 1e-10", function()
+    local a, b = twins{ name = "linear term", coords = { "x" },
+      T = function(t, q, qd) return qd[1] ^ 2 / 2 + qd[1] / (-1.5 * q[1]) end }
+    for _, x in ipairs{ 1e-8, 1e-10, 1e-3 } do
+      assert.are.equal(1, b:mass(0, { x }, { 1 })[1][1], "Lua at q = " .. x)
+      assert.are.equal(1, a:mass(0, { x }, { 1 })[1][1], "graph at q = " .. x)
+    end
+  end)
+end)

@@ -286,9 +286,12 @@ local function record_function(c, f, nslots, k, params, index, is_Q, hook)
     args[j + 2] = level
   end
   args[nslots + 2] = params
+  -- the nodes as Lua computes them on jets, bit for bit (graph.h)
+  c:set_exact(true)
   if hook then debug.sethook(hook, "c") end
   local ok, res = xpcall(f, handler, table.unpack(args, 1, nslots + 2))
   if hook then debug.sethook() end
+  c:set_exact(false)
   restore()
   local this = rec
   local function done(ids, why)

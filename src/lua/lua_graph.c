@@ -429,6 +429,15 @@ static int lg_eval_jets(lua_State *L)
   return 1;
 }
 
+/* set_exact(true | false): build nodes as IEEE arithmetic computes the
+ * expression (the recorder, while it runs a user's function), or
+ * simplified (graph.h). */
+static int lg_set_exact(lua_State *L)
+{
+  nz_graph_set_exact(nz_compiled_graph(check(L)), lua_toboolean(L, 2));
+  return 0;
+}
+
 /* set_native(true | false | nil): compile the plans on doubles at once,
  * never, or when they have earned it (mech_graph.h). */
 static int lg_set_native(lua_State *L)
@@ -443,7 +452,7 @@ static const luaL_Reg methods[] = {
   { "op", lg_op }, { "fn", lg_fn }, { "powc", lg_powc }, { "constant", lg_constant },
   { "cmp", lg_cmp }, { "select", lg_select },
   { "set_piece", lg_set_piece }, { "info", lg_info }, { "piece_nodes", lg_piece_nodes },
-  { "eval", lg_eval }, { "eval_jets", lg_eval_jets }, { "set_native", lg_set_native }, { "nodes", lg_nodes },
+  { "eval", lg_eval }, { "eval_jets", lg_eval_jets }, { "set_native", lg_set_native }, { "set_exact", lg_set_exact }, { "nodes", lg_nodes },
   { "mass_bias_outputs", lg_mass_bias_outputs }, { "piece_outputs", lg_piece_outputs }, { "derivative", lg_derivative },
   { NULL, NULL }
 };
