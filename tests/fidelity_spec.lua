@@ -330,3 +330,82 @@ describe("(f) the Lua evaluator's mass matrix beside a large term linear in q'",
     end
   end)
 end)
+
+describe("what the differential fuzzer found next, each as the jets compute it", function()
+  local mech = require("nz.core").mech
+  -- jets of order 3 with random coefficients, one per coordinate, and t
+  local function jets(seed, k)
+    math.randomseed(seed)
+    local function jet(v)
+      local c = { v, order = 3 }
+      for j = 1, 3 do c[j + 1] = math.random() - 0.5 end
+      return nz.jet(c)
+    end
+    local q, qd = {}, {}
+    for i = 1, k do q[i], qd[i] = jet(math.random() * 2 - 1), jet(math.random() * 2 - 1) end
+    return jet(math.random()), { q, qd }
+  end
+  local function same_jets(a, b, f, piece, what)
+    for seed = 1, 40 do
+      local tj, lv = jets(seed, a.k)
+      local oka, ra = pcall(mech.piece, a.engine, piece, 1, tj, lv)
+      local okb, rb = pcall(mech.piece, b.engine, piece, 1, tj, lv)
+      assert(oka == okb, ("%s, seed %d: recorded %s, Lua %s"):format(what, seed, tostring(ra), tostring(rb)))
+      for o = 1, oka and #rb or 0 do
+        for j = 0, 3 do
+          assert(ra[o]:coef(j) == rb[o]:coef(j) or (ra[o]:coef(j) ~= ra[o]:coef(j) and rb[o]:coef(j) ~= rb[o]:coef(j)),
+            ("%s, seed %d, coefficient %d: recorded %.17g, Lua %.17g"):format(what, seed, j, ra[o]:coef(j), rb[o]:coef(j)))
+        end
+      end
+    end
+  end
+
+  it("a product is the Cauchy sum in the order written (q1 t and t q1 round apart)", function()
+    local a, b = twins{ name = "product order", coords = { "x" },
+      T = function(t, q, qd) local x = q[1] * t; return 0.5 * qd[1] ^ 2 + (x - 0.3 * x - 0.7 * x) end }
+    same_jets(a, b, nil, "F", "q1 t - 0.3 q1 t - 0.7 q1 t")
+  end)
+
+  it("x / 3 and x / p.c are x times the reciprocal, as a jet divided by a number", function()
+    local a, b = twins{ name = "division", coords = { "x" }, params = { c = 3.0 }, T = T1,
+      Q = function(t, q, qd, p) return { nz.sign(q[1] / 3 - q[1] * (1 / 3)) + nz.sign(q[1] / p.c - q[1] * (1 / p.c)) } end }
+    -- recorded faithfully, not sent back to Lua by the check
+    assert.truthy(line_of(a, "Q"):find("recorded, runs in C", 1, true), line_of(a, "Q"))
+    same_jets(a, b, nil, "Q", "sign(x / 3 - x (1/3))")
+    for i = 1, 40 do
+      local x = 0.1 * i + 0.013
+      same(a, b, function(s) return s:accel(0, { x }, { 0 }) end, 0, "accel at x = " .. x)
+    end
+  end)
+
+  it("a product keeps the sign of a zero on jets too: atan2(q1 p.c, -1) at q1 = 0 is -pi for p.c < 0", function()
+    local a, b = twins{ name = "signed zero product", coords = { "x" }, params = { c = -0.125 }, T = T1,
+      Q = function(t, q, qd, p) return { nz.atan2(q[1] * p.c, -1) } end }
+    local _, ra = same(a, b, function(s) return s:residual(1, 0, { 0 }, { 0 }, { 0 }) end, 0, "residual")
+    assert.are.equal(math.pi, ra[1])   -- r = q'' - Q = 0 - (-pi)
+  end)
+
+  it("a traced constant stays a jet: sqrt(q - q), asin(-(t^0)), lt(q, q)^0.5 refuse on jets as in Lua", function()
+    for _, V in ipairs{
+      function(t, q) return nz.sqrt(q[1] - q[1]) + q[1] ^ 2 end,
+      function(t, q) return nz.asin(-(t ^ 0)) * q[1] + q[1] ^ 2 end,
+      function(t, q) return nz.lt(q[1], q[1]) ^ 0.5 + q[1] ^ 2 end,
+      function(t, q) return nz.sqrt(nz.gt(q[1], 5)) + q[1] ^ 2 end,
+    } do
+      local a, b = twins{ name = "traced constant", coords = { "x" }, T = T1, V = V }
+      local ok, err = same(a, b, function(s) return s:accel(0, { 0.5 }, { 1 }) end, 0, "accel")
+      assert.is_false(ok)
+      assert.truthy(tostring(err):find("not differentiable", 1, true), tostring(err))
+      same(a, b, function(s) local E, H = s:energy(0, { 0.5 }, { 1 }); return { E, H } end, 0, "energy")
+    end
+  end)
+
+  it("a NaN number met in the function fails it, as a jet refuses one", function()
+    -- (constant M, and V's derivative never meets the NaN)
+    local a, b = twins{ name = "NaN", coords = { "x" }, T = T1,
+      V = function(t, q) return nz.gt(nz.max(t, (-1.375) ^ 1.5), 0) + q[1] ^ 2 end }
+    local ok, err = same(a, b, function(s) return s:accel(0, { 0.5 }, { 1 }) end, 0, "accel")
+    assert.is_false(ok)
+    assert.truthy(tostring(err):find("NaN", 1, true), tostring(err))
+  end)
+end)

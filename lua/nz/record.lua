@@ -42,11 +42,15 @@ local rec
 local TR = { __name = "nz.traced" }
 local new_tracer = core.mech.tracer
 local function is_tr(x) return getmetatable(x) == TR end
-local function wrap(id)
+-- A tracer of node id; `num`: it stands for a number in Lua (a parameter,
+-- or made of parameters and numbers only), which the jets treat as such.
+local function wrap(id, num)
   local u = new_tracer(TR)
   rec.node[u] = id
+  if num then rec.num[u] = true end
   return u
 end
+local function is_num(x) return type(x) == "number" or rec.num[x] == true end
 
 -- file:line of the first frame (from `level` up) that is the user's code.
 local function user_location(level)
@@ -83,7 +87,14 @@ end
 
 local function operand(x)
   if is_tr(x) then return node_of(x) end
-  if type(x) == "number" then return rec.c:const(x) end
+  if type(x) == "number" then
+    -- a jet refuses them (lua_jet.c: "got NaN"), and so the function fails
+    -- in Lua wherever it meets one: it runs there, raising its error
+    if x ~= x or x == math.huge or x == -math.huge then
+      untraceable(("meets the number %s, which a jet refuses"):format(tostring(x)))
+    end
+    return rec.c:const(x)
+  end
   untraceable(("arithmetic of a traced value with a %s"):format(kind(x)))
 end
 
@@ -101,25 +112,37 @@ local function binop(name, field)
   return function(a, b)
     local f = foreign(a, b, field)
     if f then return f(a, b) end
-    return wrap(rec.c:op(name, operand(a), operand(b)))
+    return wrap(rec.c:op(name, operand(a), operand(b)), is_num(a) and is_num(b))
   end
 end
 
 TR.__add = binop("add", "__add")
 TR.__sub = binop("sub", "__sub")
 TR.__mul = binop("mul", "__mul")
-TR.__div = binop("div", "__div")
 TR.atan2 = binop("atan2", "atan2")
 TR.hypot = binop("hypot", "hypot")
+-- A jet divided by a number is the jet times 1/number (lua_jet.c), which
+-- rounds otherwise than x / s: so is the recording, for a number and for a
+-- parameter (a number in Lua).
+local div = binop("div", "__div")
+TR.__div = function(a, b)
+  if is_tr(a) and not is_num(a) and is_num(b) and not foreign(a, b, "__div") then
+    if b == 0 then untraceable("divides a traced value by zero") end
+    local c = rec.c
+    local inv = type(b) == "number" and c:const(1 / b) or c:op("div", c:const(1), node_of(b))
+    return wrap(c:op("mul", node_of(a), inv))
+  end
+  return div(a, b)
+end
 local pow = binop("pow", "__pow")
 TR.__pow = function(a, b)
-  if is_tr(a) and type(b) == "number" then return wrap(rec.c:powc(node_of(a), b)) end
+  if is_tr(a) and type(b) == "number" then return wrap(rec.c:powc(node_of(a), b), is_num(a)) end
   return pow(a, b)
 end
-TR.__unm = function(a) return wrap(rec.c:op("neg", node_of(a))) end
+TR.__unm = function(a) return wrap(rec.c:op("neg", node_of(a)), is_num(a)) end
 for _, name in ipairs{ "exp", "log", "sqrt", "sin", "cos", "tan", "asin", "acos", "atan",
                        "sinh", "cosh", "tanh", "abs", "sign" } do
-  TR[name] = function(x) return wrap(rec.c:fn(name, node_of(x))) end
+  TR[name] = function(x) return wrap(rec.c:fn(name, node_of(x)), is_num(x)) end
 end
 -- nz.isjet(x) is true: the Lua evaluator passes jets (lua_jet.c dispatches)
 TR.isjet = function() return true end
@@ -139,19 +162,20 @@ end
 
 for _, name in ipairs{ "lt", "le", "gt", "ge" } do
   TR[name] = function(a, b)
-    return wrap(rec.c:cmp(name, branch_operand(a, name), branch_operand(b, name)))
+    return wrap(rec.c:cmp(name, branch_operand(a, name), branch_operand(b, name)), is_num(a) and is_num(b))
   end
 end
 
 -- ifelse(cond, a, b): a where cond ~= 0, else b (a constant cond chooses now).
 function TR.ifelse(cond, a, b)
-  return wrap(rec.c:select(branch_operand(cond, "ifelse"), branch_operand(a, "ifelse"), branch_operand(b, "ifelse")))
+  return wrap(rec.c:select(branch_operand(cond, "ifelse"), branch_operand(a, "ifelse"), branch_operand(b, "ifelse")),
+    is_num(cond) and is_num(a) and is_num(b))
 end
 
 local function extremum(cmp, fname)
   return function(a, b)
     local ia, ib = branch_operand(a, fname), branch_operand(b, fname)
-    return wrap(rec.c:select(rec.c:cmp(cmp, ia, ib), ia, ib))
+    return wrap(rec.c:select(rec.c:cmp(cmp, ia, ib), ia, ib), is_num(a) and is_num(b))
   end
 end
 TR.max = extremum("ge", "max")   -- max(a, b) = select(a >= b, a, b)
@@ -174,7 +198,7 @@ function TR.clamp(x, lo, hi)
       .. "needs lo <= hi)"):format(vlo, vhi))
   end
   local below = c:select(c:cmp("lt", ix, ilo), ilo, ix)
-  return wrap(c:select(c:cmp("gt", ix, ihi), ihi, below))
+  return wrap(c:select(c:cmp("gt", ix, ihi), ihi, below), is_num(x))
 end
 
 local BRANCH = "compares a traced value (a Lua branch on the state cannot be recorded): "
@@ -219,7 +243,7 @@ local function trace_params(params, index)
     __index = function(_, key)
       local p = index[key]
       if p then
-        tracers[key] = tracers[key] or wrap(rec.c:param(p))
+        tracers[key] = tracers[key] or wrap(rec.c:param(p), true)
         return tracers[key]
       end
       local v = saved[key]
@@ -277,7 +301,7 @@ end
 -- (the diagnosis) runs as a call hook meanwhile.
 local function record_function(c, f, nslots, k, params, index, is_Q, hook)
   local outer = rec
-  rec = { c = c, node = setmetatable({}, { __mode = "k" }), absent = {} }
+  rec = { c = c, node = setmetatable({}, { __mode = "k" }), num = setmetatable({}, { __mode = "k" }), absent = {} }
   local restore = trace_params(params, index)
   local args = { wrap(c:time()) }
   for j = 0, nslots - 1 do

@@ -462,8 +462,9 @@ static int gather(nz_graph *g, int a, int b, double s)
 int nz_graph_powc(nz_graph *g, int a, double p)
 {
   if (!valid(g, a) || !isfinite(p)) return -1;
-  /* as nz_jet_pow: x^0 = 1, once x is known to be defined */
-  if (p == 0.0 && g->total[a]) return nz_graph_const(g, 1.0);
+  /* as nz_jet_pow: x^0 = 1, once x is known to be defined (not when
+   * exact: a constant jet of x's shape in Lua) */
+  if (p == 0.0 && g->total[a] && !g->exact) return nz_graph_const(g, 1.0);
   if (p == 1.0) return a;
   return fold_or_intern(g, mknode(NZ_GOP_POWC, 0, a, -1, p));
 }
@@ -487,7 +488,9 @@ int nz_graph_op(nz_graph *g, nz_gop op, int a, int b)
      * exactly, x + (-0) = (-0) + x = x - (+0) = x and (-0) - x = -x */
     if (is_const_value(g, b, 0.0) && (!g->exact || !!signbit(g->nodes[b].v) == (op == NZ_GOP_ADD))) return a;
     if (op == NZ_GOP_ADD && is_const_value(g, a, 0.0) && (!g->exact || signbit(g->nodes[a].v))) return b;
-    if (op == NZ_GOP_SUB && a == b && g->total[a]) return nz_graph_const(g, 0.0);   /* +0 for finite x */
+    /* x - x is +0 for a finite x; not when exact, where x - x is a jet
+     * whose shape a later function reads (sqrt(q - q) refuses on jets) */
+    if (op == NZ_GOP_SUB && a == b && g->total[a] && !g->exact) return nz_graph_const(g, 0.0);
     if (op == NZ_GOP_SUB && is_const_value(g, a, 0.0) && (!g->exact || signbit(g->nodes[a].v)))
       return build_neg(g, b);
     int t = gather(g, a, b, op == NZ_GOP_ADD ? 1.0 : -1.0);
@@ -558,7 +561,10 @@ int nz_graph_op(nz_graph *g, nz_gop op, int a, int b)
   default:
     return -1;
   }
-  if ((op == NZ_GOP_ADD || op == NZ_GOP_MUL || op == NZ_GOP_HYPOT) && a > b) {
+  /* commutative operands in a canonical order, so that x y and y x share a
+   * node; not a product when exact: on jets a product is a Cauchy sum,
+   * whose rounding depends on the order (the jets take it as written) */
+  if ((op == NZ_GOP_ADD || (op == NZ_GOP_MUL && !g->exact) || op == NZ_GOP_HYPOT) && a > b) {
     int t = a;
     a = b;
     b = t;
@@ -569,7 +575,7 @@ int nz_graph_op(nz_graph *g, nz_gop op, int a, int b)
 int nz_graph_cmp(nz_graph *g, nz_cmp op, int a, int b)
 {
   if (!valid(g, a) || !valid(g, b) || (int)op < 0 || op > NZ_CMP_NE) return -1;
-  if (a == b && g->total[a])   /* the same series: equal in every coefficient */
+  if (a == b && g->total[a] && !g->exact)   /* the same series: equal in every coefficient */
     return nz_graph_const(g, op == NZ_CMP_LE || op == NZ_CMP_GE || op == NZ_CMP_EQ ? 1.0 : 0.0);
   return fold_or_intern(g, mknode(NZ_GOP_CMP, op, a, b, 0.0));
 }
@@ -579,8 +585,13 @@ int nz_graph_select(nz_graph *g, int c, int a, int b)
   double v;
   if (!valid(g, c) || !valid(g, a) || !valid(g, b)) return -1;
   /* the operand not taken, or the condition, goes only when it cannot
-   * fail: in Lua both operands and the condition are computed */
-  if (nz_graph_is_const(g, c, &v) && !isnan(v) && g->total[v != 0.0 ? b : a]) return v != 0.0 ? a : b;
+   * fail: in Lua both operands and the condition are computed; when exact,
+   * only when it is a constant (in Lua a number branch takes the shape of
+   * a jet branch, which a later function reads) */
+  if (nz_graph_is_const(g, c, &v) && !isnan(v)) {
+    int taken = v != 0.0 ? a : b, other = v != 0.0 ? b : a;
+    if (g->total[other] && !(g->exact && !nz_graph_is_const(g, other, NULL))) return taken;
+  }
   if (a == b && g->total[c]) return a;
   nz_gnode nd = mknode(NZ_GOP_SELECT, 0, a, b, 0.0);
   nd.c = c;
@@ -1242,10 +1253,13 @@ static size_t plan_shapes(nz_graph_plan *p, int eta, int Kmax, int *Dmax)
     const jrec *jr = &p->jrecs[i];
     int s = p->base + i, a = jr->a, b = jr->b, ka = !is_const_slot(p, a), kb = !is_const_slot(p, b);
     int o = ka && kb ? imin(p->ord[a], p->ord[b]) : ka ? p->ord[a] : kb ? p->ord[b] : Kmax;
-    /* A step (cmp, sign) is a constant series: no tangents, no eta-part. */
+    /* A step (cmp, sign) is a constant series with no eta-part; its
+     * tangents are zeros in the operands' shape, as the jets make it (the
+     * shape says whether a function after it wants derivatives: sqrt of
+     * gt(x, 0) at 0 refuses as in Lua). */
     int step = jr->op == NZ_GOP_CMP || (jr->op == NZ_GOP_FN && jr->fn == NZ_FN_SIGN);
     p->ord[s] = o;
-    p->ntn[s] = step ? 0 : imax(p->ntn[a], p->ntn[b]);
+    p->ntn[s] = imax(p->ntn[a], p->ntn[b]);
     len += jet_doubles(o, p->ntn[s]);
     p->eord[s] = -1;
     if (!eta || step) continue;

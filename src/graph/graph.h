@@ -23,7 +23,8 @@
  *     (-a) + b -> b - a, a - (-b) -> a + b, a +- (c y) with c < 0 ->
  *     a -+ (|c| y), (-x) y -> -(x y), (-x)(-y) -> x y;
  *   - hash-conses: the same (op, fn, operands, constant) is the same node,
- *     with commutative operands (add, mul, hypot) put in a canonical order.
+ *     with commutative operands (add, mul, hypot) put in a canonical order
+ *     (not a product in an exact graph: see below).
  *
  *   - never drops a part that can fail: x * 0, x - x, x^0, cmp(x, x),
  *     select(c, a, a) and the branch a constant condition does not take go
