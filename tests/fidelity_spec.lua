@@ -183,6 +183,20 @@ describe("each recording is checked on jets with tangents, and a failed check na
     same(a, b, function(s) return s:accel(0, { 1.5 }, { 0 }) end, 0, "accel")
   end)
 
+  it("an event function (called with numbers) that tests type() runs in Lua, and the reason names the test", function()
+    local a, b = twins{ name = "event type test", coords = { "x" }, T = T1, V = function(t, q) return q[1] ^ 2 / 2 end }
+    local ev = { f = function(t, q, qd)
+      if type(q[1]) == "number" then return q[1] - 0.5 end
+      return q[1] - 0.7
+    end, stop = true }
+    local ta = a:simulate{ q0 = { 1 }, t1 = 3, events = { ev } }
+    local tb = b:simulate{ q0 = { 1 }, t1 = 3, events = { ev } }
+    assert.truthy(tostring(ta.stats.loop_why):find("tests type() of a traced value", 1, true), tostring(ta.stats.loop_why))
+    -- both stop where the numbers say: x = 0.5 at t = acos(0.5) = pi/3
+    assert.is_true(math.abs(ta.t[#ta.t] - math.pi / 3) < 1e-8 and math.abs(tb.t[#tb.t] - math.pi / 3) < 1e-8,
+      ("stopped at %.17g and %.17g"):format(ta.t[#ta.t], tb.t[#tb.t]))
+  end)
+
   it("a counter still falls back, and the reason says it depends on something else", function()
     local n = 0
     local a = nz.system{ name = "counter", coords = { "x" }, T = T1,

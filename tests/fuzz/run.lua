@@ -14,9 +14,11 @@ io.write(("fuzz: %d random systems from seed %d (repeat: build/nzlua tests/fuzz/
 local clock = os.clock()
 local findings, comparisons, tried, refused = compare.run(seed, count, {
   progress = function(i, nf)
-    if i % 50 == 0 then io.stderr:write(("\r%d systems, %d findings"):format(i, nf)) end
+    if i % 1000 == 0 and i < count then
+      io.write(("fuzz: %d systems, %d findings so far\n"):format(i, nf))
+      io.stdout:flush()
+    end
   end })
-io.stderr:write("\r")
 for _, f in ipairs(findings) do io.write(compare.describe(f), "\n\n") end
 io.write(("fuzz: %d systems (%d refused by nz.system in both forms), %d comparisons (%d where both answered), "
   .. "%d findings, %.1f s\n"):format(tried, refused, comparisons, compare.answered, #findings, os.clock() - clock))
