@@ -50,7 +50,16 @@ local function wrap(id, num)
   if num then rec.num[u] = true end
   return u
 end
-local function is_num(x) return type(x) == "number" or rec.num[x] == true end
+local function is_num(x) return type(x) == "number" or (rec ~= nil and rec.num[x] == true) end
+-- The graph under way; a tracer kept (in a global, an upvalue) and used
+-- after its recording ended has none.
+local function graph()
+  if not rec then
+    error("a traced value kept from a recording is used after it ended (a global or an upvalue set while "
+      .. "the function was recorded)", 3)
+  end
+  return rec.c
+end
 
 -- file:line of the first frame (from `level` up) that is the user's code.
 local function user_location(level)
@@ -80,6 +89,7 @@ local function kind(x)
 end
 
 local function node_of(x)
+  graph()
   local id = rec.node[x]
   if not id then untraceable("uses a traced value kept from another recording (a global or upvalue set while recording)") end
   return id
@@ -93,7 +103,7 @@ local function operand(x)
     if x ~= x or x == math.huge or x == -math.huge then
       untraceable(("meets the number %s, which a jet refuses"):format(tostring(x)))
     end
-    return rec.c:const(x)
+    return graph():const(x)
   end
   untraceable(("arithmetic of a traced value with a %s"):format(kind(x)))
 end
@@ -112,7 +122,7 @@ local function binop(name, field)
   return function(a, b)
     local f = foreign(a, b, field)
     if f then return f(a, b) end
-    return wrap(rec.c:op(name, operand(a), operand(b)), is_num(a) and is_num(b))
+    return wrap(graph():op(name, operand(a), operand(b)), is_num(a) and is_num(b))
   end
 end
 
@@ -128,7 +138,7 @@ local div = binop("div", "__div")
 TR.__div = function(a, b)
   if is_tr(a) and not is_num(a) and is_num(b) and not foreign(a, b, "__div") then
     if b == 0 then untraceable("divides a traced value by zero") end
-    local c = rec.c
+    local c = graph()
     local inv = type(b) == "number" and c:const(1 / b) or c:op("div", c:const(1), node_of(b))
     return wrap(c:op("mul", node_of(a), inv))
   end
@@ -136,13 +146,13 @@ TR.__div = function(a, b)
 end
 local pow = binop("pow", "__pow")
 TR.__pow = function(a, b)
-  if is_tr(a) and type(b) == "number" then return wrap(rec.c:powc(node_of(a), b), is_num(a)) end
+  if is_tr(a) and type(b) == "number" then return wrap(graph():powc(node_of(a), b), is_num(a)) end
   return pow(a, b)
 end
-TR.__unm = function(a) return wrap(rec.c:op("neg", node_of(a)), is_num(a)) end
+TR.__unm = function(a) return wrap(graph():op("neg", node_of(a)), is_num(a)) end
 for _, name in ipairs{ "exp", "log", "sqrt", "sin", "cos", "tan", "asin", "acos", "atan",
                        "sinh", "cosh", "tanh", "abs", "sign" } do
-  TR[name] = function(x) return wrap(rec.c:fn(name, node_of(x)), is_num(x)) end
+  TR[name] = function(x) return wrap(graph():fn(name, node_of(x)), is_num(x)) end
 end
 -- nz.isjet(x) is true: the Lua evaluator passes jets (lua_jet.c dispatches)
 TR.isjet = function() return true end
@@ -162,20 +172,20 @@ end
 
 for _, name in ipairs{ "lt", "le", "gt", "ge" } do
   TR[name] = function(a, b)
-    return wrap(rec.c:cmp(name, branch_operand(a, name), branch_operand(b, name)), is_num(a) and is_num(b))
+    return wrap(graph():cmp(name, branch_operand(a, name), branch_operand(b, name)), is_num(a) and is_num(b))
   end
 end
 
 -- ifelse(cond, a, b): a where cond ~= 0, else b (a constant cond chooses now).
 function TR.ifelse(cond, a, b)
-  return wrap(rec.c:select(branch_operand(cond, "ifelse"), branch_operand(a, "ifelse"), branch_operand(b, "ifelse")),
+  return wrap(graph():select(branch_operand(cond, "ifelse"), branch_operand(a, "ifelse"), branch_operand(b, "ifelse")),
     is_num(cond) and is_num(a) and is_num(b))
 end
 
 local function extremum(cmp, fname)
   return function(a, b)
     local ia, ib = branch_operand(a, fname), branch_operand(b, fname)
-    return wrap(rec.c:select(rec.c:cmp(cmp, ia, ib), ia, ib), is_num(a) and is_num(b))
+    return wrap(graph():select(graph():cmp(cmp, ia, ib), ia, ib), is_num(a) and is_num(b))
   end
 end
 TR.max = extremum("ge", "max")   -- max(a, b) = select(a >= b, a, b)
@@ -186,7 +196,7 @@ TR.min = extremum("le", "min")   -- min(a, b) = select(a <= b, a, b)
 -- the state) would need that check at every evaluation, which a graph does
 -- not make: such a clamp stays in Lua, and min(max(x, lo), hi) records.
 function TR.clamp(x, lo, hi)
-  local c = rec.c
+  local c = graph()
   local ix, ilo, ihi = branch_operand(x, "clamp"), branch_operand(lo, "clamp"), branch_operand(hi, "clamp")
   local vlo, vhi = c:constant(ilo), c:constant(ihi)
   if not (vlo and vhi) then
@@ -299,49 +309,63 @@ end
 -- input of each recorded parameter).  Returns its nodes (1, or k for Q) or
 -- nil and the reason, and the names of params read while absent.  `hook`
 -- (the diagnosis) runs as a call hook meanwhile.
-local function record_function(c, f, nslots, k, params, index, is_Q, hook)
-  local outer = rec
-  rec = { c = c, node = setmetatable({}, { __mode = "k" }), num = setmetatable({}, { __mode = "k" }), absent = {} }
-  local restore = trace_params(params, index)
-  local args = { wrap(c:time()) }
-  for j = 0, nslots - 1 do
-    local level = {}
-    for i = 1, k do level[i] = wrap(c:slot(j, i)) end
-    args[j + 2] = level
-  end
-  args[nslots + 2] = params
-  -- the nodes as Lua computes them on jets, bit for bit (graph.h)
-  c:set_exact(true)
-  if hook then debug.sethook(hook, "c") end
-  local ok, res = xpcall(f, handler, table.unpack(args, 1, nslots + 2))
-  if hook then debug.sethook() end
-  c:set_exact(false)
-  restore()
-  local this = rec
-  local function done(ids, why)
-    rec = outer
-    return ids, why, this.absent
-  end
-  if not ok then
-    if rawequal(res, core.interrupted) then rec = outer; error(res, 0) end
-    return done(nil, res)
-  end
-  if this.failed then return done(nil, this.failed) end   -- caught by the function's own pcall
+-- f's result as nodes: (1, or k for Q), or nil and why.
+local function result_nodes(res, k, is_Q)
   if not is_Q then
     local id, why = result_node(res)
-    if not id then return done(nil, why) end
-    return done({ id })
+    if not id then return nil, why end
+    return { id }
   end
   if type(res) ~= "table" or getmetatable(res) ~= nil or #res ~= k then
-    return done(nil, "does not return a list of " .. k .. " forces")
+    return nil, "does not return a list of " .. k .. " forces"
   end
   local ids = {}
   for i = 1, k do
     local id, why = result_node(res[i])
-    if not id then return done(nil, ("force %d %s"):format(i, why)) end
+    if not id then return nil, ("force %d %s"):format(i, why) end
     ids[i] = id
   end
-  return done(ids)
+  return ids
+end
+
+local function record_function(c, f, nslots, k, params, index, is_Q, hook)
+  local outer = rec
+  rec = { c = c, node = setmetatable({}, { __mode = "k" }), num = setmetatable({}, { __mode = "k" }), absent = {} }
+  local this = rec
+  local restore = trace_params(params, index)
+  -- whatever happens below (out of memory, Ctrl-C), the params table and
+  -- the recording under way are put back
+  local okr, ok, res = pcall(function()
+    local args = { wrap(c:time()) }
+    for j = 0, nslots - 1 do
+      local level = {}
+      for i = 1, k do level[i] = wrap(c:slot(j, i)) end
+      args[j + 2] = level
+    end
+    args[nslots + 2] = params
+    -- the nodes as Lua computes them on jets, bit for bit (graph.h)
+    c:set_exact(true)
+    if hook then debug.sethook(hook, "c") end
+    local ok1, res1 = xpcall(f, handler, table.unpack(args, 1, nslots + 2))
+    if hook then debug.sethook() end
+    c:set_exact(false)
+    return ok1, res1
+  end)
+  if hook then debug.sethook() end
+  c:set_exact(false)
+  restore()
+  if not okr then rec = outer; error(ok, 0) end
+  if not ok then
+    rec = outer
+    if rawequal(res, core.interrupted) then error(res, 0) end
+    return nil, res, this.absent
+  end
+  -- caught by the function's own pcall: the first untraceable operation
+  if this.failed then rec = outer; return nil, this.failed, this.absent end
+  local okn, ids, why = pcall(result_nodes, res, k, is_Q)
+  rec = outer
+  if not okn then return nil, tostring(ids), this.absent end
+  return ids, why, this.absent
 end
 
 -- ------------------------------------------------------------------ --
