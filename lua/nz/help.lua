@@ -103,7 +103,11 @@ goes on just after t0: by value first, and at a tie in value by the first
 coefficient of the Taylor series in which they differ (c_1, then c_2, ...).
 So nz.gt(t - t0, 0) is 1 at t0: the branch taken for t > t0.  Series equal in
 every known coefficient are equal (a dual number knows only its value).
-Tangents are not compared: a comparison is a step, its derivative is 0.]] },
+Tangents are not compared: a comparison is a step, its derivative is 0.
+A recorded system decides alike: where its plans on doubles meet a tie in
+value they hand the evaluation to the jets, and T, V and the constraints are
+evaluated with the velocity in their series for every term of the
+equations; Q is taken at the state, so a tie there is decided by value.]] },
   { name = "le", section = "branches", usage = "nz.le(a, b)", summary = "1 if a <= b, else 0 (see help(nz.lt))" },
   { name = "gt", section = "branches", usage = "nz.gt(a, b)", summary = "1 if a > b, else 0 (see help(nz.lt))" },
   { name = "ge", section = "branches", usage = "nz.ge(a, b)", summary = "1 if a >= b, else 0 (see help(nz.lt))" },
@@ -171,14 +175,21 @@ and plain arithmetic, and return a number or a jet.
 
 Recording: when the system is made, each function runs once on traced
 values and becomes an expression graph that the engine evaluates in C (M
-and h are differentiated once on it).  print(sys) shows, one line each,
-which functions run in C and which stay in Lua, and why: a Lua if or a
-comparison on the state (write nz.ifelse, nz.max, nz.min, nz.clamp), math.*
-on the state (use nz.sin, ...), a jet method, a non-number parameter, or a
-recording that disagrees with the function at a sample state.  Numbers read
-from upvalues or globals are baked in when the system is made; numbers in
-params stay inputs.  sys:graph_info() gives the graph's size, the recording
-time and what runs as machine code; compile = false keeps everything in Lua.
+and h are differentiated once on it).  A traced value answers as the jet it
+stands for (type(x) is "userdata", nz.isjet(x) is true).  print(sys) shows,
+one line each, which functions run in C and which stay in Lua, and why: a
+Lua if or a comparison on the state (write nz.ifelse, nz.max, nz.min,
+nz.clamp), math.* on the state (use nz.sin, ...), a jet method (x:coef(0)),
+a non-number parameter or a default from params' __index, even when the
+function's own pcall caught the error; or a recording that answers
+otherwise than the function on jets (checked at two states, with what it
+found: a type test, a table keyed by the state, a counter).  Numbers in
+params stay inputs however the function reads them (its argument, an
+upvalue); a parameter it read while absent (p.c or 1) and that appears
+later makes the system record again (print(sys) says so).  Other numbers
+read from upvalues or globals are baked in when the system is made.
+sys:graph_info() gives the graph's size, the recording time and what runs
+as machine code; compile = false keeps everything in Lua.
 
 Methods (t a number, q, qd, qdd tables of k numbers); help(sys.NAME) shows
 one, e.g. help(sys.simulate):

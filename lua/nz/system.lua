@@ -614,6 +614,7 @@ function System:__tostring()
       or ("  %s: runs in Lua: %s"):format(r.label, r.why)
   end
   if not self.recording then lines[#lines + 1] = "  every function runs in Lua (compile = false)" end
+  if self.recording and self.recording.again then lines[#lines + 1] = "  " .. self.recording.again end
   return table.concat(lines, "\n")
 end
 
@@ -631,7 +632,7 @@ function System:graph_info()
   return { nodes = info.nodes, record_seconds = self.recording.seconds, mass_bias_nodes = info.mass_bias_nodes,
     compiled = nc, interpreted = ni, native_plans = info.native_plans, native_series = info.native_series,
     native_seconds = info.native_seconds, native_waited = info.native_waited,
-    native_compiling = info.native_compiling, native_why = info.native_why }
+    native_compiling = info.native_compiling, native_why = info.native_why, recorded_again = self.recording.again }
 end
 
 -- ------------------------------------------------------------------ --

@@ -661,8 +661,12 @@ static int lj_dual(lua_State *L)
   return 1;
 }
 
+/* A jet, or a number type that answers as one (the recorder's tracers
+ * stand for the jets the Lua evaluator passes: lua/nz/record.lua). */
 static int lj_isjet(lua_State *L)
 {
+  lua_settop(L, 1);
+  if (foreign(L, 1) && dispatch_to_table(L, 1, "isjet")) return 1;
   lua_pushboolean(L, nz_lua_tojet(L, 1) != NULL);
   return 1;
 }

@@ -452,6 +452,7 @@ typedef struct system_object {
   nz_system sys;              /* ev is set at binding */
   struct nz_compiled *comp;   /* def.compiled, kept alive by def */
   int np;                     /* parameters of the recording */
+  int absent;                 /* names of params its functions read while absent */
 } system_object;
 
 static const char *const SYSTEM_OBJECT = "nz.evaluator";
@@ -465,6 +466,8 @@ static void object_compiled(lua_State *L, int def, system_object *o)
   }
   lua_pop(L, 1);
   o->np = nz_compiled_nparams(o->comp);
+  if (lua_getfield(L, def, "params_absent") == LUA_TTABLE) o->absent = (int)lua_rawlen(L, -1);
+  lua_pop(L, 1);
   if (lua_getfield(L, def, "compiled_mass_bias") == LUA_TBOOLEAN && lua_toboolean(L, -1)) {
     o->sys.mass_bias = nz_compiled_mass_bias;
     o->sys.accel = nz_compiled_accel;
@@ -589,11 +592,35 @@ static void read_params(lua_State *L, int def, struct nz_compiled *comp, int np)
   lua_pop(L, 2);
 }
 
+/* Is one of the names the recorded functions read while it was absent from
+ * params (def.params_absent: `p.c or 1`) there now?  Then the recording
+ * would miss it: lua/nz/record.lua records again. */
+static int params_added(lua_State *L, int def)
+{
+  int added = 0;
+  lua_getfield(L, def, "params_absent");
+  lua_getfield(L, def, "params");
+  lua_Integer n = lua_istable(L, -2) && lua_istable(L, -1) ? (lua_Integer)lua_rawlen(L, -2) : 0;
+  for (lua_Integer i = 1; i <= n && !added; i++) {
+    lua_rawgeti(L, -2, i);
+    added = lua_gettable(L, -2) != LUA_TNIL;
+    lua_pop(L, 1);
+  }
+  lua_pop(L, 2);
+  return added;
+}
+
 void nz_lua_bind_system(lua_State *L, int def, bound_system *b)
 {
   luaL_checktype(L, def, LUA_TTABLE);
   def = lua_absindex(L, def);
   system_object *o = system_object_of(L, def);
+  if (o->absent && params_added(L, def)) {
+    lua_getfield(L, def, "record_again");
+    lua_pushvalue(L, def);
+    lua_call(L, 1, 0);
+    o = system_object_of(L, def);
+  }
   b->sys = o->sys;
   b->comp = o->comp;
   b->ev.L = L;
