@@ -115,6 +115,8 @@ local function anchors(sys)
   if not sys._anchors then sys._anchors = { anchor_from(sys, {}) } end
   return sys._anchors
 end
+-- The first: the sample state a new system's functions are tried at (nz/probe.lua).
+function M.anchor(sys) return anchors(sys)[1] end
 
 -- n states near an anchor: every slot moves by up to 1, and every other
 -- sample time by up to 10, so that a dependence on t switched on away from

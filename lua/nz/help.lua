@@ -175,7 +175,10 @@ and h are differentiated once on it).  print(sys) shows, one line each,
 which functions run in C and which stay in Lua, and why: a Lua if or a
 comparison on the state (write nz.ifelse, nz.max, nz.min, nz.clamp), math.*
 on the state (use nz.sin, ...), a jet method, a non-number parameter, or a
-recording that disagrees with the function at a sample state.  Numbers read
+recording that disagrees with the function at a sample state.  A function
+that is not recorded is tried once on jets at the sample state, and one that
+fails at every state (math.cos on a jet, q.th, returning nothing) is refused
+there, at the nz.system line, with what to write instead.  Numbers read
 from upvalues or globals are baked in when the system is made; numbers in
 params stay inputs.  sys:graph_info() gives the graph's size, the recording
 time and what runs as machine code; compile = false keeps everything in Lua.

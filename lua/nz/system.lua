@@ -9,6 +9,7 @@ local core = require "nz.core"
 local bodies = require "nz.bodies"
 local constraints = require "nz.constraints"
 local record = require "nz.record"
+local probe = require "nz.probe"
 -- NZ_GRAPH_CHECK=1: check every recording against the Lua evaluator when the
 -- system is made (the test suite runs with it; nz/record.lua).
 local GRAPH_CHECK = os.getenv("NZ_GRAPH_CHECK") == "1"
@@ -214,6 +215,9 @@ function M.system(def)
   -- Record the functions once as graphs evaluated in C (nz/record.lua);
   -- compile = false keeps every function in Lua.
   if def.compile ~= false then self.recording = record.compile(self.engine, Clevels, def.native) end
+  -- A function that fails at every state (math.cos on a jet, q.th) is said
+  -- here, at the user's nz.system line (nz/probe.lua).
+  probe.check(self)
   if GRAPH_CHECK and self.recording then record.diff_check(self.engine, Clevels, name) end
   return self
 end
