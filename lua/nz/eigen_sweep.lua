@@ -131,7 +131,7 @@ local function run(sys, opts)
   return sw
 end
 
-local SWEEP_OPTIONS = { "values", "at", "parameter", "tol" }
+local SWEEP_OPTIONS = options.declare("sys:eigen_sweep", { "values", "at", "parameter", "tol" })
 
 function M.sweep(sys, opts)
   if type(opts) ~= "table" then fail(sys, "options expected: sys:eigen_sweep{ values = {...}, at = function(v) return {...} end }") end
@@ -205,8 +205,15 @@ end
 -- as points (modes are not followed from one value to the next), with the
 -- changes of stability marked on the axis.  opts: file, title, width, height,
 -- quiet.
+local PLOT_OPTIONS = options.declare("sw:plot", { "file", "title", "width", "height", "quiet" })
+
 function Sweep:plot(opts)
   opts = opts or {}
+  local function bad(fmt, ...) error(("%ssw:plot: " .. fmt):format(require("nz.where").user_where(), ...), 0) end
+  if type(opts) ~= "table" then bad("options {file =, title =, width =, height =, quiet =} expected, got %s", type(opts)) end
+  options.check(opts, PLOT_OPTIONS, bad)
+  if opts.title ~= nil and type(opts.title) ~= "string" then bad("title = %s: a string expected", tostring(opts.title)) end
+  if opts.quiet ~= nil and type(opts.quiet) ~= "boolean" then bad("quiet = %s: true or false expected", tostring(opts.quiet)) end
   local re = { name = "Re(lambda)", x = {}, y = {}, style = "points pt 7 ps 0.4" }
   local im = { name = "Im(lambda)", x = {}, y = {}, style = "points pt 6 ps 0.4" }
   for _, r in ipairs(self.rows) do

@@ -697,7 +697,8 @@ end
 
 -- ------------------------------------------------------------------ --
 
-local OPTIONS = { "lang", "file", "main", "jacobian" }
+local OPTIONS = options.declare("sys:export", { "lang", "file", "main", "jacobian" })
+local MAIN_OPTIONS = options.declare("sys:export main", { "q0", "qd0", "t0", "t1", "dt", "rtol", "atol" })
 
 function M.export(sys, opts)
   if type(opts) ~= "table" then fail(sys, "options expected: sys:export{ lang = \"c\", file = \"name.c\" [, main = {...}] }") end
@@ -708,7 +709,7 @@ function M.export(sys, opts)
   if opts.main ~= nil then
     local m = opts.main
     if type(m) ~= "table" then fail(sys, "main: a table {q0 =, qd0 =, t1 =, dt = [, t0, rtol, atol]} expected") end
-    options.check(m, { "q0", "qd0", "t0", "t1", "dt", "rtol", "atol" }, function(fmt, ...) fail(sys, "main: " .. fmt, ...) end)
+    options.check(m, MAIN_OPTIONS, function(fmt, ...) fail(sys, "main: " .. fmt, ...) end)
     if type(m.q0) ~= "table" or #m.q0 ~= sys.k then fail(sys, "main.q0: %d numbers expected", sys.k) end
     if m.qd0 ~= nil and (type(m.qd0) ~= "table" or #m.qd0 ~= sys.k) then fail(sys, "main.qd0: %d numbers expected", sys.k) end
     if type(m.t1) ~= "number" or type(m.dt) ~= "number" or m.dt <= 0 or m.t1 <= (m.t0 or 0) then

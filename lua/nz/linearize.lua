@@ -536,8 +536,8 @@ local function build(sys, c)
   return lin
 end
 
-M.OPTIONS = { "t", "q", "qd", "coords", "speeds", "hold", "dependent" }
-local EQUILIBRIUM_OPTIONS = { "t", "q", "qd", "coords", "hold", "dependent", "tol", "maxit" }
+M.OPTIONS = options.declare("sys:linearize", { "t", "q", "qd", "coords", "speeds", "hold", "dependent" })
+local EQUILIBRIUM_OPTIONS = options.declare("sys:equilibrium", { "t", "q", "qd", "coords", "hold", "dependent", "tol", "maxit" })
 
 function M.linearize(sys, opts)
   opts = opts or {}

@@ -193,8 +193,9 @@ end
 -- drawn as its drift from its first value: its own ticks would all read the
 -- same digits.  Draws and returns nothing in the terminal (the session
 -- prints nothing more); returns the file's name when writing one.
-local PLOT_OPTIONS = { y = true, x = true, phase = true, file = true, title = true, xlabel = true, ylabel = true,
-  legend = true, size = true, width = true, height = true, quiet = true, drift = true }
+local PLOT_OPTIONS = require("nz.options").declare("tr:plot", { y = true, x = true, phase = true, file = true,
+  title = true, xlabel = true, ylabel = true, legend = true, size = true, width = true, height = true, quiet = true,
+  drift = true })
 local CONSERVED = { E = true, H = true }
 
 -- The terminal's columns and lines (COLUMNS and LINES, else stty), or nil.
@@ -286,10 +287,13 @@ function Trajectory:animate(opts) return require("nz.views").animate(self, opts)
 
 -- The order n (argument #1) and the options of tr:residuals and
 -- tr:consistency, named as the user called them.
+local ORDER_OPTIONS = { quiet = function(v) return type(v) == "boolean", "true or false" end }
+require("nz.options").declare("tr:residuals", ORDER_OPTIONS)
+require("nz.options").declare("tr:consistency", ORDER_OPTIONS)
 local function check_order_options(sys, fname, n, opts)
   local args = require("nz.system").args
   args.order(fname, n)
-  args.options(fname, 2, opts, { quiet = args.boolean })
+  args.options(fname, 2, opts, ORDER_OPTIONS)
   return n or sys:rule()
 end
 

@@ -38,7 +38,8 @@ end
 -- the crossings of event `when` (its name in simulate's events; default the
 -- only one), the two quantities at each; returns {x = {...}, y = {...}, t = {...}}
 -- and draws them (draw = false: only returns them; file = ... to an SVG or PNG).
-local SECTION = { when = true, plot = true, file = true, title = true, draw = true, width = true, height = true }
+local SECTION = require("nz.options").declare("tr:section", { when = true, plot = true, file = true, title = true,
+  draw = true, width = true, height = true })
 function M.section(tr, opts)
   opts = opts or {}
   check_options("section", opts, SECTION)
@@ -201,8 +202,8 @@ end
 -- with gnuplot; with a .gif file one animated GIF, with .svg one file per
 -- frame (name-001.svg, ...), else in the terminal, one frame after another.
 -- Returns the number of frames (and the file names).
-local ANIMATE = { file = true, frames = true, fps = true, draw = true, plane = true, links = true, range = true,
-  width = true, height = true, title = true }
+local ANIMATE = require("nz.options").declare("tr:animate", { file = true, frames = true, fps = true, draw = true,
+  plane = true, links = true, range = true, width = true, height = true, title = true })
 function M.animate(tr, opts)
   opts = opts or {}
   check_options("animate", opts, ANIMATE)
