@@ -147,19 +147,18 @@ function M.sweep(sys, opts)
   return res
 end
 
--- The eigenvalues of a row as text: a complex pair once, as re +- im i.
-local function listed(ev, fmt)
+-- The eigenvalues of a row as text: a complex pair once, as re +- im i,
+-- and what is rounding shown as 0 by the rule that decides the stability
+-- (linearize.eigenvalue_text: print(lin) shows the same numbers).
+local function listed(ev, thr)
   local out = {}
-  for _, e in ipairs(ev) do
-    if e[2] == 0 then out[#out + 1] = fmt:format(e[1])
-    elseif e[2] > 0 then out[#out + 1] = (fmt .. " +- " .. fmt .. "i"):format(e[1], e[2]) end
-  end
+  for _, e in ipairs(ev) do out[#out + 1] = linearize.eigenvalue_text(e[1], e[2], thr) end
   return table.concat(out, ", ")
 end
 
 function Sweep:__tostring()
-  local t = { { self.parameter, "eigenvalues", "" } }
-  for _, r in ipairs(self.rows) do t[#t + 1] = { ("%.6g"):format(r.value), listed(r.eigenvalues, "%.6g"), r.status } end
+  local t = { { self.parameter, "eigenvalues", "stability" } }
+  for _, r in ipairs(self.rows) do t[#t + 1] = { ("%.6g"):format(r.value), listed(r.eigenvalues, r.threshold), r.status } end
   local lines = { ("eigenvalues of '%s' against %s"):format(self.system.name, self.parameter),
     require("nz.system").table_text(t, "  ") }
   if #self.crossings == 0 then
