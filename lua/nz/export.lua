@@ -252,7 +252,8 @@ local function c_file(sys, out, nodes, opts)
   add("#include <string.h>")
   add("")
   add(("enum { NZX_K = %d, NZX_NC = %d, NZX_DIM = %d };"):format(k, nc, 2 * k))
-  add(("static const char *const nzx_names[NZX_K] = { %s };"):format((function()
+  -- (not static: without a main nothing in the file reads it)
+  add(("const char *const nzx_names[NZX_K] = { %s };"):format((function()
     local t = {}
     for i = 1, k do t[i] = ("%q"):format(sys.coords[i]) end
     return table.concat(t, ", ")
@@ -273,7 +274,11 @@ local function c_file(sys, out, nodes, opts)
       add("  double qdd[NZX_K];")
       add("  memset(qdd, 0, sizeof qdd);")
     end
-    add("  (void)t; (void)q; (void)qd;")
+    -- every parameter marked used: a function of the state that reads only
+    -- part of it compiles without -Wunused-parameter under -Wall -Wextra
+    local used = {}
+    for param in (sig .. ","):gmatch("([%a_][%w_]*)%s*,") do used[#used + 1] = ("(void)%s;"):format(param) end
+    add("  " .. table.concat(used, " "))
     local lines, v = body(L, sys, nodes, list, np, names)
     for _, l in ipairs(lines) do add(l) end
     for _, r in ipairs(roots_named) do add(("  %s = %s;"):format(r.target, v(r.id))) end

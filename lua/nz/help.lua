@@ -490,12 +490,15 @@ help(tr.NAME) shows one method, e.g. help(tr.plot):
               title =, width =, height =]}
                              the mechanism frame by frame: in the terminal,
                              as an animated GIF, or SVG frames; from the
-                             bodies (a point each, linked as a chain from the
-                             origin) or draw(t, q) -> {points = {{x, y}},
-                             segments = {{x1, y1, x2, y2}}}; frames a whole
-                             number >= 1, fps in (0, 100], plane "xy", "xz"
-                             or "yz" (bodies only), links true or false,
-                             range four numbers: checked before drawing
+                             bodies (a point each, linked as a chain from a
+                             fixed pivot at the origin, drawn # in the
+                             terminal and a filled square in a file) or
+                             draw(t, q) -> {points = {{x, y}}, segments =
+                             {{x1, y1, x2, y2}}, pivots = {{x, y}}}; frames
+                             a whole number >= 1, fps in (0, 100], plane
+                             "xy", "xz" or "yz" (bodies only), links true or
+                             false (false: no links, no pivot), range four
+                             numbers: checked before drawing
   print(tr)                  a summary: cost, status, drift, monitors
   print(sys)                 a summary]] },
   { name = "forms", section = "mechanics", usage = "nz.forms",
