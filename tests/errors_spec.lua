@@ -127,13 +127,12 @@ describe("messages name the user's code first", function()
     assert.are.equal(("%s:%d: system 'pendulum': V raised an error: attempt to index a nil value"):format(SPEC, line),
       err:match("^(.-value)"))
   end)
-  it("a bad result names the line where the function is defined", function()
+  it("a bad result names the line where the function is defined, at the nz.system line", function()
     local line = here() + 1
-    local bad = nz.system{ name = "bad", coords = { "x" }, T = function(t, q, qd) return "fast" end }
-    local ok, err = pcall(bad.accel, bad, 0, { 0.385 }, { 0 })
+    local ok, err = pcall(nz.system, { name = "bad", coords = { "x" }, T = function(t, q, qd) return "fast" end })
     assert.are.equal(false, ok)
-    assert.truthy(err:find(("^%s:%d: system 'bad': T returned something that is neither a number nor a jet")
-      :format(SPEC:gsub("%p", "%%%0"), line)), err)
+    assert.truthy(err:find(("^%s:%d: nz.system 'bad': T fails at every state %%(.-%%): %s:%d: T returned a string: a number "
+      .. "or a jet expected"):format(SPEC:gsub("%p", "%%%0"), line, SPEC:gsub("%p", "%%%0"), line)), err)
   end)
   it("a recursive failure keeps its root cause whole, however deep, and the state of each end once", function()
     -- V calls the mechanics again at another state, 40 times deep: the
@@ -295,6 +294,89 @@ describe("messages name the user's code first", function()
     assert.are.equal(1, rc)
     assert.truthy(err:find(script .. ":2: pend.simulate called with a dot: write pend:simulate{...}, with a colon, "
       .. "so that the method gets its system", 1, true), err)
+  end)
+end)
+
+describe("a mistake that fails at every state is said at the nz.system line", function()
+  local function T(t, q, qd) return 0.5 * (qd[1] ^ 2 + qd[2] ^ 2) end
+  -- The error of nz.system{...} made from def, its message (made on MADE: that line is the user's nz.system line).
+  local MADE = here() + 3
+  local function made(def)
+    def.name, def.coords, def.T = def.name or "pend", def.coords or { "th", "ph" }, def.T or T
+    local ok, err = pcall(nz.system, def)
+    assert.are.equal(false, ok, "nz.system accepted the system")
+    return err
+  end
+  it("math.cos on the state (recorded or compile = false): the nz.system line, V's line, nz.cos", function()
+    for _, compile in ipairs{ true, false } do
+      local line = here() + 1
+      local err = made{ compile = compile, V = function(t, q) return -9.81 * math.cos(q[1]) end }
+      local want = ("%s:%d: nz.system 'pend': V fails at every state (tried once as the system is made, at t = 0.3, "
+        .. "q = {0.2, 0.2}): %s:%d: bad argument #1 to 'cos' (number expected, got nz.jet): math.cos works on numbers "
+        .. "only: write nz.cos(...), or cos(...) in the session"):format(SPEC, MADE, SPEC, line)
+      assert.are.equal(want, err)
+    end
+  end)
+  it("a coordinate read by name: 'th' is qd[1]", function()
+    local line = here() + 1
+    local err = made{ T = function(t, q, qd) return 0.5 * qd.th ^ 2 + 0.5 * qd[2] ^ 2 end }
+    assert.are.equal(("%s:%d: nz.system 'pend': T fails at every state (tried once as the system is made, at t = 0.3, "
+      .. "q = {0.2, 0.2}, qd = {0.4, 0.4}): %s:%d: T reads qd.th, and qd is a list indexed by number (q[1], qd[1], "
+      .. "...): 'th' is qd[1]"):format(SPEC, MADE, SPEC, line), err)
+    -- inside a jet function too (where Lua's own message names no field)
+    assert.truthy(made{ V = function(t, q) return nz.cos(q.ph) end }:find("'ph' is q[2]", 1, true))
+  end)
+  it("a state list taken as a number, a misspelled function of nz, a forgotten return, Q's shape", function()
+    assert.truthy(made{ V = function(t, q) return 0.5 * q * q end }:find(
+      "attempt to perform arithmetic on a table value (local 'q'): 'q' is a list (q[1], qd[1], ...), not a number", 1, true))
+    assert.truthy(made{ V = function(t, q) return nz.coss(q[1]) end }:find("did you mean nz.cos?", 1, true))
+    assert.truthy(made{ V = function(t, q) local v = q[1] ^ 2 end }:find("V returned nil (no return?)", 1, true))
+    assert.truthy(made{ V = function(t, q) return { q[1] ^ 2 } end }:find("V returned a table", 1, true))
+    assert.truthy(made{ Q = function(t, q, qd) return { -qd[1] } end }:find("Q returned 1 forces for 2 coordinates", 1, true))
+    assert.truthy(made{ constraints = { function(t, q, qd) return math.sin(q[1]) - q[2] end } }:find(
+      "constraint 1 fails at every state", 1, true))
+  end)
+  it("the sample state is the system's own sample when given", function()
+    local err = made{ sample = { t = 2, q = { 1.5, -1 }, qd = { 3, 4 } }, V = function(t, q) return math.exp(q[1]) end }
+    assert.truthy(err:find("at t = 2, q = {1.5, -1})", 1, true), err)
+  end)
+  it("refuses no system that is only undefined at the sample state, or depends on what is set later", function()
+    -- undefined at the sample (q = 0.2): a domain error, an error of the user's own, a NaN
+    local s1 = nz.system{ name = "log", coords = { "x", "y" }, T = T, V = function(t, q) return nz.log(q[1] - 1) end }
+    local s2 = nz.system{ name = "guard", coords = { "x", "y" }, T = T, compile = false,
+      V = function(t, q) if q[1]:value() < 1 then error("x below 1") end return q[1] ^ 2 end }
+    local s3 = nz.system{ name = "sqrt", coords = { "x", "y" }, T = T, V = function(t, q) return nz.sqrt(1 - q[1] - q[2]) end }
+    assert.are.equal(-1, s1:accel(0, { 2, 0 }, { 0, 0 })[1])                -- dV/dx = 1/(x - 1)
+    assert.are.equal(-6, s2:accel(0, { 3, 0 }, { 0, 0 })[1])
+    assert(math.abs(s3:accel(0, { -1, 0 }, { 0, 0 })[1] - 0.5 / math.sqrt(2)) < 1e-15)
+    -- a global defined after the system, a parameter added later, the system called from its own force
+    local s4 = nz.system{ name = "later", coords = { "x", "y" }, T = T, V = function(t, q) return STIFFNESS_SET_LATER * q[1] end }
+    rawset(_G, "STIFFNESS_SET_LATER", 3)
+    assert.are.equal(-3, s4:accel(0, { 0, 0 }, { 0, 0 })[1])
+    rawset(_G, "STIFFNESS_SET_LATER", nil)
+    local s5 = nz.system{ name = "param", coords = { "x", "y" }, T = T, params = {}, V = function(t, q, p) return p.k * q[2] end }
+    s5.params.k = 2
+    assert.are.equal(-2, s5:accel(0, { 0, 0 }, { 0, 0 })[2])
+    local s6
+    s6 = nz.system{ name = "self", coords = { "x", "y" }, T = T, compile = false,
+      Q = function(t, q, qd) return { -s6.params.c * qd[1], 0 } end, params = { c = 0.5 } }
+    assert.are.equal(-0.5, s6:accel(0, { 0, 0 }, { 1, 0 })[1])
+  end)
+  it("costs nothing for a system whose functions are recorded (each runs as it is recorded and checked, not more)", function()
+    -- (without NZ_GRAPH_CHECK, whose comparisons call the functions again)
+    local rc, out = h.run("env -u NZ_GRAPH_CHECK " .. h.nzlua .. [[ -e '
+      local calls, T = 0, function(t, q, qd) return qd[1] ^ 2 end
+      local V = function(t, q) calls = calls + 1; return q[1] ^ 2 end
+      nz.system{ coords = { "x" }, T = T, V = V }
+      io.write(calls, " ")
+      calls = 0
+      nz.system{ coords = { "x" }, T = T, V = V, compile = false }
+      io.write(calls)']])
+    assert.are.equal(0, rc, out)
+    -- recorded: on traced values, then twice through the Lua evaluator for
+    -- the recording's check (jets with tangents at one state, along a state
+    -- direction at another: record_check.lua); in Lua: once, on jets
+    assert.are.equal("3 1", out)
   end)
 end)
 

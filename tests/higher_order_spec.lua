@@ -202,6 +202,24 @@ describe("integration at level 3: a servo constraint on the jerk", function()
     local s = math.sin(t) / 5
     assert(max_diff(q3, { s, 2 * s }) <= 1e-15, ("{%.17g, %.17g}"):format(q3[1], q3[2]))
   end)
+  it("tr:column(\"x'''\") is the run's q''' = (1, 2) sin t / 5 (closed form), from the equations of level 3", function()
+    local _, _, rep = sys:project(0, q0, qd0, { qdd = { 0.2, 0.1 } })
+    local tr = sys:simulate{ q0 = q0, qd0 = qd0, qdd0 = rep.qdd, t1 = 2, dt = 0.1 }
+    local x3, y3 = tr:column("x'''"), tr:column("y'''")
+    local worst = 0
+    for n, t in ipairs(tr.t) do
+      worst = math.max(worst, math.abs(x3[n] - math.sin(t) / 5), math.abs(y3[n] - 2 * math.sin(t) / 5))
+    end
+    -- the level-3 equations at the run's own q'' and lambda: rounding off
+    -- the closed form (q''' does not depend on lambda here); bound 1e-13
+    assert(worst <= 1e-13, ("worst error %.3g"):format(worst))
+    assert.truthy(tr:plot{ y = { "x'''" }, width = 40, height = 12, quiet = true }:find("x'''", 1, true))
+    -- a name with primes is quoted so that it reads: "x''''", not 'x'''''
+    local ok, msg = pcall(tr.column, tr, "x''''")
+    assert.is_false(ok)
+    assert.truthy(msg:find([[no quantity "x''''": this run holds the derivatives up to x''' only]], 1, true), msg)
+    assert.truthy(msg:find("x'', y'', x''', y''', lambda1", 1, true), msg)
+  end)
   it("tr.violation records the drift of (6.2): an inconsistent start (check = false) keeps its residual", function()
     -- qdd0 = (1/2, 1/2): the best multiplier minimizes (a - l)^2 + (b - 2 l)^2 with
     -- a = m/2 - F1, b = m/2 - F2, so l = (a + 2 b)/5 and the residual of (6.2) is
@@ -359,6 +377,9 @@ describe("integration at level 4 (constant gradient)", function()
     -- at the consistent qdd nearest to (0.1, 0.2)) 1.3e-13; 5e-13.
     assert(worst <= 1e-13, ("worst error %.3g"):format(worst))
     assert(wl <= 5e-13, ("worst error of lambda %.3g"):format(wl))
+    -- q''' is part of the state: a column, the closed form's 2 (l1 + m sin t / 5) / m for y
+    local y3 = tr:column("y'''")
+    for n, t in ipairs(tr.t) do assert(math.abs(y3[n] - 2 * (l1 + m * math.sin(t) / 5) / m) <= 1e-13, y3[n]) end
   end)
   it("Tsenov's reduced equations at level 4 give q^(4) = (1, 2) cos t / 5", function()
     local t, l0, l1 = 1.3, 0.4, -0.25

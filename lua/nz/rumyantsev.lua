@@ -102,11 +102,14 @@ end
 -- mass matrix is singular (x' is in its kernel).  `tau` fixes the
 -- parametrization by the constraint t = tau(tau_value), which makes the
 -- motion determined, so that it can be integrated.
+local PARAMETRIC_OPTIONS = options.declare("sys:parametric", { "time", "tau" })
+local JW_OPTIONS = options.declare("sys:jacobi_whittaker", { "h", "independent" })
+
 function M.parametric(sys, opts)
   local fname = "parametric"
   opts = opts or {}
   if type(opts) ~= "table" then fail(sys, fname, "options must be a table {time =, tau =}") end
-  options.check(opts, { "time", "tau" }, function(...) fail(sys, fname, ...) end)
+  options.check(opts, PARAMETRIC_OPTIONS, function(...) fail(sys, fname, ...) end)
   local tname = opts.time or "t"
   for _, c in ipairs(sys.coords) do
     if c == tname then fail(sys, fname, "a coordinate is already named '%s': name time otherwise (time = \"...\")", tname) end
@@ -284,7 +287,7 @@ end
 function M.jacobi_whittaker(sys, opts)
   local fname = "jacobi_whittaker"
   if type(opts) ~= "table" then fail(sys, fname, "options {h = ..., independent = ...} expected") end
-  options.check(opts, { "h", "independent" }, function(...) fail(sys, fname, ...) end)
+  options.check(opts, JW_OPTIONS, function(...) fail(sys, fname, ...) end)
   local h = opts.h
   if type(h) ~= "number" or h ~= h or math.abs(h) == math.huge then
     fail(sys, fname, "h: the value of the energy integral H = h (a finite number) expected, got %s",

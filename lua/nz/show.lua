@@ -283,10 +283,12 @@ local function extras(sys, eq, opts, lang, names)
   return out
 end
 
+local OPTIONS = options.declare("sys:show", { "tex", "lua", "mass", "bias", "reduced", "appell", "width", "names" })
+
 function M.show(sys, opts)
   opts = opts or {}
   if type(opts) ~= "table" then fail(sys, "options must be a table {tex =, lua =, mass =, bias =, width =}") end
-  options.check(opts, { "tex", "lua", "mass", "bias", "reduced", "appell", "width", "names" }, function(...) fail(sys, ...) end)
+  options.check(opts, OPTIONS, function(...) fail(sys, ...) end)
   local eq = M.equations(sys)
   local k = sys.k
   if opts.lua then

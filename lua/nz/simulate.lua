@@ -28,14 +28,14 @@ local M = {}
 -- method at tight tolerances (documented in help(nz.system)).
 M.defaults = { method = "rk8pd", rtol = 1e-10, atol = 1e-12, points = 200, event_tol = 1e-12 }
 
-local known = {
+-- q3d0, q4d0, ...: the start of higher levels (constraints of order >= 3).
+local function level_option(key) return type(key) == "string" and key:match("^q%d+d0$") ~= nil end
+local known = require("nz.options").declare("sys:simulate", {
   q0 = true, qd0 = true, t0 = true, t1 = true, dt = true, method = true, rtol = true, atol = true,
   step = true, events = true, project = true, baumgarte = true, monitors = true, progress = true,
   check = true, h0 = true, event_tol = true, guess = true, qdd0 = true, dense = true,
   _loop = true,   -- internal, for tests and bench/loop_cost.lua: "lua" or "c" forces a loop (see M.simulate)
-}
--- q3d0, q4d0, ...: the start of higher levels (constraints of order >= 3).
-local function level_option(key) return type(key) == "string" and key:match("^q%d+d0$") ~= nil end
+}, level_option)
 local known_monitors = { energy = true, work = true }
 
 -- Limits that keep a run finite and its memory bounded.

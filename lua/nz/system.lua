@@ -9,6 +9,7 @@ local core = require "nz.core"
 local bodies = require "nz.bodies"
 local constraints = require "nz.constraints"
 local record = require "nz.record"
+local probe = require "nz.probe"
 -- NZ_GRAPH_CHECK=1: check every recording against the Lua evaluator when the
 -- system is made (the test suite runs with it; nz/record.lua).
 local GRAPH_CHECK = os.getenv("NZ_GRAPH_CHECK") == "1"
@@ -240,6 +241,9 @@ function M.system(def)
   -- Record the functions once as graphs evaluated in C (nz/record.lua);
   -- compile = false keeps every function in Lua.
   if def.compile ~= false then self.recording = record.compile(self.engine, Clevels, def.native) end
+  -- A function that fails at every state (math.cos on a jet, q.th) is said
+  -- here, at the user's nz.system line (nz/probe.lua).
+  probe.check(self)
   if GRAPH_CHECK and self.recording then record.diff_check(self.engine, Clevels, name) end
   return self
 end
@@ -269,11 +273,12 @@ M.args.order = check_order
 local function is_list(v) return type(v) == "table" and getmetatable(v) == nil and v[1] ~= nil end
 
 -- The options' checkers, made once (not on every call).
-local RESIDUAL_OPTIONS = {
+local declare = require("nz.options").declare
+local RESIDUAL_OPTIONS = declare("sys:residual", {
   form = function(v) return type(v) == "string", "a form name" end,
   higher = function(v) return type(v) == "table", "a list {q3, q4, ...} of derivatives" end,
-}
-local EQUATIONS_OPTIONS = { quiet = boolean }
+})
+local EQUATIONS_OPTIONS = declare("sys:equations", { quiet = boolean })
 
 function System:residual(n, t, q, qd, qdd, a6, a7)
   check_order("residual", n)
@@ -331,12 +336,12 @@ function System:mass_bias(t, q, qd)
 -- report {iterations, residual, rcond, start}.  opts (constraints of second
 -- order nonlinear in qdd): {qdd = guess, lambda = guess, tol =, maxit =}.
 -- (made once: accel is called on every step of a user's own loop)
-local ACCEL_OPTIONS = {
+local ACCEL_OPTIONS = declare("sys:accel", {
   tol = positive, maxit = count, check = boolean,
   rcond_min = function(v) return finite(v) and v >= 0, "a finite number >= 0" end,
   qdd = function(v) return type(v) == "table", "a table of numbers (a first guess)" end,
   lambda = function(v) return type(v) == "table", "a table of numbers (a first guess)" end,
-}
+})
 
 function System:accel(t, q, qd, opts)
   -- The common call first: C reads and checks the state, and gives nil
@@ -385,7 +390,9 @@ end
 -- The classification of the constraints, a list that prints as its table
 -- (print(sys:constraints()) in a script; typed at the prompt, the session
 -- prints it once).  It prints nothing itself, so opts (quiet) change nothing.
+local CONSTRAINTS_OPTIONS = declare("sys:constraints", { quiet = boolean })
 function System:constraints(opts)
+  check_options("constraints", 1, opts, CONSTRAINTS_OPTIONS)
   local classes = constraints.classify(self)
   local out = {}
   for i, c in ipairs(classes) do out[i] = c end
@@ -394,7 +401,11 @@ function System:constraints(opts)
 end
 
 -- Dolapchiev's order n and why; opts.extremal for the extremal form (4.3).
-function System:rule(opts) return constraints.rule(self, opts) end
+local RULE_OPTIONS = declare("sys:rule", { extremal = boolean })
+function System:rule(opts)
+  check_options("rule", 1, opts, RULE_OPTIONS)
+  return constraints.rule(self, opts)
+end
 
 -- Accelerations from Tsenov's reduced equations (7.1), without multipliers.
 function System:reduced(t, q, qd, n, form)
@@ -456,6 +467,10 @@ local function check_project_options(self, opts)
   end
 end
 
+-- qdd, q3d, q4d, ...: the start's higher levels (constraints of order p >= 3);
+-- the options as help lists them (checked above, by the system's levels)
+local function level_key(key) return type(key) == "string" and (key == "qdd" or key:match("^q%d+d$") ~= nil) end
+local PROJECT_OPTIONS = declare("sys:project", { "tol", "maxit", "qdd", "lambda", "lambdas" }, level_key)
 function System:project(t, q, qd, opts)
   check_state(self, "project", 1, t, q, qd)
   if opts ~= nil and (type(opts) ~= "table" or getmetatable(opts) ~= nil) then
@@ -472,7 +487,14 @@ function System:check_state(t, q, qd, tol)
 end
 
 -- What a scene shows, in one call (lua/nz/report.lua).
-function System:report(opts) return require("nz.report").report(self, opts) end
+local REPORT_OPTIONS = declare("sys:report", { "q", "qd", "t", "orders", "extremal", "simulate", "plot" })
+function System:report(opts)
+  if opts ~= nil and (type(opts) ~= "table" or getmetatable(opts) ~= nil) then
+    arg_error("report", 1, "options: a table {q =, qd =, ...} expected, got %s", shown(opts))
+  end
+  if opts then require("nz.options").check(opts, REPORT_OPTIONS, function(...) arg_error("report", 1, ...) end) end
+  return require("nz.report").report(self, opts)
+end
 
 -- The defect of points from anywhere (a student's integrator, a lab's
 -- measurement): the equations on the curve through them (nz/defect.lua).

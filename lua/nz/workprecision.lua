@@ -95,6 +95,33 @@ local function method_names()
   return names
 end
 
+-- The options' checkers (the methods' names are read at each check).
+local function is_method(v)
+  local names = method_names()
+  for _, m in ipairs(names) do if m == v then return true end end
+  return false, "a method (" .. table.concat(names, " ") .. ")"
+end
+local function any() return true end
+local function list(v) return type(v) == "table" and getmetatable(v) == nil and #v > 0, "a non-empty list" end
+local function tolerance(v)
+  local min_tol = require("nz.simulate").MIN_RTOL
+  return type(v) == "number" and v >= min_tol and v < 1, ("a tolerance from %g to 1 (each run takes rtol = tol, "
+    .. "atol = tol / 100)"):format(min_tol)
+end
+local OPTIONS = options.declare("nz.workprecision", {
+  q0 = any, qd0 = any, t0 = any, t1 = any, dt = any,      -- simulate checks these
+  methods = list, tols = list, reference = function(v) return type(v) == "function", "a function(t) returning q" end,
+  reference_method = is_method, reference_tol = tolerance,
+  budget = function(v) return type(v) == "number" and v > 0 and v < math.huge, "seconds per point, a positive number" end,
+  x = function(v) return M.X[v] ~= nil, "\"time\", \"nfev\" or \"steps\"" end,
+  plot = function(v)
+    return v == true or v == false or (type(v) == "string" and (v:match("%.svg$") or v:match("%.png$"))),
+      "true, or a file name ending in .svg or .png"
+  end,
+  quiet = function(v) return type(v) == "boolean", "true or false" end,
+  simulate = function(v) return type(v) == "table" and getmetatable(v) == nil, "a table of simulate's options" end,
+})
+
 -- The options, checked before anything runs: one error, from the caller's
 -- line, naming the option ("bad argument #2 to 'workprecision' (...)").
 local function check(sys, opts)
@@ -104,29 +131,9 @@ local function check(sys, opts)
     args.error("workprecision", 1, "a system from nz.system{...} expected, got %s", args.shown(sys))
   end
   if type(opts) ~= "table" then bad("options {q0 =, t1 =, ...} expected, got %s", args.shown(opts)) end
-  local any = function() return true end
-  local function list(v) return type(v) == "table" and getmetatable(v) == nil and #v > 0, "a non-empty list" end
-  local min_tol = require("nz.simulate").MIN_RTOL
-  local function tolerance(v)
-    return type(v) == "number" and v >= min_tol and v < 1, ("a tolerance from %g to 1 (each run takes rtol = tol, "
-      .. "atol = tol / 100)"):format(min_tol)
-  end
-  local names, known = method_names(), {}
-  for _, m in ipairs(names) do known[m] = true end
-  local function method(v) return known[v] ~= nil, "a method (" .. table.concat(names, " ") .. ")" end
-  args.options("workprecision", 2, opts, {
-    q0 = any, qd0 = any, t0 = any, t1 = any, dt = any,      -- simulate checks these
-    methods = list, tols = list, reference = function(v) return type(v) == "function", "a function(t) returning q" end,
-    reference_method = method, reference_tol = tolerance,
-    budget = function(v) return type(v) == "number" and v > 0 and v < math.huge, "seconds per point, a positive number" end,
-    x = function(v) return M.X[v] ~= nil, "\"time\", \"nfev\" or \"steps\"" end,
-    plot = function(v)
-      return v == true or v == false or (type(v) == "string" and (v:match("%.svg$") or v:match("%.png$"))),
-        "true, or a file name ending in .svg or .png"
-    end,
-    quiet = args.boolean,
-    simulate = function(v) return type(v) == "table" and getmetatable(v) == nil, "a table of simulate's options" end,
-  })
+  args.options("workprecision", 2, opts, OPTIONS)
+  local names = method_names()
+  local method = is_method
   -- the lists entry by entry, naming the entry
   local seen = {}
   for i, m in ipairs(opts.methods or {}) do
