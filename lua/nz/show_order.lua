@@ -81,9 +81,10 @@ function M.terms(sys, g, force, reader)
   end
   -- R_n: for n = 1 whole, the velocities held in F_0 apart from q' (dR_1/dq'
   -- holds them); for n >= 2 the part that holds q^(n), R_n(x) - R_n(0) with
-  -- x = q^(n).  There R_n is at most quadratic in x (F reads q and q' only,
-  -- so by Faa di Bruno F^(n) holds q^(n) in F_q q^(n), n F_q'x x' q^(n) and
-  -- for n = 2 F_q'q' q'' q''), and R_n(x) - R_n(0) = sum_i x_i G_i(x) -
+  -- x = q^(n).  There R_n is at most quadratic in x (F reads t, q and q'
+  -- only, so by Faa di Bruno F^(n) holds q^(n) only in F_q q^(n) + n (d/dt
+  -- F_q') q^(n) for n >= 3, and with F_q'q' q'' q'' for n = 2: docs/theory.md
+  -- §4), and R_n(x) - R_n(0) = sum_i x_i G_i(x) -
   -- 1/2 sum_ij x_i x_j H_ij, H = dG/dx: made from the derivatives alone,
   -- never the whole of F^(n), whose terms grow with n (the heavy top from
   -- its body at n = 6: 42 s for F^(n) whole, 0.1 s this way)
