@@ -484,7 +484,7 @@ function M.show(sys, opts)
     out[#out + 1] = "with the constraints"
     for r = 1, sys.nc do
       out[#out + 1] = ("  (%d)  %s = 0   (order %d: A = dPhi/d%s)"):format(r, formula.print(eq.phi[r], "text", names, true),
-        eq.orders[r], ({ "q", "q'", "q''" })[eq.orders[r] + 1] or "q^(m)")
+        eq.orders[r], order_n.level(eq.orders[r]))
     end
   end
   if #where > 0 then

@@ -114,6 +114,7 @@ end
 
 -- q^(j) in text: q, q', q'', q''', q^(4), ...
 local function level(j) return j <= 3 and ("q" .. ("'"):rep(j)) or ("q^(" .. j .. ")") end
+M.level = level
 
 -- The names (3.1) of order n is written with, in lang: F (T, or L when the
 -- system has one) and Fn, its n-th derivative; the labels of the terms of
