@@ -726,6 +726,62 @@ static void check_mixed_shapes(void)
 }
 
 /* ------------------------------------------------------------------ */
+/* Copies and substitutions                                             */
+
+/* nz_graph_copy: every expression copied into a new graph computes what it
+ * computes in G, and substituting a node for an input computes the
+ * expression at that node's value (the input given its value directly). */
+static void check_copies(void)
+{
+  int roots[NEXPR];
+  for (int e = 0; e < NEXPR; e++) roots[e] = record(e);
+  nz_graph *h = nz_graph_new();
+  int copy[NEXPR];
+  gsl_test(nz_graph_copy(h, G, roots, NEXPR, NULL, copy) != 0, "nz_graph_copy into a new graph returns 0");
+  /* G's own nodes, built again: the same graph where they were alone */
+  int n0 = nz_graph_size(G), again[NEXPR], same = 1;
+  gsl_test(nz_graph_copy(G, G, roots, NEXPR, NULL, again) != 0, "nz_graph_copy of G into itself returns 0");
+  for (int e = 0; e < NEXPR; e++) same = same && again[e] == roots[e];
+  gsl_test(!same || nz_graph_size(G) != n0, "a copy into the same graph without substitution is the same nodes");
+  /* x -> y / 2 + 1/4 in G */
+  int ni = nz_graph_ninputs(G), *map = malloc((size_t)ni * sizeof *map);
+  for (int i = 0; i < ni; i++) map[i] = -1;
+  map[0] = nz_graph_op(G, NZ_GOP_ADD, nz_graph_op(G, NZ_GOP_MUL, nz_graph_input(G, 1), nz_graph_const(G, 0.5)),
+                       nz_graph_const(G, 0.25));
+  int sub[NEXPR];
+  gsl_test(nz_graph_copy(G, G, roots, NEXPR, map, sub) != 0, "nz_graph_copy substituting in G returns 0");
+  for (int e = 0; e < NEXPR; e++) {
+    double worst_copy = 0.0, worst_sub = 0.0, x[NIN], xs[NIN];
+    int ok = 1;
+    for (int trial = 0; trial < 10 && ok; trial++) {
+      nz_status s1, s2, s3, s4;
+      random_point(x);
+      memcpy(xs, x, sizeof x);
+      xs[0] = x[1] * 0.5 + 0.25;
+      double want = eval1(roots[e], x, &s1), at = eval1(sub[e], x, &s2), want_at = eval1(roots[e], xs, &s3);
+      nz_graph *keep = G;
+      G = h;
+      double got = eval1(copy[e], x, &s4);
+      G = keep;
+      ok = !s1 && !s2 && !s3 && !s4;
+      worst_copy = fmax(worst_copy, rel(got, want));
+      worst_sub = fmax(worst_sub, rel(at, want_at));
+    }
+    gsl_test(!ok || worst_copy != 0.0, "%s: its copy in another graph gives the same doubles (%.2g)", exprs[e].name,
+             worst_copy);
+    gsl_test(!ok || !(worst_sub <= 4 * GSL_DBL_EPSILON), "%s: x replaced by the node y/2 + 1/4 gives f(y/2 + 1/4, y) (%.2g)",
+             exprs[e].name, worst_sub);
+  }
+  /* refused: a root or a map entry that is not a node */
+  int bad = nz_graph_size(G) + 5, out;
+  gsl_test(nz_graph_copy(h, G, &bad, 1, NULL, &out) != -1, "nz_graph_copy refuses a root that is not a node");
+  map[0] = nz_graph_size(h) + 7;
+  gsl_test(nz_graph_copy(h, G, roots, 1, map, &out) != -1, "nz_graph_copy refuses a map entry that is not a node of dst");
+  free(map);
+  nz_graph_free(h);
+}
+
+/* ------------------------------------------------------------------ */
 /* Derivatives                                                          */
 
 static void check_derivatives(void)
@@ -1548,6 +1604,7 @@ int main(void)
   check_jets();
   check_mixed_shapes();
   check_derivatives();
+  check_copies();
   check_eta();
   check_failures();
   check_plans_and_time();

@@ -385,8 +385,8 @@ one, e.g. help(sys.simulate):
                              imaginary parts against the parameter; quiet =
                              true returns the terminal's plot as text
                              instead of printing it).  help(sw): the fields.
-  sys:show{[tex = true, lua = true, mass = true, bias = true, reduced = true,
-            appell = true, names = true, width = 100]}
+  sys:show{[n = 3, tex = true, lua = true, mass = true, bias = true,
+            reduced = true, appell = true, names = true, width = 100]}
                              the equations as formulas read from the recorded
                              graphs: per coordinate M(q) q'' + h(q, q') =
                              A^T lambda (the equations of every order n
@@ -400,8 +400,21 @@ one, e.g. help(sys.simulate):
                              (where c1 = cos(th1 - th2); names = true always,
                              false never); tex = true: a LaTeX
                              aligned block; lua = true: a Lua chunk returning
-                             function(t, q, qd, qdd, lambda, params) ->
-                             residuals
+                             function(t, q, qd, qdd, lambda, params, higher)
+                             -> residuals (higher = {q''', ...}).
+                             n = N: Dolapchiev's equations of order N, (1/N)
+                             (dT^(N)/dq^(N) - (N + 1) dT/dq) = Q + A^T lambda
+                             (N = 1 Nielsen's, 2 Tsenov's), derived from
+                             T^(N) on the graph: the equations collected, then
+                             the terms dT^(N)/dq^(N), dT/dq, Q (-dV/dq in it)
+                             per coordinate. T^(N) reads q to q^(N+1), but
+                             dT^(N)/dq^(N) = N d/dt dT/dq' + dT/dq (2.1): no
+                             derivative above q'' is left, and every N
+                             collects to the same equations. With appell =
+                             true: R_N = (1/N)(T^(N) - (N + 1) T_0^(N)) (T_0: T
+                             with its velocities held), up to terms free of
+                             q^(N) (whole for N = 1, held velocities written
+                             th'_0); lua, mass, bias, reduced, tex as above
   sys:export{lang = "c" | "python" | "octave", file = "name.c"
              [, jacobian = false, main = {q0 =, qd0 =, t1 =, dt = [, t0,
              rtol, atol]}]}

@@ -773,6 +773,62 @@ int nz_graph_derivative(nz_graph *g, int root, const int *dinput)
 }
 
 /* ------------------------------------------------------------------ */
+/* Copies and substitutions                                             */
+
+int nz_graph_copy(nz_graph *dst, const nz_graph *src, const int *roots, int nroots, const int *input_map,
+                  int *out)
+{
+  int top = -1;
+  if (nroots < 0) return -1;
+  for (int r = 0; r < nroots; r++) {
+    if (!valid(src, roots[r])) return -1;
+    if (roots[r] > top) top = roots[r];
+  }
+  for (int i = 0; input_map && i < src->ninputs; i++)
+    if (input_map[i] != -1 && !valid(dst, input_map[i])) return -1;
+  char *mark = calloc((size_t)top + 2, 1);
+  int *to = malloc(((size_t)top + 2) * sizeof *to);
+  if (!mark || !to) { free(mark); free(to); return -1; }
+  for (int r = 0; r < nroots; r++) mark[roots[r]] = 1;
+  int lo = top + 1;
+  for (int id = top; id >= 0; id--) {
+    if (!mark[id]) continue;
+    lo = id;
+    const nz_gnode *nd = &src->nodes[id];
+    if (has_operand(nd->op)) mark[nd->a] = 1;
+    if (binary_op(nd->op)) mark[nd->b] = 1;
+    if (has_cond(nd->op)) mark[nd->c] = 1;
+  }
+  /* With dst == src the new nodes come after top: never read here. */
+  int ok = 1;
+  for (int id = lo; id <= top && ok; id++) {
+    if (!mark[id]) continue;
+    nz_gnode nd = src->nodes[id];   /* a copy: building may move src->nodes when dst == src */
+    int x;
+    switch (nd.op) {
+    case NZ_GOP_CONST: x = nz_graph_const(dst, nd.v); break;
+    case NZ_GOP_INPUT: {
+      int m = input_map && nd.a < src->ninputs ? input_map[nd.a] : -1;
+      x = m >= 0 ? m : nz_graph_input(dst, nd.a);
+      break;
+    }
+    case NZ_GOP_NEG: x = nz_graph_op(dst, NZ_GOP_NEG, to[nd.a], -1); break;
+    case NZ_GOP_POWC: x = nz_graph_powc(dst, to[nd.a], nd.v); break;
+    case NZ_GOP_FN: x = nz_graph_fn(dst, (nz_jet_fn)nd.fn, to[nd.a]); break;
+    case NZ_GOP_CMP: x = nz_graph_cmp(dst, (nz_cmp)nd.fn, to[nd.a], to[nd.b]); break;
+    case NZ_GOP_SELECT: x = nz_graph_select(dst, to[nd.c], to[nd.a], to[nd.b]); break;
+    default: x = nz_graph_op(dst, (nz_gop)nd.op, to[nd.a], to[nd.b]); break;
+    }
+    if (x < 0) ok = 0;
+    to[id] = x;
+  }
+  for (int r = 0; r < nroots && ok; r++) out[r] = to[roots[r]];
+  free(mark);
+  free(to);
+  return ok ? 0 : -1;
+}
+
+/* ------------------------------------------------------------------ */
 /* Plans                                                                */
 
 /* The double evaluator's opcodes: the graph's, with POWC and FN split. */

@@ -142,6 +142,18 @@ int nz_graph_derivative(nz_graph *g, int root, const int *dinput);
 int nz_graph_derivatives(nz_graph *g, const int *roots, int nroots, const int *dinput,
                          int *droots);
 
+/* The nodes under roots[0..nroots-1] of src built again in dst, each input
+ * i of src replaced by node input_map[i] of dst (input_map has
+ * nz_graph_ninputs(src) entries; -1, or input_map NULL: the input of the
+ * same number in dst): out[r] receives the copy of roots[r].  dst may be
+ * src, which substitutes nodes for inputs (sys:show holds the velocity of
+ * T still while q moves: docs/theory.md §4's T_0).  Built through dst's
+ * door, so folded and simplified as dst's exact mode says: the same
+ * expression, not always the same nodes.  0, or -1 (out of memory, a root
+ * or a map entry that is not a node). */
+int nz_graph_copy(nz_graph *dst, const nz_graph *src, const int *roots, int nroots, const int *input_map,
+                  int *out);
+
 /* ------------------------------------------------------------------ */
 /* Evaluation                                                           */
 

@@ -78,13 +78,33 @@ static int lg_const(lua_State *L)
   return push_node(L, nz_graph_const(nz_compiled_graph(c), luaL_checknumber(L, 2)));
 }
 
-/* input(j, i): slot j (0 = q) of coordinate i (1-based); input(0): t;
- * param(p): parameter p (1-based). */
+/* slot(j, i): slot j (0 = q, 0 <= j < nslots) of coordinate i (1-based);
+ * frozen(i): the frozen velocity of coordinate i (mech_graph.h); time(): t;
+ * param(p): parameter p (1-based).  Only the layout's inputs: a graph
+ * whose inputs outgrow it would be read past the arrays the mechanics
+ * sizes by the layout. */
 static int lg_slot(lua_State *L)
 {
   nz_compiled *c = check(L);
   int j = (int)luaL_checkinteger(L, 2), i = (int)luaL_checkinteger(L, 3);
+  luaL_argcheck(L, j >= 0 && j < nz_compiled_nslots(c), 2, "no such slot in the recording");
+  luaL_argcheck(L, i >= 1 && i <= nz_compiled_ncoords(c), 3, "no such coordinate");
   return push_node(L, nz_graph_input(nz_compiled_graph(c), nz_compiled_input_slot(c, j, i - 1)));
+}
+
+static int lg_frozen(lua_State *L)
+{
+  nz_compiled *c = check(L);
+  int i = (int)luaL_checkinteger(L, 2);
+  luaL_argcheck(L, i >= 1 && i <= nz_compiled_ncoords(c), 2, "no such coordinate");
+  return push_node(L, nz_graph_input(nz_compiled_graph(c), nz_compiled_input_frozen(c, i - 1)));
+}
+
+/* nslots() -> the derivative slots of the layout (mech_graph.h) */
+static int lg_nslots(lua_State *L)
+{
+  lua_pushinteger(L, nz_compiled_nslots(check(L)));
+  return 1;
 }
 
 static int lg_time(lua_State *L)
@@ -328,6 +348,36 @@ static int lg_derivative(lua_State *L)
   return push_node(L, nz_graph_derivative(g, root, dir));
 }
 
+/* copy(src, {roots}, {[input number of src] = node}) -> {nodes}: the roots
+ * of src's graph built again in this one, the inputs listed replaced by
+ * the nodes given, the others by the inputs of the same number (src may
+ * be this recording: a substitution).  The inputs of src must fit this
+ * layout. */
+static int lg_copy(lua_State *L)
+{
+  nz_compiled *c = check(L);
+  compiled_box *b = luaL_checkudata(L, 2, NZ_COMPILED_METATABLE);
+  if (!b->c) return luaL_error(L, "internal: a freed compiled system");
+  nz_graph *g = nz_compiled_graph(c), *src = nz_compiled_graph(b->c);
+  int n = (int)luaL_len(L, 3), ni = nz_graph_ninputs(src);
+  luaL_checktype(L, 4, LUA_TTABLE);
+  int *ids = lua_newuserdatauv(L, 2 * (size_t)(n + 1) * sizeof(int), 0), *out = ids + n + 1;
+  n = read_nodes(L, 3, src, ids, n);
+  int *map = lua_newuserdatauv(L, (size_t)(ni + 1) * sizeof(int), 0);
+  for (int i = 0; i < ni; i++) {
+    lua_geti(L, 4, i);
+    map[i] = lua_isnil(L, -1) ? -1 : check_node(L, g, -1);
+    lua_pop(L, 1);
+  }
+  /* unmapped inputs keep their numbers: within this layout */
+  int layout = nz_compiled_input_frozen(c, nz_compiled_ncoords(c) - 1) + 1;
+  for (int i = 0; i < ni; i++)
+    if (map[i] < 0 && i >= layout) return luaL_error(L, "internal: input %d is outside the layout", i);
+  if (nz_graph_copy(g, src, ids, n, map, out)) return luaL_error(L, "not enough memory to record the graph");
+  push_ids(L, out, n);
+  return 1;
+}
+
 /* piece_nodes(piece, index (1-based)) -> nodes its evaluation visits */
 static int lg_piece_nodes(lua_State *L)
 {
@@ -461,7 +511,8 @@ static int lg_set_native(lua_State *L)
 }
 
 static const luaL_Reg methods[] = {
-  { "const", lg_const }, { "slot", lg_slot }, { "time", lg_time }, { "param", lg_param },
+  { "const", lg_const }, { "slot", lg_slot }, { "frozen", lg_frozen }, { "nslots", lg_nslots },
+  { "time", lg_time }, { "param", lg_param }, { "copy", lg_copy },
   { "op", lg_op }, { "fn", lg_fn }, { "powc", lg_powc }, { "constant", lg_constant },
   { "cmp", lg_cmp }, { "select", lg_select },
   { "set_piece", lg_set_piece }, { "info", lg_info }, { "piece_nodes", lg_piece_nodes },

@@ -319,7 +319,7 @@ nz_compiled *nz_compiled_new(int k, int np, int nc, int nslots)
   nz_compiled *c = calloc(1, sizeof *c);
   if (!c) return NULL;
   c->k = k; c->np = np; c->nc = nc; c->nslots = nslots;
-  c->ninputs = 1 + np + nslots * k;
+  c->ninputs = 1 + np + nslots * k + k;   /* the frozen velocities last (mech_graph.h) */
   c->g = nz_graph_new();
   c->params = calloc((size_t)np + 1, sizeof(double));
   c->phi = calloc((size_t)nc + 1, sizeof(compiled_piece));
@@ -396,6 +396,10 @@ int nz_compiled_input_slot(const nz_compiled *c, int j, int i)
 {
   return 1 + c->np + j * c->k + i;
 }
+
+int nz_compiled_input_frozen(const nz_compiled *c, int i) { return 1 + c->np + c->nslots * c->k + i; }
+int nz_compiled_nslots(const nz_compiled *c) { return c->nslots; }
+int nz_compiled_ncoords(const nz_compiled *c) { return c->k; }
 
 static compiled_piece *piece_of(const nz_compiled *c, nz_piece piece, int index)
 {
