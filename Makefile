@@ -5,6 +5,7 @@
 #   make test     build and run every test (also under ASan and UBSan)
 #   make sanitize only the tests under AddressSanitizer + UBSan
 #   make bench    print the benchmark tables
+#   make fuzz     the differential fuzzer: random systems recorded against Lua
 #   make install  nzlua to $(PREFIX)/bin, nz.so to $(PREFIX)/lib/lua/5.4 (PREFIX=/usr/local)
 #   make clean
 
@@ -52,7 +53,7 @@ SAN_CORE  = $(patsubst src/%.c,$(B)/asan/%.o,$(CORE_SRC))
 PREFIX   ?= /usr/local
 DESTDIR  ?=
 
-.PHONY: all deps demo test check sanitize bench install uninstall clean
+.PHONY: all deps demo test check sanitize bench fuzz install uninstall clean
 
 all: $(B)/nzlua $(B)/nz.so
 
@@ -132,6 +133,14 @@ sanitize: deps $(B)/asan/nzlua $(B)/asan/test_series $(B)/asan/test_graph $(B)/a
 
 bench: deps all $(B)/bench_jet $(B)/bench_motion $(B)/henon_c $(B)/pendulum_c
 	@bench/run.sh
+
+# The differential fuzzer (tests/fuzz/): FUZZ_COUNT random systems, each
+# recorded and with compile = false, compared; a new seed each run (printed;
+# FUZZ_SEED= repeats one).  tests/fuzz_spec.lua runs a fixed slice.
+FUZZ_COUNT ?= 5000
+FUZZ_SEED ?=
+fuzz: all
+	$(B)/nzlua tests/fuzz/run.lua $(FUZZ_COUNT) $(FUZZ_SEED)
 
 # nz.so carries its Lua half inside: one file serves `require "nz"` from any
 # Lua 5.4 (the default package.cpath searches $(PREFIX)/lib/lua/5.4).

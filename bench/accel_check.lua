@@ -1,7 +1,8 @@
 -- accel_check.lua - what the check after every constrained solve costs
 -- (constrained.c): the time of one solve with and without it (sleigh,
--- rolling disk, Hamel's particle), and of a whole simulate run (t1 = 10,
--- rk8pd), whose right-hand sides are those solves.  Prints a table.
+-- rolling disk, Hamel's particle, Andrews' squeezer), and of a whole
+-- simulate run (t1 = 10, rk8pd; the squeezer's 0.03 s), whose right-hand
+-- sides are those solves.  Prints a table.
 package.path = "./?.lua;" .. package.path
 local nz = rawget(_G, "nz") or require "nz"
 local cs = require "tests.constraint_systems"
@@ -30,7 +31,13 @@ end
 print("The check after every constrained solve: time with / without it")
 print(("%-14s %10s %10s %6s  %10s %10s %6s"):format("system", "solve on", "off", "ratio", "simulate on", "off", "ratio"))
 local ode_new = mech.ode_new
-for _, name in ipairs{ "sleigh", "rolling_disk", "hamel" } do
+-- Andrews' squeezer (examples/squeezer.lua) from the Test Set's start.
+cs.squeezer = function()
+  local env = setmetatable({ nz = nz }, { __index = _G })
+  local model = assert(loadfile("examples/squeezer.lua", "t", env))("module")
+  return { sys = model.system, span = 0.03, draw = function() return 0, model.start.q, model.start.qd end }
+end
+for _, name in ipairs{ "sleigh", "rolling_disk", "hamel", "squeezer" } do
   local case = cs[name]()
   local sys = case.sys
   local t, q, qd = case.draw()
@@ -41,7 +48,7 @@ for _, name in ipairs{ "sleigh", "rolling_disk", "hamel" } do
   end)
   local run = best_of(function(check)
     mech.ode_new = function(e, o) o.check = check; return ode_new(e, o) end
-    sys:simulate{ t0 = t, q0 = q, qd0 = qd, t1 = t + 10 }
+    sys:simulate{ t0 = t, q0 = q, qd0 = qd, t1 = t + (case.span or 10) }
     mech.ode_new = ode_new
   end)
   for _, check in ipairs{ true, false } do solve[check] = solve[check] / N end

@@ -3,7 +3,7 @@
 -- the energy H = h conserved, the path is the motion of a reduced system in
 -- which the angle phi plays the part of time (the Jacobi-Whittaker
 -- reduction, Rumyantsev eq. 2.8-2.12; docs/theory.md §9).  Time comes back
--- afterwards, by a quadrature along the path: dt/dphi = sqrt(G / (h + L0)).
+-- afterwards, integrated along the path: dt/dphi = sqrt(G / (h + L0)).
 --
 -- Kepler's problem with mu = 1, a = 1, e = 0.6, in polar coordinates.
 local mu, a, e = 1.0, 1.0, 0.6
@@ -27,10 +27,10 @@ local p, worst = a * (1 - e * e), 0
 for i = 1, #tr.t do worst = math.max(worst, math.abs(tr.q[i][1] - p / (1 + e * math.cos(tr.t[i])))) end
 print(("\nthe path against the conic r = p / (1 + e cos phi), p = a (1 - e^2): largest difference %.1e"):format(worst))
 
--- When?  The time along the path, by quadrature.
+-- When?  The time along the path (path:elapsed integrates it with the path).
 local t = path:elapsed(tr)
 local period = 2 * math.pi * math.sqrt(a ^ 3 / mu)
-print(("period: by quadrature along the path %.15f, Kepler's third law 2 pi sqrt(a^3/mu) %.15f"):format(t[#t], period))
+print(("period: integrated along the path %.15f, Kepler's third law 2 pi sqrt(a^3/mu) %.15f"):format(t[#t], period))
 local i = 101                                  -- phi = pi / 2
 local E = 2 * math.atan(math.sqrt((1 - e) / (1 + e)) * math.tan(tr.t[i] / 2))
 print(("time to phi = pi/2: %.15f, Kepler's equation E - e sin E: %.15f"):format(t[i], math.sqrt(a ^ 3 / mu) * (E - e * math.sin(E))))

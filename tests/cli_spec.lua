@@ -20,6 +20,31 @@ describe("nzlua script runner", function()
     assert.truthy(err:find("tests/data/runtime_error.lua:2: 'log' of a non-positive value (got -1)", 1, true), err)
     assert.truthy(err:find("stack traceback:", 1, true), err)
   end)
+  it("a failing script prints file:line: message, and a traceback only through functions it wrote, of their frames only", function()
+    local script = os.tmpname()
+    local function run(text)
+      local f = assert(io.open(script, "w"))
+      f:write(text)
+      f:close()
+      return h.run(nzlua .. " " .. script)
+    end
+    local sys = 'sys = nz.system{ name = "p", coords = { "x" }, T = function(t, q, qd) return qd[1] ^ 2 / 2 end }\n'
+    -- an engine error from the main chunk: the message alone (its library frames said nothing)
+    local code, _, err = run(sys .. "sys:simulate{ q0 = { 0 }, t1 = 1, rtoll = 1e-6 }\n")
+    assert.are.equal(1, code)
+    assert.are.equal(("nzlua: %s:2: simulate 'p': unknown option 'rtoll' (did you mean 'rtol'?)"):format(script),
+      err:match("^[^\n]*"):gsub(" %(options: .*", ""))
+    assert.falsy(err:find("traceback", 1, true), err)
+    -- through a function of the script: its frames, and nothing of the library's or C's
+    code, _, err = run(sys .. "local function run(tol)\n  local tr = sys:simulate{ q0 = { 0 }, t1 = 1, rtol = tol }\n  return tr\nend\n"
+      .. "run(-1)\n")   -- line 6
+    os.remove(script)
+    assert.are.equal(1, code)
+    assert.truthy(err:find(("^nzlua: %s:3: simulate 'p': "):format(script:gsub("%p", "%%%0"))), err)
+    local frames = err:match("\nstack traceback:\n(.*)$")
+    assert(frames, err)
+    assert.are.equal(("\t%s:3: in local 'run'\n\t%s:6: in main chunk\n"):format(script, script), frames)
+  end)
   it("a missing script exits 1 and says so", function()
     local code, _, err = h.run(nzlua .. " tests/data/no_such_file.lua")
     assert.are.equal(1, code)

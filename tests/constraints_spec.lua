@@ -13,13 +13,16 @@ local STATES = 6
 
 describe("classification and Dolapchiev's rule", function()
   local expected = {
-    { cs.sleigh, order = 1, linear = true, n = 1, says = "constraint 1 is of first order and linear in the velocities" },
-    { cs.rolling_disk, order = 1, linear = true, n = 1, says = "constraint 2 is of first order and linear in the velocities" },
-    { cs.constant_speed, order = 1, linear = false, n = 2, says = "constraint 1 is of first order and nonlinear in the velocities: Tsenov's equations, n = 2" },
-    { cs.appell, order = 1, linear = false, n = 2, says = "nonlinear in the velocities: Tsenov's equations, n = 2" },
-    { cs.program, order = 2, linear = true, n = 2, says = "constraint 1 is of second order and linear in the accelerations: Tsenov's equations, n = 2" },
-    { cs.cartesian_pendulum, order = 0, linear = false, n = 1, says = "constraint 1 is holonomic" },  -- x^2 + y^2 is nonlinear in q
-    { cs.hamel, order = 2, linear = false, n = 3, says = "constraint 1 is of second order and nonlinear in the accelerations: the equations with the jerk q''', n = 3" },
+    { cs.sleigh, order = 1, linear = true, n = 1,
+      says = "n = 1, Nielsen's equations (Jourdain's principle), since constraint 1 is of first order and linear in the velocities." },
+    { cs.rolling_disk, order = 1, linear = true, n = 1, says = "constraint 2 is of first order and linear in the velocities: Nielsen's equations, n = 1." },
+    { cs.constant_speed, order = 1, linear = false, n = 2,
+      says = "n = 2, Tsenov's equations (Gauss's principle), since constraint 1 is of first order and nonlinear in the velocities." },
+    { cs.appell, order = 1, linear = false, n = 2, says = "since constraint 1 is of first order and nonlinear in the velocities." },
+    { cs.program, order = 2, linear = true, n = 2, says = "since constraint 1 is of second order and linear in the accelerations." },
+    { cs.cartesian_pendulum, order = 0, linear = false, n = 1, says = "since constraint 1 is holonomic" },  -- x^2 + y^2 is nonlinear in q
+    { cs.hamel, order = 2, linear = false, n = 3, says = "n = 3, equations with the jerk q''' (generalized Gauss principle of "
+      .. "order 3), since constraint 1 is of second order and nonlinear in the accelerations." },
   }
   for _, e in ipairs(expected) do
     local case = e[1]()
@@ -35,6 +38,16 @@ describe("classification and Dolapchiev's rule", function()
       assert.are.equal(e.n, n)
       assert.truthy(why:find(e.says, 1, true), why)
       assert.truthy(why:find(("Dolapchiev's rule: n = %d"):format(n), 1, true), why)
+      -- sentences start with a capital; one constraint's equations are named once
+      for sentence in why:gmatch("%.  (.)") do assert.truthy(sentence:find("%u"), why) end
+      if case.sys.nc == 1 then
+        local _, names = why:gsub("equations", "")
+        assert.are.equal(1, names, why)
+      end
+      -- the table and its evidence fit 80 columns, as help does
+      for line in tostring(case.sys:constraints()):gmatch("[^\n]+") do
+        assert(utf8.len(line) <= 80, ("a line of %d columns:\n%s"):format(utf8.len(line), line))
+      end
     end)
   end
   it("homogeneity in the velocities (Euler's theorem) with its degree", function()
@@ -52,7 +65,7 @@ describe("classification and Dolapchiev's rule", function()
     local sys = cs.constant_speed().sys
     local text = require("nz.constraints").report(sys)
     assert.truthy(text:find("nonholonomic", 1, true) and text:find("nonlinear", 1, true), text)
-    assert.truthy(text:find("max |dPhi/dq^(j)|, j=0..3:", 1, true) and text:find("curvature", 1, true), text)
+    assert.truthy(text:find("the largest |dPhi/dq^(j)|, j = 0..3", 1, true) and text:find("\n  1: 0, ", 1, true), text)
   end)
   it("constraints of order three: classification, rule and residual work; accel says q'' is part of the state", function()
     local sys = nz.system{ name = "jerk", coords = { "x", "y" }, T = function(t, q, qd) return 0.5 * (qd[1] ^ 2 + qd[2] ^ 2) end,

@@ -127,17 +127,17 @@ describe("messages name the user's code first", function()
     assert.are.equal(("%s:%d: system 'pendulum': V raised an error: attempt to index a nil value"):format(SPEC, line),
       err:match("^(.-value)"))
   end)
-  it("a bad result names the line where the function is defined", function()
+  it("a bad result names the line where the function is defined, at the nz.system line", function()
     local line = here() + 1
-    local bad = nz.system{ name = "bad", coords = { "x" }, T = function(t, q, qd) return "fast" end }
-    local ok, err = pcall(bad.accel, bad, 0, { 0.385 }, { 0 })
+    local ok, err = pcall(nz.system, { name = "bad", coords = { "x" }, T = function(t, q, qd) return "fast" end })
     assert.are.equal(false, ok)
-    assert.truthy(err:find(("^%s:%d: system 'bad': T returned something that is neither a number nor a jet")
-      :format(SPEC:gsub("%p", "%%%0"), line)), err)
+    assert.truthy(err:find(("^%s:%d: nz.system 'bad': T fails at every state %%(.-%%): %s:%d: T returned a string: a number "
+      .. "or a jet expected"):format(SPEC:gsub("%p", "%%%0"), line, SPEC:gsub("%p", "%%%0"), line)), err)
   end)
-  it("a recursive failure keeps its root cause whole, however deep", function()
+  it("a recursive failure keeps its root cause whole, however deep, and the state of each end once", function()
     -- V calls the mechanics again at another state, 40 times deep: the
-    -- message of each level wraps the one below (some 100 characters each).
+    -- message of each level wrapped the one below (some 100 characters each,
+    -- the state 40 times); now the root cause whole, then the outermost call.
     local depth, line = 0, nil
     local deep
     deep = nz.system{ name = "deep", coords = { "x", "y", "z" },
@@ -148,12 +148,15 @@ describe("messages name the user's code first", function()
         local a = deep:accel(0.5, { 1.2345678, 2.3456789, 3.456789 }, { 0.1234567, 0.2345678, 0.3456789 })
         return q[1] + a[1]
       end }
+    depth = 0                      -- the calls made when the system was made do not count
     local ok, err = pcall(deep.accel, deep, 0, { 1, 2, 3 }, { 0, 0, 0 })
     assert.are.equal(false, ok)
-    assert(#err > 1024, #err)      -- longer than the old buffer, which cut the root cause off
-    assert.truthy(err:find(("%s:%d: system 'deep': V raised an error: the root cause 4711"):format(SPEC, line), 1, true), err)
-    -- and it ends with the outermost state (V sees t and q)
-    assert.are.equal(" at t = 0, q = {1, 2, 3}", err:sub(-#" at t = 0, q = {1, 2, 3}"))
+    -- the root cause first, whole (the old 1 kB buffer cut it off), with its state
+    assert.truthy(err:find(("^%s:%d: system 'deep': V raised an error: the root cause 4711 at t = 0.5, q = {1.2345678, "
+      .. "2.3456789, 3.456789} %%(nested 40 deep"):format(SPEC:gsub("%p", "%%%0"), line)), err)
+    -- and it ends with the outermost state (V sees t and q), once
+    assert.are.equal("; the outermost call: V at t = 0, q = {1, 2, 3})", err:sub(-#"; the outermost call: V at t = 0, q = {1, 2, 3})"))
+    assert.are.equal(2, select(2, err:gsub("at t = ", "")))
   end)
   it("sys:residual names the argument it got wrong, counted as the user counts", function()
     local ok, err = pcall(pendulum.residual, pendulum, 2.5, 0, { 0.385 }, { 0 }, { 0 })
@@ -291,6 +294,89 @@ describe("messages name the user's code first", function()
     assert.are.equal(1, rc)
     assert.truthy(err:find(script .. ":2: pend.simulate called with a dot: write pend:simulate{...}, with a colon, "
       .. "so that the method gets its system", 1, true), err)
+  end)
+end)
+
+describe("a mistake that fails at every state is said at the nz.system line", function()
+  local function T(t, q, qd) return 0.5 * (qd[1] ^ 2 + qd[2] ^ 2) end
+  -- The error of nz.system{...} made from def, its message (made on MADE: that line is the user's nz.system line).
+  local MADE = here() + 3
+  local function made(def)
+    def.name, def.coords, def.T = def.name or "pend", def.coords or { "th", "ph" }, def.T or T
+    local ok, err = pcall(nz.system, def)
+    assert.are.equal(false, ok, "nz.system accepted the system")
+    return err
+  end
+  it("math.cos on the state (recorded or compile = false): the nz.system line, V's line, nz.cos", function()
+    for _, compile in ipairs{ true, false } do
+      local line = here() + 1
+      local err = made{ compile = compile, V = function(t, q) return -9.81 * math.cos(q[1]) end }
+      local want = ("%s:%d: nz.system 'pend': V fails at every state (tried once as the system is made, at t = 0.3, "
+        .. "q = {0.2, 0.2}): %s:%d: bad argument #1 to 'cos' (number expected, got nz.jet): math.cos works on numbers "
+        .. "only: write nz.cos(...), or cos(...) in the session"):format(SPEC, MADE, SPEC, line)
+      assert.are.equal(want, err)
+    end
+  end)
+  it("a coordinate read by name: 'th' is qd[1]", function()
+    local line = here() + 1
+    local err = made{ T = function(t, q, qd) return 0.5 * qd.th ^ 2 + 0.5 * qd[2] ^ 2 end }
+    assert.are.equal(("%s:%d: nz.system 'pend': T fails at every state (tried once as the system is made, at t = 0.3, "
+      .. "q = {0.2, 0.2}, qd = {0.4, 0.4}): %s:%d: T reads qd.th, and qd is a list indexed by number (q[1], qd[1], "
+      .. "...): 'th' is qd[1]"):format(SPEC, MADE, SPEC, line), err)
+    -- inside a jet function too (where Lua's own message names no field)
+    assert.truthy(made{ V = function(t, q) return nz.cos(q.ph) end }:find("'ph' is q[2]", 1, true))
+  end)
+  it("a state list taken as a number, a misspelled function of nz, a forgotten return, Q's shape", function()
+    assert.truthy(made{ V = function(t, q) return 0.5 * q * q end }:find(
+      "attempt to perform arithmetic on a table value (local 'q'): 'q' is a list (q[1], qd[1], ...), not a number", 1, true))
+    assert.truthy(made{ V = function(t, q) return nz.coss(q[1]) end }:find("did you mean nz.cos?", 1, true))
+    assert.truthy(made{ V = function(t, q) local v = q[1] ^ 2 end }:find("V returned nil (no return?)", 1, true))
+    assert.truthy(made{ V = function(t, q) return { q[1] ^ 2 } end }:find("V returned a table", 1, true))
+    assert.truthy(made{ Q = function(t, q, qd) return { -qd[1] } end }:find("Q returned 1 forces for 2 coordinates", 1, true))
+    assert.truthy(made{ constraints = { function(t, q, qd) return math.sin(q[1]) - q[2] end } }:find(
+      "constraint 1 fails at every state", 1, true))
+  end)
+  it("the sample state is the system's own sample when given", function()
+    local err = made{ sample = { t = 2, q = { 1.5, -1 }, qd = { 3, 4 } }, V = function(t, q) return math.exp(q[1]) end }
+    assert.truthy(err:find("at t = 2, q = {1.5, -1})", 1, true), err)
+  end)
+  it("refuses no system that is only undefined at the sample state, or depends on what is set later", function()
+    -- undefined at the sample (q = 0.2): a domain error, an error of the user's own, a NaN
+    local s1 = nz.system{ name = "log", coords = { "x", "y" }, T = T, V = function(t, q) return nz.log(q[1] - 1) end }
+    local s2 = nz.system{ name = "guard", coords = { "x", "y" }, T = T, compile = false,
+      V = function(t, q) if q[1]:value() < 1 then error("x below 1") end return q[1] ^ 2 end }
+    local s3 = nz.system{ name = "sqrt", coords = { "x", "y" }, T = T, V = function(t, q) return nz.sqrt(1 - q[1] - q[2]) end }
+    assert.are.equal(-1, s1:accel(0, { 2, 0 }, { 0, 0 })[1])                -- dV/dx = 1/(x - 1)
+    assert.are.equal(-6, s2:accel(0, { 3, 0 }, { 0, 0 })[1])
+    assert(math.abs(s3:accel(0, { -1, 0 }, { 0, 0 })[1] - 0.5 / math.sqrt(2)) < 1e-15)
+    -- a global defined after the system, a parameter added later, the system called from its own force
+    local s4 = nz.system{ name = "later", coords = { "x", "y" }, T = T, V = function(t, q) return STIFFNESS_SET_LATER * q[1] end }
+    rawset(_G, "STIFFNESS_SET_LATER", 3)
+    assert.are.equal(-3, s4:accel(0, { 0, 0 }, { 0, 0 })[1])
+    rawset(_G, "STIFFNESS_SET_LATER", nil)
+    local s5 = nz.system{ name = "param", coords = { "x", "y" }, T = T, params = {}, V = function(t, q, p) return p.k * q[2] end }
+    s5.params.k = 2
+    assert.are.equal(-2, s5:accel(0, { 0, 0 }, { 0, 0 })[2])
+    local s6
+    s6 = nz.system{ name = "self", coords = { "x", "y" }, T = T, compile = false,
+      Q = function(t, q, qd) return { -s6.params.c * qd[1], 0 } end, params = { c = 0.5 } }
+    assert.are.equal(-0.5, s6:accel(0, { 0, 0 }, { 1, 0 })[1])
+  end)
+  it("costs nothing for a system whose functions are recorded (each runs as it is recorded and checked, not more)", function()
+    -- (without NZ_GRAPH_CHECK, whose comparisons call the functions again)
+    local rc, out = h.run("env -u NZ_GRAPH_CHECK " .. h.nzlua .. [[ -e '
+      local calls, T = 0, function(t, q, qd) return qd[1] ^ 2 end
+      local V = function(t, q) calls = calls + 1; return q[1] ^ 2 end
+      nz.system{ coords = { "x" }, T = T, V = V }
+      io.write(calls, " ")
+      calls = 0
+      nz.system{ coords = { "x" }, T = T, V = V, compile = false }
+      io.write(calls)']])
+    assert.are.equal(0, rc, out)
+    -- recorded: on traced values, then twice through the Lua evaluator for
+    -- the recording's check (jets with tangents at one state, along a state
+    -- direction at another: record_check.lua); in Lua: once, on jets
+    assert.are.equal("3 1", out)
   end)
 end)
 
@@ -432,5 +518,126 @@ describe("a recorded function that fails at a state", function()
     assert.truthy(tostring(err):find("V raised an error", 1, true), tostring(err))
     assert.are.equal("failed", nz.last.status)
     assert.is_true(#nz.last.t > 2)
+  end)
+end)
+
+-- Probes of issue 24: each a value or a state nothing said anything about,
+-- or said too much about.
+describe("what is not finite, off the constraints, or nested is said once and clearly", function()
+  local osc = nz.system{ name = "osc", coords = { "x" }, T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end,
+    V = function(t, q) return 0.5 * q[1] ^ 2 end }
+  it("an event function that returns inf is refused like one that returns nil", function()
+    for _, f in ipairs{ function() return nil end, function() return 1 / 0 end, function() return 0 / 0 end } do
+      h.checkerror("simulate 'osc': event 'event 1' must return a finite number, got ", osc.simulate, osc,
+        { q0 = { 1 }, t1 = 1, events = { f } })
+    end
+    -- recorded and run in C, infinite only at the start (1/(x - 1) at x = 1):
+    -- the graph fails there and the Lua function says what it returned
+    local ok, e = pcall(osc.simulate, osc, { q0 = { 1 }, t1 = 1, events = { function(t, q) return 1 / (q[1] - 1) end } })
+    assert.is_false(ok)
+    assert.truthy(tostring(e):find("event 'event 1' must return a finite number, got inf at t = 0, q = {1}", 1, true), e)
+  end)
+  it("T = ... + 1/0 or + 0/0 is refused at the start of a run, naming T and the state", function()
+    local function make(c)
+      return nz.system{ name = "bad T", coords = { "x" }, V = function(t, q) return q[1] ^ 2 end,
+        T = function(t, q, qd) return 0.5 * qd[1] ^ 2 + c end }
+    end
+    -- both ran: a constant in T has no derivative in M or h
+    for _, c in ipairs{ { 1 / 0, "inf" }, { 0 / 0, "NaN" }, { -1 / 0, "-inf" } } do
+      local sys = make(c[1])
+      local line = here() + 1
+      local ok, e = pcall(sys.simulate, sys, { q0 = { 0.3 }, t1 = 1 })
+      assert.is_false(ok)
+      e = tostring(e)
+      assert.truthy(e:find(("%s:%d: simulate 'bad T': T is %s at the start at t = 0, q = {0.3}, qd = {0}: a term such "
+        .. "as 1/0 or 0/0 makes it so"):format(SPEC, line, c[2]), 1, true), e)
+    end
+    -- one that is not finite only later is the integrator's to meet (a V
+    -- that turns NaN at t = 0.3 runs to there: simulate_loop_spec)
+  end)
+  it("a fixed step longer than the output spacing: the summary says the step taken", function()
+    local simulate = require "nz.simulate"
+    local said, saved = {}, simulate.warn
+    simulate.warn = function(msg) said[#said + 1] = msg end
+    local ok, tr = pcall(osc.simulate, osc, { q0 = { 1 }, t1 = 1, dt = 0.05, step = 1e6 })
+    simulate.warn = saved
+    assert(ok, tostring(tr))
+    -- it said "fixed step 1e+06"; 20 steps of 0.05 were taken
+    assert.are.equal(20, tr.stats.steps)
+    assert.truthy(tostring(tr):find("(fixed step 0.05)", 1, true), tostring(tr))
+    assert.are.equal(1, #said)
+    assert.truthy(said[1]:find("'step' = 1000000.0 is longer than the output spacing 'dt' = 0.05: every output point "
+      .. "ends a step, so the steps are 0.05", 1, true), said[1])
+    -- x'' = -x from x = 1 at rest: cos t
+    assert(math.abs(tr.q[#tr.q][1] - math.cos(1)) <= 1e-9)
+  end)
+  it("sys:accel at a state off a holonomic constraint warns once, naming it and its value", function()
+    local system = require "nz.system"
+    local pend = nz.system{ name = "cartesian", coords = { "x", "y" },
+      T = function(t, q, qd) return 0.5 * (qd[1] ^ 2 + qd[2] ^ 2) end, V = function(t, q) return g * q[2] end,
+      constraints = { function(t, q) return q[1] ^ 2 + q[2] ^ 2 - 1 end } }
+    local said, saved = {}, system.warn
+    system.warn = function(msg) said[#said + 1] = msg end
+    local ok, e = pcall(function()
+      pend:accel(0, { 0.6, -0.8 }, { 0.8, 0.6 })            -- on it: nothing to say
+      assert.are.equal(0, #said)
+      -- (0.7, -0.8), (0.8, 0.6): Phi = 0.13 (0.13 / 2.39 of its terms
+      -- 2 x^2 + 2 y^2 + |Phi|), Phi' = 2 (x x' + y y') = 0.16 (of 1.12 +
+      -- 0.96 + 0.16): the velocity level is the worse, 0.0714
+      local _, _, report = pend:accel(0, { 0.7, -0.8 }, { 0.8, 0.6 })
+      assert.are.equal(1, #said)
+      assert.truthy(said[1]:find("sys:accel: warning: system 'cartesian': the state at t = 0 violates constraint 1 at "
+        .. "velocity level by 0.16 (0.0714 of the size of its terms)", 1, true), said[1])
+      assert.truthy(said[1]:find("q, qd = sys:project(t, q, qd)", 1, true), said[1])
+      assert(math.abs(report.violation.value - 0.16) <= 1e-15 and math.abs(report.violation.relative - 0.16 / 2.24) <= 1e-15)
+      pend:accel(0, { 0.9, -0.8 }, { 0.8, 0.6 })            -- once
+      assert.are.equal(1, #said)
+    end)
+    system.warn = saved
+    assert(ok, e)
+  end)
+  it("an error deep in a recursion of T says the root cause and the state once", function()
+    local depth, sys = 0, nil
+    local line = here() + 5
+    sys = nz.system{ name = "recursive", coords = { "x" }, compile = false,
+      T = function(t, q, qd)
+        depth = depth + 1
+        if sys then
+          if depth > 40 then error("too deep") end
+          sys:energy(0, { 0.1 }, { 0.2 })
+        end
+        return 0.5 * qd[1] ^ 2
+      end }
+    depth = 0
+    local ok, e = pcall(sys.accel, sys, 0, { 1 }, { 0 })
+    assert.is_false(ok)
+    e = tostring(e)
+    -- it repeated "T raised an error" and the state 40 times (2.5 kB)
+    assert.are.equal(("%s:%d: system 'recursive': T raised an error: too deep at t = 0, q = {0.1}, qd = {0.2} (nested 40 "
+      .. "deep; the outermost call: T at t = 0, q = {1}, qd = {0})"):format(SPEC, line), e)
+  end)
+  it("error({}) in T shows the object's __tostring, or its type", function()
+    local function with(obj)
+      return nz.system{ name = "object", coords = { "x" }, compile = false,
+        T = function(t, q, qd) if q[1]:value() > 0.5 then error(obj) end return 0.5 * qd[1] ^ 2 end }
+    end
+    local plain = with({})
+    h.checkerror("system 'object': T raised an error: an error object of type table (give error() a string, or the "
+      .. "object a __tostring) at t = 0, q = {1}", plain.accel, plain, 0, { 1 }, { 0 })
+    local named = with(setmetatable({}, { __tostring = function() return "the wheel came off" end }))
+    h.checkerror("system 'object': T raised an error: the wheel came off at t = 0, q = {1}", named.accel, named, 0, { 1 }, { 0 })
+  end)
+  it("taylor with project on a system without constraints warns as every method does, and runs", function()
+    local simulate = require "nz.simulate"
+    local free = nz.system{ name = "free osc", coords = { "x" }, T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end,
+      V = function(t, q) return 0.5 * q[1] ^ 2 end }
+    local said, saved = {}, simulate.warn
+    simulate.warn = function(msg) said[#said + 1] = msg end
+    local ok, tr = pcall(free.simulate, free, { q0 = { 1 }, t1 = 1, project = true, method = "taylor" })
+    simulate.warn = saved
+    assert(ok, tostring(tr))
+    assert.are.equal(1, #said)
+    assert.truthy(said[1]:find("'project' does nothing: the system has no constraints", 1, true), said[1])
+    assert(math.abs(tr.q[#tr.q][1] - math.cos(1)) <= 1e-9)
   end)
 end)

@@ -155,6 +155,11 @@ describe("the recorded graph against the Lua evaluator", function()
   end)
 
   it("agrees on residuals of orders 1..4 in every form, on M and h and on accelerations", function()
+    -- random states lie off the constraints: sys:accel's warning that no
+    -- motion passes through them is expected here, and kept off the log
+    local system, saved_warn = require "nz.system", nil
+    saved_warn, system.warn = system.warn, function() end
+    finally(function() system.warn = saved_warn end)
     math.randomseed(tonumber(os.getenv("NZ_TEST_SEED")) or 20261124)
     for _, tw in ipairs(twins) do
       for _ = 1, 3 do

@@ -114,6 +114,56 @@ describe("classification and Dolapchiev's rule for orders 3 and 4", function()
   end)
 end)
 
+describe("sys:project at level 3 keeps a consistent start and chooses no multiplier for the user", function()
+  -- x''' = 0 with T = (x'^2 + y'^2)/2: A = dPhi/dq''' = (1, 0), so (6.2)
+  -- reads x'' = lambda, y'' = 0 (by hand).  Every x'' is consistent, with
+  -- lambda = x''; y'' must be 0.
+  local sys = nz.system{ name = "jerk free", coords = { "x", "y" },
+    T = function(t, q, qd) return 0.5 * (qd[1] ^ 2 + qd[2] ^ 2) end,
+    constraints = { function(t, q, qd, qdd, qddd) return qddd[1] end } }
+  it("a consistent qdd is returned unchanged, with the multiplier it needs", function()
+    local q, qd, rep = sys:project(0, { 0, 0 }, { 1, 0 }, { qdd = { 0.5, 0 } })
+    -- it returned qdd = {0.25, 0} and lambda = {0.25}: the least change of
+    -- (qdd, lambda) together from lambda = 0
+    assert.are.same({ 0.5, 0 }, rep.qdd)
+    assert.are.equal(0.5, rep.lambda[1])
+    assert.are.same({ 0, 0 }, q)
+    assert.are.same({ 1, 0 }, qd)
+  end)
+  it("an inconsistent qdd changes least, in qdd alone", function()
+    -- y'' = 0.3 is not allowed: the nearest consistent qdd is (0.5, 0)
+    local _, _, rep = sys:project(0, { 0, 0 }, { 1, 0 }, { qdd = { 0.5, 0.3 } })
+    assert(math.abs(rep.qdd[1] - 0.5) <= 1e-15 and math.abs(rep.qdd[2]) <= 1e-15, ("{%.17g, %.17g}"):format(rep.qdd[1], rep.qdd[2]))
+    assert(math.abs(rep.lambda[1] - 0.5) <= 1e-15, rep.lambda[1])
+  end)
+  it("lambda = {...} is the user's choice: the least change of qdd and lambda together", function()
+    -- from (x'', lambda) = (0.5, 0.1): min dx^2 + dl^2 with 0.5 + dx =
+    -- 0.1 + dl gives dx = -0.2, dl = 0.2 (lambda was ignored: 0.25, 0.25)
+    local _, _, rep = sys:project(0, { 0, 0 }, { 1, 0 }, { qdd = { 0.5, 0 }, lambda = { 0.1 } })
+    assert(math.abs(rep.qdd[1] - 0.3) <= 1e-15 and math.abs(rep.lambda[1] - 0.3) <= 1e-15,
+      ("qdd = %.17g, lambda = %.17g"):format(rep.qdd[1], rep.lambda[1]))
+    -- a consistent pair is kept
+    _, _, rep = sys:project(0, { 0, 0 }, { 1, 0 }, { qdd = { 0.7, 0 }, lambdas = { { 0.7 } } })
+    assert.are.same({ 0.7, 0 }, rep.qdd)
+    assert.are.equal(0.7, rep.lambda[1])
+  end)
+  it("unknown keys, levels the constraints do not have, and misshapen values are refused", function()
+    h.checkerror("bad argument #4 to 'project' (unknown option 'lamda' (did you mean 'lambda'?) (options: lambda, "
+      .. "lambdas, maxit, qdd, tol))", sys.project, sys, 0, { 0, 0 }, { 1, 0 }, { qdd = { 0.5, 0 }, lamda = { 1 } })
+    h.checkerror("option 'q3d': the constraints are of order 3 at most, so the start has levels q .. qdd",
+      sys.project, sys, 0, { 0, 0 }, { 1, 0 }, { q3d = { 0, 0 } })
+    h.checkerror("option 'lambda': a table of 1 finite number (one multiplier per constraint) expected",
+      sys.project, sys, 0, { 0, 0 }, { 1, 0 }, { lambda = { 1, 2 } })
+    h.checkerror("options 'lambda' and 'lambdas': give one of them", sys.project, sys, 0, { 0, 0 }, { 1, 0 },
+      { lambda = { 1 }, lambdas = { { 1 } } })
+    local free = nz.system{ name = "free", coords = { "x" }, T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end }
+    h.checkerror("option 'qdd': no constraint is of order 3 or more, so the start is q and qd alone",
+      free.project, free, 0, { 0 }, { 1 }, { qdd = { 1 } })
+    h.checkerror("option 'lambda': no constraint is of order 3 or more, so the start has no multipliers",
+      free.project, free, 0, { 0 }, { 1 }, { lambda = { 1 } })
+  end)
+end)
+
 describe("integration at level 3: a servo constraint on the jerk", function()
   -- lambda' = m sin t / 5, so lambda = lambda0 + m (1 - cos t) / 5 and
   -- x = x0 + vx t + (F1 + lambda0) t^2 / (2m) + (t^2/2 - 1 + cos t) / 5,
@@ -151,6 +201,24 @@ describe("integration at level 3: a servo constraint on the jerk", function()
     local q3 = sys:reduced(t, q0, qd0, nil, { qdd = qdd, lambdas = { { lam } } })
     local s = math.sin(t) / 5
     assert(max_diff(q3, { s, 2 * s }) <= 1e-15, ("{%.17g, %.17g}"):format(q3[1], q3[2]))
+  end)
+  it("tr:column(\"x'''\") is the run's q''' = (1, 2) sin t / 5 (closed form), from the equations of level 3", function()
+    local _, _, rep = sys:project(0, q0, qd0, { qdd = { 0.2, 0.1 } })
+    local tr = sys:simulate{ q0 = q0, qd0 = qd0, qdd0 = rep.qdd, t1 = 2, dt = 0.1 }
+    local x3, y3 = tr:column("x'''"), tr:column("y'''")
+    local worst = 0
+    for n, t in ipairs(tr.t) do
+      worst = math.max(worst, math.abs(x3[n] - math.sin(t) / 5), math.abs(y3[n] - 2 * math.sin(t) / 5))
+    end
+    -- the level-3 equations at the run's own q'' and lambda: rounding off
+    -- the closed form (q''' does not depend on lambda here); bound 1e-13
+    assert(worst <= 1e-13, ("worst error %.3g"):format(worst))
+    assert.truthy(tr:plot{ y = { "x'''" }, width = 40, height = 12, quiet = true }:find("x'''", 1, true))
+    -- a name with primes is quoted so that it reads: "x''''", not 'x'''''
+    local ok, msg = pcall(tr.column, tr, "x''''")
+    assert.is_false(ok)
+    assert.truthy(msg:find([[no quantity "x''''": this run holds the derivatives up to x''' only]], 1, true), msg)
+    assert.truthy(msg:find("x'', y'', x''', y''', lambda1", 1, true), msg)
   end)
   it("tr.violation records the drift of (6.2): an inconsistent start (check = false) keeps its residual", function()
     -- qdd0 = (1/2, 1/2): the best multiplier minimizes (a - l)^2 + (b - 2 l)^2 with
@@ -294,17 +362,24 @@ describe("integration at level 4 (constant gradient)", function()
     local l0, l1 = rep.lambdas[1][1], rep.lambdas[2][1]
     assert(max_diff(rep.q3d, { l1 / m, 2 * l1 / m }) <= 1e-14)
     local tr = sys:simulate{ q0 = q0, qd0 = qd0, qdd0 = rep.qdd, q3d0 = rep.q3d, t1 = 2, dt = 0.1 }
-    local worst = 0
+    local worst, wl = 0, 0
     for n, t in ipairs(tr.t) do
       local s = t * t / 2 - 1 + math.cos(t)
       local x = q0[1] + qd0[1] * t + (F1 + l0) * t * t / (2 * m) + l1 * t ^ 3 / (6 * m) + s / 5
       local y = q0[2] + qd0[2] * t + (F2 + 2 * l0) * t * t / (2 * m) + 2 * l1 * t ^ 3 / (6 * m) + 2 * s / 5
       local lam = l0 + l1 * t + m * (1 - math.cos(t)) / 5
-      worst = math.max(worst, math.abs(tr.q[n][1] - x), math.abs(tr.q[n][2] - y), math.abs(tr.lambda[n][1] - lam),
+      worst = math.max(worst, math.abs(tr.q[n][1] - x), math.abs(tr.q[n][2] - y),
         math.abs(tr.higher[n][1][1] - (l1 + m * math.sin(t) / 5) / m))
+      wl = math.max(wl, math.abs(tr.lambda[n][1] - lam))
     end
-    -- rk8pd at rtol 1e-10: measured 6.9e-15 (chain) / 4.4e-16 (level 4); 1e-13 leaves room.
+    -- rk8pd at rtol 1e-10: measured 3.3e-15 in x, y and q'''; 1e-13 leaves
+    -- room.  lambda (a state of level 4, from l0 = 0.29, what (6.2) needs
+    -- at the consistent qdd nearest to (0.1, 0.2)) 1.3e-13; 5e-13.
     assert(worst <= 1e-13, ("worst error %.3g"):format(worst))
+    assert(wl <= 5e-13, ("worst error of lambda %.3g"):format(wl))
+    -- q''' is part of the state: a column, the closed form's 2 (l1 + m sin t / 5) / m for y
+    local y3 = tr:column("y'''")
+    for n, t in ipairs(tr.t) do assert(math.abs(y3[n] - 2 * (l1 + m * math.sin(t) / 5) / m) <= 1e-13, y3[n]) end
   end)
   it("Tsenov's reduced equations at level 4 give q^(4) = (1, 2) cos t / 5", function()
     local t, l0, l1 = 1.3, 0.4, -0.25

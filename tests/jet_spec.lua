@@ -57,6 +57,27 @@ describe("jet construction and access", function()
     assert.truthy(tostring(nz.jet(1, 1, 1, 1)):find("d1: 1, 0", 1, true))
     assert.truthy(tostring(nz.jet(0, 20)):find(", ...; order 20", 1, true))
   end)
+  it("prints each coefficient in the shortest digits that read back exactly, as the session prints numbers", function()
+    -- sin t = t - t^3/6 + t^5/120: -1/6 needs 17 digits, 1/120 16; 0.1 stays 0.1
+    assert.are.equal("jet{0, 1, 0, -0.16666666666666666, 0, 0.008333333333333333; order 5}", tostring(nz.sin(nz.jet(0, 5))))
+    assert.are.equal("jet{0.1, 1; order 1}", tostring(nz.jet(0.1, 1)))
+    -- every coefficient and tangent read back from the text is the jet's, bit for bit
+    local x = nz.exp(nz.sin(nz.jet(0.385, 6, 1, 2)) / 3)
+    local text = tostring(x)
+    local value, d1 = text:match("^jet{(.-); order 6; d1: (.-); d2")
+    local j = 0
+    for c in value:gmatch("[^, ]+") do assert.are.equal(x:coef(j), tonumber(c)); j = j + 1 end
+    assert.are.equal(7, j)
+    j = 0
+    for c in d1:gmatch("[^, ]+") do assert.are.equal(x:tangent(1):coef(j), tonumber(c)); j = j + 1 end
+    -- and with no more digits than that: one digit fewer reads back another number
+    for c in value:gmatch("[^, ]+") do
+      local digits = #c:gsub("^%-", ""):gsub("e.*$", ""):gsub("^0%.0*", ""):gsub("%.", "")
+      if digits > 15 then
+        assert.are_not.equal(tonumber(c), tonumber(("%." .. (digits - 1) .. "g"):format(tonumber(c))), c)
+      end
+    end
+  end)
   it("rejects bad arguments with a clear message", function()
     h.checkerror("order between 0 and 1024 expected, got 2000", nz.jet, 0, 2000)
     h.checkerror("order between 0 and 1024 expected, got -1", nz.jet, 0, -1)

@@ -323,6 +323,32 @@ describe("sys:linearize with constraints", function()
     assert(math.abs(sw.crossings[1].value - nc) <= 2e-9, ("sleeping limit %.12g, want %.12g"):format(sw.crossings[1].value, nc))
   end)
 
+  it("print(lin) and print(sw) head the stability column, show rounding as 0 by one rule, and explain a@p", function()
+    local tp = top()
+    local function at(n) return { q = { 0, 0, 0 }, qd = { 0, 0, n }, coords = { "al", "be" }, hold = { "ga" } } end
+    local lin = tp:linearize(at(60))
+    local text = tostring(lin)
+    assert.truthy(text:find("   stability   shape (al, be)\n", 1, true), text)
+    -- the sleeping top's modes are circles: al and be of equal amplitude a quarter period apart
+    assert.truthy(text:find("0 %+%- 23%.584i%s+23%.584%s.-neutral%s+1@1%.6, 1\n"), text)
+    assert.truthy(text:find("a@p: amplitude a, ahead of the largest by p radians", 1, true), text)
+    for line in text:match("\n(  shape: .*)$"):gmatch("[^\n]+") do
+      assert(#line <= 80, ("a line of notes wider than 80 columns: %s"):format(line))
+    end
+    -- a conservative gyroscopic system: every eigenvalue on the imaginary axis, at
+    -- w = (C n +- sqrt(C^2 n^2 - 4 A m g l)) / (2 A) (closed form), and shown so: 0 +- wi
+    local sw = tp:eigen_sweep{ parameter = "n", values = { 0, 20, 40 }, at = at }
+    local stext = tostring(sw)
+    assert.truthy(stext:find("\n  n%s+eigenvalues   stability\n"), stext)
+    for _, n in ipairs{ 20, 40 } do
+      local disc = math.sqrt((Ct * n) ^ 2 - 4 * At * mt * g * lt)
+      local row = ("\n  %d%%s+0 %%+%%- %s, 0 %%+%%- %si%%s+neutral\n"):format(n,
+        ("%.6gi"):format((Ct * n + disc) / (2 * At)):gsub("%.", "%%."), ("%.6g"):format((Ct * n - disc) / (2 * At)):gsub("%.", "%%."))
+      assert.truthy(stext:find(row), ("n = %d: no row %q in\n%s"):format(n, row, stext))
+    end
+    assert.falsy(stext:find("e%-1%d"), stext)      -- no rounding noise (1e-15 +- ...)
+  end)
+
   it("says what it refuses with constraints: too few speeds left to solve, a kept speed held, a dependent coordinate kept", function()
     local disk = leaning_disk()
     h.checkerror("the speed of 'psi' is left out but appears in the equation of th''", disk.linearize, disk,

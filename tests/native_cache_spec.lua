@@ -445,6 +445,33 @@ print("ref_evaluator=" .. tostring(b.stats.evaluator))
     assert.truthy(tonumber(r.native_waited) > 0, r.native_waited)
   end)
 
+  it("a background compile never leaves a zombie child, whether or not its run asks again", function()
+    local base = tempdir()
+    local dir = base .. "/c"
+    local extra = [[
+local long = pend:simulate{ q0 = { 2.5 }, t1 = 300, dt = 100 }   -- starts the compile, ends before it is done
+local function objects()
+  local p, n = io.popen("ls " .. os.getenv("NZLUA_CACHE")), 0
+  for name in p:lines() do if name:match("%.so$") then n = n + 1 end end
+  p:close()
+  return n
+end
+for _ = 1, 1200 do   -- until the worker has written the object (nothing polls it meanwhile)
+  if objects() >= 1 then break end
+  os.execute("sleep 0.1")
+end
+os.execute("sleep 0.3")
+local pid = io.open("/proc/self/stat"):read("a"):match("^(%d+)")
+local p = io.popen("ps -o stat= --ppid " .. pid)
+local states = p:read("a"); p:close()
+print("zombies=" .. tostring(select(2, states:gsub("Z", ""))))
+]]
+    local r = run_pend("NZLUA_CACHE=" .. q(dir), base, "nil", 1, extra)
+    assert.equal(0, r.code, r.err)
+    assert.equal(1, #objects(dir))
+    assert.equal("0", r.zombies)
+  end)
+
   it("a one-off accel at the prompt does not compile", function()
     local base = tempdir()
     local dir = base .. "/c"

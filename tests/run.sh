@@ -69,7 +69,7 @@ if [ "$mode" = plain ] || [ "$mode" = all ]; then
   # and the series of Taylor's method too.
   suite "Graphs compiled to machine code (NZLUA_NATIVE=1)" env LUA_CPATH="build/?.so;;" NZLUA=build/nzlua \
     NZLUA_NATIVE=1 lua5.4 $BUSTED tests/graph_diff_spec.lua tests/record_spec.lua \
-    tests/branch_spec.lua tests/constraint_checks_spec.lua tests/taylor_spec.lua tests/simulate_taylor_spec.lua \
+    tests/branch_spec.lua tests/fidelity_spec.lua tests/constraint_checks_spec.lua tests/taylor_spec.lua tests/simulate_taylor_spec.lua \
     tests/taylor_constrained_spec.lua
 fi
 if [ "$mode" = sanitize ] || [ "$mode" = all ]; then

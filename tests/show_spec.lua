@@ -236,3 +236,262 @@ describe("sys:show{lua = true}: the formulas loaded back equal the engine's resi
     end)
   end
 end)
+
+-- ------------------------------------------------------------------ --
+-- The equations of order n (docs/theory.md (3.1), (4.1)-(4.2))
+
+local ms = require "tests.mech_systems"
+local show, formula = require "nz.show", require "nz.formula"
+
+-- A polynomial as a Lua function of the state (higher = {q''', q^(4), ...};
+-- frozen: the velocities held in F_0 of R_1).
+local function as_lua(P)
+  return assert(load("return function(t, q, qd, qdd, lambda, params, higher, frozen) return " .. formula.print(P, "lua")
+    .. " end", "=(formula)", "t", { math = math, nz = nz }))()
+end
+
+-- Every system the tests define, with a drawn state: {name, sys, draw}.
+local function every_system()
+  local list = {}
+  for _, c in ipairs(ms.all()) do list[#list + 1] = c end
+  for _, c in ipairs(cs.linear_at_acceleration_level()) do list[#list + 1] = c end
+  list[#list + 1] = cs.hamel()
+  list[#list + 1] = cs.driven_hoop()
+  return list
+end
+
+-- A random state with n derivatives above q'' (higher) and multipliers.
+local function state(c, n)
+  local t, q, qd = c.draw()
+  local sys, qdd, higher, lambda = c.sys, {}, {}, {}
+  for i = 1, sys.k do qdd[i] = 2 * math.random() - 1 end
+  for j = 1, n do
+    higher[j] = {}
+    for i = 1, sys.k do higher[j][i] = 2 * math.random() - 1 end
+  end
+  for r = 1, sys.nc do lambda[r] = 2 * math.random() - 1 end
+  return t, q, qd, qdd, higher, lambda
+end
+
+-- q_i^(j) of a state, j = 0, 1, ...
+local function level(j, q, qd, qdd, higher) return ({ q, qd, qdd })[j + 1] or higher[j - 2] end
+
+-- Does P hold a derivative above q'' (in a function's argument too)?
+local function holds_above(P, top)
+  for _, t in ipairs(P.terms) do
+    for _, x in ipairs(t.f) do
+      local a = x.a
+      if a.kind == "sym" and a.info and a.info.slot and a.info.slot > top then return true end
+      for _, sub in ipairs{ a.arg, a.a, a.b, a.c, a.base, a.poly } do
+        if type(sub) == "table" and sub.terms and holds_above(sub, top) then return true end
+      end
+    end
+  end
+  return false
+end
+
+-- The equation lines of sys:show's text (coordinate: ... = ...).
+local function equation_lines(text)
+  local out = {}
+  for line in text:gmatch("[^\n]+") do
+    if line:find("^with the constraints") or line:find("^the terms") then break end
+    if line:match("^  %S+%s*:  ") then out[#out + 1] = line end
+  end
+  return table.concat(out, "\n")
+end
+
+describe("sys:show{n = ...}: Dolapchiev's equations of order n as formulas", function()
+  it("the pendulum at n = 3: (3.1)'s terms by hand, collected to the equation of every order", function()
+    local text = pendulum():show{ n = 3 }
+    -- T = m l^2 th'^2 / 2: T''' = m l^2 (th' th'''' + 3 th'' th'''), so
+    -- dT'''/dth''' = 3 m l^2 th'' and (1/3)(3 m l^2 th'' - 4 * 0) = -m g l sin th
+    assert.truthy(text:find("equations of order n = 3 of 'pendulum', Dolapchiev's equations with the jerk q''':", 1, true), text)
+    assert.truthy(text:find("(1/3) (dT'''/dq''' - 4 dT/dq) = Q + A^T lambda", 1, true), text)
+    assert.truthy(text:find("  th:  l^2 m th'' + g l m sin(th) = 0", 1, true), text)
+    assert.truthy(text:find("  dT'''/dth''' = 3 l^2 m th''\n  dT/dth       = 0\n  Q_th         = -g l m sin(th)", 1, true), text)
+    assert.truthy(pendulum():show{ n = 1 }:find("Nielsen's equations:\n  dT'/dq' - 2 dT/dq = Q", 1, true))
+    assert.truthy(pendulum():show{ n = 2 }:find("Tsenov's equations:\n  (1/2) (dT''/dq'' - 3 dT/dq) = Q", 1, true))
+    assert.truthy(pendulum():show{ n = 12 }:find("dT^(12)/dth^(12) = 12 l^2 m th''", 1, true))
+  end)
+
+  it("every order collects to the equations of n = 1, and its terms hold nothing above q'' ((2.1))", function()
+    -- parameters by name: their coefficients are exact in every order
+    -- (literal numbers are multiplied out in the recording, and (3 c)/3 may
+    -- differ from c in its last digit)
+    local cartesian = nz.system{ name = "cartesian pendulum", coords = { "x", "y" }, params = { m = 1.5, g = 9.81, L = 1.3 },
+      T = function(t, q, qd, P) return 0.5 * P.m * (qd[1] ^ 2 + qd[2] ^ 2) end,
+      V = function(t, q, P) return P.m * P.g * q[2] end,
+      constraints = { function(t, q, qd, qdd, qddd, P) return q[1] ^ 2 + q[2] ^ 2 - P.L ^ 2 end } }
+    for _, sys in ipairs{ pendulum(), double_pendulum(), spherical_pendulum(), knife_edge(), cartesian } do
+      local base = equation_lines(sys:show{})
+      for _, n in ipairs{ 1, 2, 3, 7 } do
+        -- the same text: coefficients of parameters by name are exact
+        assert.are.equal(base, equation_lines(sys:show{ n = n }), ("%s, n = %d"):format(sys.name, n))
+        local eq = show.equations(sys, n)
+        for i = 1, sys.k do
+          assert.is_false(holds_above(eq.order.top[i], 2), ("%s, n = %d: dT^(n)/dq^(n) holds a derivative above q''"):format(sys.name, n))
+          assert.is_false(holds_above(eq.lhs[i], 2), ("%s, n = %d: equation %d"):format(sys.name, n, i))
+        end
+      end
+    end
+  end)
+
+  it("the Lua form of order n equals sys:residual(n, ...) for every system of the tests, n = 1, 2, 3, 7", function()
+    for _, c in ipairs(every_system()) do
+      local sys = c.sys
+      for _, n in ipairs{ 1, 2, 3, 7 } do
+        local chunk = sys:show{ n = n, lua = true }
+        assert.truthy(chunk:find(("residuals of order %d"):format(n), 1, true), chunk)
+        -- like terms that cancel up to the rounding of the recording's
+        -- numbers leave nothing ((3 c)/3 - c: 2e-16 sin(a - b) a' b' in the
+        -- double pendulum from its bodies at n = 2, before)
+        local text = sys:show{ n = n }
+        assert.falsy(text:find("%de%-1[3-9]"), text)
+        local f = assert(load(chunk, "=(show)", "t", { math = math, nz = nz }))()
+        -- (4.2): dR_n/dq^(n) less the forces, another graph (through F_0)
+        local eq = show.equations(sys, n)
+        local appell = {}
+        for i = 1, sys.k do appell[i] = as_lua(eq.order.appell(i)) end
+        for _ = 1, 5 do
+          local t, q, qd, qdd, higher, lambda = state(c, n)
+          local lam = sys.nc > 0 and lambda or nil
+          local want = sys:residual(n, t, q, qd, qdd, lam, { higher = higher })
+          local want_appell = sys:residual(n, t, q, qd, qdd, { form = "appell", higher = higher })
+          local got = f(t, q, qd, qdd, lambda, sys.params, higher)
+          for i = 1, sys.k do
+            -- the same terms summed in another order: rounding only
+            assert(math.abs(got[i] - want[i]) <= 1e-12 * (1 + math.abs(want[i])),
+              ("%s, n = %d, equation %d: formula %.17g, engine %.17g"):format(sys.name, n, i, got[i], want[i]))
+            local a = appell[i](t, q, qd, qdd, lambda, sys.params, higher)
+            assert(math.abs(a - want_appell[i]) <= 1e-12 * (1 + math.abs(want_appell[i])),
+              ("%s, n = %d, (4.2) %d: formula %.17g, engine %.17g"):format(sys.name, n, i, a, want_appell[i]))
+          end
+        end
+      end
+    end
+  end)
+
+  it("appell = true with n: R_2 is Appell's S, R_n differentiated in q^(n) gives the equations", function()
+    local polar = nz.system{ name = "polar", coords = { "r", "th" }, params = { m = 2 },
+      T = function(t, q, qd, P) return 0.5 * P.m * (qd[1] ^ 2 + q[1] ^ 2 * qd[2] ^ 2) end }
+    for _, sys in ipairs{ double_pendulum(), spherical_pendulum(), polar } do
+      -- two paths: S from M and h, R_2 from F'' and F_0'' on the graph
+      local S = sys:show{ appell = true }:match("\n  S = ([^\n]*)")
+      local R2 = sys:show{ n = 2, appell = true }:match("\n  R_2 = ([^\n]*)")
+      assert.are.equal(S, R2, sys.name)
+    end
+    -- dR_n/dq_i^(n) = residual (form "appell") + the forces Q - dV/dq: R_n
+    -- is at most quadratic in q^(n) for n >= 2, so the central difference is
+    -- exact up to rounding
+    for _, c in ipairs{ ms.double_pendulum(true), ms.charged_drag(), ms.relativistic(), cs.sleigh(), cs.hamel() } do
+      local sys = c.sys
+      for _, n in ipairs{ 2, 3, 7 } do
+        local eq = show.equations(sys, n)
+        local R = as_lua(eq.order.R())
+        local force = {}
+        for i = 1, sys.k do force[i] = as_lua(eq.order.force[i]) end
+        for _ = 1, 3 do
+          local t, q, qd, qdd, higher = state(c, n)
+          local want = sys:residual(n, t, q, qd, qdd, { form = "appell", higher = higher })
+          for i = 1, sys.k do
+            local x = level(n, q, qd, qdd, higher)
+            local keep, h = x[i], 1e-3
+            x[i] = keep + h
+            local up = R(t, q, qd, qdd, {}, sys.params, higher)
+            x[i] = keep - h
+            local dn = R(t, q, qd, qdd, {}, sys.params, higher)
+            x[i] = keep
+            local dR = (up - dn) / (2 * h)
+            local f = force[i](t, q, qd, qdd, {}, sys.params, higher)
+            assert(math.abs(dR - (want[i] + f)) <= 1e-9 * (1 + math.abs(dR)),
+              ("%s, n = %d: dR_n/dq_%d^(n) %.15g, residual + forces %.15g"):format(sys.name, n, i, dR, want[i] + f))
+          end
+        end
+      end
+    end
+  end)
+
+  it("R_n from its derivatives in q^(n) is R_n(q^(n)) - R_n(0) of the whole R_n", function()
+    -- the whole R_n = (F^(n) - (n + 1) F_0^(n)) / n read from the graph,
+    -- less its value at q^(n) = 0, against the printed part
+    for _, c in ipairs{ ms.double_pendulum(false), ms.spherical_pendulum(), ms.charged_drag() } do
+      local sys = c.sys
+      for _, n in ipairs{ 2, 3, 5 } do
+        local eq = show.equations(sys, n)
+        local g, rd = eq.order.graph, eq.order.reader
+        local whole = as_lua(formula.div(formula.sub(rd.poly(g.Fn), formula.mul(formula.const(n + 1), rd.poly(g.F0n))),
+          formula.const(n)))
+        local part = as_lua(eq.order.R())
+        for _ = 1, 3 do
+          local t, q, qd, qdd, higher = state(c, n + 1)
+          local x = level(n, q, qd, qdd, higher)
+          local at = whole(t, q, qd, qdd, {}, sys.params, higher)
+          local saved = { table.unpack(x) }
+          for i = 1, sys.k do x[i] = 0 end
+          local at0 = whole(t, q, qd, qdd, {}, sys.params, higher)
+          for i = 1, sys.k do x[i] = saved[i] end
+          local got = part(t, q, qd, qdd, {}, sys.params, higher)
+          assert(math.abs(got - (at - at0)) <= 1e-11 * (1 + math.abs(at) + math.abs(at0)),
+            ("%s, n = %d: R_n's part %.15g, R_n - R_n(0) %.15g"):format(sys.name, n, got, at - at0))
+        end
+      end
+    end
+  end)
+
+  it("R_1 keeps the velocities held in T_0 apart (the graph's frozen input): by hand for the spherical pendulum", function()
+    local sys = spherical_pendulum()
+    local text = sys:show{ n = 1, appell = true }
+    assert.truthy(text:find("ph'_0", 1, true), text)
+    local tex = sys:show{ n = 1, appell = true, tex = true }
+    assert.truthy(tex:find("\\dot{\\varphi}_{0}^{2}", 1, true), tex)
+    -- T = m l^2 (th'^2 + sin^2 th ph'^2) / 2; T_0 holds the velocities v:
+    -- T' = m l^2 (th' th'' + sin th cos th th' ph'^2 + sin^2 th ph' ph''),
+    -- T_0' = m l^2 sin th cos th th' v_ph^2, R_1 = T' - 2 T_0'
+    local R1 = as_lua(show.equations(sys, 1).order.R())
+    local m, l = sys.params.m, sys.params.l
+    for _ = 1, 5 do
+      local q, qd, qdd, v = { math.random() + 0.2, math.random() }, { math.random() - 0.5, math.random() - 0.5 },
+        { math.random() - 0.5, math.random() - 0.5 }, { math.random() - 0.5, math.random() - 0.5 }
+      local s, co = math.sin(q[1]), math.cos(q[1])
+      local want = m * l ^ 2 * (qd[1] * qdd[1] + s * co * qd[1] * qd[2] ^ 2 + s * s * qd[2] * qdd[2])
+        - 2 * m * l ^ 2 * s * co * qd[1] * v[2] ^ 2
+      local got = R1(0, q, qd, qdd, {}, sys.params, {}, v)
+      assert(math.abs(got - want) <= 1e-14 * (1 + math.abs(want)), ("R_1 %.17g, by hand %.17g"):format(got, want))
+    end
+  end)
+
+  it("tex = true, mass, bias and reduced with n", function()
+    local tex = pendulum():show{ n = 3, tex = true, appell = true }
+    assert.truthy(tex:find("\\frac{\\partial T^{(3)}}{\\partial \\theta^{(3)}} &= 3 \\, l^{2} \\, m \\, \\ddot{\\theta}", 1, true), tex)
+    assert.truthy(tex:find("R_{3} &= l^{2} \\, m \\, \\ddot{\\theta} \\, \\theta^{(3)}", 1, true), tex)
+    -- every comment line is one (a title over two lines stays a comment)
+    for line in tex:gmatch("[^\n]+") do assert.truthy(line:find("^%%") or line:find("^ ") or line:find("^\\"), line) end
+    local depth = 0
+    for ch in tex:gmatch("[{}]") do depth = depth + (ch == "{" and 1 or -1); assert(depth >= 0, tex) end
+    assert.are.equal(0, depth)
+    -- a sum of parameters that are all negative keeps its sign in front
+    assert.truthy(double_pendulum():show{ n = 2 }:find("Q_th1       = -g l1 (m1 + m2) sin(th1)", 1, true))
+    local text = double_pendulum():show{ n = 4, mass = true, bias = true }
+    assert.truthy(text:find("M[th1, th2] = l1 l2 m2 cos(th1 - th2)", 1, true), text)
+    assert.truthy(text:find("h[th2] = l2 m2 (-l1 sin(th1 - th2) th1'^2 + g sin(th2))", 1, true), text)
+    local red = knife_edge():show{ n = 2, reduced = true }
+    assert.truthy(red:find("x :  m cos(th) x'' + m sin(th) y'' = 0", 1, true), red)
+  end)
+
+  it("refuses an order that is not an integer from 1 to 100, and leaves the system's graph alone", function()
+    local p = pendulum()
+    for _, bad in ipairs{ 0, 2.5, 101, "3" } do
+      h.checkerror("option 'n': an integer order from 1 to 100 expected", p.show, p, { n = bad })
+    end
+    h.checkerror("unknown option 'm' (did you mean 'n'?)", p.show, p, { m = 3 })
+    -- F^(n) is built in a graph of its own: the system's recording keeps
+    -- its layout, whose slots and frozen velocities are all it accepts
+    local c = p.engine.compiled
+    local nodes = c:info().nodes
+    p:show{ n = 9 }
+    assert.are.equal(c:nslots(), p.engine.compiled:nslots())
+    h.checkerror("no such slot in the recording", c.slot, c, c:nslots(), 1)
+    h.checkerror("no such coordinate", c.frozen, c, 2)
+    assert(c:info().nodes - nodes < 20, "show{n = 9} built " .. (c:info().nodes - nodes) .. " nodes in the system's graph")
+  end)
+end)

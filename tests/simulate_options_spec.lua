@@ -119,11 +119,16 @@ describe("simulate validates its options", function()
     sys:simulate{ q0 = { 0.3 }, qd0 = { 1.1 }, t1 = 0.5, step = 0.0625, rtol = 1e-6 }
     simulate.warn = saved
     assert(ok, tostring(tr))
-    assert.are.equal(3, #said)                  -- rtol, atol, h0 once each; not again on the second run
+    -- rtol, atol, h0 once each; not again on the second run; and the step,
+    -- longer than the output spacing (200 points: dt = 0.0025), is cut to it
+    assert.are.equal(4, #said)
     for i, key in ipairs{ "rtol", "atol", "h0" } do
       contains(said[i], ("%s:%d: simulate 'falling': warning: '%s' does nothing with a fixed 'step' = 0.0625"):format(THIS, line, key),
         "drop 'step' for adaptive steps")
     end
+    contains(said[4], "'step' = 0.0625 is longer than the output spacing 'dt' = 0.0025: every output point ends a step, "
+      .. "so the steps are 0.0025")
+    contains(tostring(tr), "fixed step 0.0025")
     -- x = x0 + v t - g t^2 / 2 (g = 2.385): the run itself is unaffected (rk8pd is exact on a quadratic)
     assert(math.abs(tr.q[#tr.q][1] - (0.3 + 1.1 * 0.5 - 2.385 * 0.125)) <= 1e-12)
   end)
@@ -141,7 +146,7 @@ describe("simulate's failures name the user's code first", function()
 
   it("an event that returns no number says so with the state", function()
     local msg = option_error(pendulum, { q0 = { 1 }, t1 = 1, events = { function() return "up" end } })
-    contains(msg, "event 'event 1' must return a number, got \"up\" at t = 0, q = {1}, qd = {0}")
+    contains(msg, "event 'event 1' must return a finite number, got \"up\" at t = 0, q = {1}, qd = {0}")
   end)
 
   it("a function that fails during the run: one location (where the user's function raised), no library prefix", function()
@@ -339,6 +344,63 @@ describe("a long run says so once, and goes on", function()
     assert.is_nil(msg:find("rtol = ", 1, true))
     assert.are.equal(2500, tr.stats.steps)                            -- 2.5 / 1e-3 fixed steps
   end)
+  it("the projection is the pace of the last window, not the start-up spread over the run", function()
+    -- A clock that the work drives: each call of Q costs 1 ms for the first
+    -- 3600 calls (a slow start: the first steps, plans built, a graph
+    -- evaluated before its machine code is ready), then 1 us.  The whole
+    -- run's cost on that clock is known at its end, and the notice at 2048
+    -- steps must project it from the pace after the start: rk4, 8000 fixed
+    -- steps.  Spreading the start over the run (elapsed / fraction done, as
+    -- it did) projects 4x too much.
+    local calls = 0
+    local function cost(n) return 1e-3 * math.min(n, 3600) + 1e-6 * math.max(0, n - 3600) end
+    local sys = nz.system{ name = "slow start", coords = { "x" }, compile = false,
+      T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end, V = function(t, q) return 0.5 * q[1] ^ 2 end,
+      Q = function() calls = calls + 1; return { 0 } end }
+    local mech = require("nz.core").mech
+    local said, saved_warn, saved_limits, saved_now = {}, simulate.warn, simulate.LONG_RUN, mech.now
+    simulate.warn = function(msg) said[#said + 1] = msg end
+    simulate.LONG_RUN = { steps = 5e3, seconds = math.huge, check_steps = 2000 }
+    mech.now = function() return cost(calls) end
+    calls = 0                          -- the run's calls only (nz.system made a few)
+    local ok, tr = pcall(sys.simulate, sys, { q0 = { 1 }, t1 = 8, step = 1e-3, method = "rk4" })
+    simulate.warn, simulate.LONG_RUN, mech.now = saved_warn, saved_limits, saved_now
+    assert(ok, tostring(tr))
+    assert.are.equal(1, #said)
+    -- the message rounds to seconds: 4 s (it said 14 s)
+    local said_s = tonumber(said[1]:match("steps and (%d+) s"))
+    assert(said_s and math.abs(said_s - cost(calls)) <= 1, said[1])
+    contains(said[1], "at the pace of its last 1024 steps", "after 2048 steps")
+    local projected, actual = tr.stats.long_run.seconds, cost(calls)
+    -- the pace is steady after the start: the projection is the run's cost
+    -- (measured 3.692603 s against 3.692605 s)
+    assert(math.abs(projected - actual) <= 1e-3 * actual, ("projected %.6g s, the run cost %.6g s"):format(projected, actual))
+  end)
+  it("a chaotic but not stiff motion (the double pendulum, rk8pd) is not told to take an implicit method", function()
+    -- 20 % of rk8pd's steps are rejected, but by accuracy: its steps times
+    -- the Jacobian's spectral radius stay far below its stability boundary 5.17
+    local g = 9.81
+    local dp = nz.system{ name = "double pendulum", coords = { "a", "b" },
+      bodies = { gravity = { 0, -g, 0 },
+        { mass = 2.0, pos = function(t, q) return { nz.sin(q[1]), -nz.cos(q[1]), 0 } end },
+        { mass = 1.0, pos = function(t, q) return { nz.sin(q[1]) + 0.7 * nz.sin(q[2]), -nz.cos(q[1]) - 0.7 * nz.cos(q[2]), 0 } end } } }
+    local said, saved_warn, saved_limits = {}, simulate.warn, simulate.LONG_RUN
+    simulate.warn = function(msg) said[#said + 1] = msg end
+    simulate.LONG_RUN = { steps = 5e4, seconds = math.huge, check_steps = 2000 }
+    local ok, tr = pcall(dp.simulate, dp, { q0 = { 0.7, -0.4 }, qd0 = { 0.3, 1.1 }, t1 = 1e4, dt = 1,
+      events = { { f = function(t) return t - 60 end, stop = true } } })
+    simulate.warn, simulate.LONG_RUN = saved_warn, saved_limits
+    assert(ok, tostring(tr))
+    assert.are.equal(1, #said)
+    for _, word in ipairs{ "bsimp", "msbdf", "stiff", "implicit" } do
+      assert.is_nil(said[1]:find(word, 1, true), said[1])
+    end
+    contains(said[1], "cheaper: a looser rtol")
+    -- measured h |lambda|max = 0.20 (h = 0.026, |lambda| = 7.6; 20 % of the
+    -- steps rejected)
+    local lr = tr.stats.long_run
+    assert(lr.stiff == false and lr.h_rho < 0.5, ("h rho = %.3g"):format(lr.h_rho))
+  end)
   it("a stiff system under an explicit method (rk8pd): the advice names the implicit ones, which take far fewer steps", function()
     -- x'' + 1e4 x' + x = 0: the fast mode e^(-1e4 t) is gone after 1e-3 s,
     -- yet rk8pd's stability keeps its steps near 3e-4 for the whole run
@@ -353,7 +415,13 @@ describe("a long run says so once, and goes on", function()
     simulate.warn, simulate.LONG_RUN = saved_warn, saved_limits
     assert(ok, tostring(tr))
     assert.are.equal(1, #said)
-    contains(said[1], "bsimp or msbdf if the system is stiff")
+    -- the evidence: rk8pd's steps h times the Jacobian's spectral radius
+    -- (1e4) sit at its stability boundary 5.17 (measured h |lambda| = 5.2)
+    contains(said[1], "cheaper: bsimp or msbdf (its steps are held by stability, not accuracy: h |lambda|max = ",
+      "against rk8pd's stability boundary 5.2")
+    assert.is_true(tr.stats.long_run.stiff)
+    local x = tonumber(said[1]:match("h |lambda|max = ([%d.e+-]+)"))
+    assert(x >= 3 and x <= 6.5, said[1])
     local implicit = stiff:simulate{ q0 = { 1 }, t1 = 2, method = "bsimp" }
     assert(implicit.stats.steps * 20 < tr.stats.steps, ("bsimp %d steps, rk8pd %d"):format(implicit.stats.steps, tr.stats.steps))
   end)

@@ -3,7 +3,9 @@
  * formulas (libm) and against the order-0 jets; evaluation on jets against
  * the same expressions computed directly with nz_jet_* calls; derivatives
  * built on the graph against central differences and hand derivatives; the
- * eta-part of nz_graph_eval_jets against the derivative graph; failures.
+ * eta-part of nz_graph_eval_jets against the derivative graph; failures;
+ * exact graphs against the IEEE arithmetic they stand for, drops that keep
+ * what can fail, and the guards of a plan (ties, singular points).
  * GSL-style PASS/FAIL lines. */
 #include <math.h>
 #include <stdio.h>
@@ -15,6 +17,7 @@
 #include <gsl/gsl_sf_zeta.h>
 #include <gsl/gsl_test.h>
 #include "graph/graph.h"
+#include "graph/graph_guard.h"
 #include "test_util.h"
 
 /* ------------------------------------------------------------------ */
@@ -723,6 +726,62 @@ static void check_mixed_shapes(void)
 }
 
 /* ------------------------------------------------------------------ */
+/* Copies and substitutions                                             */
+
+/* nz_graph_copy: every expression copied into a new graph computes what it
+ * computes in G, and substituting a node for an input computes the
+ * expression at that node's value (the input given its value directly). */
+static void check_copies(void)
+{
+  int roots[NEXPR];
+  for (int e = 0; e < NEXPR; e++) roots[e] = record(e);
+  nz_graph *h = nz_graph_new();
+  int copy[NEXPR];
+  gsl_test(nz_graph_copy(h, G, roots, NEXPR, NULL, copy) != 0, "nz_graph_copy into a new graph returns 0");
+  /* G's own nodes, built again: the same graph where they were alone */
+  int n0 = nz_graph_size(G), again[NEXPR], same = 1;
+  gsl_test(nz_graph_copy(G, G, roots, NEXPR, NULL, again) != 0, "nz_graph_copy of G into itself returns 0");
+  for (int e = 0; e < NEXPR; e++) same = same && again[e] == roots[e];
+  gsl_test(!same || nz_graph_size(G) != n0, "a copy into the same graph without substitution is the same nodes");
+  /* x -> y / 2 + 1/4 in G */
+  int ni = nz_graph_ninputs(G), *map = malloc((size_t)ni * sizeof *map);
+  for (int i = 0; i < ni; i++) map[i] = -1;
+  map[0] = nz_graph_op(G, NZ_GOP_ADD, nz_graph_op(G, NZ_GOP_MUL, nz_graph_input(G, 1), nz_graph_const(G, 0.5)),
+                       nz_graph_const(G, 0.25));
+  int sub[NEXPR];
+  gsl_test(nz_graph_copy(G, G, roots, NEXPR, map, sub) != 0, "nz_graph_copy substituting in G returns 0");
+  for (int e = 0; e < NEXPR; e++) {
+    double worst_copy = 0.0, worst_sub = 0.0, x[NIN], xs[NIN];
+    int ok = 1;
+    for (int trial = 0; trial < 10 && ok; trial++) {
+      nz_status s1, s2, s3, s4;
+      random_point(x);
+      memcpy(xs, x, sizeof x);
+      xs[0] = x[1] * 0.5 + 0.25;
+      double want = eval1(roots[e], x, &s1), at = eval1(sub[e], x, &s2), want_at = eval1(roots[e], xs, &s3);
+      nz_graph *keep = G;
+      G = h;
+      double got = eval1(copy[e], x, &s4);
+      G = keep;
+      ok = !s1 && !s2 && !s3 && !s4;
+      worst_copy = fmax(worst_copy, rel(got, want));
+      worst_sub = fmax(worst_sub, rel(at, want_at));
+    }
+    gsl_test(!ok || worst_copy != 0.0, "%s: its copy in another graph gives the same doubles (%.2g)", exprs[e].name,
+             worst_copy);
+    gsl_test(!ok || !(worst_sub <= 4 * GSL_DBL_EPSILON), "%s: x replaced by the node y/2 + 1/4 gives f(y/2 + 1/4, y) (%.2g)",
+             exprs[e].name, worst_sub);
+  }
+  /* refused: a root or a map entry that is not a node */
+  int bad = nz_graph_size(G) + 5, out;
+  gsl_test(nz_graph_copy(h, G, &bad, 1, NULL, &out) != -1, "nz_graph_copy refuses a root that is not a node");
+  map[0] = nz_graph_size(h) + 7;
+  gsl_test(nz_graph_copy(h, G, roots, 1, map, &out) != -1, "nz_graph_copy refuses a map entry that is not a node of dst");
+  free(map);
+  nz_graph_free(h);
+}
+
+/* ------------------------------------------------------------------ */
 /* Derivatives                                                          */
 
 static void check_derivatives(void)
@@ -1406,6 +1465,129 @@ static void check_plans_and_time(void)
   nz_graph_plan_free(p);
 }
 
+/* The value of node x on doubles at inputs in[] (NAN when it fails). */
+static double value_at(nz_graph *g, int x, const double *in)
+{
+  double v = NAN;
+  nz_graph_plan *p = nz_graph_plan_new(g, &x, 1);
+  if (p && nz_graph_eval(p, in, &v) != NZ_OK) v = NAN;
+  nz_graph_plan_free(p);
+  return v;
+}
+
+static int same_bits(double a, double b) { return memcmp(&a, &b, sizeof a) == 0; }
+
+/* An exact graph computes what IEEE arithmetic computes, zeros with their
+ * signs; x^y with a folded exponent keeps x^y's domain (issue 23). */
+static void check_exact(void)
+{
+  nz_graph *g = nz_graph_new();
+  nz_graph_set_exact(g, 1);
+  int x = nz_graph_input(g, 0), y = nz_graph_input(g, 1);
+  int pz = nz_graph_const(g, 0.0), mz = nz_graph_const(g, -0.0), m1 = nz_graph_const(g, -1.0);
+  int xp = nz_graph_op(g, NZ_GOP_MUL, x, pz), xm = nz_graph_op(g, NZ_GOP_MUL, x, mz);
+  int a1 = nz_graph_op(g, NZ_GOP_ATAN2, xp, m1), a2 = nz_graph_op(g, NZ_GOP_ATAN2, xm, m1);
+  int s0 = nz_graph_op(g, NZ_GOP_ADD, xm, pz), n0 = nz_graph_op(g, NZ_GOP_SUB, pz, y);
+  int z0 = nz_graph_op(g, NZ_GOP_ADD, pz, xm);
+  int ok = 1;
+  static const double xs[] = { 1.3, -1.3, 0.0, -0.0 };
+  for (int i = 0; i < 4; i++)
+    for (int j = 0; j < 4; j++) {
+      double in[2] = { xs[i], xs[j] }, X = xs[i], Y = xs[j];
+      volatile double zero = 0.0, mzero = -0.0;
+      ok = ok && same_bits(value_at(g, a1, in), atan2(X * zero, -1.0)) &&
+           same_bits(value_at(g, a2, in), atan2(X * mzero, -1.0)) &&
+           same_bits(value_at(g, s0, in), X * mzero + zero) && same_bits(value_at(g, n0, in), zero - Y) &&
+           same_bits(value_at(g, z0, in), zero + X * mzero);
+    }
+  gsl_test(!ok, "exact: x * 0, x * (-0), x*(-0) + 0, 0 - y and their atan2 as IEEE computes them, zeros' signs too");
+  gsl_test(nz_graph_op(g, NZ_GOP_ADD, x, mz) != x || nz_graph_op(g, NZ_GOP_SUB, x, pz) != x ||
+           nz_graph_nodes(g)[nz_graph_op(g, NZ_GOP_SUB, mz, x)].op != NZ_GOP_NEG,
+           "exact: x + (-0) = x - 0 = x and (-0) - x = -x, which IEEE computes exactly");
+  /* no like terms: x - 0.3 x - 0.7 x is the rounding of its three steps */
+  int t3 = nz_graph_op(g, NZ_GOP_SUB, nz_graph_op(g, NZ_GOP_SUB, x, nz_graph_op(g, NZ_GOP_MUL, nz_graph_const(g, 0.3), x)),
+                       nz_graph_op(g, NZ_GOP_MUL, nz_graph_const(g, 0.7), x));
+  double in13[2] = { 1.3, 2.0 };
+  volatile double X = 1.3;
+  gsl_test(!same_bits(value_at(g, t3, in13), X - 0.3 * X - 0.7 * X) || value_at(g, t3, in13) == 0.0,
+           "exact: x - 0.3 x - 0.7 x at x = 1.3 is %.3g, as computed step by step (not 0)", value_at(g, t3, in13));
+  /* a traced exponent folded to a constant keeps x^y: a negative base fails */
+  int e = nz_graph_op(g, NZ_GOP_POW, y, nz_graph_op(g, NZ_GOP_SUB, x, x));
+  double neg[2] = { 0.5, -1.0 };
+  gsl_test(nz_graph_nodes(g)[e].op != NZ_GOP_POW || !isnan(value_at(g, e, neg)),
+           "exact: y^(x - x) stays y^y' and fails at y = -1, as x^y on jets does");
+  nz_graph_free(g);
+}
+
+/* A simplification drops only what is defined everywhere: log(y) * 0,
+ * log(y) - log(y), cmp(l, l), select with a constant condition or equal
+ * branches, l^0 keep the log, which fails at y = -1 (issue 23). */
+static void check_drops(void)
+{
+  nz_graph *g = nz_graph_new();
+  int x = nz_graph_input(g, 0), y = nz_graph_input(g, 1), l = nz_graph_fn(g, NZ_FN_LOG, y);
+  int zero = nz_graph_const(g, 0.0), one = nz_graph_const(g, 1.0), k2 = nz_graph_const(g, 2.0);
+  int c = nz_graph_cmp(g, NZ_CMP_GT, x, zero);
+  int kept[] = {
+    nz_graph_op(g, NZ_GOP_MUL, l, zero), nz_graph_op(g, NZ_GOP_SUB, l, l), nz_graph_cmp(g, NZ_CMP_GE, l, l),
+    nz_graph_select(g, one, x, l), nz_graph_select(g, zero, l, x), nz_graph_powc(g, l, 0.0),
+    nz_graph_op(g, NZ_GOP_SUB, nz_graph_op(g, NZ_GOP_MUL, k2, l), nz_graph_op(g, NZ_GOP_MUL, k2, l)),
+    nz_graph_select(g, nz_graph_cmp(g, NZ_CMP_GT, l, zero), x, x),
+  };
+  double bad[2] = { 0.5, -1.0 }, good[2] = { 0.5, 2.0 };
+  int ok = 1;
+  for (size_t i = 0; i < sizeof kept / sizeof kept[0]; i++)
+    ok = ok && !nz_graph_is_const(g, kept[i], NULL) && isnan(value_at(g, kept[i], bad)) &&
+         !isnan(value_at(g, kept[i], good));
+  gsl_test(!ok, "drops: log(y) 0, l - l, cmp(l, l), select(1, x, l), select(0, l, x), l^0, 2l - 2l, "
+           "select(l > 0, x, x) fail at y = -1 and answer at y = 2");
+  /* what is defined everywhere still goes */
+  gsl_test(nz_graph_op(g, NZ_GOP_MUL, x, zero) != zero || nz_graph_op(g, NZ_GOP_SUB, x, x) != zero ||
+           nz_graph_select(g, one, x, y) != x || nz_graph_select(g, c, y, y) != y || nz_graph_powc(g, x, 0.0) != one,
+           "drops: x 0, x - x, select(1, x, y), select(c, y, y), x^0 of inputs still simplify");
+  gsl_test(!nz_graph_total(g, nz_graph_op(g, NZ_GOP_MUL, nz_graph_fn(g, NZ_FN_SIN, x), y)) ||
+           nz_graph_total(g, nz_graph_fn(g, NZ_FN_ABS, x)) || nz_graph_total(g, nz_graph_fn(g, NZ_FN_EXP, x)) ||
+           nz_graph_total(g, nz_graph_op(g, NZ_GOP_DIV, one, x)),
+           "total: sin(x) y is defined everywhere; abs (singular at 0), exp (overflow), 1/x are not");
+  nz_graph_free(g);
+}
+
+/* The guards of a plan: ties of cmp and sign and singular points of the
+ * smooth roots fire exactly there, never for fixed inputs (issue 23). */
+static void check_guards(void)
+{
+  nz_graph *g = nz_graph_new();
+  int t = nz_graph_input(g, 0), p = nz_graph_input(g, 1), x = nz_graph_input(g, 2);
+  int zero = nz_graph_const(g, 0.0);
+  int tie = nz_graph_select(g, nz_graph_cmp(g, NZ_CMP_GT, t, zero), x, zero);
+  int sg = nz_graph_op(g, NZ_GOP_MUL, nz_graph_fn(g, NZ_FN_SIGN, x), x);
+  int fixed = nz_graph_select(g, nz_graph_cmp(g, NZ_CMP_GT, p, zero), x, zero);
+  int sq = nz_graph_op(g, NZ_GOP_MUL, nz_graph_powc(g, x, 1.5), nz_graph_fn(g, NZ_FN_SQRT, t));
+  int outs[] = { tie, sg, fixed, sq };
+  int smooth[] = { sq };
+  nz_graph_guards *gd = nz_graph_guards_new(g, outs, 4, smooth, 1, 1, 1);
+  int n = nz_graph_guards_count(gd), all[16];
+  memcpy(all, outs, sizeof outs);
+  memcpy(all + 4, nz_graph_guards_nodes(gd), (size_t)n * sizeof(int));
+  nz_graph_plan *pl = nz_graph_plan_new(g, all, 4 + n);
+  static const struct { double t, p, x; int fire; } cases[] = {
+    { 0.5, 1.0, 0.7, 0 }, { 0.0, 1.0, 0.7, 1 }, { 0.5, 1.0, 0.0, 1 }, { 0.5, 0.0, 0.7, 0 },
+    { 0.5, -1.0, 0.7, 0 }, { 1e-300, 1.0, 1e-300, 0 },
+  };
+  int ok = n == 3 && pl;   /* cmp(t, 0), sign(x), x^1.5, sqrt(t) read t, 0 and x */
+  for (size_t i = 0; ok && i < sizeof cases / sizeof cases[0]; i++) {
+    double in[3] = { cases[i].t, cases[i].p, cases[i].x }, out[16];
+    const char *what = NULL;
+    ok = nz_graph_eval(pl, in, out) == NZ_OK && nz_graph_guards_fire(gd, out + 4, &what) == cases[i].fire &&
+         (!cases[i].fire || what != NULL);
+  }
+  gsl_test(!ok, "guards: a tie of cmp(t, 0) at t = 0, of sign(x) at x = 0, x^1.5 and sqrt(t) at 0 hand "
+           "the evaluation to the jets; cmp(p, 0) on a fixed input never does (%d values read)", n);
+  nz_graph_plan_free(pl);
+  nz_graph_guards_free(gd);
+  nz_graph_free(g);
+}
+
 int main(void)
 {
   gsl_test_verbose(1);
@@ -1413,12 +1595,16 @@ int main(void)
   check_folding();
   check_sharing();
   check_simplify();
+  check_exact();
+  check_drops();
+  check_guards();
   check_like_terms();
   check_branches();
   check_doubles();
   check_jets();
   check_mixed_shapes();
   check_derivatives();
+  check_copies();
   check_eta();
   check_failures();
   check_plans_and_time();

@@ -44,6 +44,21 @@ describe("docs/tutorial.md", function()
     assert(rc == 0, "the tutorial's code failed:\n" .. err)
     in_order(expected, out, "run as a script")
   end)
+  it("leaves no file behind: every name it takes from os.tmpname is removed", function()
+    local script = os.tmpname()
+    local f = assert(io.open(script, "w"))
+    f:write("local made, tmpname = {}, os.tmpname\n",
+      "os.tmpname = function() local n = tmpname(); made[#made + 1] = n; return n end\n",
+      table.concat(code, "\n"),
+      "\nfor _, n in ipairs(made) do local left = io.open(n); if left then left:close(); print('LEFT ' .. n) end end\n",
+      "print(('tmpnames %d'):format(#made))\n")
+    f:close()
+    local rc, out, err = h.run(h.nzlua .. " " .. script)
+    os.remove(script)
+    assert(rc == 0, err)
+    assert.falsy(out:find("LEFT ", 1, true), out)
+    assert.truthy(out:find("tmpnames [1-9]"), out)
+  end)
   it("runs every command typed at the nz> prompt, as the page says, and prints what it shows", function()
     -- the session reads the lines from stdin as from the keyboard: each
     -- line a chunk, or the lines up to the end of an incomplete statement
@@ -52,6 +67,25 @@ describe("docs/tutorial.md", function()
     -- an error at the prompt is reported on stderr and the session goes on
     assert(err == "", "a command of the tutorial failed at the prompt:\n" .. err)
     in_order(expected, out, "typed at the prompt")
+  end)
+end)
+
+describe("the README's quick start", function()
+  it("names every Debian package make deps installs (the Makefile's DEB_PKGS)", function()
+    local makefile = assert(h.slurp("Makefile"))
+    local list = assert(makefile:match("\nDEB_PKGS%s*=%s*(.-[^\\])\n"), "no DEB_PKGS in the Makefile"):gsub("\\\n", " ")
+    local readme = assert(h.slurp("README.md"))
+    local start = assert(readme:find("## Quick start", 1, true))
+    local section = readme:sub(start, readme:find("\n## ", start + 1, true))
+    -- the packages the section names in `code`
+    local named = {}
+    for code in section:gmatch("`([^`]+)`") do for word in code:gmatch("%S+") do named[word] = true end end
+    local n = 0
+    for pkg in list:gmatch("%S+") do
+      assert(named[pkg], ("the README's quick start does not name %s, which make deps installs"):format(pkg))
+      n = n + 1
+    end
+    assert(n >= 10, list)
   end)
 end)
 

@@ -281,6 +281,60 @@ describe("tr:animate", function()
     h.checkerror("the system has no bodies to draw", tr.animate, tr, { frames = 2 })
     h.checkerror("must end in .gif (one animated GIF) or .svg", tr.animate, tr, { file = "x.png", draw = function() return {} end })
   end)
+  it("marks the fixed pivot the bodies hang from: # in the terminal, a filled square in a file, still in every frame", function()
+    local tr = pendulum():simulate{ q0 = { 1 }, t1 = 1, dt = 0.05 }
+    -- the terminal: the frames as written (captured), each taken apart
+    local written, write = {}, io.write
+    io.write = function(...) for i = 1, select("#", ...) do written[#written + 1] = tostring(select(i, ...)) end end
+    local ok, err = pcall(tr.animate, tr, { frames = 3 })
+    io.write = write
+    assert(ok, err)
+    local text, at, bobs = table.concat(written), nil, {}
+    local n = 0
+    for frame in text:gmatch("pendulum  t = [^\n]*\n(.-)\n%s*\n") do
+      local p = dissect(frame)
+      assert.are.equal(1, p.count("#"), frame)                  -- the pivot, once
+      for r = p.top + 1, p.bottom - 1 do
+        local c = p.inside(r):find("#", 1, true)
+        if c then
+          -- in the same place in every frame, not on the frame's edge
+          assert(not at or (at[1] == r and at[2] == c), frame)
+          assert(r > p.top + 1 and c > 2 and c < #p.inside(r) - 1, frame)
+          at = { r, c }
+        end
+        local b = p.inside(r):find("G", 1, true)                -- the bob (point type 7)
+        if b then bobs[#bobs + 1] = r * 1000 + b end
+      end
+      n = n + 1
+    end
+    assert.are.equal(3, n, text)
+    assert(bobs[1] ~= bobs[2] or bobs[2] ~= bobs[3], "the bob swings:\n" .. text)
+    -- SVG frames: one filled square (gnuplot's point 4 of its list) each, at the same place
+    local base = os.tmpname()
+    local _, files = tr:animate{ file = base .. ".svg", frames = 3 }
+    local where
+    for _, f in ipairs(files) do
+      local svg = slurp(f)
+      local _, count = svg:gsub("#gpPt4' transform", "")
+      assert.are.equal(1, count, f)
+      local pos = svg:match("#gpPt4' transform='translate%(([^)]*)%)")
+      assert(not where or where == pos, pos)
+      where = pos
+      os.remove(f)
+    end
+    os.remove(base)
+    -- draw = function returns pivots of its own; links = false draws none
+    local osc_tr = osc():simulate{ q0 = { 1 }, t1 = 1, dt = 0.1 }
+    written = {}
+    io.write = function(...) for i = 1, select("#", ...) do written[#written + 1] = tostring(select(i, ...)) end end
+    ok, err = pcall(osc_tr.animate, osc_tr, { frames = 1, draw = function(t, q)
+      return { points = { { q[1], 0 } }, segments = { { -1.5, 0, q[1], 0 } }, pivots = { { -1.5, 0 } } } end })
+    io.write = write
+    assert(ok, err)
+    assert.are.equal(1, dissect(table.concat(written)).count("#"), table.concat(written))
+    h.checkerror("draw(t, q) at t = 0: pivot 1 is {nil, nil}: {x, y}, two finite numbers, expected", osc_tr.animate, osc_tr,
+      { frames = 1, draw = function() return { points = { { 0, 0 } }, pivots = { {} } } end })
+  end)
   it("refuses each bad option before drawing: the caller's line, the option, what it accepts", function()
     local tr = pendulum():simulate{ q0 = { 1 }, t1 = 1, dt = 0.1 }
     local gif = os.tmpname() .. ".gif"
@@ -370,6 +424,70 @@ describe("nz.workprecision's table and diagram", function()
       assert_ticks(p.xlabels, true, text)
       assert_ticks(p.ylabels, false, text)
     end
+  end)
+  -- A study's rows as the issue's pendulum gave them: bsimp, the slowest,
+  -- piled up at the right edge of the diagram, its points a few
+  -- characters apart.
+  local function piled_rows()
+    local rows = {}
+    local function add(method, tol, err, time)
+      rows[#rows + 1] = { method = method, tol = tol, error = err, time = time, nfev = 1, steps = 1, status = "done" }
+    end
+    add("rk4", 1e-4, 1e-1, 2e-4); add("rk4", 1e-6, 1e-3, 3e-4); add("rk4", 1e-8, 1e-5, 5e-4); add("rk4", 1e-10, 1e-7, 9e-4)
+    add("rk8pd", 1e-4, 1e-3, 2.5e-4); add("rk8pd", 1e-6, 1e-6, 3e-4); add("rk8pd", 1e-8, 1e-8, 3.6e-4)
+    add("rk8pd", 1e-10, 1e-10, 4.4e-4)
+    add("bsimp", 1e-4, 1e-6, 4.1e-3); add("bsimp", 1e-6, 2.6e-9, 4.4e-3); add("bsimp", 1e-8, 1e-11, 6.4e-3)
+    add("bsimp", 1e-10, 2e-12, 6.8e-3)
+    return rows
+  end
+  it("in the terminal: the points at the edges clear of the frame's tick marks, the last ones' labels inside", function()
+    local wp = require "nz.workprecision"
+    for _, size in ipairs{ { 100, 30 }, { 80, 24 } } do
+      local text = wp.diagram(piled_rows(), { quiet = true, width = size[1], height = size[2] })
+      local p = dissect(text)
+      local marks = 0
+      for r = p.top + 1, p.bottom - 1 do
+        local inside = p.inside(r)
+        for c in inside:gmatch("()[ABC]") do
+          -- the tick marks take two columns inside each side and the line inside the top and bottom
+          assert(c > 2 and c < #inside - 1 and r > p.top + 1 and r < p.bottom - 1,
+            ("a point drawn over the frame's tick marks (line %d, column %d):\n%s"):format(r, c, text))
+          marks = marks + 1
+        end
+      end
+      assert.are.equal(12, marks, text)
+      -- the rightmost point (bsimp at 1e-10, the bottom right) keeps its label, whole
+      local last = text:match("C[ .]1e%-10") or text:match("1e%-10[ .]C")
+      assert(last, "the last point's label is missing:\n" .. text)
+    end
+  end)
+  it("in an SVG each method has a colour of its own that stands out on white (contrast at least 4.5)", function()
+    local wp = require "nz.workprecision"
+    local rows = {}
+    for i, m in ipairs{ "rk4", "rkf45", "rkck", "rk8pd", "rk4imp", "bsimp", "msadams", "msbdf", "taylor" } do
+      for j, tol in ipairs{ 1e-4, 1e-6, 1e-8 } do
+        rows[#rows + 1] = { method = m, tol = tol, error = tol * i, time = 1e-4 * i * j, nfev = 1, steps = 1, status = "done" }
+      end
+    end
+    local svg = os.tmpname() .. ".svg"
+    wp.diagram(rows, { file = svg })
+    local text = slurp(svg)
+    os.remove(svg)
+    -- WCAG 2: relative luminance of sRGB, contrast (L1 + 0.05) / (L2 + 0.05)
+    local function luminance(r, g, b)
+      local function lin(c) c = c / 255; return c <= 0.03928 and c / 12.92 or ((c + 0.055) / 1.055) ^ 2.4 end
+      return 0.2126 * lin(r) + 0.7152 * lin(g) + 0.0722 * lin(b)
+    end
+    local seen, n = {}, 0
+    for method, r, g, b in text:gmatch("<title>(%w+)</title>.-rgb%(%s*(%d+),%s*(%d+),%s*(%d+)%)") do
+      local contrast = 1.05 / (luminance(tonumber(r), tonumber(g), tonumber(b)) + 0.05)
+      assert(contrast >= 4.5, ("%s is drawn in rgb(%s, %s, %s): contrast %.2f on white"):format(method, r, g, b, contrast))
+      local key = r .. "," .. g .. "," .. b
+      assert(not seen[key], ("%s and %s share a colour"):format(seen[key], method))
+      seen[key] = method
+      n = n + 1
+    end
+    assert.are.equal(9, n, text:sub(1, 2000))
   end)
   it("Ctrl-C keeps the rows measured and marks the interrupted one, once", function()
     local script = [[

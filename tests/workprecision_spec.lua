@@ -209,7 +209,8 @@ describe("nz.workprecision's timing", function()
     assert.truthy(tostring(rows):find("\nevaluator: Lua functions", 1, true), tostring(rows))
   end)
 
-  it("the same study twice in one process: the same ranking of the methods, each time within the other's spread", function()
+  it("the same study twice in one process: the same ranking of the methods, each time within the other's spread #slow",
+    function()
     -- A fresh system: the first study pays its compile in the warm-up, not
     -- in a timed run.  rk8pd, rkf45 and rk4 on Kepler: at 1e-9 about 1, 2
     -- and 4.5 ms (far apart), at 1e-6 rk8pd and rkf45 within 10 % of each
@@ -220,40 +221,53 @@ describe("nz.workprecision's timing", function()
     -- the machine's speed itself moves, every point of a study by the same
     -- factor (30 % measured between two studies a second apart): the times
     -- are compared up to that one factor, the median of the ratios.
+    -- A timing on a shared machine can still be thrown off by a burst of
+    -- load that hits one study only: the pair of studies is tried up to
+    -- three times and must agree once (a study whose ranking or spread is
+    -- wrong fails all three).  (Not under the sanitizers: their timings say
+    -- nothing of the methods.)
     local wp = require "nz.workprecision"
     local sys = fresh_kepler()
     local o = study_opts{ methods = { "rk4", "rkf45", "rk8pd" }, tols = { 1e-6, 1e-9 }, budget = 0.05 }
-    local a = nz.workprecision(sys, o)
-    local b = nz.workprecision(sys, o)
-    assert.are.equal(6, #a)
-    assert.are.equal(6, #b)
-    local ratios = {}
-    for i = 1, #a do ratios[i] = b[i].time / a[i].time end
-    table.sort(ratios)
-    local speed = (ratios[3] + ratios[4]) / 2
-    local compared = 0
-    for i, r in ipairs(a) do
-      local s = b[i]
-      assert.are.equal(r.method .. r.tol, s.method .. s.tol)
-      -- the ranges of the runs overlap (a study that reports no spread
-      -- has a range of one time)
-      assert(r.time * speed <= (s.time_max or s.time) and s.time <= (r.time_max or r.time) * speed,
-        ("%s at %g: the first study %.3g .. %.3g s, the second %.3g .. %.3g s (machine %.2fx)"):format(r.method, r.tol,
-          r.time, r.time_max or r.time, s.time, s.time_max or s.time, speed))
-      for j = i + 1, #a do
-        local r2, s2 = a[j], b[j]
-        -- two methods at one tolerance that either study tells apart are
-        -- in the same order in both
-        if r2.tol == r.tol and not (wp.within_noise(r, r2) and wp.within_noise(s, s2)) then
-          compared = compared + 1
-          assert((r.time < r2.time) == (s.time < s2.time), ("%s and %s at %g: %.3g and %.3g s, then %.3g and %.3g s")
-            :format(r.method, r2.method, r.tol, r.time, r2.time, s.time, s2.time))
+    local function attempt()
+      local a = nz.workprecision(sys, o)
+      local b = nz.workprecision(sys, o)
+      assert.are.equal(6, #a)
+      assert.are.equal(6, #b)
+      local ratios = {}
+      for i = 1, #a do ratios[i] = b[i].time / a[i].time end
+      table.sort(ratios)
+      local speed = (ratios[3] + ratios[4]) / 2
+      local compared = 0
+      for i, r in ipairs(a) do
+        local s = b[i]
+        assert.are.equal(r.method .. r.tol, s.method .. s.tol)
+        -- the ranges of the runs overlap (a study that reports no spread
+        -- has a range of one time)
+        assert(r.time * speed <= (s.time_max or s.time) and s.time <= (r.time_max or r.time) * speed,
+          ("%s at %g: the first study %.3g .. %.3g s, the second %.3g .. %.3g s (machine %.2fx)"):format(r.method, r.tol,
+            r.time, r.time_max or r.time, s.time, s.time_max or s.time, speed))
+        for j = i + 1, #a do
+          local r2, s2 = a[j], b[j]
+          -- two methods at one tolerance that either study tells apart are
+          -- in the same order in both
+          if r2.tol == r.tol and not (wp.within_noise(r, r2) and wp.within_noise(s, s2)) then
+            compared = compared + 1
+            assert((r.time < r2.time) == (s.time < s2.time), ("%s and %s at %g: %.3g and %.3g s, then %.3g and %.3g s")
+              :format(r.method, r2.method, r.tol, r.time, r2.time, s.time, s2.time))
+          end
         end
       end
+      -- rk8pd before rk4 at 1e-9 in both (4x apart: never within the noise)
+      assert(a[6].time < a[2].time and b[6].time < b[2].time)
+      assert(compared >= 1)
     end
-    -- rk8pd before rk4 at 1e-9 in both (4x apart: never within the noise)
-    assert(a[6].time < a[2].time and b[6].time < b[2].time)
-    assert(compared >= 1)
+    local ok, err
+    for _ = 1, 3 do
+      ok, err = pcall(attempt)
+      if ok then break end
+    end
+    assert(ok, err)
   end)
 end)
 

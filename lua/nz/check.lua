@@ -58,7 +58,13 @@ end
 
 local function value(x) return core.isjet(x) and x:value() or x end
 
--- nz.check(sys, eqs [, {states =, tol =, quiet =}]) -> ok, text
+-- nz.check(sys, eqs [, {states =, tol =, seed =, quiet =}]) -> ok, text
+local OPTIONS
+do
+  local args = require("nz.system").args
+  OPTIONS = require("nz.options").declare("nz.check", { states = args.count, tol = args.positive, quiet = args.boolean,
+    seed = function(v) return math.type(v) == "integer", "an integer" end })
+end
 function M.check(sys, eqs, opts)
   local args = require("nz.system").args
   if getmetatable(sys) ~= require("nz.system").System then
@@ -67,8 +73,7 @@ function M.check(sys, eqs, opts)
   if type(eqs) ~= "function" then
     args.error("check", 2, "your equations: a function(t, q, qd, qdd) returning %d expressions expected, got %s", sys.k, args.shown(eqs))
   end
-  args.options("check", 3, opts, { states = args.count, tol = args.positive, quiet = args.boolean,
-    seed = function(v) return math.type(v) == "integer", "an integer" end })
+  args.options("check", 3, opts, OPTIONS)
   opts = opts or {}
   local nstates, tol = opts.states or M.STATES, opts.tol or M.TOL
   local rand = generator(opts.seed or 4711)

@@ -115,6 +115,8 @@ local function anchors(sys)
   if not sys._anchors then sys._anchors = { anchor_from(sys, {}) } end
   return sys._anchors
 end
+-- The first: the sample state a new system's functions are tried at (nz/probe.lua).
+function M.anchor(sys) return anchors(sys)[1] end
 
 -- n states near an anchor: every slot moves by up to 1, and every other
 -- sample time by up to 10, so that a dependence on t switched on away from
@@ -393,15 +395,18 @@ local function variation(c)
     .. "checked and the constraint classified again where they fail)"
 end
 
-local function describe_need(c)
+-- Why constraint c needs the order it does; `alone` (the only reason the
+-- rule gives) leaves out the equations, which the rule's sentence names.
+local function describe_need(c, alone)
   local what = order_words[c.order] or ("of order " .. c.order)
   if c.order == 0 then
-    return ("constraint %d is holonomic: after differentiation it is linear in every derivative, so Nielsen's equations suffice (n = 1)%s"):format(c.index, variation(c))
+    return ("constraint %d is holonomic: after differentiation it is linear in every derivative%s%s"):format(c.index,
+      alone and "" or ", so Nielsen's equations suffice (n = 1)", variation(c))
   end
   local lin = c.linear and "linear" or "nonlinear"
   local eq = equation_names[c.needs] or ("the generalized equations of order " .. c.needs)
-  return ("constraint %d is %s and %s in %s: %s, n = %d%s"):format(c.index, what, lin,
-    top_words[c.order] or ("q^(" .. c.order .. ")"), eq, c.needs, variation(c))
+  return ("constraint %d is %s and %s in %s%s%s"):format(c.index, what, lin,
+    top_words[c.order] or ("q^(" .. c.order .. ")"), alone and "" or (": %s, n = %d"):format(eq, c.needs), variation(c))
 end
 
 -- Does any force depend on the velocities (at the sample states)?
@@ -418,40 +423,58 @@ end
 -- (4.3) is wanted, which needs forces free of q^(n).
 function M.rule(sys, opts)
   local lines, n = {}, 1
-  for _, c in ipairs(M.classify(sys)) do
-    lines[#lines + 1] = describe_need(c)
+  local classes = M.classify(sys)
+  local alone = #classes == 1 and not (opts and opts.extremal and forces_depend_on_velocity(sys))
+  for _, c in ipairs(classes) do
+    lines[#lines + 1] = describe_need(c, alone)
     n = math.max(n, c.needs)
   end
-  if #lines == 0 then lines[1] = "the system has no constraints: Nielsen's equations (n = 1), and every order agrees" end
+  if #lines == 0 then lines[1] = "the system has no constraints (and every order gives the same equations)" end
   if opts and opts.extremal and n == 1 and forces_depend_on_velocity(sys) then
     n = 2
-    lines[#lines + 1] = "the forces depend on the velocities, so the extremal form (4.3) needs one order more: n = 2"
+    lines[#lines + 1] = "the forces depend on the velocities, so the extremal form (4.3) needs one order more (n = 2)"
   end
+  -- One sentence says the order and why; with several constraints a second
+  -- one gives each constraint's own order (the largest decides).
   local principle = require("nz.system").principle(n)
-  local text = ("Dolapchiev's rule: n = %d, %s.  "):format(n, principle)
-    .. (#lines > 1 and "The largest order any of them needs decides: " or "")
-    .. table.concat(lines, "; ") .. "."
+  local text
+  if #lines == 1 then
+    text = ("Dolapchiev's rule: n = %d, %s, since %s."):format(n, principle, lines[1])
+  else
+    text = ("Dolapchiev's rule: n = %d, %s: the largest order needed.  %s."):format(n, principle,
+      (table.concat(lines, "; "):gsub("^%l", string.upper)))
+  end
   return n, text
 end
 
--- A table of the classification, with the evidence.
+-- A table of the classification, then the evidence of each constraint,
+-- every line within 80 columns (as help's).
 function M.report(sys)
   local table_text = require("nz.system").table_text
-  local rows = { { "#", "order", "kind", "top derivative", "homogeneous in qd", "evidence" } }
-  for _, c in ipairs(M.classify(sys)) do
+  local wrap = require("nz.help").wrap
+  local rows = { { "#", "order", "kind", "top derivative", "homogeneous in qd" } }
+  local evidence = {}
+  local classes = M.classify(sys)
+  for _, c in ipairs(classes) do
     local norms = {}
     for j = 1, #c.norms do norms[j] = ("%.2g"):format(c.norms[j]) end
     rows[#rows + 1] = {
       tostring(c.index), tostring(c.order), c.holonomic and "holonomic" or "nonholonomic",
       c.linear and "linear" or "nonlinear",
       c.homogeneous == nil and "n/a" or (c.homogeneous and ("yes, degree %g"):format(c.degree) or "no"),
-      ("max |dPhi/dq^(j)|, j=0..%d: %s; curvature %.1g; %d states%s%s%s"):format(#norms - 1, table.concat(norms, ", "),
-        c.curvature, c.samples, c.depends_on_t and "; depends on t" or "",
-        c.consistent and "" or "; ORDER DIFFERS ACROSS STATES: check the constraint",
-        c.linear_consistent == false and "; LINEARITY DIFFERS ACROSS STATES" or ""),
     }
+    evidence[#evidence + 1] = wrap(("%d: %s; curvature %.1g; %d states%s%s%s"):format(c.index, table.concat(norms, ", "),
+      c.curvature, c.samples, c.depends_on_t and "; depends on t" or "",
+      c.consistent and "" or "; ORDER DIFFERS ACROSS STATES: check the constraint",
+      c.linear_consistent == false and "; LINEARITY DIFFERS ACROSS STATES" or ""), "  ", "     ")
   end
-  return ("System '%s': %d constraint%s\n"):format(sys.name, sys.nc, sys.nc == 1 and "" or "s") .. table_text(rows)
+  local out = { ("System '%s': %d constraint%s"):format(sys.name, sys.nc, sys.nc == 1 and "" or "s"), table_text(rows) }
+  if #classes > 0 then
+    out[#out + 1] = wrap(("Evidence: the largest |dPhi/dq^(j)|, j = 0..%d, over the sample states; the curvature of "
+      .. "Phi along q^(m) + s v against the size of its terms (0: linear in q^(m)):"):format(#classes[1].norms - 1), "", "")
+    for _, e in ipairs(evidence) do out[#out + 1] = e end
+  end
+  return table.concat(out, "\n")
 end
 
 -- ------------------------------------------------------------------ --
@@ -780,10 +803,12 @@ function M.level_violation(sys, t, levels, lambdas, p)
 end
 
 -- Complete the higher levels of a start state (p >= 3): given q, qd (already
--- projected) and opts.qdd, opts.q3d, ... (0 when absent; opts.lambdas the
--- multipliers' start, 0 when absent), the smallest
--- change of each level l = 2..p-1 and its multipliers lambda^(l-2) that
--- satisfies the equations of that level.
+-- projected) and opts.qdd, opts.q3d, ... (0 when absent), the smallest
+-- change of each level l = 2..p-1 that satisfies the equations of that
+-- level (a level that does is kept as it is), its multipliers lambda^(l-2)
+-- whatever the equations need.  Multipliers the caller chose (opts.lambda:
+-- lambda; opts.lambdas: {lambda, lambda', ...}, a list per level or nil
+-- there) count in the change: the least change of both together.
 function M.project_levels(sys, t, q, qd, p, opts, report)
   local levels = { q, qd }
   for j = 2, p - 1 do
@@ -792,8 +817,9 @@ function M.project_levels(sys, t, q, qd, p, opts, report)
     levels[j + 1] = v
   end
   local tol = opts and opts.tol or M.PROJECT_TOL
+  local chosen = opts and (opts.lambdas or (opts.lambda and { opts.lambda }))
   local out, lambdas, its = mech.series_project(sys.engine, M.orders(sys), p, t, levels, tol, opts and opts.maxit or 50,
-    opts and opts.lambdas)
+    chosen)
   if not out then
     error(M.user_where() .. ("system '%s': completing the start state (qdd and higher, with the multipliers) did not converge in %d steps"):format(sys.name, lambdas), 0)
   end

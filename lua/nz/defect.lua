@@ -452,7 +452,7 @@ local function point(sys, key, j, v)
   return v
 end
 
-local OF_OPTIONS = { "t", "q", "qd", "csv", "n", "quiet" }
+local OF_OPTIONS = require("nz.options").declare("sys:residuals_of", { "t", "q", "qd", "csv", "n", "quiet" })
 
 -- sys:residuals_of{t = {...}, q = {{...}, ...} [, qd = ...] [, n =]
 -- [, quiet =]} or {csv = "file"}: the defect of points from anywhere.

@@ -131,7 +131,7 @@ local function run(sys, opts)
   return sw
 end
 
-local SWEEP_OPTIONS = { "values", "at", "parameter", "tol" }
+local SWEEP_OPTIONS = options.declare("sys:eigen_sweep", { "values", "at", "parameter", "tol" })
 
 function M.sweep(sys, opts)
   if type(opts) ~= "table" then fail(sys, "options expected: sys:eigen_sweep{ values = {...}, at = function(v) return {...} end }") end
@@ -147,19 +147,18 @@ function M.sweep(sys, opts)
   return res
 end
 
--- The eigenvalues of a row as text: a complex pair once, as re +- im i.
-local function listed(ev, fmt)
+-- The eigenvalues of a row as text: a complex pair once, as re +- im i,
+-- and what is rounding shown as 0 by the rule that decides the stability
+-- (linearize.eigenvalue_text: print(lin) shows the same numbers).
+local function listed(ev, thr)
   local out = {}
-  for _, e in ipairs(ev) do
-    if e[2] == 0 then out[#out + 1] = fmt:format(e[1])
-    elseif e[2] > 0 then out[#out + 1] = (fmt .. " +- " .. fmt .. "i"):format(e[1], e[2]) end
-  end
+  for _, e in ipairs(ev) do out[#out + 1] = linearize.eigenvalue_text(e[1], e[2], thr) end
   return table.concat(out, ", ")
 end
 
 function Sweep:__tostring()
-  local t = { { self.parameter, "eigenvalues", "" } }
-  for _, r in ipairs(self.rows) do t[#t + 1] = { ("%.6g"):format(r.value), listed(r.eigenvalues, "%.6g"), r.status } end
+  local t = { { self.parameter, "eigenvalues", "stability" } }
+  for _, r in ipairs(self.rows) do t[#t + 1] = { ("%.6g"):format(r.value), listed(r.eigenvalues, r.threshold), r.status } end
   local lines = { ("eigenvalues of '%s' against %s"):format(self.system.name, self.parameter),
     require("nz.system").table_text(t, "  ") }
   if #self.crossings == 0 then
@@ -205,8 +204,15 @@ end
 -- as points (modes are not followed from one value to the next), with the
 -- changes of stability marked on the axis.  opts: file, title, width, height,
 -- quiet.
+local PLOT_OPTIONS = options.declare("sw:plot", { "file", "title", "width", "height", "quiet" })
+
 function Sweep:plot(opts)
   opts = opts or {}
+  local function bad(fmt, ...) error(("%ssw:plot: " .. fmt):format(require("nz.where").user_where(), ...), 0) end
+  if type(opts) ~= "table" then bad("options {file =, title =, width =, height =, quiet =} expected, got %s", type(opts)) end
+  options.check(opts, PLOT_OPTIONS, bad)
+  if opts.title ~= nil and type(opts.title) ~= "string" then bad("title = %s: a string expected", tostring(opts.title)) end
+  if opts.quiet ~= nil and type(opts.quiet) ~= "boolean" then bad("quiet = %s: true or false expected", tostring(opts.quiet)) end
   local re = { name = "Re(lambda)", x = {}, y = {}, style = "points pt 7 ps 0.4" }
   local im = { name = "Im(lambda)", x = {}, y = {}, style = "points pt 6 ps 0.4" }
   for _, r in ipairs(self.rows) do

@@ -252,7 +252,8 @@ local function c_file(sys, out, nodes, opts)
   add("#include <string.h>")
   add("")
   add(("enum { NZX_K = %d, NZX_NC = %d, NZX_DIM = %d };"):format(k, nc, 2 * k))
-  add(("static const char *const nzx_names[NZX_K] = { %s };"):format((function()
+  -- (not static: without a main nothing in the file reads it)
+  add(("const char *const nzx_names[NZX_K] = { %s };"):format((function()
     local t = {}
     for i = 1, k do t[i] = ("%q"):format(sys.coords[i]) end
     return table.concat(t, ", ")
@@ -273,7 +274,11 @@ local function c_file(sys, out, nodes, opts)
       add("  double qdd[NZX_K];")
       add("  memset(qdd, 0, sizeof qdd);")
     end
-    add("  (void)t; (void)q; (void)qd;")
+    -- every parameter marked used: a function of the state that reads only
+    -- part of it compiles without -Wunused-parameter under -Wall -Wextra
+    local used = {}
+    for param in (sig .. ","):gmatch("([%a_][%w_]*)%s*,") do used[#used + 1] = ("(void)%s;"):format(param) end
+    add("  " .. table.concat(used, " "))
     local lines, v = body(L, sys, nodes, list, np, names)
     for _, l in ipairs(lines) do add(l) end
     for _, r in ipairs(roots_named) do add(("  %s = %s;"):format(r.target, v(r.id))) end
@@ -697,7 +702,8 @@ end
 
 -- ------------------------------------------------------------------ --
 
-local OPTIONS = { "lang", "file", "main", "jacobian" }
+local OPTIONS = options.declare("sys:export", { "lang", "file", "main", "jacobian" })
+local MAIN_OPTIONS = options.declare("sys:export main", { "q0", "qd0", "t0", "t1", "dt", "rtol", "atol" })
 
 function M.export(sys, opts)
   if type(opts) ~= "table" then fail(sys, "options expected: sys:export{ lang = \"c\", file = \"name.c\" [, main = {...}] }") end
@@ -708,7 +714,7 @@ function M.export(sys, opts)
   if opts.main ~= nil then
     local m = opts.main
     if type(m) ~= "table" then fail(sys, "main: a table {q0 =, qd0 =, t1 =, dt = [, t0, rtol, atol]} expected") end
-    options.check(m, { "q0", "qd0", "t0", "t1", "dt", "rtol", "atol" }, function(fmt, ...) fail(sys, "main: " .. fmt, ...) end)
+    options.check(m, MAIN_OPTIONS, function(fmt, ...) fail(sys, "main: " .. fmt, ...) end)
     if type(m.q0) ~= "table" or #m.q0 ~= sys.k then fail(sys, "main.q0: %d numbers expected", sys.k) end
     if m.qd0 ~= nil and (type(m.qd0) ~= "table" or #m.qd0 ~= sys.k) then fail(sys, "main.qd0: %d numbers expected", sys.k) end
     if type(m.t1) ~= "number" or type(m.dt) ~= "number" or m.dt <= 0 or m.t1 <= (m.t0 or 0) then

@@ -46,11 +46,17 @@ local function term_key(f)
   return table.concat(parts, "*")
 end
 
+-- Like terms that add up to less than this part of the largest of them
+-- have cancelled, up to the rounding of the graph's constants: (3 c x) / 3
+-- - c x leaves 2e-16 c x where c = 0.7 (a sum of like terms of the
+-- equations of order n, nz/show_order.lua), which is no term of theirs.
+local CANCELLED = 64 * 2 ^ -52
+
 -- A polynomial from {key -> term}, zero terms dropped, in a stable order.
 local function make(map)
   local terms = {}
   for key, t in pairs(map) do
-    if t.c ~= 0 then t.key = key; terms[#terms + 1] = t end
+    if t.c ~= 0 and not (t.big and math.abs(t.c) <= CANCELLED * t.big) then t.key = key; terms[#terms + 1] = t end
   end
   table.sort(terms, function(x, y) return x.key < y.key end)
   local keys = {}
@@ -81,8 +87,11 @@ M.is_const = is_const
 local function add_into(map, t, scale)
   local key = term_key(t.f)
   local cur = map[key]
-  if cur then cur.c = cur.c + scale * t.c
-  else map[key] = { c = scale * t.c, f = t.f } end
+  if cur then
+    -- the largest like term summed so far (make drops a sum that cancelled)
+    cur.big = math.max(cur.big or math.abs(cur.c), math.abs(scale * t.c), t.big and math.abs(scale) * t.big or 0)
+    cur.c = cur.c + scale * t.c
+  else map[key] = { c = scale * t.c, f = t.f, big = t.big and math.abs(scale) * t.big } end
 end
 
 local function sum(a, b, sb)
@@ -140,10 +149,44 @@ function M.powi(P, n)
   return of_atom(group(P), n)
 end
 
+-- A quotient by a constant divides each coefficient (as the graph's x / v
+-- does), so that (3 x) / 3 is x exactly where x times 1/3 may not be.
 function M.div(a, b)
   local c, v = is_const(b)
-  if c then return M.mul(a, const(1 / v)) end
+  if c then
+    local map = {}
+    for _, t in ipairs(a.terms) do add_into(map, { c = t.c / v, f = t.f }, 1) end
+    return M.tidy(make(map))
+  end
   return M.mul(a, M.powi(b, -1))
+end
+
+-- P split by the symbols pick(atom) names (an index, or nil): P = sum_j
+-- coef[j] x_j + rest, where a term goes to coef[j] when x_j is its only
+-- picked factor and appears to the power 1, to rest otherwise.
+function M.linear_in(P, pick)
+  local maps, rest = {}, {}
+  for _, t in ipairs(P.terms) do
+    local at, others = nil, false
+    for _, x in ipairs(t.f) do
+      local j = pick(x.a)
+      if j then
+        if at or x.p ~= 1 then others = true end
+        at = at or { j = j, x = x }
+      end
+    end
+    if at and not others then
+      local f = {}
+      for _, x in ipairs(t.f) do if x ~= at.x then f[#f + 1] = x end end
+      maps[at.j] = maps[at.j] or {}
+      add_into(maps[at.j], { c = t.c, f = f }, 1)
+    else
+      add_into(rest, t, 1)
+    end
+  end
+  local coef = {}
+  for j, map in pairs(maps) do coef[j] = make(map) end
+  return coef, make(rest)
 end
 
 -- A function's atom, its argument's sign made canonical: odd functions take
@@ -410,6 +453,7 @@ printers.tex = {
     local info = a.info or {}
     local n = M.tex_name(info.base or a.name)
     local d = info.dots or 0
+    if d == 1 and info.frozen then return "\\dot{" .. n .. "}_{0}" end   -- held in T_0 (R_1 of sys:show{n = 1})
     if d == 1 then return "\\dot{" .. n .. "}" end
     if d == 2 then return "\\ddot{" .. n .. "}" end
     if d >= 3 then return n .. "^{(" .. d .. ")}" end
@@ -592,13 +636,17 @@ print_poly = function(P, pr, names, factor, flat)
       if n == 1 then out[1] = (t.c < 0 and "-" or "") .. s
       else out[#out + 1] = (t.c < 0 and " - " or " + ") .. s end
     elseif #C.terms > 1 then
+      -- every parameter negative: the sign in front, -g l1 (m1 + m2) sin(th1)
+      local neg = true
+      for _, t in ipairs(C.terms) do neg = neg and t.c < 0 end
+      if neg then C = M.neg(C) end
       local coef = print_poly(C, pr, names, true, true)
       local s = coef
       if #gr.state > 0 then
         if coef:find(" [%+%-] ") and not coef:find("^[^(]*%(.*%)$") then coef = pr.paren(coef) end
         s = coef .. pr.mul .. print_term({ c = 1, f = gr.state }, pr, names)
       end
-      out[#out + 1] = (n == 1 and "" or " + ") .. s
+      out[#out + 1] = (n == 1 and (neg and "-" or "") or (neg and " - " or " + ")) .. s
     else
       n = n - 1
     end

@@ -103,7 +103,11 @@ goes on just after t0: by value first, and at a tie in value by the first
 coefficient of the Taylor series in which they differ (c_1, then c_2, ...).
 So nz.gt(t - t0, 0) is 1 at t0: the branch taken for t > t0.  Series equal in
 every known coefficient are equal (a dual number knows only its value).
-Tangents are not compared: a comparison is a step, its derivative is 0.]] },
+Tangents are not compared: a comparison is a step, its derivative is 0.
+A recorded system decides alike: where its plans on doubles meet a tie in
+value they hand the evaluation to the jets, and T, V and the constraints are
+evaluated with the velocity in their series for every term of the
+equations; Q is taken at the state, so a tie there is decided by value.]] },
   { name = "le", section = "branches", usage = "nz.le(a, b)", summary = "1 if a <= b, else 0 (see help(nz.lt))" },
   { name = "gt", section = "branches", usage = "nz.gt(a, b)", summary = "1 if a > b, else 0 (see help(nz.lt))" },
   { name = "ge", section = "branches", usage = "nz.ge(a, b)", summary = "1 if a >= b, else 0 (see help(nz.lt))" },
@@ -171,18 +175,29 @@ and plain arithmetic, and return a number or a jet.
 
 Recording: when the system is made, each function runs once on traced
 values and becomes an expression graph that the engine evaluates in C (M
-and h are differentiated once on it).  print(sys) shows, one line each,
-which functions run in C and which stay in Lua, and why: a Lua if or a
-comparison on the state (write nz.ifelse, nz.max, nz.min, nz.clamp), math.*
-on the state (use nz.sin, ...), a jet method, a non-number parameter, or a
-recording that disagrees with the function at a sample state.  Numbers read
-from upvalues or globals are baked in when the system is made; numbers in
-params stay inputs.  sys:graph_info() gives the graph's size, the recording
-time and what runs as machine code; compile = false keeps everything in Lua.
+and h are differentiated once on it).  A traced value answers as the jet it
+stands for (type(x) is "userdata", nz.isjet(x) is true).  print(sys) shows,
+one line each, which functions run in C and which stay in Lua, and why: a
+Lua if or a comparison on the state (write nz.ifelse, nz.max, nz.min,
+nz.clamp), math.* on the state (use nz.sin, ...), a jet method (x:coef(0)),
+a non-number parameter or a default from params' __index, even when the
+function's own pcall caught the error; or a recording that answers
+otherwise than the function on jets (checked at two states, with what it
+found: a type test, a table keyed by the state, a counter).  A function
+that is not recorded is tried once on jets at the sample state, and one that
+fails at every state (math.cos on a jet, q.th, returning nothing) is refused
+there, at the nz.system line, with what to write instead.  Numbers in
+params stay inputs however the function reads them (its argument, an
+upvalue); a parameter it read while absent (p.c or 1) and that appears
+later makes the system record again (print(sys) says so).  Other numbers
+read from upvalues or globals are baked in when the system is made.
+sys:graph_info() gives the graph's size, the recording time and what runs
+as machine code; compile = false keeps everything in Lua.
 
 Methods (t a number, q, qd, qdd tables of k numbers); help(sys.NAME) shows
 one, e.g. help(sys.simulate):
-  sys:residual(n, t, q, qd, qdd [, lambda] [, form])  k residuals of order n,
+  sys:residual(n, t, q, qd, qdd [, lambda] [, form | {form =, higher =}])
+        k residuals of order n,
         (1/n)(dT^(n)/dq^(n) - (n+1) dT/dq) - Q (docs/theory.md (3.1)),
         n = 1..100; form: "generalized" (default), "lagrange", "difference"
         (3.2), "euler" (3.3), "appell" (4.2), "extremal" (4.3), "wassmuth"
@@ -199,32 +214,45 @@ one, e.g. help(sys.simulate):
         level: one SVD solve of [M -A^T; A 0]; second-order constraints
         nonlinear in qdd: GSL's hybridsj (Newton with a trust region) from the
         unconstrained accelerations or opts = {qdd = guess, lambda = guess}.
-        Every solution is checked ((6.2) and each constraint against the size
-        of their terms, to 1e-10, and each constraint's order); where it fails
-        the constraint is classified again at this state and solved again
-        (report.reclassified counts them), else an error names the
-        constraint, the state and the violation.  opts.check = false skips
-        the check (to measure its cost).  Singular systems name the
+        Every solution is checked: the residual of (6.2) and of the
+        constraints (evaluated again at it) as a normwise backward error of
+        the equilibrated system, to 1e-10 (report.backward_error); the bound
+        on its error, max(backward error, eps) / rcond, to 1e-6
+        (report.error_bound: near a rank loss of the constraints' gradients
+        the motion is not determined); each constraint's order.  Where it
+        fails the constraint is classified again at this state and solved
+        again (report.reclassified counts them), else an error names the
+        constraint, the state and the violation.  report.violation: how far
+        (q, qd) is from the constraints of order <= 1; off them by over 1e-8
+        of their terms, a warning once per system.  opts.check = false skips
+        both (to measure their cost).  Singular systems name the
         constraints involved.  opts: qdd, lambda, tol, maxit, rcond_min,
         check; any other key is an error.  Every method checks its arguments
         (t, q, qd: k finite numbers each) and names the one that is wrong; a
         method called with a dot (sys.accel(...)) says to write a colon.
-  sys:constraints()          the classification, one entry per constraint:
-                             order, linear in the top derivative, holonomic,
-                             homogeneous in qd (Euler's theorem), evidence;
-                             it prints as a table (print(sys:constraints())
-                             in a script; the session prints it once)
+  sys:constraints([{quiet = true}])  the classification, one entry per
+                             constraint: order, linear in the top
+                             derivative, holonomic, homogeneous in qd
+                             (Euler's theorem), evidence; it prints as a
+                             table (print(sys:constraints()) in a script;
+                             the session prints it once); it prints nothing
+                             itself, so quiet changes nothing
   sys:rule([{extremal = true}])  Dolapchiev's n and a paragraph saying why
   sys:reduced(t, q, qd [, n] [, form])  accelerations from Tsenov's reduced
                              equations (7.1); order >= 3: q^(p) from the
                              level-p equations, form = {qdd =, q3d =, ...,
                              lambdas = {lambda, lambda', ...}}
-  sys:project(t, q, qd [, opts])  the nearest state on the constraints of
-                             order <= 1; with constraints of order p >= 3
-                             also the start's higher levels: opts {qdd =,
-                             q3d =, ...} are corrected (0 if absent) and
-                             returned as report.qdd, report.q3d, ... with
-                             report.lambda (and report.lambdas)
+  sys:project(t, q, qd [, {tol =, maxit =, qdd =, q3d =, ..., lambda =,
+        lambdas =}])         the nearest state on the constraints of order
+                             <= 1 (to tol, 1e-12, in at most maxit = 50
+                             Newton steps); with constraints of order p >= 3
+                             also the start's higher levels: qdd, q3d, ...
+                             (0 if absent) change least (a consistent one
+                             not at all) and come back as report.qdd,
+                             report.q3d, ...; the multipliers (report.lambda,
+                             report.lambdas = {lambda, lambda', ...}) are
+                             what the levels need, unless given as lambda or
+                             lambdas: then they change least with the levels
   sys:check_state(t, q, qd [, tol])  error if a constraint is violated by more
                              than tol (1e-8) of the size of its terms
   sys:reaction_power(t, q, qd)   R_0 of (9.1): the power of moving constraints
@@ -270,9 +298,12 @@ one, e.g. help(sys.simulate):
         Each option is checked (which, what it got, what it accepts; the
         output points must fit in 1 GB, require('nz.simulate').MAX_MEMORY); a
         fixed step with rtol, atol or h0 warns once that they do nothing; a run
-        that will take over a minute or 1e7 steps says so once (with a larger
-        dt or step when the grid or fixed steps set the count) and goes on;
-        one whose steps stop advancing t stops with the state and M.
+        that will take over a minute or 1e7 steps at the pace of its last
+        steps says so once (with a larger dt or step when the grid or fixed
+        steps set the count; bsimp or msbdf only when its steps times the
+        Jacobian's spectral radius sit at the method's stability boundary)
+        and goes on (tr.stats.long_run); one whose steps stop advancing t
+        stops with the state and M.
         Event functions are recorded and watched in C; one that cannot be
         recorded keeps the run in Lua (tr.stats.loop_why says why).
         Unilateral contacts (help(nz.unilateral)): the run stops at nothing;
@@ -303,8 +334,9 @@ one, e.g. help(sys.simulate):
         integration again; their functions must be recordable).  Not with
         taylor: constraints of order 3 or more, project and baumgarte, the
         work monitor, step and h0 (each refused with the method to take).
-  sys:simulate{..., qdd0 =, q3d0 = ...}  constraints of order p >= 3 (linear
-                             in their top derivative): the state is q, qd,
+  sys:simulate{..., qdd0 =, q3d0 = ..., guess =}  constraints of order
+                             p >= 3 (linear in their top derivative): the
+                             state is q, qd,
                              .., q^(p-1) and lambda, .., lambda^(p-3); (6.2)
                              differentiated p-2 times gives q^(p) and
                              lambda^(p-2).  The start levels are required and
@@ -341,6 +373,7 @@ one, e.g. help(sys.simulate):
                              pivoting on the constraints' gradients unless
                              named (dependent = {...}), and print(lin) says
                              which.  lin.q, lin.qd: the point, solved.
+                             help(lin): every field.
   sys:eigen_sweep{values = {...}, at = function(v) return {linearize options}
                   end [, parameter = "v", tol]}  the eigenvalues against a
                              parameter (at may also set sys.params): sw.rows
@@ -351,12 +384,13 @@ one, e.g. help(sys.simulate):
                              where the largest real part changes sign,
                              bisection where modes meet on the imaginary
                              axis), print(sw), sw:csv([file]) (without a
-                             file: the CSV text), sw:plot{[file =, width =,
-                             height =, quiet =]} (real and imaginary parts
-                             against the parameter; quiet = true returns the
-                             terminal's plot as text instead of printing it).
-  sys:show{[tex = true, lua = true, mass = true, bias = true, reduced = true,
-            appell = true, names = true]}
+                             file: the CSV text), sw:plot{[file =, title =,
+                             width =, height =, quiet =]} (real and
+                             imaginary parts against the parameter; quiet =
+                             true returns the terminal's plot as text
+                             instead of printing it).  help(sw): the fields.
+  sys:show{[n = 3, tex = true, lua = true, mass = true, bias = true,
+            reduced = true, appell = true, names = true, width = 100]}
                              the equations as formulas read from the recorded
                              graphs: per coordinate M(q) q'' + h(q, q') =
                              A^T lambda (the equations of every order n
@@ -365,11 +399,26 @@ one, e.g. help(sys.simulate):
                              (reduced = true, one or two constraints), Appell's
                              S up to terms free of q'' (appell = true);
                              like terms collected, parameters (sys.params)
-                             shown by name, repeated parts named when long
-                             (where c1 = cos(th1 - th2)); tex = true: a LaTeX
+                             shown by name, repeated parts named when the
+                             text runs over 3 lines of width characters
+                             (where c1 = cos(th1 - th2); names = true always,
+                             false never); tex = true: a LaTeX
                              aligned block; lua = true: a Lua chunk returning
-                             function(t, q, qd, qdd, lambda, params) ->
-                             residuals
+                             function(t, q, qd, qdd, lambda, params, higher)
+                             -> residuals (higher = {q''', ...}).
+                             n = N: Dolapchiev's equations of order N, (1/N)
+                             (dT^(N)/dq^(N) - (N + 1) dT/dq) = Q + A^T lambda
+                             (N = 1 Nielsen's, 2 Tsenov's), derived from
+                             T^(N) on the graph: the equations collected, then
+                             the terms dT^(N)/dq^(N), dT/dq, Q (-dV/dq in it)
+                             per coordinate. T^(N) reads q to q^(N+1), but
+                             dT^(N)/dq^(N) = N d/dt dT/dq' + dT/dq (2.1): no
+                             derivative above q'' is left, and every N
+                             collects to the same equations. With appell =
+                             true: R_N = (1/N)(T^(N) - (N + 1) T_0^(N)) (T_0: T
+                             with its velocities held), up to terms free of
+                             q^(N) (whole for N = 1, held velocities written
+                             th'_0); lua, mass, bias, reduced, tex as above
   sys:export{lang = "c" | "python" | "octave", file = "name.c"
              [, jacobian = false, main = {q0 =, qd0 =, t1 =, dt = [, t0,
              rtol, atol]}]}
@@ -404,9 +453,9 @@ one, e.g. help(sys.simulate):
                              path:simulate{t0 = phi0, t1 = phi1, ...} gives
                              the other coordinates against phi, and
                              path:elapsed(tr) the physical time at each point
-                             (dt/dphi = sqrt(G / (h + L0)), between output
-                             points on their quintic interpolant: its error
-                             ~dt^6 is set by the grid dt, not by rtol)
+                             (dt/dphi = sqrt(G / (h + L0)), integrated with
+                             the path by tr's method and tolerances: as
+                             accurate as the path on any output grid)
   sys:equilibrium{q = guess [, qd, t, coords, hold, dependent, tol, maxit]}
                              an equilibrium or a steady motion near the guess:
                              Newton on the kept accelerations in the kept
@@ -422,17 +471,23 @@ one, e.g. help(sys.simulate):
                              returns the trajectory and the rule's n (the
                              session does not print them again)
 The trajectory tr = sys:simulate{...}: tr.t[i], tr.q[i][j], tr.qd[i][j],
-tr.qdd[i][j], tr.lambda[i][r], tr.status, tr.stats, tr.violation, monitors;
-with contacts tr.events[i] = {name, kind = "impact" | "closes" | "opens" |
-"sticks" | "slips", t, q, qd, qd_after, impulse, energy_lost, ...},
-tr.contacts (modes, Zeno), and columns "N.name", "T.name" (the forces);
+tr.qdd[i][j], tr.lambda[i][r], tr.events[e] (.name, .t, .q, .qd), tr.status,
+tr.stats, tr.violation, monitors; help(tr) lists every field and statistic;
+with contacts tr.events[i] also holds kind = "impact" | "closes" | "opens" |
+"sticks" | "slips", qd_after, impulse, energy_lost, ...; tr.contacts (modes,
+Zeno) and the columns "N.name", "T.name" (the contact forces);
 help(tr.NAME) shows one method, e.g. help(tr.plot):
   tr:column(name)            the values of a quantity along the motion: a
                              coordinate, "name'" (velocity), "name''", "t",
                              "E" (T + V), "H", "work", "violation", "lambda1"
   tr:plot{[y = {...}, x = "t", phase = "th", file = "f.svg" | "f.png", title,
-           xlabel, ylabel, legend = false, size = {w, h}, drift]}  a plot in
-                             the terminal (sized to it) or to a file; E and H
+           xlabel, ylabel, legend = false, width =, height =, size = {w, h},
+           drift, quiet = true]}  a plot in
+                             the terminal (sized to it) or to a file; width
+                             and height (or size = {width, height}) in
+                             characters in the terminal, pixels in a file;
+                             quiet = true returns the terminal's plot as text
+                             instead of printing it; E and H
                              are drawn as their drift from the first value;
                              unknown options and wrong values are refused.
                              In the terminal the ticks follow the width (the
@@ -465,21 +520,27 @@ help(tr.NAME) shows one method, e.g. help(tr.plot):
                              took q'' from the equations at the same
                              points); it checks that the forms agree, not
                              the motion
-  tr:section{[when = "event name", plot = {"y", "y'"}, draw = false, file =]}
+  tr:section{[when = "event name", plot = {"y", "y'"}, draw = false, file =,
+              title =, width =, height =]}
                              a Poincare section: the two quantities at each
                              crossing of the event (simulate with events =
                              {{name =, f =, direction = 1}}), as {x, y, t}
-                             and drawn
+                             and drawn (sizes in characters in the terminal,
+                             pixels in a file)
   tr:animate{[file = "m.gif" | "m.svg", frames = 60, fps = 20, draw = f,
-              plane = "xy", links = true, range = {x0, x1, y0, y1}]}
+              plane = "xy", links = true, range = {x0, x1, y0, y1},
+              title =, width =, height =]}
                              the mechanism frame by frame: in the terminal,
                              as an animated GIF, or SVG frames; from the
-                             bodies (a point each, linked as a chain from the
-                             origin) or draw(t, q) -> {points = {{x, y}},
-                             segments = {{x1, y1, x2, y2}}}; frames a whole
-                             number >= 1, fps in (0, 100], plane "xy", "xz"
-                             or "yz" (bodies only), links true or false,
-                             range four numbers: checked before drawing
+                             bodies (a point each, linked as a chain from a
+                             fixed pivot at the origin, drawn # in the
+                             terminal and a filled square in a file) or
+                             draw(t, q) -> {points = {{x, y}}, segments =
+                             {{x1, y1, x2, y2}}, pivots = {{x, y}}}; frames
+                             a whole number >= 1, fps in (0, 100], plane
+                             "xy", "xz" or "yz" (bodies only), links true or
+                             false (false: no links, no pivot), range four
+                             numbers: checked before drawing
   print(tr)                  a summary: cost, status, drift, monitors
   print(sys)                 a summary]] },
   { name = "forms", section = "mechanics", usage = "nz.forms",
@@ -557,7 +618,7 @@ help(nz.effects.NAME) explains one, with its parameters.
     summary = "print values as the session shows them (numbers in their shortest exact form, tables readable)" },
   { name = "format", section = "session", usage = "nz.format(v)",
     summary = "a value as the session shows it, as a string" },
-  { name = "check", section = "scenes", usage = "nz.check(sys, function(t, q, qd, qdd) return {...} end)",
+  { name = "check", section = "scenes", usage = "nz.check(sys, function(t, q, qd, qdd) return {...} end [, {states =, tol =, seed =, quiet =}])",
     summary = "check a derivation by hand: equivalent to the system's equations?",
     text = [[
 Your function returns k expressions meant to vanish on the motion.  At 10 random
@@ -570,13 +631,15 @@ returns ok, text (typed at the prompt, the verdict shows once); options
 {states = 10, tol = 1e-8, seed = 4711, quiet = true (print nothing)}.  Write
 the equations with nz.sin etc.]] },
   { name = "workprecision", section = "mechanics",
-    usage = "nz.workprecision(sys, {q0 =, qd0 =, t1 =, dt =, methods =, tols =, reference =, budget =, x =, plot =})",
+    usage = "nz.workprecision(sys, {q0 =, qd0 =, t0 =, t1 =, dt =, methods =, tols =, reference =, reference_method =, "
+      .. "reference_tol =, budget =, x =, plot =, quiet =, simulate =})",
     summary = "what accuracy costs in time: error, time, evaluations per method and tolerance",
     text = [[
 Runs the same motion with each method at each tolerance (rtol = tol,
 atol = tol/100), measures the error (max over the output grid of
 |q - q_ref|) against reference = function(t) return {q1, ...} end when the
-scene has a closed form, or else against rk8pd at rtol 1e-13, and prints a
+scene has a closed form, or else against a run of reference_method (rk8pd)
+at rtol = atol = reference_tol (1e-13), and prints a
 table of error, time, right-hand-side evaluations and steps.
 How the time is measured: first, not timed, the reference run and one
 warm-up run per method, which build the plans the method uses and compile
@@ -622,7 +685,8 @@ stays inside the frame: the table gives every tolerance).
 Ctrl-C stops the study, keeps the rows done and marks the interrupted one
 ("stopped by Ctrl-C", once).]] },
   { name = "sweep", section = "mechanics",
-    usage = "nz.sweep{system = sys | file =, grid = | list = | sample =, run = function(sys, point), jobs =, out =}",
+    usage = "nz.sweep{system = sys | file =, grid = | list = | sample =, run = function(sys, point), jobs =, out =, "
+      .. "resume =, retry =, progress =, todo =, from =, parallel =, worker =}",
     summary = "a system at many points on every core: one row per point, appended to a CSV as each finishes",
     text = [[
 Points: grid = {amp = {0.5, 1, 1.5}, l = {1, 2}} (every combination, the first
@@ -713,7 +777,16 @@ NZLUA_CACHE_MAX bounds the cache (default 100M, least recently used out
 first), NZLUA_CC_TIMEOUT limits a compile (300 s), NZLUA_CC_JOBS the
 compiles at once (2), NZLUA_KEEP_C=1 keeps the generated C.]] },
   { name = "special", section = "session", usage = "nz.special.ellint_K(k), nz.special.elljac(u, m)",
-    summary = "GSL's complete elliptic integral K(k) and Jacobi's sn, cn, dn (for closed forms)" },
+    summary = "GSL's complete elliptic integral K(k) of the modulus k, and Jacobi's sn, cn, dn of the parameter "
+      .. "m = k^2 (for closed forms)",
+    text = [[
+The two take the same curve in different variables, as GSL does:
+  nz.special.ellint_K(k)      K(k), the modulus k in (-1, 1)
+  nz.special.elljac(u, m)     sn(u|m), cn(u|m), dn(u|m): the PARAMETER
+                              m = k^2 in [0, 1], not the modulus
+so sn(K(k) | k^2) = 1.  The pendulum of amplitude a (l, g): k = sin(a/2),
+period 4 K(k) sqrt(l/g), th(t) = 2 asin(k sn(K(k) - t sqrt(g/l) | k^2)) from
+th(0) = a at rest.]] },
   { name = "partial", section = "operators", usage = "nz.partial(n, f, t, q, qd [, qdd, higher])",
     summary = "d f^(n) / d q^(n): the n-th time derivative of f, differentiated by q^(n)",
     text = [[
@@ -963,6 +1036,10 @@ local function listing(nz)
       out[#out + 1] = wrap(table.concat(names, ", "), "  ", "  ")
     end
   end
+  out[#out + 1] = ""
+  out[#out + 1] = wrap("help(sys), help(tr), help(lin), help(sw): what the system, trajectory, linearization or "
+    .. "eigenvalue sweep you hold is, every field it holds (tr.events, tr.stats, ...) and its methods, one line each "
+    .. "(help(\"tr\") without one)", "", "  ")
   return table.concat(out, "\n")
 end
 
@@ -985,6 +1062,8 @@ function M.bind(nz)
       local jet = not e and not c and not kind and type(what) == "function" and jet_method(nz, what)
       local parent, field = nil, nil
       if not (e or c or kind or jet) then parent, field = member(nz, what) end
+      -- an object a session holds: a system, a trajectory, a linearization, a sweep
+      local object = not (e or c or kind or jet or parent) and require("nz.help_objects").find(what)
       if e then
         text = entry_text(e)
       elseif c then
@@ -995,6 +1074,8 @@ function M.bind(nz)
         text = ("x:%s: a method of every jet, explained in help(nz.jet):\n\n%s"):format(jet, entry_text(find(nz, "jet")))
       elseif parent then
         text = ("nz.%s.%s: explained in help(nz.%s):\n\n%s"):format(parent.name, field, parent.name, entry_text(parent))
+      elseif object then
+        text = require("nz.help_objects").text(object, what)
       end
       if not text then
         -- one line, not an error: at the prompt a traceback would bury it

@@ -536,8 +536,8 @@ local function build(sys, c)
   return lin
 end
 
-M.OPTIONS = { "t", "q", "qd", "coords", "speeds", "hold", "dependent" }
-local EQUILIBRIUM_OPTIONS = { "t", "q", "qd", "coords", "hold", "dependent", "tol", "maxit" }
+M.OPTIONS = options.declare("sys:linearize", { "t", "q", "qd", "coords", "speeds", "hold", "dependent" })
+local EQUILIBRIUM_OPTIONS = options.declare("sys:equilibrium", { "t", "q", "qd", "coords", "hold", "dependent", "tol", "maxit" })
 
 function M.linearize(sys, opts)
   opts = opts or {}
@@ -657,6 +657,19 @@ local function stability(re, thr)
 end
 M.stability = stability
 
+-- An eigenvalue as print(lin) and print(sw) show it, by the rule that
+-- decides the stability: a real or imaginary part within thr of zero is
+-- rounding and is shown as 0 (a mode on the imaginary axis is 0 +- wi, a
+-- real one has no imaginary part).  A complex pair is shown once, by its
+-- member with im > 0: nil for the other.
+function M.eigenvalue_text(re, im, thr, fmt)
+  fmt = fmt or "%.6g"
+  if math.abs(re) <= thr then re = 0 end
+  if math.abs(im) <= thr then return fmt:format(re) end
+  if im < 0 then return nil end
+  return (fmt .. " +- " .. fmt .. "i"):format(re, im)
+end
+
 -- One row per mode (a complex pair once): the eigenvalue, its frequency
 -- (rad/s and Hz), damping ratio, whether it grows, and its shape.
 function Linear:modes()
@@ -693,22 +706,33 @@ function Linear:__tostring()
     lines[#lines + 1] = ("  not an equilibrium or a steady motion: the kept accelerations are %.3g there"):format(self.residual)
   end
   local shown = #self.coords > 0 and names(sys, self.coords) or names(sys, self.speeds, "'")
-  local t = { { "eigenvalue", "frequency (rad/s)", "(Hz)", "damping", "", "shape (" .. table.concat(shown, ", ") .. ")" } }
+  local t = { { "eigenvalue", "frequency (rad/s)", "(Hz)", "damping", "stability",
+    "shape (" .. table.concat(shown, ", ") .. ")" } }
+  local thr, phased = threshold(self.A), false
   for _, m in ipairs(self:modes()) do
     local sh = {}
     for i, a in pairs(m.shape) do
-      sh[#sh + 1] = math.abs(m.phase[i]) > 3.1 and ("%.4g"):format(-a) or math.abs(m.phase[i]) < 0.04 and ("%.4g"):format(a)
-        or ("%.4g@%.2g"):format(a, m.phase[i])
+      if math.abs(m.phase[i]) > 3.1 then sh[#sh + 1] = ("%.4g"):format(-a)
+      elseif math.abs(m.phase[i]) < 0.04 then sh[#sh + 1] = ("%.4g"):format(a)
+      else
+        sh[#sh + 1] = ("%.4g@%.2g"):format(a, m.phase[i])
+        phased = true
+      end
     end
-    local re = m.stable == "neutral" and 0 or m.re   -- on the imaginary axis: the rest is rounding
-    t[#t + 1] = { m.im > 0 and ("%.6g +- %.6gi"):format(re, m.im) or ("%.6g"):format(re), ("%.6g"):format(m.omega),
-      ("%.6g"):format(m.hz), ("%.3g"):format(m.stable == "neutral" and 0 or m.damping), m.stable, table.concat(sh, ", ") }
+    local w = math.abs(m.im) <= thr and 0 or m.omega
+    t[#t + 1] = { M.eigenvalue_text(m.re, m.im, thr), ("%.6g"):format(w), ("%.6g"):format(w / (2 * math.pi)),
+      ("%.3g"):format(m.stable == "neutral" and 0 or m.damping), m.stable, table.concat(sh, ", ") }
   end
   lines[#lines + 1] = require("nz.system").table_text(t, "  ")
+  lines[#lines + 1] = "  shape: each coordinate's amplitude, the largest 1; -a: in opposite phase to it"
+  if phased then
+    lines[#lines + 1] = "  a@p: amplitude a, ahead of the largest by p radians (behind for p < 0; at"
+    lines[#lines + 1] = "  +-1.57, a quarter period, the two go round together, as a top's axis does)"
+  end
   -- zero eigenvalues with fewer eigenvectors (A's null space) than their
   -- multiplicity: a Jordan block, a degenerate point (V = x^4), where the
   -- linear motion grows like t and decides nothing of the stability
-  local thr, zeros, n = threshold(self.A), 0, #self.A
+  local zeros, n = 0, #self.A
   for _, e in ipairs(self:eigenvalues()) do
     if math.abs(e[1]) <= thr and math.abs(e[2]) <= thr then zeros = zeros + 1 end
   end

@@ -32,6 +32,19 @@ function M.nearest(key, names)
   if bestd and bestd <= math.max(1, #key // 3) then return best end
 end
 
+-- The options each method accepts, by the call as help writes it
+-- ("tr:plot", "nz.sweep"): the names, and a pattern function for keys
+-- accepted by shape (simulate's q3d0, q4d0, ...).  tests/help_spec.lua
+-- compares them with the options help lists for that call, so that a
+-- signature in help says what the code accepts.
+M.accepted = {}
+
+-- Declare the options of `call`; returns names (to be checked with M.check).
+function M.declare(call, names, accept)
+  M.accepted[call] = { names = names, accept = accept }
+  return names
+end
+
 -- Refuse any key of opts not in names: a list (in the order the message
 -- gives them) or a set {name = anything} (listed sorted; names starting
 -- with "_" are internal and not listed).  fail(fmt, ...) raises the

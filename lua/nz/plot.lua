@@ -35,6 +35,14 @@ end
 
 local function quote(s) return '"' .. tostring(s):gsub('"', "'") .. '"' end
 
+-- The colours of the series in an SVG or PNG, in order (gnuplot's own
+-- fifth and fourth, yellow #F0E442 and orange #E69F00, have a contrast of
+-- 1.3 and 2.2 against white, where figures need 3): each at least 4.6
+-- (WCAG 2's contrast ratio), distinct in hue, and every series has a point
+-- type of its own besides (the work-precision diagram, the terminal).
+M.COLOURS = { "#9400D3", "#007A5E", "#0072B2", "#C44E00", "#882255", "#000000", "#E51E10", "#8B4513", "#AA4499",
+  "#332288", "#666666", "#117733" }
+
 -- Run gnuplot on a script (a list of lines): true and what it printed, or
 -- false and its message.  (The terminal's plot is what it prints.)
 function M.gnuplot(script)
@@ -136,22 +144,36 @@ local function log_ticks(lo, hi, cells, room)
 end
 
 -- The range an axis of `cells` characters shows for data in [lo, hi] (log10
--- on a log axis): a character and a quarter more at each end, so that a
--- point on the edge of the data is drawn inside the frame, not on it.
-local PAD_CELLS = 1.25
-local function padded(lo, hi, cells, log)
+-- on a log axis), with `pad` characters more at each end (`pad_hi` at the
+-- high end when given), so that a point on the edge of the data is drawn
+-- inside the frame and clear of its tick marks, not over them.  The tick
+-- marks take the two columns inside each side of the frame ("|-+", "+-|")
+-- and the line inside its top and bottom: PAD_X and PAD_Y clear them by a
+-- quarter of a character.
+-- A small plot (an axis under SMALL_X columns or SMALL_Y lines) cannot
+-- spare that much room from its ticks: there each end gets the character
+-- and a quarter that keeps a point off the frame itself.  pad_hi (room for
+-- the labels of the last points) is at most a sixth of the axis more.
+local PAD_X, PAD_Y, PAD_MIN = 3.25, 2.25, 1.25
+local SMALL_X, SMALL_Y = 32, 12
+local function padded(lo, hi, cells, log, pad, pad_hi)
+  local extra = pad_hi and math.min(pad_hi - pad, cells / 6) or 0
+  if cells < (pad == PAD_X and SMALL_X or SMALL_Y) then pad = PAD_MIN end
+  pad_hi = pad + extra
   if hi <= lo then
     local d = log and 0.5 or (lo ~= 0 and math.abs(lo) * 0.1 or 1)
     lo, hi = lo - d, hi + d
   end
-  local pad = (hi - lo) * (cells > 4 * PAD_CELLS and PAD_CELLS / (cells - 2 * PAD_CELLS) or 0.2)
-  return lo - pad, hi + pad
+  local room = cells - pad - pad_hi
+  if room < 2 then pad, pad_hi, room = 0.2 * cells, 0.2 * cells, 0.6 * cells end
+  local per_cell = (hi - lo) / room
+  return lo - pad * per_cell, hi + pad_hi * per_cell
 end
 
 -- The set-commands of an axis ("x" or "y") in the terminal, and the widest
 -- tick label: the range and the ticks with their labels.
-local function axis(name, lo, hi, cells, log, room)
-  lo, hi = padded(lo, hi, cells, log)
+local function axis(name, lo, hi, cells, log, room, pad, pad_hi)
+  lo, hi = padded(lo, hi, cells, log, pad, pad_hi)
   local ticks = (log and log_ticks or linear_ticks)(lo, hi, cells, room)
   local items, w = {}, 0
   for i, t in ipairs(ticks) do
@@ -159,8 +181,10 @@ local function axis(name, lo, hi, cells, log, room)
     w = math.max(w, #t.label)
   end
   local r = log and { 10 ^ lo, 10 ^ hi } or { lo, hi }
+  -- no tick fits: none (gnuplot's own would run together)
   return { ("set %srange [%.17g:%.17g]"):format(name, r[1], r[2]),
-    ("set %stics (%s)"):format(name, table.concat(items, ", ")) }, w, lo, hi
+    #items > 0 and ("set %stics (%s)"):format(name, table.concat(items, ", ")) or ("unset %stics"):format(name) },
+    w, lo, hi
 end
 
 -- Tick labels across: at least two blanks between neighbours (the widest
@@ -300,13 +324,20 @@ function M.lines(opts)
     opts.logx and 'set logscale x\nset format x "%.0e"' or "", opts.logy and 'set logscale y\nset format y "%.0e"' or "",
     opts.legend == false and "unset key" or "set key outside right", "set grid",
   }
+
   local parts = {}
   for si, s in ipairs(series) do
     local style = s.style or (s.points and "linespoints" or "lines")
+    -- in a file, series si takes colour si, its labels too
+    local colour = M.COLOURS[(si - 1) % #M.COLOURS + 1]
+    if not terminal and not style:find("lc ") and not style:find("linecolor") then
+      style = ("%s lc rgb %q"):format(style, colour)
+    end
     parts[#parts + 1] = ("%s index %d using 1:2 with %s title %s"):format(quote(data), si - 1, style,
       quote(s.name or ("series " .. si)))
     if s.labels and not terminal then   -- a label beside each point (the work-precision diagram's tolerances)
-      parts[#parts + 1] = ("%s index %d using 1:2:3 with labels left offset 0.6,0.3 font ',8' notitle"):format(quote(data), si - 1)
+      parts[#parts + 1] = ("%s index %d using 1:2:3 with labels left offset 0.6,0.3 font ',8' textcolor rgb %q notitle")
+        :format(quote(data), si - 1, colour)
     end
   end
   if terminal then
@@ -344,9 +375,15 @@ function M.lines(opts)
     local ya, yb = ends(ylo, yhi, opts.logy)
     local xa, xb = ends(xlo, xhi, opts.logx)
     local yset, w
-    yset, w, ya, yb = axis("y", ya, yb, y1 - y0, opts.logy, y_room)
+    yset, w, ya, yb = axis("y", ya, yb, y1 - y0, opts.logy, y_room, PAD_Y)
+    -- labelled points: room on the right for the labels of the last ones
+    local widest = 0
+    for _, s in ipairs(series) do
+      for _, l in ipairs(s.labels or {}) do widest = math.max(widest, #l) end
+    end
     local xset, _
-    xset, _, xa, xb = axis("x", xa, xb, x1 - x0 - w - (ylabel and ylabel.width or 0), opts.logx, x_room)
+    xset, _, xa, xb = axis("x", xa, xb, x1 - x0 - w - (ylabel and ylabel.width or 0), opts.logx, x_room, PAD_X,
+      widest > 0 and PAD_X + widest + 1 or nil)
     -- the left margin set: the y label's lines, then (as measured) a
     -- blank, the tick labels, a blank
     x0 = x0 + w + (ylabel and ylabel.width or 0)

@@ -102,11 +102,14 @@ end
 -- mass matrix is singular (x' is in its kernel).  `tau` fixes the
 -- parametrization by the constraint t = tau(tau_value), which makes the
 -- motion determined, so that it can be integrated.
+local PARAMETRIC_OPTIONS = options.declare("sys:parametric", { "time", "tau" })
+local JW_OPTIONS = options.declare("sys:jacobi_whittaker", { "h", "independent" })
+
 function M.parametric(sys, opts)
   local fname = "parametric"
   opts = opts or {}
   if type(opts) ~= "table" then fail(sys, fname, "options must be a table {time =, tau =}") end
-  options.check(opts, { "time", "tau" }, function(...) fail(sys, fname, ...) end)
+  options.check(opts, PARAMETRIC_OPTIONS, function(...) fail(sys, fname, ...) end)
   local tname = opts.time or "t"
   for _, c in ipairs(sys.coords) do
     if c == tname then fail(sys, fname, "a coordinate is already named '%s': name time otherwise (time = \"...\")", tname) end
@@ -284,7 +287,7 @@ end
 function M.jacobi_whittaker(sys, opts)
   local fname = "jacobi_whittaker"
   if type(opts) ~= "table" then fail(sys, fname, "options {h = ..., independent = ...} expected") end
-  options.check(opts, { "h", "independent" }, function(...) fail(sys, fname, ...) end)
+  options.check(opts, JW_OPTIONS, function(...) fail(sys, fname, ...) end)
   local h = opts.h
   if type(h) ~= "number" or h ~= h or math.abs(h) == math.huge then
     fail(sys, fname, "h: the value of the energy integral H = h (a finite number) expected, got %s",
@@ -373,6 +376,51 @@ function M.jacobi_whittaker(sys, opts)
   local ok, path = pcall(require("nz.system").system, def)
   if not ok then fail(sys, fname, "the reduced system could not be made: %s", tostring(path)) end
   path.parent, path.h, path.independent = sys, h, j
+  -- The path with the elapsed time as one more coordinate tau (made at the
+  -- first path:elapsed): L + (tau' - f)^2 / 2, f = dt/dq_1 = sqrt(G / (h +
+  -- L0)).  tau is cyclic, so its momentum tau' - f is conserved, and from
+  -- tau' = f at the start it stays 0: its terms in the other coordinates'
+  -- equations, d/dq_1(-(tau' - f) df/dq_s') + (tau' - f) df/dq_s, vanish and
+  -- the path is the same, while tau = the integral of f is integrated with
+  -- it under the stepper's error control.  Its mass matrix [M + f_v f_v^T,
+  -- -f_v; -f_v^T, 1] (v = q_s') has M as its Schur complement: as regular as
+  -- the path's.
+  local with_time
+  function path.time_system()
+    if with_time then return with_time end
+    local n = #others
+    local function split(x, xd)
+      local qs, qsd = {}, {}
+      for i = 1, n do qs[i], qsd[i] = x[i], xd and xd[i] end
+      return qs, qsd
+    end
+    local function rate(q1, qs, qsd, params)
+      local q, v = full(q1, qs, qsd)
+      local G, _, L0 = parts(q, v, params)
+      return sqrt(G / (h + L0))
+    end
+    local tdef = { name = path.name .. " with its elapsed time", params = sys.params, coords = {} }
+    for i = 1, n do tdef.coords[i] = def.coords[i] end
+    tdef.coords[n + 1] = "elapsed time"
+    tdef.L = function(q1, x, xd, params)
+      local qs, qsd = split(x, xd)
+      local c = xd[n + 1] - rate(q1, qs, qsd, params)
+      return def.L(q1, qs, qsd, params) + 0.5 * c * c
+    end
+    if def.constraints then
+      tdef.constraints = {}
+      for r, f in ipairs(def.constraints) do
+        tdef.constraints[r] = function(q1, x, xd, a, b, params)
+          local qs, qsd = split(x, xd)
+          return f(q1, qs, qsd, a, b, params)
+        end
+      end
+    end
+    local made
+    made, with_time = pcall(require("nz.system").system, tdef)
+    if not made then fail(sys, "elapsed", "the path with its time could not be made: %s", tostring(with_time)) end
+    return with_time
+  end
   -- dt/dq_1 = sqrt(G / (h + L0)) at a point of the path
   function path.time_rate(_, q1, qs, qsd)
     local q, v = full(q1, qs, qsd)
@@ -388,53 +436,50 @@ function M.jacobi_whittaker(sys, opts)
 end
 
 -- The physical time at each point of a trajectory of the reduced system,
--- from t(q_1) = integral sqrt(G / (h + L0)) dq_1, 0 at its first point.
--- Over each interval the path is the quintic Hermite interpolant of q_s, q_s',
--- q_s'' at its ends (error O(dq^6)), and the integrand is summed by 8-point
--- Gauss-Legendre (exact for degree 15): the quadrature's error is the
--- interpolant's.
-local GL_X = { -0.9602898564975363, -0.7966664774136267, -0.5255324099163290, -0.1834346424956498,
-  0.1834346424956498, 0.5255324099163290, 0.7966664774136267, 0.9602898564975363 }
-local GL_W = { 0.1012285362903763, 0.2223810344533745, 0.3137066458778873, 0.3626837833783620,
-  0.3626837833783620, 0.3137066458778873, 0.2223810344533745, 0.1012285362903763 }
-
-local function hermite5(y0, d0, a0, y1, d1, a1, hh, s)
-  -- the quintic with value, slope and second derivative y, d, a at s = 0 and 1
-  -- (in units of the interval hh); returns the value and the derivative in q_1
-  local D0, D1, A0, A1 = d0 * hh, d1 * hh, a0 * hh * hh, a1 * hh * hh
-  local s2, s3 = s * s, s * s * s
-  local s4, s5 = s3 * s, s3 * s2
-  local h00, h01 = 1 - 10 * s3 + 15 * s4 - 6 * s5, 10 * s3 - 15 * s4 + 6 * s5
-  local h10, h11 = s - 6 * s3 + 8 * s4 - 3 * s5, -4 * s3 + 7 * s4 - 3 * s5
-  local h20, h21 = 0.5 * (s2 - 3 * s3 + 3 * s4 - s5), 0.5 * (s3 - 2 * s4 + s5)
-  local g00, g01 = -30 * s2 + 60 * s3 - 30 * s4, 30 * s2 - 60 * s3 + 30 * s4
-  local g10, g11 = 1 - 18 * s2 + 32 * s3 - 15 * s4, -12 * s2 + 28 * s3 - 15 * s4
-  local g20, g21 = 0.5 * (2 * s - 9 * s2 + 12 * s3 - 5 * s4), 0.5 * (3 * s2 - 8 * s3 + 5 * s4)
-  local y = h00 * y0 + h01 * y1 + h10 * D0 + h11 * D1 + h20 * A0 + h21 * A1
-  local dy = (g00 * y0 + g01 * y1 + g10 * D0 + g11 * D1 + g20 * A0 + g21 * A1) / hh
-  return y, dy
-end
-
+-- 0 at its first point: the path integrated again from its first state with
+-- the elapsed time tau as one more coordinate (path.time_system: tau' =
+-- dt/dq_1 = sqrt(G / (h + L0))), by the trajectory's method and tolerances
+-- (or fixed step) on the same output grid, so that tau is as accurate as the
+-- path at every point whatever the grid.  Off the grid (a point that is not
+-- t0 + i dt of path:simulate) it refuses.
 function M.elapsed(path, tr)
+  local where = require("nz.where").user_where
   if type(tr) ~= "table" or not tr.t or not tr.q or not tr.qd or not tr.qdd then
-    error(("%spath:elapsed: a trajectory of path:simulate expected"):format(require("nz.where").user_where()), 0)
+    error(("%spath:elapsed: a trajectory of path:simulate expected"):format(where()), 0)
   end
-  local n, out = #tr.t, { 0 }
-  local total = 0
-  for p = 2, n do
-    local a, b = tr.t[p - 1], tr.t[p]
-    local hh = b - a
-    local s = 0
-    for g = 1, 8 do
-      local u = 0.5 * (GL_X[g] + 1)
-      local qs, qsd = {}, {}
-      for i = 1, path.k do
-        qs[i], qsd[i] = hermite5(tr.q[p - 1][i], tr.qd[p - 1][i], tr.qdd[p - 1][i], tr.q[p][i], tr.qd[p][i], tr.qdd[p][i], hh, u)
-      end
-      s = s + GL_W[g] * path:time_rate(a + u * hh, qs, qsd)
+  local n = #tr.t
+  if n == 0 then return {} end
+  if n == 1 then return { 0 } end
+  if tr.system ~= nil and tr.system ~= path then
+    error(("%spath:elapsed: the trajectory is of system '%s', not of the path '%s'"):format(where(), tr.system.name,
+      path.name), 0)
+  end
+  -- The grid of path:simulate: t0 + i dt, and the last point t1 (or where
+  -- the run stopped) at most dt after the one before.
+  local t0 = tr.t[1]
+  local dt = n > 2 and (tr.t[n - 1] - t0) / (n - 2) or tr.t[2] - t0
+  for i = 2, n - 1 do
+    if math.abs(tr.t[i] - (t0 + (i - 1) * dt)) > 1e-9 * dt then
+      error(("%spath:elapsed: the trajectory's points are not the output grid of path:simulate (t%d = %.17g, not t0 + "
+        .. "%d dt = %.17g): integrate the path with path:simulate{..., dt = ...}"):format(where(), i, tr.t[i], i - 1,
+        t0 + (i - 1) * dt), 0)
     end
-    total = total + 0.5 * hh * s
-    out[p] = total
+  end
+  local sys = path.time_system()
+  local q0, qd0 = { table.unpack(tr.q[1]) }, { table.unpack(tr.qd[1]) }
+  local k = path.k
+  q0[k + 1], qd0[k + 1] = 0, path:time_rate(t0, tr.q[1], tr.qd[1])
+  local opts = { q0 = q0, qd0 = qd0, t0 = t0, t1 = tr.t[n], dt = dt, method = tr.method }
+  if tr.step then opts.step = tr.step else opts.rtol, opts.atol = tr.rtol, tr.atol end
+  local run = sys:simulate(opts)
+  if #run.t ~= n then
+    error(("%spath:elapsed: the path with its time gave %d points where the trajectory has %d (status '%s')"):format(
+      where(), #run.t, n, tostring(run.status)), 0)
+  end
+  local out = { 0 }
+  for i = 2, n do
+    -- the grids agree to rounding: move tau by tau' over the difference
+    out[i] = run.q[i][k + 1] + run.qd[i][k + 1] * (tr.t[i] - run.t[i])
   end
   return out
 end

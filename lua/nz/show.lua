@@ -7,6 +7,7 @@
 -- qd, qdd, lambda, params returning the residuals: what the tests load back
 -- and compare with sys:residual).
 local formula = require "nz.formula"
+local order_n = require "nz.show_order"
 local constraints = require "nz.constraints"
 local options = require "nz.options"
 
@@ -14,26 +15,35 @@ local M = {}
 
 local function fail(sys, ...) require("nz.where").method_error("show", sys, ...) end
 
+local derivative_symbol = order_n.symbol
+
 -- The graph of a system, read once per call: the node dump, its symbols,
--- and a memo of the polynomials already made.
-local function reader(sys)
+-- and a memo of the polynomials already made.  c: another graph of the
+-- same layout (the equations of order n: nz/show_order.lua), whose frozen
+-- velocities read as q' (frozen = true: as q'_0, where R_1 must tell them
+-- from q').
+local function reader(sys, c, frozen)
   local e = sys.engine
-  local c = e.compiled
-  if not c then
+  if not e.compiled then
     fail(sys, "the system is not recorded (made with compile = false), so there are no formulas to read: make it without compile = false")
   end
+  c = c or e.compiled
   local k, np = sys.k, #(e.compiled_params or {})
+  local frozen_from = 1 + np + c:nslots() * k
   local function sym(input)
     if input == 0 then return formula.symbol("t", { lua = "t", base = "t" }) end
     if input <= np then
       local name = e.compiled_params[input]
       return formula.symbol(name, { lua = ("params[%q]"):format(name), base = name })
     end
+    if input >= frozen_from then
+      local i = input - frozen_from + 1
+      if not frozen then return derivative_symbol(sys, 1, i) end
+      return formula.symbol(sys.coords[i] .. "'_0", { lua = ("frozen[%d]"):format(i), base = sys.coords[i], dots = 1,
+        slot = 1, coord = i, frozen = true })
+    end
     local s = input - 1 - np
-    local j, i = s // k, s % k + 1
-    local name = sys.coords[i] .. ("'"):rep(j)
-    local lua = ({ "q", "qd", "qdd", "qddd" })[j + 1] or ("higher[" .. (j - 3) .. "]")
-    return formula.symbol(name, { lua = ("%s[%d]"):format(lua, i), base = sys.coords[i], dots = j, slot = j, coord = i })
+    return derivative_symbol(sys, s // k, s % k + 1)
   end
   local rd = { c = c, k = k, np = np, memo = {}, sym = sym }
   -- the graph grows as derivatives are taken: only its new nodes are read
@@ -52,10 +62,16 @@ local function reader(sys)
   return rd
 end
 
--- M (k x k) and h (k) as polynomials.
-local function mass_bias(sys, rd)
+-- Refuse a system whose T, V or Q runs in Lua (in part): the graph would
+-- lack that piece, and the formulas would be wrong without a word.
+local function check_recorded(sys)
   local in_lua = require("nz.record").mass_bias_in_lua(sys)
   if in_lua then fail(sys, "no formulas: %s. Only recorded functions can be shown", in_lua) end
+end
+
+-- M (k x k) and h (k) as polynomials.
+local function mass_bias(sys, rd)
+  check_recorded(sys)
   local ids = rd.c:mass_bias_outputs(sys.k)
   if not ids then fail(sys, "M and h could not be built from the recording (a piece of T, V or Q runs in Lua)") end
   local k, Mp, h = sys.k, {}, {}
@@ -83,16 +99,40 @@ local function constraint(sys, rd, r, m)
 end
 
 -- The equations as polynomials: lhs[i] = sum_j M_ij q_j'' + h_i and rhs[i]
--- = sum_r A_ri lambda_r; with the constraints and their orders.
-function M.equations(sys)
+-- = sum_r A_ri lambda_r; with the constraints and their orders.  With n,
+-- lhs is (3.1) of order n, built from F^(n) (nz/show_order.lua), and M and h
+-- are read off it: the coefficients of q'' and the rest (which would hold
+-- whatever else the collected form kept: by (2.1) nothing above q'').
+function M.equations(sys, n)
   local rd = reader(sys)
-  local Mp, h = mass_bias(sys, rd)
   local k = sys.k
   local lhs, rhs = {}, {}
-  for i = 1, k do
-    local s = h[i]
-    for j = 1, k do s = formula.add(s, formula.mul(Mp[i][j], rd.sym(rd.input(2, j)))) end
-    lhs[i], rhs[i] = s, formula.const(0)
+  local Mp, h, order
+  if n then
+    check_recorded(sys)
+    -- (3.1) of order n from F^(n) (nz/show_order.lua), whose collected
+    -- form then gives M and h: the coefficients of q'' and the rest
+    local eq0 = { reader = rd }
+    local g, why = order_n.graph(sys, n)
+    if not g then fail(sys, "no formulas of order %d: %s", n, why) end
+    order = order_n.terms(sys, g, M.forces(sys, eq0), function(frozen) return reader(sys, g.c, frozen) end)
+    Mp, h = {}, {}
+    for i = 1, k do
+      lhs[i], rhs[i] = order.lhs[i], formula.const(0)
+      local coef, rest = formula.linear_in(lhs[i], function(a)
+        local info = a.kind == "sym" and a.info
+        return info and info.slot == 2 and not info.frozen and info.coord or nil
+      end)
+      Mp[i], h[i] = {}, rest
+      for j = 1, k do Mp[i][j] = coef[j] or formula.const(0) end
+    end
+  else
+    Mp, h = mass_bias(sys, rd)
+    for i = 1, k do
+      local s = h[i]
+      for j = 1, k do s = formula.add(s, formula.mul(Mp[i][j], rd.sym(rd.input(2, j)))) end
+      lhs[i], rhs[i] = s, formula.const(0)
+    end
   end
   local phis, As, orders = {}, {}, {}
   if sys.nc > 0 then
@@ -103,7 +143,7 @@ function M.equations(sys)
       for i = 1, k do rhs[i] = formula.add(rhs[i], formula.mul(As[r][i], lam)) end
     end
   end
-  return { lhs = lhs, rhs = rhs, M = Mp, h = h, phi = phis, A = As, orders = orders, reader = rd }
+  return { lhs = lhs, rhs = rhs, M = Mp, h = h, phi = phis, A = As, orders = orders, reader = rd, n = n, order = order }
 end
 
 -- The applied forces -dV/dq + Q, per coordinate (Appell's function needs them).
@@ -234,7 +274,8 @@ local function short_names(polys)
 end
 
 -- What sys:show prints beside the equations when asked (reduced, appell,
--- mass, bias): a list of {title, rows = {{left, right}, ...}} in lang.
+-- mass, bias), and with n the terms of (3.1): a list of {title, rows =
+-- {{left, right}, ...}} in lang.
 local function extras(sys, eq, opts, lang, names)
   local k, out = sys.k, {}
   local tex = lang == "tex"
@@ -244,6 +285,20 @@ local function extras(sys, eq, opts, lang, names)
   end
   local width = 0
   for i = 1, k do width = math.max(width, #sys.coords[i]) end
+  local n = eq.n
+  -- the labels in lang, the titles in text (LaTeX comments in LaTeX)
+  local on, ot = n and order_n.names(sys, n, lang), n and order_n.names(sys, n, "text")
+  if n then
+    -- (3.1)'s terms as they come: dF^(n)/dq^(n), dF/dq and the force, per coordinate
+    local x = { title = "the terms of (3.1) as they come, per coordinate (Q includes -dV/dq)\n  " .. ot.note,
+      rows = {}, align = true }
+    for i = 1, k do
+      x.rows[#x.rows + 1] = { on.top(i), formula.print(formula.ordered(eq.order.top[i], rank), lang, names) }
+      x.rows[#x.rows + 1] = { on.dq(i), formula.print(formula.ordered(eq.order.dq[i], rank), lang, names) }
+      x.rows[#x.rows + 1] = { on.Q(i), formula.print(formula.ordered(eq.order.force[i], rank), lang, names) }
+    end
+    out[#out + 1] = x
+  end
   if opts.reduced then
     local red, why = M.reduced(sys, eq)
     if not red then fail(sys, "reduced = true: %s", why) end
@@ -257,7 +312,19 @@ local function extras(sys, eq, opts, lang, names)
     end
     out[#out + 1] = x
   end
-  if opts.appell then
+  if opts.appell and n then
+    local title
+    if n == 1 then
+      title = ("Dolapchiev's R_1 = %s' - 2 %s_0' (4.1), %s_0: %s with its velocities held, written %s'_0, ... (dR_1/dq'_i, "
+        .. "with them held, = Q_i + (A^T lambda)_i)"):format(ot.F, ot.F, ot.F, ot.F, sys.coords[1])
+    else
+      title = ("Dolapchiev's R_%d = (1/%d) (%s - %d %s_0%s) (4.1) up to terms free of %s, %s_0: %s with its velocities "
+        .. "held (dR_%d/d%s_i = Q_i + (A^T lambda)_i; %s)"):format(n, n, ot.Fn, n + 1, ot.F, ot.Fn:sub(#ot.F + 1), ot.qn, ot.F,
+        ot.F, n, ot.qn, n == 2 and "Appell's S" or ("linear in %s: sum_i E_i(%s) %s_i"):format(ot.qn, ot.F, ot.qn))
+    end
+    out[#out + 1] = { title = title, rows = { { lang == "tex" and ("R_{%d}"):format(n) or ("R_" .. n),
+      formula.print(formula.ordered(eq.order.R(), rank), lang, names) } } }
+  elseif opts.appell then
     out[#out + 1] = { title = "Appell's function of the accelerations (up to terms free of q''; dS/dq''_i = Q_i - dV/dq_i + (A^T lambda)_i)",
       rows = { { "S", formula.print(formula.ordered(M.appell(sys, eq), rank), lang, names) } } }
   end
@@ -283,15 +350,27 @@ local function extras(sys, eq, opts, lang, names)
   return out
 end
 
+local OPTIONS = options.declare("sys:show", { "n", "tex", "lua", "mass", "bias", "reduced", "appell", "width", "names" })
+
 function M.show(sys, opts)
   opts = opts or {}
-  if type(opts) ~= "table" then fail(sys, "options must be a table {tex =, lua =, mass =, bias =, width =}") end
-  options.check(opts, { "tex", "lua", "mass", "bias", "reduced", "appell", "width", "names" }, function(...) fail(sys, ...) end)
-  local eq = M.equations(sys)
+  if type(opts) ~= "table" then fail(sys, "options must be a table {n =, tex =, lua =, mass =, bias =, width =}") end
+  options.check(opts, OPTIONS, function(...) fail(sys, ...) end)
+  local n = opts.n
+  local max_order = require("nz.core").mech.max_order
+  if n ~= nil and not (type(n) == "number" and n == math.floor(n) and n >= 1 and n <= max_order) then
+    fail(sys, "option 'n': an integer order from 1 to %d expected, got %s", max_order, require("nz.system").args.shown(n))
+  end
+  n = n and math.tointeger(n)
+  local eq = M.equations(sys, n)
   local k = sys.k
   if opts.lua then
-    local lines = { "-- the residuals M q'' + h - A^T lambda of '" .. sys.name .. "' (nzlua sys:show{lua = true})",
-      "return function(t, q, qd, qdd, lambda, params)", "  lambda = lambda or {}", "  params = params or {}", "  return {" }
+    local what = n and ("the residuals of order %d, %s - Q - A^T lambda (Q includes -dV/dq),"):format(n,
+      order_n.names(sys, n, "text").equation) or "the residuals M q'' + h - A^T lambda"
+    local lines = { ("-- %s of '%s' (nzlua sys:show{%slua = true})"):format(what, sys.name, n and ("n = %d, "):format(n) or ""),
+      "-- higher = {q''', q^(4), ...}: the derivatives above q'' (as sys:residual's option higher)",
+      "return function(t, q, qd, qdd, lambda, params, higher)", "  lambda = lambda or {}", "  params = params or {}",
+      "  higher = higher or {}", "  return {" }
     for i = 1, k do
       local r = formula.sub(eq.lhs[i], eq.rhs[i])
       lines[#lines + 1] = "    " .. formula.print(r, "lua") .. ","
@@ -352,8 +431,8 @@ function M.show(sys, opts)
     names, where = short_names(polys)
     if #where > 0 then rows = render(names) else names = nil end
   end
-  local n = sys.nc > 0 and (sys:rule()) or 1
-  local form = ({ "Nielsen's", "Tsenov's" })[n] or ("Dolapchiev's, of order " .. n)
+  local rule_n = sys.nc > 0 and (sys:rule()) or 1
+  local form = ({ "Nielsen's", "Tsenov's" })[rule_n] or ("Dolapchiev's, of order " .. rule_n)
   if lang == "tex" then
     local out = { "\\begin{aligned}" }
     for i = 1, k do
@@ -368,7 +447,7 @@ function M.show(sys, opts)
     -- what was asked for beside the equations: a block each, named in a
     -- LaTeX comment, so that each compiles on its own
     local function block(title, lines)
-      out[#out + 1] = "% " .. title
+      out[#out + 1] = "% " .. title:gsub("\n%s*", "\n%% ")
       out[#out + 1] = "\\begin{aligned}"
       for n, l in ipairs(lines) do out[#out + 1] = "  " .. l .. (n < #lines and " \\\\" or "") end
       out[#out + 1] = "\\end{aligned}"
@@ -387,8 +466,17 @@ function M.show(sys, opts)
     end
     return s
   end
-  local out = { ("equations of motion of '%s': M(q) q'' + h(q, q') = A^T lambda, per coordinate"):format(sys.name),
-    ("  (Dolapchiev's rule picks n = %d, %s equations; the equations of every order n collect to these)"):format(n, form) }
+  local out
+  if n then
+    local T = order_n.names(sys, n, "text")
+    out = { ("equations of order n = %d of '%s', %s:"):format(n, sys.name, order_n.form(n)),
+      ("  %s = Q + A^T lambda (Q includes -dV/dq), collected as for every n by (2.1)"):format(T.equation),
+      ("  to M(q) q'' + h(q, q') = A^T lambda, per coordinate (Dolapchiev's rule picks n = %d)"):format(rule_n) }
+  else
+    out = { ("equations of motion of '%s': M(q) q'' + h(q, q') = A^T lambda, per coordinate"):format(sys.name),
+      ("  (Dolapchiev's rule picks n = %d, %s equations; the equations of every order n collect to these:"
+        .. " show{n = %d} prints them with their terms)"):format(rule_n, form, rule_n) }
+  end
   local width = 0
   for i = 1, k do width = math.max(width, #sys.coords[i]) end
   for i = 1, k do
@@ -398,7 +486,7 @@ function M.show(sys, opts)
     out[#out + 1] = "with the constraints"
     for r = 1, sys.nc do
       out[#out + 1] = ("  (%d)  %s = 0   (order %d: A = dPhi/d%s)"):format(r, formula.print(eq.phi[r], "text", names, true),
-        eq.orders[r], ({ "q", "q'", "q''" })[eq.orders[r] + 1] or "q^(m)")
+        eq.orders[r], order_n.level(eq.orders[r]))
     end
   end
   if #where > 0 then
@@ -409,7 +497,9 @@ function M.show(sys, opts)
   end
   for _, x in ipairs(extras(sys, eq, opts, "text", names)) do
     out[#out + 1] = x.title .. ":"
-    for _, row in ipairs(x.rows) do out[#out + 1] = ("  %s = %s"):format(row[1], row[2]) end
+    local w = 0
+    for _, row in ipairs(x.rows) do w = x.align and math.max(w, #row[1]) or 0 end
+    for _, row in ipairs(x.rows) do out[#out + 1] = "  " .. row[1] .. (" "):rep(w - #row[1]) .. " = " .. row[2] end
   end
   return table.concat(out, "\n")
 end

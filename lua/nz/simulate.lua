@@ -28,14 +28,14 @@ local M = {}
 -- method at tight tolerances (documented in help(nz.system)).
 M.defaults = { method = "rk8pd", rtol = 1e-10, atol = 1e-12, points = 200, event_tol = 1e-12 }
 
-local known = {
+-- q3d0, q4d0, ...: the start of higher levels (constraints of order >= 3).
+local function level_option(key) return type(key) == "string" and key:match("^q%d+d0$") ~= nil end
+local known = require("nz.options").declare("sys:simulate", {
   q0 = true, qd0 = true, t0 = true, t1 = true, dt = true, method = true, rtol = true, atol = true,
   step = true, events = true, project = true, baumgarte = true, monitors = true, progress = true,
   check = true, h0 = true, event_tol = true, guess = true, qdd0 = true, dense = true,
   _loop = true,   -- internal, for tests and bench/loop_cost.lua: "lua" or "c" forces a loop (see M.simulate)
-}
--- q3d0, q4d0, ...: the start of higher levels (constraints of order >= 3).
-local function level_option(key) return type(key) == "string" and key:match("^q%d+d0$") ~= nil end
+}, level_option)
 local known_monitors = { energy = true, work = true }
 
 -- Limits that keep a run finite and its memory bounded.
@@ -300,6 +300,15 @@ local function validate(sys, o)
           :format(key, show(cfg.step), key))
       end
     end
+    -- Both loops take equal steps no longer than 'step' that land on each
+    -- output point: dt / ceil(dt / step).  That is the step the trajectory
+    -- reports; one longer than the output spacing is said once.
+    cfg.step_used = cfg.dt / math.max(1, math.ceil(cfg.dt / cfg.step - 1e-9))
+    if cfg.step > cfg.dt * (1 + 1e-9) then
+      warn_once(sys, cfg, "step>dt", ("'step' = %s is longer than the output spacing 'dt' = %s: every output point ends a "
+        .. "step, so the steps are %s; give a larger 'dt' for longer steps"):format(show(cfg.step), show(cfg.dt),
+        show(cfg.step_used)))
+    end
   end
   return cfg
 end
@@ -375,6 +384,12 @@ end
 local method_order = { rk2 = 2, rk4 = 4, rkf45 = 5, rkck = 5, rk8pd = 8, rk1imp = 1, rk2imp = 2, rk4imp = 4,
   bsimp = 6, msadams = 12, msbdf = 5 }
 
+local function duration_short(seconds)
+  if seconds < 1e-3 then return ("%.3g us"):format(1e6 * seconds) end
+  if seconds < 1 then return ("%.3g ms"):format(1e3 * seconds) end
+  return ("%.3g s"):format(seconds)
+end
+
 local function duration(seconds)
   if seconds < 120 then return ("%.0f s"):format(seconds) end
   if seconds < 7200 then return ("%.0f min"):format(seconds / 60) end
@@ -386,19 +401,75 @@ end
 -- fixed `step` (rtol does nothing there), the output grid (every dt is at
 -- least one step, whatever the tolerance), or the adaptive steps, which
 -- for an order-p method grow like rtol^(-1/p): then a low order at a tight
--- tolerance is what costs.  nsteps: the steps taken up to tt.
+-- tolerance is what costs.  nsteps: the steps taken up to tt.  An implicit
+-- method is named only on evidence of stiffness (stiff, below): a chaotic
+-- but non-stiff motion gets no such hint.
 local IMPLICIT = {}   -- as the engine classifies its steppers (src/ode/ode.c)
 for _, m in ipairs(mech.ode_methods()) do IMPLICIT[m.name] = m.implicit end
-local STIFF = "bsimp or msbdf if the system is stiff (then stability, not accuracy, sets the steps of an explicit "
-  .. "method, and a looser rtol hardly helps)"
 
-local function cheaper(cfg, nsteps, tt)
+-- Where an explicit method's stability region ends on the negative real
+-- axis (h |lambda| beyond it grows a mode whatever the tolerance; Hairer,
+-- Norsett and Wanner I, section IV.2): |R(-x)| = 1 for the stability
+-- polynomial R(z) = 1 + z b^T (I - z A)^-1 1 of each tableau, computed
+-- once (rk2, rk4: e^z's Taylor polynomials; rkf45 and rkck advance with
+-- their fifth-order weights in GSL; rk8pd is Prince-Dormand 8(7) 13M).
+local STABILITY_BOUNDARY = { rk2 = 2.0, rk4 = 2.79, rkf45 = 3.67, rkck = 3.73, rk8pd = 5.17 }
+
+-- Taylor's method of order p: its stability polynomial is e^z's Taylor
+-- polynomial of degree p; the boundary is where |sum_{j<=p} (-x)^j / j!|
+-- first exceeds 1 (scanned, then bisected).
+local function taylor_boundary(p)
+  local function amp(x)
+    local s, term = 1, 1
+    for j = 1, p do term = term * (-x) / j; s = s + term end
+    return math.abs(s)
+  end
+  local lo, hi = 0, 0.5
+  while amp(hi) <= 1 and hi < 100 do lo, hi = hi, hi + 0.5 end
+  for _ = 1, 40 do
+    local mid = 0.5 * (lo + hi)
+    if amp(mid) <= 1 then lo = mid else hi = mid end
+  end
+  return lo
+end
+
+-- The evidence of stiffness at the run's current pace: its average step h
+-- over the last window of steps times the spectral radius rho of the
+-- motion's Jacobian at the current state (ev.rho, nil when it could not be
+-- had), against the explicit method's stability boundary.  An explicit
+-- method whose step sits at that boundary (h rho >= half of it) is held
+-- there by stability, not by accuracy: at rtol 1e-10 accuracy alone keeps
+-- an order-8 step near h |lambda| ~ 0.06, and the step control settles
+-- just under the boundary when stability holds it (rk8pd on x'' + 1e4 x' +
+-- x = 0: 5.2).  An implicit method on a motion
+-- that an explicit one would step as far (h rho below 1) is no help.
+local function stiffness(cfg, ev)
+  if not (ev and ev.rho and ev.h) then return nil end
+  local boundary = cfg.method == "taylor" and taylor_boundary(mech.taylor_order(cfg.rtol))
+    or STABILITY_BOUNDARY[cfg.method]
+  local x = ev.h * ev.rho
+  if boundary then
+    return { stiff = x >= 0.5 * boundary, x = x, boundary = boundary }
+  end
+  return { stiff = x >= 1, x = x }                -- an implicit method
+end
+
+local function stiff_words(cfg, s)
+  return s.boundary and ("its steps are held by stability, not accuracy: h |lambda|max = %.2g against %s's "
+    .. "stability boundary %.2g, and a looser rtol hardly helps"):format(s.x, cfg.method, s.boundary)
+    or ("the motion is stiff here: h |lambda|max = %.2g"):format(s.x)
+end
+
+local function cheaper(cfg, nsteps, tt, ev)
+  local s = stiffness(cfg, ev)
+  local stiff = s and s.stiff
   if cfg.method == "taylor" then
     -- its steps do not depend on the grid, and hardly on the tolerance
     -- (Jorba-Zou): the order does, and a step costs about its square
     local p, lp = mech.taylor_order(cfg.rtol), mech.taylor_order(cfg.rtol * 1e3)
-    return ("a looser rtol (taylor's order comes from it: rtol = %g takes order %d instead of %d, "
-      .. "about %.2gx cheaper per step), or rk8pd, or %s"):format(cfg.rtol * 1e3, lp, p, (p / lp) ^ 2, STIFF)
+    return ("%sa looser rtol (taylor's order comes from it: rtol = %g takes order %d instead of %d, "
+      .. "about %.2gx cheaper per step), or rk8pd"):format(stiff and ("bsimp or msbdf (%s), or "):format(stiff_words(cfg, s)) or "",
+      cfg.rtol * 1e3, lp, p, (p / lp) ^ 2)
   end
   if cfg.step then
     return ("the steps are fixed ('step' = %g; rtol does nothing for fixed steps): a larger 'step', "
@@ -411,21 +482,21 @@ local function cheaper(cfg, nsteps, tt)
   end
   local p = method_order[cfg.method] or 4
   local advice = {}
-  if p < 5 then
-    advice[#advice + 1] = ("a higher-order method (%s is of order %d): rk8pd, or %s"):format(cfg.method, p,
-      IMPLICIT[cfg.method] and "bsimp if the system is stiff" or STIFF)
-  elseif not IMPLICIT[cfg.method] then
-    advice[#advice + 1] = STIFF
+  if stiff and not IMPLICIT[cfg.method] then
+    advice[#advice + 1] = ("bsimp or msbdf (%s)"):format(stiff_words(cfg, s))
+  elseif stiff and cfg.method ~= "bsimp" and cfg.method ~= "msbdf" and p < 5 then
+    advice[#advice + 1] = ("a higher-order implicit method (%s is of order %d): bsimp (%s)"):format(cfg.method, p,
+      stiff_words(cfg, s))
+  elseif p < 5 then
+    advice[#advice + 1] = ("a higher-order method (%s is of order %d): rk8pd"):format(cfg.method, p)
+  elseif IMPLICIT[cfg.method] and s and not stiff then
+    advice[#advice + 1] = ("rk8pd (the motion is not stiff here: h |lambda|max = %.2g)"):format(s.x)
   end
   advice[#advice + 1] = ("a looser rtol (the steps grow like rtol^(-1/%d) for this method; rtol = %g takes %.2gx fewer steps)")
     :format(p, cfg.rtol * 1e3, 1e3 ^ (1 / p))
   return table.concat(advice, ", or ")
 end
 
--- A run that will take long says so once, with what would be cheaper
--- (tr.warnings, and the terminal): nsteps steps have brought it to tt,
--- wall0 was its start, done() clears the progress bar's line.  True when
--- it said so.
 -- Seconds the run has waited for the compiler so far (native = true; 0 when
 -- the system is not recorded): a one-time cost, not the run's pace.  A
 -- compile in the background costs the run nothing.
@@ -453,18 +524,39 @@ local function evaluator(sys, from)
   return "jets (a function of the system runs in Lua: print(sys) says which)"
 end
 
-local function long_run_notice(sys, cfg, tr, nsteps, tt, wall0, done, compiled0)
-  local done_frac = (tt - cfg.t0) / (cfg.t1 - cfg.t0)
-  -- the pace of the run: the time since its start less what compiling took
-  -- (a series compiled at the first step would otherwise read as a slow run)
-  local elapsed = mech.now() - wall0 - (compile_seconds(sys) - compiled0)
-  local steps, seconds = nsteps / done_frac, elapsed / done_frac
+-- A run that will take long says so once, with what would be cheaper
+-- (tr.warnings, and the terminal): nsteps steps have brought it to tt,
+-- wall0 was its start, done() clears the progress bar's line.  It looks at
+-- every doubling of the step count; pace holds the step count, t, clock
+-- and compile time of the previous look, so that the projection is the
+-- pace of the last window (half the steps so far): the run's start-up (the
+-- first calls, plans built, a graph evaluated before its machine code is
+-- ready) is not spread over what remains.  evidence(tt) gives the
+-- spectral radius of the motion's Jacobian at the current state (one
+-- Jacobian and its eigenvalues, once, when the notice is given).  True when
+-- it said so.
+local function long_run_notice(sys, cfg, tr, nsteps, tt, wall0, done, compiled0, pace, evidence)
+  local now, compiled = mech.now(), compile_seconds(sys)
+  local elapsed = now - wall0 - (compiled - compiled0)
+  local dsteps, dt_run = nsteps - pace.steps, tt - pace.t
+  local dwall = now - pace.wall - (compiled - pace.compiled)
+  pace.steps, pace.t, pace.wall, pace.compiled = nsteps, tt, now, compiled
+  if not (dsteps > 0 and dt_run > 0) then return false end
+  local windows = (cfg.t1 - tt) / dt_run          -- windows like the last one still to go
+  local steps, seconds = nsteps + windows * dsteps, elapsed + windows * math.max(dwall, 0)
   if not ((nsteps >= M.LONG_RUN.check_steps and steps > M.LONG_RUN.steps)
       or (elapsed >= 1 and seconds > M.LONG_RUN.seconds)) then return false end
-  local msg = ("%ssimulate '%s': warning: at its pace so far this run will take about %.3g steps and %s (t = %.4g of [%g, %g] after %d steps) "
-    .. "with %s%s; it goes on (Ctrl-C stops it and keeps what is done); cheaper: %s"):format(user_where(), sys.name,
-    steps, duration(seconds), tt, cfg.t0, cfg.t1, nsteps, cfg.method,
-    cfg.step and (" at step = %g"):format(cfg.step) or (" at rtol = %g"):format(cfg.rtol), cheaper(cfg, nsteps, tt))
+  local h = dt_run / dsteps
+  local ok, rho = pcall(evidence, tt)
+  local ev = { h = h, rho = ok and rho or nil }
+  local s = stiffness(cfg, ev)
+  -- what it said, in numbers (tr.stats.long_run)
+  pace.notice = { steps = steps, seconds = seconds, h = h, rho = ev.rho, h_rho = s and s.x, stiff = s and s.stiff }
+  local msg = ("%ssimulate '%s': warning: at its pace so far this run will take about %.3g steps and %s, at the pace of its "
+    .. "last %d steps, %s each (t = %.4g of [%g, %g] after %d steps) with %s%s; it goes on (Ctrl-C stops it and keeps what is "
+    .. "done); cheaper: %s"):format(user_where(), sys.name, steps, duration(seconds), dsteps, duration_short(dwall / dsteps), tt,
+    cfg.t0, cfg.t1, nsteps, cfg.method, cfg.step and (" at step = %g"):format(cfg.step) or (" at rtol = %g"):format(cfg.rtol),
+    cheaper(cfg, nsteps, tt, ev))
   tr.warnings[#tr.warnings + 1] = msg
   done()                                  -- the progress bar's line, if shown
   M.warn(msg)
@@ -600,7 +692,9 @@ function M.simulate(sys, opts)
       refuse("does not integrate the 'work' monitor yet (it is part of the GSL steppers' state): leave it out, "
         .. "or take rk8pd")
     end
-    if cfg.project or cfg.alpha then
+    -- without constraints both do nothing, said once by validate as for
+    -- every method; with them taylor has no use for either
+    if (cfg.project or cfg.alpha) and sys.nc > 0 then
       refuse("takes no 'project' or 'baumgarte': its series keeps the constraints to the order of the method "
         .. "along each step (their drift is the truncation's: tr:violation() shows it); take rk8pd to project")
     end
@@ -612,6 +706,14 @@ function M.simulate(sys, opts)
   end
   local qd0 = cfg.qd0
   if not qd0 then qd0 = {}; for i = 1, k do qd0[i] = 0 end end   -- at rest
+  -- T = ... + 1/0 or + 0/0 at the start: the motion has only its
+  -- derivatives, so it would run on with a T (or V) that means nothing
+  local piece, value = require("nz.system").nonfinite_piece(sys, cfg.t0, cfg.q0, qd0)
+  if piece then
+    fail(sys, "%s is %s at the start%s: a term such as 1/0 or 0/0 makes it so (only its derivatives enter the "
+      .. "motion, so the run would go on with a %s that means nothing)", piece, show(value), state_text(cfg.t0, cfg.q0, qd0),
+      piece)
+  end
   if sys.nc > 0 and cfg.check ~= false then constraints.check_state(sys, cfg.t0, cfg.q0, qd0) end
   -- Unilateral contacts (nz/contact_run.lua): the run integrates the system
   -- with the contacts' functions (sys.contact.system) in the contacts' mode,
@@ -643,6 +745,7 @@ function M.simulate(sys, opts)
     ode = mech.ode_new(engine, ode_cfg)
   end
   local tr = trajectory.new(sys, cfg)
+  tr.step = cfg.step_used            -- the step taken (the summary says it), not the one asked
   tr.warnings = cfg.warnings
   if cfg.monitors.energy then tr.energy, tr.generalized_energy = {}, {} end
   if cfg.monitors.work then tr.work = {} end
@@ -767,8 +870,8 @@ function M.simulate(sys, opts)
       error(("%ssimulate '%s': event '%s' raised an error%s: %s"):format(where or user_where(), sys.name, ev.name,
         state_text(t, q, qd), what or v), 0)
     end
-    if type(v) ~= "number" or v ~= v then
-      fail(sys, "event '%s' must return a number, got %s%s", ev.name, show(v), state_text(t, q, qd))
+    if type(v) ~= "number" or v - v ~= 0 then      -- nil, a jet, NaN or an infinity: no sign to follow
+      fail(sys, "event '%s' must return a finite number, got %s%s", ev.name, show(v), state_text(t, q, qd))
     end
     return v
   end
@@ -870,7 +973,23 @@ function M.simulate(sys, opts)
       cfg.method, M.STALL.window, advance, state_text(tt, q, qd), smin, smax, smax / smin, smin0)
   end
 
-  local function long_run(tt) return long_run_notice(sys, cfg, tr, nsteps, tt, wall0, done, compiled0) end
+  -- The long-run notice: the pace of its last look, and the spectral radius
+  -- of the motion's exact Jacobian at the current state y (the implicit
+  -- steppers' own, from a bsimp stepper of the same motion made for it,
+  -- so that the run's stepper and its statistics are left alone).
+  local pace = { steps = 0, t = cfg.t0, wall = wall0, compiled = compiled0 }
+  local function evidence(tt)
+    local jcfg = {}
+    for key, v in pairs(ode_cfg) do jcfg[key] = v end
+    jcfg.method = "bsimp"
+    local o = mech.ode_new(engine, jcfg)
+    local rho = 0
+    for _, e in ipairs((mech.eigen((mech.ode_jacobian(o, engine, tt, y))))) do
+      rho = math.max(rho, math.sqrt(e[1] ^ 2 + e[2] ^ 2))
+    end
+    return rho
+  end
+  local function long_run(tt) return long_run_notice(sys, cfg, tr, nsteps, tt, wall0, done, compiled0, pace, evidence) end
 
   local t, h = cfg.t0, cfg.h0 or math.min(cfg.dt, 1e-3)
   local gvals = {}
@@ -1092,7 +1211,7 @@ function M.simulate(sys, opts)
   done()
   local s = mech.ode_stats(ode)
   tr.stats = { steps = s.steps, rejected = s.rejected, nfev = s.nfev, njev = s.njev, order = s.order,
-    wall = mech.now() - wall0, loop = in_c and "c" or "lua", loop_why = loop_why }
+    wall = mech.now() - wall0, loop = in_c and "c" or "lua", loop_why = loop_why, long_run = pace.notice }
   if s.reversed then   -- a constraint's gradient passed through zero (nz_constraint_row_reversed, src/mech/constrained.h)
     local r, ta, tb = s.reversed[1], s.reversed[2], s.reversed[3]
     tr.stats.reversed = { constraint = r, ta = ta, tb = tb }

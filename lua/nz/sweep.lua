@@ -31,8 +31,8 @@ M.PARALLEL_N = 10        -- points per GNU parallel job, unless the options say 
 M.PROGRESS = { delay = 0.5, every = 0.2 }   -- the bar shows after delay s, redraws every s
 M.DEFAULT_SEED = 1       -- sample = {n =, ranges =} without a seed
 
-local known = { system = true, file = true, grid = true, list = true, sample = true, run = true, jobs = true,
-  out = true, resume = true, retry = true, progress = true, todo = true, from = true, parallel = true, worker = true }
+local known = require("nz.options").declare("nz.sweep", { system = true, file = true, grid = true, list = true, sample = true, run = true, jobs = true,
+  out = true, resume = true, retry = true, progress = true, todo = true, from = true, parallel = true, worker = true })
 
 local function fail(msg, ...) error(user_where() .. ("sweep: " .. msg):format(...), 0) end
 

@@ -9,6 +9,7 @@ local core = require "nz.core"
 local bodies = require "nz.bodies"
 local constraints = require "nz.constraints"
 local record = require "nz.record"
+local probe = require "nz.probe"
 -- NZ_GRAPH_CHECK=1: check every recording against the Lua evaluator when the
 -- system is made (the test suite runs with it; nz/record.lua).
 local GRAPH_CHECK = os.getenv("NZ_GRAPH_CHECK") == "1"
@@ -127,6 +128,32 @@ local function append(dst, dst_labels, src, src_labels)
   end
 end
 
+-- The first piece (T, L, V or Q) that is not finite at the state (t, q,
+-- qd), on plain numbers: T = ... + 1/0 or + 0/0.  Only M = d2T/dqd2 and the
+-- forces enter the motion, so such a T ran (a constant has no derivative).
+-- A piece that raises there is left to the first use, which names the
+-- user's line.  Its label and value, or nil.
+function M.nonfinite_piece(self, t, q, qd)
+  local e = self.engine
+  -- a parameter that is not a finite number is the mechanics' to name first
+  for _, name in ipairs(e.param_names) do if not finite(self.params[name]) then return nil end end
+  for _, list in ipairs{ { e.F, e.labels.F }, { e.V, e.labels.V, true }, { e.Q, e.labels.Q } } do
+    for n, f in ipairs(list[1]) do
+      local ok, v
+      if list[3] then ok, v = pcall(f, t, q, self.params) else ok, v = pcall(f, t, q, qd, self.params) end
+      if ok and type(v) == "table" then       -- Q: its first component that is not finite
+        local first
+        for i = 1, self.k do if type(v[i]) == "number" and not finite(v[i]) then first = first or v[i] end end
+        v = first
+      end
+      if ok and type(v) == "number" and not finite(v) then return list[2][n], v end
+    end
+  end
+end
+
+-- Where the methods' warnings go (tests replace it).
+function M.warn(msg) io.stderr:write(msg, "\n") end
+
 function M.system(def)
   if type(def) ~= "table" then error("nz.system: a table {coords = ..., T = ...} expected", 2) end
   local name = def.name
@@ -221,6 +248,9 @@ function M.system(def)
   -- Record the functions once as graphs evaluated in C (nz/record.lua);
   -- compile = false keeps every function in Lua.
   if def.compile ~= false then self.recording = record.compile(self.engine, Clevels, def.native) end
+  -- A function that fails at every state (math.cos on a jet, q.th) is said
+  -- here, at the user's nz.system line (nz/probe.lua).
+  probe.check(self)
   if GRAPH_CHECK and self.recording then record.diff_check(self.engine, Clevels, name) end
   if contacts then require("nz.contact").attach(self, def, contacts, C) end
   return self
@@ -251,11 +281,12 @@ M.args.order = check_order
 local function is_list(v) return type(v) == "table" and getmetatable(v) == nil and v[1] ~= nil end
 
 -- The options' checkers, made once (not on every call).
-local RESIDUAL_OPTIONS = {
+local declare = require("nz.options").declare
+local RESIDUAL_OPTIONS = declare("sys:residual", {
   form = function(v) return type(v) == "string", "a form name" end,
   higher = function(v) return type(v) == "table", "a list {q3, q4, ...} of derivatives" end,
-}
-local EQUATIONS_OPTIONS = { quiet = boolean }
+})
+local EQUATIONS_OPTIONS = declare("sys:equations", { quiet = boolean })
 
 function System:residual(n, t, q, qd, qdd, a6, a7)
   check_order("residual", n)
@@ -313,12 +344,12 @@ function System:mass_bias(t, q, qd)
 -- report {iterations, residual, rcond, start}.  opts (constraints of second
 -- order nonlinear in qdd): {qdd = guess, lambda = guess, tol =, maxit =}.
 -- (made once: accel is called on every step of a user's own loop)
-local ACCEL_OPTIONS = {
+local ACCEL_OPTIONS = declare("sys:accel", {
   tol = positive, maxit = count, check = boolean,
   rcond_min = function(v) return finite(v) and v >= 0, "a finite number >= 0" end,
   qdd = function(v) return type(v) == "table", "a table of numbers (a first guess)" end,
   lambda = function(v) return type(v) == "table", "a table of numbers (a first guess)" end,
-}
+})
 
 function System:accel(t, q, qd, opts)
   -- The common call first: C reads and checks the state, and gives nil
@@ -333,7 +364,19 @@ function System:accel(t, q, qd, opts)
   if opts and opts.lambda then check_vector(self, "accel", 4, "option 'lambda'", opts.lambda, self.nc, "one per constraint") end
   if self.nc == 0 then return mech.accel(self.engine, t, q, qd), {} end
   local orders, linear = constraints.orders(self, { t = t, q = q, qd = qd })
-  return mech.accel_constrained(self.engine, t, q, qd, orders, linear, opts)
+  local qdd, lambda, report = mech.accel_constrained(self.engine, t, q, qd, orders, linear, opts)
+  -- A state off the constraints of order <= 1 has accelerations all the
+  -- same (those of (6.2) there), but no motion on them passes through it:
+  -- said once per system, with the constraint and its value.
+  local v = report.violation
+  if v and v.relative > constraints.CHECK_TOL and not self._warned_off then
+    self._warned_off = true
+    M.warn(("%ssys:accel: warning: system '%s': the state at t = %s violates constraint %d at %s level by %.3g (%.3g of "
+      .. "the size of its terms): the accelerations are those of the equations at this state, which no motion on the "
+      .. "constraints passes through; q, qd = sys:project(t, q, qd) gives the nearest state on them (said once)")
+      :format(user_where(), self.name, shown(t), v.constraint, v.level, v.value, v.relative))
+  end
+  return qdd, lambda, report
 end
 
 -- Returns T + V (nil when the system is given by L without T), the
@@ -355,7 +398,9 @@ end
 -- The classification of the constraints, a list that prints as its table
 -- (print(sys:constraints()) in a script; typed at the prompt, the session
 -- prints it once).  It prints nothing itself, so opts (quiet) change nothing.
+local CONSTRAINTS_OPTIONS = declare("sys:constraints", { quiet = boolean })
 function System:constraints(opts)
+  check_options("constraints", 1, opts, CONSTRAINTS_OPTIONS)
   local classes = constraints.classify(self)
   local out = {}
   for i, c in ipairs(classes) do out[i] = c end
@@ -364,7 +409,11 @@ function System:constraints(opts)
 end
 
 -- Dolapchiev's order n and why; opts.extremal for the extremal form (4.3).
-function System:rule(opts) return constraints.rule(self, opts) end
+local RULE_OPTIONS = declare("sys:rule", { extremal = boolean })
+function System:rule(opts)
+  check_options("rule", 1, opts, RULE_OPTIONS)
+  return constraints.rule(self, opts)
+end
 
 -- Accelerations from Tsenov's reduced equations (7.1), without multipliers.
 function System:reduced(t, q, qd, n, form)
@@ -379,11 +428,63 @@ function System:reduced(t, q, qd, n, form)
   return constraints.reduced(self, t, q, qd, n or self:rule(), form)
 end
 
+-- sys:project's options: tol, maxit, and for constraints of order p >= 3
+-- the start's levels qdd .. q^(p-1) and the multipliers the user chose
+-- (lambda, or lambdas = {lambda, lambda', ..., lambda^(p-3)}), which are
+-- otherwise whatever the equations need.
+local function check_project_options(self, opts)
+  local top = self.nc > 0 and constraints.top_level(self)
+  local p = top or (self.nc > 0 and constraints.level(self)) or nil
+  local keys = { tol = positive, maxit = count }
+  local vector = function(n, what) return function(v)
+    local want = ("a table of %d finite number%s (%s)"):format(n, n == 1 and "" or "s", what)
+    if type(v) ~= "table" or #v ~= n then return false, want end
+    for j = 1, n do if not finite(v[j]) then return false, want end end
+    return true
+  end end
+  for j = 2, (p or 2) - 1 do keys[constraints.level_name(j)] = vector(self.k, "one per coordinate") end
+  if p and not top then
+    local one = vector(self.nc, "one multiplier per constraint")
+    keys.lambda = one
+    keys.lambdas = function(v)
+      if type(v) ~= "table" then return false, ("a list of %d tables of multipliers (lambda, lambda', ...)"):format(p - 2) end
+      for j, l in pairs(v) do
+        if math.type(j) ~= "integer" or j < 1 or j > p - 2 or not one(l) then
+          return false, ("a list of %d tables of %d multipliers (lambda, lambda', ...)"):format(p - 2, self.nc)
+        end
+      end
+      return true
+    end
+  end
+  for key in pairs(opts) do
+    local j = type(key) == "string" and (key == "qdd" and 2 or tonumber(key:match("^q(%d+)d$")))
+    if j and not keys[key] then
+      arg_error("project", 4, "option '%s': %s", key, p and ("the constraints are of order %d at most, so the start "
+        .. "has levels q .. %s"):format(p, constraints.level_name(p - 1)) or "no constraint is of order 3 or more, so "
+        .. "the start is q and qd alone")
+    end
+    if (key == "lambda" or key == "lambdas") and not keys[key] then
+      arg_error("project", 4, "option '%s': %s", key, top and "with a constraint nonlinear in its top derivative the "
+        .. "multipliers are solved at each time, not part of the start" or "no constraint is of order 3 or more, so "
+        .. "the start has no multipliers")
+    end
+  end
+  check_options("project", 4, opts, keys)
+  if opts.lambda and opts.lambdas then
+    arg_error("project", 4, "options 'lambda' and 'lambdas': give one of them (lambda is lambdas[1])")
+  end
+end
+
+-- qdd, q3d, q4d, ...: the start's higher levels (constraints of order p >= 3);
+-- the options as help lists them (checked above, by the system's levels)
+local function level_key(key) return type(key) == "string" and (key == "qdd" or key:match("^q%d+d$") ~= nil) end
+local PROJECT_OPTIONS = declare("sys:project", { "tol", "maxit", "qdd", "lambda", "lambdas" }, level_key)
 function System:project(t, q, qd, opts)
   check_state(self, "project", 1, t, q, qd)
   if opts ~= nil and (type(opts) ~= "table" or getmetatable(opts) ~= nil) then
     arg_error("project", 4, "options: a table {tol =, maxit =, qdd =, ...} expected, got %s", shown(opts))
   end
+  if opts then check_project_options(self, opts) end
   return constraints.project(self, t, q, qd, opts)
 end
 
@@ -394,7 +495,14 @@ function System:check_state(t, q, qd, tol)
 end
 
 -- What a scene shows, in one call (lua/nz/report.lua).
-function System:report(opts) return require("nz.report").report(self, opts) end
+local REPORT_OPTIONS = declare("sys:report", { "q", "qd", "t", "orders", "extremal", "simulate", "plot" })
+function System:report(opts)
+  if opts ~= nil and (type(opts) ~= "table" or getmetatable(opts) ~= nil) then
+    arg_error("report", 1, "options: a table {q =, qd =, ...} expected, got %s", shown(opts))
+  end
+  if opts then require("nz.options").check(opts, REPORT_OPTIONS, function(...) arg_error("report", 1, ...) end) end
+  return require("nz.report").report(self, opts)
+end
 
 -- The defect of points from anywhere (a student's integrator, a lab's
 -- measurement): the equations on the curve through them (nz/defect.lua).
@@ -537,6 +645,7 @@ function System:__tostring()
       or ("  %s: runs in Lua: %s"):format(r.label, r.why)
   end
   if not self.recording then lines[#lines + 1] = "  every function runs in Lua (compile = false)" end
+  if self.recording and self.recording.again then lines[#lines + 1] = "  " .. self.recording.again end
   return table.concat(lines, "\n")
 end
 
@@ -554,7 +663,7 @@ function System:graph_info()
   return { nodes = info.nodes, record_seconds = self.recording.seconds, mass_bias_nodes = info.mass_bias_nodes,
     compiled = nc, interpreted = ni, native_plans = info.native_plans, native_series = info.native_series,
     native_seconds = info.native_seconds, native_waited = info.native_waited,
-    native_compiling = info.native_compiling, native_why = info.native_why }
+    native_compiling = info.native_compiling, native_why = info.native_why, recorded_again = self.recording.again }
 end
 
 -- ------------------------------------------------------------------ --

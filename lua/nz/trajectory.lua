@@ -75,11 +75,36 @@ local function lambda_names(self)
   return names
 end
 
+-- The derivatives above q'' a run holds (constraints of order p >= 3,
+-- whose state holds q'' .. q^(p-1)): the highest order m of q^(m) that
+-- tr:column gives, and how: the state's levels (tr.higher: q''' ..
+-- q^(p-1)), the root of a level nonlinear in q^(p) (tr.top), or, for a
+-- constraint of order 3 linear in q''', q''' from the equations of level 3
+-- at each point (sys:reduced with the point's q'' and lambda, computed when
+-- asked).  2 when the run holds nothing above q''.
+local function highest(self)
+  local m = 2
+  if self.higher and self.higher[1] then m = 2 + #self.higher[1] end
+  if self.top then m = m + 1
+  elseif self.system.nc > 0 and not self.higher then
+    local ok, p = pcall(require("nz.constraints").level, self.system)
+    if ok and p == 3 then m = 3 end
+  end
+  return m
+end
+
+-- A name as a message shows it: in single quotes, or double ones when it
+-- has primes ("x'''", never 'x''''').
+local function quoted(name)
+  name = tostring(name)
+  return name:find("'", 1, true) and ('"' .. name .. '"') or ("'" .. name .. "'")
+end
+
 -- The names tr:column takes for this trajectory, for a message.
 local function quantities(self)
   local names = { "t" }
-  for _, suffix in ipairs{ "", "'", "''" } do
-    for _, c in ipairs(self.coords) do names[#names + 1] = c .. suffix end
+  for m = 0, highest(self) do
+    for _, c in ipairs(self.coords) do names[#names + 1] = c .. ("'"):rep(m) end
   end
   for _, name in ipairs(lambda_names(self)) do names[#names + 1] = name end
   if self.energy then names[#names + 1] = "E"; names[#names + 1] = "H" end
@@ -95,9 +120,32 @@ local function column_error(fmt, ...)
   error(require("nz.where").user_where() .. fmt:format(...), 0)
 end
 
+-- q^(m) of coordinate j at every point, m >= 3 (see highest).
+local function level_values(self, j, m)
+  local out = {}
+  if self.higher and self.higher[1] and m - 2 <= #self.higher[1] then
+    for i = 1, #self.t do out[i] = self.higher[i][m - 2][j] end
+    return out
+  end
+  if self.top then
+    for i = 1, #self.t do out[i] = self.top[i][j] end
+    return out
+  end
+  if not self._q3d then           -- level 3, linear in q''': from its equations, once
+    local sys, q3d = self.system, {}
+    for i = 1, #self.t do
+      q3d[i] = sys:reduced(self.t[i], self.q[i], self.qd[i], nil, { qdd = self.qdd[i], lambdas = { self.lambda[i] } })
+    end
+    self._q3d = q3d
+  end
+  for i = 1, #self.t do out[i] = self._q3d[i][j] end
+  return out
+end
+
 -- Values of a named quantity over the trajectory: a coordinate name, its
--- velocity "name'" or acceleration "name''", "t", "E" (T + V), "H",
--- "work", "violation", or "lambda1", "lambda2", ...
+-- velocity "name'", acceleration "name''" (and "name'''", ... where the
+-- run holds them), "t", "E" (T + V), "H", "work", "violation", or
+-- "lambda1", "lambda2", ...
 function Trajectory:column(name)
   if name == "t" then return self.t end
   if type(name) ~= "string" then
@@ -119,14 +167,20 @@ function Trajectory:column(name)
   local base, primes = name:match("^(.-)('*)$")
   for j, c in ipairs(self.coords) do
     if c == base then
-      local src = (#primes == 0 and self.q) or (#primes == 1 and self.qd) or (#primes == 2 and self.qdd)
-      if not src then break end
+      local m = #primes
+      if m >= 3 and m <= highest(self) then return level_values(self, j, m) end
+      local src = (m == 0 and self.q) or (m == 1 and self.qd) or (m == 2 and self.qdd)
+      if not src then
+        column_error("trajectory: no quantity %s: this run holds the derivatives up to %s only (constraints of "
+          .. "order 3 or more give a run q''' and above) (quantities: %s)", quoted(name), c .. ("'"):rep(highest(self)),
+          quantities(self))
+      end
       local out = {}
       for i = 1, #self.t do out[i] = src[i][j] end
       return out
     end
   end
-  column_error("trajectory: no quantity '%s' (quantities: %s)", name, quantities(self))
+  column_error("trajectory: no quantity %s (quantities: %s)", quoted(name), quantities(self))
 end
 
 -- The header and the rows of tr:csv, to the open file f.
@@ -204,8 +258,9 @@ end
 -- drawn as its drift from its first value: its own ticks would all read the
 -- same digits.  Draws and returns nothing in the terminal (the session
 -- prints nothing more); returns the file's name when writing one.
-local PLOT_OPTIONS = { y = true, x = true, phase = true, file = true, title = true, xlabel = true, ylabel = true,
-  legend = true, size = true, width = true, height = true, quiet = true, drift = true }
+local PLOT_OPTIONS = require("nz.options").declare("tr:plot", { y = true, x = true, phase = true, file = true,
+  title = true, xlabel = true, ylabel = true, legend = true, size = true, width = true, height = true, quiet = true,
+  drift = true })
 local CONSERVED = { E = true, H = true }
 
 -- The terminal's columns and lines (COLUMNS and LINES, else stty), or nil.
@@ -299,11 +354,14 @@ function Trajectory:animate(opts) return require("nz.views").animate(self, opts)
 -- The order n (argument #1) and the options of tr:residuals and
 -- tr:consistency, named as the user called them; a run with contacts is
 -- refused (nz/contact_run.lua).
+local ORDER_OPTIONS = { quiet = function(v) return type(v) == "boolean", "true or false" end }
+require("nz.options").declare("tr:residuals", ORDER_OPTIONS)
+require("nz.options").declare("tr:consistency", ORDER_OPTIONS)
 local function check_order_options(self, sys, fname, n, opts)
   if self.contacts then require("nz.contact_run").refuse_defect(self, fname) end
   local args = require("nz.system").args
   args.order(fname, n)
-  args.options(fname, 2, opts, { quiet = args.boolean })
+  args.options(fname, 2, opts, ORDER_OPTIONS)
   return n or sys:rule()
 end
 

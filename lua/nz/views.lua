@@ -38,7 +38,8 @@ end
 -- the crossings of event `when` (its name in simulate's events; default the
 -- only one), the two quantities at each; returns {x = {...}, y = {...}, t = {...}}
 -- and draws them (draw = false: only returns them; file = ... to an SVG or PNG).
-local SECTION = { when = true, plot = true, file = true, title = true, draw = true, width = true, height = true }
+local SECTION = require("nz.options").declare("tr:section", { when = true, plot = true, file = true, title = true,
+  draw = true, width = true, height = true })
 function M.section(tr, opts)
   opts = opts or {}
   check_options("section", opts, SECTION)
@@ -85,11 +86,13 @@ end
 -- The two axes of the bodies' positions that plane = "xy", "xz", "yz" draws.
 local PLANES = { xy = { 1, 2 }, xz = { 1, 3 }, yz = { 2, 3 } }
 
--- The shapes of the frame at (t, q): points {x, y} and segments {x1, y1,
--- x2, y2} in the plane of the first two coordinates of `plane` (default
--- x, y).  From `draw(t, q)` when given; else from the system's bodies: a
+-- The shapes of the frame at (t, q): points {x, y}, segments {x1, y1,
+-- x2, y2} and fixed supports (pivots {x, y}, drawn with a mark of their
+-- own) in the plane of the first two coordinates of `plane` (default x,
+-- y).  From `draw(t, q)` when given; else from the system's bodies: a
 -- point per body and a link from the origin to the first and between
--- successive bodies (a chain, as pendulums are); else refused.
+-- successive bodies (a chain, as pendulums are), hung from a pivot at the
+-- origin; else refused.
 local function shapes_of(tr, opts)
   if opts.draw then return opts.draw end
   local bodies = tr.system.bodies
@@ -108,7 +111,7 @@ local function shapes_of(tr, opts)
       if opts.links ~= false then segments[#segments + 1] = { px, py, x, y } end
       px, py = x, y
     end
-    return { points = points, segments = segments }
+    return { points = points, segments = segments, pivots = opts.links ~= false and { { 0, 0 } } or nil }
   end
 end
 
@@ -175,7 +178,7 @@ end
 local function check_shapes(s, t)
   local shape = "{points = {{x, y}, ...}, segments = {{x1, y1, x2, y2}, ...}}"
   if type(s) ~= "table" or (s.points ~= nil and type(s.points) ~= "table")
-      or (s.segments ~= nil and type(s.segments) ~= "table") then
+      or (s.segments ~= nil and type(s.segments) ~= "table") or (s.pivots ~= nil and type(s.pivots) ~= "table") then
     fail("animate", "draw(t, q) at t = %.6g returned %s: a table %s expected", t, listed(s), shape)
   end
   for k, p in ipairs(s.points or {}) do
@@ -185,6 +188,11 @@ local function check_shapes(s, t)
           .. "(plane = \"xz\" or \"yz\" needs positions of three coordinates)", tostring(p.body), t, listed(p))
       end
       fail("animate", "draw(t, q) at t = %.6g: point %d is %s: {x, y}, two finite numbers, expected", t, k, listed(p))
+    end
+  end
+  for k, p in ipairs(s.pivots or {}) do
+    if type(p) ~= "table" or not (finite(p[1]) and finite(p[2])) then
+      fail("animate", "draw(t, q) at t = %.6g: pivot %d is %s: {x, y}, two finite numbers, expected", t, k, listed(p))
     end
   end
   for k, g in ipairs(s.segments or {}) do
@@ -201,8 +209,8 @@ end
 -- with gnuplot; with a .gif file one animated GIF, with .svg one file per
 -- frame (name-001.svg, ...), else in the terminal, one frame after another.
 -- Returns the number of frames (and the file names).
-local ANIMATE = { file = true, frames = true, fps = true, draw = true, plane = true, links = true, range = true,
-  width = true, height = true, title = true }
+local ANIMATE = require("nz.options").declare("tr:animate", { file = true, frames = true, fps = true, draw = true,
+  plane = true, links = true, range = true, width = true, height = true, title = true })
 function M.animate(tr, opts)
   opts = opts or {}
   check_options("animate", opts, ANIMATE)
@@ -219,8 +227,10 @@ function M.animate(tr, opts)
     local s = draw(tr.t[i], tr.q[i])
     check_shapes(s, tr.t[i])
     frames[f] = { t = tr.t[i], shapes = s }
-    for _, p in ipairs(s.points or {}) do
-      xmin, xmax, ymin, ymax = math.min(xmin, p[1]), math.max(xmax, p[1]), math.min(ymin, p[2]), math.max(ymax, p[2])
+    for _, list in ipairs{ s.points or {}, s.pivots or {} } do
+      for _, p in ipairs(list) do
+        xmin, xmax, ymin, ymax = math.min(xmin, p[1]), math.max(xmax, p[1]), math.min(ymin, p[2]), math.max(ymax, p[2])
+      end
     end
     for _, g in ipairs(s.segments or {}) do
       xmin, xmax = math.min(xmin, g[1], g[3]), math.max(xmax, g[1], g[3])
@@ -232,20 +242,25 @@ function M.animate(tr, opts)
     fail("animate", "nothing to draw: draw(t, q) returned no points and no segments in any frame "
       .. "(or give the view: range = {xmin, xmax, ymin, ymax})")
   end
-  local pad = 0.05 * math.max(xmax - xmin, ymax - ymin, 1e-9)
-  xmin, xmax, ymin, ymax = xmin - pad, xmax + pad, ymin - pad, ymax + pad
   local file = opts.file
   local kind = file and file:match("%.(%w+)$")
+  local w, h = opts.width or (file and 480 or 60), opts.height or (file and 480 or 24)
+  -- a margin around the drawing: 5 %, and in the terminal two lines'
+  -- worth, so that a point at the edge (the pivot) is not drawn on the frame
+  local span = math.max(xmax - xmin, ymax - ymin, 1e-9)
+  local pad = math.max(0.05, file and 0 or 2 / h) * span
+  xmin, xmax, ymin, ymax = xmin - pad, xmax + pad, ymin - pad, ymax + pad
   local data = os.tmpname()
   local d = assert(io.open(data, "w"))
-  for _, fr in ipairs(frames) do      -- per frame: block 2f of segments, block 2f+1 of points
+  for _, fr in ipairs(frames) do      -- per frame: block 3f of segments, 3f+1 of points, 3f+2 of pivots
     for _, g in ipairs(fr.shapes.segments or {}) do d:write(("%.9g %.9g\n%.9g %.9g\n\n"):format(g[1], g[2], g[3], g[4])) end
     d:write("0 0\n\n\n")   -- (a dummy line keeps the block present)
     for _, p in ipairs(fr.shapes.points or {}) do d:write(("%.9g %.9g\n"):format(p[1], p[2])) end
     d:write("\n\n")
+    for _, p in ipairs(fr.shapes.pivots or {}) do d:write(("%.9g %.9g\n"):format(p[1], p[2])) end
+    d:write("NaN NaN\n\n\n")   -- (undefined: keeps the block present, draws nothing)
   end
   d:close()
-  local w, h = opts.width or (file and 480 or 60), opts.height or (file and 480 or 24)
   local script = {}
   local outputs = {}
   if kind == "gif" then
@@ -263,8 +278,12 @@ function M.animate(tr, opts)
       outputs[#outputs + 1] = name
     end
     script[#script + 1] = ("set title %q"):format(("%s  t = %.3f"):format(opts.title or tr.system.name, fr.t))
-    script[#script + 1] = ("plot %q index %d with lines lw 2, %q index %d with points pt 7 ps 1.5"):format(
-      data, 2 * (f - 1), data, 2 * (f - 1) + 1)
+    -- a pivot: a filled square in a file, # in the terminal
+    local pivots = fr.shapes.pivots and #fr.shapes.pivots > 0
+      and (", %q index %d with points %s"):format(data, 3 * (f - 1) + 2, file and "pt 5 ps 2 lc rgb 'black'" or "pt '#'")
+      or ""
+    script[#script + 1] = ("plot %q index %d with lines lw 2, %q index %d with points pt 7 ps 1.5%s"):format(
+      data, 3 * (f - 1), data, 3 * (f - 1) + 1, pivots)
   end
   local ok, out = plot.gnuplot(script)
   os.remove(data)

@@ -28,10 +28,15 @@
 --  3. Each point runs at least MIN_RUNS times and until it has spent
 --     `budget` seconds; the next run is always the point that has spent
 --     least so far, so that each point's runs spread over the whole timing
---     and a spell of load on the machine falls on every point alike.  A
---     full garbage collection before each run, not timed but counted in the
---     budget (the garbage of the runs before is not collected inside the
---     next one).
+--     and a spell of load on the machine falls on every point alike.  The
+--     collector is stopped during a run (the garbage of the runs before is
+--     not collected inside the next one) and a full collection runs between
+--     runs once the heap has grown by half (at least 8 MB) since the last:
+--     its cost is neither timed nor counted in the budget, which is the
+--     runs' own time, so the number of runs does not depend on how big the
+--     session's heap is (in a large heap a full collection costs more than
+--     a run).  A point also stops after WALL_BUDGET times its budget of
+--     wall time, whatever it measured.
 --  4. A run's time is the processor time of the call (os.clock: this
 --     process only, so the time another program holds the core is not
 --     counted; the checks of sys:simulate and the trajectory's assembly
@@ -65,6 +70,7 @@ M.defaults = {
 }
 M.MIN_RUNS = 3        -- runs of each point at least, however long they take
 M.MAX_RUNS = 1000     -- ... and at most (runs of microseconds stop here)
+M.WALL_BUDGET = 10    -- a point stops after this many budgets of wall time (collections, load)
 -- Two points are within the noise of each other when the slower one's
 -- fastest run is no slower than the faster one's median run, or when their
 -- minima differ by less than NOISE_FLOOR.  The floor is the machine's:
@@ -95,6 +101,33 @@ local function method_names()
   return names
 end
 
+-- The options' checkers (the methods' names are read at each check).
+local function is_method(v)
+  local names = method_names()
+  for _, m in ipairs(names) do if m == v then return true end end
+  return false, "a method (" .. table.concat(names, " ") .. ")"
+end
+local function any() return true end
+local function list(v) return type(v) == "table" and getmetatable(v) == nil and #v > 0, "a non-empty list" end
+local function tolerance(v)
+  local min_tol = require("nz.simulate").MIN_RTOL
+  return type(v) == "number" and v >= min_tol and v < 1, ("a tolerance from %g to 1 (each run takes rtol = tol, "
+    .. "atol = tol / 100)"):format(min_tol)
+end
+local OPTIONS = options.declare("nz.workprecision", {
+  q0 = any, qd0 = any, t0 = any, t1 = any, dt = any,      -- simulate checks these
+  methods = list, tols = list, reference = function(v) return type(v) == "function", "a function(t) returning q" end,
+  reference_method = is_method, reference_tol = tolerance,
+  budget = function(v) return type(v) == "number" and v > 0 and v < math.huge, "seconds per point, a positive number" end,
+  x = function(v) return M.X[v] ~= nil, "\"time\", \"nfev\" or \"steps\"" end,
+  plot = function(v)
+    return v == true or v == false or (type(v) == "string" and (v:match("%.svg$") or v:match("%.png$"))),
+      "true, or a file name ending in .svg or .png"
+  end,
+  quiet = function(v) return type(v) == "boolean", "true or false" end,
+  simulate = function(v) return type(v) == "table" and getmetatable(v) == nil, "a table of simulate's options" end,
+})
+
 -- The options, checked before anything runs: one error, from the caller's
 -- line, naming the option ("bad argument #2 to 'workprecision' (...)").
 local function check(sys, opts)
@@ -104,29 +137,9 @@ local function check(sys, opts)
     args.error("workprecision", 1, "a system from nz.system{...} expected, got %s", args.shown(sys))
   end
   if type(opts) ~= "table" then bad("options {q0 =, t1 =, ...} expected, got %s", args.shown(opts)) end
-  local any = function() return true end
-  local function list(v) return type(v) == "table" and getmetatable(v) == nil and #v > 0, "a non-empty list" end
-  local min_tol = require("nz.simulate").MIN_RTOL
-  local function tolerance(v)
-    return type(v) == "number" and v >= min_tol and v < 1, ("a tolerance from %g to 1 (each run takes rtol = tol, "
-      .. "atol = tol / 100)"):format(min_tol)
-  end
-  local names, known = method_names(), {}
-  for _, m in ipairs(names) do known[m] = true end
-  local function method(v) return known[v] ~= nil, "a method (" .. table.concat(names, " ") .. ")" end
-  args.options("workprecision", 2, opts, {
-    q0 = any, qd0 = any, t0 = any, t1 = any, dt = any,      -- simulate checks these
-    methods = list, tols = list, reference = function(v) return type(v) == "function", "a function(t) returning q" end,
-    reference_method = method, reference_tol = tolerance,
-    budget = function(v) return type(v) == "number" and v > 0 and v < math.huge, "seconds per point, a positive number" end,
-    x = function(v) return M.X[v] ~= nil, "\"time\", \"nfev\" or \"steps\"" end,
-    plot = function(v)
-      return v == true or v == false or (type(v) == "string" and (v:match("%.svg$") or v:match("%.png$"))),
-        "true, or a file name ending in .svg or .png"
-    end,
-    quiet = args.boolean,
-    simulate = function(v) return type(v) == "table" and getmetatable(v) == nil, "a table of simulate's options" end,
-  })
+  args.options("workprecision", 2, opts, OPTIONS)
+  local names = method_names()
+  local method = is_method
   -- the lists entry by entry, naming the entry
   local seen = {}
   for i, m in ipairs(opts.methods or {}) do
@@ -256,18 +269,28 @@ local function time_points(points, budget, run)
   local function next_point()
     local pick
     for _, p in ipairs(points) do
-      if p.active and #p.times >= M.MIN_RUNS and (p.spent >= budget or #p.times >= M.MAX_RUNS) then p.active = false end
+      if p.active and #p.times >= M.MIN_RUNS and (p.spent >= budget or #p.times >= M.MAX_RUNS
+          or p.wall_spent >= M.WALL_BUDGET * budget) then
+        p.active = false
+      end
       if p.active and (not pick or p.spent < pick.spent) then pick = p end
     end
     return pick
   end
+  local heap = collectgarbage("count")
   for p in next_point do
     local t0 = now()
-    collectgarbage()       -- counted in the budget: in a large heap it is the larger part
+    if collectgarbage("count") > 1.5 * heap + 8192 then   -- kB
+      collectgarbage()
+      heap = collectgarbage("count")
+    end
+    collectgarbage("stop")
     local c0 = os.clock()
     local ok, tr = pcall(run, p.row.method, p.row.tol)
     local cpu = os.clock() - c0
-    p.spent = p.spent + (now() - t0)
+    collectgarbage("restart")
+    p.spent = p.spent + cpu
+    p.wall_spent = p.wall_spent + (now() - t0)
     if interrupted(ok, tr) then return p end
     if not ok then
       p.row.status, p.row.message, p.active = "failed", tostring(tr):match("^[^\n]*"), false
@@ -332,7 +355,7 @@ local function measure(sys, opts, methods, tols, budget, run)
   for _, m in ipairs(methods) do
     for _, t in ipairs(tols) do
       local o = outcome[m]
-      local p = { row = { method = m, tol = t }, times = {}, spent = 0 }
+      local p = { row = { method = m, tol = t }, times = {}, spent = 0, wall_spent = 0 }
       if o.skip then
         p.row.status, p.row.message = "skipped", "skipped: " .. o.skip
       elseif o[t] then
@@ -351,7 +374,7 @@ local function measure(sys, opts, methods, tols, budget, run)
     wait_for_compiles(sys)
     study.retimed, warm = true, native_state(sys)
     for _, p in ipairs(points) do
-      if p.tr then p.times, p.spent, p.active, p.tr, p.wall = {}, 0, true, nil, nil end
+      if p.tr then p.times, p.spent, p.wall_spent, p.active, p.tr, p.wall = {}, 0, 0, true, nil, nil end
     end
     cut = time_points(points, budget, run)
     final = native_state(sys)

@@ -122,9 +122,20 @@ static int msghandler(lua_State *L)
   return 1;
 }
 
-/* In a session, a traceback that shows nothing but the typed chunk and C
- * frames is noise: keep it only when the error came from inside a function
- * the user (or a script) wrote. */
+/* A line of a traceback that is not the user's code: C functions, nz's own
+ * Lua files (embedded as lua/nz/NAME.lua, or a checkout's: their messages
+ * name the user's line already) and the marks of tail calls. */
+static int frame_is_library(const char *s, size_t n)
+{
+  if (n >= 4 && strncmp(s, "[C]:", 4) == 0) return 1;
+  if (n >= 7 && strncmp(s, "lua/nz/", 7) == 0) return 1;
+  if (memmem(s, n, "/lua/nz/", 8)) return 1;
+  return memmem(s, n, "(...tail calls...)", 18) != NULL;
+}
+
+/* Whether a traceback shows a function the user (or a script) wrote, not
+ * only the chunk that was run (the typed line, the script's main chunk)
+ * and library frames: only then is it worth reading. */
 static int traceback_is_deep(const char *msg)
 {
   const char *tb = strstr(msg, "\nstack traceback:\n");
@@ -133,17 +144,39 @@ static int traceback_is_deep(const char *msg)
     const char *s = line + 1;
     while (*s == '\t' || *s == ' ') s++;
     if (!*s) continue;
-    if (strncmp(s, "[C]:", 4) == 0) continue;
     const char *end = strchr(s, '\n');
     size_t n = end ? (size_t)(end - s) : strlen(s);
+    if (frame_is_library(s, n)) continue;
     if (n >= 13 && memmem(s, n, "in main chunk", 13)) continue;
-    if (memmem(s, n, "(...tail calls...)", 18)) continue;
-    /* nz's own Lua files (embedded as lua/nz/NAME.lua, or a checkout's):
-     * their messages name the user's line already */
-    if (strncmp(s, "lua/nz/", 7) == 0 || memmem(s, n, "/lua/nz/", 8)) continue;
     return 1;
   }
   return 0;
+}
+
+/* The message to print: without its traceback unless a function the user
+ * wrote is in it, and then with the user's frames only (the library's
+ * frames say nothing the message does not).  Pushes the text. */
+static const char *user_message(lua_State *L, const char *msg)
+{
+  const char *tb = strstr(msg, "\nstack traceback:\n");
+  if (!tb) return lua_pushstring(L, msg);
+  luaL_Buffer b;
+  luaL_buffinit(L, &b);
+  luaL_addlstring(&b, msg, (size_t)(tb - msg));
+  if (traceback_is_deep(msg)) {
+    luaL_addstring(&b, "\nstack traceback:");
+    for (const char *line = strchr(tb + 1, '\n'); line; line = strchr(line + 1, '\n')) {
+      const char *s = line + 1, *end = strchr(s, '\n');
+      size_t n = end ? (size_t)(end - s) : strlen(s);
+      const char *v = s;
+      while (v < s + n && (*v == '\t' || *v == ' ')) v++;
+      if (v == s + n || frame_is_library(v, (size_t)(s + n - v))) continue;
+      luaL_addchar(&b, '\n');
+      luaL_addlstring(&b, s, n);
+    }
+  }
+  luaL_pushresult(&b);
+  return lua_tostring(L, -1);
 }
 
 static int report(lua_State *L, int status, int in_session)
@@ -151,13 +184,7 @@ static int report(lua_State *L, int status, int in_session)
   if (status != LUA_OK) {
     const char *msg = lua_tostring(L, -1);
     if (msg == NULL) msg = "(error object is not a string)";
-    if (in_session && !traceback_is_deep(msg)) {
-      const char *tb = strstr(msg, "\nstack traceback:\n");
-      if (tb) {
-        lua_pushlstring(L, msg, (size_t)(tb - msg));
-        msg = lua_tostring(L, -1);
-      }
-    }
+    msg = user_message(L, msg);
     l_message(in_session ? NULL : progname, msg);
     lua_settop(L, 0);
   }

@@ -22,7 +22,13 @@
  *
  * Zeros: constants are keyed on their bit pattern, so 0.0 and -0.0 are two
  * nodes (atan2(+-0, -1) = +-pi tells them apart).  Both count as zero for
- * the simplifications; x * 0 gives the node +0.0.
+ * the simplifications; x * 0 gives the node +0.0 (not in an exact graph,
+ * which keeps the product: its sign is x's).
+ *
+ * Drops: a simplification that removes an operand (x * 0, x - x, x^0,
+ * cmp(x, x), a select's condition or its branch not taken) removes only an
+ * operand defined at every finite input (the flag `total` of each node),
+ * else the node stays, so that the graph fails where the function fails.
  *
  * Plans number their nodes in slots: inputs, constants, then the computed
  * nodes sorted by level and opcode (see sched_cmp).  Both evaluators run in
@@ -61,10 +67,12 @@ const char *const nz_gop_names[NZ_GOP_COUNT] = {
 
 struct nz_graph {
   nz_gnode *nodes;
+  uint8_t *total;   /* per node: defined at every finite input (nz_graph_total) */
   int n, cap;
   int32_t *table;   /* open addressing, node ids, -1 empty; 2 n <= tcap */
   size_t tcap;      /* a power of two */
   int ninputs;
+  int exact;        /* build as IEEE arithmetic would compute (nz_graph_set_exact) */
 };
 
 /* ------------------------------------------------------------------ */
@@ -216,6 +224,7 @@ void nz_graph_free(nz_graph *g)
 {
   if (!g) return;
   free(g->nodes);
+  free(g->total);
   free(g->table);
   free(g);
 }
@@ -270,6 +279,41 @@ static int grow_table(nz_graph *g)
   return 0;
 }
 
+/* Is an operation of this kind defined at every finite value of its
+ * operands, in every evaluator (doubles, jets of any order with tangents)?
+ * Not: log, sqrt, division by a node, pow and negative or fractional
+ * powers (domain), abs, atan2 and hypot (the jets refuse them at their
+ * singular points), exp, sinh and cosh (they overflow for moderate
+ * arguments).  Sums and products count as defined: they overflow only
+ * beyond 1e154 or so. */
+static int op_total(const nz_graph *g, const nz_gnode *nd)
+{
+  switch (nd->op) {
+  case NZ_GOP_CONST: case NZ_GOP_INPUT: case NZ_GOP_ADD: case NZ_GOP_SUB: case NZ_GOP_MUL:
+  case NZ_GOP_NEG: case NZ_GOP_CMP: case NZ_GOP_SELECT:
+    return 1;
+  case NZ_GOP_DIV:
+    return g->nodes[nd->b].op == NZ_GOP_CONST && g->nodes[nd->b].v != 0.0;
+  case NZ_GOP_POWC:
+    return nd->v >= 0.0 && nd->v == floor(nd->v);
+  case NZ_GOP_FN:
+    return nd->fn == NZ_FN_SIN || nd->fn == NZ_FN_COS || nd->fn == NZ_FN_TAN || nd->fn == NZ_FN_ATAN ||
+           nd->fn == NZ_FN_TANH || nd->fn == NZ_FN_SIGN;
+  default:
+    return 0;
+  }
+}
+
+static int node_total(const nz_graph *g, const nz_gnode *nd)
+{
+  return op_total(g, nd) && (nd->a < 0 || nd->op == NZ_GOP_INPUT || g->total[nd->a]) &&
+         (nd->b < 0 || g->total[nd->b]) && (nd->c < 0 || g->total[nd->c]);
+}
+
+int nz_graph_total(const nz_graph *g, int x) { return x >= 0 && x < g->n && g->total[x]; }
+
+void nz_graph_set_exact(nz_graph *g, int on) { g->exact = on != 0; }
+
 /* The node nd, shared if it exists.  Storage grows before anything changes,
  * so running out of memory leaves g as it was. */
 static int intern(nz_graph *g, nz_gnode nd)
@@ -282,6 +326,9 @@ static int intern(nz_graph *g, nz_gnode nd)
     nz_gnode *nn = realloc(g->nodes, (size_t)cap * sizeof *nn);
     if (!nn) return -1;
     g->nodes = nn;
+    uint8_t *nt = realloc(g->total, (size_t)cap);
+    if (!nt) return -1;
+    g->total = nt;
     g->cap = cap;
   }
   if (2 * ((size_t)g->n + 1) > g->tcap) {
@@ -289,6 +336,7 @@ static int intern(nz_graph *g, nz_gnode nd)
     i = probe(g, &nd);
   }
   g->nodes[g->n] = nd;
+  g->total[g->n] = (uint8_t)node_total(g, &nd);
   g->table[i] = g->n;
   if (nd.op == NZ_GOP_INPUT && nd.a >= g->ninputs) g->ninputs = nd.a + 1;
   return g->n++;
@@ -370,10 +418,15 @@ static int split_term(const nz_graph *g, int x, double *coef)
 
 static int build_neg(nz_graph *g, int a);
 
-/* c x for a base x of split_term and a finite c. */
+/* c x for a base x of split_term and a finite c.  0 x is the constant 0
+ * only when x is defined everywhere and signed zeros may go (not exact). */
 static int scaled(nz_graph *g, double c, int x)
 {
-  if (c == 0.0) return nz_graph_const(g, 0.0);   /* x finite by construction */
+  if (c == 0.0 && !g->exact && g->total[x]) return nz_graph_const(g, 0.0);
+  if (c == 0.0) {
+    int k = nz_graph_const(g, c);
+    return k < 0 ? -1 : intern(g, mknode(NZ_GOP_MUL, 0, imin(k, x), imax(k, x), 0.0));
+  }
   if (c == 1.0) return x;
   if (c == -1.0) return build_neg(g, x);
   int k = nz_graph_const(g, c);
@@ -399,17 +452,19 @@ static int is_neg(const nz_graph *g, int x) { return g->nodes[x].op == NZ_GOP_NE
 static int gather(nz_graph *g, int a, int b, double s)
 {
   double ca, cb;
-  if (nz_graph_is_const(g, a, NULL) || nz_graph_is_const(g, b, NULL)) return -1;
+  if (g->exact || nz_graph_is_const(g, a, NULL) || nz_graph_is_const(g, b, NULL)) return -1;
   int xa = split_term(g, a, &ca), xb = split_term(g, b, &cb);
   double c = ca + s * cb;
-  if (xa != xb || !isfinite(c)) return -1;
+  if (xa != xb || !isfinite(c) || (c == 0.0 && !g->total[xa])) return -1;
   return scaled(g, c, xa);
 }
 
 int nz_graph_powc(nz_graph *g, int a, double p)
 {
   if (!valid(g, a) || !isfinite(p)) return -1;
-  if (p == 0.0) return nz_graph_const(g, 1.0);   /* as nz_jet_pow: x^0 = 1 */
+  /* as nz_jet_pow: x^0 = 1, once x is known to be defined (not when
+   * exact: a constant jet of x's shape in Lua) */
+  if (p == 0.0 && g->total[a] && !g->exact) return nz_graph_const(g, 1.0);
   if (p == 1.0) return a;
   return fold_or_intern(g, mknode(NZ_GOP_POWC, 0, a, -1, p));
 }
@@ -429,10 +484,15 @@ int nz_graph_op(nz_graph *g, nz_gop op, int a, int b)
   switch (op) {
   case NZ_GOP_ADD:
   case NZ_GOP_SUB: {
-    if (is_const_value(g, b, 0.0)) return a;
-    if (op == NZ_GOP_ADD && is_const_value(g, a, 0.0)) return b;
-    if (op == NZ_GOP_SUB && a == b) return nz_graph_const(g, 0.0);
-    if (op == NZ_GOP_SUB && is_const_value(g, a, 0.0)) return build_neg(g, b);
+    /* x + 0 and 0 + x are x, 0 - x is -x, except for the sign of a zero:
+     * exactly, x + (-0) = (-0) + x = x - (+0) = x and (-0) - x = -x */
+    if (is_const_value(g, b, 0.0) && (!g->exact || !!signbit(g->nodes[b].v) == (op == NZ_GOP_ADD))) return a;
+    if (op == NZ_GOP_ADD && is_const_value(g, a, 0.0) && (!g->exact || signbit(g->nodes[a].v))) return b;
+    /* x - x is +0 for a finite x; not when exact, where x - x is a jet
+     * whose shape a later function reads (sqrt(q - q) refuses on jets) */
+    if (op == NZ_GOP_SUB && a == b && g->total[a] && !g->exact) return nz_graph_const(g, 0.0);
+    if (op == NZ_GOP_SUB && is_const_value(g, a, 0.0) && (!g->exact || signbit(g->nodes[a].v)))
+      return build_neg(g, b);
     int t = gather(g, a, b, op == NZ_GOP_ADD ? 1.0 : -1.0);
     if (t >= 0) return t;
     /* Negations into the sum, exact: a + (-b) = a - b, (-a) + b = b - a,
@@ -452,22 +512,25 @@ int nz_graph_op(nz_graph *g, nz_gop op, int a, int b)
   case NZ_GOP_MUL:
     if (is_const_value(g, a, 1.0)) return b;
     if (is_const_value(g, b, 1.0)) return a;
-    /* x finite by construction (evaluation fails otherwise), so x 0 = 0. */
-    if (is_const_value(g, a, 0.0) || is_const_value(g, b, 0.0)) return nz_graph_const(g, 0.0);
+    /* x 0 = 0 for a finite x, with the sign of x (kept when exact) */
+    if (!g->exact && ((is_const_value(g, a, 0.0) && g->total[b]) || (is_const_value(g, b, 0.0) && g->total[a])))
+      return nz_graph_const(g, 0.0);
     if (!nz_graph_is_const(g, a, NULL) && is_const_value(g, b, -1.0)) return build_neg(g, a);
     if (!nz_graph_is_const(g, b, NULL) && is_const_value(g, a, -1.0)) return build_neg(g, b);
-    if (nz_graph_is_const(g, a, NULL) != nz_graph_is_const(g, b, NULL)) {   /* c1 (c2 x) */
+    if (!g->exact && nz_graph_is_const(g, a, NULL) != nz_graph_is_const(g, b, NULL)) {   /* c1 (c2 x) */
       int k = nz_graph_is_const(g, a, NULL) ? a : b, y = k == a ? b : a;
       double cy;
       int x = split_term(g, y, &cy);
       nz_graph_is_const(g, k, &v);
-      if (x != y && isfinite(v * cy)) return scaled(g, v * cy, x);
+      if (x != y && isfinite(v * cy) && (v * cy != 0.0 || v == 0.0 || cy == 0.0)) return scaled(g, v * cy, x);
     }
     /* Constant factors and signs out of a product: (c1 x)(c2 y) = (c1 c2)(x y),
-     * (-x) y = -(x y) (exact), (-x)(-y) = x y (exact). */
+     * (-x) y = -(x y) (exact), (-x)(-y) = x y (exact: all that an exact
+     * graph moves). */
     if (!nz_graph_is_const(g, a, NULL) && !nz_graph_is_const(g, b, NULL)) {
       double ca, cb;
       int xa = split_term(g, a, &ca), xb = split_term(g, b, &cb);
+      if (g->exact && (fabs(ca) != 1.0 || fabs(cb) != 1.0)) xa = a, xb = b;
       if ((xa != a || xb != b) && isfinite(ca * cb)) {
         int xy = nz_graph_op(g, NZ_GOP_MUL, xa, xb), k = nz_graph_const(g, ca * cb);
         return xy < 0 || k < 0 ? -1 : nz_graph_op(g, NZ_GOP_MUL, k, xy);
@@ -480,15 +543,17 @@ int nz_graph_op(nz_graph *g, nz_gop op, int a, int b)
     /* (c x) / d = (c / d) x, as c1 (c2 x) above, when c / d is exact: the
      * derivatives of x^2 / 2 and y^3 / 3 are x and y^2, not (2 x) / 2 and
      * (3 y^2) / 3 (two nodes fewer each, in every evaluation and series) */
-    if (!nz_graph_is_const(g, a, NULL) && nz_graph_is_const(g, b, &v) && v != 0.0 && isfinite(v)) {
+    if (!g->exact && !nz_graph_is_const(g, a, NULL) && nz_graph_is_const(g, b, &v) && v != 0.0 && isfinite(v)) {
       double ca, qv;
       int xa = split_term(g, a, &ca);
       if (xa != a && isfinite(qv = ca / v) && qv != 0.0 && fma(qv, v, -ca) == 0.0) return scaled(g, qv, xa);
     }
     break;
   case NZ_GOP_POW:
-    /* a constant exponent is POWC even for a constant base: (-2)^2 = 4 */
-    if (nz_graph_is_const(g, b, &v)) return nz_graph_powc(g, a, v);
+    /* a constant exponent is POWC even for a constant base: (-2)^2 = 4;
+     * not when exact: an exponent that is a traced value folded to a
+     * constant (q1 - q1) is a jet in Lua, whose x^y needs x > 0 */
+    if (!g->exact && nz_graph_is_const(g, b, &v)) return nz_graph_powc(g, a, v);
     break;
   case NZ_GOP_ATAN2:
   case NZ_GOP_HYPOT:
@@ -496,7 +561,10 @@ int nz_graph_op(nz_graph *g, nz_gop op, int a, int b)
   default:
     return -1;
   }
-  if ((op == NZ_GOP_ADD || op == NZ_GOP_MUL || op == NZ_GOP_HYPOT) && a > b) {
+  /* commutative operands in a canonical order, so that x y and y x share a
+   * node; not a product when exact: on jets a product is a Cauchy sum,
+   * whose rounding depends on the order (the jets take it as written) */
+  if ((op == NZ_GOP_ADD || (op == NZ_GOP_MUL && !g->exact) || op == NZ_GOP_HYPOT) && a > b) {
     int t = a;
     a = b;
     b = t;
@@ -507,7 +575,7 @@ int nz_graph_op(nz_graph *g, nz_gop op, int a, int b)
 int nz_graph_cmp(nz_graph *g, nz_cmp op, int a, int b)
 {
   if (!valid(g, a) || !valid(g, b) || (int)op < 0 || op > NZ_CMP_NE) return -1;
-  if (a == b)   /* the same series: equal in every coefficient */
+  if (a == b && g->total[a] && !g->exact)   /* the same series: equal in every coefficient */
     return nz_graph_const(g, op == NZ_CMP_LE || op == NZ_CMP_GE || op == NZ_CMP_EQ ? 1.0 : 0.0);
   return fold_or_intern(g, mknode(NZ_GOP_CMP, op, a, b, 0.0));
 }
@@ -516,8 +584,15 @@ int nz_graph_select(nz_graph *g, int c, int a, int b)
 {
   double v;
   if (!valid(g, c) || !valid(g, a) || !valid(g, b)) return -1;
-  if (nz_graph_is_const(g, c, &v) && !isnan(v)) return v != 0.0 ? a : b;
-  if (a == b) return a;   /* c finite by construction */
+  /* the operand not taken, or the condition, goes only when it cannot
+   * fail: in Lua both operands and the condition are computed; when exact,
+   * only when it is a constant (in Lua a number branch takes the shape of
+   * a jet branch, which a later function reads) */
+  if (nz_graph_is_const(g, c, &v) && !isnan(v)) {
+    int taken = v != 0.0 ? a : b, other = v != 0.0 ? b : a;
+    if (g->total[other] && !(g->exact && !nz_graph_is_const(g, other, NULL))) return taken;
+  }
+  if (a == b && g->total[c]) return a;
   nz_gnode nd = mknode(NZ_GOP_SELECT, 0, a, b, 0.0);
   nd.c = c;
   return intern(g, nd);
@@ -615,6 +690,7 @@ static int d_rule(dctx *c, const nz_gnode *nd, int z, int da, int db)
   case NZ_GOP_POWC: {
     double p = nd->v;
     if (p == 1.0) return da;
+    if (p == 0.0) return DZERO;   /* x^0 = 1 wherever x is defined */
     return d_mul(c, v_op(c, NZ_GOP_MUL, v_const(c, p), V(c, nz_graph_powc(c->g, a, p - 1.0))), da);
   }
   case NZ_GOP_POW: {   /* z (db log a + b da / a) */
@@ -694,6 +770,62 @@ int nz_graph_derivative(nz_graph *g, int root, const int *dinput)
 {
   int dr;
   return nz_graph_derivatives(g, &root, 1, dinput, &dr) ? -1 : dr;
+}
+
+/* ------------------------------------------------------------------ */
+/* Copies and substitutions                                             */
+
+int nz_graph_copy(nz_graph *dst, const nz_graph *src, const int *roots, int nroots, const int *input_map,
+                  int *out)
+{
+  int top = -1;
+  if (nroots < 0) return -1;
+  for (int r = 0; r < nroots; r++) {
+    if (!valid(src, roots[r])) return -1;
+    if (roots[r] > top) top = roots[r];
+  }
+  for (int i = 0; input_map && i < src->ninputs; i++)
+    if (input_map[i] != -1 && !valid(dst, input_map[i])) return -1;
+  char *mark = calloc((size_t)top + 2, 1);
+  int *to = malloc(((size_t)top + 2) * sizeof *to);
+  if (!mark || !to) { free(mark); free(to); return -1; }
+  for (int r = 0; r < nroots; r++) mark[roots[r]] = 1;
+  int lo = top + 1;
+  for (int id = top; id >= 0; id--) {
+    if (!mark[id]) continue;
+    lo = id;
+    const nz_gnode *nd = &src->nodes[id];
+    if (has_operand(nd->op)) mark[nd->a] = 1;
+    if (binary_op(nd->op)) mark[nd->b] = 1;
+    if (has_cond(nd->op)) mark[nd->c] = 1;
+  }
+  /* With dst == src the new nodes come after top: never read here. */
+  int ok = 1;
+  for (int id = lo; id <= top && ok; id++) {
+    if (!mark[id]) continue;
+    nz_gnode nd = src->nodes[id];   /* a copy: building may move src->nodes when dst == src */
+    int x;
+    switch (nd.op) {
+    case NZ_GOP_CONST: x = nz_graph_const(dst, nd.v); break;
+    case NZ_GOP_INPUT: {
+      int m = input_map && nd.a < src->ninputs ? input_map[nd.a] : -1;
+      x = m >= 0 ? m : nz_graph_input(dst, nd.a);
+      break;
+    }
+    case NZ_GOP_NEG: x = nz_graph_op(dst, NZ_GOP_NEG, to[nd.a], -1); break;
+    case NZ_GOP_POWC: x = nz_graph_powc(dst, to[nd.a], nd.v); break;
+    case NZ_GOP_FN: x = nz_graph_fn(dst, (nz_jet_fn)nd.fn, to[nd.a]); break;
+    case NZ_GOP_CMP: x = nz_graph_cmp(dst, (nz_cmp)nd.fn, to[nd.a], to[nd.b]); break;
+    case NZ_GOP_SELECT: x = nz_graph_select(dst, to[nd.c], to[nd.a], to[nd.b]); break;
+    default: x = nz_graph_op(dst, (nz_gop)nd.op, to[nd.a], to[nd.b]); break;
+    }
+    if (x < 0) ok = 0;
+    to[id] = x;
+  }
+  for (int r = 0; r < nroots && ok; r++) out[r] = to[roots[r]];
+  free(mark);
+  free(to);
+  return ok ? 0 : -1;
 }
 
 /* ------------------------------------------------------------------ */
@@ -1177,10 +1309,13 @@ static size_t plan_shapes(nz_graph_plan *p, int eta, int Kmax, int *Dmax)
     const jrec *jr = &p->jrecs[i];
     int s = p->base + i, a = jr->a, b = jr->b, ka = !is_const_slot(p, a), kb = !is_const_slot(p, b);
     int o = ka && kb ? imin(p->ord[a], p->ord[b]) : ka ? p->ord[a] : kb ? p->ord[b] : Kmax;
-    /* A step (cmp, sign) is a constant series: no tangents, no eta-part. */
+    /* A step (cmp, sign) is a constant series with no eta-part; its
+     * tangents are zeros in the operands' shape, as the jets make it (the
+     * shape says whether a function after it wants derivatives: sqrt of
+     * gt(x, 0) at 0 refuses as in Lua). */
     int step = jr->op == NZ_GOP_CMP || (jr->op == NZ_GOP_FN && jr->fn == NZ_FN_SIGN);
     p->ord[s] = o;
-    p->ntn[s] = step ? 0 : imax(p->ntn[a], p->ntn[b]);
+    p->ntn[s] = imax(p->ntn[a], p->ntn[b]);
     len += jet_doubles(o, p->ntn[s]);
     p->eord[s] = -1;
     if (!eta || step) continue;

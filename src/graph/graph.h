@@ -9,8 +9,8 @@
  *   - folds constants (every operand constant -> a constant node, computed
  *     with the same jet kernels, so folding and evaluation agree bit for bit);
  *   - simplifies the identities that cost nothing to know: x + 0, x - 0,
- *     0 - x, x * 1, x * 0 (x finite by construction), x / 1, x ^ 1, x ^ 0,
- *     -(-x), select(c, a, a) = a, cmp(x, x);
+ *     0 - x, x * 1, x * 0, x / 1, x ^ 1, x ^ 0, -(-x), select(c, a, a) = a,
+ *     cmp(x, x);
  *   - gathers like terms, so that the graphs the mechanics differentiates
  *     do not grow with every product rule: with c, c1, c2 constants,
  *       (c1 x) + (c2 x) -> (c1 + c2) x,   x + x -> 2 x,   (c x) + x -> (c + 1) x,
@@ -23,7 +23,23 @@
  *     (-a) + b -> b - a, a - (-b) -> a + b, a +- (c y) with c < 0 ->
  *     a -+ (|c| y), (-x) y -> -(x y), (-x)(-y) -> x y;
  *   - hash-conses: the same (op, fn, operands, constant) is the same node,
- *     with commutative operands (add, mul, hypot) put in a canonical order.
+ *     with commutative operands (add, mul, hypot) put in a canonical order
+ *     (not a product in an exact graph: see below).
+ *
+ *   - never drops a part that can fail: x * 0, x - x, x^0, cmp(x, x),
+ *     select(c, a, a) and the branch a constant condition does not take go
+ *     only when the part dropped is defined at every finite input
+ *     (nz_graph_total), so that the graph fails where the function does
+ *     (log(q) * 0 at q < 0), and the jets' refusals (abs at 0) stay.
+ *
+ * An exact graph (nz_graph_set_exact: the recorder turns it on while it runs
+ * a user's function) is built as IEEE arithmetic computes the expression,
+ * bit for bit, as Lua computes it on jets: no like terms gathered, no
+ * constants moved (only the exact sign rules), x + 0, 0 - x and x * 0 kept
+ * (the sign of a zero: atan2(-0, -1) = -pi), and a^b with an exponent that
+ * folded to a constant stays a^b (the exponent is a jet in Lua, whose x^y
+ * needs x > 0).  Derivatives are built without it: the mechanics' M, h and
+ * rows are exact in real arithmetic only, as the jets' tangents are.
  *
  * Outputs are node ids the caller keeps; a plan (nz_graph_plan) is the list
  * of nodes some outputs need, with a workspace it owns and reuses: after the
@@ -102,6 +118,16 @@ int nz_graph_cmp(nz_graph *g, nz_cmp op, int a, int b);
 int nz_graph_select(nz_graph *g, int c, int a, int b);
 /* Is node x the constant v? (for callers that simplify further) */
 int nz_graph_is_const(const nz_graph *g, int x, double *v);
+/* Is node x defined at every finite value of the inputs, in every
+ * evaluator?  Sums, products, integer powers >= 0, division by a nonzero
+ * constant, sin, cos, tan, atan, tanh, sign, cmp, select of such nodes are;
+ * log, sqrt, a division by a node, other powers, abs, asin, acos, atan2,
+ * hypot (domains and the jets' singular points), exp, sinh and cosh
+ * (overflow) are not.  Sums and products overflow only past ~1e154. */
+int nz_graph_total(const nz_graph *g, int x);
+/* Build nodes as IEEE arithmetic computes them (on), or simplified (off,
+ * the default; see above). */
+void nz_graph_set_exact(nz_graph *g, int on);
 
 /* Forward-mode differentiation that builds nodes in g: the derivative of
  * node `root` when each input i moves along dinput[i] (a node id, or -1 for
@@ -115,6 +141,18 @@ int nz_graph_derivative(nz_graph *g, int root, const int *dinput);
  * the derivative of roots[r].  0 or -1. */
 int nz_graph_derivatives(nz_graph *g, const int *roots, int nroots, const int *dinput,
                          int *droots);
+
+/* The nodes under roots[0..nroots-1] of src built again in dst, each input
+ * i of src replaced by node input_map[i] of dst (input_map has
+ * nz_graph_ninputs(src) entries; -1, or input_map NULL: the input of the
+ * same number in dst): out[r] receives the copy of roots[r].  dst may be
+ * src, which substitutes nodes for inputs (sys:show holds the velocity of
+ * T still while q moves: docs/theory.md §4's T_0).  Built through dst's
+ * door, so folded and simplified as dst's exact mode says: the same
+ * expression, not always the same nodes.  0, or -1 (out of memory, a root
+ * or a map entry that is not a node). */
+int nz_graph_copy(nz_graph *dst, const nz_graph *src, const int *roots, int nroots, const int *input_map,
+                  int *out);
 
 /* ------------------------------------------------------------------ */
 /* Evaluation                                                           */

@@ -5,6 +5,7 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <math.h>
+#include <poll.h>
 #include <signal.h>
 #include <spawn.h>
 #include <stdarg.h>
@@ -422,56 +423,75 @@ static int load(const char *cache_dir, const char *base, const char *key, const 
 /* Workers                                                              */
 
 typedef struct nz_native_job {
-  pid_t pid;          /* the worker, 0 while it waits for its turn */
-  int done, status;   /* it has ended, with this wait status (-1: lost) */
-  int pipe;           /* its reason for failing comes through here */
+  int started;        /* its worker was started (else it waits for its turn) */
+  int done, ok;       /* the worker has ended, and compiled the object */
+  char msg[700];      /* else why not */
   char *src;          /* the source, until the worker starts */
   char ccbuf[2048];   /* argv's words live here */
   char *argv[MAXWORDS];
   int k;
   char *dir, *entry;
   char base[64], key[17];
-  double t_start, t_wait;
+  double t_start;
 } nz_native_job;
 
-static void job_ended(nz_native_job *j, int status)
-{
-  j->done = 1;
-  j->status = status;
-}
-
-/* Workers of this process still running, each with its job (NULL when
- * the job was forgotten while it ran): reaped when they end, so that none
- * stays a zombie, their status kept in their job. */
+/* The workers of this process still running: the read end of each one's
+ * pipe, and its job (NULL when the job was forgotten while it ran).  A
+ * worker is a grandchild in a session of its own (the child that forked it
+ * is reaped at once), so it never stays a zombie of this process and no
+ * waitpid here can take another part's child; it reports through its pipe
+ * ('0', or '1' and the reason) and its end closes the pipe. */
 typedef struct worker_slot {
-  pid_t pid;
-  struct nz_native_job *job;
+  int fd;
+  nz_native_job *job;
 } worker_slot;
 static worker_slot workers[256];
 static int nworkers;
 
-static worker_slot *slot_of(pid_t pid)
+/* Slot i's worker has spoken or ended: its report into its job, if any;
+ * the slot dropped. */
+static void collect(int i)
 {
-  for (int i = 0; i < nworkers; i++)
-    if (workers[i].pid == pid) return &workers[i];
-  return NULL;
+  worker_slot *w = &workers[i];
+  char msg[701];
+  ssize_t n;
+  while ((n = read(w->fd, msg, sizeof msg - 1)) < 0 && errno == EINTR) {}
+  msg[n > 0 ? n : 0] = 0;
+  if (w->job) {
+    w->job->done = 1;
+    w->job->ok = msg[0] == '0';
+    snprintf(w->job->msg, sizeof w->job->msg, "%s",
+             msg[0] == '1' ? msg + 1 : "the compile's worker ended without a reason (killed?)");
+  }
+  close(w->fd);
+  *w = workers[--nworkers];
 }
 
-static void drop_slot(worker_slot *w) { *w = workers[--nworkers]; }
+/* Wait up to timeout ms (-1: forever) for slot i's worker; 1 when it has
+ * reported (the slot is then collected), 0 when not yet, -1 on EINTR. */
+static int await_slot(int i, int timeout)
+{
+  struct pollfd pf = { workers[i].fd, POLLIN, 0 };
+  int r = poll(&pf, 1, timeout);
+  if (r < 0) return errno == EINTR ? -1 : (collect(i), 1);
+  if (r == 0) return 0;
+  collect(i);
+  return 1;
+}
 
-
-/* Reap what has ended; the number still running. */
+/* Collect what has ended; the number still running. */
 static int running_workers(void)
 {
-  for (int i = 0; i < nworkers;) {
-    int st = 0;
-    pid_t r = waitpid(workers[i].pid, &st, WNOHANG);
-    if (r == workers[i].pid || (r < 0 && errno == ECHILD)) {
-      if (workers[i].job) job_ended(workers[i].job, r < 0 ? -1 : st);
-      drop_slot(&workers[i]);
-    } else i++;
-  }
+  for (int i = 0; i < nworkers;)
+    if (await_slot(i, 0) <= 0) i++;
   return nworkers;
+}
+
+static int slot_of(const nz_native_job *j)
+{
+  for (int i = 0; i < nworkers; i++)
+    if (workers[i].job == j) return i;
+  return -1;
 }
 
 /* The worker's body: the lock, the cache looked at again (another process
@@ -506,14 +526,12 @@ static int worker(nz_native_job *j, char *why, size_t whylen)
 static int start_worker(nz_native_job *j, char *why, size_t whylen)
 {
   int p[2];
-  if (pipe2(p, O_CLOEXEC)) {
-    nz_native_say(why, whylen, "cannot start a compile: %s", strerror(errno));
-    return -1;
-  }
   if (running_workers() == (int)(sizeof workers / sizeof workers[0])) {
     nz_native_say(why, whylen, "too many compiles under way");
-    close(p[0]);
-    close(p[1]);
+    return -1;
+  }
+  if (pipe2(p, O_CLOEXEC)) {
+    nz_native_say(why, whylen, "cannot start a compile: %s", strerror(errno));
     return -1;
   }
   pid_t pid = fork();
@@ -525,29 +543,35 @@ static int start_worker(nz_native_job *j, char *why, size_t whylen)
   }
   if (pid == 0) {
     /* A session of its own: Ctrl-C at the terminal stops the run, not the
-     * compile that will serve the next one. */
+     * compile that will serve the next one.  The grandchild works; this
+     * child ends at once. */
     close(p[0]);
     setsid();
+    if (fork() != 0) _exit(0);
     signal(SIGINT, SIG_DFL);
     signal(SIGPIPE, SIG_IGN);
-    char w[700] = "";
-    int rc = worker(j, w, sizeof w);
-    if (rc && write(p[1], w, strlen(w)) < 0) rc = 2;
+    char w[700] = "1";
+    int rc = worker(j, w + 1, sizeof w - 1);
+    if (rc == 0) strcpy(w, "0");
+    if (write(p[1], w, strlen(w)) < 0) rc = 2;
     _exit(rc ? 1 : 0);
   }
   close(p[1]);
-  j->pid = pid;
-  j->pipe = p[0];
+  int st;
+  while (waitpid(pid, &st, 0) < 0 && errno == EINTR) {}
+  workers[nworkers++] = (worker_slot){ p[0], j };
+  j->started = 1;
   free(j->src);
   j->src = NULL;
-  workers[nworkers++] = (worker_slot){ pid, j };
   return 0;
 }
 
+/* A job's worker goes on alone (its slot forgets the job). */
 static void job_free(nz_native_job *j)
 {
   if (!j) return;
-  if (j->pipe >= 0) close(j->pipe);
+  int i = slot_of(j);
+  if (i >= 0) workers[i].job = NULL;
   free(j->src);
   free(j->dir);
   free(j->entry);
@@ -567,7 +591,6 @@ int nz_native_object_get(const char *src, const char *version, const char *prefi
     nz_native_say(why, whylen, "out of memory");
     return -1;
   }
-  j->pipe = -1;
   int ncc = 0;
   j->k = compiler_argv(j->ccbuf, sizeof j->ccbuf, j->argv, big ? "-O1" : "-O2", &ncc);
   if (j->k < 0) {
@@ -646,36 +669,26 @@ int nz_native_object_ready(nz_native_object *o, int wait, char *why, size_t whyl
     nz_native_say(why, whylen, "no object and no compile under way");
     return -1;
   }
-  if (!j->pid) {
+  if (!j->started) {
     if (!wait && running_workers() >= (int)nz_native_setting("NZLUA_CC_JOBS", 2, 0)) return 1;
     if (start_worker(j, why, whylen)) goto fail;
   }
   double t0 = nz_native_now();
   while (!j->done) {
-    int status = 0;
-    pid_t r = waitpid(j->pid, &status, wait ? 0 : WNOHANG);
+    int i = slot_of(j), r = i < 0 ? 1 : await_slot(i, wait ? -1 : 0);
     if (r == 0) return 1;
-    if (r < 0 && errno == EINTR) {
-      if (!nz_interrupt_requested()) continue;
+    if (r < 0 && nz_interrupt_requested()) {
       o->waited += nz_native_now() - t0;
       return 1;   /* Ctrl-C: the run goes on interpreted, and stops */
     }
-    worker_slot *w = slot_of(j->pid);
-    if (w) drop_slot(w);
-    job_ended(j, r == j->pid ? status : -1);
+    if (i < 0 && !j->done) {
+      nz_native_say(why, whylen, "lost the compile's worker");
+      goto fail;
+    }
   }
-  if (j->status == -1) {
-    nz_native_say(why, whylen, "lost the compile's worker (process %ld)", (long)j->pid);
-    goto fail;
-  }
-  int st = j->status;
   if (wait) o->waited += nz_native_now() - t0;
-  char msg[700];
-  ssize_t n = read(j->pipe, msg, sizeof msg - 1);
-  msg[n > 0 ? n : 0] = 0;
-  if (!WIFEXITED(st) || WEXITSTATUS(st) != 0) {
-    if (msg[0]) nz_native_say(why, whylen, "%s", msg);
-    else nz_native_say(why, whylen, "the compile's worker ended without a reason (status %d)", st);
+  if (!j->ok) {
+    nz_native_say(why, whylen, "%s", j->msg);
     goto fail;
   }
   int damaged;
@@ -696,12 +709,7 @@ fail:
 void nz_native_object_close(nz_native_object *o)
 {
   if (o->dl) dlclose(o->dl);
-  /* A compile under way finishes alone (running_workers reaps it). */
-  if (o->job) {
-    worker_slot *w = o->job->pid && !o->job->done ? slot_of(o->job->pid) : NULL;
-    if (w) w->job = NULL;
-    job_free(o->job);
-  }
+  job_free(o->job);   /* a compile under way finishes alone */
   free(o->path);
   memset(o, 0, sizeof *o);
 }

@@ -31,7 +31,7 @@
 #include "graph/series_native.h"
 #include "jets/series.h"
 
-#define SER_VERSION "nzlua-series 11"
+#define SER_VERSION "nzlua-series 12"
 #ifndef CHUNK
 #define CHUNK 2000
 #endif
@@ -89,7 +89,7 @@ static const char preamble[] =
   "{\n  double s = 0.0;\n  if (a == b) {\n"
   "    for (int j = 0; 2 * j < k; j++) s += a[j] * a[k - j];\n"
   "    s += s;\n    if (!(k & 1)) s += a[k / 2] * a[k / 2];\n    return s;\n  }\n"
-  "  for (int j = 0; j <= k; j++) s += a[j] * b[k - j];\n  return s;\n}\n"
+  "  s = a[0] * b[k];\n  for (int j = 1; j <= k; j++) s += a[j] * b[k - j];\n  return s;\n}\n"
   "static NZS_KERNEL double nzs_div(const double *z, const double *a, const double *b, int k)\n"
   "{ double s = a[k]; for (int j = 0; j < k; j++) s -= z[j] * b[k - j]; return s / b[0]; }\n"
   "static NZS_KERNEL double nzs_exp(const double *y, const double *x, int k)\n"
@@ -137,8 +137,10 @@ static void emit_product(nz_sbuf *b, int z, int a, int bb, int kc)
     for (int j = 0; 2 * j < kc; j++) nz_sb_printf(b, " s += SER(%d)[%d] * SER(%d)[%d];", a, j, a, kc - j);
     nz_sb_printf(b, " s += s;");
     if (!(kc & 1)) nz_sb_printf(b, " s += SER(%d)[%d] * SER(%d)[%d];", a, kc / 2, a, kc / 2);
-  } else
-    for (int j = 0; j <= kc; j++) nz_sb_printf(b, " s += SER(%d)[%d] * SER(%d)[%d];", a, j, bb, kc - j);
+  } else {
+    nz_sb_printf(b, " s = SER(%d)[0] * SER(%d)[%d];", a, bb, kc);
+    for (int j = 1; j <= kc; j++) nz_sb_printf(b, " s += SER(%d)[%d] * SER(%d)[%d];", a, j, bb, kc - j);
+  }
   nz_sb_printf(b, " SER(%d)[%d] = s; }\n", z, kc);
 }
 

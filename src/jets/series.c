@@ -18,7 +18,11 @@ double nz_series_mul_coef(const double *a, const double *b, int k)
     if (!(k & 1)) s += a[k / 2] * a[k / 2];
     return s;
   }
-  for (int j = 0; j <= k; j++) s += a[j] * b[k - j];
+  /* from the first product, not from +0: the value a_0 b_0 keeps the sign
+   * of a zero (-0.5 * 0 is -0, as the doubles and a jet times a number
+   * give it; atan2 tells them apart) */
+  s = a[0] * b[k];
+  for (int j = 1; j <= k; j++) s += a[j] * b[k - j];
   return s;
 }
 

@@ -8,6 +8,7 @@
 #include <lauxlib.h>
 #include <string.h>
 #include "lua/lua_graph.h"
+#include "lua/lua_jet.h"
 
 typedef struct compiled_box { nz_compiled *c; } compiled_box;
 
@@ -51,6 +52,18 @@ static int lg_new(lua_State *L)
   return 1;
 }
 
+/* tracer(mt): a new empty userdata with metatable mt.  The recorder's
+ * tracers are userdata so that type(x) answers "userdata" for them as for
+ * the jets the Lua evaluator passes (lua/nz/record.lua keeps their nodes). */
+static int lg_tracer(lua_State *L)
+{
+  luaL_checktype(L, 1, LUA_TTABLE);
+  lua_newuserdatauv(L, 0, 0);
+  lua_pushvalue(L, 1);
+  lua_setmetatable(L, -2);
+  return 1;
+}
+
 static int lg_gc(lua_State *L)
 {
   compiled_box *b = luaL_checkudata(L, 1, NZ_COMPILED_METATABLE);
@@ -65,13 +78,33 @@ static int lg_const(lua_State *L)
   return push_node(L, nz_graph_const(nz_compiled_graph(c), luaL_checknumber(L, 2)));
 }
 
-/* input(j, i): slot j (0 = q) of coordinate i (1-based); input(0): t;
- * param(p): parameter p (1-based). */
+/* slot(j, i): slot j (0 = q, 0 <= j < nslots) of coordinate i (1-based);
+ * frozen(i): the frozen velocity of coordinate i (mech_graph.h); time(): t;
+ * param(p): parameter p (1-based).  Only the layout's inputs: a graph
+ * whose inputs outgrow it would be read past the arrays the mechanics
+ * sizes by the layout. */
 static int lg_slot(lua_State *L)
 {
   nz_compiled *c = check(L);
   int j = (int)luaL_checkinteger(L, 2), i = (int)luaL_checkinteger(L, 3);
+  luaL_argcheck(L, j >= 0 && j < nz_compiled_nslots(c), 2, "no such slot in the recording");
+  luaL_argcheck(L, i >= 1 && i <= nz_compiled_ncoords(c), 3, "no such coordinate");
   return push_node(L, nz_graph_input(nz_compiled_graph(c), nz_compiled_input_slot(c, j, i - 1)));
+}
+
+static int lg_frozen(lua_State *L)
+{
+  nz_compiled *c = check(L);
+  int i = (int)luaL_checkinteger(L, 2);
+  luaL_argcheck(L, i >= 1 && i <= nz_compiled_ncoords(c), 2, "no such coordinate");
+  return push_node(L, nz_graph_input(nz_compiled_graph(c), nz_compiled_input_frozen(c, i - 1)));
+}
+
+/* nslots() -> the derivative slots of the layout (mech_graph.h) */
+static int lg_nslots(lua_State *L)
+{
+  lua_pushinteger(L, nz_compiled_nslots(check(L)));
+  return 1;
 }
 
 static int lg_time(lua_State *L)
@@ -315,6 +348,36 @@ static int lg_derivative(lua_State *L)
   return push_node(L, nz_graph_derivative(g, root, dir));
 }
 
+/* copy(src, {roots}, {[input number of src] = node}) -> {nodes}: the roots
+ * of src's graph built again in this one, the inputs listed replaced by
+ * the nodes given, the others by the inputs of the same number (src may
+ * be this recording: a substitution).  The inputs of src must fit this
+ * layout. */
+static int lg_copy(lua_State *L)
+{
+  nz_compiled *c = check(L);
+  compiled_box *b = luaL_checkudata(L, 2, NZ_COMPILED_METATABLE);
+  if (!b->c) return luaL_error(L, "internal: a freed compiled system");
+  nz_graph *g = nz_compiled_graph(c), *src = nz_compiled_graph(b->c);
+  int n = (int)luaL_len(L, 3), ni = nz_graph_ninputs(src);
+  luaL_checktype(L, 4, LUA_TTABLE);
+  int *ids = lua_newuserdatauv(L, 2 * (size_t)(n + 1) * sizeof(int), 0), *out = ids + n + 1;
+  n = read_nodes(L, 3, src, ids, n);
+  int *map = lua_newuserdatauv(L, (size_t)(ni + 1) * sizeof(int), 0);
+  for (int i = 0; i < ni; i++) {
+    lua_geti(L, 4, i);
+    map[i] = lua_isnil(L, -1) ? -1 : check_node(L, g, -1);
+    lua_pop(L, 1);
+  }
+  /* unmapped inputs keep their numbers: within this layout */
+  int layout = nz_compiled_input_frozen(c, nz_compiled_ncoords(c) - 1) + 1;
+  for (int i = 0; i < ni; i++)
+    if (map[i] < 0 && i >= layout) return luaL_error(L, "internal: input %d is outside the layout", i);
+  if (nz_graph_copy(g, src, ids, n, map, out)) return luaL_error(L, "not enough memory to record the graph");
+  push_ids(L, out, n);
+  return 1;
+}
+
 /* piece_nodes(piece, index (1-based)) -> nodes its evaluation visits */
 static int lg_piece_nodes(lua_State *L)
 {
@@ -359,6 +422,85 @@ static int lg_eval(lua_State *L)
   return 1;
 }
 
+/* The jets of the table at idx by input number (0-based), for a graph of
+ * ni inputs: a number is a constant jet of order K (made on the stack,
+ * where it stays while used), nil NULL (an input the nodes must not read,
+ * or one that does not move). */
+static void input_jets(lua_State *L, int idx, int ni, int K, const nz_jet **in)
+{
+  for (int i = 0; i < ni; i++) {
+    lua_geti(L, idx, i);
+    nz_jet *j = nz_lua_tojet(L, -1);
+    if (!j && lua_type(L, -1) == LUA_TNUMBER) {
+      double v = lua_tonumber(L, -1);
+      j = nz_lua_newjet(L, K, 0);
+      nz_jet_set_constant(j, v);
+      lua_remove(L, -2);
+    }
+    in[i] = j;
+  }
+}
+
+/* eval_jets({nodes}, {inputs by number, 0-based: jets or numbers} [,
+ * {directions by number}]) -> {jets} [, {eta-parts}], or nil, message: the
+ * jets path, for checking a recording against the function on jets with
+ * tangents and along a state direction (lua/nz/record.lua).  The outputs
+ * have the lowest order of the jet inputs and their most tangents. */
+static int lg_eval_jets(lua_State *L)
+{
+  nz_compiled *c = check(L);
+  nz_graph *g = nz_compiled_graph(c);
+  int n = (int)luaL_len(L, 2), ni = nz_graph_ninputs(g), K = -1, D = 0, dir = lua_istable(L, 4);
+  luaL_checktype(L, 3, LUA_TTABLE);
+  lua_settop(L, 4);
+  int *ids = lua_newuserdatauv(L, (size_t)(n + 1) * sizeof(int), 0);
+  n = read_nodes(L, 2, g, ids, n);
+  const nz_jet **in = lua_newuserdatauv(L, 2 * (size_t)(ni + 1) * sizeof(nz_jet *), 0), **din = in + ni + 1;
+  nz_jet **out = lua_newuserdatauv(L, 2 * (size_t)(n + 1) * sizeof(nz_jet *), 0), **dout = out + n + 1;
+  for (int s = 3; s <= 3 + dir; s++)
+    for (int i = 0; i < ni; i++) {
+      lua_geti(L, s, i);
+      const nz_jet *j = nz_lua_tojet(L, -1);
+      if (j && s == 3 && (K < 0 || j->order < K)) K = j->order;
+      if (j && j->ntan > D) D = j->ntan;
+      lua_pop(L, 1);
+    }
+  if (K < 0) K = 0;
+  luaL_checkstack(L, 2 * (ni + n) + 8, "evaluating a graph on jets");
+  input_jets(L, 3, ni, K, in);
+  if (dir) input_jets(L, 4, ni, K, din);
+  lua_createtable(L, n, 0);
+  int outs = lua_gettop(L);
+  lua_createtable(L, n, 0);
+  for (int o = 0; o < n; o++) {
+    out[o] = nz_lua_newjet(L, K, D);
+    lua_rawseti(L, outs, o + 1);
+    dout[o] = nz_lua_newjet(L, K, D);
+    lua_rawseti(L, outs + 1, o + 1);
+  }
+  nz_graph_plan *p = nz_graph_plan_new(g, ids, n);
+  if (!p) return luaL_error(L, "not enough memory to evaluate the graph");
+  nz_status st = nz_graph_eval_jets(p, in, out, dir ? din : NULL, dir ? dout : NULL);
+  nz_graph_plan_free(p);
+  if (st) {
+    lua_pushnil(L);
+    lua_pushfstring(L, "status %d", (int)st);
+    return 2;
+  }
+  if (dir) return 2;
+  lua_pushvalue(L, outs);
+  return 1;
+}
+
+/* set_exact(true | false): build nodes as IEEE arithmetic computes the
+ * expression (the recorder, while it runs a user's function), or
+ * simplified (graph.h). */
+static int lg_set_exact(lua_State *L)
+{
+  nz_graph_set_exact(nz_compiled_graph(check(L)), lua_toboolean(L, 2));
+  return 0;
+}
+
 /* set_native(true | false | nil): compile the plans on doubles at once,
  * never, or when they have earned it (mech_graph.h). */
 static int lg_set_native(lua_State *L)
@@ -369,11 +511,13 @@ static int lg_set_native(lua_State *L)
 }
 
 static const luaL_Reg methods[] = {
-  { "const", lg_const }, { "slot", lg_slot }, { "time", lg_time }, { "param", lg_param },
+  { "const", lg_const }, { "slot", lg_slot }, { "frozen", lg_frozen }, { "nslots", lg_nslots },
+  { "time", lg_time }, { "param", lg_param }, { "copy", lg_copy },
   { "op", lg_op }, { "fn", lg_fn }, { "powc", lg_powc }, { "constant", lg_constant },
   { "cmp", lg_cmp }, { "select", lg_select },
   { "set_piece", lg_set_piece }, { "info", lg_info }, { "piece_nodes", lg_piece_nodes },
-  { "eval", lg_eval }, { "set_native", lg_set_native }, { "native_wait", lg_native_wait }, { "nodes", lg_nodes },
+  { "eval", lg_eval }, { "eval_jets", lg_eval_jets }, { "set_native", lg_set_native }, { "native_wait", lg_native_wait },
+  { "set_exact", lg_set_exact }, { "nodes", lg_nodes },
   { "mass_bias_outputs", lg_mass_bias_outputs }, { "piece_outputs", lg_piece_outputs }, { "derivative", lg_derivative },
   { NULL, NULL }
 };
@@ -389,4 +533,6 @@ void nz_lua_open_graph(lua_State *L)
   lua_pop(L, 1);
   lua_pushcfunction(L, lg_new);
   lua_setfield(L, -2, "compiled_new");
+  lua_pushcfunction(L, lg_tracer);
+  lua_setfield(L, -2, "tracer");
 }

@@ -661,8 +661,12 @@ static int lj_dual(lua_State *L)
   return 1;
 }
 
+/* A jet, or a number type that answers as one (the recorder's tracers
+ * stand for the jets the Lua evaluator passes: lua/nz/record.lua). */
 static int lj_isjet(lua_State *L)
 {
+  lua_settop(L, 1);
+  if (foreign(L, 1) && dispatch_to_table(L, 1, "isjet")) return 1;
   lua_pushboolean(L, nz_lua_tojet(L, 1) != NULL);
   return 1;
 }
@@ -765,13 +769,25 @@ static int lj_coefs(lua_State *L)
   return 1;
 }
 
-static void add_series(luaL_Buffer *b, const double *c, int K)
+/* A coefficient in the shortest decimal that reads back exactly (%.15g,
+ * %.16g or %.17g), as the session prints a number (lua/nz/repl.lua):
+ * 1/6 is 0.16666666666666666, 0.1 stays 0.1. */
+static void add_number(luaL_Buffer *b, double v)
 {
   char num[40];
+  for (int digits = 15; digits <= 17; digits++) {
+    snprintf(num, sizeof num, "%.*g", digits, v);
+    if (strtod(num, NULL) == v) break;
+  }
+  luaL_addstring(b, num);
+}
+
+static void add_series(luaL_Buffer *b, const double *c, int K)
+{
   int shown = K < 7 ? K : 7;
   for (int j = 0; j <= shown; j++) {
-    snprintf(num, sizeof num, "%s%.14g", j ? ", " : "", c[j]);
-    luaL_addstring(b, num);
+    if (j) luaL_addstring(b, ", ");
+    add_number(b, c[j]);
   }
   if (shown < K) luaL_addstring(b, ", ...");
 }

@@ -130,7 +130,8 @@ static int ls_series_initial(lua_State *L)
 
 /* series_project(def, orders, p, t, levels, tol, maxit[, lambdas]) -> levels
  * (p lists), lambdas (p - 2 lists), iterations; nil and the iterations when
- * it fails.  lambdas: the multipliers' start (zeros when absent). */
+ * it fails.  lambdas: the multipliers chosen (a list per level, or nil
+ * where they are free; free with zeros as the start when absent). */
 static int ls_series_project(lua_State *L)
 {
   lua_settop(L, 8);
@@ -140,9 +141,14 @@ static int ls_series_project(lua_State *L)
   double tol = luaL_checknumber(L, 6);
   int maxit = (int)luaL_checkinteger(L, 7), its = 0;
   double *lam = lua_newuserdatauv(L, ((size_t)(p - 2) * nc + 1) * sizeof(double), 0);
+  int *chosen = lua_newuserdatauv(L, (size_t)p * sizeof(int), 0);
   memset(lam, 0, ((size_t)(p - 2) * nc + 1) * sizeof(double));
   read_lambda_list(L, 8, lam, p - 2, nc, "project");
-  int st = nz_series_project(&c.b.sys, c.orders, p, c.t, c.lv, lam, tol, maxit, &its);
+  for (int j = 0; j < p - 2; j++) {
+    chosen[j] = lua_istable(L, 8) && lua_geti(L, 8, j + 1) == LUA_TTABLE;
+    if (lua_istable(L, 8)) lua_pop(L, 1);
+  }
+  int st = nz_series_project(&c.b.sys, c.orders, p, c.t, c.lv, lam, chosen, tol, maxit, &its);
   if (st == NZ_EARG) {
     lua_pushnil(L);
     lua_pushinteger(L, its);

@@ -55,8 +55,10 @@ static void record_failure(lua_evaluator *ev, nz_piece piece, int index, const n
   const char *label = lua_tostring(L, -1);
   lua_pop(L, 3);
   luaL_addstring(&b, label ? label : piece_fields[piece]);
-  luaL_addstring(&b, " ");
-  luaL_addstring(&b, what);
+  if (what[0]) {
+    luaL_addstring(&b, " ");
+    luaL_addstring(&b, what);
+  }
   nz_lua_fmt_num(num, sizeof num, t->c[0]);
   luaL_addstring(&b, " at t = ");
   luaL_addstring(&b, num);
@@ -289,6 +291,31 @@ static void error_hint(lua_State *L, lua_evaluator *ev, const char *msg)
   lua_pushliteral(L, "");
 }
 
+/* The last message nz_lua_raise_core raised, in the registry: a user
+ * function that called the mechanics again (T asking for sys:energy, a
+ * force for sys:accel) and let its error through hands back the engine's
+ * own message, which already names the system, the function and the
+ * state; wrapped once per level it repeated them (40 levels: 2.5 kB). */
+static const char engine_error_key = 0;
+#define NESTED_NOTE " (nested "
+
+/* The error object's text: a string (or number) as it is; another value by
+ * its __tostring, else by its type. */
+static const char *error_text(lua_State *L, int idx)
+{
+  if (lua_type(L, idx) == LUA_TSTRING || lua_type(L, idx) == LUA_TNUMBER) return lua_tostring(L, idx);
+  if (luaL_getmetafield(L, idx, "__tostring") != LUA_TNIL) {
+    lua_pop(L, 1);
+    luaL_tolstring(L, idx, NULL);       /* pushed, then put in the object's place */
+    lua_replace(L, idx < 0 ? idx - 1 : idx);
+    return lua_tostring(L, idx);
+  }
+  lua_pushfstring(L, "an error object of type %s (give error() a string, or the object a __tostring)",
+                  luaL_typename(L, idx));
+  lua_replace(L, idx < 0 ? idx - 1 : idx);
+  return lua_tostring(L, idx);
+}
+
 static void note_error(lua_evaluator *ev, const eval_call *c, nz_piece piece, int index,
                        const char *doing)
 {
@@ -298,10 +325,31 @@ static void note_error(lua_evaluator *ev, const eval_call *c, nz_piece piece, in
     return;
   }
   take_location(ev);
-  const char *msg = lua_tostring(L, -1);
-  error_hint(L, ev, msg ? msg : "");   /* pushes the hint, "" when none */
-  lua_pushfstring(L, "%s: %s%s", doing, msg ? strip_location(ev, msg) : "(error object is not a string)",
-                  lua_tostring(L, -1));
+  lua_rawgetp(L, LUA_REGISTRYINDEX, &engine_error_key);
+  int nested = lua_type(L, -2) == LUA_TSTRING && lua_rawequal(L, -1, -2);
+  lua_pop(L, 1);
+  if (nested) {
+    /* The root cause, whole and once, and the outermost call once: each
+     * level replaces the note of the level below, "(nested N deep; the
+     * outermost call: V at t = .., q = ..)", by its own. */
+    size_t len;
+    const char *msg = lua_tolstring(L, -1, &len), *note = NULL;
+    for (const char *p = strstr(msg, NESTED_NOTE); p; p = strstr(p + 1, NESTED_NOTE)) note = p;
+    int depth = note ? atoi(note + strlen(NESTED_NOTE)) + 1 : 1;
+    lua_pushlstring(L, msg, note ? (size_t)(note - msg) : len);
+    record_failure(ev, piece, index, c->t, c->levels, c->nlevels, "");   /* "LABEL  at t = .." in the registry */
+    lua_rawgetp(L, LUA_REGISTRYINDEX, ev);
+    const char *outer = lua_tostring(L, -1);
+    lua_pushfstring(L, "%s%s%d deep; the outermost call: %s)", lua_tostring(L, -2), NESTED_NOTE, depth,
+                    outer ? outer : "");
+    lua_rawsetp(L, LUA_REGISTRYINDEX, ev);
+    lua_pop(L, 2);
+    ev->passthrough = 1;
+    return;
+  }
+  const char *msg = error_text(L, -1);
+  error_hint(L, ev, msg);   /* pushes the hint, "" when none */
+  lua_pushfstring(L, "%s: %s%s", doing, strip_location(ev, msg), lua_tostring(L, -1));
   lua_remove(L, -2);
   record_failure(ev, piece, index, c->t, c->levels, c->nlevels, lua_tostring(L, -1));
 }
@@ -404,6 +452,7 @@ typedef struct system_object {
   nz_system sys;              /* ev is set at binding */
   struct nz_compiled *comp;   /* def.compiled, kept alive by def */
   int np;                     /* parameters of the recording */
+  int absent;                 /* names of params its functions read while absent */
 } system_object;
 
 static const char *const SYSTEM_OBJECT = "nz.evaluator";
@@ -417,6 +466,8 @@ static void object_compiled(lua_State *L, int def, system_object *o)
   }
   lua_pop(L, 1);
   o->np = nz_compiled_nparams(o->comp);
+  if (lua_getfield(L, def, "params_absent") == LUA_TTABLE) o->absent = (int)lua_rawlen(L, -1);
+  lua_pop(L, 1);
   if (lua_getfield(L, def, "compiled_mass_bias") == LUA_TBOOLEAN && lua_toboolean(L, -1)) {
     o->sys.mass_bias = nz_compiled_mass_bias;
     o->sys.accel = nz_compiled_accel;
@@ -541,11 +592,35 @@ static void read_params(lua_State *L, int def, struct nz_compiled *comp, int np)
   lua_pop(L, 2);
 }
 
+/* Is one of the names the recorded functions read while it was absent from
+ * params (def.params_absent: `p.c or 1`) there now?  Then the recording
+ * would miss it: lua/nz/record.lua records again. */
+static int params_added(lua_State *L, int def)
+{
+  int added = 0;
+  lua_getfield(L, def, "params_absent");
+  lua_getfield(L, def, "params");
+  lua_Integer n = lua_istable(L, -2) && lua_istable(L, -1) ? (lua_Integer)lua_rawlen(L, -2) : 0;
+  for (lua_Integer i = 1; i <= n && !added; i++) {
+    lua_rawgeti(L, -2, i);
+    added = lua_gettable(L, -2) != LUA_TNIL;
+    lua_pop(L, 1);
+  }
+  lua_pop(L, 2);
+  return added;
+}
+
 void nz_lua_bind_system(lua_State *L, int def, bound_system *b)
 {
   luaL_checktype(L, def, LUA_TTABLE);
   def = lua_absindex(L, def);
   system_object *o = system_object_of(L, def);
+  if (o->absent && params_added(L, def)) {
+    lua_getfield(L, def, "record_again");
+    lua_pushvalue(L, def);
+    lua_call(L, 1, 0);
+    o = system_object_of(L, def);
+  }
   b->sys = o->sys;
   b->comp = o->comp;
   b->ev.L = L;
@@ -553,6 +628,7 @@ void nz_lua_bind_system(lua_State *L, int def, bound_system *b)
   b->ev.k = o->sys.k;
   b->ev.where[0] = '\0';
   b->ev.interrupted = 0;
+  b->ev.passthrough = 0;
   /* The recorded parameters are the declared ones (both: the named numbers
    * of params when the system was made), checked as they are read. */
   if (!b->comp || o->np == 0) check_params(L, def);
@@ -576,11 +652,21 @@ int nz_lua_raise_core(lua_State *L, bound_system *b, int st, const char *fname)
     lua_rawgetp(L, LUA_REGISTRYINDEX, &b->ev);
     lua_pushnil(L);
     lua_rawsetp(L, LUA_REGISTRYINDEX, &b->ev);
+    if (b->ev.passthrough && lua_type(L, -1) == LUA_TSTRING) {   /* a nested call's error, with its note */
+      lua_pushvalue(L, -1);
+      lua_rawsetp(L, LUA_REGISTRYINDEX, &engine_error_key);
+      return lua_error(L);
+    }
     const char *msg = lua_tostring(L, -1);
-    lua_pushfstring(L, "%s%ssystem '%s': %s", b->ev.where, b->ev.where[0] ? " " : "", name,
-                    msg ? msg : "a function failed");
     /* where the function failed when it is the user's; else the user's call */
-    return b->ev.where[0] ? lua_error(L) : nz_lua_raise_located(L);
+    char where[512];
+    if (b->ev.where[0]) snprintf(where, sizeof where, "%s", b->ev.where);
+    else nz_lua_user_location(L, 0, where, sizeof where);
+    lua_pushfstring(L, "%s%ssystem '%s': %s", where, where[0] ? " " : "", name, msg ? msg : "a function failed");
+    /* remembered: a user function that lets it through is seen to (note_error) */
+    lua_pushvalue(L, -1);
+    lua_rawsetp(L, LUA_REGISTRYINDEX, &engine_error_key);
+    return lua_error(L);
   }
   if (st == NZ_ENOMEM) return nz_lua_error(L, "system '%s': not enough memory in '%s'", name, fname);
   return nz_lua_error(L, "system '%s': '%s' failed (status %d)", name, fname, st);

@@ -19,6 +19,9 @@ typedef struct lua_evaluator {
   int k;
   char where[256];         /* the user's "file:line:" of the last failure */
   int interrupted;         /* a user function was stopped by the interrupt */
+  int passthrough;         /* the failure is the engine's own error from a  */
+                           /* call nested in the user's function: raised as */
+                           /* it is (its state once, not once per level)     */
 } lua_evaluator;
 
 /* A system bound to its definition table for the duration of one call.

@@ -9,6 +9,7 @@
 #include <string.h>
 #include <lauxlib.h>
 #include "lua/lua_util.h"
+#include "mech/constrained.h"
 
 /* Shortest round-trip text of a number, for messages; NaN and infinities
  * the same way on every C library (not "-nan"). */
@@ -264,21 +265,26 @@ static void add_check_failure(luaL_Buffer *msg, const nz_accel_report *rep, cons
 {
   char num[240];
   int row = rep->check_row;
-  if (row >= k && rep->check_order > 2)
+  if (rep->check_kind == NZ_CHECK_FORWARD)
+    snprintf(num, sizeof num, "the accelerations and multipliers of the solve are determined only to a relative "
+             "%.2g here (the equilibrated system's reciprocal condition is %.2g, its backward error %.2g; "
+             "the check allows %.0e)", rep->check_forward, rep->rcond, rep->check_backward, NZ_ACCEL_FORWARD_TOL);
+  else if (row >= k && rep->check_order > 2)
     snprintf(num, sizeof num, "constraint %d, classified of order %d, depends on q^(%d) here (its "
              "terms above order %d are %.3g against %.3g at that order), and accelerations cannot "
              "impose a constraint of order %d", row - k + 1, orders[row - k], rep->check_order,
              orders[row - k], rep->check_violation, rep->check_size, rep->check_order);
-  else if (row >= k)
-    snprintf(num, sizeof num, "constraint %d is violated by %.3g (its terms are of size %.3g) after "
-             "the solve, also after classifying it again at this state", row - k + 1,
-             rep->check_violation, rep->check_size);
+  else if (row >= k && rep->check_kind == NZ_CHECK_ORDER)
+    snprintf(num, sizeof num, "constraint %d, classified of order %d, depends on the derivatives above it "
+             "here (its terms there are %.3g against %.3g at that order), also after classifying it "
+             "again at this state", row - k + 1, orders[row - k], rep->check_violation, rep->check_size);
   else
-    snprintf(num, sizeof num, "equation (6.2) for coordinate %d is violated by %.3g (its terms are "
-             "of size %.3g) after the solve, also after classifying the constraints again at this "
-             "state", row + 1, rep->check_violation, rep->check_size);
+    snprintf(num, sizeof num, "%s %d is violated by %.3g after the solve, a backward error of %.2g of the "
+             "equilibrated system (more than the %.0e rounding leaves), also after classifying %s again at "
+             "this state", row >= k ? "constraint" : "equation (6.2) for coordinate", row >= k ? row - k + 1 : row + 1,
+             rep->check_violation, rep->check_backward, NZ_ACCEL_CHECK_TOL, row >= k ? "it" : "the constraints");
   luaL_addstring(msg, num);
-  if (rep->involved && nc > 1 && rep->rank_A > 0 && rep->sigma_ratio < 1e-5) {
+  if (rep->involved && nc > 1 && rep->rank_A > 0 && rep->sigma_ratio < NZ_NEAR_DEPENDENCE) {
     int n;
     luaL_addstring(msg, ": the gradients of ");
     add_involved(msg, rep->involved, nc, &n);
@@ -375,7 +381,9 @@ int nz_lua_raise_accel_failure(lua_State *L, int def, const nz_accel_report *rep
   } else if (rep.failure == NZ_ACCEL_CHECK) {
     add_check_failure(&msg, &rep, orders, k, nc);
     nz_lua_add_state(&msg, t, q, qd, k);
-    luaL_addstring(&msg, rep.check_order > 2
+    luaL_addstring(&msg, rep.check_kind == NZ_CHECK_FORWARD
+                   ? ": start away from this configuration, or check the constraints there"
+                   : rep.check_order > 2
                    ? ": give a state where it has that order as sample = {...} in nz.system, so that "
                      "it is classified and integrated at its own order, or check the constraint "
                      "where its order changes"

@@ -2,6 +2,7 @@
  * constrained.h).  Linear algebra on GSL: the saddle-point matrix
  * [M -A^T; A 0] is solved through its SVD, which gives its condition at no
  * extra cost and, when it is singular, the constraints to blame. */
+#include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -169,6 +170,25 @@ static int row_in(const nz_system *s, nz_motion *mo, int r, int m, double t,
   return st;
 }
 
+/* The rows of levels m + 1 and 2 of constraint r read as the constraint
+ * itself: the row of a constraint "of order 2" is Phi (K = 0), "of order
+ * 1" Phi' (K = 1); on doubles through the row hook where there is one. */
+int nz_constraint_state_values(const nz_system *s, const int *orders, double t, const double *const *state,
+                               int nstate, double *values)
+{
+  nz_motion mo = { 0 };   /* one workspace for every constraint (the jets' path) */
+  int st = NZ_OK;
+  for (int r = 0; r < s->nc && !st; r++) {
+    int m = orders[r];
+    values[2 * r] = values[2 * r + 1] = 0.0;
+    if (m > 1) continue;
+    st = row_in(s, &mo, r, 2, t, state, nstate, 0.0, 0.0, NULL, NULL, &values[2 * r], NULL, NULL);
+    if (!st && m == 0) st = row_in(s, &mo, r, 1, t, state, nstate, 0.0, 0.0, NULL, NULL, &values[2 * r + 1], NULL, NULL);
+  }
+  nz_motion_free(&mo);
+  return st;
+}
+
 int nz_constraint_row_along(const nz_system *s, int r, int m, double t, const double *const *state,
                             int nstate, double alpha, double beta, const nz_state_direction *dir,
                             double *A, double *value, double *dA, double *dvalue)
@@ -257,6 +277,8 @@ typedef struct kkt {
   const double *q, *qd;
   int k, nc, N;
   double *M, *h, *A, *phi, *H, *x;   /* x: the point of the last evaluation */
+  double *d;                          /* the equilibration D of the last solve */
+  double knorm, bnorm;                /* ||D J D||_inf, ||D b||_inf of that solve */
   int status;                         /* first failure of a user function  */
   int nonfinite;                      /* Newton: 1, an iterate was not finite; */
                                       /* 2, G was not finite at a finite one   */
@@ -305,11 +327,12 @@ static int kkt_eval(kkt *c, const double *x, double *G, double *J)
  * circle of radius R puts entries of size R beside masses of size 1: the
  * solve's residual, a few eps times the largest entry times the solution,
  * is then of size eps R in (6.2), rounding the check would take for a
- * violation; scaled, each row's residual is a few eps of its own terms. */
-static void equilibrate(const kkt *c, double *J, double *d)
+ * violation; scaled, it is a few eps of the scaled system, whose infinity
+ * norm ||D J D|| is returned for the check (check_solution). */
+static double equilibrate(const kkt *c, double *J, double *d)
 {
   int k = c->k, N = c->N;
-  double mu = 0.0;
+  double mu = 0.0, norm = 0.0;
   for (int i = 0; i < k; i++)
     for (int j = 0; j < k; j++) mu = fmax(mu, fabs(J[i * N + j]));
   if (!(mu > 0.0 && isfinite(mu))) mu = 1.0;
@@ -319,8 +342,12 @@ static void equilibrate(const kkt *c, double *J, double *d)
     for (int i = 0; i < k; i++) a = fmax(a, fabs(J[(k + r) * N + i]) * d[i]);
     d[k + r] = a > 0.0 && isfinite(a) ? 1.0 / a : 1.0;
   }
-  for (int i = 0; i < N; i++)
-    for (int j = 0; j < N; j++) J[i * N + j] *= d[i] * d[j];
+  for (int i = 0; i < N; i++) {
+    double row = 0.0;
+    for (int j = 0; j < N; j++) row += fabs(J[i * N + j] *= d[i] * d[j]);
+    norm = fmax(norm, row);
+  }
+  return norm;                          /* ||D J D||_inf, for the check */
 }
 
 /* GSL multiroot callbacks: a failing user function stops the solver with
@@ -432,10 +459,18 @@ static int solve(kkt *c, const nz_accel_options *opt, double *x, double *G, doub
    * exact), and for the nonlinear case a last step at the root, whose
    * matrix tells the condition of the system and the multipliers' quality. */
   if ((st = kkt_eval(c, x, G, J))) return st;
-  equilibrate(c, J, dx);
-  for (int i = 0; i < N; i++) Jc[i] = -G[i] * dx[i];
+  c->knorm = equilibrate(c, J, c->d);
+  /* The step solves J dx = -G(x0), x = x0 + dx: in x, J x = b with b = J x0
+   * - G(x0) (b = -G(0) = (-h, -a0) for the linear solve, x0 = 0), whose
+   * size in the scaled variables the check measures its residual against. */
+  c->bnorm = 0.0;
+  for (int i = 0; i < N; i++) {
+    double b = Jc[i] = -G[i] * c->d[i];
+    for (int j = 0; nonlinear && j < N; j++) b += J[i * N + j] * x[j] / c->d[j];
+    c->bnorm = fmax(c->bnorm, fabs(b));
+  }
   if ((st = nz_solve_square(N, J, Jc, G, opt->rcond_min, &rep->rcond))) return st;
-  for (int i = 0; i < N; i++) dx[i] *= G[i];
+  for (int i = 0; i < N; i++) dx[i] = c->d[i] * G[i];
   if (!(rep->rcond >= opt->rcond_min)) {
     rep->failure = NZ_ACCEL_SINGULAR;
     diagnose_dependence(nc, k, c->A, rep);
@@ -493,76 +528,79 @@ static int check_row(kkt *c, int r, const double *const *state, double *high)
   return st;
 }
 
-/* Check the solution x: (6.2) and the constraint rows against the sizes of
- * their terms (phi_prev: the rows before the last step, whose value a0 is a
- * term), and each constraint's order.  An acceleration counts at least 1 in
- * the sizes, as in slot_size: terms that cancel at an equilibrium (h = 0 up
- * to rounding, q'' = 0) must not turn rounding into a failure.  Returns
- * NZ_OK with *failed = 0 when all pass; otherwise *failed = 1, bad[r] has
- * bit 1 for a constraint of too low an order, 2 for a constraint row that
- * fails, 4 when (6.2) fails (every constraint's gradient may have moved),
- * and rep holds the worst row. */
-static int check_solution(kkt *c, const double *x, const double *phi_prev, int *bad, int *failed,
-                          nz_accel_report *rep)
+/* Check the solution x (see NZ_ACCEL_CHECK_TOL): each constraint's order,
+ * and the residual G(x) of (6.2) and of the constraint rows, the rows
+ * evaluated again at x by the user's functions (a constraint classified
+ * linear that is not shows here), as a normwise backward error of the
+ * equilibrated saddle-point system of the last solve,
+ *   eta = ||D G(x)||_inf / (||D J D||_inf ||D^-1 x||_inf + ||D b||_inf),
+ * the smallest relative change of the system's data that makes x exact
+ * (Rigal and Gaches 1967; Higham, "Accuracy and Stability of Numerical
+ * Algorithms", 2nd ed., Theorem 7.1).  A backward-stable solve promises
+ * only this: a row's residual is small against the whole system, not
+ * against its own terms (a loop whose terms are 1e-6 beside multipliers
+ * of 1e2 in another carries their rounding).  Returns NZ_OK with *failed
+ * = 0 when all pass; otherwise *failed = 1, bad[r] has bit 1 for a
+ * constraint of too low an order, 2 for a constraint row that fails, 4
+ * when (6.2) fails (every constraint's gradient may have moved), and rep
+ * holds the worst row (an order's failure before the backward error's). */
+static int check_solution(kkt *c, const double *x, int *bad, int *failed, nz_accel_report *rep)
 {
-  int k = c->k, nc = c->nc, st;
+  int k = c->k, nc = c->nc, N = c->N, st;
   const double *state[3] = { c->q, c->qd, x };
-  double worst = 0.0;
+  double worst_order = 0.0, worst = 0.0, worst_g = 0.0, xnorm = 0.0;
+  int worst_row = -1;
   *failed = 0;
-  memcpy(c->x, x, (size_t)c->N * sizeof(double));
+  memcpy(c->x, x, (size_t)N * sizeof(double));
+  for (int i = 0; i < N; i++) xnorm = fmax(xnorm, fabs(x[i]) / c->d[i]);
+  double size = c->knorm * xnorm + c->bnorm, allowed = NZ_ACCEL_CHECK_TOL * size;
   for (int r = 0; r < nc; r++) {
-    double high, size = fabs(phi_prev[r]), grad = 0.0;
+    double high, grad = 0.0;
     bad[r] = 0;
     if ((st = check_row(c, r, state, &high))) return st;
-    for (int i = 0; i < k; i++) {
-      size += fabs(c->A[(size_t)r * k + i]) * fmax(fabs(x[i]), 1.0);
-      grad += fabs(c->A[(size_t)r * k + i]);
-    }
+    for (int i = 0; i < k; i++) grad += fabs(c->A[(size_t)r * k + i]);
     double top = grad * slot_size(state, k, c->orders[r]);
     if (fabs(high) > NZ_ACCEL_CHECK_TOL * top) {
       double rel = top > 0 ? fabs(high) / top : INFINITY;
       bad[r] |= 1;
-      if (!*failed || rel > worst) {
-        worst = rel;
+      if (!*failed || rel > worst_order) {
+        worst_order = rel;
         rep->check_row = k + r;
+        rep->check_kind = NZ_CHECK_ORDER;
         rep->check_violation = fabs(high);
         rep->check_size = top;
       }
       *failed = 1;
     }
-    if (fabs(c->phi[r]) > NZ_ACCEL_CHECK_TOL * size) {
-      bad[r] |= 2;
-      double rel = size > 0 ? fabs(c->phi[r]) / size : INFINITY;
-      if (!*failed || rel > worst) {
-        worst = rel;
-        rep->check_row = k + r;
-        rep->check_violation = fabs(c->phi[r]);
-        rep->check_size = size;
-      }
-      *failed = 1;
-    }
+    double e = fabs(c->phi[r]) * c->d[k + r];
+    if (!(e <= allowed)) bad[r] |= 2;
+    if (!(e <= worst)) { worst = e; worst_row = k + r; }
   }
   for (int i = 0; i < k; i++) {
-    double g = c->h[i], size = fabs(c->h[i]);
-    for (int j = 0; j < k; j++) {
-      g += c->M[i * k + j] * x[j];
-      size += fabs(c->M[i * k + j]) * fmax(fabs(x[j]), 1.0);
-    }
-    for (int r = 0; r < nc; r++) {
-      g -= c->A[(size_t)r * k + i] * x[k + r];
-      size += fabs(c->A[(size_t)r * k + i] * x[k + r]);
-    }
-    if (fabs(g) > NZ_ACCEL_CHECK_TOL * size) {
+    double g = c->h[i];
+    for (int j = 0; j < k; j++) g += c->M[i * k + j] * x[j];
+    for (int r = 0; r < nc; r++) g -= c->A[(size_t)r * k + i] * x[k + r];
+    double e = fabs(g) * c->d[i];
+    if (!(e <= allowed))
       for (int r = 0; r < nc; r++) bad[r] |= 4;
-      double rel = size > 0 ? fabs(g) / size : INFINITY;
-      if (!*failed || rel > worst) {
-        worst = rel;
-        rep->check_row = i;
-        rep->check_violation = fabs(g);
-        rep->check_size = size;
-      }
-      *failed = 1;
+    if (!(e <= worst)) { worst = e; worst_row = i; worst_g = g; }
+  }
+  rep->check_backward = size > 0.0 ? worst / size : worst > 0.0 ? INFINITY : 0.0;
+  rep->check_forward = fmax(rep->check_backward, DBL_EPSILON) / rep->rcond;
+  if (!(rep->check_forward <= NZ_ACCEL_FORWARD_TOL) && !*failed && worst <= allowed) {
+    rep->check_row = -1;                /* no row to blame: the whole system */
+    rep->check_kind = NZ_CHECK_FORWARD;
+    rep->check_size = size;
+    *failed = 1;
+  }
+  if (!(worst <= allowed)) {
+    if (!*failed) {                     /* an order's failure is the more specific */
+      rep->check_row = worst_row;
+      rep->check_kind = NZ_CHECK_BACKWARD;
+      rep->check_violation = worst_row < k ? fabs(worst_g) : fabs(c->phi[worst_row - k]);
+      rep->check_size = size;
     }
+    *failed = 1;
   }
   return NZ_OK;
 }
@@ -627,7 +665,8 @@ int nz_accel_constrained(const nz_system *s, const int *orders, const int *linea
   rep->reclassified = 0;
   rep->check_row = -1;
   rep->check_order = -1;
-  rep->check_violation = rep->check_size = 0.0;
+  rep->check_kind = NZ_CHECK_BACKWARD;
+  rep->check_violation = rep->check_size = rep->check_backward = rep->check_forward = 0.0;
   size_t kk = (size_t)k * (size_t)k, NN = (size_t)N * (size_t)N;
   double *buf = calloc(2 * kk + 2 * NN + (size_t)nc * (size_t)k + 6 * (size_t)N + (size_t)k
                        + (size_t)NZ_CONSTRAINT_SLOTS * (size_t)k, sizeof(double));
@@ -637,7 +676,7 @@ int nz_accel_constrained(const nz_system *s, const int *orders, const int *linea
   memcpy(ord, orders, (size_t)nc * sizeof(int));
   memcpy(lin, linear, (size_t)nc * sizeof(int));
   kkt c = { s, ord, lin, opt->baumgarte_alpha, opt->baumgarte_beta, t, q, qd, k, nc, N,
-            NULL, NULL, NULL, NULL, NULL, NULL, NZ_OK, 0, { 0 } };
+            NULL, NULL, NULL, NULL, NULL, NULL, NULL, 0.0, 0.0, NZ_OK, 0, { 0 } };
   c.M = buf;
   c.H = c.M + kk;
   double *J = c.H + kk, *Jc = J + NN;
@@ -646,7 +685,8 @@ int nz_accel_constrained(const nz_system *s, const int *orders, const int *linea
   c.phi = dx + N;
   c.x = c.phi + N;
   c.h = c.x + N;
-  double *phi_prev = c.h + k, *dphi = phi_prev + N;
+  c.d = c.h + k;
+  double *dphi = c.d + N;
 
   if ((st = nz_mass_bias(s, t, q, qd, c.M, c.h))) goto done;
   if ((st = solve(&c, opt, x, G, J, Jc, dx, rep))) goto done;
@@ -655,8 +695,7 @@ int nz_accel_constrained(const nz_system *s, const int *orders, const int *linea
      * solve once more; a second failure is the caller's error. */
     for (int pass = 0; pass < 2; pass++) {
       int failed, changed;
-      memcpy(phi_prev, G + k, (size_t)nc * sizeof(double));
-      if ((st = check_solution(&c, x, phi_prev, bad, &failed, rep)) || !failed) break;
+      if ((st = check_solution(&c, x, bad, &failed, rep)) || !failed) break;
       changed = pass == 0 ? reclassify(&c, x, bad, ord, lin, dphi, rep, &st) : 0;
       if (st) break;
       if (changed <= 0) {
@@ -665,7 +704,7 @@ int nz_accel_constrained(const nz_system *s, const int *orders, const int *linea
         /* a solve that misses its own check is often one near a rank
          * loss of the gradients (two surfaces meeting tangentially): the
          * message names the constraints when they are nearly dependent */
-        if (nc > 1) diagnose_dependence_at(nc, k, c.A, rep, 1e-5);
+        if (nc > 1) diagnose_dependence_at(nc, k, c.A, rep, NZ_NEAR_DEPENDENCE);
         break;
       }
       if ((st = solve(&c, opt, x, G, J, Jc, dx, rep))) break;

@@ -29,6 +29,15 @@ int nz_constraint_state_gradient(const nz_system *s, int r, int level, double t,
                                  const double *const *state, int nstate, double *value,
                                  double *grad);
 
+/* The constraints of order m <= 1 (orders[r], the classification) along
+ * the motion through the state (q, q', q'' in state): values[2r] = Phi_r
+ * and, for m = 0, values[2r + 1] = Phi_r' = Phi_t + Phi_q q' (0 for the
+ * others).  One evaluation of each on jets of order 1 - m without tangents,
+ * in one workspace: how far a state is from the constraints, for about the
+ * cost of its rows. */
+int nz_constraint_state_values(const nz_system *s, const int *orders, double t, const double *const *state,
+                               int nstate, double *values);
+
 /* Phi along q^(m) + s v, as a series in s: c[0] + c[1] s + c[2] s^2.
  * c[2] = v^T H v / 2 vanishes for every v exactly when Phi is affine in q^(m). */
 int nz_constraint_curvature(const nz_system *s, int r, int m, double t, const double *const *state,
@@ -82,15 +91,42 @@ typedef struct nz_accel_options {
 
 #define NZ_ACCEL_DEFAULTS { 1e-13, 1e-12, 50, NULL, NULL, 0.0, 0.0, 0 }
 
-/* The check after every solve: a row of (6.2) or of the constraints fails
- * when |G| > NZ_ACCEL_CHECK_TOL x (the sum of the sizes of its terms), and a
- * constraint classified of order m fails when its derivative along the slots
- * above m, weighted by their typical sizes, exceeds NZ_ACCEL_CHECK_TOL x the
- * size of its q^(m) terms.  A backward-stable solve leaves relative residuals
- * of a few k eps (1e-15); 1e-10 leaves five orders for rounding in the
- * user's terms, and matches the integrator's default rtol: an error the check
- * lets pass is below what the integration itself commits. */
+/* The check after every solve (constrained.c, check_solution):
+ * - the solution x = (q'', lambda) must be a solution of the equilibrated
+ *   saddle-point system [M -A^T; A 0] x = b it was solved from, with the
+ *   constraint rows evaluated again at x by the user's functions: its
+ *   normwise backward error ||D G(x)|| / (||D J D|| ||D^-1 x|| + ||D b||)
+ *   (infinity norms, D the equilibration of the solve) must not exceed
+ *   NZ_ACCEL_CHECK_TOL.  A backward-stable solve (pivoted QR) leaves a few N
+ *   eps (N = k + nc; at most 1.8e-16 measured along the motion of
+ *   Andrews' squeezer, tests/squeezer_spec.lua), Newton
+ *   stops at 1e-12 of the forces before its last exact step, and a
+ *   constraint classified linear that is not here, or a solve near a rank
+ *   loss of A, leaves 1e-6 and more.  1e-10 keeps five orders above
+ *   rounding and matches the integrators' default rtol: a backward error
+ *   the check lets pass changes the equations less than the integration
+ *   does.
+ * - a constraint classified of order m fails when its derivative along the
+ *   slots above m, weighted by their typical sizes, exceeds
+ *   NZ_ACCEL_CHECK_TOL x the size of its q^(m) terms. */
 #define NZ_ACCEL_CHECK_TOL 1e-10
+
+/* and the relative error of the solution that the backward error and the
+ * condition of the equilibrated system allow, max(eta, eps) / rcond, must
+ * not exceed NZ_ACCEL_FORWARD_TOL.  Near a configuration where the
+ * constraints' gradients lose rank (two surfaces meeting tangentially:
+ * Viviani's double point) the motion is not determined: the multipliers
+ * grow like 1/sigma and the condition like 1/sigma^2, sigma A's smallest
+ * singular value relative to its largest, and a backward-stable solve
+ * still has a tiny backward error while its accelerations lose every
+ * digit.  1e-6 is reached at sigma ~ 1e-5 (rcond ~ 2e-10), where q'' still
+ * has six digits; the mechanisms of the tests keep rcond above 1e-3. */
+#define NZ_ACCEL_FORWARD_TOL 1e-6
+
+/* A check that fails names the constraints whose gradients are nearly
+ * dependent: A's smallest singular value below this of its largest (where
+ * the forward bound above fails by a rank loss, sigma ~ 1e-5). */
+#define NZ_NEAR_DEPENDENCE 1e-4
 
 typedef enum nz_accel_failure {
   NZ_ACCEL_OK = 0,
@@ -104,6 +140,14 @@ typedef enum nz_accel_failure {
   NZ_ACCEL_TOP_NEWTON       /* level p: Newton on (6.2) and the constraints   */
                             /* for (q^(p), lambda) did not converge           */
 } nz_accel_failure;
+
+/* What the check after the solve found wrong (nz_accel_report). */
+typedef enum nz_check_kind {
+  NZ_CHECK_BACKWARD = 0,    /* the backward error exceeds NZ_ACCEL_CHECK_TOL   */
+  NZ_CHECK_ORDER,           /* a constraint depends on slots above its order  */
+  NZ_CHECK_FORWARD          /* the solution's error bound exceeds             */
+                            /* NZ_ACCEL_FORWARD_TOL (a rank loss of A nears)   */
+} nz_check_kind;
 
 typedef struct nz_accel_report {
   nz_accel_failure failure;
@@ -122,12 +166,20 @@ typedef struct nz_accel_report {
   int *used;                /* caller's 2 nc ints, or NULL: the orders, then   */
                             /* the linear flags, the solution was found with   */
   /* NZ_ACCEL_CHECK: the row that failed (0..k-1: (6.2) for q_i; k + r:
-   * constraint r), its violation |G| and its size (sum of |terms|); with
-   * check_order >= 0, constraint r depends on q^(check_order) here, above
-   * the order 2 an acceleration-level solve can impose, and the violation
-   * and size are those of its terms above and at its classified order. */
+   * constraint r) and its violation |G|, with check_backward the backward
+   * error it makes and check_size the system's size it is measured
+   * against (||D J D|| ||D^-1 x|| + ||D b||); or a constraint of too low an
+   * order: the violation and size are those of its terms above and at its
+   * classified order, and with check_order >= 0 constraint r depends on
+   * q^(check_order) here, above the order 2 an acceleration-level solve can
+   * impose. */
   int check_row, check_order;
+  nz_check_kind check_kind; /* which test failed                               */
   double check_violation, check_size;
+  double check_backward;    /* the backward error of the last check (every   */
+                            /* solve that was checked), see NZ_ACCEL_CHECK_TOL */
+  double check_forward;     /* its bound on the solution's relative error,     */
+                            /* max(backward error, eps) / rcond                */
   /* NZ_ACCEL_NEWTON, NZ_ACCEL_TOP_NEWTON: how it stopped (nz_newton_stop),
    * and (NZ_ACCEL_NEWTON) the constraint farthest from zero at the last
    * iterate (newton_row, 0-based, -1 for none) with its value. */

@@ -249,28 +249,83 @@ int nz_series_initial(const nz_system *s, const int *orders, int p, double t,
   return st;
 }
 
+/* The step of a level whose multipliers are free (nobody chose them): the
+ * least change dx of q^(l) alone, the multipliers' change dw whatever the
+ * equations then need.  J = [Jx Jw] (N x N, Jw its last nc columns):
+ * with P the projector onto the complement of range(Jw), dx = -(P Jx)^+ P
+ * res minimizes |dx| over the least-squares solutions of Jx dx + Jw dw =
+ * -res, and dw = -Jw^+ (res + Jx dx).  Each Jw^+ is a minimum-norm least
+ * squares (nz_lstsq); work holds 2 N k + N nc + 2 N doubles. */
+static int step_free_multipliers(int k, int nc, const double *J, const double *res, double *d, double *work)
+{
+  int N = k + nc, st;
+  double *Jx = work, *Jw = Jx + (size_t)N * k, *PJx = Jw + (size_t)N * nc, *v = PJx + (size_t)N * k, *y = v + N;
+  for (int i = 0; i < N; i++) {
+    for (int j = 0; j < k; j++) Jx[(size_t)i * k + j] = J[(size_t)i * N + j];
+    for (int r = 0; r < nc; r++) Jw[(size_t)i * nc + r] = J[(size_t)i * N + k + r];
+  }
+  /* P u = u - Jw Jw^+ u, column by column of Jx, then for res */
+  for (int j = 0; j <= k; j++) {
+    for (int i = 0; i < N; i++) v[i] = j < k ? Jx[(size_t)i * k + j] : res[i];
+    if ((st = nz_lstsq(N, nc, Jw, v, y))) return st;
+    for (int i = 0; i < N; i++) {
+      double u = v[i];
+      for (int r = 0; r < nc; r++) u -= Jw[(size_t)i * nc + r] * y[r];
+      if (j < k) PJx[(size_t)i * k + j] = u;
+      else v[i] = -u;
+    }
+  }
+  if ((st = nz_lstsq(N, k, PJx, v, d))) return st;             /* dx */
+  for (int i = 0; i < N; i++) {
+    double u = -res[i];
+    for (int j = 0; j < k; j++) u -= Jx[(size_t)i * k + j] * d[j];
+    v[i] = u;
+  }
+  return nz_lstsq(N, nc, Jw, v, d + k);                        /* dw */
+}
+
 int nz_series_project(const nz_system *s, const int *orders, int p, double t, double *const *levels,
-                      double *lam, double tol, int maxit, int *iterations)
+                      double *lam, const int *chosen, double tol, int maxit, int *iterations)
 {
   int k = s->k, nc = s->nc, N = k + nc, st = NZ_OK;
   *iterations = 0;
-  double *buf = calloc((size_t)(p - 1) * nc + 4 * (size_t)N + (size_t)N * N + (size_t)nc * k, sizeof(double));
+  double *buf = calloc((size_t)(p - 1) * nc + 6 * (size_t)N + (size_t)N * N + (size_t)nc * k
+                       + 2 * (size_t)N * k + (size_t)N * nc, sizeof(double));
   if (!buf) return NZ_ENOMEM;
   double *lw = buf, *res = lw + (size_t)(p - 1) * nc, *scratch = res + N, *rhs = scratch + N, *d = rhs + N;
-  double *J = d + N, *A = J + (size_t)N * N;
+  double *J = d + N, *A = J + (size_t)N * N, *work = A + (size_t)nc * k;
   const double *const *lv = (const double *const *)levels;
   memcpy(lw, lam, (size_t)(p - 2) * nc * sizeof(double));      /* the multipliers' start */
   for (int l = 2; l < p && !st; l++) {
     double *x = levels[l], *w = lw + (size_t)(l - 2) * nc;
+    int free_w = !chosen || !chosen[l - 2], fitted = !free_w;
     for (int it = 0;; it++) {
       double gscale;
       int row = -1;
       if ((st = nz_series_level(s, orders, l, t, lv, lw, res, A, &gscale))) break;
       if (worst_row(k, nc, orders, l, res, gscale, &row) <= tol) break;
+      if (!fitted) {
+        /* Free multipliers: first those that fit q^(l) as it is, by least
+         * squares (the equations are affine in them, with -A^T in the rows
+         * of (6.2)): a q^(l) that satisfies the level is kept exactly. */
+        memset(J, 0, (size_t)N * nc * sizeof(double));
+        for (int i = 0; i < k; i++)
+          for (int r = 0; r < nc; r++) J[(size_t)i * nc + r] = -A[(size_t)r * k + i];
+        for (int i = 0; i < N; i++) rhs[i] = -res[i];
+        if ((st = nz_lstsq(N, nc, J, rhs, d))) break;
+        for (int r = 0; r < nc; r++) w[r] += d[r];
+        fitted = 1;
+        it--;
+        continue;
+      }
       if (it >= maxit) { st = NZ_EARG; break; }
       if ((st = level_matrix(s, orders, l, t, lv, x, lw, res, A, J, scratch))) break;
-      for (int i = 0; i < N; i++) rhs[i] = -res[i];
-      if ((st = nz_lstsq(N, N, J, rhs, d))) break;
+      if (free_w) {
+        if ((st = step_free_multipliers(k, nc, J, res, d, work))) break;
+      } else {
+        for (int i = 0; i < N; i++) rhs[i] = -res[i];
+        if ((st = nz_lstsq(N, N, J, rhs, d))) break;
+      }
       for (int i = 0; i < k; i++) x[i] += d[i];
       for (int r = 0; r < nc; r++) w[r] += d[k + r];
       (*iterations)++;

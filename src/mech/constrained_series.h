@@ -68,15 +68,18 @@ typedef struct nz_series_violation {
 int nz_series_initial(const nz_system *s, const int *orders, int p, double t,
                       const double *const *levels, double *lam, nz_series_violation *v);
 
-/* Complete a start state: for l = 2..p-1, the smallest change of
- * (q^(l), lambda^(l-2)) that satisfies the equations of level l, by
- * Gauss-Newton steps of minimum norm (one step when they are affine).
- * levels[2..p-1] are updated in place; lam ((p-2) nc multipliers) holds
- * their start (zeros for a fresh start, the state's for a projection along
- * the motion) and gets the result.
+/* Complete a start state: for l = 2..p-1, the smallest change of q^(l)
+ * that satisfies the equations of level l, by Gauss-Newton steps of minimum
+ * norm (one step when they are affine); a state that satisfies them is
+ * left as it is.  The multipliers lambda^(l-2) take whatever the equations
+ * need, unless chosen[l-2] is set (chosen NULL: none is): then their
+ * change counts too, the least change of (q^(l), lambda^(l-2)) together
+ * (the user gave them, or a projection along the motion, where they are
+ * part of the state).  levels[2..p-1] are updated in place; lam ((p-2) nc
+ * multipliers) holds their start and gets the result.
  * NZ_EARG when maxit steps do not bring a level below tol (1 + scale). */
 int nz_series_project(const nz_system *s, const int *orders, int p, double t, double *const *levels,
-                      double *lam, double tol, int maxit, int *iterations);
+                      double *lam, const int *chosen, double tol, int maxit, int *iterations);
 
 /* ------------------------------------------------------------------ */
 /* A constraint of order p >= 3 NONLINEAR in q^(p)                      */

@@ -223,7 +223,11 @@ static int top_partials_along(const nz_system *s, nz_motion *mo, nz_piece p, int
                               const nz_state_direction *dir, double *dtop)
 {
   int k = s->k, D = below ? 2 * k : k;
-  int st = nz_motion_reset(mo, k, 2, m, D, t, state, nstate);
+  /* m = 0 (dF/dq, dV/dq) on jets of order 1 all the same: the motion's
+   * velocity is then in them, so a tie of a branch is decided as in the
+   * orders m >= 1 (the rule of jet.h: the first coefficient that differs),
+   * and a singular point is refused as there */
+  int st = nz_motion_reset(mo, k, 2, m > 0 ? m : 1, D, t, state, nstate);
   if (st) return st;
   if (dir && (st = nz_motion_set_direction(mo, dir))) return st;
   for (int i = 0; i < k; i++) {
@@ -505,8 +509,9 @@ int nz_top_coefficient(const nz_system *s, int m, double t, const double *const 
   return st;
 }
 
-/* Nielsen's form (n = 1) is affine in q'': h = r(0), M e_j = r(e_j) - r(0)
- * (docs/theory.md §11).  dF/dq and the force are computed once. */
+/* Nielsen's form (n = 1) is affine in q'': h = r(0) and M is its derivative
+ * along q'' (docs/theory.md §11), on jets.  dF/dq and the force are
+ * computed once. */
 int nz_mass_bias(const nz_system *s, double t, const double *q, const double *qd, double *M,
                  double *h)
 {
@@ -525,9 +530,11 @@ int nz_mass_bias(const nz_system *s, double t, const double *q, const double *qd
   }
   for (int i = 0; i < k; i++) h[i] = dF1[i] - 2.0 * dFq[i] - force[i];
   if (!nz_system_has(s, NZ_PIECE_F)) goto done;
+  /* the size of the terms of h, which may cancel in it */
+  double tmax = 0.0, mmax = 0.0;
+  for (int i = 0; i < k; i++) tmax = fmax(tmax, fmax(fabs(dF1[i]), fmax(fabs(2.0 * dFq[i]), fabs(force[i]))));
   /* Column j of M: the residual is affine in q'', so the residual at
    * q'' = e_j less h, k evaluations as cheap as h's. */
-  double hmax = 0.0, mmax = 0.0;
   for (int j = 0; j < k; j++) {
     qdd[j] = 1.0;
     st = top_partials(s, &mo, NZ_PIECE_F, 1, t, state, 3, dF1, NULL);
@@ -535,13 +542,13 @@ int nz_mass_bias(const nz_system *s, double t, const double *q, const double *qd
     if (st) goto done;
     for (int i = 0; i < k; i++) M[i * k + j] = (dF1[i] - 2.0 * dFq[i] - force[i]) - h[i];
   }
-  for (int i = 0; i < k; i++) hmax = fmax(hmax, fabs(h[i]));
+  /* That difference loses eps times the terms of h, which may cancel
+   * (T = q'^2/2 + q'/(-1.5 q): terms of 1/q^2 and h = 0, and M came out 2
+   * or 0 for 1 at q = 1e-8, 1e-10): with terms 1e4 times M or more, take
+   * each column again as the derivative of dF^(1)/dq' along q''_j, exact,
+   * at twice the cost. */
   for (int e = 0; e < k * k; e++) mmax = fmax(mmax, fabs(M[e]));
-  /* That difference loses eps |h| of M: with h 1e4 times M or more (a mass
-   * matrix that degenerates while the velocity blows up: 1e16 times, and M
-   * came out 0), take each column again as the derivative of dF^(1)/dq'
-   * along q''_j, exact, at twice the cost. */
-  if (!(hmax <= 1e4 * mmax))
+  if (!(tmax <= 1e4 * mmax))
     for (int j = 0; j < k; j++) {
       ej[j] = 1.0;
       nz_state_direction along = { 0.0, qdd, qdd, ej };   /* qdd: zeros */

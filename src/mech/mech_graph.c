@@ -4,6 +4,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include "graph/graph_guard.h"
 #include "graph/graph_native.h"
 #include "graph/series_native.h"
 #include "core/linalg.h"
@@ -48,9 +49,12 @@ struct nz_compiled {
   const nz_jet **in, **din;
   nz_jet **pjet;                       /* np constant jets of order pcap */
   int pcap;
-  /* Mass and bias on doubles (built on first use; built = -1 if impossible). */
-  int mb_built;
+  /* Mass and bias on doubles (built on first use; built = -1 if impossible);
+   * the guards read the plan's outputs after its own mb_nout
+   * (graph_guard.h: ties and singular points go to the jets). */
+  int mb_built, mb_nout;
   dplan *mb_plan;
+  nz_graph_guards *mb_guards;
   double *mb_in, *mb_out;
   /* Native code: mode (-1 auto, 0 off, 1 on), plans compiled, seconds
    * compiling took and how many of them runs waited, why the last attempt
@@ -66,13 +70,17 @@ struct nz_compiled {
    * are constants of the graph), and F, V checked: one pass per call;
    * m_info is the solve info of the one factorization of M. */
   dplan *acc_plan;
+  nz_graph_guards *acc_guards;
+  int acc_nout;
   nz_solve_info m_info;
   double *acc_out;
   /* Constraint rows on doubles: plan of (r, m) at rows[3 r + m] (built = 1,
    * or -1 when it cannot be built), outputs D^0..D^K Phi then A. */
   dplan **rows;
   signed char *rows_built;
-  double *row_in, *row_out;
+  nz_graph_guards **row_guards;
+  double **row_outs;                   /* each row plan's outputs, guards' after */
+  double *row_in;
   /* nz_compiled_motion_series's workspace, for series up to ts_cap + 1
    * coefficients of q (grown, never shrunk): the inputs' coefficient
    * (ninputs), M_0's factor and the solver's work, a right-hand side (k),
@@ -311,7 +319,7 @@ nz_compiled *nz_compiled_new(int k, int np, int nc, int nslots)
   nz_compiled *c = calloc(1, sizeof *c);
   if (!c) return NULL;
   c->k = k; c->np = np; c->nc = nc; c->nslots = nslots;
-  c->ninputs = 1 + np + nslots * k;
+  c->ninputs = 1 + np + nslots * k + k;   /* the frozen velocities last (mech_graph.h) */
   c->g = nz_graph_new();
   c->params = calloc((size_t)np + 1, sizeof(double));
   c->phi = calloc((size_t)nc + 1, sizeof(compiled_piece));
@@ -324,10 +332,11 @@ nz_compiled *nz_compiled_new(int k, int np, int nc, int nslots)
   if (env && (env[0] == '0' || env[0] == '1') && env[1] == '\0') c->native_mode = env[0] - '0';
   c->rows = calloc(3 * (size_t)nc + 1, sizeof(dplan *));
   c->rows_built = calloc(3 * (size_t)nc + 1, 1);
-  c->row_in = calloc((size_t)c->ninputs + 3 + (size_t)k + NZ_CONSTRAINT_SLOTS, sizeof(double));
-  if (c->row_in) c->row_out = c->row_in + c->ninputs;
+  c->row_in = calloc((size_t)c->ninputs, sizeof(double));
+  c->row_guards = calloc(3 * (size_t)nc + 1, sizeof(nz_graph_guards *));
+  c->row_outs = calloc(3 * (size_t)nc + 1, sizeof(double *));
   if (!c->g || !c->params || !c->phi || !c->in || !c->din || !c->pjet || !c->rows || !c->rows_built ||
-      !c->row_in) {
+      !c->row_in || !c->row_guards || !c->row_outs) {
     nz_compiled_free(c);
     return NULL;
   }
@@ -351,8 +360,14 @@ void nz_compiled_free(nz_compiled *c)
   for (int p = 0; c->pjet && p < c->np; p++) nz_jet_free(c->pjet[p]);
   dplan_free(c->mb_plan);
   dplan_free(c->acc_plan);
+  nz_graph_guards_free(c->mb_guards);
+  nz_graph_guards_free(c->acc_guards);
   free(c->acc_out);
   for (int r = 0; c->rows && r < 3 * c->nc; r++) dplan_free(c->rows[r]);
+  for (int r = 0; c->row_guards && r < 3 * c->nc; r++) nz_graph_guards_free(c->row_guards[r]);
+  for (int r = 0; c->row_outs && r < 3 * c->nc; r++) free(c->row_outs[r]);
+  free(c->row_guards);
+  free(c->row_outs);
   free(c->rows);
   free(c->rows_built);
   free(c->row_in);
@@ -381,6 +396,10 @@ int nz_compiled_input_slot(const nz_compiled *c, int j, int i)
 {
   return 1 + c->np + j * c->k + i;
 }
+
+int nz_compiled_input_frozen(const nz_compiled *c, int i) { return 1 + c->np + c->nslots * c->k + i; }
+int nz_compiled_nslots(const nz_compiled *c) { return c->nslots; }
+int nz_compiled_ncoords(const nz_compiled *c) { return c->k; }
 
 static compiled_piece *piece_of(const nz_compiled *c, nz_piece piece, int index)
 {
@@ -546,48 +565,44 @@ static int build_mass_bias(nz_compiled *c, int *out)
   return ok ? 0 : -1;
 }
 
-/* Is every node under root defined wherever its inputs are finite?  Then a
- * finite output says the function was defined, and F and V need not be
- * evaluated beside the accelerations to be checked.  Sums, products,
- * whole non-negative powers, division by a non-zero constant and the
- * functions defined on the whole line qualify; log, sqrt, a division by a
- * node, ... do not (log x at x < 0 fails while its derivative 1/x does
- * not).  exp may overflow, but then so does its derivative in h: the
- * output is not finite and the check of the plan catches it. */
-static int defined_everywhere(const nz_graph *g, int root)
+/* Is every node under root defined wherever its inputs are finite
+ * (nz_graph_total)?  Then a finite output says the function was defined,
+ * and F and V need not be evaluated beside the accelerations to be
+ * checked: sums, products, whole non-negative powers, division by a
+ * non-zero constant and sin, cos, tan, atan, tanh, sign qualify; log,
+ * sqrt, abs (the jets refuse it at 0), a division by a node, exp (it
+ * overflows at 710, while the accelerations may not see it: V = x^2/2 +
+ * tanh(exp(t))) do not. */
+static int defined_everywhere(const nz_graph *g, int root) { return root < 0 || nz_graph_total(g, root); }
+
+/* The plan of outputs out[0..n-1] with its guards' nodes after them
+ * (graph_guard.h; smooth: the functions the jets differentiate): the
+ * plan, or NULL; *gd the guards (NULL when out of memory: no plan then). */
+static dplan *guarded_plan(nz_compiled *c, const int *out, int n, const int *smooth, int nsmooth,
+                           nz_graph_guards **gd)
 {
-  if (root < 0) return 1;
-  const nz_gnode *nd = nz_graph_nodes(g);
-  char *need = calloc((size_t)root + 1, 1);
-  int ok = need != NULL;
-  if (ok) need[root] = 1;
-  for (int x = root; x >= 0 && ok; x--) {
-    if (!need[x]) continue;
-    const nz_gnode *n = &nd[x];
-    switch (n->op) {
-    case NZ_GOP_CONST: case NZ_GOP_INPUT: continue;
-    case NZ_GOP_ADD: case NZ_GOP_SUB: case NZ_GOP_MUL: case NZ_GOP_NEG: case NZ_GOP_CMP: case NZ_GOP_SELECT:
-      break;
-    case NZ_GOP_DIV:
-      ok = nd[n->b].op == NZ_GOP_CONST && nd[n->b].v != 0.0;
-      break;
-    case NZ_GOP_POWC:
-      ok = n->v >= 0.0 && n->v == floor(n->v);
-      break;
-    case NZ_GOP_FN:
-      ok = n->fn == NZ_FN_SIN || n->fn == NZ_FN_COS || n->fn == NZ_FN_ATAN || n->fn == NZ_FN_TANH ||
-           n->fn == NZ_FN_EXP || n->fn == NZ_FN_SINH || n->fn == NZ_FN_COSH || n->fn == NZ_FN_ABS ||
-           n->fn == NZ_FN_SIGN;
-      break;
-    default:
-      ok = 0;
-    }
-    if (n->a >= 0) need[n->a] = 1;
-    if (n->b >= 0) need[n->b] = 1;
-    if (n->c >= 0) need[n->c] = 1;
-  }
-  free(need);
-  return ok;
+  /* the parameters (inputs 1..np) do not move along the motion */
+  *gd = nz_graph_guards_new(c->g, out, n, smooth, nsmooth, 1, c->np);
+  if (!*gd) return NULL;
+  int ng = nz_graph_guards_count(*gd);
+  int *all = malloc((size_t)(n + ng + 1) * sizeof(int));
+  if (!all) return NULL;
+  memcpy(all, out, (size_t)n * sizeof(int));
+  memcpy(all + n, nz_graph_guards_nodes(*gd), (size_t)ng * sizeof(int));
+  dplan *d = dplan_new(c->g, all, n + ng);
+  free(all);
+  if (d) dplan_load_cached(c, d);
+  return d;
+}
+
+/* After a plan's evaluation: does it meet a tie or a singular point that
+ * the jets must decide (vals: its outputs, the guards' after its own n)? */
+static int guards_fire(nz_compiled *c, const nz_graph_guards *gd, const double *vals, int n)
+{
+  const char *what;
+  if (!nz_graph_guards_fire(gd, vals + n, &what)) return 0;
+  snprintf(c->failure, sizeof c->failure, "%s: the jets decide", what);
+  return 1;
 }
 
 /* When every entry of M is a constant node, factor M once and build
@@ -618,22 +633,30 @@ static void invert_constant_mass(nz_compiled *c, const int *out)
    * a third of the plan of Henon-Heiles) */
   int checks = !(defined_everywhere(c->g, out[k * k + k]) && defined_everywhere(c->g, out[k * k + k + 1]));
   int *acc = ok ? malloc((size_t)(k + 2) * sizeof(int)) : NULL;
-  c->acc_out = acc ? malloc((size_t)(k + 2) * sizeof(double)) : NULL;
-  if (!c->acc_out) { free(acc); acc = NULL; }
   for (int i = 0; acc && i < k; i++) {
-    int sum = nz_graph_const(c->g, 0.0);
-    for (int j = 0; j < k && sum >= 0; j++) {
-      int coef = nz_graph_const(c->g, -minv[(size_t)i * (size_t)k + (size_t)j]);
+    /* the terms with a zero entry of M^-1 add nothing (but a sign of 0) */
+    int sum = -1;
+    for (int j = 0; j < k; j++) {
+      double mij = minv[(size_t)i * (size_t)k + (size_t)j];
+      if (mij == 0.0) continue;
+      int coef = nz_graph_const(c->g, -mij);
       int term = coef < 0 ? -1 : nz_graph_op(c->g, NZ_GOP_MUL, coef, out[k * k + j]);
-      sum = term < 0 ? -1 : nz_graph_op(c->g, NZ_GOP_ADD, sum, term);
+      sum = term < 0 ? -1 : sum < 0 ? term : nz_graph_op(c->g, NZ_GOP_ADD, sum, term);
+      if (sum < 0) break;
     }
-    if (sum < 0) { free(acc); acc = NULL; break; }
+    if (sum < 0 && (sum = nz_graph_const(c->g, 0.0)) < 0) { free(acc); acc = NULL; break; }
     acc[i] = sum;
   }
   if (acc) {
     acc[k] = out[k * k + k];
     acc[k + 1] = out[k * k + k + 1];
-    if ((c->acc_plan = dplan_new(c->g, acc, checks ? k + 2 : k))) dplan_load_cached(c, c->acc_plan);
+    c->acc_nout = checks ? k + 2 : k;
+    c->acc_plan = guarded_plan(c, acc, c->acc_nout, acc + k, checks ? 2 : 0, &c->acc_guards);
+    int total = c->acc_nout + nz_graph_guards_count(c->acc_guards);
+    if (c->acc_plan && !(c->acc_out = malloc((size_t)total * sizeof(double)))) {
+      dplan_free(c->acc_plan);
+      c->acc_plan = NULL;
+    }
   }
   free(acc);
   free(minv);
@@ -650,8 +673,9 @@ static int mass_bias_ready(nz_compiled *c)
   int *out = malloc((size_t)nout * sizeof(int));
   if (!out) return 0;
   if (build_mass_bias(c, out) == 0) {
-    if ((c->mb_plan = dplan_new(c->g, out, nout))) dplan_load_cached(c, c->mb_plan);
-    c->mb_in = malloc((size_t)(c->ninputs + nout) * sizeof(double));
+    c->mb_nout = nout;
+    c->mb_plan = guarded_plan(c, out, nout, out + k * k + k, 2, &c->mb_guards);
+    c->mb_in = malloc((size_t)(c->ninputs + nout + nz_graph_guards_count(c->mb_guards)) * sizeof(double));
     size_t kk = (size_t)k * (size_t)k;
     c->acc_A = malloc((kk + (size_t)k + nz_solve_spd_work_len(k)) * sizeof(double));
     if (c->mb_plan && c->mb_in && c->acc_A) {
@@ -701,7 +725,7 @@ static int eval_mass_bias(nz_compiled *c, double t, const double *q, const doubl
     describe_failure(c, c->mb_plan->plan, st);
     return NZ_EARG;
   }
-  return NZ_OK;
+  return guards_fire(c, c->mb_guards, c->mb_out, c->mb_nout) ? NZ_EARG : NZ_OK;
 }
 
 int nz_compiled_mass_bias(void *ctx, double t, const double *q, const double *qd, double *M,
@@ -737,6 +761,7 @@ int nz_compiled_accel(void *ctx, double t, const double *q, const double *qd, do
       if (dplan_eval(c, c->acc_plan, in, qdd) != NZ_OK) return NZ_EARG;
     } else {
       if (dplan_eval(c, c->acc_plan, in, c->acc_out) != NZ_OK) return NZ_EARG;
+      if (guards_fire(c, c->acc_guards, c->acc_out, c->acc_nout)) return NZ_EARG;
       for (int i = 0; i < k; i++) qdd[i] = c->acc_out[i];
     }
     *info = c->m_info;
@@ -844,23 +869,26 @@ int nz_compiled_constraint_row(void *ctx, int r, int m, double t, const double *
   int k = c->k, K = 2 - m, at = 3 * r + m, nhigh = NZ_CONSTRAINT_SLOTS - 1 - m;
   if (r < 0 || r >= c->nc || m < 0 || m > 2 || !c->phi[r].n || c->nslots < NZ_CONSTRAINT_SLOTS + 2)
     return NZ_EARG;
+  int nout = K + 1 + k + nhigh;
   if (!c->rows_built[at]) {
     int *out = malloc((size_t)(3 + k + NZ_CONSTRAINT_SLOTS) * sizeof(int));
     c->rows_built[at] = -1;
-    if (out && build_row(c, r, m, out) == 0 && (c->rows[at] = dplan_new(c->g, out, K + 1 + k + nhigh))) {
+    /* Phi itself (output 0) is what the jets differentiate */
+    if (out && build_row(c, r, m, out) == 0 &&
+        (c->rows[at] = guarded_plan(c, out, nout, out, 1, &c->row_guards[at])) &&
+        (c->row_outs[at] = malloc((size_t)(nout + nz_graph_guards_count(c->row_guards[at])) * sizeof(double))))
       c->rows_built[at] = 1;
-      dplan_load_cached(c, c->rows[at]);
-    }
     free(out);
   }
   if (c->rows_built[at] < 0) return NZ_EARG;
-  double *in = c->row_in, *o = c->row_out;
+  double *in = c->row_in, *o = c->row_outs[at];
   fill_inputs(c, in, t, state, nstate, c->nslots);
   int st = dplan_eval(c, c->rows[at], in, o);
   if (st) {
     describe_failure(c, c->rows[at]->plan, st);
     return NZ_EARG;
   }
+  if (guards_fire(c, c->row_guards[at], o, nout)) return NZ_EARG;
   *value = o[K];
   if (m == 0) *value += 2.0 * alpha * o[1] + beta * beta * o[0];
   if (m == 1) *value += alpha * o[0];

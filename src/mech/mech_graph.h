@@ -4,7 +4,12 @@
  * matrix and the bias of M q'' + h = 0 (docs/theory.md §11).
  *
  * Inputs of the graph, numbered: 0 is t; 1 .. np the named parameters (in
- * the order the recorder chose); then slot j of q_i is 1 + np + j k + i.
+ * the order the recorder chose); then slot j of q_i is 1 + np + j k + i;
+ * last, after the nslots slots, the frozen velocity of q_i, 1 + np + nslots
+ * k + i: docs/theory.md §4's T_0 is T with its velocity argument held
+ * still while t and q move, which a derivative along the motion can only
+ * tell from q' (slot 1) when it is an input of its own (sys:show's R_n; no
+ * recorded piece reads it).
  * A parameter is an input, not a constant, so that changing it needs no new
  * recording: the caller writes the current values into nz_compiled_params
  * before evaluating.
@@ -26,6 +31,9 @@ void nz_compiled_free(nz_compiled *c);   /* NULL is harmless */
 nz_graph *nz_compiled_graph(nz_compiled *c);
 static inline int nz_compiled_input_param(int p) { return 1 + p; }
 int nz_compiled_input_slot(const nz_compiled *c, int j, int i);
+int nz_compiled_input_frozen(const nz_compiled *c, int i);
+int nz_compiled_nslots(const nz_compiled *c);
+int nz_compiled_ncoords(const nz_compiled *c);
 double *nz_compiled_params(nz_compiled *c);
 int nz_compiled_nparams(const nz_compiled *c);
 
