@@ -46,12 +46,13 @@ end
 function M.begin(sys, cfg, q0, qd0, fail)
   local c = sys.contact
   local csys = c.system
-  local why = cfg.project and "'project'" or cfg.alpha and "'baumgarte'"
-    or cfg.monitors.work and "the 'work' monitor" or cfg._loop == "lua" and "'_loop' = \"lua\""
-  if why then
-    fail("%s is not available with unilateral contacts: %s", why, cfg.monitors.work and not cfg.project and not cfg.alpha
-      and "each impact's loss of kinetic energy is in tr.events (energy_lost), and monitors = {energy = true} records T + V"
-      or "the contacts held are kept at the acceleration level, and their velocities reset at every impact")
+  for _, refused in ipairs{
+    { cfg.project, "'project'", "the contacts held are put back on their gaps at every event" },
+    { cfg.alpha, "'baumgarte'", "the contacts held are put back on their gaps at every event" },
+    { cfg.monitors.work, "the 'work' monitor", "each impact's loss of kinetic energy is in tr.events (energy_lost), "
+      .. "and monitors = {energy = true} records T + V" },
+    { cfg._loop == "lua", "'_loop' = \"lua\"", "a run with contacts steps in the loop in C" } } do
+    if refused[1] then fail("%s is not available with unilateral contacts: %s", refused[2], refused[3]) end
   end
   local orders, linear = constraints.orders(csys, { t = cfg.t0, q = q0, qd = qd0 })
   for r = 1, c.nb do

@@ -42,7 +42,7 @@ struct nz_contacts {
   /* the mode's saddle point */
   int *rows, *couple;
   double *coef;                /* nc each */
-  double *S, *rhs, *x;         /* the mode solve's workspace; k + nc, k + nc */
+  double *S, *rhs;             /* the mode solve's workspace; the bilateral rows' right-hand side */
   double *spd_work;            /* nz_solve_spd_in's */
   /* the last mode solve */
   int cvalid;
@@ -123,9 +123,9 @@ nz_contacts *nz_contacts_new(int k, const nz_contacts_config *cfg)
   c->M = calloc(K * K + 3 * K + C * K + C, sizeof(double));   /* M, h, zero, a0, A, b */
   c->rows = calloc(3 * C + 1, sizeof(int));             /* rows, couple (ints), coef below */
   /* S: the mode solve's X (k (nc + 1)), M's factor (k k), G and its
-   * inverse (nc nc each), lambda (nc); then rhs, x, coef */
+   * inverse (nc nc each), lambda (nc); then rhs, coef */
   size_t SL = K * (C + 1) + K * K + 2 * C * C + C;
-  c->S = calloc(SL + 2 * D + C + 1, sizeof(double));
+  c->S = calloc(SL + D + C + 1, sizeof(double));
   c->spd_work = calloc(nz_solve_spd_work_len(k) + 1, sizeof(double));
   c->cy = calloc(4 * K + C + 3 * K, sizeof(double));    /* cy, cqdd, clam, F, scr */
   c->var_c = calloc(3 * V + 4 * N, sizeof(int));        /* var_c, var_kind, var_at, then touch.. below */
@@ -164,8 +164,7 @@ nz_contacts *nz_contacts_new(int k, const nz_contacts_config *cfg)
   c->b = c->A + C * K;
   c->couple = c->rows + C;
   c->rhs = c->S + SL;
-  c->x = c->rhs + D;
-  c->coef = c->x + D;
+  c->coef = c->rhs + D;
   c->cqdd = c->cy + 2 * K;
   c->clam = c->cqdd + K;
   c->F = c->clam + C;
