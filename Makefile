@@ -101,6 +101,10 @@ $(B)/test_stepper: tests/test_stepper.c $(CORE_OBJ) | $(B)
 	$(CC) $(ALL_CFLAGS) $(OPT) -o $@ $^ $(GSL_LIBS) $(DL_LIBS) -lm
 $(B)/asan/test_stepper: tests/test_stepper.c $(SAN_CORE) | $(B)/asan
 	$(CC) $(ALL_CFLAGS) $(SAN_FLAGS) -o $@ $^ $(GSL_LIBS) $(DL_LIBS) -lm
+$(B)/test_contact: tests/test_contact.c $(CORE_OBJ) | $(B)
+	$(CC) $(ALL_CFLAGS) $(OPT) -o $@ $^ $(GSL_LIBS) $(DL_LIBS) -lm
+$(B)/asan/test_contact: tests/test_contact.c $(SAN_CORE) | $(B)/asan
+	$(CC) $(ALL_CFLAGS) $(SAN_FLAGS) -o $@ $^ $(GSL_LIBS) $(DL_LIBS) -lm
 $(B)/bench_jet: bench/bench_jet.c $(CORE_OBJ) | $(B)
 	$(CC) $(ALL_CFLAGS) $(OPT) -o $@ $^ $(GSL_LIBS) $(DL_LIBS) -lm
 $(B)/bench_motion: bench/bench_motion.c $(CORE_OBJ) | $(B)
@@ -118,13 +122,13 @@ demo: deps all
 	$(B)/nzlua examples/demo.lua
 
 # Every test, normal build then sanitized build; one tally line at the end.
-test: deps all $(B)/test_series $(B)/test_graph $(B)/test_native $(B)/test_stepper $(B)/asan/nzlua $(B)/asan/test_series $(B)/asan/test_graph $(B)/asan/test_native $(B)/asan/test_stepper
+test: deps all $(B)/test_series $(B)/test_graph $(B)/test_native $(B)/test_stepper $(B)/test_contact $(B)/asan/nzlua $(B)/asan/test_series $(B)/asan/test_graph $(B)/asan/test_native $(B)/asan/test_stepper $(B)/asan/test_contact
 	@tests/run.sh all
 
-check: deps all $(B)/test_series $(B)/test_graph $(B)/test_native $(B)/test_stepper
+check: deps all $(B)/test_series $(B)/test_graph $(B)/test_native $(B)/test_stepper $(B)/test_contact
 	@tests/run.sh plain
 
-sanitize: deps $(B)/asan/nzlua $(B)/asan/test_series $(B)/asan/test_graph $(B)/asan/test_native $(B)/asan/test_stepper all
+sanitize: deps $(B)/asan/nzlua $(B)/asan/test_series $(B)/asan/test_graph $(B)/asan/test_native $(B)/asan/test_stepper $(B)/asan/test_contact all
 	@tests/run.sh sanitize
 
 bench: deps all $(B)/bench_jet $(B)/bench_motion $(B)/henon_c $(B)/pendulum_c

@@ -41,3 +41,6 @@ build/nzlua bench/export.lua
 echo
 # Issue 16: nz.sweep on 1, 2 and every core, and its overhead per point.
 build/nzlua bench/sweep.lua
+echo
+# Issue 26: contacts, impacts and friction against their closed forms.
+build/nzlua bench/contact.lua

@@ -336,6 +336,67 @@ describe("examples", function()
     assert(fractions[5].f > 0.7, out)
     assert.truthy(out:find("chaotic fraction", 1, true), out)
   end)
+  -- Contacts (issue 26): the figures each example prints, and its captured
+  -- motion against the closed form written here.
+  it("sphere_particle.lua: it leaves where cos th = (2/3) cos th0, after sliding with N = m g (3 cos th - 2 cos th0)", function()
+    local out, runs = run("sphere_particle.lua", true)
+    local th0, g, R = 0.25, 9.81, 1.0
+    assert(math.abs(number_after(out, "cos th =") - 2 / 3 * math.cos(th0)) <= 1e-9, out)
+    assert(number_after(out, "largest difference") <= 1e-8, out)
+    -- on the sphere (r = R) while it slides: its energy g z + v^2/2 = g R cos th0
+    local tr, tleave = runs[1], number_after(out, "leaves the sphere at t =")
+    local worst = max_over(tr, function(t, q, qd)
+      if t >= tleave then return 0 end
+      return math.max(math.abs(math.sqrt(q[1] ^ 2 + q[2] ^ 2) - R), math.abs(g * q[2] + 0.5 * (qd[1] ^ 2 + qd[2] ^ 2) - g * R * math.cos(th0)))
+    end)
+    assert(worst <= 1e-9, ("on the sphere with its energy until it leaves: %.3g"):format(worst))
+  end)
+  it("bouncing_ball.lua: bounce times and heights of the closed form, then at rest after the accumulation time", function()
+    local out, runs = run("bouncing_ball.lua", true)
+    local g, R, h, e = 9.81, 0.05, 1.0, 0.7
+    assert(number_after(out, "largest difference from the closed form") <= 1e-9, out)
+    assert(math.abs(number_after(out, "energy kept per bounce:") - e * e) <= 1e-12, out)
+    local tinf = math.sqrt(2 * h / g) * (1 + e) / (1 - e)
+    assert(math.abs(number_after(out, "the impacts accumulate at") - tinf) <= 1e-6, out)
+    local tr = runs[1]
+    assert(max_over(tr, function(t, q, qd) return t > tinf and math.max(math.abs(q[1] - R), math.abs(qd[1])) or 0 end) == 0,
+      "at rest on the floor after the accumulation time")
+    -- between bounces a free flight: y'' = -g, and never below the floor
+    assert(max_over(tr, function(t, q, qd, qdd) return t < tinf - 1e-3 and math.abs(qdd[1] + g) or 0 end) <= 1e-9)
+    assert(max_over(tr, function(t, q) return math.min(0, q[1] - R) end) <= 1e-12)
+  end)
+  it("block_slope.lua: it stops at v0/(g (sin a + mu cos a)), then sticks, or slides back at g (sin a - mu cos a)", function()
+    local out, runs = run("block_slope.lua", true)
+    local g, alpha, mu, v0 = 9.81, 0.4, 0.3, 2.5
+    local dec, acc = g * (math.sin(alpha) + mu * math.cos(alpha)), g * (math.sin(alpha) - mu * math.cos(alpha))
+    local ts, xs = v0 / dec, v0 ^ 2 / (2 * dec)
+    for _, what in ipairs{ "sticks %(slip%+ %-> stick%)", "slips %(slip%+ %-> slip%-%)" } do
+      local t, x = out:match("t = ([%d.]+)  slope " .. what .. " at x = ([%d.]+)")
+      assert(t and math.abs(tonumber(t) - ts) <= 1e-9 and math.abs(tonumber(x) - xs) <= 1e-9, out)
+    end
+    for r, sticks in ipairs{ true, false } do
+      local worst = max_over(runs[r], function(t, q)
+        local want = t <= ts and v0 * t - dec * t * t / 2 or sticks and xs or xs - acc * (t - ts) ^ 2 / 2
+        return q[1] - want
+      end)
+      assert(worst <= 1e-9, ("x(t) against the closed form: %.3g"):format(worst))
+    end
+  end)
+  it("pendulum_stop.lua: e = 1 keeps its energy through the impacts; e < 1 amplitudes as 1 - cos th = e^2k (1 - cos th0)", function()
+    local out = run("pendulum_stop.lua")
+    assert(number_after(out, "each at an odd quarter period within") <= 1e-8, out)
+    assert(number_after(out, "T + V drifts by") <= 1e-8, out)
+    local e, th0, n = 0.6, 1.1, 0
+    local c = 1 - math.cos(th0)
+    local table_text = out:match("closed form: 1 %- cos th_k = e%^2k %(1 %- cos th0%)\n(.-)\n%s*[^%s%d]")
+    assert(table_text, out)
+    for k, sim, closed in ("\n" .. table_text):gmatch("\n%s+(%d+)%s+([%d.]+)%s+([%d.]+)") do
+      n, c = n + 1, c * e * e
+      assert(math.abs(tonumber(sim) - math.acos(1 - c)) <= 1e-9 and math.abs(tonumber(closed) - math.acos(1 - c)) <= 1e-11,
+        ("swing %s: %s against %.12f"):format(k, sim, math.acos(1 - c)))
+    end
+    assert(n >= 5, out)
+  end)
   it("squeezer.lua: every stepper's row of the table is within its tolerance's reach of the Test Set", function()
     local out = run("squeezer.lua")
     -- The table: method, tolerance, steps, error of the angles (rad) and of

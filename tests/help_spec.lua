@@ -371,7 +371,9 @@ describe("help(sys), help(tr), help(lin), help(sw): the object you hold", functi
       T = function(t, q, qd) return 0.5 * (qd[1] ^ 2 + qd[2] ^ 2 + qd[3] ^ 2) end,
       constraints = { function(t, q, qd) return -qd[1] * nz.sin(q[3]) + qd[2] * nz.cos(q[3]) end } }
     sleigh:rule()
-    for _, sys in ipairs{ kepler, scene, sleigh, kepler:parametric{}, kepler:jacobi_whittaker{ h = -0.5, independent = "phi" } } do
+    local ball = nz.system{ name = "ball", coords = { "x", "y" }, T = function(t, q, qd) return 0.5 * (qd[1] ^ 2 + qd[2] ^ 2) end,
+      constraints = { nz.unilateral(function(t, q) return q[2] end, { name = "floor", mu = 0.3, slip = function(t, q, qd) return qd[1] end }) } }
+    for _, sys in ipairs{ kepler, scene, sleigh, kepler:parametric{}, kepler:jacobi_whittaker{ h = -0.5, independent = "phi" }, ball } do
       check(sys, "sys")
     end
   end)
@@ -397,6 +399,13 @@ describe("help(sys), help(tr), help(lin), help(sw): the object you hold", functi
       constraints = { function(t, q, qd, qdd, qddd) return qddd[1] ^ 2 + qddd[2] ^ 2 - 2 end } }
     trs[#trs + 1] = top:simulate{ q0 = { 0.2, -0.1 }, qd0 = { 0.4, -0.5 }, qdd0 = { 0.3, -0.2 }, t1 = 0.2,
       guess = { lambda = { 1 } } }
+    -- unilateral contacts: a ball bouncing and sliding to a stop, its events of every kind
+    local ball = nz.system{ name = "ball", coords = { "x", "y" },
+      T = function(t, q, qd) return 0.5 * (qd[1] ^ 2 + qd[2] ^ 2) end, V = function(t, q) return 9.81 * q[2] end,
+      constraints = { nz.unilateral(function(t, q) return q[2] end, { name = "floor", e = 0.5, mu = 0.3,
+        slip = function(t, q, qd) return qd[1] end }) } }
+    trs[#trs + 1] = ball:simulate{ q0 = { 0, 0.3 }, qd0 = { 2, 0 }, t1 = 2 }
+    assert(trs[#trs].contacts and #trs[#trs].events >= 3)
     local stats, events = {}, {}
     for _, tr in ipairs(trs) do
       check(tr, "tr")

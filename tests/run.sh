@@ -58,6 +58,7 @@ if [ "$mode" = plain ] || [ "$mode" = all ]; then
   suite "C core (expression graphs)" build/test_graph
   suite "C core (graphs compiled to C)" build/test_native
   suite "C core (the integrator interface)" build/test_stepper
+  suite "C core (contacts: the LCP, impacts, friction)" build/test_contact
   # NZ_GRAPH_CHECK=1: every system the specs make is checked, when it is
   # made, against the Lua evaluator (values, jets, state directions); the
   # compiled code of the plans goes to a fresh cache.
@@ -78,6 +79,7 @@ if [ "$mode" = sanitize ] || [ "$mode" = all ]; then
   suite "Expression graphs under ASan+UBSan" build/asan/test_graph
   suite "Compiled graphs under ASan+UBSan" build/asan/test_native
   suite "The integrator interface under ASan+UBSan" build/asan/test_stepper
+  suite "Contacts under ASan+UBSan" build/asan/test_contact
   # The long physics runs (#slow) are checked by the plain build; here the
   # point is memory safety and undefined behaviour on every code path.
   suite "Lua specs inside build/asan/nzlua" env NZLUA=build/asan/nzlua \

@@ -40,8 +40,13 @@ local function check(kind, args, spec)
       if type(v) ~= "number" or v ~= v then param_error(kind, name, "must be a number, got %s", type(v)) end
       if s.positive and not (v > 0) then param_error(kind, name, "must be positive, got %g", v) end
       if s.nonnegative and not (v >= 0) then param_error(kind, name, "must not be negative, got %g", v) end
+      if s.max and not (v <= s.max) then param_error(kind, name, "must be at most %g (%s), got %g", s.max, s.doc, v) end
     elseif s.type == "function" then
       if type(v) ~= "function" then param_error(kind, name, "must be a function, got %s", type(v)) end
+    elseif s.type == "string" then
+      if type(v) ~= "string" then param_error(kind, name, "must be a string, got %s", type(v)) end
+    elseif s.type == "table" then
+      if type(v) ~= "table" then param_error(kind, name, "must be a table %s, got %s", s.doc or "", type(v)) end
     elseif s.type == "coordinate" then
       if type(v) ~= "string" then param_error(kind, name, "must be a coordinate name, got %s", type(v)) end
     elseif s.type == "coordinates" then
@@ -266,5 +271,92 @@ define("constant_speed", { coords = { type = "coordinates", required = true },
 
 define("constraint", { f = { type = "function", required = true, doc = "Phi(t, q, qd, qdd, qddd, params)" } },
   function(e) return { constraints = { e.f } } end, "any constraint Phi(t, q, qd, qdd, ...) = 0 (its order is found)")
+
+-- ------------------------------------------------------------------ --
+-- Contacts (issue 26, nz/contact.lua): unilateral constraints         --
+
+local function dot3(a, b) return a[1] * b[1] + a[2] * b[2] + a[3] * b[3] end
+
+local function unit3(kind, sc, e, param, v)
+  local n = math.sqrt(dot3(v, v))
+  if not (n > 0) then param_error(kind, param, "must be a nonzero vector {x, y, z}") end
+  return { v[1] / n, v[2] / n, v[3] / n }
+end
+
+define("contact", {
+  name = { type = "string", doc = "its name (in tr.events, and for nz.effects.friction)" },
+  gap = { type = "function", doc = "function(t, q, params): the distance, >= 0 (or give at and plane/sphere)" },
+  at = { type = "point", doc = "the point that touches: a body, a function(t, q, params) or {x, y, z}" },
+  plane = { type = "table", doc = "{point = {x, y, z}, normal = {x, y, z}}: at stays on the normal's side" },
+  sphere = { type = "table", doc = "{center = {x, y, z}, radius = R}: at stays outside" },
+  radius = { type = "number", nonnegative = true, doc = "the touching body's radius (default 0)" },
+  e = { type = "number", nonnegative = true, max = 1, doc = "Newton's restitution in [0, 1] (default 0: plastic)" } },
+  function(e, sc)
+    local name = e.name or "contact"
+    local gap, at = e.gap, e.at and point_fn(sc, e, "at", e.at)
+    local rad = e.radius or 0
+    if not gap then
+      if not at or not (e.plane or e.sphere) then
+        sc.fail(e, "gap", "is missing: give gap = function(t, q, params), or at = a point with plane = {...} or sphere = {...}")
+      end
+      if e.plane then
+        local p0, pn = e.plane.point or { 0, 0, 0 }, e.plane.normal
+        if type(pn) ~= "table" or #pn ~= 3 then sc.fail(e, "plane", "must be {point = {x, y, z}, normal = {x, y, z}}") end
+        local n = unit3("contact", sc, e, "plane", pn)
+        gap = function(t, q, p)
+          local r = at(t, q, p)
+          return n[1] * (r[1] - p0[1]) + n[2] * (r[2] - p0[2]) + n[3] * (r[3] - p0[3]) - rad
+        end
+      else
+        local c, R = e.sphere.center or { 0, 0, 0 }, e.sphere.radius
+        if type(R) ~= "number" or not (R > 0) then sc.fail(e, "sphere", "must be {center = {x, y, z}, radius = R > 0}") end
+        gap = function(t, q, p) return distance(at(t, q, p), c) - R - rad end
+      end
+    end
+    local spec = require("nz.contact").unilateral(gap, { e = e.e or 0, name = name })
+    spec.at = at                            -- drawn by tr:animate
+    spec.point, spec.normal = at, e.plane and unit3("contact", sc, e, "plane", e.plane.normal)
+    return { constraints = { spec } }
+  end, "a unilateral contact: gap(t, q) >= 0 (or a point against a plane or a sphere), restitution e")
+
+define("friction", {
+  contact = { type = "string", required = true, doc = "the name of the contact (nz.effects.contact{name = ...})" },
+  mu = { type = "number", required = true, nonnegative = true, doc = "Coulomb's sliding coefficient" },
+  mu_s = { type = "number", nonnegative = true, doc = "the sticking coefficient, >= mu (default mu)" },
+  slip = { type = "function", doc = "function(t, q, qd, params): the slip velocity (or of (t, q): its rate)" },
+  tangent = { type = "vector", doc = "{x, y, z}: slip = tangent . (velocity of the contact's point)" } },
+  function(e, sc)
+    return { friction = { contact = e.contact, mu = e.mu, mu_s = e.mu_s or e.mu, slip = e.slip, tangent = e.tangent } }
+  end, "Coulomb friction at a contact: sliding with mu, sticking within mu_s (planar)")
+
+-- A friction effect put on its contact (nz.scene, once every effect is in):
+-- the contact spec gets mu, mu_s and the slip velocity.
+function M.attach_friction(sc, contacts, f)
+  local spec
+  for _, c in ipairs(contacts) do if c.name == f.contact then spec = c end end
+  local names = {}
+  for _, c in ipairs(contacts) do names[#names + 1] = c.name end
+  local e = { kind = "friction" }
+  if not spec then
+    sc.fail(e, "contact", "names no contact '%s' (contacts: %s)", f.contact,
+      #names > 0 and table.concat(names, ", ") or "none: declare nz.effects.contact{name = ...}")
+  end
+  if spec.slip then sc.fail(e, "contact", "'%s' has friction already", f.contact) end
+  local slip = f.slip
+  if not slip then
+    if not (f.tangent and spec.point) then
+      sc.fail(e, "slip", "is missing: give slip = function(t, q, qd, params), or tangent = {x, y, z} on a contact with 'at'")
+    end
+    local tv, r = unit3("friction", sc, e, "tangent", f.tangent), spec.point
+    slip = function(t, q, qd, p)
+      local _, v = along(r, t, q, p, 1, qd)
+      return tv[1] * v[1] + tv[2] * v[2] + tv[3] * v[3]
+    end
+  end
+  if f.mu_s < f.mu then
+    sc.fail(e, "mu_s", "must be >= mu = %g (sticking holds at least what sliding does), got %g", f.mu, f.mu_s)
+  end
+  spec.mu, spec.mu_s, spec.slip = f.mu, f.mu_s, slip
+end
 
 return M

@@ -306,6 +306,10 @@ one, e.g. help(sys.simulate):
         stops with the state and M.
         Event functions are recorded and watched in C; one that cannot be
         recorded keeps the run in Lua (tr.stats.loop_why says why).
+        Unilateral contacts (help(nz.unilateral)): the run stops at nothing;
+        impacts, contacts opening and closing, stick and slip are its events
+        (tr.events), the motion goes on from each; not with project,
+        baumgarte, the work monitor or the Lua loop.
         dense (true by default): a GSL stepper's output points inside a step
         come off the step's Hermite interpolant (q, qd, qdd at its ends and
         the one or two steps before), so a fine dt adds no step; an error
@@ -469,6 +473,9 @@ one, e.g. help(sys.simulate):
 The trajectory tr = sys:simulate{...}: tr.t[i], tr.q[i][j], tr.qd[i][j],
 tr.qdd[i][j], tr.lambda[i][r], tr.events[e] (.name, .t, .q, .qd), tr.status,
 tr.stats, tr.violation, monitors; help(tr) lists every field and statistic;
+with contacts tr.events[i] also holds kind = "impact" | "closes" | "opens" |
+"sticks" | "slips", qd_after, impulse, energy_lost, ...; tr.contacts (modes,
+Zeno) and the columns "N.name", "T.name" (the contact forces);
 help(tr.NAME) shows one method, e.g. help(tr.plot):
   tr:column(name)            the values of a quantity along the motion: a
                              coordinate, "name'" (velocity), "name''", "t",
@@ -549,6 +556,28 @@ in body axes.  gravity = {gx, gy, gz} adds V = -sum m g.r.  Velocities come
 from the jets.  Returns {T = ..., V = ..., S = ...} (S, for Wassmuth's form,
 for particles only); nz.system{coords = ..., bodies = {...}} does the same
 inline.]] },
+  { name = "unilateral", section = "mechanics",
+    usage = "nz.unilateral(gap [, {e =, mu =, mu_s =, slip =, name =, at =}])",
+    summary = "a unilateral constraint gap(t, q) >= 0: contact, impacts, friction",
+    text = [[
+An entry of a system's constraints: gap(t, q, params) >= 0, a distance (its
+multiplier is then the contact force).  While it touches and pushes
+(lambda >= 0) it is held as a holonomic constraint; it opens where lambda
+reaches 0, and closes where the gap reaches 0, with an impact when it
+approaches: Lagrange's impulse equations M (q'+ - q'-) = J^T P with Newton's
+law J q'+ = -e J q'- (e in [0, 1], 0 by default: it stays closed), every
+touching contact at once (an LCP, Lemke's algorithm).  Coulomb friction:
+mu (sliding), mu_s >= mu (sticking), slip = function(t, q, qd, params), the
+slip velocity (or a function of (t, q) whose rate it is); it sticks where
+the slip velocity reaches 0 and the force to hold is within mu_s lambda,
+and slides again where it leaves that cone.  Painleve's paradox is an error
+naming the contact.  Impacts accumulating in finite time (Zeno) end in
+persistent contact.  at = function(t, q, params) -> {x, y, z}: the point
+tr:animate draws while it is held.  Every method runs it (the GSL steppers
+and taylor; events on their dense output).  tr.events lists each impact,
+closing, opening, stick and slip; tr.contacts the modes; sys:accel and the
+other methods see the system without its contacts.  nz.effects.contact and
+friction declare the same in a scene.  docs/theory.md §13.]] },
   { name = "scene", section = "scenes",
     usage = "nz.scene{coords =, bodies = {{name =, mass =, pos = ...}}, effects = {...}}",
     summary = "a system built from bodies and the effects the scene declares",
@@ -561,7 +590,7 @@ bench/scene_cost.lua).  It also takes T, V, Q, L, constraints, params and
 sample as nz.system does, and returns a system (print(sys) lists its
 effects).]] },
   { name = "effects", section = "scenes", usage = "nz.effects.NAME{...}",
-    summary = "gravity, spring, damper, force, driven, knife_edge, rolling_disk, rolling_ball, constant_speed, constraint",
+    summary = "gravity, spring, damper, force, driven, knife_edge, rolling_disk, rolling_ball, constant_speed, constraint, contact, friction",
     text = [[
 Points are body names, functions (t, q, params) -> {x, y, z} (moving
 supports) or fixed {x, y, z}; coordinates are given by name.  A wrong or
@@ -578,7 +607,11 @@ help(nz.effects.NAME) explains one, with its parameters.
   rolling_disk{x =, y =, heading =, angle =, radius =}
   rolling_ball{body =, radius =}                    a body with rot on the plane
   constant_speed{coords = {...}, speed =}           nonlinear, first order
-  constraint{f = function(t, q, qd, qdd) ... end}   any other constraint]] },
+  constraint{f = function(t, q, qd, qdd) ... end}   any other constraint
+  contact{name =, gap = function(t, q) ... end, e =}  gap >= 0 (or at = point
+         with plane = {point =, normal =} or sphere = {center =, radius =})
+  friction{contact = name, mu =, mu_s =, slip = function(t, q, qd) ... end}
+         Coulomb at that contact (or tangent = {x, y, z} along its plane)]] },
   { name = "rotations", section = "scenes", usage = "nz.rotations.euler_zxz(psi, theta, phi)",
     summary = "rotation matrices x(a), y(a), z(a), mul(A, B), euler_zxz for a body's rot" },
   { name = "print", section = "session", usage = "nz.print(v, ...)",

@@ -33,6 +33,8 @@ local function objects()
         { "constraint_levels", "per constraint, the derivative slots it receives (q, qd, qdd, ...)" },
         { "bodies", "the bodies of nz.system{bodies = ...} or of a scene, which tr:animate draws" },
         { "effects", "a scene's effects, by kind (nz.scene)" },
+        { "contact", "with unilateral contacts (help(nz.unilateral)): their names and parameters, and the system a "
+          .. "run integrates them with (contact.system: the constraints, then each gap and slip function)" },
         { "recording", "what was recorded as graphs evaluated in C, per function (print(sys) shows it; "
           .. "sys:graph_info() its size); nil with compile = false" },
         { "engine", "what the C mechanics reads (the pieces, the recording): internal" },
@@ -100,6 +102,10 @@ local function objects()
         { "work", "monitors = {work = true}: the work W of the moving constraints' reactions and of Q "
           .. "(tr:column(\"work\"))" },
         { "events", "tr.events[e]: each located crossing of simulate's events, in time order (below)" },
+        { "contacts", "with unilateral contacts: .names, .modes[i] = {t, states} (each mode from its start), "
+          .. ".impacts, .zeno (each rest after impacts accumulating), .final (the last mode)" },
+        { "lambda_names", "with unilateral contacts: the names of tr.lambda's columns, lambda1, ..., then N.name and "
+          .. "T.name (each contact's normal and friction force: tr:column(\"N.floor\"))" },
         { "projections", "project = true: how many times the state was projected onto the constraints" },
         { "status", "\"done\"; \"stopped\" (an event with stop = true); \"interrupted\" (Ctrl-C: the part computed); "
           .. "\"failed\" (the error said why; nz.last holds the part computed)" },
@@ -118,7 +124,20 @@ local function objects()
           { "name", "the event's name (events = {{name = \"x=0\", f = ...}}; else \"event n\")" },
           { "t", "the time of the crossing, located to event_tol (1e-12)" },
           { "q", "the coordinates there: tr.events[e].q[j]" },
-          { "qd", "the velocities there" },
+          { "qd", "the velocities there (a contact's: before its impact)" },
+          { "contact", "a contact's event: the contact's number; its name is .name" },
+          { "kind", "a contact's event: \"impact\", \"closes\", \"opens\", \"sticks\" or \"slips\"" },
+          { "qd_after", "a contact's event: the velocities after it (an impact's q'+)" },
+          { "from", "a contact's event: its state before (\"open\", \"closed\", \"stick\", \"slip+\", \"slip-\")" },
+          { "to", "a contact's event: its state after" },
+          { "gap", "a contact's event: its gap there (0 within the event's tolerance)" },
+          { "normal_velocity", "a contact's event: its normal velocity before" },
+          { "slip_velocity", "a contact's event: its slip velocity before (0 without friction)" },
+          { "impulse", "an impact: the normal impulse P (Lagrange's impulse equations)" },
+          { "tangential_impulse", "an impact: the friction's impulse" },
+          { "speed", "an impact: the approach speed -v-" },
+          { "energy_lost", "an impact: the kinetic energy it took (on its first contact when several)" },
+          { "zeno", "an impact made plastic: the time its impacts accumulate at (Zeno)" },
         }, note = "Which crossings count is the event's direction (1: rising, -1: falling, 0: both, the default); "
           .. "stop = true ends the run at the first.  tr:section{when = \"x=0\"} draws them." },
         { title = "The run's statistics, tr.stats", prefix = ".", key = "stats", fields = {

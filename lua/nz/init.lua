@@ -18,6 +18,8 @@ nz.bodies = require("nz.bodies").bodies
 nz.methods = core.mech.ode_methods()
 nz.workprecision = require("nz.workprecision").run
 nz.effects = require "nz.effects"
+-- a contact in a system's constraints (nz/contact.lua, loaded when used)
+function nz.unilateral(gap, opts) return require("nz.contact").unilateral(gap, opts) end
 nz.scene = require("nz.scene").scene
 nz.check = require("nz.check").check
 nz.rotations = require "nz.rotations"

@@ -38,7 +38,9 @@ function M.report(sys, opts)
     for key, v in pairs(opts.simulate or {}) do s[key] = v end
     tr = sys:simulate(s)
     print(tostring(tr))
-    if #tr.t >= require("nz.defect").NODES then
+    if tr.contacts then           -- (its motion is smooth only between its events: nz/contact_run.lua)
+      print("  defect of the motion: not measured across contact events (tr:residuals says why)")
+    elseif #tr.t >= require("nz.defect").NODES then
       -- the motion itself on the equations (nz/defect.lua): can fail, unlike the line above
       local d, worst, floor = tr:residuals(n, { quiet = true }), 0, 0
       for _, e in ipairs(d) do worst, floor = math.max(worst, e.max), math.max(floor, e.floor) end

@@ -56,7 +56,7 @@ function M.scene(def)
     return index[c] or sc.fail(e, param, "names no coordinate '%s' (coordinates: %s)", tostring(c), table.concat(coords, ", "))
   end
 
-  local kinds = {}
+  local kinds, frictions = {}, {}
   -- one effect given bare would be a table ipairs sees nothing in: the scene
   -- would silently have no effects
   if def.effects ~= nil and (type(def.effects) ~= "table" or getmetatable(def.effects) == effects.Effect) then
@@ -73,7 +73,14 @@ function M.scene(def)
     for _, f in ipairs(list_of(pieces.V)) do V[#V + 1] = f end
     for _, f in ipairs(list_of(pieces.Q)) do Q[#Q + 1] = f end
     for _, f in ipairs(list_of(pieces.constraints)) do C[#C + 1] = f end
+    if pieces.friction then frictions[#frictions + 1] = pieces.friction end
     kinds[#kinds + 1] = e.kind
+  end
+  -- friction goes on its contact (nz/contact.lua), once every contact is in
+  local contacts = select(2, require("nz.contact").split(C)) or {}
+  for _, f in ipairs(frictions) do
+    local ok, err = pcall(effects.attach_friction, sc, contacts, f)
+    if not ok then error(err, 2) end
   end
   local sys = require("nz").system{ name = name, coords = coords, T = #T > 0 and T or nil, V = #V > 0 and V or nil,
     Q = #Q > 0 and Q or nil, L = #L > 0 and L or nil, S = S, constraints = #C > 0 and C or nil,

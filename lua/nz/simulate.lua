@@ -44,6 +44,9 @@ M.MAX_FIXED_STEPS = 1e9   -- steps of a fixed-step run
 M.MIN_RTOL = 1e-15        -- below this (~5 eps) no stepper can make progress
 M.PROJECT_TOL = 1e-10     -- project = true projects when the violation exceeds this
 M.PROJECT_MULTISTEP = 100  -- ... times max(rtol, atol) for msadams and msbdf (up to 1e-6)
+-- Locating an event: bisect where one end's value is below this fraction of
+-- the other's (src/ode/ode_run.c's NZ_RUN_SECANT_RATIO).
+M.SECANT_RATIO = 1e-12
 -- A long run is announced (once) when the first steps project more than
 -- this many steps or seconds; LONG_RUN.check_steps: when to look first
 -- (then at every doubling), so that the decision counts steps.
@@ -285,7 +288,7 @@ local function validate(sys, o)
   check_events(sys, cfg)
   check_switches(sys, cfg)
   cfg.warnings = {}
-  if sys.nc == 0 then
+  if sys.nc == 0 and not sys.contact then      -- (contacts refuse them: nz/contact_run.lua)
     if cfg.project then warn_once(sys, cfg, "project", "'project' does nothing: the system has no constraints") end
     if cfg.alpha then warn_once(sys, cfg, "baumgarte", "'baumgarte' does nothing: the system has no constraints") end
   end
@@ -712,13 +715,19 @@ function M.simulate(sys, opts)
       piece)
   end
   if sys.nc > 0 and cfg.check ~= false then constraints.check_state(sys, cfg.t0, cfg.q0, qd0) end
+  -- Unilateral contacts (nz/contact_run.lua): the run integrates the system
+  -- with the contacts' functions (sys.contact.system) in the contacts' mode,
+  -- from the velocities after the start's impact, if any.
+  local contact = sys.contact and require("nz.contact_run").begin(sys, cfg, cfg.q0, qd0,
+    function(...) fail(sys, ...) end)
+  if contact then engine, orders, linear, cfg.q0, qd0 = contact.engine, contact.orders, contact.linear, contact.q0, contact.qd0 end
   local tail = p and start_levels(sys, cfg, orders, p, qd0, top)
   local guess = top and cfg.guess and top_guess(sys, cfg.guess, p)
 
   local ode_cfg = {
     method = cfg.method, rtol = cfg.rtol, atol = cfg.atol, h0 = cfg.h0 or math.min(cfg.dt, 1e-3),
     work = cfg.monitors.work, orders = orders, linear = linear, alpha = cfg.alpha, beta = cfg.beta, level = p,
-    top = top ~= nil, guess = guess,
+    top = top ~= nil, guess = guess, contacts = contact and contact.cs,
   }
   local ode
   if taylor then
@@ -812,7 +821,7 @@ function M.simulate(sys, opts)
     locator = locator or mech.ode_new(engine, { method = "rk8pd", rtol = math.min(cfg.rtol, 1e-10),
       atol = math.min(cfg.atol, 1e-12), work = cfg.monitors.work, orders = orders, linear = linear,
       alpha = cfg.alpha, beta = cfg.beta, h0 = math.max(tau - ta, 1e-12), level = p, top = top ~= nil,
-      guess = top and root_at(ta, ya) })
+      guess = top and root_at(ta, ya), contacts = contact and contact.cs })
     mech.ode_reset(locator)
     local t, h, yy = ta, math.max(tau - ta, 1e-12), ya
     while t < tau do t, h, yy = mech.ode_step(locator, engine, t, tau, h, yy) end
@@ -848,6 +857,7 @@ function M.simulate(sys, opts)
   -- An event function that raises: its own file:line first (the fault is
   -- there), then the system, the event, the time and the state.
   local function event_value(ev, t, yy)
+    if ev.contact then return mech.contacts_event(ev.cs, engine, ev.contact, t, yy) end   -- nz/contact_run.lua
     if evals then
       local g = mech.ode_event_value(evals, ev.index, t, yy)
       if g then return g end
@@ -882,7 +892,11 @@ function M.simulate(sys, opts)
     for _ = 1, 100 do
       if tb - ta <= tol then break end
       tm = (ta * gb - tb * ga) / (gb - ga)
-      if not (tm > ta and tm < tb) then tm = 0.5 * (ta + tb) end
+      -- an end whose value is negligible against the other's (an event that
+      -- starts at zero: a bounce) pins the secant to it, and Illinois'
+      -- halvings would take hundreds of steps to leave it: bisect
+      if not (tm > ta and tm < tb) or math.abs(ga) < M.SECANT_RATIO * math.abs(gb)
+        or math.abs(gb) < M.SECANT_RATIO * math.abs(ga) then tm = 0.5 * (ta + tb) end
       ym = state_at(ta, ya, tm)
       local gm = event_value(ev, tm, ym)
       if gm == 0 then return tm, ym end
@@ -1013,6 +1027,7 @@ function M.simulate(sys, opts)
   -- Event e at te, state ye: recorded; true when it stops the run (its
   -- point recorded).
   local function on_located(e, te, ye)
+    if e > #cfg.events then return contact:located(e - #cfg.events, te, ye) end   -- a contact's event
     local ev = cfg.events[e]
     local q, qd = split(ye, k)
     tr.events[#tr.events + 1] = { name = ev.name, t = te, q = q, qd = qd }
@@ -1036,6 +1051,7 @@ function M.simulate(sys, opts)
   -- Event e crossed in the step from (ta, ya) to (tb, yb): locate it and
   -- record it; true when it stops the run (its point recorded).
   local function on_event(e, ta, ya, ga, tb, gb, yb)
+    if contact then return on_located(contact:first(e, ta, ya, ga, tb, gb, yb)) end   -- the earliest event first
     return on_located(e, locate(cfg.events[e], ta, ya, ga, tb, gb, yb))
   end
 
@@ -1158,6 +1174,7 @@ function M.simulate(sys, opts)
         cdone = #tr.t
         return
       end
+      cdone = math.min(cdone, #tr.t)                -- a contact's event drops the points after it
       if status == "paused" and nsteps == next_check and not announced then  -- watch(t), its second half
         next_check = 2 * next_check
         announced = long_run(t)
@@ -1178,11 +1195,13 @@ function M.simulate(sys, opts)
     loop_why = ("project = true with constraints of order %d: the violation at the levels above qd is computed in Lua"):format(p)
   end
   local in_c = loop_why == nil
+  if contact and not in_c then fail(sys, "unilateral contacts need the loop in C, and %s", loop_why) end
   if cfg._loop == "c" and not in_c then
     fail(sys, "'_loop' = \"c\": this run needs the Lua loop (%s)", loop_why)
   end
   if cfg._loop == "lua" and in_c then in_c, loop_why = false, "_loop = \"lua\"" end
   cfg.dense_on = dense and in_c      -- for the long-run notice's advice (cheaper)
+  if contact then contact:attach(tr, { locate = locate, value = event_value, run = function() return crun end, pend = pend }) end
   local ok, err = pcall(in_c and run_c or run)
   if crun then                 -- what an interrupt cut short (the hook fires once)
     t = mech.ode_run_state(crun)
@@ -1222,6 +1241,7 @@ function M.simulate(sys, opts)
   elseif dense and in_c and tr.stats.forced > 0.1 * s.steps then
     tr.stats.grid_why = ("the interpolant's error control made %d output points step ends"):format(tr.stats.forced)
   end
+  if contact then contact:finish(tr) end
   return finish(sys, cfg, tr, ok, err, t)
 end
 

@@ -200,7 +200,14 @@ function M.system(def)
   local F, Flab = {}, {}
   append(F, Flab, T, lab.T)
   append(F, Flab, L, lab.L)
-  local C = as_list(def.constraints, "constraints", name)
+  -- nz.unilateral entries are contacts (nz/contact.lua), the rest equalities
+  local bilateral, contacts = def.constraints, nil
+  if type(bilateral) == "table" then
+    local any = getmetatable(bilateral) ~= nil
+    for _, c in ipairs(bilateral) do any = any or type(c) == "table" end
+    if any then bilateral, contacts = require("nz.contact").split(bilateral) end
+  end
+  local C = as_list(bilateral, "constraints", name)
   local Clab = {}
   for i = 1, #C do Clab[i] = ("constraint %d"):format(i) end
   local Clevels = constraints.levels(C, name)
@@ -245,6 +252,7 @@ function M.system(def)
   -- here, at the user's nz.system line (nz/probe.lua).
   probe.check(self)
   if GRAPH_CHECK and self.recording then record.diff_check(self.engine, Clevels, name) end
+  if contacts then require("nz.contact").attach(self, def, contacts, C) end
   return self
 end
 
@@ -623,6 +631,7 @@ function System:__tostring()
     if self.pieces[p] > 0 then have[#have + 1] = self.pieces[p] > 1 and ("%s (%d pieces)"):format(p, self.pieces[p]) or p end
   end
   if self.nc > 0 then have[#have + 1] = ("%d constraint%s"):format(self.nc, self.nc == 1 and "" or "s") end
+  if self.contact then have[#have + 1] = require("nz.contact").describe(self) end
   if self.effects and #self.effects > 0 then have[#have + 1] = "effects " .. table.concat(self.effects, ", ") end
   local params = {}
   for k, v in pairs(self.params) do params[#params + 1] = ("%s = %s"):format(k, tostring(v)) end

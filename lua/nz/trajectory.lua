@@ -62,7 +62,17 @@ function Trajectory:__tostring()
     lines[#lines + 1] = ("  work of moving constraints: %.6g; T + V - work: drift up to %.3g"):format(self.work[#self.work], max_abs_change(c))
   end
   if #self.events > 0 then lines[#lines + 1] = ("  events: %d (first '%s' at t = %.10g)"):format(#self.events, self.events[1].name, self.events[1].t) end
+  if self.contacts then lines[#lines + 1] = require("nz.contact_run").summary(self) end
   return table.concat(lines, "\n")
+end
+
+-- The names of the multipliers' columns: lambda1, lambda2, ..., and with
+-- contacts (nz/contact_run.lua) each contact's N.name and T.name.
+local function lambda_names(self)
+  if self.lambda_names then return self.lambda_names end
+  local names = {}
+  for r = 1, self.system.nc do names[r] = "lambda" .. r end
+  return names
 end
 
 -- The derivatives above q'' a run holds (constraints of order p >= 3,
@@ -96,7 +106,7 @@ local function quantities(self)
   for m = 0, highest(self) do
     for _, c in ipairs(self.coords) do names[#names + 1] = c .. ("'"):rep(m) end
   end
-  for r = 1, self.system.nc do names[#names + 1] = "lambda" .. r end
+  for _, name in ipairs(lambda_names(self)) do names[#names + 1] = name end
   if self.energy then names[#names + 1] = "E"; names[#names + 1] = "H" end
   if self.work then names[#names + 1] = "work" end
   if self.violation then names[#names + 1] = "violation" end
@@ -147,11 +157,12 @@ function Trajectory:column(name)
     column_error("trajectory: '%s' was not recorded: ask for it with monitors = {energy = true, work = true} "
       .. "in simulate (quantities of this one: %s)", name, quantities(self))
   end
-  local r = name:match("^lambda(%d+)$")
-  if r and tonumber(r) >= 1 and tonumber(r) <= self.system.nc then
-    local out = {}
-    for i = 1, #self.t do out[i] = self.lambda[i][tonumber(r)] end
-    return out
+  for r, lname in ipairs(lambda_names(self)) do
+    if lname == name then
+      local out = {}
+      for i = 1, #self.t do out[i] = self.lambda[i][r] end
+      return out
+    end
   end
   local base, primes = name:match("^(.-)('*)$")
   for j, c in ipairs(self.coords) do
@@ -178,7 +189,7 @@ local function write_csv(self, f)
   for _, c in ipairs(self.coords) do head[#head + 1] = c end
   for _, c in ipairs(self.coords) do head[#head + 1] = c .. "'" end
   for _, c in ipairs(self.coords) do head[#head + 1] = c .. "''" end
-  for r = 1, self.system.nc do head[#head + 1] = "lambda" .. r end
+  for _, name in ipairs(lambda_names(self)) do head[#head + 1] = name end
   local extra = {}
   for _, name in ipairs{ "violation", "E", "H", "work" } do
     local ok, col = pcall(self.column, self, name)
@@ -318,6 +329,7 @@ function Trajectory:plot(opts)
       for i, s in ipairs(series) do names[i] = s.name end
       ylabel = table.concat(names, ", ")
     end
+    if self.contacts then require("nz.contact_run").marks(self, series, opts.x or "t") end
   end
   local width, height = opts.width, opts.height
   if type(opts.size) == "table" then width, height = opts.size[1], opts.size[2] end
@@ -340,11 +352,13 @@ function Trajectory:section(opts) return require("nz.views").section(self, opts)
 function Trajectory:animate(opts) return require("nz.views").animate(self, opts) end
 
 -- The order n (argument #1) and the options of tr:residuals and
--- tr:consistency, named as the user called them.
+-- tr:consistency, named as the user called them; a run with contacts is
+-- refused (nz/contact_run.lua).
 local ORDER_OPTIONS = { quiet = function(v) return type(v) == "boolean", "true or false" end }
 require("nz.options").declare("tr:residuals", ORDER_OPTIONS)
 require("nz.options").declare("tr:consistency", ORDER_OPTIONS)
-local function check_order_options(sys, fname, n, opts)
+local function check_order_options(self, sys, fname, n, opts)
+  if self.contacts then require("nz.contact_run").refuse_defect(self, fname) end
   local args = require("nz.system").args
   args.order(fname, n)
   args.options(fname, 2, opts, ORDER_OPTIONS)
@@ -355,7 +369,7 @@ end
 -- the curve through the points' q and q', at points inside the intervals.
 function Trajectory:residuals(n, opts)
   local sys, defect = self.system, require "nz.defect"
-  n = check_order_options(sys, "residuals", n, opts)
+  n = check_order_options(self, sys, "residuals", n, opts)
   local result = defect.measure(sys, { t = self.t, q = self.q, qd = self.qd }, n)
   if result.intervals == 0 then
     error(("%str:residuals: the %d points of this run are too few for the curve through them (%d in a run "
@@ -375,7 +389,7 @@ end
 -- from), not the motion: tr:residuals does that.  max and RMS per equation.
 function Trajectory:consistency(n, opts)
   local sys = self.system
-  n = check_order_options(sys, "consistency", n, opts)
+  n = check_order_options(self, sys, "consistency", n, opts)
   local k, worst, sq = sys.k, {}, {}
   for j = 1, k do worst[j], sq[j] = 0, 0 end
   for i = 1, #self.t do

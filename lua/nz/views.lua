@@ -217,6 +217,7 @@ function M.animate(tr, opts)
   check_animate(tr, opts)
   if #tr.t == 0 then fail("animate", "the trajectory is empty") end
   local draw = shapes_of(tr, opts)
+  if tr.contacts then draw = require("nz.contact_run").drawing(tr, draw, PLANES[opts.plane or "xy"]) end
   local nframes = math.min(opts.frames or 60, #tr.t)
   local idx = {}
   for f = 1, nframes do idx[f] = nframes == 1 and 1 or math.floor(1 + (f - 1) * (#tr.t - 1) / (nframes - 1) + 0.5) end

@@ -15,6 +15,7 @@
 #include "lua/embedded.h"
 #include <gsl/gsl_errno.h>
 #include "lua/lua_constraints.h"
+#include "lua/lua_contact.h"
 #include "lua/lua_dualjet.h"
 #include "lua/lua_graph.h"
 #include "lua/lua_jet.h"
@@ -126,6 +127,7 @@ static int open_core(lua_State *L)
   nz_lua_open_roots(L);
   nz_lua_open_ode(L);
   nz_lua_open_taylor(L);
+  nz_lua_open_contact(L);        /* unilateral contacts for the integrators */
   nz_lua_open_sweep(L);          /* worker processes of nz.sweep */
   nz_lua_open_graph(L);          /* the recorder's constructor is internal */
   lua_setfield(L, -2, "mech");

@@ -12,12 +12,14 @@
 #include <unistd.h>
 #include <lauxlib.h>
 #include "core/interrupt.h"
+#include "lua/lua_contact.h"
 #include "lua/lua_graph.h"
 #include "lua/lua_ode.h"
 #include "lua/lua_system.h"
 #include "lua/lua_taylor.h"
 #include "lua/lua_util.h"
 #include "mech/constrained.h"
+#include "mech/contact.h"
 #include "ode/ode.h"
 #include "ode/ode_run.h"
 #include "ode/stepper.h"
@@ -30,6 +32,7 @@
 typedef struct ode_box {
   nz_stepper *st;                    /* the integrator, owning o for GSL's */
   nz_ode *o;                         /* GSL's steppers; NULL for taylor */
+  nz_contacts *contacts;             /* the unilateral contacts (user value 1), or NULL */
   int k, nc, dim;
   char method[16];
 } ode_box;
@@ -79,13 +82,21 @@ static int lo_new(lua_State *L)
   memset(&cfg, 0, sizeof cfg);
   lua_getfield(L, 2, "method");
   cfg.method = luaL_optstring(L, -1, "rk8pd");
+  /* unilateral contacts (lua_contact.h): kept alive as the box's user value */
+  lua_getfield(L, 2, "contacts");
+  int cs = lua_gettop(L);
+  cfg.contacts = nz_lua_tocontacts(L, cs);
+  if (!lua_isnil(L, cs) && !cfg.contacts) return luaL_error(L, "internal: 'contacts' is not an nz.contacts");
   if (!strcmp(cfg.method, "taylor")) {   /* Taylor's method: lua_taylor.c checks and makes it */
-    ode_box *box = lua_newuserdatauv(L, sizeof *box, 0);
+    ode_box *box = lua_newuserdatauv(L, sizeof *box, 1);
     memset(box, 0, sizeof *box);
     luaL_setmetatable(L, NZ_ODE_METATABLE);
+    lua_pushvalue(L, cs);
+    lua_setiuservalue(L, -2, 1);
     box->k = k;
     box->nc = nc;
     box->dim = 2 * k;
+    box->contacts = cfg.contacts;
     snprintf(box->method, sizeof box->method, "taylor");
     box->st = nz_lua_taylor_new(L, 2, "simulate");
     return 1;
@@ -143,11 +154,14 @@ static int lo_new(lua_State *L)
   acc.skip_check = lua_isboolean(L, -1) && !lua_toboolean(L, -1);
   lua_pop(L, 1);
   cfg.accel = acc;
-  ode_box *box = lua_newuserdatauv(L, sizeof *box, 0);
+  ode_box *box = lua_newuserdatauv(L, sizeof *box, 1);
   memset(box, 0, sizeof *box);
   luaL_setmetatable(L, NZ_ODE_METATABLE);
+  lua_pushvalue(L, cs);
+  lua_setiuservalue(L, -2, 1);
   box->k = k;
   box->nc = nc;
+  box->contacts = cfg.contacts;
   snprintf(box->method, sizeof box->method, "%s", cfg.method);
   nz_ode *o = nz_ode_alloc(k, &cfg);
   if (!o || !(box->st = nz_stepper_gsl_new(o, k, nc, cfg.rtol, cfg.atol)))
@@ -160,6 +174,8 @@ static int lo_new(lua_State *L)
 /* Raise the failure of the last step or evaluation, with time and state. */
 static int raise_failure(lua_State *L, ode_box *box, bound_system *b, int st)
 {
+  if (nz_lua_contacts_failed(box->contacts) && !b->ev.interrupted)   /* a contact mode's solve */
+    return nz_lua_contacts_raise(L, box->contacts, b);
   if (!box->o) {
     if (b->ev.interrupted) return nz_lua_raise_interrupt(L);
     return nz_lua_taylor_raise(L, box->st, st);
@@ -483,6 +499,7 @@ typedef struct run_box {
   nz_run *r;
   ode_box *ode;
   events_box *events;                /* NULL: none (kept alive as user value 2) */
+  int nuser;                         /* the user's events; the contacts' follow */
 } run_box;
 
 /* The event callback of one ode_run call: the graph's value, else the Lua
@@ -493,11 +510,15 @@ typedef struct event_ctx {
   lua_State *L;
   events_box *eb;
   int fallback, err, dim, failed;
+  nz_contacts *contacts;           /* its events after the user's (nuser) */
+  const nz_system *s;
+  int nuser;
 } event_ctx;
 
 static int run_event(void *ctx, int e, double t, const double *y, double *g)
 {
   event_ctx *c = ctx;
+  if (e >= c->nuser) return nz_contacts_event(c->contacts, c->s, e - c->nuser, t, y, g);
   if (events_eval(c->eb, e, t, y, g) == NZ_OK) return NZ_OK;
   lua_State *L = c->L;
   if (lua_isnil(L, c->fallback)) return NZ_EDOM;   /* none: the graph's failure fails the run */
@@ -565,9 +586,16 @@ static int lo_run_new(lua_State *L)
   lua_getfield(L, 2, "fallback");                          /* at 4 */
   if (eb && !lua_isnil(L, 4)) luaL_checktype(L, 4, LUA_TFUNCTION);
   c.event_tol = number_field(L, 2, "event_tol", 1e-12);
-  c.nevents = eb ? eb->n : 0;
+  int nuser = eb ? eb->n : 0;
+  /* the contacts' events follow the user's, each falling through zero */
+  c.nchange = ob->contacts ? nz_contacts_nevents(ob->contacts) : 0;
+  c.nevents = nuser + c.nchange;
   int *ints = lua_newuserdatauv(L, ((size_t)c.nevents + (size_t)ob->nc + 1) * sizeof(int), 0);
   for (int e = 0; e < c.nevents; e++) {
+    if (e >= nuser) {
+      ints[e] = -1;
+      continue;
+    }
     lua_getfield(L, 2, "directions");
     lua_geti(L, -1, e + 1);
     ints[e] = (int)luaL_checkinteger(L, -1);
@@ -598,6 +626,7 @@ static int lo_run_new(lua_State *L)
   lua_setiuservalue(L, -2, 3);
   rb->ode = ob;
   rb->events = eb;
+  rb->nuser = nuser;
   if (!(rb->r = nz_run_alloc(ob->st, &c, y)))
     return nz_lua_error(L, "simulate: the run could not start (no memory, or a bad grid: t0 = %f, t1 = %f, dt = %f, step = %f)",
                       c.t0, c.t1, c.dt, c.step);
@@ -674,8 +703,8 @@ static int lo_run(lua_State *L)
   lua_copy(L, 2, 1);                 /* def first, as raise_failure expects; the caller keeps run */
   bound_system b;
   nz_lua_bind_system(L, 1, &b);
-  event_ctx ec = { L, rb->events, 5, 6, rb->ode->dim, 0 };
-  nz_run_set_events(rb->r, rb->events ? run_event : NULL, &ec);
+  event_ctx ec = { L, rb->events, 5, 6, rb->ode->dim, 0, rb->ode->contacts, &b.sys, rb->nuser };
+  nz_run_set_events(rb->r, rb->events || rb->ode->contacts ? run_event : NULL, &ec);
   int st;
   nz_run_status rs = nz_run_advance(rb->r, &b.sys, pause_step > 0 ? (unsigned long)pause_step : 0, pause_wall, &st);
   nz_run_set_events(rb->r, NULL, NULL);     /* ec dies with this call */
@@ -685,6 +714,7 @@ static int lo_run(lua_State *L)
   case NZ_RUN_FAILED:
     switch (nz_run_failure_of(rb->r)) {
     case NZ_RUN_FAIL_EVENT:
+      if (nz_lua_contacts_failed(rb->ode->contacts)) return nz_lua_contacts_raise(L, rb->ode->contacts, &b);
       if (ec.failed) {
         lua_pushvalue(L, 6);
         return lua_error(L);
@@ -742,6 +772,54 @@ static int lo_run(lua_State *L)
   }
   lua_pushliteral(L, "done");
   return 1;
+}
+
+/* ode_run_record_until(run, def, te, tr, pend): the last step's output
+ * points up to te, when its events came first (a contact's), handed over
+ * to tr as ode_run hands its points (nz_run_record_until). */
+static int lo_run_record_until(lua_State *L)
+{
+  run_box *rb = check_run(L, 1);
+  double te = luaL_checknumber(L, 3);
+  luaL_checktype(L, 4, LUA_TTABLE);
+  lua_settop(L, 5);
+  lua_copy(L, 2, 1);                 /* def first; the caller keeps run */
+  bound_system b;
+  nz_lua_bind_system(L, 1, &b);
+  int st;
+  nz_run_status rs;
+  while ((rs = nz_run_record_until(rb->r, &b.sys, te, &st)) == NZ_RUN_FULL) flush_points(L, rb, 4, 5);
+  flush_points(L, rb, 4, 5);
+  if (rs == NZ_RUN_FAILED) return raise_failure(L, rb->ode, &b, st);
+  return 0;
+}
+
+/* ode_run_jump(run, def, te, y): the motion jumps at te to y (an impact, a
+ * contact's change: nz_run_jump); the events' values are taken there. */
+static int lo_run_jump(lua_State *L)
+{
+  run_box *rb = check_run(L, 1);
+  double te = luaL_checknumber(L, 3);
+  int dim = rb->ode->dim;
+  lua_settop(L, 4);
+  lua_getiuservalue(L, 1, 3);        /* 5: the events' fallback */
+  lua_pushnil(L);                    /* 6: an event's error */
+  double *y = lua_newuserdatauv(L, (size_t)dim * sizeof(double), 0);
+  nz_lua_read_vector(L, 4, dim, y, "y", 0, "simulate");
+  lua_copy(L, 2, 1);                 /* def first; the caller keeps run */
+  bound_system b;
+  nz_lua_bind_system(L, 1, &b);
+  event_ctx ec = { L, rb->events, 5, 6, dim, 0, rb->ode->contacts, &b.sys, rb->nuser };
+  nz_run_set_events(rb->r, rb->events || rb->ode->contacts ? run_event : NULL, &ec);
+  int st = nz_run_jump(rb->r, &b.sys, te, y);
+  nz_run_set_events(rb->r, NULL, NULL);
+  if (ec.failed) {
+    lua_pushvalue(L, 6);
+    return lua_error(L);
+  }
+  if (st && nz_lua_contacts_failed(rb->ode->contacts)) return nz_lua_contacts_raise(L, rb->ode->contacts, &b);
+  if (st) return nz_lua_error(L, "simulate: the run could not go on from t = %f (status %d)", te, st);
+  return 0;
 }
 
 /* ode_run_set_state(run, y): the projected state of the last step. */
@@ -856,6 +934,7 @@ static const luaL_Reg ode_functions[] = {
   { "now", lo_now }, { "isatty", lo_isatty }, { "interrupted", lo_interrupted },
   { "ode_methods", lo_methods }, { "ode_run_new", lo_run_new }, { "ode_run", lo_run },
   { "ode_run_state", lo_run_state }, { "ode_run_dense", lo_run_dense }, { "ode_run_native", lo_run_native }, { "ode_run_interpolate", lo_run_interpolate }, { "ode_run_set_state", lo_run_set_state },
+  { "ode_run_jump", lo_run_jump }, { "ode_run_record_until", lo_run_record_until },
   { "ode_run_violation", lo_run_violation }, { "ode_events_new", lo_events_new },
   { "ode_event_value", lo_event_value }, { "_set_interrupt", lo_set_interrupt },
   { NULL, NULL }

@@ -23,9 +23,11 @@
 #include <string.h>
 #include <lauxlib.h>
 #include "mech/constrained.h"
+#include "mech/contact.h"
 #include "mech/mech_graph.h"
 #include "ode/ode_run.h"
 #include "ode/taylor.h"
+#include "lua/lua_contact.h"
 #include "lua/lua_system.h"
 #include "lua/lua_taylor.h"
 #include "lua/lua_util.h"
@@ -67,6 +69,12 @@ typedef struct series_ctx {
   int mass_failed;        /* M was singular there                            */
   double t;               /* where                                           */
   double *q, *qd;         /* the state there (k each)                        */
+  /* Unilateral contacts (mech/contact.h): the series of their mode, on the
+   * rows it holds (nz_contacts_active: rows, couple, coef, and the
+   * multipliers in that order, lam_sel, from all of them, lam_all). */
+  struct nz_contacts *contacts;
+  int *rows, *couple;
+  double *coef, *lam_sel, *lam_all;
 } series_ctx;
 
 /* The recording behind s: s is the sys of a bound_system (its first
@@ -91,11 +99,35 @@ static int check_end(void *ctx, const nz_system *s, double t, const double *q, c
   return nz_constraint_row_reversed(c->nc, c->k, c->orders, c->A, c->Aend);
 }
 
+/* The series in the contacts' mode: the free motion's when it holds no
+ * row, else the constrained one on the rows it holds, friction riding on
+ * the normal forces of the sliding contacts (mech_graph.h's selection). */
+static int contact_series(series_ctx *c, const nz_system *s, double t0, const double *q0, const double *qd0, int p,
+                          double *a)
+{
+  int k = c->k, st = nz_contacts_accel(c->contacts, s, t0, q0, qd0, c->qdd, c->lam_all);
+  if (st) {
+    failed_at(c, t0, q0, qd0);
+    return st;
+  }
+  if (p < 2) {
+    memcpy(a, q0, (size_t)k * sizeof(double));
+    if (p >= 1) memcpy(a + k, qd0, (size_t)k * sizeof(double));
+    return NZ_OK;
+  }
+  int na = nz_contacts_active(c->contacts, c->rows, c->couple, c->coef);
+  if (na == 0) return nz_compiled_motion_series(comp_of(s), t0, q0, qd0, p, a);
+  for (int x = 0; x < na; x++) c->lam_sel[x] = c->lam_all[c->rows[x]];
+  nz_series_selection sel = { na, c->rows, c->couple, c->coef };
+  return nz_compiled_constrained_series_sel(comp_of(s), c->orders, &sel, t0, q0, qd0, c->qdd, c->lam_sel, p, a, NULL);
+}
+
 static int motion_series(void *ctx, const nz_system *s, double t0, const double *q0, const double *qd0, int p,
                          double *a)
 {
   series_ctx *c = ctx;
   c->accel_failed = 0;
+  if (c->contacts) return contact_series(c, s, t0, q0, qd0, p, a);
   if (!c->orders) return nz_compiled_motion_series(comp_of(s), t0, q0, qd0, p, a);
   int k = c->k;
   nz_accel_options opt = NZ_ACCEL_DEFAULTS;
@@ -124,6 +156,11 @@ static int accel_at(void *ctx, const nz_system *s, double t, const double *q, co
   series_ctx *c = ctx;
   nz_accel_options opt = NZ_ACCEL_DEFAULTS;
   c->accel_failed = c->mass_failed = 0;
+  if (c->contacts) {
+    int st = nz_contacts_accel(c->contacts, s, t, q, qd, out, out + c->k);
+    if (st) failed_at(c, t, q, qd);
+    return st;
+  }
   if (!c->orders) {
     int st = nz_accel(s, t, q, qd, opt.rcond_min, out, &c->mass);
     if (st == NZ_ESINGULAR) {
@@ -169,7 +206,7 @@ static series_ctx *series_new(lua_State *L, bound_system *b, int idx, const char
     }
     lua_pop(L, 2);
   }
-  size_t ints = 3 * ((size_t)nc + 1), doubles = 4 * (size_t)k + (size_t)nc + 1 + 2 * (size_t)nc * (size_t)k;
+  size_t ints = 5 * ((size_t)nc + 1), doubles = 4 * (size_t)k + (size_t)nc + 1 + 2 * (size_t)nc * (size_t)k + 3 * ((size_t)nc + 1);
   size_t size = sizeof(series_ctx) + ints * sizeof(int) + doubles * sizeof(double);
   series_ctx *c = lua_owned ? lua_newuserdatauv(L, size, 0) : malloc(size);
   if (!c) {
@@ -190,6 +227,11 @@ static series_ctx *series_new(lua_State *L, bound_system *b, int idx, const char
     c->orders = iw;
     c->linear = iw + nc + 1;
     c->involved = iw + 2 * (nc + 1);
+    c->rows = iw + 3 * (nc + 1);
+    c->couple = iw + 4 * (nc + 1);
+    c->coef = c->zero + k;
+    c->lam_sel = c->coef + nc + 1;
+    c->lam_all = c->lam_sel + nc + 1;
   }
   lua_remove(L, fidx);
   return c;
@@ -259,9 +301,14 @@ nz_stepper *nz_lua_taylor_new(lua_State *L, int cfg, const char *fname)
   tc.order = (int)order;
   series_ctx *c = series_new(L, &b, cfg, fname, 0);
   if (!c) luaL_error(L, "not enough memory for the integrator");
+  lua_getfield(L, cfg, "contacts");   /* unilateral contacts: their mode's series (kept alive by ode_new's box) */
+  c->contacts = nz_lua_tocontacts(L, -1);
+  lua_pop(L, 1);
   tc.series = motion_series;
   tc.accel = accel_at;
-  tc.check = tc.nc > 0 ? check_end : NULL;   /* the rows' check only where there are constraints */
+  /* the rows' check only where there are constraints, and not across the
+   * changes of a contact mode (each restarts the step's rows) */
+  tc.check = tc.nc > 0 && !c->contacts ? check_end : NULL;
   tc.ctx = c;
   tc.ctx_free = free_ctx;
   nz_stepper *st = nz_taylor_stepper_new(&tc);

@@ -1262,8 +1262,23 @@ int nz_compiled_constrained_series(nz_compiled *c, const int *orders, double t0,
                                    const double *qd0, const double *qdd0, const double *lam0, int p, double *a,
                                    double *lambda)
 {
-  int k = c->k, nc = c->nc, st;
+  return nz_compiled_constrained_series_sel(c, orders, NULL, t0, q0, qd0, qdd0, lam0, p, a, lambda);
+}
+
+int nz_compiled_constrained_series_sel(nz_compiled *c, const int *orders, const nz_series_selection *sel, double t0,
+                                       const double *q0, const double *qd0, const double *qdd0, const double *lam0,
+                                       int p, double *a, double *lambda)
+{
+  int k = c->k, st;
+  /* the rows held: every constraint, or the selection's (a contact mode);
+   * row x is constraint R(x), and its force rides on a second row D(x)
+   * with the coefficient CF(x) (a sliding contact's friction) */
+  int na = sel ? sel->n : c->nc;
+#define R(x) (sel ? sel->rows[x] : (x))
+#define D(x) (sel && sel->couple ? sel->couple[x] : -1)
+#define CF(x) (sel && sel->coef ? sel->coef[x] : 0.0)
   if (p < 2 || p > NZ_JET_MAX_ORDER) return NZ_EDOM;
+  if (na < 0 || na > c->nc) return NZ_EARG;
   if (!mass_bias_ready(c)) return NZ_EARG;
   if ((st = cseries_plans(c, orders))) return st;
   int N = p - 2;   /* q'''s coefficients 0 .. N give a_2 .. a_p */
@@ -1274,7 +1289,7 @@ int nz_compiled_constrained_series(nz_compiled *c, const int *orders, double t0,
   memcpy(a + k, qd0, (size_t)k * sizeof(double));
   for (int i = 0; i < k; i++) a[2 * k + i] = qdd0[i] * 0.5;
   memcpy(w->qdd, qdd0, (size_t)k * sizeof(double));
-  memcpy(w->lam, lam0, (size_t)nc * sizeof(double));
+  memcpy(w->lam, lam0, (size_t)na * sizeof(double));
   /* coefficient 0 of every plan; the constraint plans then up to their
    * coefficient 2 - m, the one order 0 settled */
   double *in = w->in0;
@@ -1291,26 +1306,31 @@ int nz_compiled_constrained_series(nz_compiled *c, const int *orders, double t0,
   nz_graph_series_inputs(mb, w->mb_inp, c->ninputs);
   for (int e = 0; e < k * k; e++)
     if (!(w->Mser[e] = nz_graph_series_node(mb, c->mb_plan->outs[e]))) return NZ_EARG;
-  for (int r = 0; r < nc; r++) {
-    nz_graph_plan *pr = w->plan[r]->plan;
-    fail_plan = pr;
-    if ((st = nz_graph_series_begin(pr, N + 2, in))) goto fail;
-    nz_graph_series_inputs(pr, w->inp[r], c->ninputs);
-    w->phi[r] = nz_graph_series_node(pr, w->plan[r]->outs[0]);
-    for (int i = 0; i < k; i++) w->Aser[r * k + i] = nz_graph_series_node(pr, w->plan[r]->outs[1 + i]);
-    for (int j = 1; j <= 2 - orders[r]; j++) {
-      cseries_put(c, w->inp[r], j, t0, a, 2);
-      if ((st = nz_graph_series_next(pr, j, NULL, NULL))) goto fail;
+  for (int x = 0; x < na; x++)
+    for (int pass = 0; pass < 2; pass++) {   /* the row, then the row its force rides on */
+      int r = pass ? D(x) : R(x);
+      if (r < 0) continue;
+      nz_graph_plan *pr = w->plan[r]->plan;
+      fail_plan = pr;
+      if ((st = nz_graph_series_begin(pr, N + 2, in))) goto fail;
+      nz_graph_series_inputs(pr, w->inp[r], c->ninputs);
+      w->phi[r] = nz_graph_series_node(pr, w->plan[r]->outs[0]);
+      for (int i = 0; i < k; i++) w->Aser[r * k + i] = nz_graph_series_node(pr, w->plan[r]->outs[1 + i]);
+      for (int j = 1; !pass && j <= 2 - orders[r]; j++) {
+        cseries_put(c, w->inp[r], j, t0, a, 2);
+        if ((st = nz_graph_series_next(pr, j, NULL, NULL))) goto fail;
+      }
     }
-  }
   /* The saddle-point matrix of every order n >= 1, [M_0 - sum lambda0_r
-   * H_r, -A_0^T; A_0, 0], H_r = dA_r/dq'' (zero unless constraint r is of
-   * order 2 and not linear in q''), factored once. */
-  int n2 = k + nc;
+   * H_r, -W_0^T; A_0, 0], H_r = dA_r/dq'' (zero unless constraint r is of
+   * order 2 and not linear in q''), W the forces' rows (A, or A + CF D),
+   * factored once. */
+  int n2 = k + na;
   double *S = w->S, *H = w->H;
-  memset(H, 0, (size_t)k * (size_t)k * (size_t)nc * sizeof(double));
+  memset(H, 0, (size_t)k * (size_t)k * (size_t)c->nc * sizeof(double));
   if (N >= 1)
-    for (int r = 0; r < nc; r++) {
+    for (int x = 0; x < na; x++) {
+      int r = R(x);
       if (orders[r] != 2) continue;
       /* dA_r/dq'' by probing coefficient 1: it is affine in q''_1 with that
        * slope (the chain rule of the top coefficient), exactly */
@@ -1321,25 +1341,30 @@ int nz_compiled_constrained_series(nz_compiled *c, const int *orders, double t0,
       if ((st = nz_graph_series_next(pr, 1, NULL, NULL))) goto fail;
       for (int i = 0; i < k; i++) base[i] = w->Aser[r * k + i][1];
       for (int j = 0; j < k; j++) {
-        double *x = w->inp[r][nz_compiled_input_slot(c, 2, j)];
-        if (!x) continue;   /* A_r does not read q''_j */
-        x[1] = 1.0;
+        double *xin = w->inp[r][nz_compiled_input_slot(c, 2, j)];
+        if (!xin) continue;   /* A_r does not read q''_j */
+        xin[1] = 1.0;
         if ((st = nz_graph_series_next(pr, 1, NULL, NULL))) goto fail;
-        for (int i = 0; i < k; i++) H[((size_t)r * (size_t)k + (size_t)i) * (size_t)k + (size_t)j] = w->Aser[r * k + i][1] - base[i];
-        x[1] = 0.0;
+        for (int i = 0; i < k; i++)
+          H[((size_t)x * (size_t)k + (size_t)i) * (size_t)k + (size_t)j] = w->Aser[r * k + i][1] - base[i];
+        xin[1] = 0.0;
       }
     }
   for (int i = 0; i < k; i++) {
     for (int j = 0; j < k; j++) {
       double v = w->Mser[i * k + j][0];
-      for (int r = 0; r < nc; r++) v -= lam0[r] * H[((size_t)r * (size_t)k + (size_t)i) * (size_t)k + (size_t)j];
+      for (int x = 0; x < na; x++) v -= lam0[x] * H[((size_t)x * (size_t)k + (size_t)i) * (size_t)k + (size_t)j];
       S[(size_t)i * (size_t)n2 + (size_t)j] = v;
     }
-    for (int r = 0; r < nc; r++) S[(size_t)i * (size_t)n2 + (size_t)(k + r)] = -w->Aser[r * k + i][0];
+    for (int x = 0; x < na; x++) {
+      double f = w->Aser[R(x) * k + i][0];
+      if (D(x) >= 0) f += CF(x) * w->Aser[D(x) * k + i][0];
+      S[(size_t)i * (size_t)n2 + (size_t)(k + x)] = -f;
+    }
   }
-  for (int r = 0; r < nc; r++) {
-    for (int j = 0; j < k; j++) S[(size_t)(k + r) * (size_t)n2 + (size_t)j] = w->Aser[r * k + j][0];
-    for (int j = 0; j < nc; j++) S[(size_t)(k + r) * (size_t)n2 + (size_t)(k + j)] = 0.0;
+  for (int x = 0; x < na; x++) {
+    for (int j = 0; j < k; j++) S[(size_t)(k + x) * (size_t)n2 + (size_t)j] = w->Aser[R(x) * k + j][0];
+    for (int j = 0; j < na; j++) S[(size_t)(k + x) * (size_t)n2 + (size_t)(k + j)] = 0.0;
   }
   if (N >= 1 && (st = nz_lu_factor(w->lu, n2, S))) {
     snprintf(c->failure, sizeof c->failure, "the saddle-point matrix [M A^T; A 0] is singular");
@@ -1358,8 +1383,8 @@ int nz_compiled_constrained_series(nz_compiled *c, const int *orders, double t0,
       u[i] = -s;
     }
     /* the constraints: coefficient n + 2 - m of Phi_r with q''_n = 0 ... */
-    for (int r = 0; r < nc; r++) {
-      int m = orders[r], j = n + 2 - m;
+    for (int x = 0; x < na; x++) {
+      int r = R(x), m = orders[r], j = n + 2 - m, d = D(x);
       nz_graph_plan *pr = w->plan[r]->plan;
       fail_plan = pr;
       cseries_put(c, w->inp[r], j, t0, a, n + 1);
@@ -1367,43 +1392,58 @@ int nz_compiled_constrained_series(nz_compiled *c, const int *orders, double t0,
       /* ... is affine in q''_n with slope A_r0 times (slot m's coefficient
        * j per unit of q''_n): 1 / ((n+1)(n+2)), 1 / (n+1), 1 */
       double scale = m == 0 ? 1.0 / ((double)(n + 1) * (double)(n + 2)) : m == 1 ? 1.0 / (double)(n + 1) : 1.0;
-      u[k + r] = -w->phi[r][j] / scale;
-      /* A^T lambda's coefficient n without A_0^T lambda_n (in the matrix):
-       * sum_{i=1..n} A_i^T lambda_{n-i}, A_n at q''_n = 0 (its part in
+      u[k + x] = -w->phi[r][j] / scale;
+      if (d >= 0) {
+        /* the row the force rides on, to its coefficient n: it reads q and
+         * q' at most (order <= 1), known to a_{n+1} */
+        nz_graph_plan *pd = w->plan[d]->plan;
+        fail_plan = pd;
+        cseries_put(c, w->inp[d], n, t0, a, n + 1);
+        if ((st = nz_graph_series_next(pd, n, NULL, NULL))) goto fail;
+      }
+      /* W^T lambda's coefficient n without W_0^T lambda_n (in the matrix):
+       * sum_{i=1..n} W_i^T lambda_{n-i}, A_n at q''_n = 0 (its part in
        * q''_n is the matrix's H) */
-      for (int x = 0; x < k; x++) {
+      for (int y = 0; y < k; y++) {
         double s = 0.0;
-        for (int i = 1; i <= n; i++) s += w->Aser[r * k + x][i] * w->lam[(size_t)(n - i) * (size_t)nc + (size_t)r];
-        u[x] += s;
+        for (int i = 1; i <= n; i++) {
+          double f = w->Aser[r * k + y][i];
+          if (d >= 0) f += CF(x) * w->Aser[d * k + y][i];
+          s += f * w->lam[(size_t)(n - i) * (size_t)na + (size_t)x];
+        }
+        u[y] += s;
       }
     }
     if ((st = nz_lu_solve(w->lu, u))) {
       snprintf(c->failure, sizeof c->failure, "the saddle-point matrix could not be solved at order %d", n);
       return st;
     }
-    double *qn = w->qdd + (size_t)n * (size_t)k, *ln = w->lam + (size_t)n * (size_t)nc;
-    double d = 1.0 / ((double)(n + 1) * (double)(n + 2));
+    double *qn = w->qdd + (size_t)n * (size_t)k, *ln = w->lam + (size_t)n * (size_t)na;
+    double dd = 1.0 / ((double)(n + 1) * (double)(n + 2));
     for (int i = 0; i < k; i++) {
       if (!isfinite(u[i])) {
         snprintf(c->failure, sizeof c->failure, "coefficient %d of q''_%d is not finite", n, i + 1);
         return isnan(u[i]) ? NZ_ENAN : NZ_ERANGE;
       }
       qn[i] = u[i];
-      a[(size_t)(n + 2) * (size_t)k + (size_t)i] = u[i] * d;
+      a[(size_t)(n + 2) * (size_t)k + (size_t)i] = u[i] * dd;
     }
-    for (int r = 0; r < nc; r++) ln[r] = u[k + r];
+    for (int x = 0; x < na; x++) ln[x] = u[k + x];
     /* the constraint plans' coefficient n + 2 - m again, with q''_n */
-    for (int r = 0; r < nc; r++) {
-      int j = n + 2 - orders[r];
+    for (int x = 0; x < na; x++) {
+      int r = R(x), j = n + 2 - orders[r];
       nz_graph_plan *pr = w->plan[r]->plan;
       fail_plan = pr;
       cseries_put(c, w->inp[r], j, t0, a, n + 2);
       if ((st = nz_graph_series_next(pr, j, NULL, NULL))) goto fail;
     }
   }
-  if (lambda) memcpy(lambda, w->lam, (size_t)(N + 1) * (size_t)nc * sizeof(double));
+  if (lambda) memcpy(lambda, w->lam, (size_t)(N + 1) * (size_t)na * sizeof(double));
   return NZ_OK;
 fail:
   describe_failure(c, fail_plan, st);
   return st;
+#undef R
+#undef D
+#undef CF
 }

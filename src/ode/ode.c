@@ -12,6 +12,7 @@
 #include <gsl/gsl_odeiv2.h>
 #include "core/linalg.h"
 #include "mech/constrained_series.h"
+#include "mech/contact.h"
 #include "mech/mech_jacobian.h"
 #include "ode/ode.h"
 
@@ -45,6 +46,8 @@ struct nz_ode {
   int level;                      /* p >= 3: the state of constrained_series.h; else 0 */
   double work_offset;             /* GSL carries W + work_offset (see nz_ode_alloc) */
   int top;                        /* level p with a constraint nonlinear in q^(p) */
+  nz_contacts *contacts;          /* unilateral contacts in their mode, or NULL */
+  int nrows;                      /* the constraints whose rows are watched: the bilateral ones */
   const nz_system *s;             /* bound for the current call */
   int *orders, *linear, *involved;
   nz_accel_options accel;
@@ -117,6 +120,11 @@ static int accelerations(nz_ode *o, double t, const double *y, double *out)
     memcpy(out, y + 2 * k, (size_t)k * sizeof(double));
     memcpy(out + k, y + (size_t)o->level * k, (size_t)o->nc * sizeof(double));
     return NZ_OK;
+  }
+  if (o->contacts) {               /* the contacts' mode (mech/contact.h) */
+    st = nz_contacts_accel(o->contacts, o->s, t, q, qd, out, out + k);
+    if (st) fail(o, NZ_ODE_FAIL_CONTACT, st, t, y);
+    return st;
   }
   if (o->nc == 0) {
     st = nz_accel(o->s, t, q, qd, o->accel.rcond_min, out, &o->failure.mass);
@@ -263,8 +271,10 @@ static int work_row(nz_ode *o, double t, const double *y, double *dfdy, double *
   return GSL_SUCCESS;
 }
 
-/* Level p >= 3: central differences of the right-hand side (no exact
- * Jacobian through the level-p solve yet; constrained_series.h). */
+/* Level p >= 3, and contacts: central differences of the right-hand side
+ * (no exact Jacobian through the level-p solve yet, constrained_series.h;
+ * nor through a contact mode's saddle point, whose friction rows are not
+ * those of its constraints). */
 static int level_rhs_status(double t, const double *y, double *f, void *ctx)
 {
   nz_ode *o = ctx;                 /* rhs() counts the evaluation */
@@ -285,7 +295,7 @@ static int jacobian(double t, const double y[], double *dfdy, double dfdt[], voi
 {
   nz_ode *o = params;
   o->njev++;
-  if (o->level) return level_jacobian(o, t, y, dfdy, dfdt);
+  if (o->level || o->contacts) return level_jacobian(o, t, y, dfdy, dfdt);
   nz_accel_options opt = o->accel;
   if (o->have_last) {              /* the same root as the right-hand side */
     opt.guess_qdd = o->last;
@@ -320,6 +330,8 @@ nz_ode *nz_ode_alloc(int k, const nz_ode_config *cfg)
   o->work = cfg->work;
   o->level = cfg->level >= 3 ? cfg->level : 0;
   o->top = o->level && cfg->top;
+  o->contacts = cfg->contacts;
+  o->nrows = o->contacts ? nz_contacts_bilateral(o->contacts) : cfg->nc;
   o->dim = o->top ? o->level * k : o->level ? nz_series_dim(k, cfg->nc, o->level) : 2 * k + (cfg->work ? 1 : 0);
   o->multistep = is_multistep(cfg->method);
   /* bsimp weighs each component's change by |y_i| (1 when y_i = 0) and
@@ -386,7 +398,7 @@ int nz_ode_is_multistep(const nz_ode *o) { return o->multistep; }
  * with constraints; one evaluation of each row per step. */
 static void check_gradients(nz_ode *o, double t, const double *y)
 {
-  int k = o->k, nc = o->nc;
+  int k = o->k, nc = o->nrows;
   if (nc == 0 || o->level || o->top) return;
   double *now = o->Aprev + (size_t)nc * (size_t)k;
   if (nz_constraint_rows_01(o->s, nc, o->orders, t, y, y + k, o->wscratch, now)) return;   /* the next solve says why */

@@ -33,6 +33,9 @@ typedef struct nz_ode_config {
   int top;                   /* with level: a constraint of order p nonlinear in    */
                              /* q^(p); y = (q .. q^(p-1)), (q^(p), lambda) solved   */
   const double *guess;       /* top: Newton's first start (k + nc), or NULL         */
+  struct nz_contacts *contacts;  /* unilateral contacts (mech/contact.h), the      */
+                             /* caller's: q'' and lambda in their current mode;     */
+                             /* the Jacobian by central differences; NULL: none     */
 } nz_ode_config;
 
 /* The stepper names accepted, NULL-terminated. */
@@ -86,7 +89,8 @@ typedef enum nz_ode_failure_kind {
   NZ_ODE_FAIL_MASS,          /* singular or indefinite M                      */
   NZ_ODE_FAIL_CONSTRAINTS,   /* see report (singular, Newton, order)          */
   NZ_ODE_FAIL_STEP,          /* step size underflow: no progress               */
-  NZ_ODE_FAIL_NONFINITE      /* the state became NaN or infinite              */
+  NZ_ODE_FAIL_NONFINITE,     /* the state became NaN or infinite              */
+  NZ_ODE_FAIL_CONTACT        /* the contacts' solve (nz_contacts_failure)     */
 } nz_ode_failure_kind;
 
 typedef struct nz_ode_failure {

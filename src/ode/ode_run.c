@@ -36,8 +36,16 @@ struct nz_run {
    * next step; PH_COUNT counts it (after the projection); PH_GRID records
    * the output points inside it (dense output); PH_EVENTS looks
    * at events ev_next, ev_next + 1, ... of the step just taken; PH_LOCATED
-   * hands over the events located in it (loc_next, ... of nloc). */
-  enum { PH_STEP, PH_COUNT, PH_GRID, PH_EVENTS, PH_LOCATED } phase;
+   * hands over the events located in it (loc_next, ... of nloc);
+   * PH_GRID_AFTER records the output points of a step whose events came
+   * first (deferred: a motion-changing event crossed in it). */
+  enum { PH_STEP, PH_COUNT, PH_GRID, PH_EVENTS, PH_LOCATED, PH_GRID_AFTER } phase;
+  /* The last nchange events change the motion where they cross (contacts):
+   * a step in which one crosses hands its events over before recording its
+   * points (deferred), their values at its end kept in gnext. */
+  int nchange, deferred, gnext_ok;
+  double *gnext, *gsave;          /* nev each: gsave, gvals before a location that falls back */
+  double *sacc;                   /* 2 (k + nc): accelerations for the step after a jump */
   int nev, ev_next;
   int *dirs;                      /* nev directions */
   double *gvals;                  /* nev: each event's value at the last accepted step */
@@ -101,6 +109,10 @@ nz_run *nz_run_alloc(nz_stepper *st, const nz_run_config *cfg, const double *y0)
   r->dirs = malloc((size_t)r->nev * sizeof(int) + 1);
   r->gvals = malloc((size_t)r->nev * sizeof(double) + 1);
   r->orders = malloc(ncc * sizeof(int) + 1);
+  r->gnext = malloc((size_t)r->nev * sizeof(double) + 1);
+  r->gsave = malloc((size_t)r->nev * sizeof(double) + 1);
+  r->sacc = malloc(2 * (kk + ncc) * sizeof(double));
+  r->nchange = cfg->nchange > 0 && cfg->nchange <= r->nev ? cfg->nchange : 0;
   r->yi = malloc(dim * sizeof(double));
   r->locate = st->exact_dense && r->nev > 0;
   r->loc_t = malloc((size_t)r->nev * sizeof(double) + 1);
@@ -111,7 +123,7 @@ nz_run *nz_run_alloc(nz_stepper *st, const nz_run_config *cfg, const double *y0)
   r->c.dense = cfg->dense && cfg->step == 0.0 && finite_positive(cfg->rtol + cfg->atol) && cfg->rtol >= 0.0 &&
                cfg->atol >= 0.0;
   r->exact = st->exact_dense && r->c.dense && !(cfg->project_tol > 0.0 && nc > 0);
-  if (!r->yi ||
+  if (!r->yi || !r->gnext || !r->gsave || !r->sacc ||
       !r->y || !r->ytry || !r->bt || !r->by || !r->bacc || !r->broot || !r->has_root || !r->dirs || !r->gvals ||
       !r->orders) {
     nz_run_free(r);
@@ -145,6 +157,9 @@ void nz_run_free(nz_run *r)
   free(r->dirs);
   free(r->gvals);
   free(r->orders);
+  free(r->gnext);
+  free(r->gsave);
+  free(r->sacc);
   free(r->yi);
   free(r->loc_t);
   free(r->loc_y);
@@ -330,7 +345,7 @@ static int stalled(nz_run *r)
  * ta and tb share): the time te and the state ye (the step's end itself
  * when the root is there). */
 static int locate(nz_run *r, const nz_system *s, int e, double ta, double ga, double tb, double gb, double *te,
-                  double *ye)
+                  double *ye, int *all_ok)
 {
   int ok, st;
   double a = 0.0, b = tb - ta;
@@ -339,8 +354,13 @@ static int locate(nz_run *r, const nz_system *s, int e, double ta, double ga, do
     int side = 0;
     for (int it = 0; it < 100 && b - a > tol; it++) {
       double m = (a * gb - b * ga) / (gb - ga);
-      if (!(m > a && m < b)) m = 0.5 * (a + b);
+      /* an end whose value is negligible against the other's (an event
+       * that starts at zero: a bounce) pins the secant to it, and Illinois'
+       * halvings would take hundreds of steps to leave it: bisect */
+      if (!(m > a && m < b) || fabs(ga) < NZ_RUN_SECANT_RATIO * fabs(gb) || fabs(gb) < NZ_RUN_SECANT_RATIO * fabs(ga))
+        m = 0.5 * (a + b);
       if ((st = interpolate(r, s, ta + m, ye, &ok))) return st;
+      *all_ok &= ok;
       if ((st = r->event_fn(r->event_ctx, e, ta + m, ye, &gm))) return st;
       if (!isfinite(gm)) return NZ_EDOM;
       if (gm == 0.0) {
@@ -364,19 +384,23 @@ static int locate(nz_run *r, const nz_system *s, int e, double ta, double ga, do
     return NZ_OK;
   }
   *te = ta + b;
-  return interpolate(r, s, *te, ye, &ok);
+  st = interpolate(r, s, *te, ye, &ok);
+  *all_ok &= ok;
+  return st;
 }
 
-/* Every event of the step just taken, at its end; those that crossed
- * located on the dense output and sorted by time (stable: event order for
- * equal times), for PH_LOCATED to hand over. */
-static int locate_step(nz_run *r, const nz_system *s)
+/* Every event from `from` on of the step just taken, at its end; those
+ * that crossed located on the dense output and sorted by time (stable:
+ * event order for equal times), for PH_LOCATED to hand over; *all_ok
+ * cleared when an interpolated state missed its tolerance. */
+static int locate_events(nz_run *r, const nz_system *s, int from, int *all_ok)
 {
   size_t dim = (size_t)r->dim;
   r->nloc = r->loc_next = 0;
-  for (int e = 0; e < r->nev; e++) {
+  for (int e = from; e < r->nev; e++) {
     double g;
-    int st = r->event_fn(r->event_ctx, e, r->t, r->y, &g);
+    int first = r->nev - r->nchange;
+    int st = r->gnext_ok && e >= first ? (g = r->gnext[e - first], NZ_OK) : r->event_fn(r->event_ctx, e, r->t, r->y, &g);
     if (!st && !isfinite(g)) st = NZ_EDOM;
     r->ev_e = e;
     if (st) return st;
@@ -384,7 +408,7 @@ static int locate_step(nz_run *r, const nz_system *s)
     r->gvals[e] = g;
     if (!nz_event_crosses(r->dirs[e], ga, g)) continue;
     int n = r->nloc;
-    if ((st = locate(r, s, e, r->ta, ga, r->t, g, &r->loc_t[n], r->loc_y + (size_t)n * dim))) return st;
+    if ((st = locate(r, s, e, r->ta, ga, r->t, g, &r->loc_t[n], r->loc_y + (size_t)n * dim, all_ok))) return st;
     r->loc_e[n] = e;
     for (; n > 0 && r->loc_t[n] < r->loc_t[n - 1]; n--) {
       double tt = r->loc_t[n];
@@ -414,6 +438,36 @@ static void native_check(nz_run *r, const nz_system *s)
 }
 
 long nz_run_native_from(const nz_run *r) { return r->native_from; }
+
+/* The output point at tout, inside the last step, from its dense output. */
+static int record_grid_point(nz_run *r, const nz_system *s)
+{
+  int ok, st;
+  if ((st = interpolate(r, s, r->tout, r->yi, &ok)) || (st = record_at(r, s, r->tout, r->yi))) return st;
+  r->ninterp++;
+  r->i += 1.0;
+  begin_interval(r);
+  return NZ_OK;
+}
+
+/* The motion-changing events' values at the step's end (gnext), and
+ * whether one of them crossed in the step (deferred). */
+static int change_values(nz_run *r)
+{
+  int first = r->nev - r->nchange;
+  for (int e = first; e < r->nev; e++) {
+    double *g = &r->gnext[e - first];
+    int st = r->event_fn(r->event_ctx, e, r->t, r->y, g);
+    if (!st && !isfinite(*g)) st = NZ_EDOM;
+    if (st) {
+      r->ev_e = e;
+      return st;
+    }
+    if (nz_event_crosses(r->dirs[e], r->gvals[e], *g)) r->deferred = 1;
+  }
+  r->gnext_ok = 1;
+  return NZ_OK;
+}
 
 static int fail(nz_run *r, nz_run_failure what, int st, int *status)
 {
@@ -459,23 +513,23 @@ nz_run_status nz_run_advance(nz_run *r, const nz_system *s, unsigned long pause_
       }
       if (r->phase == PH_COUNT) {
         r->nsteps++;
-        r->phase = r->c.dense ? PH_GRID : PH_EVENTS;
         r->ev_next = 0;
+        r->deferred = r->gnext_ok = 0;
+        if (r->nchange) {                /* a motion-changing event in this step: its points after the events */
+          int st = change_values(r);
+          if (st) return fail(r, NZ_RUN_FAIL_EVENT, st, status);
+        }
+        r->phase = r->c.dense && !r->deferred ? PH_GRID : PH_EVENTS;
         if (stalled(r)) return NZ_RUN_STALLED;
         if (pause_step && r->nsteps == pause_step) return NZ_RUN_PAUSED;
       }
       while (r->phase == PH_GRID && r->tout < r->t) {   /* the output points inside the step */
-        int ok;
         if (r->n == r->cap) return NZ_RUN_FULL;
-        if ((*status = interpolate(r, s, r->tout, r->yi, &ok))) return NZ_RUN_FAILED;
-        if ((*status = record_at(r, s, r->tout, r->yi))) return NZ_RUN_FAILED;
-        r->ninterp++;
-        r->i += 1.0;
-        begin_interval(r);
+        if ((*status = record_grid_point(r, s))) return NZ_RUN_FAILED;
       }
       r->phase = r->phase == PH_GRID ? PH_EVENTS : r->phase;
       if (r->locate && r->phase == PH_EVENTS) {
-        int st = locate_step(r, s);
+        int ok = 1, st = locate_events(r, s, 0, &ok);
         if (st) return fail(r, NZ_RUN_FAIL_EVENT, st, status);
         r->phase = PH_LOCATED;
         r->ev_next = r->nev;
@@ -485,9 +539,24 @@ nz_run_status nz_run_advance(nz_run *r, const nz_system *s, unsigned long pause_
         return NZ_RUN_EVENT;
       }
       while (r->ev_next < r->nev) {      /* events e = ev_next .. nev - 1 of this step */
-        int e = r->ev_next;
+        int e = r->ev_next, first = r->nev - r->nchange;
+        if (e == first && r->deferred && r->c.dense && r->start_ok) {
+          /* the motion-changing events that crossed, located here on the
+           * interpolant when it meets the tolerance wherever they were
+           * looked for (else handed over, for the caller to locate) */
+          memcpy(r->gsave, r->gvals, (size_t)r->nev * sizeof(double));
+          int ok = 1, st = locate_events(r, s, first, &ok);
+          if (st) return fail(r, NZ_RUN_FAIL_EVENT, st, status);
+          if (ok) {
+            r->ev_next = r->nev;
+            r->phase = PH_LOCATED;
+            break;
+          }
+          r->nloc = r->loc_next = 0;
+          memcpy(r->gvals, r->gsave, (size_t)r->nev * sizeof(double));
+        }
         double g;
-        int st = r->event_fn(r->event_ctx, e, r->t, r->y, &g);
+        int st = r->gnext_ok && e >= first ? (g = r->gnext[e - first], NZ_OK) : r->event_fn(r->event_ctx, e, r->t, r->y, &g);
         if (st) return fail(r, NZ_RUN_FAIL_EVENT, st, status);
         double ga = r->gvals[e];
         r->gvals[e] = g;
@@ -498,6 +567,12 @@ nz_run_status nz_run_advance(nz_run *r, const nz_system *s, unsigned long pause_
           r->ev_gb = g;
           return NZ_RUN_EVENT;
         }
+      }
+      if (r->phase == PH_LOCATED && r->loc_next < r->nloc) continue;   /* located just above: hand them over */
+      if (r->deferred && r->c.dense && r->phase != PH_GRID_AFTER) r->phase = PH_GRID_AFTER;
+      while (r->phase == PH_GRID_AFTER && r->tout < r->t) {   /* the deferred points */
+        if (r->n == r->cap) return NZ_RUN_FULL;
+        if ((*status = record_grid_point(r, s))) return NZ_RUN_FAILED;
       }
       r->phase = PH_STEP;
       if (pause_wall > 0.0 && nz_run_clock() >= pause_wall) return NZ_RUN_PAUSED;
@@ -528,6 +603,89 @@ void nz_run_event(const nz_run *r, int *e, double *ta, const double **ya, double
   *yb = r->y;
 }
 
+nz_run_status nz_run_record_until(nz_run *r, const nz_system *s, double te, int *status)
+{
+  *status = NZ_OK;
+  if (!(te >= r->ta && te <= r->t)) {
+    *status = NZ_EARG;
+    return NZ_RUN_FAILED;
+  }
+  while (r->c.dense && r->start_ok && r->i <= r->nout && r->tout <= te && r->tout < r->t) {
+    if (r->n == r->cap) return NZ_RUN_FULL;
+    if ((*status = record_grid_point(r, s))) return NZ_RUN_FAILED;
+  }
+  return NZ_RUN_DONE;
+}
+
+/* The first step from (t, y) after a jump, by Hairer, Norsett and Wanner's
+ * estimate (Solving ODEs I, II.4): the step that an explicit Euler step's
+ * change of f allows at the run's tolerance for a method of order p.  The
+ * step the run had before the jump belongs to other equations (a block that
+ * stuck for a second, then slips): trying it cost about five rejected steps
+ * per event. */
+static int starting_step(nz_run *r, const nz_system *s, double *h)
+{
+  int k = r->k, n = 2 * k, st;
+  double *a0 = r->sacc, *a1 = r->sacc + k + r->nc, *y1 = r->yi;
+  nz_stepper_stats ss;
+  r->st->ops->stats(r->st, &ss);
+  if ((st = r->st->ops->accel(r->st, s, r->t, r->y, a0))) return st;
+  double d0 = 0.0, d1 = 0.0, d2 = 0.0;
+  for (int i = 0; i < n; i++) {
+    double sc = r->c.atol + r->c.rtol * fabs(r->y[i]), f = i < k ? r->y[k + i] : a0[i - k];
+    d0 += (r->y[i] / sc) * (r->y[i] / sc);
+    d1 += (f / sc) * (f / sc);
+  }
+  d0 = sqrt(d0 / n), d1 = sqrt(d1 / n);
+  double h0 = d0 < 1e-5 || d1 < 1e-5 ? 1e-6 : 0.01 * d0 / d1;
+  memcpy(y1, r->y, (size_t)r->dim * sizeof(double));
+  for (int i = 0; i < k; i++) y1[i] += h0 * r->y[k + i], y1[k + i] += h0 * a0[i];
+  if ((st = r->st->ops->accel(r->st, s, r->t + h0, y1, a1))) return st;
+  for (int i = 0; i < n; i++) {
+    double sc = r->c.atol + r->c.rtol * fabs(r->y[i]);
+    double df = i < k ? y1[k + i] - r->y[k + i] : a1[i - k] - a0[i - k];
+    d2 += (df / sc) * (df / sc);
+  }
+  d2 = sqrt(d2 / n) / h0;
+  double dm = fmax(d1, d2), p = ss.order > 0 ? ss.order : 4;
+  double h1 = dm <= 1e-15 ? fmax(1e-6, 1e-3 * h0) : pow(0.01 / dm, 1.0 / (p + 1.0));
+  *h = fmin(100.0 * h0, h1);
+  return NZ_OK;
+}
+
+int nz_run_jump(nz_run *r, const nz_system *s, double te, const double *y)
+{
+  if (!(te >= r->ta && te <= r->t) || (r->nev && !r->event_fn)) return NZ_EARG;
+  memcpy(r->y, y, (size_t)r->dim * sizeof(double));
+  r->t = r->ta = te;
+  r->st->ops->reset(r->st);
+  if (!r->st->exact_dense && r->c.step == 0.0 && finite_positive(r->c.rtol + r->c.atol)) {
+    double h;
+    int st = starting_step(r, s, &h);
+    if (st) return st;
+    if (finite_positive(h)) r->h = h;
+  }
+  r->start_ok = 0;
+  r->phase = PH_STEP;
+  r->ev_next = r->nev;
+  r->nloc = r->loc_next = 0;
+  r->deferred = r->gnext_ok = 0;
+  /* back to the first output time after te that a dense step recorded;
+   * every earlier one is at or before te */
+  while (r->i > 1.0 && grid_time(r, r->i - 1.0) > te) r->i -= 1.0;
+  r->in_interval = 0;
+  for (int e = 0; e < r->nev; e++) {
+    r->ev_e = e;
+    int st = r->event_fn(r->event_ctx, e, r->t, r->y, &r->gvals[e]);
+    if (!st && !isfinite(r->gvals[e])) st = NZ_EDOM;
+    if (st) {
+      r->failure = NZ_RUN_FAIL_EVENT;
+      return st;
+    }
+  }
+  return NZ_OK;
+}
+
 /* The step's own end stays in sb for its interpolant; the next step starts
  * from the projected state, without the step before joined on. */
 void nz_run_set_state(nz_run *r, const double *y)
@@ -538,7 +696,7 @@ void nz_run_set_state(nz_run *r, const double *y)
 
 int nz_run_located(const nz_run *r, int *e, double *te, const double **ye)
 {
-  if (!r->locate || r->phase != PH_LOCATED) return 0;
+  if (r->phase != PH_LOCATED) return 0;
   int i = r->loc_located;
   *e = r->loc_e[i];
   *te = r->loc_t[i];

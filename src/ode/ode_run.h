@@ -64,6 +64,11 @@
 
 #include "ode/stepper.h"
 
+/* Locating an event by regula falsi (Illinois), a step bisects instead
+ * where one end's value is below this fraction of the other's (simulate.lua's
+ * M.SECANT_RATIO): the secant would hug that end. */
+#define NZ_RUN_SECANT_RATIO 1e-12
+
 typedef struct nz_run_config {
   double t0, t1, dt;         /* the output grid, as simulate.lua makes it        */
   double step;               /* > 0: fixed steps no longer than this; 0: adaptive */
@@ -81,6 +86,11 @@ typedef struct nz_run_config {
   double event_tol;          /* events located here (an exact dense output): the   */
                              /* tolerance on their times, relative to max(1, |t|)  */
   int no_accel;              /* output points without q'' and lambda (zeros)       */
+  int nchange;               /* the last nchange events change the motion where    */
+                             /* they cross (contacts): a step in which one crosses */
+                             /* hands its events over before its output points,   */
+                             /* which the caller records up to the event's time    */
+                             /* (nz_run_record_until) before it jumps (nz_run_jump) */
 } nz_run_config;
 
 /* The value g of event e (0-based) at (t, y); NZ_OK, or a status that makes
@@ -152,6 +162,28 @@ int nz_run_located(const nz_run *r, int *e, double *te, const double **ye);
 /* Replace the state of the last accepted step (dim values: the projected
  * state after NZ_RUN_PROJECT); the next step starts afresh from it. */
 void nz_run_set_state(nz_run *r, const double *y);
+
+/* The output points of the last step up to te (inclusive) from its dense
+ * output, when its events came first (nz_run_config's nchange): before a
+ * jump at te, in the motion before it.  NZ_RUN_DONE, NZ_RUN_FULL (take the
+ * points, call again), or NZ_RUN_FAILED with *status. */
+nz_run_status nz_run_record_until(nz_run *r, const nz_system *s, double te, int *status);
+
+/* The motion jumps at te, inside or at the end of the last step, to the
+ * state y (dim values): an impact, or equations that change there (a
+ * contact opening or closing, contact.h).  The run goes on from (te, y) as
+ * from a new start: the integrator forgets its history, the events left in
+ * the last step are dropped, each event's value is taken at (te, y)
+ * through the callback (set it first: nz_run_set_events), and the output
+ * grid goes back to its first time after te (with dense output the step
+ * recorded the points inside it; the caller drops those after te, the
+ * buffer being handed over at every return).  A point at te itself keeps
+ * the state before the jump if it was recorded, else it gets y.  An
+ * adaptive step starts with Hairer, Norsett and Wanner's estimate at (te,
+ * y) (two evaluations of the accelerations), not the step before.  NZ_OK,
+ * NZ_EARG (te outside the last step, no callback with events), or the
+ * callback's status. */
+int nz_run_jump(nz_run *r, const nz_system *s, double te, const double *y);
 
 /* After NZ_RUN_FAILED: what failed. */
 nz_run_failure nz_run_failure_of(const nz_run *r);

@@ -1,0 +1,96 @@
+-- contact.lua - what contacts cost (issue 26): a ball bouncing to rest and a
+-- block on a belt through 100 stick-slip cycles, each run with rk8pd and
+-- with taylor to its closed form's events, against the time the closed form
+-- itself takes to give them (evaluated in Lua, as nzlua's own Lua loop
+-- would: the floor of what any code pays to write the answers down), and
+-- against the same motion without its contacts (the run's cost without the
+-- events).  Per event: the run's time over its events.  Each time is the
+-- least of 7 runs (processor time, os.clock): the machine's noise only adds.
+local nz = rawget(_G, "nz") or require "nz"
+local g = 9.81
+
+local function best(f, reps)
+  local t = math.huge
+  local out
+  for _ = 1, reps or 7 do
+    local c0 = os.clock()
+    out = table.pack(f())
+    t = math.min(t, os.clock() - c0)
+  end
+  return t, table.unpack(out, 1, out.n)
+end
+
+-- The ball: dropped from h with restitution e; bounces at t1 (1 + 2e (1 -
+-- e^(k-1))/(1 - e)) until Zeno makes the last one plastic.
+local h, e = 1.0, 0.8
+local ball = nz.system{ name = "ball", coords = { "y" },
+  T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end, V = function(t, q) return g * q[1] end,
+  constraints = { nz.unilateral(function(t, q) return q[1] end, { e = e, name = "floor" }) } }
+local free_ball = nz.system{ name = "free ball", coords = { "y" },
+  T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end, V = function(t, q) return g * q[1] end }
+local function ball_closed(n)
+  local t1, times, heights = math.sqrt(2 * h / g), {}, {}
+  for k = 1, n do
+    times[k] = t1 * (1 + 2 * e * (1 - e ^ (k - 1)) / (1 - e))
+    heights[k] = h * e ^ (2 * k)
+  end
+  return times, heights
+end
+
+-- The belt: a block (mass m, spring k to a wall) on a belt at speed V, mu_s
+-- > mu: sticks until k x = mu_s m g, slips for (2 pi - 2 delta)/w, sticks
+-- again for 2 A / V (A = (mu_s - mu) m g / k, tan delta = w A / V).
+local m, kk, V, mu, mus = 1.2, 30.0, 0.4, 0.25, 0.45
+local belt = nz.system{ name = "belt", coords = { "x", "y" },
+  T = function(t, q, qd) return 0.5 * m * (qd[1] ^ 2 + qd[2] ^ 2) end,
+  V = function(t, q) return 0.5 * kk * q[1] ^ 2 + m * g * q[2] end,
+  constraints = { nz.unilateral(function(t, q) return q[2] end,
+    { name = "belt", mu = mu, mu_s = mus, slip = function(t, q, qd) return qd[1] - V end }) } }
+local free_belt = nz.system{ name = "free belt", coords = { "x", "y" },
+  T = function(t, q, qd) return 0.5 * m * (qd[1] ^ 2 + qd[2] ^ 2) end, V = function(t, q) return 0.5 * kk * q[1] ^ 2 end }
+local w = math.sqrt(kk / m)
+local xb, A = mus * m * g / kk, (mus - mu) * m * g / kk
+local slip, stick = (2 * math.pi - 2 * math.atan(w * A, V)) / w, 2 * A / V
+local cycles = 100
+local function belt_closed(n)
+  local slips, sticks = {}, {}
+  for c = 1, n do
+    slips[c] = xb / V + (c - 1) * (slip + stick)
+    sticks[c] = slips[c] + slip
+  end
+  return slips, sticks
+end
+
+print("Contacts: runs to the closed form's events (issue 26); each time the least of 7 runs")
+print(("%-50s %-7s %7s %11s %10s %12s %11s %11s"):format("problem", "method", "events", "nzlua", "per event",
+  "no contacts", "closed form", "max |dt|"))
+for _, method in ipairs{ "rk8pd", "taylor" } do
+  local t_run, tr = best(function() return ball:simulate{ q0 = { h }, t1 = 5, dt = 0.01, method = method, progress = false } end)
+  local t_free = best(function() return free_ball:simulate{ q0 = { h }, t1 = 5, dt = 0.01, method = method, progress = false } end)
+  local n = #tr.events
+  local t_closed, times = best(function() return ball_closed(n) end, 101)
+  local worst = 0
+  for k = 1, n - 1 do worst = math.max(worst, math.abs(tr.events[k].t - times[k])) end
+  print(("%-50s %-7s %7d %8.3f ms %7.1f us %9.3f ms %8.1f us %11.2g"):format(
+    ("ball e = %g from %g m to rest (Zeno at %.4f s)"):format(e, h, tr.contacts.zeno[1].t), method, n, 1e3 * t_run,
+    1e6 * t_run / n, 1e3 * t_free, 1e6 * t_closed, worst))
+end
+for _, method in ipairs{ "rk8pd", "taylor" } do
+  local t1 = xb / V + cycles * (slip + stick)
+  local t_run, tr = best(function() return belt:simulate{ q0 = { 0, 0 }, qd0 = { V, 0 }, t1 = t1, dt = 0.05,
+    method = method, progress = false } end)
+  local t_free = best(function() return free_belt:simulate{ q0 = { 0, 0 }, qd0 = { V, 0 }, t1 = t1, dt = 0.05,
+    method = method, progress = false } end)
+  local t_closed, slips, sticks = best(function() return belt_closed(cycles) end, 101)
+  local s, k, worst = 0, 0, 0
+  for _, ev in ipairs(tr.events) do
+    if ev.kind == "slips" then s = s + 1; worst = math.max(worst, math.abs(ev.t - slips[s])) end
+    if ev.kind == "sticks" and ev.t > 0 then k = k + 1; worst = math.max(worst, math.abs(ev.t - sticks[k])) end
+  end
+  assert(s == cycles and k == cycles, ("%d slips and %d sticks"):format(s, k))
+  print(("%-50s %-7s %7d %8.3f ms %7.1f us %9.3f ms %8.1f us %11.2g"):format(
+    ("block on a belt, %d stick-slip cycles"):format(cycles), method, #tr.events, 1e3 * t_run,
+    1e6 * t_run / #tr.events, 1e3 * t_free, 1e6 * t_closed, worst))
+end
+print("per event: the run's time over its events (impacts, sticks, slips); no contacts: the same system and")
+print("span without its contact (a free fall; a block on its spring alone); closed form: its event times in Lua")
