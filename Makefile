@@ -39,9 +39,11 @@ OPT       = -flto=auto -fno-semantic-interposition
 CORE_DIRS = core jets graph mech ode
 CORE_SRC  = $(foreach d,$(CORE_DIRS),$(sort $(wildcard src/$(d)/*.c)))
 LUA_SRC   = $(sort $(wildcard src/lua/*.c))
-APP_SRC   = src/app/nzlua.c src/app/repl_complete.c
+APP_SRC   = src/app/nzlua.c src/app/repl_complete.c src/app/kernel_io.c
 HDRS      = $(wildcard src/*/*.h)
 LUA_MODS  = $(sort $(wildcard lua/nz/*.lua))
+# The Jupyter kernel's Python half, carried inside nzlua for --install-kernel.
+KERNEL_PY = jupyter/nzlua_kernel.py
 GEN_SRC   = build/gen/embedded_lua.c
 
 B         = build
@@ -60,8 +62,8 @@ all: $(B)/nzlua $(B)/nz.so
 deps:
 	@tools/deps.sh $(DEB_PKGS)
 
-$(GEN_SRC): tools/embed.lua $(LUA_MODS) | $(B)/gen
-	lua5.4 tools/embed.lua $@ $(LUA_MODS)
+$(GEN_SRC): tools/embed.lua $(LUA_MODS) $(KERNEL_PY) | $(B)/gen
+	lua5.4 tools/embed.lua $@ $(LUA_MODS) $(KERNEL_PY)
 
 # Objects mirror the source folders: src/jets/jet.c -> build/obj/jets/jet.o.
 $(B)/obj/%.o: src/%.c $(HDRS) | $(B)/obj

@@ -9,6 +9,7 @@
 local formula = require "nz.formula"
 local constraints = require "nz.constraints"
 local options = require "nz.options"
+local display = require "nz.display"
 
 local M = {}
 
@@ -387,7 +388,7 @@ function M.show(sys, opts)
         s = s:gsub("([^%a_])" .. nm .. "([^%d])", "%1" .. nm:gsub("^(%a)(%d+)$", "%1_{%2}") .. "%2")
       end
     end
-    return s
+    return display.offer(s, { ["text/latex"] = function() return display.latex(s) end })   -- a notebook typesets it
   end
   local out = { ("equations of motion of '%s': M(q) q'' + h(q, q') = A^T lambda, per coordinate"):format(sys.name),
     ("  (Dolapchiev's rule picks n = %d, %s equations; the equations of every order n collect to these)"):format(n, form) }
@@ -413,7 +414,9 @@ function M.show(sys, opts)
     out[#out + 1] = x.title .. ":"
     for _, row in ipairs(x.rows) do out[#out + 1] = ("  %s = %s"):format(row[1], row[2]) end
   end
-  return table.concat(out, "\n")
+  -- a notebook shows the same equations typeset (made only when it asks)
+  local tex_opts = setmetatable({ tex = true }, { __index = opts })
+  return display.offer(table.concat(out, "\n"), { ["text/latex"] = function() return display.latex(M.show(sys, tex_opts)) end })
 end
 
 return M
