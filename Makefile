@@ -55,7 +55,7 @@ SAN_CORE  = $(patsubst src/%.c,$(B)/asan/%.o,$(CORE_SRC))
 PREFIX   ?= /usr/local
 DESTDIR  ?=
 
-.PHONY: all deps demo test check sanitize bench fuzz install uninstall clean
+.PHONY: all deps demo test check sanitize bench fuzz install uninstall kernel notebook-screenshot clean
 
 all: $(B)/nzlua $(B)/nz.so
 
@@ -141,14 +141,23 @@ fuzz: all
 	$(B)/nzlua tests/fuzz/run.lua $(FUZZ_COUNT) $(FUZZ_SEED)
 
 # nz.so carries its Lua half inside: one file serves `require "nz"` from any
-# Lua 5.4 (the default package.cpath searches $(PREFIX)/lib/lua/5.4).
+# Lua 5.4 (the default package.cpath searches $(PREFIX)/lib/lua/5.4).  The
+# Jupyter kernel spec "nzlua" goes to $(PREFIX)/share/jupyter/kernels/nzlua
+# (Jupyter looks in /usr/local/share/jupyter and /usr/share/jupyter) and
+# starts $(PREFIX)/bin/nzlua (docs/kernel.md).
 install: all
 	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/lib/lua/5.4
 	install -m 755 $(B)/nzlua $(DESTDIR)$(PREFIX)/bin/nzlua
 	install -m 644 $(B)/nz.so $(DESTDIR)$(PREFIX)/lib/lua/5.4/nz.so
+	$(B)/nzlua --install-kernel --prefix $(DESTDIR)$(PREFIX) --nzlua $(PREFIX)/bin/nzlua
 
 uninstall:
 	rm -f $(DESTDIR)$(PREFIX)/bin/nzlua $(DESTDIR)$(PREFIX)/lib/lua/5.4/nz.so
+	rm -rf $(DESTDIR)$(PREFIX)/share/jupyter/kernels/nzlua
+
+# The kernel spec for you alone, starting this checkout's build/nzlua.
+kernel: all
+	$(B)/nzlua --install-kernel --user
 
 clean:
 	rm -rf $(B)

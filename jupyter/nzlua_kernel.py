@@ -22,6 +22,7 @@ which writes this file beside kernel.json.
 """
 import base64
 import os
+import re
 import select
 import signal
 import subprocess
@@ -147,6 +148,8 @@ class NzluaKernel(Kernel):
     # -- output -----------------------------------------------------------
 
     def _stream(self, name, text):
+        # a warning says where as an error does: "In [3], line 2:", not "In [3]:2:"
+        text = re.sub(r"In \[(\d+)\]:(\d+):", r"In [\1], line \2:", text)
         self.send_response(self.iopub_socket, "stream", {"name": name, "text": text})
 
     def _bundle(self, fields):

@@ -160,10 +160,28 @@ end
 
 local handlers = { execute = execute, complete = complete, inspect = inspect, is_complete = is_complete }
 
+-- print in a cell: as Lua's print (each value by tostring, tab-separated,
+-- then a newline, to stdout), except that a text holding a table of nz's
+-- (print(lin), print(sw)) is shown as typing the value shows it, with the
+-- table as HTML beside the text.
+function M.print(...)
+  local parts = {}
+  for i = 1, select("#", ...) do parts[i] = tostring((select(i, ...))) end
+  local s = table.concat(parts, "\t")
+  local html = display.html(s)
+  if html then
+    display.show(display.bundle{ ["text/plain"] = s, ["text/html"] = html })
+  else
+    io.stdout:write(s, "\n")
+    io.stdout:flush()
+  end
+end
+
 -- The loop: requests until stdin ends or "shutdown".
 function M.serve(host)
   frontend.use(M.frontend(host))
   display.keep_tables(true)
+  _G.print = M.print
   local nz = require "nz"
   host.write("hello", { "version", nz.version, "lua", _VERSION })
   while true do
