@@ -11,10 +11,14 @@
 
 PKGS      = lua5.4 gsl readline
 # Debian packages for building, testing (busted, tmux; python3-numpy runs the
-# Python that sys:export writes), plotting (gnuplot) and sweeps across
-# machines (GNU parallel).
+# Python that sys:export writes), plotting (gnuplot), sweeps across machines
+# (GNU parallel), and the Jupyter kernel (docs/kernel.md: ipykernel speaks
+# the protocol; nbclient, nbconvert and chromium test it as a notebook and
+# in a browser; libjs-mathjax typesets offline).
 DEB_PKGS  = make gcc pkg-config liblua5.4-dev lua5.4 libreadline-dev libgsl-dev \
-            lua-busted tmux gnuplot-nox python3-numpy parallel
+            lua-busted tmux gnuplot-nox python3-numpy parallel \
+            python3-ipykernel jupyter-client python3-nbclient python3-nbconvert jupyter-notebook \
+            python3-zmq libjs-mathjax chromium
 
 CC       ?= cc
 WARN      = -Wall -Wextra -Werror -Wshadow -Wstrict-prototypes -Wmissing-prototypes
@@ -158,6 +162,15 @@ uninstall:
 # The kernel spec for you alone, starting this checkout's build/nzlua.
 kernel: all
 	$(B)/nzlua --install-kernel --user
+
+# docs/notebook.png: examples/classroom_pendulum.ipynb run on this build's
+# kernel, rendered by nbconvert and photographed by headless Chromium.
+notebook-screenshot: deps all
+	rm -rf $(B)/jupyter && $(B)/nzlua --install-kernel --prefix $(B)/jupyter
+	JUPYTER_PATH=$(CURDIR)/$(B)/jupyter/share/jupyter /usr/bin/python3 tools/notebook.py execute \
+	  examples/classroom_pendulum.ipynb $(B)/classroom_pendulum.ipynb
+	/usr/bin/python3 tools/notebook.py html $(B)/classroom_pendulum.ipynb $(B)/classroom_pendulum.html
+	/usr/bin/python3 tools/notebook.py screenshot $(B)/classroom_pendulum.html docs/notebook.png 1000 1900
 
 clean:
 	rm -rf $(B)

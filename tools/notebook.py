@@ -3,7 +3,7 @@
     notebook.py execute IN.ipynb OUT.ipynb   run every cell (nbclient, no browser)
     notebook.py html IN.ipynb OUT.html       render with nbconvert, MathJax from
                                              Debian's libjs-mathjax (no network)
-    notebook.py screenshot IN.html OUT.png   headless Chromium's picture of the page
+    notebook.py screenshot IN.html OUT.png [W H]  headless Chromium's picture of the page
     notebook.py dom IN.html                  the page after its scripts ran (MathJax)
 
 The kernel spec "nzlua" must be where Jupyter looks (JUPYTER_PATH; `nzlua
@@ -58,7 +58,7 @@ def chromium(page, *args):
 
 
 def screenshot(page, png, width=1000, height=2400):
-    r = chromium(page, "--screenshot=" + os.path.abspath(png), "--window-size=%d,%d" % (width, height))
+    r = chromium(page, "--screenshot=" + os.path.abspath(png), "--window-size=%s,%s" % (width, height))
     if not os.path.exists(png):
         sys.exit("chromium made no screenshot: %s" % r.stderr.decode(errors="replace")[-2000:])
 

@@ -238,7 +238,8 @@ end
 -- until a front-end asks.
 function M.of(v)
   local b = M.bundle{ ["text/plain"] = function() return format(v, 0) end }
-  b:add("text/html", function() return M.html(b:get("text/plain")) end)
+  -- (the terminal's bundle holds its text alone: nothing else is even set up)
+  if frontend.accepts("text/html") then b.reps["text/html"] = function() return M.html(b:get("text/plain")) end end
   local extra = type(v) == "string" and offers[v]
   if extra then
     for mime, rep in pairs(extra) do b.reps[mime] = rep end

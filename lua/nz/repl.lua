@@ -2,6 +2,7 @@
 -- mathematical functions, and readable printing of values typed at the prompt.
 local text = require "nz.text"
 local display = require "nz.display"
+local frontend = require "nz.frontend"
 
 local M = {}
 
@@ -52,26 +53,34 @@ local function already_shown(...)
   return true
 end
 
--- The bundle of the values of an expression typed at the prompt (or of
--- a cell's last expression), keeping the first in `_` (as GSL Shell and
--- IPython do).  nil when there is nothing to show: every value is nil (a
--- function that printed its result and returned nothing leaves no stray
--- "nil"), or the values are those the function printed itself (M.shown).
-function M.result(...)
+-- Whether the values of an expression typed at the prompt (or of a cell's
+-- last expression) are to be shown, keeping the first in `_` (as GSL Shell
+-- and IPython do).  Not when every value is nil (a function that printed
+-- its result and returned nothing leaves no stray "nil"), nor when they are
+-- the values the function printed itself (M.shown).
+local function to_show(...)
   local n = select("#", ...)
   local any = false
   for i = 1, n do if select(i, ...) ~= nil then any = true end end
-  if not any then return nil end
+  if not any then return false end
   rawset(_G, "_", (...))
-  if already_shown(...) then return nil end
-  return display.of_values(...)
+  return not already_shown(...)
 end
 
--- Print them on the front-end in use (the terminal: tab-separated, as
--- print does; the values' text is all it builds).
+-- Their bundle (nz/display.lua), or nil when there is nothing to show.
+function M.result(...)
+  if to_show(...) then return display.of_values(...) end
+end
+
+-- Print them on the front-end in use.  The terminal: tab-separated, as
+-- print does, with no bundle made (a value typed costs what it did).
 function M.print(...)
-  local b = M.result(...)
-  if b then display.show(b, "result") end
+  if not to_show(...) then return end
+  if frontend.current() == frontend.terminal then
+    print(display.format_values(...))
+  else
+    display.show(display.of_values(...), "result")
+  end
 end
 
 -- nz.print(...): what the session shows, from a script.
