@@ -169,7 +169,8 @@ end
 -- <table>, the lines around them as preformatted text.  nil when it holds
 -- no table (its text is all there is to show).
 function M.html(s)
-  if type(s) ~= "string" then return nil end
+  -- a table is two lines at least (its header and its rule): one line has none
+  if type(s) ~= "string" or not s:find("\n", 1, true) or #tables == 0 then return nil end
   local found = {}
   for i = #tables, 1, -1 do
     local t = tables[i]

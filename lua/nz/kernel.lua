@@ -40,28 +40,9 @@ end
 
 -- Cells ---------------------------------------------------------------------
 
--- A cell's chunk, named "In [n]" so that messages say where: the whole cell
--- as an expression whose values are shown (as the session tries a line),
--- else its statements with the last line(s) as such an expression when they
--- are one (the last expression's value shows, as in IPython), else its
--- statements.  The expression is called through a function so that an
--- error in a library call still has the cell's frame (nzlua.c's addreturn).
-function M.chunk(code, name)
-  local function expression(e) return "return (function(...) return ... end)(" .. e .. "\n)" end
-  local f = load(expression(code), "=" .. name)
-  if f then return f end
-  local lines = {}
-  for line in (code .. "\n"):gmatch("([^\n]*)\n") do lines[#lines + 1] = line end
-  while #lines > 0 and not lines[#lines]:find("%S") do lines[#lines] = nil end
-  for k = #lines - 1, 1, -1 do
-    local head, tail = table.concat(lines, "\n", 1, k), table.concat(lines, "\n", k + 1)
-    if load(head, "=" .. name) then
-      f = load(head .. "\n" .. expression(tail), "=" .. name)
-      if f then return f end
-    end
-  end
-  return load(code, "=" .. name)
-end
+-- A cell's chunk, named "In [n]" so that messages say where: the
+-- session's way (nz/repl.lua's chunk), the last expression's value shown.
+M.chunk = repl.chunk
 
 -- "In [3]:2:" as a person reads it: "In [3], line 2:".
 function M.located(msg) return (msg:gsub("In %[(%d+)%]:(%d+):", "In [%1], line %2:")) end

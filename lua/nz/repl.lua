@@ -83,6 +83,31 @@ function M.print(...)
   end
 end
 
+-- A chunk of several lines typed as one (a notebook's cell), as a
+-- function named `name`: the whole text as an expression whose values are
+-- shown (as the session tries a line), else its statements with the last
+-- line(s) as such an expression when they are one (the last expression's
+-- value shows, as in IPython), else its statements; nil and the message
+-- when it does not compile.  The expression is called through a function
+-- so that an error in a library call still has the chunk's frame (as
+-- src/app/nzlua.c's addreturn does for a line).
+function M.chunk(code, name)
+  local function expression(e) return "return (function(...) return ... end)(" .. e .. "\n)" end
+  local f = load(expression(code), "=" .. name)
+  if f then return f end
+  local lines = {}
+  for line in (code .. "\n"):gmatch("([^\n]*)\n") do lines[#lines + 1] = line end
+  while #lines > 0 and not lines[#lines]:find("%S") do lines[#lines] = nil end
+  for k = #lines - 1, 1, -1 do
+    local head, tail = table.concat(lines, "\n", 1, k), table.concat(lines, "\n", k + 1)
+    if load(head, "=" .. name) then
+      f = load(head .. "\n" .. expression(tail), "=" .. name)
+      if f then return f end
+    end
+  end
+  return load(code, "=" .. name)
+end
+
 -- nz.print(...): what the session shows, from a script.
 M.show = display.print
 
