@@ -61,8 +61,11 @@ class Nzlua:
         for name, value in fields.items():
             data = value if isinstance(value, bytes) else str(value).encode()
             parts += [("%s %d\n" % (name, len(data))).encode(), data, b"\n"]
-        self.proc.stdin.write(b"".join(parts))
-        self.proc.stdin.flush()
+        try:
+            self.proc.stdin.write(b"".join(parts))
+            self.proc.stdin.flush()
+        except OSError:           # it ended between two requests
+            raise NzluaDied(self.exit_reason())
 
     def _fill(self, on_stderr):
         """Read what is there: frames' bytes into the buffer, and what child
@@ -192,9 +195,11 @@ class NzluaKernel(Kernel):
 
     def _execute(self, code, silent, state):
         on_stderr = (lambda name, text: None) if silent else self._stream
-        self.nzlua.send("execute", cell=self.execution_count, code=code.encode())
         while True:
             try:
+                if not state.get("requested"):
+                    state["requested"] = True
+                    self.nzlua.send("execute", cell=self.execution_count, code=code.encode())
                 kind, fields = self.nzlua.read_frame(on_stderr)
             except NzluaDied as e:
                 self._restart_nzlua(str(e))
@@ -229,18 +234,23 @@ class NzluaKernel(Kernel):
         return content
 
     def _ask(self, kind, **fields):
-        self.nzlua.send(kind, **fields)
-        while True:
-            reply, data = self.nzlua.read_frame(lambda name, text: None)
-            if reply not in ("stream", "display"):
-                return data
+        """A request that is answered at once (completion, help); {} when
+        nzlua has ended (the next cell starts a new one)."""
+        try:
+            self.nzlua.send(kind, **fields)
+            while True:
+                reply, data = self.nzlua.read_frame(lambda name, text: None)
+                if reply not in ("stream", "display"):
+                    return data
+        except NzluaDied:
+            return {}
 
     def do_complete(self, code, cursor_pos):
         # Jupyter counts characters, nzlua bytes
         at = len(code[:cursor_pos].encode())
         data = self._ask("complete", code=code.encode(), cursor=at)
-        matches = data["matches"].decode()
-        start = len(code.encode()[:int(data["start"])].decode("utf-8", "replace"))
+        matches = data.get("matches", b"").decode()
+        start = len(code.encode()[:int(data.get("start", at))].decode("utf-8", "replace"))
         return {"status": "ok", "matches": matches.split("\n") if matches else [],
                 "cursor_start": start, "cursor_end": cursor_pos, "metadata": {}}
 
@@ -253,7 +263,7 @@ class NzluaKernel(Kernel):
 
     def do_is_complete(self, code):
         data = self._ask("is_complete", code=code.encode())
-        status = data["status"].decode()
+        status = data.get("status", b"unknown").decode()
         return {"status": status, "indent": "  " if status == "incomplete" else ""}
 
     def do_shutdown(self, restart):

@@ -257,6 +257,16 @@ swing:animate{ frames = 5 }]],
       assert(s.complete_cell.status == "incomplete")
     end)
 
+    it("starts a new nzlua when the old one ended (os.exit in a cell), and says so", function()
+      local r = s.exit
+      assert(r.status == "error" and r.ename == "died", tostring(r.status) .. " " .. tostring(r.ename))
+      local said = ""
+      for _, o in ipairs(r.outputs) do said = said .. (o.text or o.evalue or "") end
+      assert(said:find("nzlua exited with status 3", 1, true) and said:find("a new nzlua session started", 1, true), said)
+      local a = s.after_exit
+      assert(a.status == "ok" and a.outputs[1].text == "nil\n" and a.outputs[2].data["text/plain"] == "2")
+    end)
+
     it("restarts as a new session", function()
       local r = s.restarted
       assert(r.status == "ok" and r.outputs[1].text == "nil\n" and r.outputs[2].data["text/plain"] == "2",

@@ -123,6 +123,8 @@ def session():
     result["help_cell"] = run("nz.sin?")
     kc.is_complete("for i = 1, 3 do")
     result["complete_cell"] = kc.get_shell_msg(timeout=30)["content"]
+    result["exit"] = run("os.exit(3)")
+    result["after_exit"] = run("print(pend)\n1 + 1")
     km.restart_kernel(now=True)
     kc.wait_for_ready(timeout=60)
     result["restarted"] = run("print(pend)\n1 + 1")
