@@ -11,10 +11,14 @@
 
 PKGS      = lua5.4 gsl readline
 # Debian packages for building, testing (busted, tmux; python3-numpy runs the
-# Python that sys:export writes), plotting (gnuplot) and sweeps across
-# machines (GNU parallel).
+# Python that sys:export writes), plotting (gnuplot), sweeps across machines
+# (GNU parallel), and the Jupyter kernel (docs/kernel.md: ipykernel speaks
+# the protocol; nbclient, nbconvert and chromium test it as a notebook and
+# in a browser; libjs-mathjax typesets offline).
 DEB_PKGS  = make gcc pkg-config liblua5.4-dev lua5.4 libreadline-dev libgsl-dev \
-            lua-busted tmux gnuplot-nox python3-numpy parallel
+            lua-busted tmux gnuplot-nox python3-numpy parallel \
+            python3-ipykernel jupyter-client python3-nbclient python3-nbconvert jupyter-notebook \
+            python3-zmq libjs-mathjax chromium
 
 CC       ?= cc
 WARN      = -Wall -Wextra -Werror -Wshadow -Wstrict-prototypes -Wmissing-prototypes
@@ -39,9 +43,11 @@ OPT       = -flto=auto -fno-semantic-interposition
 CORE_DIRS = core jets graph mech ode
 CORE_SRC  = $(foreach d,$(CORE_DIRS),$(sort $(wildcard src/$(d)/*.c)))
 LUA_SRC   = $(sort $(wildcard src/lua/*.c))
-APP_SRC   = src/app/nzlua.c src/app/repl_complete.c
+APP_SRC   = src/app/nzlua.c src/app/repl_complete.c src/app/kernel_io.c
 HDRS      = $(wildcard src/*/*.h)
 LUA_MODS  = $(sort $(wildcard lua/nz/*.lua))
+# The Jupyter kernel's Python half, carried inside nzlua for --install-kernel.
+KERNEL_PY = jupyter/nzlua_kernel.py
 GEN_SRC   = build/gen/embedded_lua.c
 
 B         = build
@@ -53,15 +59,15 @@ SAN_CORE  = $(patsubst src/%.c,$(B)/asan/%.o,$(CORE_SRC))
 PREFIX   ?= /usr/local
 DESTDIR  ?=
 
-.PHONY: all deps demo test check sanitize bench fuzz install uninstall clean
+.PHONY: all deps demo test check sanitize bench fuzz install uninstall kernel notebook-screenshot clean
 
 all: $(B)/nzlua $(B)/nz.so
 
 deps:
 	@tools/deps.sh $(DEB_PKGS)
 
-$(GEN_SRC): tools/embed.lua $(LUA_MODS) | $(B)/gen
-	lua5.4 tools/embed.lua $@ $(LUA_MODS)
+$(GEN_SRC): tools/embed.lua $(LUA_MODS) $(KERNEL_PY) | $(B)/gen
+	lua5.4 tools/embed.lua $@ $(LUA_MODS) $(KERNEL_PY)
 
 # Objects mirror the source folders: src/jets/jet.c -> build/obj/jets/jet.o.
 $(B)/obj/%.o: src/%.c $(HDRS) | $(B)/obj
@@ -143,14 +149,32 @@ fuzz: all
 	$(B)/nzlua tests/fuzz/run.lua $(FUZZ_COUNT) $(FUZZ_SEED)
 
 # nz.so carries its Lua half inside: one file serves `require "nz"` from any
-# Lua 5.4 (the default package.cpath searches $(PREFIX)/lib/lua/5.4).
+# Lua 5.4 (the default package.cpath searches $(PREFIX)/lib/lua/5.4).  The
+# Jupyter kernel spec "nzlua" goes to $(PREFIX)/share/jupyter/kernels/nzlua
+# (Jupyter looks in /usr/local/share/jupyter and /usr/share/jupyter) and
+# starts $(PREFIX)/bin/nzlua (docs/kernel.md).
 install: all
 	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/lib/lua/5.4
 	install -m 755 $(B)/nzlua $(DESTDIR)$(PREFIX)/bin/nzlua
 	install -m 644 $(B)/nz.so $(DESTDIR)$(PREFIX)/lib/lua/5.4/nz.so
+	$(B)/nzlua --install-kernel --prefix $(DESTDIR)$(PREFIX) --nzlua $(PREFIX)/bin/nzlua
 
 uninstall:
 	rm -f $(DESTDIR)$(PREFIX)/bin/nzlua $(DESTDIR)$(PREFIX)/lib/lua/5.4/nz.so
+	rm -rf $(DESTDIR)$(PREFIX)/share/jupyter/kernels/nzlua
+
+# The kernel spec for you alone, starting this checkout's build/nzlua.
+kernel: all
+	$(B)/nzlua --install-kernel --user
+
+# docs/notebook.png: examples/classroom_pendulum.ipynb run on this build's
+# kernel, rendered by nbconvert and photographed by headless Chromium.
+notebook-screenshot: deps all
+	rm -rf $(B)/jupyter && $(B)/nzlua --install-kernel --prefix $(B)/jupyter
+	JUPYTER_PATH=$(CURDIR)/$(B)/jupyter/share/jupyter /usr/bin/python3 tools/notebook.py execute \
+	  examples/classroom_pendulum.ipynb $(B)/classroom_pendulum.ipynb
+	/usr/bin/python3 tools/notebook.py html $(B)/classroom_pendulum.ipynb $(B)/classroom_pendulum.html
+	/usr/bin/python3 tools/notebook.py screenshot $(B)/classroom_pendulum.html docs/notebook.png 1000 1900
 
 clean:
 	rm -rf $(B)

@@ -511,7 +511,7 @@ end
 function M.show(result, text, quiet)
   setmetatable(result, { __tostring = function() return text end })
   if quiet then return result end
-  print(text)
+  require("nz.frontend").print(text)      -- (a notebook shows its tables as HTML too)
   return require("nz.repl").shown(result)      -- typed at the prompt: the table once
 end
 

@@ -492,7 +492,11 @@ help(tr.NAME) shows one method, e.g. help(tr.plot):
                              unknown options and wrong values are refused.
                              In the terminal the ticks follow the width (the
                              labels apart and distinct) and a point on the
-                             edge of the data is drawn inside the frame
+                             edge of the data is drawn inside the frame.
+                             In a notebook (Jupyter): an inline SVG, its
+                             size in characters as for the terminal (8 x 16
+                             pixels each); tr:section, sw:plot and the
+                             work-precision diagram too
   tr:csv([file])             CSV with a header naming every column: to the
                              file (written beside it and renamed: never half
                              a file; returns its name), or without a file
@@ -540,7 +544,8 @@ help(tr.NAME) shows one method, e.g. help(tr.plot):
                              a whole number >= 1, fps in (0, 100], plane
                              "xy", "xz" or "yz" (bodies only), links true or
                              false (false: no links, no pivot), range four
-                             numbers: checked before drawing
+                             numbers: checked before drawing.  In a
+                             notebook: an inline animated GIF
   print(tr)                  a summary: cost, status, drift, monitors
   print(sys)                 a summary]] },
   { name = "forms", section = "mechanics", usage = "nz.forms",
@@ -615,7 +620,7 @@ help(nz.effects.NAME) explains one, with its parameters.
   { name = "rotations", section = "scenes", usage = "nz.rotations.euler_zxz(psi, theta, phi)",
     summary = "rotation matrices x(a), y(a), z(a), mul(A, B), euler_zxz for a body's rot" },
   { name = "print", section = "session", usage = "nz.print(v, ...)",
-    summary = "print values as the session shows them (numbers in their shortest exact form, tables readable)" },
+    summary = "print values as the session shows them (numbers in their shortest exact form, tables readable; in a notebook with their tables as HTML)" },
   { name = "format", section = "session", usage = "nz.format(v)",
     summary = "a value as the session shows it, as a string" },
   { name = "check", section = "scenes", usage = "nz.check(sys, function(t, q, qd, qdd) return {...} end [, {states =, tol =, seed =, quiet =}])",

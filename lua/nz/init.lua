@@ -26,8 +26,8 @@ nz.rotations = require "nz.rotations"
 nz.smooth_abs = require("nz.branch").smooth_abs
 nz.sweep = require("nz.sweep").sweep
 
-nz.format = require("nz.repl").format     -- a value as the session shows it
-nz.print = require("nz.repl").show        -- print values as the session does
+nz.format = require("nz.display").format  -- a value as the session shows it
+nz.print = require("nz.display").print    -- print values as the session does (a notebook: with its tables as HTML)
 
 nz.help = require("nz.help").bind(nz)
 

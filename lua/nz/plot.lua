@@ -10,6 +10,8 @@
 -- the ticks and the point labels are chosen here, from the plot's size in
 -- characters as gnuplot lays it out (measured by a first run).
 local where = require "nz.where"
+local frontend = require "nz.frontend"
+local display = require "nz.display"
 
 local M = {}
 
@@ -274,6 +276,31 @@ local function place_labels(text, series, drawn, g, opts, ylabel)
   return text:sub(1, start - 1) .. table.concat(rows, "\n", 1, height) .. "\n"
 end
 
+-- A notebook's plot: the SVG of the same plot shown inline, sized from
+-- the terminal's characters (PX_PER_COLUMN, PX_PER_LINE: 100 x 30, the
+-- terminal's default, is 800 x 480 pixels), with a line of text beside it.
+local PX_PER_COLUMN, PX_PER_LINE = 8, 16
+function M.inline(opts)
+  local tmp = os.tmpname()
+  local file = tmp .. ".svg"
+  local o = setmetatable({ file = file, width = (opts.width or 100) * PX_PER_COLUMN, height = (opts.height or 30) * PX_PER_LINE },
+    { __index = opts })
+  local ok, err = pcall(M.lines, o)
+  local f = io.open(file, "rb")
+  local svg = f and f:read("a")
+  if f then f:close() end
+  os.remove(file)
+  os.remove(tmp)
+  if not ok then error(err, 0) end
+  local names = {}
+  for i, s in ipairs(opts.series) do names[i] = s.name or ("series " .. i) end
+  display.show(display.bundle{
+    -- from <svg on: the XML declaration and doctype do not belong inside a page
+    ["image/svg+xml"] = svg and svg:match("<svg.*$") or svg,
+    ["text/plain"] = ("plot%s: %s"):format(opts.title and (" '" .. opts.title .. "'") or "", table.concat(names, ", ")),
+  })
+end
+
 -- plot.lines{ series = { {name =, x = {...}, y = {...} [, points = true, style =
 --             "points", labels = {...} (a text beside each point)]}, ... },
 --             title =, xlabel =, legend = false,
@@ -285,6 +312,7 @@ function M.lines(opts)
   local series = opts.series
   if type(series) ~= "table" or #series == 0 then fail("no series to draw") end
   check_common(opts)
+  if not opts.file and not opts.quiet and frontend.accepts("image/svg+xml") then return M.inline(opts) end
   local data = os.tmpname()
   local f = assert(io.open(data, "w"))
   local xlo, xhi, ylo, yhi = math.huge, -math.huge, math.huge, -math.huge

@@ -1,5 +1,9 @@
 -- nz/repl.lua - what the nzlua session adds to plain Lua: short names for the
 -- mathematical functions, and readable printing of values typed at the prompt.
+local text = require "nz.text"
+local display = require "nz.display"
+local frontend = require "nz.frontend"
+
 local M = {}
 
 -- Functions that the session offers without the nz. prefix (sin(x), help()).
@@ -18,52 +22,11 @@ function M.install_globals(env, nz)
   env.quit, env.exit = leave, leave
 end
 
-local MAX_ITEMS = 12
-
--- A float as the shortest decimal that reads back exactly (%.15g, %.16g
--- or %.17g: math.pi is 3.141592653589793), keeping Lua's ".0" mark of an
--- integral float.
-function M.number(v)
-  if math.type(v) == "integer" then return tostring(v) end
-  -- the C library says "nan", "-nan" or "inf": the same words everywhere
-  if v ~= v then return "NaN" end
-  if math.abs(v) == math.huge then return v > 0 and "inf" or "-inf" end
-  local s
-  for digits = 15, 17 do
-    s = ("%." .. digits .. "g"):format(v)
-    if tonumber(s) == v then break end
-  end
-  if s:match("^%-?%d+$") then s = s .. ".0" end
-  return s
-end
-
-local function is_identifier(s)
-  return type(s) == "string" and s:match("^[%a_][%w_]*$") ~= nil
-end
-
--- A short one-line picture of a value; tables show their first few entries.
-local function format(v, depth)
-  local t = type(v)
-  if t == "string" then return depth > 0 and ("%q"):format(v) or v end
-  if t == "number" then return M.number(v) end
-  if t ~= "table" or getmetatable(v) and getmetatable(v).__tostring then return tostring(v) end
-  if depth >= 2 then return "{...}" end
-  local parts, n = {}, #v
-  for i = 1, math.min(n, MAX_ITEMS) do parts[#parts + 1] = format(v[i], depth + 1) end
-  local keys = {}
-  for k in pairs(v) do
-    if not (math.type(k) == "integer" and k >= 1 and k <= n) then keys[#keys + 1] = k end
-  end
-  table.sort(keys, function(a, b) return tostring(a) < tostring(b) end)
-  for _, k in ipairs(keys) do
-    if #parts >= MAX_ITEMS then parts[#parts + 1] = "..."; break end
-    local key = is_identifier(k) and k or ("[" .. format(k, depth + 1) .. "]")
-    parts[#parts + 1] = key .. " = " .. format(v[k], depth + 1)
-  end
-  return "{" .. table.concat(parts, ", ") .. "}"
-end
-
-M.format = function(v) return format(v, 0) end
+-- A number and a value as the session shows them (nz/text.lua,
+-- nz/display.lua: the picture is the display layer's, shared with the
+-- notebook).
+M.number = text.number
+M.format = display.format
 
 -- What a function printed itself during the chunk being run.  A function
 -- that prints its result and also returns it for scripts (nz.check's ok,
@@ -90,29 +53,62 @@ local function already_shown(...)
   return true
 end
 
--- Print the values of an expression typed at the prompt, tab-separated,
--- and keep the first in `_` (as GSL Shell and IPython do).  Nothing at all
--- is printed when every value is nil: a function that printed its result
--- and returned nothing leaves no stray "nil"; nor when the values are those
--- the function printed itself (M.shown).
-function M.print(...)
+-- Whether the values of an expression typed at the prompt (or of a cell's
+-- last expression) are to be shown, keeping the first in `_` (as GSL Shell
+-- and IPython do).  Not when every value is nil (a function that printed
+-- its result and returned nothing leaves no stray "nil"), nor when they are
+-- the values the function printed itself (M.shown).
+local function to_show(...)
   local n = select("#", ...)
   local any = false
   for i = 1, n do if select(i, ...) ~= nil then any = true end end
-  if not any then return end
+  if not any then return false end
   rawset(_G, "_", (...))
-  if already_shown(...) then return end
-  local parts = {}
-  for i = 1, n do parts[i] = format((select(i, ...)), 0) end
-  print(table.concat(parts, "\t"))
+  return not already_shown(...)
+end
+
+-- Their bundle (nz/display.lua), or nil when there is nothing to show.
+function M.result(...)
+  if to_show(...) then return display.of_values(...) end
+end
+
+-- Print them on the front-end in use.  The terminal: tab-separated, as
+-- print does, with no bundle made (a value typed costs what it did).
+function M.print(...)
+  if not to_show(...) then return end
+  if frontend.current() == frontend.terminal then
+    print(display.format_values(...))
+  else
+    display.show(display.of_values(...), "result")
+  end
+end
+
+-- A chunk of several lines typed as one (a notebook's cell), as a
+-- function named `name`: the whole text as an expression whose values are
+-- shown (as the session tries a line), else its statements with the last
+-- line(s) as such an expression when they are one (the last expression's
+-- value shows, as in IPython), else its statements; nil and the message
+-- when it does not compile.  The expression is called through a function
+-- so that an error in a library call still has the chunk's frame (as
+-- src/app/nzlua.c's addreturn does for a line).
+function M.chunk(code, name)
+  local function expression(e) return "return (function(...) return ... end)(" .. e .. "\n)" end
+  local f = load(expression(code), "=" .. name)
+  if f then return f end
+  local lines = {}
+  for line in (code .. "\n"):gmatch("([^\n]*)\n") do lines[#lines + 1] = line end
+  while #lines > 0 and not lines[#lines]:find("%S") do lines[#lines] = nil end
+  for k = #lines - 1, 1, -1 do
+    local head, tail = table.concat(lines, "\n", 1, k), table.concat(lines, "\n", k + 1)
+    if load(head, "=" .. name) then
+      f = load(head .. "\n" .. expression(tail), "=" .. name)
+      if f then return f end
+    end
+  end
+  return load(code, "=" .. name)
 end
 
 -- nz.print(...): what the session shows, from a script.
-function M.show(...)
-  local n = select("#", ...)
-  local parts = {}
-  for i = 1, n do parts[i] = format((select(i, ...)), 0) end
-  print(table.concat(parts, "\t"))
-end
+M.show = display.print
 
 return M

@@ -10,6 +10,7 @@ local formula = require "nz.formula"
 local order_n = require "nz.show_order"
 local constraints = require "nz.constraints"
 local options = require "nz.options"
+local display = require "nz.display"
 
 local M = {}
 
@@ -464,7 +465,7 @@ function M.show(sys, opts)
         s = s:gsub("([^%a_])" .. nm .. "([^%d])", "%1" .. nm:gsub("^(%a)(%d+)$", "%1_{%2}") .. "%2")
       end
     end
-    return s
+    return display.offer(s, { ["text/latex"] = function() return display.latex(s) end })   -- a notebook typesets it
   end
   local out
   if n then
@@ -501,7 +502,9 @@ function M.show(sys, opts)
     for _, row in ipairs(x.rows) do w = x.align and math.max(w, #row[1]) or 0 end
     for _, row in ipairs(x.rows) do out[#out + 1] = "  " .. row[1] .. (" "):rep(w - #row[1]) .. " = " .. row[2] end
   end
-  return table.concat(out, "\n")
+  -- a notebook shows the same equations typeset (made only when it asks)
+  local tex_opts = setmetatable({ tex = true }, { __index = opts })
+  return display.offer(table.concat(out, "\n"), { ["text/latex"] = function() return display.latex(M.show(sys, tex_opts)) end })
 end
 
 return M

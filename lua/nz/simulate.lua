@@ -316,7 +316,7 @@ end
 -- Progress on a terminal only, after half a second, at most 5 times a second.
 local function progress_bar(cfg, t0, t1)
   local enabled = cfg.progress
-  if enabled == nil then enabled = mech.isatty(2) end
+  if enabled == nil then enabled = require("nz.frontend").progress() end   -- a terminal, or a notebook
   if not enabled then return function() end, function() end, false end
   local start, last = mech.now(), 0
   local shown = false

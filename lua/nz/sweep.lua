@@ -455,7 +455,7 @@ end
 -- Progress on a terminal: done/total, failures, the time left.
 
 local function progress_bar(enabled, total)
-  if enabled == nil then enabled = mech.isatty(2) end
+  if enabled == nil then enabled = require("nz.frontend").progress() end   -- a terminal, or a notebook
   if not enabled or total == 0 then return function() end, function() end end
   local start, last, shown = mech.now(), 0, false
   local function update(done, failed)

@@ -547,27 +547,9 @@ local function vector_text(v)
   return "{" .. table.concat(parts, ", ") .. "}"
 end
 
--- Aligned table of rows of strings; the first row is the header.
-function M.table_text(rows, indent)
-  local widths = {}
-  for _, row in ipairs(rows) do
-    for c, cell in ipairs(row) do widths[c] = math.max(widths[c] or 0, #cell) end
-  end
-  local out = {}
-  for r, row in ipairs(rows) do
-    local cells = {}
-    for c, cell in ipairs(row) do
-      cells[c] = c == 1 and cell .. (" "):rep(widths[c] - #cell) or (" "):rep(widths[c] - #cell) .. cell
-    end
-    out[#out + 1] = (indent or "  ") .. table.concat(cells, "   ")
-    if r == 1 then
-      local rule = {}
-      for c = 1, #row do rule[c] = ("-"):rep(widths[c]) end
-      out[#out + 1] = (indent or "  ") .. table.concat(rule, "   ")
-    end
-  end
-  return table.concat(out, "\n")
-end
+-- Aligned table of rows of strings; the first row is the header
+-- (nz/text.lua: every table of nz is made there).
+M.table_text = require("nz.text").table
 
 -- The terms of (3.1) of order n at a state, per coordinate, and the
 -- residual at the accelerations qdd.  Without qdd, the system's own
@@ -621,7 +603,7 @@ function System:equations(n, t, q, qd, qdd, opts)
   end
   local text = table.concat(lines, "\n")
   if opts and opts.quiet then return text, r end
-  print(text)
+  require("nz.frontend").print(text)     -- (a notebook shows its table as HTML too)
   return nil
 end
 

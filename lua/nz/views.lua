@@ -211,6 +211,33 @@ end
 -- Returns the number of frames (and the file names).
 local ANIMATE = require("nz.options").declare("tr:animate", { file = true, frames = true, fps = true, draw = true,
   plane = true, links = true, range = true, width = true, height = true, title = true })
+-- In a notebook: the animated GIF shown inline (sized as a file's unless
+-- width and height are given, then in the terminal's characters, 8 x 16
+-- pixels each), with a line of text beside it.
+local animate
+function M.inline_animation(tr, opts, nframes)
+  local tmp = os.tmpname()
+  local file = tmp .. ".gif"
+  local o = setmetatable({ file = file, width = opts.width and opts.width * 8, height = opts.height and opts.height * 16 },
+    { __index = opts })
+  local ok, err = pcall(animate, tr, o)
+  local f = io.open(file, "rb")
+  local gif = f and f:read("a")
+  if f then f:close() end
+  os.remove(file)
+  os.remove(tmp)
+  if not ok then error(err, 0) end
+  local display = require "nz.display"
+  display.show(display.bundle{
+    ["image/gif"] = gif,
+    -- the same GIF as an image in HTML, for renderers without image/gif (nbconvert's HTML)
+    ["text/html"] = function() return ('<img src="data:image/gif;base64,%s" alt="animation of %s"/>'):format(display.base64(gif),
+      display.escape(tr.system.name)) end,
+    ["text/plain"] = ("animation of '%s': %d frames"):format(tr.system.name, nframes),
+  })
+  return require("nz.repl").shown(nframes, {})   -- shown: nothing more at the prompt
+end
+
 function M.animate(tr, opts)
   opts = opts or {}
   check_options("animate", opts, ANIMATE)
@@ -243,6 +270,7 @@ function M.animate(tr, opts)
       .. "(or give the view: range = {xmin, xmax, ymin, ymax})")
   end
   local file = opts.file
+  if not file and require("nz.frontend").accepts("image/gif") then return M.inline_animation(tr, opts, nframes) end
   local kind = file and file:match("%.(%w+)$")
   local w, h = opts.width or (file and 480 or 60), opts.height or (file and 480 or 24)
   -- a margin around the drawing: 5 %, and in the terminal two lines'
@@ -304,5 +332,6 @@ function M.animate(tr, opts)
   end
   return nframes, outputs
 end
+animate = M.animate
 
 return M

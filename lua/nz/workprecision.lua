@@ -424,7 +424,7 @@ function M.run(sys, opts)
     .. "evaluator: %s\n%s"):format(sys.name, base.t0 or 0, base.t1, study.reference, study.evaluator, M.table(rows))
   -- the rows print as their table (print(rows) in a script, rows typed at the prompt)
   setmetatable(rows, { __tostring = function() return text end })
-  if not opts.quiet then print(text) end
+  if not opts.quiet then require("nz.frontend").print(text) end   -- (a notebook: its table as HTML too)
   if opts.plot and not rows.interrupted then
     M.diagram(rows, { file = type(opts.plot) == "string" and opts.plot or nil, x = opts.x,
       title = ("work-precision: %s (%s)"):format(sys.name, (study.evaluator:match("^[^(;]*"):gsub("%s+$", ""))) })

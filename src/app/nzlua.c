@@ -41,6 +41,8 @@
 #include "lua/lua_util.h"
 #include "lua/nz.h"
 #include "app/repl_complete.h"
+#include "app/nzlua.h"
+#include "app/kernel_io.h"
 
 #define NZLUA_PROMPT "nz> "
 #define NZLUA_PROMPT2 "nz>> "
@@ -52,6 +54,10 @@ static const char *progname = "nzlua";
 static lua_State *globalL = NULL;
 static int interactive_input = 0;   /* stdin is a terminal: use readline */
 static int run_interrupted = 0;     /* Ctrl-C reached a script, -e or -l */
+static int call_interrupted = 0;    /* Ctrl-C reached the last docall */
+/* SIGINT's disposition between calls: the default (Ctrl-C ends a script);
+ * the kernel ignores it while it waits for a request (app/kernel_io.c). */
+static void (*idle_sigint)(int) = SIG_DFL;
 
 /* ------------------------------------------------------------------ */
 /* Interrupts                                                           */
@@ -91,6 +97,11 @@ static void print_usage(FILE *f)
           "             run the points of a sweep: 'file' returns {system =, run =};\n"
           "             points on stdin, one per line (name=value ...), result rows on\n"
           "             stdout in the same format (for GNU parallel; help(nz.sweep))\n"
+          "  --install-kernel [--user | --prefix DIR] [--nzlua PATH] [--python PATH]\n"
+          "             register the Jupyter kernel 'nzlua' (for every user, in\n"
+          "             /usr/local/share/jupyter; --user: yours only; docs/kernel.md)\n"
+          "  --kernel-io  speak the kernel's framed protocol on stdin and stdout\n"
+          "             (what the Jupyter kernel starts; docs/kernel.md)\n"
           "  -h         show this help\n"
           "  --         stop handling options\n"
           "  -          stop handling options and execute stdin\n"
@@ -200,12 +211,29 @@ static int docall(lua_State *L, int narg, int nres)
   nz_interrupt_clear();
   signal(SIGINT, laction);
   int status = lua_pcall(L, narg, nres, base);
-  signal(SIGINT, SIG_DFL);
+  signal(SIGINT, idle_sigint);
   lua_sethook(L, NULL, 0, 0);   /* a Ctrl-C that came too late to matter */
-  if (nz_interrupt_requested()) run_interrupted = 1;
+  call_interrupted = nz_interrupt_requested();
+  if (call_interrupted) run_interrupted = 1;
   nz_interrupt_clear();
   lua_remove(L, base);
   return status;
+}
+
+/* For the kernel (app/nzlua.h). */
+int nzlua_docall(lua_State *L, int narg, int nres, int *interrupted)
+{
+  int status = docall(L, narg, nres);
+  if (interrupted) *interrupted = call_interrupted;
+  return status;
+}
+
+const char *nzlua_user_message(lua_State *L, const char *msg) { return user_message(L, msg); }
+
+void nzlua_set_idle_sigint(void (*handler)(int))
+{
+  idle_sigint = handler;
+  signal(SIGINT, handler);
 }
 
 static void print_version(void)
@@ -542,7 +570,11 @@ static void do_repl(lua_State *L)
 /* ------------------------------------------------------------------ */
 /* Arguments                                                            */
 
-enum { HAS_ERROR = 1, HAS_I = 2, HAS_V = 4, HAS_E = 8, HAS_H = 16, HAS_W = 32, HAS_CACHE = 64 };
+enum { HAS_ERROR = 1, HAS_I = 2, HAS_V = 4, HAS_E = 8, HAS_H = 16, HAS_W = 32, HAS_CACHE = 64, HAS_KERNEL = 128,
+       HAS_INSTALL = 256 };
+
+/* --install-kernel's own options start here in argv (lua/nz/kernel.lua reads them). */
+static int install_kernel_args = 0;
 
 /* --sweep-worker FILE: the file of the sweep whose points stdin brings. */
 static const char *sweep_worker_file = NULL;
@@ -595,6 +627,12 @@ static int collectargs(char **argv, int *first)
     else if (strcmp(argv[i], "--cache-info") == 0 || strcmp(argv[i], "--cache-clear") == 0) {
       cache_option = argv[i];
       args |= HAS_CACHE;
+    } else if (strcmp(argv[i], "--kernel-io") == 0) {
+      args |= HAS_KERNEL;
+    } else if (strcmp(argv[i], "--install-kernel") == 0) {
+      install_kernel_args = i + 1;        /* the rest are its options */
+      for (*first = i + 1; argv[*first]; (*first)++) {}
+      return args | HAS_INSTALL;
     } else if (strcmp(argv[i], "--sweep-worker") == 0) {
       if (argv[i + 1] == NULL) { *first = i; return HAS_ERROR; }
       sweep_worker_file = argv[++i];
@@ -653,6 +691,31 @@ static int dosweepworker(lua_State *L)
   return report(L, status, 0);
 }
 
+/* nzlua --install-kernel [options]: lua/nz/kernel.lua's install, given
+ * the options and this program's own path (written into the kernel spec). */
+static int doinstallkernel(lua_State *L, char **argv, int argc)
+{
+  char exe[4096];
+  ssize_t n = readlink("/proc/self/exe", exe, sizeof exe - 1);
+  exe[n > 0 ? n : 0] = '\0';
+  lua_getglobal(L, "require");
+  lua_pushliteral(L, "nz.kernel");
+  int status = docall(L, 1, 1);
+  if (status == LUA_OK) {
+    lua_getfield(L, -1, "install");
+    lua_remove(L, -2);
+    lua_createtable(L, argc - install_kernel_args, 1);
+    for (int i = install_kernel_args; i < argc; i++) {
+      lua_pushstring(L, argv[i]);
+      lua_rawseti(L, -2, i - install_kernel_args + 1);
+    }
+    lua_pushstring(L, exe);
+    lua_setfield(L, -2, "program");
+    status = docall(L, 1, 0);
+  }
+  return report(L, status, 0);
+}
+
 /* The session's environment: nz as a global, its functions unprefixed. */
 static void open_nz(lua_State *L)
 {
@@ -689,8 +752,24 @@ static int pmain(lua_State *L)
     lua_pushboolean(L, docache() == 0);
     return 1;
   }
+  if (args & HAS_KERNEL) {
+    /* before the libraries: io.stdout must be the stream that makes frames */
+    char why[256];
+    if (nz_kernel_io_begin(why, sizeof why) != 0) {
+      l_message(progname, why);
+      return 0;
+    }
+  }
   luaL_openlibs(L);
   open_nz(L);
+  if (args & HAS_INSTALL) {
+    lua_pushboolean(L, doinstallkernel(L, argv, argc) == LUA_OK);
+    return 1;
+  }
+  if (args & HAS_KERNEL) {
+    lua_pushboolean(L, nz_kernel_io_serve(L) == LUA_OK);
+    return 1;
+  }
   createargtable(L, argv, argc, script);
   if (!runargs(L, argv, script)) return 0;
   if (script < argc && handle_script(L, argv + script) != LUA_OK) return 0;

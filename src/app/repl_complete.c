@@ -145,12 +145,39 @@ static char **attempt(const char *text, int start, int end)
   return rl_completion_matches(text, generator);
 }
 
+/* '.' and ':' belong to the word: "sys:re<TAB>" completes methods. */
+static const char word_breaks[] = " \t\n\"\\'`@$><=;|&{(+-*/%^,[]~#";
+
 void nz_complete_install(lua_State *L)
 {
   complete_L = L;
   rl_readline_name = "nzlua";
   rl_attempted_completion_function = attempt;
-  /* '.' and ':' belong to the word: "sys:re<TAB>" completes methods. */
-  rl_basic_word_break_characters = " \t\n\"\\'`@$><=;|&{(+-*/%^,[]~#";
+  rl_basic_word_break_characters = (char *)word_breaks;
   rl_completer_word_break_characters = rl_basic_word_break_characters;
+}
+
+void nz_complete_push(lua_State *L, const char *word)
+{
+  candidates c = { 0 };
+  int top = lua_gettop(L);
+  lua_pushcfunction(L, collect);
+  lua_pushlightuserdata(L, &c);
+  lua_pushstring(L, word);
+  lua_pcall(L, 2, 0, 0);
+  lua_settop(L, top);
+  lua_createtable(L, (int)c.n, 0);
+  for (size_t i = 0; i < c.n; i++) {
+    lua_pushstring(L, c.items[i]);
+    lua_rawseti(L, -2, (lua_Integer)i + 1);
+  }
+  for (size_t i = 0; i < c.n; i++) free(c.items[i]);
+  free(c.items);
+}
+
+size_t nz_complete_word_start(const char *line, size_t end)
+{
+  size_t i = end;
+  while (i > 0 && !strchr(word_breaks, line[i - 1])) i--;
+  return i;
 }
