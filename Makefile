@@ -45,7 +45,7 @@ CORE_SRC  = $(foreach d,$(CORE_DIRS),$(sort $(wildcard src/$(d)/*.c)))
 LUA_SRC   = $(sort $(wildcard src/lua/*.c))
 APP_SRC   = src/app/nzlua.c src/app/repl_complete.c src/app/kernel_io.c
 HDRS      = $(wildcard src/*/*.h)
-LUA_MODS  = $(sort $(wildcard lua/nz/*.lua))
+LUA_MODS  = $(sort $(wildcard lua/nz/*.lua lua/nz/*/*.lua))
 # The Jupyter kernel's Python half, carried inside nzlua for --install-kernel.
 KERNEL_PY = jupyter/nzlua_kernel.py
 GEN_SRC   = build/gen/embedded_lua.c

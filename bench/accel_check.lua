@@ -7,7 +7,7 @@ package.path = "./?.lua;" .. package.path
 local nz = rawget(_G, "nz") or require "nz"
 local cs = require "tests.constraint_systems"
 local mech = require("nz.core").mech
-local constraints = require "nz.constraints"
+local constraints = require "nz.model.constraints"
 local clock = os.clock
 local N = tonumber(arg and arg[1]) or 5000
 

@@ -3,7 +3,7 @@
  * integrated from q = (0, 0.1), qd = (0.5, 0) (E = 0.1297 < 1/6) over
  * t = 0..2000 with GSL's rk8pd and a right-hand side written by hand.
  *
- * It drives GSL exactly as nzlua does (src/ode/ode.c, lua/nz/simulate.lua with
+ * It drives GSL exactly as nzlua does (src/ode/ode.c, lua/nz/motion/simulate.lua with
  * dt = t1, the lightest output): a standard control with eps_abs = atol,
  * eps_rel = rtol, a_y = 1, a_dydt = 0; first step h0 = min(dt, 1e-3) =
  * 1e-3; gsl_odeiv2_evolve_apply towards t1 until it is reached, the step

@@ -1,5 +1,5 @@
 -- loop_cost.lua - what the stepping loop itself costs per step: the same run
--- of a harmonic oscillator through the loop in Lua (lua/nz/simulate.lua,
+-- of a harmonic oscillator through the loop in Lua (lua/nz/motion/simulate.lua,
 -- one return to Lua per step) and through the loop in C (src/ode/ode_run.c),
 -- forced by the internal option _loop.  Both take the same steps (tests/
 -- simulate_loop_spec.lua checks it to the bit), so the difference of the

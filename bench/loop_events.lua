@@ -1,5 +1,5 @@
 -- loop_events.lua - what events and projection cost in each stepping loop:
--- the same runs through the loop in Lua (lua/nz/simulate.lua, run()) and
+-- the same runs through the loop in Lua (lua/nz/motion/simulate.lua, run()) and
 -- the loop in C (src/ode/ode_run.c), forced by the internal option _loop
 -- (tests/simulate_loop_spec.lua checks that they agree to the bit).
 --   1. a pendulum with a recorded event (th = 0 either way), rk4 at a fixed

@@ -1,6 +1,6 @@
 -- workprecision.lua - what accuracy costs in time on the standard problems
 -- (bench/problems.lua): a table per problem from nz.workprecision, with its
--- procedure (nz/workprecision.lua): one evaluator, a warm-up run per
+-- procedure (nz/analysis/workprecision.lua): one evaluator, a warm-up run per
 -- method not timed, each point's processor time the minimum of at least 3
 -- runs that spend the budget.
 --   nzlua bench/workprecision.lua [problem ...] [--svg DIR] [--x time|nfev|steps] [--budget SECONDS]

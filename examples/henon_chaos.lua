@@ -77,7 +77,7 @@ for _, E in ipairs(energies) do
 end
 print(require("nz.system").table_text(tab))
 print(("%d points (%d computed, %d resumed) in about %d s"):format(#rows, rows.computed, rows.resumed, os.time() - t0))
-local ok, err = pcall(require("nz.plot").lines, { series = { { name = "chaotic fraction", x = x, y = y, points = true } },
+local ok, err = pcall(require("nz.draw.plot").lines, { series = { { name = "chaotic fraction", x = x, y = y, points = true } },
   xlabel = "energy E", ylabel = "fraction of chaotic orbits", title = "Henon-Heiles: chaos against energy",
   width = 72, height = 20 })
 if not ok then print(err) end

@@ -33,6 +33,6 @@ for n, y0 in ipairs{ -0.15, 0.05, 0.2, 0.3, 0.45, -0.3 } do
   print(("%8.2f %10d %12d %10s"):format(y0, #s.x, count, count > 80 and "chaotic" or "regular"))
   series[#series + 1] = { name = ("y0 = %g"):format(y0), x = s.x, y = s.y, style = ("points pt %d ps 0.3"):format(n) }
 end
-local drawn, why = pcall(require("nz.plot").lines, { series = series, title = "Henon-Heiles, E = 1/8: the section x = 0",
+local drawn, why = pcall(require("nz.draw.plot").lines, { series = series, title = "Henon-Heiles, E = 1/8: the section x = 0",
   xlabel = "y", ylabel = "y'", width = 100, height = 36 })
 if not drawn then print(why) end

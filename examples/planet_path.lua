@@ -38,6 +38,6 @@ print(("time to phi = pi/2: %.15f, Kepler's equation E - e sin E: %.15f"):format
 -- The orbit in the plane (terminal plot).
 local xs, ys = {}, {}
 for n = 1, #tr.t do xs[n], ys[n] = tr.q[n][1] * math.cos(tr.t[n]), tr.q[n][1] * math.sin(tr.t[n]) end
-local drawn, why = pcall(require("nz.plot").lines, { series = { { name = "the path", x = xs, y = ys } },
+local drawn, why = pcall(require("nz.draw.plot").lines, { series = { { name = "the path", x = xs, y = ys } },
   title = "the planet's path, found without time", xlabel = "x", ylabel = "y", width = 80, height = 24 })
 if not drawn then print(why) end

@@ -5,7 +5,7 @@
 -- little after t0, or a system written without the branch.
 local h = require "tests.helpers"
 local nz = h.nz
-local hd = require "nz.hyperdual"
+local hd = require "nz.model.hyperdual"
 
 -- Every coefficient of value and tangents of got equals want's (want of
 -- order >= got's; a direction want lacks is zero), bit for bit: a selection
@@ -219,7 +219,7 @@ describe("nz.smooth_abs", function()
   end)
 end)
 
-describe("nested dual numbers (lua/nz/hyperdual.lua)", function()
+describe("nested dual numbers (lua/nz/model/hyperdual.lua)", function()
   -- q + eta d: the eta part of f is df/dq d.
   local function at(q) return hd.new(nz.jet(q, 3, 1, 1), 1) end
   it("compare looks at v only and gives a plain constant", function()

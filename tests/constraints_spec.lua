@@ -63,7 +63,7 @@ describe("classification and Dolapchiev's rule", function()
   end)
   it("the printed classification shows the evidence", function()
     local sys = cs.constant_speed().sys
-    local text = require("nz.constraints").report(sys)
+    local text = require("nz.model.constraints").report(sys)
     assert.truthy(text:find("nonholonomic", 1, true) and text:find("nonlinear", 1, true), text)
     assert.truthy(text:find("the largest |dPhi/dq^(j)|, j = 0..3", 1, true) and text:find("\n  1: 0, ", 1, true), text)
   end)
@@ -110,7 +110,7 @@ describe("classification and Dolapchiev's rule", function()
       constraints = { function(t, q, qd) if q[1] > 0.2 then return qd[1] end return q[1] - q[1] + 1 end } }
     local c = odd:constraints{ quiet = true }[1]
     assert.is_false(c.consistent)
-    assert.truthy(require("nz.constraints").report(odd):find("ORDER DIFFERS ACROSS STATES", 1, true))
+    assert.truthy(require("nz.model.constraints").report(odd):find("ORDER DIFFERS ACROSS STATES", 1, true))
   end)
 end)
 
@@ -223,7 +223,7 @@ describe("singular systems and failures are reported, never NaN", function()
     -- It once reported any failed solve as a singular mass matrix, with
     -- eigenvalues from 0 to 0.
     local s = free2{ function(t, q, qd) return qd[1] + qd[2] end, function(t, q, qd) return 2 * qd[1] + 2 * qd[2] end }
-    local orders, linear = require("nz.constraints").orders(s)
+    local orders, linear = require("nz.model.constraints").orders(s)
     local ode = mech.ode_new(s.engine, { method = "bsimp", orders = orders, linear = linear })
     local ok, err = pcall(mech.ode_jacobian, ode, s.engine, 0, { 0, 0, 1, -1 })
     assert.is_false(ok)

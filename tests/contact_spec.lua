@@ -435,7 +435,7 @@ describe("what the trajectory shows", function()
       bodies = { { name = "b", mass = 1, pos = function(t, q) return { 0, q[1], 0 } end } },
       effects = { E.gravity{ g = { 0, -g, 0 } }, E.contact{ name = "floor", at = "b", plane = { normal = { 0, 1, 0 } } } } }
     local tr2 = sys:simulate{ q0 = { 0.2 }, t1 = 0.5, dt = 0.01 }
-    local draw = require("nz.contact_run").drawing(tr2, function() return { points = { { 0, 0 } } } end, { 1, 2 })
+    local draw = require("nz.motion.contact_run").drawing(tr2, function() return { points = { { 0, 0 } } } end, { 1, 2 })
     assert(#draw(0.1, { 0.15 }).points == 1, "in flight: the body alone")
     assert(#draw(0.45, { 0 }).points == 2, "resting: the contact point too")
   end)
@@ -532,7 +532,7 @@ describe("errors", function()
     assert(msg:find("unilateral contacts need the loop in C, and event 'branchy' cannot be recorded", 1, true), msg)
   end)
   it("a mode that keeps changing at one time stops the run", function()
-    local Run = require("nz.contact_run").Run
+    local Run = require("nz.motion.contact_run").Run
     local run = setmetatable({ same = 0, sys = { name = "s" }, names = { "a" } }, Run)
     local msg = errmsg(function() for _ = 1, 60 do run:guard(1.5, 1) end end)
     assert(msg:find("simulate 's': the contacts' mode changed 50 times at t = 1.5 without the motion going on "

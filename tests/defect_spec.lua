@@ -1,5 +1,5 @@
 -- defect_spec.lua - tr:residuals and sys:residuals_of measure the motion:
--- the equations evaluated on the curve through the points (lua/nz/defect.lua),
+-- the equations evaluated on the curve through the points (lua/nz/analysis/defect.lua),
 -- checked against motions known in closed form, curves that are not motions
 -- with their defect derived by hand, an integrator written here (RK4), and
 -- the scaling the integration's order predicts.  tr:consistency keeps the

@@ -1,14 +1,14 @@
--- display_spec.lua - the display layer (nz/display.lua) under the terminal
--- and under a notebook's front-end (nz/frontend.lua): each representation
+-- display_spec.lua - the display layer (nz/draw/display.lua) under the terminal
+-- and under a notebook's front-end (nz/base/frontend.lua): each representation
 -- built only when the front-end in use renders it, tables as HTML from
 -- their rows, sys:show's LaTeX for MathJax; and the kernel's cells
--- (nz/kernel.lua: the last expression shown, the place of an error).
+-- (nz/session/kernel.lua: the last expression shown, the place of an error).
 local h = require "tests.helpers"
 local nz = h.nz
-local display = require "nz.display"
-local frontend = require "nz.frontend"
-local text = require "nz.text"
-local kernel = require "nz.kernel"
+local display = require "nz.draw.display"
+local frontend = require "nz.base.frontend"
+local text = require "nz.base.text"
+local kernel = require "nz.session.kernel"
 
 -- A front-end that renders `mimes` and keeps what it is given.
 local function notebook(mimes)
@@ -69,7 +69,7 @@ describe("the display layer", function()
   end)
 
   it("prints a value typed at the prompt as before: its text, tab-separated, nothing when shown already", function()
-    local repl = require "nz.repl"
+    local repl = require "nz.session.repl"
     assert(printed(function() repl.print(1.5, "a", { 1, 2 }) end) == "1.5\ta\t{1, 2}")
     assert(printed(function() repl.print(nil, nil) end) == "")
     repl.begin()

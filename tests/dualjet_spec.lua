@@ -9,7 +9,7 @@
 local h = require "tests.helpers"
 local nz = h.nz
 local mech = require("nz.core").mech
-local hd = require "nz.hyperdual"
+local hd = require "nz.model.hyperdual"
 
 local function uniform(a, b) return a + (b - a) * math.random() end
 
@@ -211,7 +211,7 @@ end)
 
 describe("the exact Jacobian of an implicit integration", function()
   -- A double pendulum from bodies: the Lua evaluator's direction runs
-  -- through nz/hyperdual.lua's nested duals whose parts are dualjets.
+  -- through nz/model/hyperdual.lua's nested duals whose parts are dualjets.
   local function pendulum(compile)
     return nz.system{ coords = { "a", "b" }, compile = compile, bodies = { gravity = { 0, -9.81, 0 },
       { mass = 1, pos = function(t, q) return { nz.sin(q[1]), -nz.cos(q[1]), 0 } end },

@@ -383,7 +383,7 @@ end)
 describe("errors raised by the engine start with the caller's file:line", function()
   -- Raised in C (a singular M, dependent constraints, a parameter that is no
   -- longer a number) or in the library's Lua (a wrong quantity name in
-  -- tr:plot), they once began with lua/nz/simulate.lua:600, lua/nz/
+  -- tr:plot), they once began with lua/nz/motion/simulate.lua:600, lua/nz/
   -- trajectory.lua:196 or nothing; README: a failing script prints
   -- file:line: message.
   local SPEC_PAT = SPEC:gsub("%p", "%%%0")
@@ -436,7 +436,7 @@ describe("errors raised by the engine start with the caller's file:line", functi
     line = here() + 1
     msg = fails_at(line, function() return (tr:column("E")) end)
     assert.truthy(msg:find("trajectory: 'E' was not recorded: ask for it with monitors", 1, true), msg)
-    -- plot's own refusals (a file it cannot write; gnuplot missing) too: once lua/nz/trajectory.lua
+    -- plot's own refusals (a file it cannot write; gnuplot missing) too: once lua/nz/motion/trajectory.lua
     line = here() + 1
     msg = fails_at(line, function() return (tr:plot{ file = "motion.jpg" }) end)
     assert.truthy(msg:find("^plot: file 'motion.jpg' must end in .svg or .png") or msg:find("gnuplot is not installed", 1, true), msg)
@@ -446,7 +446,7 @@ end)
 describe("a parameter that is no longer a finite number is named", function()
   -- Checked once per call of the mechanics, before any function runs: once
   -- params.g = 0/0 surfaced as "bad argument #1 to 'mul' (got NaN ...)"
-  -- inside V, and params.g = nil at lua/nz/simulate.lua:600.
+  -- inside V, and params.g = nil at lua/nz/motion/simulate.lua:600.
   local function pend(compile)
     return nz.system{ name = "pend", coords = { "th" }, params = { g = g, l = 2.0 }, compile = compile,
       T = function(t, q, qd, p) return 0.5 * p.l ^ 2 * qd[1] ^ 2 end,
@@ -556,7 +556,7 @@ describe("what is not finite, off the constraints, or nested is said once and cl
     -- that turns NaN at t = 0.3 runs to there: simulate_loop_spec)
   end)
   it("a fixed step longer than the output spacing: the summary says the step taken", function()
-    local simulate = require "nz.simulate"
+    local simulate = require "nz.motion.simulate"
     local said, saved = {}, simulate.warn
     simulate.warn = function(msg) said[#said + 1] = msg end
     local ok, tr = pcall(osc.simulate, osc, { q0 = { 1 }, t1 = 1, dt = 0.05, step = 1e6 })
@@ -628,7 +628,7 @@ describe("what is not finite, off the constraints, or nested is said once and cl
     h.checkerror("system 'object': T raised an error: the wheel came off at t = 0, q = {1}", named.accel, named, 0, { 1 }, { 0 })
   end)
   it("taylor with project on a system without constraints warns as every method does, and runs", function()
-    local simulate = require "nz.simulate"
+    local simulate = require "nz.motion.simulate"
     local free = nz.system{ name = "free osc", coords = { "x" }, T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end,
       V = function(t, q) return 0.5 * q[1] ^ 2 end }
     local said, saved = {}, simulate.warn

@@ -10,7 +10,7 @@ local h = require "tests.helpers"
 -- as a Lua chunk, so that a test can check the motion itself against a hand
 -- derivation instead of the figures the example prints about itself.
 local CAPTURE = [[
-local sim = require "nz.simulate"
+local sim = require "nz.motion.simulate"
 local simulate, runs = sim.simulate, {}
 sim.simulate = function(...) local tr = simulate(...); runs[#runs + 1] = tr; return tr end
 dofile(...)

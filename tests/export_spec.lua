@@ -124,7 +124,7 @@ describe("sys:export{lang = 'c'}", function()
       for v in out:gmatch("[^\n]+") do vals[#vals + 1] = tonumber(v) end
       local k, dim, at = sys.k, 2 * sys.k, 0
       local orders, linear = {}, {}
-      if sys.nc > 0 then orders, linear = require("nz.constraints").orders(sys) end
+      if sys.nc > 0 then orders, linear = require("nz.model.constraints").orders(sys) end
       local ode = mech.ode_new(sys.engine, { method = "rk8pd", rtol = 1e-10, atol = 1e-10, orders = orders, linear = linear })
       for _, y in ipairs(points) do
         local q, qd = { table.unpack(y, 1, k) }, { table.unpack(y, k + 1, dim) }

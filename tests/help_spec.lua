@@ -1,7 +1,7 @@
 -- help_spec.lua - nz.help lists exactly what the module offers.
 local h = require "tests.helpers"
 local nz = h.nz
-local entries = require("nz.help").entries
+local entries = require("nz.session.help").entries
 
 describe("nz.help", function()
   it("has one entry for every public name of nz, and no entry for a missing one", function()
@@ -258,9 +258,9 @@ describe("help signatures list what the code accepts", function()
   it("each method's documented options are the options its checker accepts, and no other", function()
     local sys = nz.system{ name = "p", coords = { "x" }, T = function(t, q, qd) return qd[1] ^ 2 / 2 end }
     sys:simulate{ q0 = { 0 }, qd0 = { 1 }, t1 = 0.1 }:plot{ width = 40, height = 12, quiet = true }    -- loads every module
-    require "nz.views"; require "nz.defect"; require "nz.rumyantsev"; require "nz.show"; require "nz.export"
-    require "nz.linearize"; require "nz.eigen_sweep"; require "nz.workprecision"; require "nz.sweep"; require "nz.check"
-    local accepted = require("nz.options").accepted
+    require "nz.presentation.views"; require "nz.analysis.defect"; require "nz.analysis.rumyantsev"; require "nz.presentation.show"; require "nz.presentation.export"
+    require "nz.analysis.linearize"; require "nz.analysis.eigen_sweep"; require "nz.analysis.workprecision"; require "nz.motion.sweep"; require "nz.analysis.check"
+    local accepted = require("nz.base.options").accepted
     local system_text = nz.help(nz.system, { quiet = true })
     local n, wrong = 0, {}
     for call, a in pairs(accepted) do

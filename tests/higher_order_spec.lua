@@ -562,7 +562,7 @@ describe("integration at level 3: two roots, and the branch Newton's start picks
 end)
 
 describe("implicit steppers at level p >= 3: the Jacobian by central differences", function()
-  local constraints = require "nz.constraints"
+  local constraints = require "nz.model.constraints"
   local function integrator(sys, cfg)
     local orders, linear = constraints.orders(sys)
     sys.engine.orders = orders
@@ -664,7 +664,7 @@ describe("project = true at level p >= 3", function()
     -- measured 1.1e-6 without projection; with it the state goes back onto
     -- the constraints (to 1e-12) whenever its violation exceeds simulate's
     -- PROJECT_TOL (1e-10): measured 8.6e-11
-    local bound = require("nz.simulate").PROJECT_TOL
+    local bound = require("nz.motion.simulate").PROJECT_TOL
     assert(free > 1e-8 and held <= bound, ("without %.3g, with %.3g"):format(free, held))
   end)
   it("with a constraint nonlinear in q''' (top level) it holds the circle too", function()
@@ -694,7 +694,7 @@ describe("project = true at level p >= 3", function()
     local free = worst(s3:simulate(opts))
     opts.project = true
     local tr = s3:simulate(opts)
-    local bound = require("nz.simulate").PROJECT_TOL
+    local bound = require("nz.motion.simulate").PROJECT_TOL
     assert(free > bound and worst(tr) <= bound and tr.projections > 0,
       ("without %.3g, with %.3g after %d projections"):format(free, worst(tr), tr.projections))
   end)

@@ -358,7 +358,7 @@ describe("mixed jet and number arithmetic", function()
     assert.is_true(0.5 < a)
     assert.is_true(a == nz.jet(1, 5))
     assert.is_true(-a < a)
-    local hd = require("nz.hyperdual").new(nz.jet(1.5, 2), 1)
+    local hd = require("nz.model.hyperdual").new(nz.jet(1.5, 2), 1)
     assert.is_true(a < hd)        -- a jet against a nested dual number: by value
     assert.is_false(hd <= a)
   end)

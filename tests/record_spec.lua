@@ -1,7 +1,7 @@
 -- record_spec.lua - what a recording holds and what falls back to Lua.
 --
 -- A system's functions are recorded once into a graph evaluated in C
--- (lua/nz/record.lua).  Branches written with nz.gt, nz.ifelse, nz.max,
+-- (lua/nz/model/record.lua).  Branches written with nz.gt, nz.ifelse, nz.max,
 -- nz.min, nz.clamp and nz.sign are recorded; a Lua `if` on the state,
 -- math.* on the state and a function that depends on more than its
 -- arguments (math.random) fall back to Lua, visibly, and stay right.  Every

@@ -358,7 +358,7 @@ describe("the Jacobi-Whittaker reduction (eq. 2.8-2.12)", function()
   end)
   it("an energy h below what the start allows is said so, with h + L0 and the start, not as sqrt's domain error", function()
     -- Kepler from r0 = 1 at rest in r: L0 = mu / r0, so h = -2 leaves h + L0 = -1 < 0 there
-    -- (it was "L raised an error: lua/nz/rumyantsev.lua:346: 'sqrt' of a negative value (got -0.5)")
+    -- (it was "L raised an error: lua/nz/analysis/rumyantsev.lua:346: 'sqrt' of a negative value (got -0.5)")
     local k, hh, r0 = kepler(), -2, 1
     local path = k:jacobi_whittaker{ h = hh, independent = "phi" }
     local line = debug.getinfo(1, "l").currentline + 1

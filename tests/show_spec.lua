@@ -97,9 +97,9 @@ describe("sys:show: the equations as text", function()
     -- by hand: the blade's direction (cos th, sin th) removes the lateral reaction
     assert.truthy(text:find("x :  m cos(th) x'' + m sin(th) y'' = 0", 1, true), text)
     assert.truthy(text:find("th:  J th'' = 0", 1, true), text)
-    local formula = require "nz.formula"
+    local formula = require "nz.base.formula"
     for _, sys in ipairs{ knife_edge(), cs.sleigh().sys, cs.rolling_disk().sys, cs.cartesian_pendulum().sys, cs.program().sys } do
-      local show = require "nz.show"
+      local show = require "nz.presentation.show"
       local eq = show.equations(sys)
       local red = assert(show.reduced(sys, eq))
       assert.are.equal(sys.k - sys.nc, #red.equations)
@@ -136,7 +136,7 @@ describe("sys:show: the equations as text", function()
       T = function(t, q, qd, P) return 0.5 * P.m * (qd[1] ^ 2 + q[1] ^ 2 * qd[2] ^ 2) end }
     local text = polar:show{ appell = true }
     assert.truthy(text:find("S = -m r th'^2 r'' + 0.5 m r''^2 + 2 m r r' th' th'' + 0.5 m r^2 th''^2", 1, true), text)
-    local show, formula = require "nz.show", require "nz.formula"
+    local show, formula = require "nz.presentation.show", require "nz.base.formula"
     for _, sys in ipairs{ double_pendulum(), spherical_pendulum(), polar } do
       local eq = show.equations(sys)
       local S = show.appell(sys, eq)
@@ -241,7 +241,7 @@ end)
 -- The equations of order n (docs/theory.md (3.1), (4.1)-(4.2))
 
 local ms = require "tests.mech_systems"
-local show, formula = require "nz.show", require "nz.formula"
+local show, formula = require "nz.presentation.show", require "nz.base.formula"
 
 -- A polynomial as a Lua function of the state (higher = {q''', q^(4), ...};
 -- frozen: the velocities held in F_0 of R_1).

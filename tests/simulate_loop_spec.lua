@@ -1,5 +1,5 @@
 -- simulate_loop_spec.lua - the stepping loop in C (src/ode/ode_run.c) against
--- the loop in Lua (lua/nz/simulate.lua, run()): two paths that share the
+-- the loop in Lua (lua/nz/motion/simulate.lua, run()): two paths that share the
 -- integrator but not the loop (output grid, fixed steps landing on the
 -- output times, accelerations recorded at each point, stall detection,
 -- interrupt, failures).  Each run is made twice, forced through each loop
@@ -8,7 +8,7 @@
 -- violations, statistics, status, messages and warnings.
 local h = require "tests.helpers"
 local nz = h.nz
-local simulate = require "nz.simulate"
+local simulate = require "nz.motion.simulate"
 local mech = require("nz.core").mech
 local systems = require "tests.constraint_systems"
 
@@ -341,7 +341,7 @@ describe("projection in the C loop (the violation computed in C)", function()
       T = function(t, q, qd) return 0.5 * m * R * R * (qd[1] ^ 2 + nz.sin(q[1]) ^ 2 * qd[2] ^ 2) end,
       constraints = { function(t, q) return q[2] - W * t end } },
       draw = function() return 0.3, { 0.2, 1.2 }, { 0.1, W } end }
-    local constraints = require "nz.constraints"
+    local constraints = require "nz.model.constraints"
     math.randomseed(10)
     local checked = 0
     for _, s in ipairs{ systems.cartesian_pendulum(), systems.rolling_disk(), systems.sleigh(), systems.appell(), hoop } do
@@ -411,7 +411,7 @@ describe("the limits hold for both loops", function()
       errs[i] = select(2, pcall(pendulum.simulate, pendulum, { q0 = { 1 }, t1 = 1, dt = 0.001, _loop = loop }))
     end
     simulate.MAX_MEMORY = saved
-    assert.truthy(tostring(errs[1]):find("are kept in memory (require('nz.simulate').MAX_MEMORY)", 1, true), errs[1])
+    assert.truthy(tostring(errs[1]):find("are kept in memory (require('nz.motion.simulate').MAX_MEMORY)", 1, true), errs[1])
     assert.are.equal(errs[1], errs[2])
   end)
 end)

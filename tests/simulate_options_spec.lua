@@ -7,7 +7,7 @@
 -- counted, never wall time.
 local h = require "tests.helpers"
 local nz = h.nz
-local simulate = require "nz.simulate"
+local simulate = require "nz.motion.simulate"
 local nz_mech = require("nz.core").mech
 
 local THIS = "tests/simulate_options_spec.lua"
@@ -33,7 +33,7 @@ local function failure(f, ...)
 end
 
 -- Call simulate from this line and return the message: it must start with
--- this file and line (the user's call), never lua/nz/simulate.lua.
+-- this file and line (the user's call), never lua/nz/motion/simulate.lua.
 local function option_error(sys, opts)
   local ok, msg = pcall(sys.simulate, sys, opts)
   local line = debug.getinfo(1, "l").currentline - 1

@@ -185,7 +185,7 @@ describe("the exact Jacobian of the motion", function()
       local t, q, qd = case.draw()
       local y = {}
       for i = 1, sys.k do y[i], y[sys.k + i] = q[i], qd[i] end
-      local orders, linear = require("nz.constraints").orders(sys)
+      local orders, linear = require("nz.model.constraints").orders(sys)
       local ode = nz_mech.ode_new(sys.engine, { method = "bsimp", orders = orders, linear = linear })
       local J = nz_mech.ode_jacobian(ode, sys.engine, t, y)
       local F = fd_jacobian(sys, t, y)

@@ -152,7 +152,7 @@ describe("simulate with method = 'taylor'", function()
     -- simulate_options_spec).  The C loop looks at 16, 32, ... steps, as
     -- for the GSL steppers: at 2048 steps (t ~ 1300) the projection says
     -- ~3.2e4; the run stops at an event after that.
-    local simulate = require "nz.simulate"
+    local simulate = require "nz.motion.simulate"
     local said, saved_warn, saved_limits = {}, simulate.warn, simulate.LONG_RUN
     simulate.warn = function(msg) said[#said + 1] = msg end
     simulate.LONG_RUN = { steps = 2e4, seconds = math.huge, check_steps = 2000 }

@@ -138,7 +138,7 @@ describe("constraint drift", function()
       for _, v in ipairs(free.violation) do assert(v == v and v <= 2e-9, ("drift without projection %.3g"):format(v)) end
       -- Projection whenever the violation exceeds simulate's PROJECT_TOL
       -- (1e-10; then back to 1e-12): bounded by it.
-      assert(worst(proj) <= require("nz.simulate").PROJECT_TOL, ("with projection %.3g"):format(worst(proj)))
+      assert(worst(proj) <= require("nz.motion.simulate").PROJECT_TOL, ("with projection %.3g"):format(worst(proj)))
       -- Baumgarte (Phi' + alpha Phi = 0) changes the equations off the
       -- constraint, so its violation is not smaller than the free run's at
       -- every moment; what it guarantees is that the violation decays
@@ -345,7 +345,7 @@ describe("a constraint whose gradient passes through zero on the motion", functi
   -- steppers go on along the smooth continuation, back down the same line
   -- (s' = s0 - g a t / (1 + a^2) < 0 after t*); rk8pd and taylor did so
   -- without a word, bsimp stopped blaming M.  Now each says so once.
-  local simulate = require "nz.simulate"
+  local simulate = require "nz.motion.simulate"
   local g, a, s0 = 9.81, 0.6, 0.8
   local tstar = s0 * (1 + a * a) / (g * a)
   local cone = nz.system{ name = "appell-hamel", coords = { "x", "y", "z" },

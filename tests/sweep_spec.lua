@@ -5,7 +5,7 @@
 -- (a local ssh wrapper), the periods against the elliptic closed form.
 local h = require "tests.helpers"
 local nz = h.nz
-local sweep = require "nz.sweep"
+local sweep = require "nz.motion.sweep"
 
 local SCENE = "tests/data/sweep_pendulum.lua"
 local GRID = { amp = { 0.3, 0.9, 1.5, 2.1 }, l = { 1, 2.5 } }
@@ -194,7 +194,7 @@ describe("nz.sweep", function()
   it("draws a progress bar with the time left when asked (on a terminal by default), none when redirected", function()
     local script = os.tmpname()
     write(script, [[
-      require("nz.sweep").PROGRESS.delay = 0
+      require("nz.motion.sweep").PROGRESS.delay = 0
       local progress = arg[1] == "on" or nil
       nz.sweep{ grid = { x = { 1, 2, 3, 4, 5, 6 } }, jobs = 2, progress = progress, run = function(_, p)
         local t = os.clock(); while os.clock() - t < 0.05 do end

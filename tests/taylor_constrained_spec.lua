@@ -7,7 +7,7 @@
 local h = require "tests.helpers"
 local nz = h.nz
 local mech = require("nz.core").mech
-local constraints = require "nz.constraints"
+local constraints = require "nz.model.constraints"
 local cs = require "tests.constraint_systems"
 
 local function classification(sys, q0, qd0)

@@ -90,7 +90,7 @@ describe("tr:plot", function()
 end)
 
 describe("terminal plots (one path for every caller: nz.plot.lines)", function()
-  local plot = require "nz.plot"
+  local plot = require "nz.draw.plot"
   it("choose the ticks from the plot's width: labels apart, each telling its tick from the next", function()
     -- the reviewer's ranges (henon_chaos's energies, a phase plot, planet_path's x)
     -- and some that need many digits or an exponent, at several widths
@@ -221,7 +221,7 @@ describe("views typed at the prompt", function()
     assert.falsy(wp:find("{{error", 1, true), wp)
     -- in a script, print(rows) is the same table
     local rows = nz.workprecision(osc(), { budget = 0.01, q0 = { 1 }, t1 = 1, methods = { "rk8pd" }, tols = { 1e-6 }, quiet = true })
-    assert.truthy(tostring(rows):find(require("nz.workprecision").table(rows), 1, true))
+    assert.truthy(tostring(rows):find(require("nz.analysis.workprecision").table(rows), 1, true))
     assert.are.equal(1, #rows)
   end)
 end)
@@ -372,7 +372,7 @@ describe("nz.workprecision's table and diagram", function()
   it("ends with the cheapest method for each accuracy, and labels the diagram's points with their tolerances", function()
     local rows = nz.workprecision(osc(), { budget = 0.01, q0 = { 1 }, t1 = 5, methods = { "rk4", "rk8pd" }, tols = { 1e-4, 1e-8 },
       reference = function(t) return { math.cos(t) } end, quiet = true })
-    local text = require("nz.workprecision").table(rows)
+    local text = require("nz.analysis.workprecision").table(rows)
     local line = text:match("cheapest for each accuracy: ([^\n]+)")
     assert(line, text)
     -- each named method reaches the accuracy it is named for, in the least time among those that do
@@ -385,13 +385,13 @@ describe("nz.workprecision's table and diagram", function()
       assert.are.equal(best.tol, tonumber(tol))
     end
     local svg = os.tmpname() .. ".svg"
-    require("nz.workprecision").diagram(rows, { file = svg })
+    require("nz.analysis.workprecision").diagram(rows, { file = svg })
     local s = slurp(svg)
     assert.truthy(s:find(">1e-08<", 1, true) or s:find("1e-08", 1, true), "a point's tolerance label")
     os.remove(svg)
   end)
   it("in the terminal: each method's points with its mark, the key showing each mark, tolerance labels whole and apart", function()
-    local wp = require "nz.workprecision"
+    local wp = require "nz.analysis.workprecision"
     -- rows as a study returns them: rk8pd at one tolerance, in the top right
     -- corner (where a label beside it would be cut by the frame), the others
     -- at three
@@ -441,7 +441,7 @@ describe("nz.workprecision's table and diagram", function()
     return rows
   end
   it("in the terminal: the points at the edges clear of the frame's tick marks, the last ones' labels inside", function()
-    local wp = require "nz.workprecision"
+    local wp = require "nz.analysis.workprecision"
     for _, size in ipairs{ { 100, 30 }, { 80, 24 } } do
       local text = wp.diagram(piled_rows(), { quiet = true, width = size[1], height = size[2] })
       local p = dissect(text)
@@ -462,7 +462,7 @@ describe("nz.workprecision's table and diagram", function()
     end
   end)
   it("in an SVG each method has a colour of its own that stands out on white (contrast at least 4.5)", function()
-    local wp = require "nz.workprecision"
+    local wp = require "nz.analysis.workprecision"
     local rows = {}
     for i, m in ipairs{ "rk4", "rkf45", "rkck", "rk8pd", "rk4imp", "bsimp", "msadams", "msbdf", "taylor" } do
       for j, tol in ipairs{ 1e-4, 1e-6, 1e-8 } do

@@ -44,7 +44,7 @@ describe("nz.workprecision", function()
     -- asked) and rk8pd with dense = false stop at every output time
     local rows = nz.workprecision(oscillator, { budget = 0.01, q0 = { 1 }, qd0 = { 0 }, t1 = 10, dt = 0.01,
       methods = { "rk8pd", "taylor", "msbdf" }, tols = { 1e-5 }, reference = exact, quiet = true })
-    local text = require("nz.workprecision").table(rows)
+    local text = require("nz.analysis.workprecision").table(rows)
     assert.is_false(rows[1].grid)
     assert(rows[1].steps < 100, rows[1].steps)
     assert.is_false(rows[2].grid)
@@ -59,7 +59,7 @@ describe("nz.workprecision", function()
     local coarse = nz.workprecision(oscillator, { budget = 0.01, q0 = { 1 }, qd0 = { 0 }, t1 = 10, dt = 10,
       methods = { "rk8pd" }, tols = { 1e-5 }, reference = exact, quiet = true })
     assert.is_false(coarse[1].grid)
-    assert.is_nil(require("nz.workprecision").table(coarse):find("(grid)", 1, true))
+    assert.is_nil(require("nz.analysis.workprecision").table(coarse):find("(grid)", 1, true))
   end)
 
   it("a method that does not apply gets one row that says why", function()
@@ -67,7 +67,7 @@ describe("nz.workprecision", function()
       T = function(t, q, qd) return qd[1] ^ 2 / 2 end, V = function(t, q) return q[1] ^ 2 / 2 end }
     local rows = nz.workprecision(osc, { budget = 0.01, q0 = { 1 }, t1 = 1, dt = 0.5,
       methods = { "rk8pd", "taylor" }, tols = { 1e-6, 1e-8 }, quiet = true })
-    local text = require("nz.workprecision").table(rows)
+    local text = require("nz.analysis.workprecision").table(rows)
     local skipped = 0
     for _, r in ipairs(rows) do
       if r.method == "taylor" then
@@ -130,7 +130,7 @@ describe("nz.workprecision's timing", function()
     -- says so with graph_info's own figures
     assert.are.equal(info.native_plans - before.native_plans, study.compiled)
     assert.are.equal(info.native_seconds - before.native_seconds, study.compile_seconds)
-    local text = require("nz.workprecision").table(rows)
+    local text = require("nz.analysis.workprecision").table(rows)
     if native then
       assert(info.native_plans >= 1 and study.compile_seconds > 0, info.native_plans)
       assert.truthy(text:find(("of which %.3g s compiling %d plan"):format(study.compile_seconds, study.compiled), 1, true),
@@ -226,7 +226,7 @@ describe("nz.workprecision's timing", function()
     -- three times and must agree once (a study whose ranking or spread is
     -- wrong fails all three).  (Not under the sanitizers: their timings say
     -- nothing of the methods.)
-    local wp = require "nz.workprecision"
+    local wp = require "nz.analysis.workprecision"
     local sys = fresh_kepler()
     local o = study_opts{ methods = { "rk4", "rkf45", "rk8pd" }, tols = { 1e-6, 1e-9 }, budget = 0.05 }
     local function attempt()
@@ -272,7 +272,7 @@ describe("nz.workprecision's timing", function()
 end)
 
 describe("nz.workprecision's flags, noise and axes", function()
-  local wp = require "nz.workprecision"
+  local wp = require "nz.analysis.workprecision"
   -- rows as a study returns them, written by hand
   local function row(method, tol, err, time, median, nfev, steps)
     return { method = method, tol = tol, error = err, time = time, time_median = median or time, time_max = median or time,
@@ -301,7 +301,7 @@ describe("nz.workprecision's flags, noise and axes", function()
     assert.falsy(advice:find("taylor at tol 1e-08", 1, true), advice)
     -- the diagram: the method's line without them, and a series of its own
     -- with the method in each label
-    local plot = require "nz.plot"
+    local plot = require "nz.draw.plot"
     local lines, drawn = plot.lines, nil
     plot.lines = function(o) drawn = o; return "" end
     local ok, err = pcall(wp.diagram, rows, { quiet = true })
@@ -321,7 +321,7 @@ describe("nz.workprecision's flags, noise and axes", function()
   it("the x axis can be the time, the right-hand-side evaluations or the steps", function()
     local rows = { row("rk4", 1e-6, 1e-3, 0.002, nil, 9249, 812), row("rk4", 1e-9, 1e-5, 0.006, nil, 30413, 2736),
       row("taylor", 1e-6, 1e-6, 0.001, nil, 511, 511), row("taylor", 1e-9, 1e-9, 0.0015, nil, 480, 480) }
-    local plot = require "nz.plot"
+    local plot = require "nz.draw.plot"
     local lines, drawn = plot.lines, nil
     plot.lines = function(o) drawn = o; return "" end
     local function draw(x)

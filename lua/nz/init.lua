@@ -14,21 +14,21 @@ nz.nielsen_op = system.nielsen_op
 nz.euler_op = system.euler_op
 nz.partial = system.partial
 nz.top_coefficient = system.top_coefficient
-nz.bodies = require("nz.bodies").bodies
+nz.bodies = require("nz.model.bodies").bodies
 nz.methods = core.mech.ode_methods()
-nz.workprecision = require("nz.workprecision").run
-nz.effects = require "nz.effects"
--- a contact in a system's constraints (nz/contact.lua, loaded when used)
-function nz.unilateral(gap, opts) return require("nz.contact").unilateral(gap, opts) end
-nz.scene = require("nz.scene").scene
-nz.check = require("nz.check").check
-nz.rotations = require "nz.rotations"
-nz.smooth_abs = require("nz.branch").smooth_abs
-nz.sweep = require("nz.sweep").sweep
+nz.workprecision = require("nz.analysis.workprecision").run
+nz.effects = require "nz.model.effects"
+-- a contact in a system's constraints (nz/model/contact.lua, loaded when used)
+function nz.unilateral(gap, opts) return require("nz.model.contact").unilateral(gap, opts) end
+nz.scene = require("nz.model.scene").scene
+nz.check = require("nz.analysis.check").check
+nz.rotations = require "nz.model.rotations"
+nz.smooth_abs = require("nz.model.branch").smooth_abs
+nz.sweep = require("nz.motion.sweep").sweep
 
-nz.format = require("nz.display").format  -- a value as the session shows it
-nz.print = require("nz.display").print    -- print values as the session does (a notebook: with its tables as HTML)
+nz.format = require("nz.draw.display").format  -- a value as the session shows it
+nz.print = require("nz.draw.display").print    -- print values as the session does (a notebook: with its tables as HTML)
 
-nz.help = require("nz.help").bind(nz)
+nz.help = require("nz.session.help").bind(nz)
 
 return nz

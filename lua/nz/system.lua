@@ -6,18 +6,23 @@
 -- class.  Pieces: F = T and L functions (the "kinetic" part the forms
 -- differentiate), T, V, Q, S (acceleration energy, from particles).
 local core = require "nz.core"
-local bodies = require "nz.bodies"
-local constraints = require "nz.constraints"
-local record = require "nz.record"
-local probe = require "nz.probe"
+local bodies = require "nz.model.bodies"
+local constraints = require "nz.model.constraints"
+local record = require "nz.model.record"
+local probe = require "nz.model.probe"
 -- NZ_GRAPH_CHECK=1: check every recording against the Lua evaluator when the
--- system is made (the test suite runs with it; nz/record.lua).
+-- system is made (the test suite runs with it; nz/model/record.lua).
 local GRAPH_CHECK = os.getenv("NZ_GRAPH_CHECK") == "1"
-local repl = require "nz.repl"
+local text = require "nz.base.text"
+-- The trajectory's methods that live above it (tr:section, tr:animate in
+-- nz/presentation/views.lua; tr:residuals, tr:consistency in nz/analysis/defect.lua) are attached
+-- to its class when those modules load: the face loads them.
+require "nz.presentation.views"
+require "nz.analysis.defect"
 
 local mech = core.mech
-local System = { __name = "nz.system" }
-System.__index = System
+local classes = require "nz.base.classes"
+local System = classes.System
 
 local M = { System = System }
 
@@ -27,71 +32,14 @@ local M = { System = System }
 -- 'accel' (...)"), counts the arguments as the user writes them (self    --
 -- not counted) and starts with the user's file:line.                     --
 
-local user_where = require("nz.where").user_where
-
--- A value as a message shows it (NaN as "NaN" on every C library).
-local function shown(v)
-  if type(v) == "number" then return repl.number(v) end
-  if type(v) == "string" then return ("the string %q"):format(v) end
-  if type(v) == "table" and getmetatable(v) == nil then
-    return #v == 1 and "a table of 1 entry" or ("a table of %d entries"):format(#v)
-  end
-  return type(v)
-end
-
-local function arg_error(fname, i, msg, ...)
-  error(("%sbad argument #%d to '%s' (%s)"):format(user_where(), i, fname, msg:format(...)), 0)
-end
-
--- v - v is 0 for a finite number, NaN for an infinite one or NaN; the
--- checks run on every call of a method (sys:accel from a loop), so they
--- use no global and no library function.
-local type, getmetatable = type, getmetatable
-local function finite(v) return type(v) == "number" and v - v == 0 end
-
-local function check_number(fname, i, name, v)
-  if not finite(v) then arg_error(fname, i, "%s: a finite number expected, got %s", name, shown(v)) end
-end
-
--- A list of n finite numbers (n = the coordinates by default).
-local function check_vector(self, fname, i, name, v, n, what)
-  n = n or self.k
-  if type(v) ~= "table" or getmetatable(v) ~= nil or #v ~= n then
-    arg_error(fname, i, "%s: a table of %d number%s expected (%s), got %s", name, n, n == 1 and "" or "s",
-      what or ("one per coordinate: " .. table.concat(self.coords, ", ")), shown(v))
-  end
-  for j = 1, n do
-    local x = v[j]
-    if type(x) ~= "number" or x - x ~= 0 then
-      arg_error(fname, i, "%s[%d]: a finite number expected, got %s", name, j, shown(x))
-    end
-  end
-end
-
--- The state t, q, qd of a method, its t being argument `first`.
-local function check_state(self, fname, first, t, q, qd, qd_optional)
-  check_number(fname, first, "t", t)
-  check_vector(self, fname, first + 1, "q", q)
-  if not (qd == nil and qd_optional) then check_vector(self, fname, first + 2, "qd", qd) end
-end
-
--- An options table with only the given keys; check(key, value) checks each.
-local function check_options(fname, i, opts, keys, check)
-  if opts == nil then return end
-  if type(opts) ~= "table" then arg_error(fname, i, "options: a table expected, got %s", shown(opts)) end
-  require("nz.options").check(opts, keys, function(...) arg_error(fname, i, ...) end)
-  for key, v in pairs(opts) do
-    local ok, want = keys[key](v)
-    if not ok then arg_error(fname, i, "option '%s': %s expected, got %s", tostring(key), want, shown(v)) end
-  end
-end
-
-local function positive(v) return finite(v) and v > 0, "a positive finite number" end
-local function count(v) return finite(v) and v >= 1 and v == math.floor(v), "a whole number >= 1" end
-local function boolean(v) return type(v) == "boolean", "true or false" end
+local user_where = require("nz.base.where").user_where
+local args = require "nz.base.args"
+local shown, arg_error, finite = args.shown, args.error, args.finite
+local check_number, check_vector, check_state = args.number, args.vector, args.state
+local check_options, positive, count, boolean = args.options, args.positive, args.count, args.boolean
 
 -- For the other entry points (nz.check): the same messages.
-M.args = { error = arg_error, options = check_options, shown = shown, positive = positive, count = count, boolean = boolean }
+M.args = args
 
 local known_fields = {
   coords = true, T = true, V = true, Q = true, L = true, S = true, params = true,
@@ -125,29 +73,6 @@ local function append(dst, dst_labels, src, src_labels)
   for i = 1, #src do
     dst[#dst + 1] = src[i]
     dst_labels[#dst_labels + 1] = src_labels[i]
-  end
-end
-
--- The first piece (T, L, V or Q) that is not finite at the state (t, q,
--- qd), on plain numbers: T = ... + 1/0 or + 0/0.  Only M = d2T/dqd2 and the
--- forces enter the motion, so such a T ran (a constant has no derivative).
--- A piece that raises there is left to the first use, which names the
--- user's line.  Its label and value, or nil.
-function M.nonfinite_piece(self, t, q, qd)
-  local e = self.engine
-  -- a parameter that is not a finite number is the mechanics' to name first
-  for _, name in ipairs(e.param_names) do if not finite(self.params[name]) then return nil end end
-  for _, list in ipairs{ { e.F, e.labels.F }, { e.V, e.labels.V, true }, { e.Q, e.labels.Q } } do
-    for n, f in ipairs(list[1]) do
-      local ok, v
-      if list[3] then ok, v = pcall(f, t, q, self.params) else ok, v = pcall(f, t, q, qd, self.params) end
-      if ok and type(v) == "table" then       -- Q: its first component that is not finite
-        local first
-        for i = 1, self.k do if type(v[i]) == "number" and not finite(v[i]) then first = first or v[i] end end
-        v = first
-      end
-      if ok and type(v) == "number" and not finite(v) then return list[2][n], v end
-    end
   end
 end
 
@@ -200,12 +125,12 @@ function M.system(def)
   local F, Flab = {}, {}
   append(F, Flab, T, lab.T)
   append(F, Flab, L, lab.L)
-  -- nz.unilateral entries are contacts (nz/contact.lua), the rest equalities
+  -- nz.unilateral entries are contacts (nz/model/contact.lua), the rest equalities
   local bilateral, contacts = def.constraints, nil
   if type(bilateral) == "table" then
     local any = getmetatable(bilateral) ~= nil
     for _, c in ipairs(bilateral) do any = any or type(c) == "table" end
-    if any then bilateral, contacts = require("nz.contact").split(bilateral) end
+    if any then bilateral, contacts = require("nz.model.contact").split(bilateral) end
   end
   local C = as_list(bilateral, "constraints", name)
   local Clab = {}
@@ -245,14 +170,14 @@ function M.system(def)
     if type(key) == "string" and type(v) == "number" then self.engine.param_names[#self.engine.param_names + 1] = key end
   end
   table.sort(self.engine.param_names)
-  -- Record the functions once as graphs evaluated in C (nz/record.lua);
+  -- Record the functions once as graphs evaluated in C (nz/model/record.lua);
   -- compile = false keeps every function in Lua.
   if def.compile ~= false then self.recording = record.compile(self.engine, Clevels, def.native) end
   -- A function that fails at every state (math.cos on a jet, q.th) is said
-  -- here, at the user's nz.system line (nz/probe.lua).
+  -- here, at the user's nz.system line (nz/model/probe.lua).
   probe.check(self)
   if GRAPH_CHECK and self.recording then record.diff_check(self.engine, Clevels, name) end
-  if contacts then require("nz.contact").attach(self, def, contacts, C) end
+  if contacts then require("nz.model.contact").attach(self, def, contacts, C) end
   return self
 end
 
@@ -269,19 +194,13 @@ M.forms = mech.forms()
 -- multipliers lambda (one per constraint) the constraint terms of (6.2),
 -- -A^T lambda with A = dPhi/dq^(m), are included.  n = nil: the rule's n.
 -- n (argument #1) of residual and equations: nil for the rule's n.
-local function check_order(fname, n)
-  if n ~= nil and not (type(n) == "number" and n == math.floor(n) and n >= 1 and n <= mech.max_order) then
-    arg_error(fname, 1, "n: an integer order from 1 to %d expected, got %s", mech.max_order, shown(n))
-  end
-end
-
-M.args.order = check_order
+local check_order = args.order
 
 -- A list of numbers (not an options table): multipliers.
 local function is_list(v) return type(v) == "table" and getmetatable(v) == nil and v[1] ~= nil end
 
 -- The options' checkers, made once (not on every call).
-local declare = require("nz.options").declare
+local declare = require("nz.base.options").declare
 local RESIDUAL_OPTIONS = declare("sys:residual", {
   form = function(v) return type(v) == "string", "a form name" end,
   higher = function(v) return type(v) == "table", "a list {q3, q4, ...} of derivatives" end,
@@ -494,62 +413,56 @@ function System:check_state(t, q, qd, tol)
   return constraints.check_state(self, t, q, qd, tol)
 end
 
--- What a scene shows, in one call (lua/nz/report.lua).
+-- What a scene shows, in one call (lua/nz/analysis/report.lua).
 local REPORT_OPTIONS = declare("sys:report", { "q", "qd", "t", "orders", "extremal", "simulate", "plot" })
 function System:report(opts)
   if opts ~= nil and (type(opts) ~= "table" or getmetatable(opts) ~= nil) then
     arg_error("report", 1, "options: a table {q =, qd =, ...} expected, got %s", shown(opts))
   end
-  if opts then require("nz.options").check(opts, REPORT_OPTIONS, function(...) arg_error("report", 1, ...) end) end
-  return require("nz.report").report(self, opts)
+  if opts then require("nz.base.options").check(opts, REPORT_OPTIONS, function(...) arg_error("report", 1, ...) end) end
+  return require("nz.analysis.report").report(self, opts)
 end
 
 -- The defect of points from anywhere (a student's integrator, a lab's
--- measurement): the equations on the curve through them (nz/defect.lua).
-function System:residuals_of(opts) return require("nz.defect").of(self, opts) end
+-- measurement): the equations on the curve through them (nz/analysis/defect.lua).
+function System:residuals_of(opts) return require("nz.analysis.defect").of(self, opts) end
 
--- Integrate the motion (lua/nz/simulate.lua): returns a trajectory.
-function System:simulate(opts) return require("nz.simulate").simulate(self, opts) end
--- The motion linearized about an equilibrium or a steady motion (nz/linearize.lua).
-function System:linearize(opts) return require("nz.linearize").linearize(self, opts) end
--- The eigenvalues against a parameter and where stability changes (nz/eigen_sweep.lua).
-function System:eigen_sweep(opts) return require("nz.eigen_sweep").sweep(self, opts) end
--- The equations as formulas (nz/show.lua).
-function System:show(opts) return require("nz.show").show(self, opts) end
--- The equations as code that runs without nzlua (nz/export.lua).
-function System:export(opts) return require("nz.export").export(self, opts) end
--- Time as a coordinate (Rumyantsev, nz/rumyantsev.lua): the parametric
+-- Integrate the motion (lua/nz/motion/simulate.lua): returns a trajectory.
+function System:simulate(opts) return require("nz.motion.simulate").simulate(self, opts) end
+-- The motion linearized about an equilibrium or a steady motion (nz/analysis/linearize.lua).
+function System:linearize(opts) return require("nz.analysis.linearize").linearize(self, opts) end
+-- The eigenvalues against a parameter and where stability changes (nz/analysis/eigen_sweep.lua).
+function System:eigen_sweep(opts) return require("nz.analysis.eigen_sweep").sweep(self, opts) end
+-- The equations as formulas (nz/presentation/show.lua).
+function System:show(opts) return require("nz.presentation.show").show(self, opts) end
+-- The equations as code that runs without nzlua (nz/presentation/export.lua).
+function System:export(opts) return require("nz.presentation.export").export(self, opts) end
+-- Time as a coordinate (Rumyantsev, nz/analysis/rumyantsev.lua): the parametric
 -- system, the energy integral and theorem, the Jacobi-Whittaker reduction.
-function System:parametric(opts) return require("nz.rumyantsev").parametric(self, opts) end
-function System:energy_integral() return require("nz.rumyantsev").energy_integral(self) end
-function System:energy_theorem(tr) return require("nz.rumyantsev").energy_theorem(self, tr) end
-function System:jacobi_whittaker(opts) return require("nz.rumyantsev").jacobi_whittaker(self, opts) end
--- An equilibrium or a steady motion near a guess (Newton, nz/linearize.lua).
-function System:equilibrium(opts) return require("nz.linearize").equilibrium(self, opts) end
+function System:parametric(opts) return require("nz.analysis.rumyantsev").parametric(self, opts) end
+function System:energy_integral() return require("nz.analysis.rumyantsev").energy_integral(self) end
+function System:energy_theorem(tr) return require("nz.analysis.rumyantsev").energy_theorem(self, tr) end
+function System:jacobi_whittaker(opts) return require("nz.analysis.rumyantsev").jacobi_whittaker(self, opts) end
+-- An equilibrium or a steady motion near a guess (Newton, nz/analysis/linearize.lua).
+function System:equilibrium(opts) return require("nz.analysis.linearize").equilibrium(self, opts) end
 
 -- ------------------------------------------------------------------ --
 -- Printing                                                             --
 
-local principles = {
-  [1] = "Nielsen's equations (Jourdain's principle)",
-  [2] = "Tsenov's equations (Gauss's principle)",
-  [3] = "equations with the jerk q''' (generalized Gauss principle of order 3)",
-}
-function M.principle(n)
-  return principles[n] or ("generalized Lagrange equations of order %d (d'Alembert principle for the %d-th derivatives)"):format(n, n)
-end
+-- The name of the equations of order n (nz/model/constraints.lua: the rule's words).
+M.principle = require("nz.model.constraints").principle
 
 local function fmt(x) return ("%.10g"):format(x) end
 
 local function vector_text(v)
   local parts = {}
-  for i = 1, #v do parts[i] = repl.number(v[i]) end
+  for i = 1, #v do parts[i] = text.number(v[i]) end
   return "{" .. table.concat(parts, ", ") .. "}"
 end
 
 -- Aligned table of rows of strings; the first row is the header
--- (nz/text.lua: every table of nz is made there).
-M.table_text = require("nz.text").table
+-- (nz/base/text.lua: every table of nz is made there).
+M.table_text = require("nz.base.text").table
 
 -- The terms of (3.1) of order n at a state, per coordinate, and the
 -- residual at the accelerations qdd.  Without qdd, the system's own
@@ -580,7 +493,7 @@ function System:equations(n, t, q, qd, qdd, opts)
     ("System '%s', order n = %d: %s"):format(self.name, n, M.principle(n)),
     ("  (1/%d) (dT^(%d)/dq^(%d) - %d dT/dq) - Q%s = %s,  Q includes -dV/dq"):format(n, n, n, n + 1,
       lambda and " - A^T lambda" or "", last),
-    ("  at t = %s, q = %s, qd = %s, qdd = %s%s"):format(repl.number(t), vector_text(q), vector_text(qd),
+    ("  at t = %s, q = %s, qd = %s, qdd = %s%s"):format(text.number(t), vector_text(q), vector_text(qd),
       vector_text(qdd), given and "" or " (the system's accelerations)"),
     "",
   }
@@ -603,7 +516,7 @@ function System:equations(n, t, q, qd, qdd, opts)
   end
   local text = table.concat(lines, "\n")
   if opts and opts.quiet then return text, r end
-  require("nz.frontend").print(text)     -- (a notebook shows its table as HTML too)
+  require("nz.base.frontend").print(text)     -- (a notebook shows its table as HTML too)
   return nil
 end
 
@@ -613,7 +526,7 @@ function System:__tostring()
     if self.pieces[p] > 0 then have[#have + 1] = self.pieces[p] > 1 and ("%s (%d pieces)"):format(p, self.pieces[p]) or p end
   end
   if self.nc > 0 then have[#have + 1] = ("%d constraint%s"):format(self.nc, self.nc == 1 and "" or "s") end
-  if self.contact then have[#have + 1] = require("nz.contact").describe(self) end
+  if self.contact then have[#have + 1] = require("nz.model.contact").describe(self) end
   if self.effects and #self.effects > 0 then have[#have + 1] = "effects " .. table.concat(self.effects, ", ") end
   local params = {}
   for k, v in pairs(self.params) do params[#params + 1] = ("%s = %s"):format(k, tostring(v)) end
@@ -665,7 +578,10 @@ function M.euler_op(m, f, t, q, qd, qdd, higher) return operator("E", m, f, t, q
 function M.top_coefficient(m, f, t, q, qd, qdd, higher) return operator("top", m, f, t, q, qd, qdd, higher) end
 function M.partial(m, f, t, q, qd, qdd, higher) return operator("partial", m, f, t, q, qd, qdd, higher) end
 
--- sys.simulate{...} (a dot) is named as such by every method (nz/where.lua).
-require("nz.where").methods(System, "sys", "system")
+-- sys.simulate{...} (a dot) is named as such by every method (nz/base/where.lua).
+require("nz.base.where").methods(System, "sys", "system")
+
+-- The modules below the face make and recognize systems through this.
+classes.new_system = M.system
 
 return M

@@ -9,7 +9,7 @@
  *
  * Binary-safe (a GIF is a field like any other) and read without a JSON
  * parser on either side.  What a request means and what answers it is
- * lua/nz/kernel.lua's; this file moves the frames, makes everything the
+ * lua/nz/session/kernel.lua's; this file moves the frames, makes everything the
  * process prints a frame, and lends Lua the session's way of running a
  * chunk (app/nzlua.h: Ctrl-C, that is SIGINT from the kernel's stop
  * button, interrupts it exactly as at the prompt).
@@ -100,7 +100,7 @@ int nz_kernel_io_begin(char *why, size_t n)
 }
 
 /* ------------------------------------------------------------------ */
-/* What lua/nz/kernel.lua gets                                          */
+/* What lua/nz/session/kernel.lua gets                                          */
 
 /* read() -> kind, {name = value, ...}, or nil at the end of the input. */
 static int k_read(lua_State *L)
@@ -205,7 +205,7 @@ int nz_kernel_io_serve(lua_State *L)
    * process (nzlua_docall installs the session's handler for each cell). */
   nzlua_set_idle_sigint(SIG_IGN);
   lua_getglobal(L, "require");
-  lua_pushliteral(L, "nz.kernel");
+  lua_pushliteral(L, "nz.session.kernel");
   lua_call(L, 1, 1);
   lua_getfield(L, -1, "serve");
   lua_remove(L, -2);

@@ -13,7 +13,7 @@
  * /dev/null.  0, or -1 with the reason in why. */
 int nz_kernel_io_begin(char *why, size_t n);
 
-/* Serve requests until stdin ends or a shutdown request (lua/nz/kernel.lua
+/* Serve requests until stdin ends or a shutdown request (lua/nz/session/kernel.lua
  * answers them).  Returns the Lua status of the loop. */
 int nz_kernel_io_serve(lua_State *L);
 

@@ -424,7 +424,7 @@ static int pushline(lua_State *L, int firstline)
 /* Try the line as an expression whose value prints.  Not `return <line>`:
  * a call there is a tail call, which removes the typed chunk's frame, and
  * an error from a library function would then not start with "stdin:1:"
- * (nz/where.lua looks for the user's frame).  The values pass through a
+ * (nz/base/where.lua looks for the user's frame).  The values pass through a
  * function called after they are computed; the newline keeps a trailing
  * comment from swallowing the parenthesis. */
 static int addreturn(lua_State *L)
@@ -507,7 +507,7 @@ static int loadline(lua_State *L, int *eof)
 static void push_repl_function(lua_State *L, const char *name, const char *fallback)
 {
   lua_getglobal(L, "require");
-  lua_pushliteral(L, "nz.repl");
+  lua_pushliteral(L, "nz.session.repl");
   if (lua_pcall(L, 1, 1, 0) != LUA_OK || !lua_istable(L, -1)) {
     lua_pop(L, 1);
     if (fallback) lua_getglobal(L, fallback);
@@ -573,7 +573,7 @@ static void do_repl(lua_State *L)
 enum { HAS_ERROR = 1, HAS_I = 2, HAS_V = 4, HAS_E = 8, HAS_H = 16, HAS_W = 32, HAS_CACHE = 64, HAS_KERNEL = 128,
        HAS_INSTALL = 256 };
 
-/* --install-kernel's own options start here in argv (lua/nz/kernel.lua reads them). */
+/* --install-kernel's own options start here in argv (lua/nz/session/kernel.lua reads them). */
 static int install_kernel_args = 0;
 
 /* --sweep-worker FILE: the file of the sweep whose points stdin brings. */
@@ -676,11 +676,11 @@ static void createargtable(lua_State *L, char **argv, int argc, int script)
   lua_setglobal(L, "arg");
 }
 
-/* nzlua --sweep-worker FILE (lua/nz/sweep.lua's worker). */
+/* nzlua --sweep-worker FILE (lua/nz/motion/sweep.lua's worker). */
 static int dosweepworker(lua_State *L)
 {
   lua_getglobal(L, "require");
-  lua_pushliteral(L, "nz.sweep");
+  lua_pushliteral(L, "nz.motion.sweep");
   int status = docall(L, 1, 1);
   if (status == LUA_OK) {
     lua_getfield(L, -1, "worker");
@@ -691,7 +691,7 @@ static int dosweepworker(lua_State *L)
   return report(L, status, 0);
 }
 
-/* nzlua --install-kernel [options]: lua/nz/kernel.lua's install, given
+/* nzlua --install-kernel [options]: lua/nz/session/kernel.lua's install, given
  * the options and this program's own path (written into the kernel spec). */
 static int doinstallkernel(lua_State *L, char **argv, int argc)
 {
@@ -699,7 +699,7 @@ static int doinstallkernel(lua_State *L, char **argv, int argc)
   ssize_t n = readlink("/proc/self/exe", exe, sizeof exe - 1);
   exe[n > 0 ? n : 0] = '\0';
   lua_getglobal(L, "require");
-  lua_pushliteral(L, "nz.kernel");
+  lua_pushliteral(L, "nz.session.kernel");
   int status = docall(L, 1, 1);
   if (status == LUA_OK) {
     lua_getfield(L, -1, "install");
@@ -721,7 +721,7 @@ static void open_nz(lua_State *L)
 {
   luaL_requiref(L, "nz", luaopen_nz, 1);
   lua_getglobal(L, "require");
-  lua_pushliteral(L, "nz.repl");
+  lua_pushliteral(L, "nz.session.repl");
   lua_call(L, 1, 1);
   lua_getfield(L, -1, "install_globals");
   lua_pushglobaltable(L);

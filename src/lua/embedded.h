@@ -6,7 +6,7 @@
 
 typedef struct nz_embedded_module {
   const char *name;                /* module name, "nz.help"         */
-  const char *chunkname;           /* "@lua/nz/help.lua", for errors */
+  const char *chunkname;           /* "@lua/nz/session/help.lua", for errors */
   const unsigned char *source;
   size_t size;
 } nz_embedded_module;

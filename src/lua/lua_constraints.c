@@ -1,5 +1,5 @@
 /* lua_constraints.c - constraints for Lua (constrained.h): the primitives
- * that lua/nz/constraints.lua classifies with and the constrained
+ * that lua/nz/model/constraints.lua classifies with and the constrained
  * accelerations (the error of a failed constrained solve, shared with the
  * integrator, is nz_lua_raise_accel_failure in lua_util.c). */
 #include <math.h>

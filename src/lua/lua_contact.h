@@ -1,6 +1,6 @@
 /* lua_contact.h - unilateral contacts for Lua (mech/contact.h): a userdata
  * "nz.contacts" (the contacts of a system, their mode and history, and
- * their names kept as its user value) made by lua/nz/contact_run.lua for a
+ * their names kept as its user value) made by lua/nz/motion/contact_run.lua for a
  * run, handed to the integrators (core.mech.ode_new{contacts = ...}), and
  * functions added to core.mech. */
 #ifndef NZ_LUA_CONTACT_H

@@ -1,7 +1,7 @@
 /* lua_dualjet.c - numbers v + eta d along a state direction (see
  * lua_dualjet.h), for the Lua evaluator of the exact Jacobian.
  *
- * Why in C: the direction used to be a Lua table type (lua/nz/hyperdual.lua)
+ * Why in C: the direction used to be a Lua table type (lua/nz/model/hyperdual.lua)
  * whose every operation went C -> Lua -> C and allocated three objects.  A
  * dualjet is one userdata holding both jets, and each operation is one call.
  *
@@ -18,7 +18,7 @@
  * tangents of all (a number or a plain jet has eta-part zero).
  *
  * Another number type written in Lua among the operands (a nested dual
- * number of nz/hyperdual.lua whose parts are dualjets) is the outer type:
+ * number of nz/model/hyperdual.lua whose parts are dualjets) is the outer type:
  * it takes the call. */
 #include <math.h>
 #include <stdlib.h>

@@ -1,6 +1,6 @@
 /* lua_graph.c - recording a system's functions into a graph, for Lua.
  *
- * lua/nz/record.lua runs the user's functions on tracer values; every
+ * lua/nz/model/record.lua runs the user's functions on tracer values; every
  * operation on a tracer calls one of the methods below, which add a node
  * (folded and shared: graph.h) and return its id; cmp and select record the
  * branch functions (nz.gt, nz.ifelse, nz.max, ...).  The userdata owns the
@@ -54,7 +54,7 @@ static int lg_new(lua_State *L)
 
 /* tracer(mt): a new empty userdata with metatable mt.  The recorder's
  * tracers are userdata so that type(x) answers "userdata" for them as for
- * the jets the Lua evaluator passes (lua/nz/record.lua keeps their nodes). */
+ * the jets the Lua evaluator passes (lua/nz/model/record.lua keeps their nodes). */
 static int lg_tracer(lua_State *L)
 {
   luaL_checktype(L, 1, LUA_TTABLE);
@@ -257,7 +257,7 @@ static int lg_native_wait(lua_State *L)
 }
 
 /* ------------------------------------------------------------------ */
-/* Reading the graph (lua/nz/formula.lua: sys:show and sys:export)      */
+/* Reading the graph (lua/nz/base/formula.lua: sys:show and sys:export)      */
 
 /* nodes([from]) -> {op = {...}, fn = {...}, a = {...}, b = {...}, v = {...},
  * c = {...}}: every node from `from` (0-based, default 0) on, by id + 1:
@@ -444,7 +444,7 @@ static void input_jets(lua_State *L, int idx, int ni, int K, const nz_jet **in)
 /* eval_jets({nodes}, {inputs by number, 0-based: jets or numbers} [,
  * {directions by number}]) -> {jets} [, {eta-parts}], or nil, message: the
  * jets path, for checking a recording against the function on jets with
- * tangents and along a state direction (lua/nz/record.lua).  The outputs
+ * tangents and along a state direction (lua/nz/model/record.lua).  The outputs
  * have the lowest order of the jet inputs and their most tangents. */
 static int lg_eval_jets(lua_State *L)
 {

@@ -235,7 +235,7 @@ static void push_result(lua_State *L, nz_jet *z, int as_number)
 
 /* Another number type among the arguments takes the call: a table whose
  * metatable has a field named `name` (sin, atan2, __add, ...) is a number
- * type written in Lua (lua/nz/hyperdual.lua, the recorder's tracers); a full
+ * type written in Lua (lua/nz/model/hyperdual.lua, the recorder's tracers); a full
  * userdata other than a jet with that field is one written in C (the state
  * direction's "nz.dualjet", src/lua_dualjet.c).  Tables come first: a nested
  * dual number whose parts are dualjets is the outer type.  Returns 1 and
@@ -662,7 +662,7 @@ static int lj_dual(lua_State *L)
 }
 
 /* A jet, or a number type that answers as one (the recorder's tracers
- * stand for the jets the Lua evaluator passes: lua/nz/record.lua). */
+ * stand for the jets the Lua evaluator passes: lua/nz/model/record.lua). */
 static int lj_isjet(lua_State *L)
 {
   lua_settop(L, 1);
@@ -770,7 +770,7 @@ static int lj_coefs(lua_State *L)
 }
 
 /* A coefficient in the shortest decimal that reads back exactly (%.15g,
- * %.16g or %.17g), as the session prints a number (lua/nz/repl.lua):
+ * %.16g or %.17g), as the session prints a number (lua/nz/session/repl.lua):
  * 1/6 is 0.16666666666666666, 0.1 stays 0.1. */
 static void add_number(luaL_Buffer *b, double v)
 {

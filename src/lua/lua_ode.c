@@ -1,6 +1,6 @@
 /* lua_ode.c - the integrator (stepper.h) for Lua: a userdata "nz.ode" owning
  * a GSL stepper (ode.h) or Taylor's method (taylor.h, made by lua_taylor.c)
- * for one system, stepped by lua/nz/simulate.lua (GSL's steppers also in
+ * for one system, stepped by lua/nz/motion/simulate.lua (GSL's steppers also in
  * its Lua loop, through ode_step).  Each call
  * binds the system's definition table again (the evaluator lives for one
  * call), and a failure is raised after GSL has returned, with the time, the
@@ -379,7 +379,7 @@ static int lo_stats(lua_State *L)
  * trajectory first (flush_points below). */
 
 /* ------------------------------------------------------------------ */
-/* Event functions recorded as graphs (lua/nz/record.lua's
+/* Event functions recorded as graphs (lua/nz/model/record.lua's
  * state_functions): a userdata "nz.ode_events" with one plan on doubles per
  * event, its inputs numbered as mech_graph.h says (0 = t, 1..np the
  * parameters, then slot j of q_i at 1 + np + j k + i, j = 0, 1), and the

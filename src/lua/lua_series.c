@@ -1,7 +1,7 @@
 /* lua_series.c - the motion at level p >= 3 (constrained_series.h) for Lua:
  * the start state's multipliers and its check, its completion, the closure
- * test and the equations of one level.  lua/nz/constraints.lua and
- * lua/nz/simulate.lua call these; the stepping itself goes through the
+ * test and the equations of one level.  lua/nz/model/constraints.lua and
+ * lua/nz/motion/simulate.lua call these; the stepping itself goes through the
  * integrator (lua_ode.c, cfg.level). */
 #include <string.h>
 #include <lauxlib.h>

@@ -1,4 +1,4 @@
-/* lua_sweep.c - worker processes for nz.sweep (lua/nz/sweep.lua).
+/* lua_sweep.c - worker processes for nz.sweep (lua/nz/motion/sweep.lua).
  *
  * A Lua state cannot be shared between threads, so a sweep runs its points
  * in processes: fork() copies the whole state, the system and the user's

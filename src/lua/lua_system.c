@@ -594,7 +594,7 @@ static void read_params(lua_State *L, int def, struct nz_compiled *comp, int np)
 
 /* Is one of the names the recorded functions read while it was absent from
  * params (def.params_absent: `p.c or 1`) there now?  Then the recording
- * would miss it: lua/nz/record.lua records again. */
+ * would miss it: lua/nz/model/record.lua records again. */
 static int params_added(lua_State *L, int def)
 {
   int added = 0;

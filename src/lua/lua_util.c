@@ -24,8 +24,9 @@ void nz_lua_fmt_num(char *buf, size_t n, double v)
 }
 
 /* Is this chunk one of the nz library's own files: embedded as
- * "@lua/nz/NAME.lua", or loaded from a checkout (".../lua/nz/NAME.lua")?
- * The same test as nz/where.lua's is_library. */
+ * "@lua/nz/FLOOR/NAME.lua" (or the face's "@lua/nz/NAME.lua"), or loaded
+ * from a checkout (".../lua/nz/...")?  The same test as
+ * nz/base/where.lua's is_library. */
 int nz_lua_library_source(const char *source)
 {
   if (strncmp(source, "@lua/nz/", 8) == 0) return 1;
@@ -33,7 +34,7 @@ int nz_lua_library_source(const char *source)
   if (!dir || source[0] != '@') return 0;
   const char *name = dir + strlen("/lua/nz/");
   size_t n = strlen(name);
-  return n > 4 && strcmp(name + n - 4, ".lua") == 0 && !strchr(name, '/');
+  return n > 4 && strcmp(name + n - 4, ".lua") == 0;
 }
 
 void nz_lua_user_location(lua_State *L, int level, char *where, size_t n)

@@ -17,7 +17,7 @@ void nz_lua_fmt_num(char *buf, size_t n, double v);
 /* Where in the user's code: the library's own chunks ("@lua/nz/NAME.lua",
  * or .../lua/nz/NAME.lua from a checkout), and "file:line:" of the innermost
  * frame from `level` on that is the user's Lua code (not C, not the
- * library), or "" (nz/where.lua's user_where, for C). */
+ * library), or "" (nz/base/where.lua's user_where, for C). */
 int nz_lua_library_source(const char *source);
 void nz_lua_user_location(lua_State *L, int level, char *where, size_t n);
 /* Raise the message on top of the stack with the user's "file:line: " first

@@ -3,7 +3,7 @@
  *
  * A constraint Phi_r(t, q, q', q'', q''', ...) = 0 has an order m (the highest
  * derivative it depends on) and is linear or not in q^(m); both are found
- * numerically (lua/nz/constraints.lua) from the primitives below.  At the
+ * numerically (lua/nz/model/constraints.lua) from the primitives below.  At the
  * acceleration level (§6) a constraint of order m <= 2 is differentiated
  * 2 - m times, which makes it affine in q'' unless m = 2 and it is nonlinear
  * there; then (6.2) and Phi = 0 are solved together by Newton's method. */
@@ -217,7 +217,7 @@ int nz_accel_constrained(const nz_system *s, const int *orders, const int *linea
 /* How far a state (t, q, qd) is from the constraints: the largest |value| of
  * the constraints of order <= 1 (orders[r], the classification) at position
  * level and velocity level (a holonomic one at both: Phi and Phi' = Phi_t +
- * Phi_q q'), into *worst.  The same numbers as lua/nz/constraints.lua's
+ * Phi_q q'), into *worst.  The same numbers as lua/nz/model/constraints.lua's
  * M.violation, by the same primitive (nz_constraint_partials) and the same
  * operations in the same order, so that the stepping loop in C
  * (ode/ode_run.c) decides to project exactly where the Lua loop does. */

@@ -5,7 +5,7 @@
  *
  * The caller steps it one adaptive (or fixed) step at a time, so that the
  * output grid, events, projection and monitors stay in the caller's hands
- * (lua/nz/simulate.lua, or the loop in C of ode_run.h, which reaches it
+ * (lua/nz/motion/simulate.lua, or the loop in C of ode_run.h, which reaches it
  * through the integrator interface: stepper.h, stepper_gsl.c).  Implicit steppers get the exact Jacobian of the
  * first-order system from jets (mech_jacobian.c); at level p >= 3, central
  * differences of the right-hand side (constrained_series.h). */

@@ -2,7 +2,7 @@
  * any integrator of the interface of stepper.h.
  *
  * Each arithmetic step below mirrors a line of the Lua loop in
- * lua/nz/simulate.lua (run()), in the same order and on the same doubles:
+ * lua/nz/motion/simulate.lua (run()), in the same order and on the same doubles:
  * change one and the other together, or the two loops stop agreeing to the
  * bit (tests/simulate_loop_spec.lua would say so).  The Lua loop steps GSL's
  * steppers only; Taylor's method runs here alone. */

@@ -2,7 +2,7 @@
  * driving any integrator of the interface of stepper.h: GSL's steppers
  * (stepper_gsl.c) and Taylor's method (taylor.c) run here alike.
  *
- * lua/nz/simulate.lua steps a GSL integrator (ode.h) one step at a time, in
+ * lua/nz/motion/simulate.lua steps a GSL integrator (ode.h) one step at a time, in
  * Lua (run()).  This loop does the same work without returning to Lua per
  * step: the output grid (t0 + i dt, the last point at t1), fixed steps that
  * land on each output time, the accelerations and multipliers recorded at

@@ -1,0 +1,131 @@
+-- requires.lua - the Lua half's floors and its require graph.
+--
+--   lua5.4 tools/requires.lua          the graph as docs/architecture.md
+--                                      shows it (markdown)
+--   dofile("tools/requires.lua")       the functions, for tests/layers_spec.lua
+--
+-- lua/nz/ holds one folder per floor; a module may require modules of its
+-- own floor and of the floors below it, never above, and no circle of
+-- requires may form (also not through a require written inside a function:
+-- every `require "nz.X"` in a file counts).  The face (lua/nz/system.lua,
+-- lua/nz/init.lua) sits on top and requires what it attaches.
+local M = {}
+
+-- Lowest first.
+M.FLOORS = { "base", "draw", "model", "motion", "analysis", "presentation", "session", "face" }
+M.JOB = {
+  base = "options, messages, text, the classes the face fills: no other nz module below them",
+  draw = "turning values into what a front-end shows: bundles, plots",
+  model = "what a system is: recording, constraints, bodies, effects, scenes, contacts",
+  motion = "running it: the stepping loop, trajectories, sweeps",
+  analysis = "asking it questions: linearization, stability, time as a coordinate, defects, work-precision",
+  presentation = "the equations as formulas and code, the views of a run",
+  session = "the front-ends' shared part: the printer, help, the kernel",
+  face = "nz itself: system.lua attaches the methods, init.lua assembles nz",
+}
+
+local rank = {}
+for i, f in ipairs(M.FLOORS) do rank[f] = i end
+
+local function list(cmd)
+  local p = assert(io.popen(cmd))
+  local out = {}
+  for line in p:lines() do out[#out + 1] = line end
+  p:close()
+  table.sort(out)
+  return out
+end
+
+-- Every module: {name = "nz.model.record", path, floor, requires = {names}}.
+function M.modules(root)
+  root = root or "."
+  local mods = {}
+  for _, path in ipairs(list(("cd %s && find lua/nz -name '*.lua'"):format(root))) do
+    local rel = path:match("^lua/(.*)%.lua$")
+    local name = rel:gsub("/", ".")
+    local folder = rel:match("^nz/([%w_]+)/")
+    local f = assert(io.open(root .. "/" .. path))
+    local src = f:read("a")
+    f:close()
+    local reqs, seen = {}, {}
+    -- (not the C binding nz.core below them all, not the files nzlua
+    -- carries (nz.files.*, tools/embed.lua), not itself: a message that
+    -- shows its own require)
+    for r in src:gmatch("require%s*%(?%s*[\"'](nz%.[%w_.]+)[\"']") do
+      if r ~= "nz.core" and not r:match("^nz%.files%.") and r ~= name and not seen[r] then
+        seen[r] = true
+        reqs[#reqs + 1] = r
+      end
+    end
+    table.sort(reqs)
+    mods[#mods + 1] = { name = name, path = path, floor = folder or "face", requires = reqs }
+  end
+  return mods
+end
+
+-- What breaks the rule: a list of messages (empty when the layers hold).
+function M.violations(mods)
+  local by, bad = {}, {}
+  for _, m in ipairs(mods) do by[m.name] = m end
+  for _, m in ipairs(mods) do
+    if not rank[m.floor] then
+      bad[#bad + 1] = ("%s: folder '%s' is not a floor (tools/requires.lua's FLOORS)"):format(m.path, m.floor)
+    end
+    for _, r in ipairs(m.requires) do
+      local t = by[r]
+      if not t then
+        bad[#bad + 1] = ("%s requires %s, which is no module of lua/nz"):format(m.name, r)
+      elseif rank[t.floor] and rank[m.floor] and rank[t.floor] > rank[m.floor] then
+        bad[#bad + 1] = ("%s (%s) requires %s (%s), a floor above it"):format(m.name, m.floor, r, t.floor)
+      end
+    end
+  end
+  -- circles: a depth-first search, each circle said once by its members
+  local state, stack, said = {}, {}, {}
+  local function visit(name)
+    state[name] = 1
+    stack[#stack + 1] = name
+    for _, r in ipairs(by[name] and by[name].requires or {}) do
+      if state[r] == 1 then
+        local circle, from = {}, nil
+        for i, s in ipairs(stack) do if s == r then from = i end end
+        for i = from, #stack do circle[#circle + 1] = stack[i] end
+        local key = table.concat(circle, " ")
+        if not said[key] then
+          said[key] = true
+          bad[#bad + 1] = "a circle of requires: " .. table.concat(circle, " -> ") .. " -> " .. r
+        end
+      elseif not state[r] and by[r] then
+        visit(r)
+      end
+    end
+    stack[#stack] = nil
+    state[name] = 2
+  end
+  for _, m in ipairs(mods) do if not state[m.name] then visit(m.name) end end
+  return bad
+end
+
+-- The graph in markdown: per floor, each module and what it requires.
+function M.markdown(mods)
+  local out = {}
+  for i = #M.FLOORS, 1, -1 do
+    local f = M.FLOORS[i]
+    out[#out + 1] = ("- **%s** (%s)"):format(f, M.JOB[f])
+    for _, m in ipairs(mods) do
+      if m.floor == f then
+        local short = {}
+        for j, r in ipairs(m.requires) do short[j] = r:gsub("^nz%.", "") end
+        out[#out + 1] = ("  - `%s` -> %s"):format(m.name:gsub("^nz%.", ""),
+          #short > 0 and table.concat(short, ", ") or "(none)")
+      end
+    end
+  end
+  return table.concat(out, "\n")
+end
+
+if arg and arg[0] and arg[0]:match("requires%.lua$") and not debug.getinfo(3) then
+  print(M.markdown(M.modules(".")))
+end
+
+return M
