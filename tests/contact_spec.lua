@@ -1,6 +1,7 @@
 -- contact_spec.lua - unilateral contacts, impacts and friction (issue 26)
 -- against closed forms: a particle leaving a sphere where cos th = (2/3)
--- cos th0 (its time by quadrature, its flight a parabola); a ball's bounce
+-- cos th0 (its time by quadrature, its flight a parabola); a ladder leaving
+-- a smooth wall at the same ratio, two contacts held at once; a ball's bounce
 -- times t1 (1 + 2e (1 - e^(k-1))/(1 - e)), heights h e^(2k), energy lost
 -- (1 - e^2) per bounce and rest after the accumulation time; a block on a
 -- slope that stays, stops at v0^2/(2g(sin a + mu cos a)) and sticks or slides
@@ -87,6 +88,36 @@ describe("closed forms", function()
       local thi = math.atan(tr.q[i][1], tr.q[i][2])
       local N = tr:column("N.sphere")[i]
       assert(math.abs(N - g * (3 * math.cos(thi) - 2 * math.cos(th0))) <= 1e-8, "the normal force m g (3 cos th - 2 cos th0)")
+    end)
+
+    it(("a ladder between a smooth wall and floor leaves the wall when its centre is at 2/3 of its height (%s)"):format(method), function()
+      -- a rod of length 2l, centre (x, y), angle th from the vertical: top (x - l sin th, y + l cos th) on the wall x = 0,
+      -- foot (x + l sin th, y - l cos th) on the floor y = 0; T = (x'^2 + y'^2)/2 + l^2 th'^2/6 (I = m (2l)^2/12)
+      local l, th0 = 1.2, 0.3
+      local ladder = nz.system{ name = "ladder", coords = { "x", "y", "th" },
+        T = function(t, q, qd) return 0.5 * (qd[1] ^ 2 + qd[2] ^ 2) + l ^ 2 / 6 * qd[3] ^ 2 end,
+        V = function(t, q) return g * q[2] end,
+        constraints = { nz.unilateral(function(t, q) return q[1] - l * nz.sin(q[3]) end, { name = "wall" }),
+          nz.unilateral(function(t, q) return q[2] - l * nz.cos(q[3]) end, { name = "floor" }) } }
+      local tr = ladder:simulate{ q0 = { l * math.sin(th0), l * math.cos(th0), th0 }, t1 = 1, dt = 0.01, method = method }
+      local opens = events_of(tr, "opens")
+      assert(#opens == 1 and opens[1].name == "wall", "it leaves the wall once and keeps its foot on the floor")
+      -- against both, the centre moves on a circle of radius l: (2/3) l^2 th'^2 = g l (cos th0 - cos th), and the wall's
+      -- push vanishes where cos th = (2/3) cos th0; t = int dth / sqrt((3g/2l)(cos th0 - cos th)), cos th = cos th0 - s^2
+      local c0 = math.cos(th0)
+      local tf = quad(function(s) return 2 / (math.sin(math.acos(c0 - s * s)) * math.sqrt(1.5 * g / l)) end,
+        0, math.sqrt(c0 / 3), 40)
+      local ev = opens[1]
+      assert(math.abs(math.cos(ev.q[3]) - 2 / 3 * c0) <= 1e-9,
+        ("it leaves at cos th = %.15g, closed form %.15g"):format(math.cos(ev.q[3]), 2 / 3 * c0))
+      assert(math.abs(ev.t - tf) <= 1e-9, ("it leaves at t = %.15g, closed form %.15g"):format(ev.t, tf))
+      -- then no horizontal force: the centre's x' keeps its value at separation, l th' cos th (on the circle)
+      local vx, worst = ev.qd[1], 0
+      assert(math.abs(vx - l * ev.qd[3] * math.cos(ev.q[3])) <= 1e-9, "x' = l th' cos th at separation")
+      for i, t in ipairs(tr.t) do
+        if t > tf then worst = math.max(worst, math.abs(tr.qd[i][1] - vx)) end
+      end
+      assert(worst <= 1e-9, ("x' constant after separation within %.3g"):format(worst))
     end)
 
     it(("a ball bounces at t1 (1 + 2e (1 - e^(k-1))/(1 - e)), loses 1 - e^2 per bounce, then rests (%s)"):format(method), function()

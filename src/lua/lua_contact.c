@@ -60,14 +60,6 @@ static int contacts_gc(lua_State *L)
   return 0;
 }
 
-static double field_number(lua_State *L, int idx, const char *name, double dflt)
-{
-  lua_getfield(L, idx, name);
-  double v = luaL_optnumber(L, -1, dflt);
-  lua_pop(L, 1);
-  return v;
-}
-
 /* contacts_new(def, cfg) -> cs */
 static int lc_new(lua_State *L)
 {
@@ -75,7 +67,7 @@ static int lc_new(lua_State *L)
   nz_lua_bind_system(L, 1, &b);
   luaL_checktype(L, 2, LUA_TTABLE);
   int k = b.sys.k, nc = b.sys.nc;
-  int nb = (int)field_number(L, 2, "nb", 0.0);
+  int nb = (int)nz_lua_field_number(L, 2, "nb", 0.0);
   lua_getfield(L, 2, "orders");
   luaL_checktype(L, -1, LUA_TTABLE);
   int *orders = lua_newuserdatauv(L, ((size_t)nc + 1) * sizeof(int), 0);
@@ -92,14 +84,14 @@ static int lc_new(lua_State *L)
     lua_geti(L, -2, j + 1);
     luaL_checktype(L, -1, LUA_TTABLE);
     int top = lua_gettop(L);
-    defs[j].gap = (int)field_number(L, top, "gap", 0.0) - 1;
-    defs[j].slip = (int)field_number(L, top, "slip", 0.0) - 1;
-    defs[j].e = field_number(L, top, "e", 0.0);
-    defs[j].mu = field_number(L, top, "mu", 0.0);
-    defs[j].mu_s = field_number(L, top, "mu_s", defs[j].mu);
+    defs[j].gap = (int)nz_lua_field_number(L, top, "gap", 0.0) - 1;
+    defs[j].slip = (int)nz_lua_field_number(L, top, "slip", 0.0) - 1;
+    defs[j].e = nz_lua_field_number(L, top, "e", 0.0);
+    defs[j].mu = nz_lua_field_number(L, top, "mu", 0.0);
+    defs[j].mu_s = nz_lua_field_number(L, top, "mu_s", defs[j].mu);
     lua_pop(L, 1);
   }
-  nz_contacts_config cfg = { nc, nb, orders, n, defs, field_number(L, 2, "zeno_speed", 0.0), 0.0 };
+  nz_contacts_config cfg = { nc, nb, orders, n, defs, nz_lua_field_number(L, 2, "zeno_speed", 0.0), 0.0 };
   contacts_box *box = lua_newuserdatauv(L, sizeof *box, 0);
   memset(box, 0, sizeof *box);
   luaL_setmetatable(L, NZ_CONTACTS_METATABLE);

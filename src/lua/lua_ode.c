@@ -62,14 +62,6 @@ static int ode_gc(lua_State *L)
   return 0;
 }
 
-static double number_field(lua_State *L, int idx, const char *name, double dflt)
-{
-  lua_getfield(L, idx, name);
-  double v = luaL_optnumber(L, -1, dflt);
-  lua_pop(L, 1);
-  return v;
-}
-
 /* ode_new(def, cfg) with cfg = {method, rtol, atol, h0, work, orders,
  * linear, alpha, beta, newton_tol, newton_maxit} -> ode */
 static int lo_new(lua_State *L)
@@ -115,13 +107,13 @@ static int lo_new(lua_State *L)
     luaL_pushresult(&msg);
     return nz_lua_raise_located(L);
   }
-  cfg.rtol = number_field(L, 2, "rtol", 1e-10);
-  cfg.atol = number_field(L, 2, "atol", 1e-12);
-  cfg.h0 = number_field(L, 2, "h0", 1e-3);
+  cfg.rtol = nz_lua_field_number(L, 2, "rtol", 1e-10);
+  cfg.atol = nz_lua_field_number(L, 2, "atol", 1e-12);
+  cfg.h0 = nz_lua_field_number(L, 2, "h0", 1e-3);
   lua_getfield(L, 2, "work");
   cfg.work = lua_toboolean(L, -1);
   lua_pop(L, 1);
-  cfg.level = (int)number_field(L, 2, "level", 0.0);
+  cfg.level = (int)nz_lua_field_number(L, 2, "level", 0.0);
   lua_getfield(L, 2, "top");
   cfg.top = lua_toboolean(L, -1);
   lua_pop(L, 1);
@@ -145,11 +137,11 @@ static int lo_new(lua_State *L)
   cfg.orders = flags;
   cfg.linear = flags + nc + 1;
   nz_accel_options acc = NZ_ACCEL_DEFAULTS;
-  acc.baumgarte_alpha = number_field(L, 2, "alpha", 0.0);
-  acc.baumgarte_beta = number_field(L, 2, "beta", 0.0);
-  acc.newton_tol = number_field(L, 2, "newton_tol", acc.newton_tol);
-  acc.newton_maxit = (int)number_field(L, 2, "newton_maxit", acc.newton_maxit);
-  acc.rcond_min = number_field(L, 2, "rcond_min", acc.rcond_min);
+  acc.baumgarte_alpha = nz_lua_field_number(L, 2, "alpha", 0.0);
+  acc.baumgarte_beta = nz_lua_field_number(L, 2, "beta", 0.0);
+  acc.newton_tol = nz_lua_field_number(L, 2, "newton_tol", acc.newton_tol);
+  acc.newton_maxit = (int)nz_lua_field_number(L, 2, "newton_maxit", acc.newton_maxit);
+  acc.rcond_min = nz_lua_field_number(L, 2, "rcond_min", acc.rcond_min);
   lua_getfield(L, 2, "check");              /* false: trust every solve (to measure the check) */
   acc.skip_check = lua_isboolean(L, -1) && !lua_toboolean(L, -1);
   lua_pop(L, 1);
@@ -567,17 +559,17 @@ static int lo_run_new(lua_State *L)
   luaL_checktype(L, 2, LUA_TTABLE);
   nz_run_config c;
   memset(&c, 0, sizeof c);
-  c.t0 = number_field(L, 2, "t0", 0.0);
-  c.t1 = number_field(L, 2, "t1", 0.0);
-  c.dt = number_field(L, 2, "dt", 0.0);
-  c.step = number_field(L, 2, "step", 0.0);
-  c.h0 = number_field(L, 2, "h0", 1e-3);
-  c.stall_window = (unsigned long)number_field(L, 2, "stall_window", 1000.0);
-  c.stall_fraction = number_field(L, 2, "stall_fraction", 1e-10);
-  c.capacity = (int)number_field(L, 2, "capacity", 1024.0);
-  c.project_tol = number_field(L, 2, "project_tol", 0.0);
-  c.rtol = number_field(L, 2, "rtol", 0.0);
-  c.atol = number_field(L, 2, "atol", 0.0);
+  c.t0 = nz_lua_field_number(L, 2, "t0", 0.0);
+  c.t1 = nz_lua_field_number(L, 2, "t1", 0.0);
+  c.dt = nz_lua_field_number(L, 2, "dt", 0.0);
+  c.step = nz_lua_field_number(L, 2, "step", 0.0);
+  c.h0 = nz_lua_field_number(L, 2, "h0", 1e-3);
+  c.stall_window = (unsigned long)nz_lua_field_number(L, 2, "stall_window", 1000.0);
+  c.stall_fraction = nz_lua_field_number(L, 2, "stall_fraction", 1e-10);
+  c.capacity = (int)nz_lua_field_number(L, 2, "capacity", 1024.0);
+  c.project_tol = nz_lua_field_number(L, 2, "project_tol", 0.0);
+  c.rtol = nz_lua_field_number(L, 2, "rtol", 0.0);
+  c.atol = nz_lua_field_number(L, 2, "atol", 0.0);
   lua_getfield(L, 2, "dense");
   c.dense = lua_toboolean(L, -1);
   lua_pop(L, 1);
@@ -585,7 +577,7 @@ static int lo_run_new(lua_State *L)
   events_box *eb = lua_isnil(L, 3) ? NULL : luaL_checkudata(L, 3, NZ_EVENTS_METATABLE);
   lua_getfield(L, 2, "fallback");                          /* at 4 */
   if (eb && !lua_isnil(L, 4)) luaL_checktype(L, 4, LUA_TFUNCTION);
-  c.event_tol = number_field(L, 2, "event_tol", 1e-12);
+  c.event_tol = nz_lua_field_number(L, 2, "event_tol", 1e-12);
   int nuser = eb ? eb->n : 0;
   /* the contacts' events follow the user's, each falling through zero */
   c.nchange = ob->contacts ? nz_contacts_nevents(ob->contacts) : 0;

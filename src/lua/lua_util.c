@@ -168,6 +168,14 @@ int nz_lua_try_vector(lua_State *L, int idx, int k, double *v)
   return 1;
 }
 
+double nz_lua_field_number(lua_State *L, int idx, const char *name, double dflt)
+{
+  lua_getfield(L, idx, name);
+  double v = luaL_optnumber(L, -1, dflt);
+  lua_pop(L, 1);
+  return v;
+}
+
 void nz_lua_push_vector(lua_State *L, const double *v, int k)
 {
   lua_createtable(L, k, 0);

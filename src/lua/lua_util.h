@@ -36,6 +36,9 @@ int nz_lua_try_vector(lua_State *L, int idx, int k, double *v);
 void nz_lua_read_vector(lua_State *L, int idx, int k, double *v, const char *what, int allow_nil,
                         const char *fname);
 void nz_lua_push_vector(lua_State *L, const double *v, int k);
+/* The number in field name of the table at idx, dflt when it is nil (a
+ * configuration table the library's Lua side built and checked). */
+double nz_lua_field_number(lua_State *L, int idx, const char *name, double dflt);
 void nz_lua_push_matrix(lua_State *L, const double *M, int k);
 /* Arguments 2, 3, 4: t, q, qd (nil qd: zeros). */
 void nz_lua_read_tq_qd(lua_State *L, int k, double *t, double *q, double *qd, const char *fname);

@@ -276,22 +276,32 @@ local function place_labels(text, series, drawn, g, opts, ylabel)
   return text:sub(1, start - 1) .. table.concat(rows, "\n", 1, height) .. "\n"
 end
 
--- A notebook's plot: the SVG of the same plot shown inline, sized from
--- the terminal's characters (PX_PER_COLUMN, PX_PER_LINE: 100 x 30, the
--- terminal's default, is 800 x 480 pixels), with a line of text beside it.
+-- A picture for a notebook: draw(o) draws into a temporary file of the
+-- given extension, o being opts with file, width and height set (width and
+-- height in the terminal's characters, PX_PER_COLUMN x PX_PER_LINE pixels
+-- each: 100 x 30, the terminal's default, is 800 x 480; nil keeps the
+-- drawing's own size). Returns the file's bytes; the temporary files are
+-- removed whatever happens and draw's error is raised again.
 local PX_PER_COLUMN, PX_PER_LINE = 8, 16
-function M.inline(opts)
+function M.drawn(ext, draw, opts, width, height)
   local tmp = os.tmpname()
-  local file = tmp .. ".svg"
-  local o = setmetatable({ file = file, width = (opts.width or 100) * PX_PER_COLUMN, height = (opts.height or 30) * PX_PER_LINE },
+  local file = tmp .. "." .. ext
+  local o = setmetatable({ file = file, width = width and width * PX_PER_COLUMN, height = height and height * PX_PER_LINE },
     { __index = opts })
-  local ok, err = pcall(M.lines, o)
+  local ok, err = pcall(draw, o)
   local f = io.open(file, "rb")
-  local svg = f and f:read("a")
+  local bytes = f and f:read("a")
   if f then f:close() end
   os.remove(file)
   os.remove(tmp)
   if not ok then error(err, 0) end
+  return bytes
+end
+
+-- A notebook's plot: the SVG of the same plot shown inline, sized from the
+-- terminal's characters, with a line of text beside it.
+function M.inline(opts)
+  local svg = M.drawn("svg", M.lines, opts, opts.width or 100, opts.height or 30)
   local names = {}
   for i, s in ipairs(opts.series) do names[i] = s.name or ("series " .. i) end
   display.show(display.bundle{

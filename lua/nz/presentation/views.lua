@@ -212,21 +212,11 @@ end
 local ANIMATE = require("nz.base.options").declare("tr:animate", { file = true, frames = true, fps = true, draw = true,
   plane = true, links = true, range = true, width = true, height = true, title = true })
 -- In a notebook: the animated GIF shown inline (sized as a file's unless
--- width and height are given, then in the terminal's characters, 8 x 16
--- pixels each), with a line of text beside it.
+-- width and height are given, then in the terminal's characters, as a
+-- plot's), with a line of text beside it.
 local animate
 function M.inline_animation(tr, opts, nframes)
-  local tmp = os.tmpname()
-  local file = tmp .. ".gif"
-  local o = setmetatable({ file = file, width = opts.width and opts.width * 8, height = opts.height and opts.height * 16 },
-    { __index = opts })
-  local ok, err = pcall(animate, tr, o)
-  local f = io.open(file, "rb")
-  local gif = f and f:read("a")
-  if f then f:close() end
-  os.remove(file)
-  os.remove(tmp)
-  if not ok then error(err, 0) end
+  local gif = plot.drawn("gif", function(o) return animate(tr, o) end, opts, opts.width, opts.height)
   local display = require "nz.draw.display"
   display.show(display.bundle{
     ["image/gif"] = gif,
