@@ -159,6 +159,27 @@ describe("nz.workprecision's timing", function()
     assert(large[1].runs > small[1].runs, ("%d runs with 0.1 s, %d with 0.01 s"):format(large[1].runs, small[1].runs))
   end)
 
+  it("the budget is the runs' own time, however large the session's heap (collections are neither timed nor counted)",
+    function()
+    -- a million live tables: a full collection here costs more than a run
+    -- of the cheap point, so a budget that counted one before every run (the
+    -- first version) was spent on collections and both studies ran 3 times
+    local sys = fresh_kepler()
+    local live = {}
+    for i = 1, 1000000 do live[i] = { i } end
+    local t0 = os.clock()
+    collectgarbage()
+    local one_collection = os.clock() - t0
+    local small = nz.workprecision(sys, study_opts{ methods = { "rk8pd" }, tols = { 1e-6 }, budget = 0.01 })
+    local large = nz.workprecision(sys, study_opts{ methods = { "rk8pd" }, tols = { 1e-6 }, budget = 0.1 })
+    live = nil
+    collectgarbage()
+    assert(large[1].runs > small[1].runs, ("%d runs with 0.1 s, %d with 0.01 s (a full collection took %.3g s)"):format(
+      large[1].runs, small[1].runs, one_collection))
+    -- the budget was spent on runs: all but the last run fit in it
+    assert(large[1].runs == 3 or (large[1].runs - 1) * large[1].time < 0.1, large[1].runs)
+  end)
+
   it("one evaluator for the whole study, named in its title; the system's own setting restored", function()
     local native_off = os.getenv("NZLUA_NATIVE") == "0"
     -- the machine-code setting as the study sets it (the compiled object's
