@@ -9,9 +9,11 @@
 -- amplitudes 1 - cos th_k+1 = e^2 (1 - cos th_k) at e < 1, the impacts at
 -- odd quarter periods K(k) sqrt(l/g)); a double pendulum's tip hitting a
 -- wall against the impulse equations written out by hand; Newton's cradle
--- under the simultaneous law; a block on a moving belt sticking and slipping
--- at the closed-form times; every method; Painleve's paradox; scenes; what
--- the trajectory shows; every error.
+-- under the simultaneous law; a billiard ball slipping, then rolling at
+-- 5/7 of its speed; a ball on a vibrating table (Newton's law relative to
+-- it); a block on a moving belt sticking and slipping at the closed-form
+-- times; every method; Painleve's paradox; scenes; what the trajectory
+-- shows; every error.
 local h = require "tests.helpers"
 local nz = h.nz
 local E = nz.effects
@@ -300,6 +302,50 @@ describe("closed forms", function()
       local w = impacts[1].qd_after
       assert(max_abs{ w[1] + v / 3, w[2] - 2 * v / 3, w[3] - 2 * v / 3 } <= 1e-13, "(-1/3, 2/3, 2/3) v")
       assert(math.abs(impacts[1].energy_lost) <= 1e-13, "e = 1: no energy lost")
+    end
+  end)
+
+  it("a billiard ball launched without spin slips, then rolls at 5/7 of its speed from t = 2 v0 / (7 mu g)", function()
+    -- a solid sphere of radius R on a floor: T = (x'^2 + y'^2)/2 + (2/5) R^2 phi'^2 / 2, slip velocity x' - R phi';
+    -- while it slips x'' = -mu g and R phi'' = (5/2) mu g, so the slip x' - R phi' = v0 - (7/2) mu g t vanishes at
+    -- t = 2 v0 / (7 mu g), where x' = 5 v0 / 7; then it rolls (mu_s holds it: no force is needed)
+    local R, mu, v0 = 0.3, 0.2, 3.0
+    local ball = nz.system{ name = "billiard ball", coords = { "x", "y", "phi" },
+      T = function(t, q, qd) return 0.5 * (qd[1] ^ 2 + qd[2] ^ 2) + 0.5 * 0.4 * R ^ 2 * qd[3] ^ 2 end,
+      V = function(t, q) return g * q[2] end,
+      constraints = { nz.unilateral(function(t, q) return q[2] - R end,
+        { name = "floor", mu = mu, mu_s = 0.25, slip = function(t, q, qd) return qd[1] - R * qd[3] end }) } }
+    local t_roll = 2 * v0 / (7 * mu * g)
+    for _, method in ipairs{ "rk8pd", "taylor" } do
+      local tr = ball:simulate{ q0 = { 0, R, 0 }, qd0 = { v0, 0, 0 }, t1 = 1, dt = 0.01, method = method }
+      local sticks = events_of(tr, "sticks")
+      assert(#sticks == 1 and #events_of(tr, "slips") == 1, method .. ": it slips from the start, then rolls once")
+      assert(math.abs(sticks[1].t - t_roll) <= 1e-9, ("%s: rolls from t = %.15g, closed form %.15g"):format(method,
+        sticks[1].t, t_roll))
+      assert(math.abs(sticks[1].qd[1] - 5 * v0 / 7) <= 1e-9, ("%s: x' = %.15g at rolling, closed form 5 v0/7"):format(method,
+        sticks[1].qd[1]))
+      local n = #tr.t
+      assert(math.abs(tr.qd[n][1] - 5 * v0 / 7) <= 1e-9 and math.abs(tr.qd[n][1] - R * tr.qd[n][3]) <= 1e-9,
+        method .. ": it keeps rolling at 5 v0/7")
+    end
+  end)
+
+  it("a ball dropped on a vibrating table: Newton's law on the velocity relative to the table", function()
+    -- the table at A sin(w t): the impact at 0.5 - g t^2/2 = A sin(w t) (Newton's method here), and after it
+    -- v+ - u = -e (v- - u) with u = A w cos(w t), the table's velocity
+    local A, w, e = 0.01, 20, 0.7
+    local ball = nz.system{ name = "ball on a table", coords = { "y" },
+      T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end, V = function(t, q) return g * q[1] end,
+      constraints = { nz.unilateral(function(t, q) return q[1] - A * nz.sin(w * t) end, { e = e, name = "table" }) } }
+    local t = math.sqrt(1 / g)
+    for _ = 1, 50 do t = t - (0.5 - g * t * t / 2 - A * math.sin(w * t)) / (-g * t - A * w * math.cos(w * t)) end
+    local u = A * w * math.cos(w * t)
+    for _, method in ipairs{ "rk8pd", "taylor", "rkf45" } do
+      local tr = ball:simulate{ q0 = { 0.5 }, t1 = 0.4, dt = 0.01, method = method }
+      local ev = events_of(tr, "impact")[1]
+      assert(ev and math.abs(ev.t - t) <= 1e-9, ("%s: the impact at %.15g, closed form %.15g"):format(method, ev and ev.t, t))
+      assert(math.abs(ev.qd_after[1] - (u - e * (-g * t - u))) <= 1e-8,
+        ("%s: v+ = %.12g, Newton's law on the relative velocity %.12g"):format(method, ev.qd_after[1], u - e * (-g * t - u)))
     end
   end)
 
