@@ -5,7 +5,7 @@
 #include <stddef.h>
 
 typedef struct nz_embedded_module {
-  const char *name;                /* module name, "nz.help"         */
+  const char *name;                /* module name, "nz.session.help" */
   const char *chunkname;           /* "@lua/nz/session/help.lua", for errors */
   const unsigned char *source;
   size_t size;
