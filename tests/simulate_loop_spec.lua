@@ -200,7 +200,7 @@ end)
 
 describe("events in the C loop (recorded once as graphs, evaluated in C after every step)", function()
   -- th crosses 0 about every 1 s at this amplitude; qd crosses 0 at the turns.
-  it("several events, either way, rising and falling, none stopping", function()
+  it("several events, either way, rising and falling, none stopping; each says which way it crossed", function()
     local a, b = both(pendulum, { q0 = { 1 }, t1 = 5, dt = 0.1, events = {
       { f = function(t, q) return q[1] end, name = "zero" },
       { f = function(t, q, qd) return qd[1] end, direction = 1, name = "left turn" },
@@ -215,6 +215,26 @@ describe("events in the C loop (recorded once as graphs, evaluated in C after ev
       if ev.name == "right turn" then assert(ev.q[1] > 0) end
     end
     assert.are.equal(#a.events, #b.events)
+    -- each says which way it crossed: th through 0 the way th' goes there,
+    -- the turns as their filters ask; the same with events located in C on
+    -- Taylor's polynomial, and on a GSL stepper's interpolant
+    local function check_directions(tr, what)
+      for i, ev in ipairs(tr.events) do
+        local want = ev.name == "zero" and (ev.qd[1] > 0 and 1 or -1) or ev.name == "left turn" and 1 or -1
+        assert(ev.direction == want, ("%s: event %d (%s at t = %.6f) crossed %s, said %s"):format(what, i, ev.name, ev.t,
+          want, tostring(ev.direction)))
+      end
+    end
+    check_directions(a, "the Lua loop")
+    check_directions(b, "the C loop")
+    for _, method in ipairs{ "taylor", "rk8pd" } do
+      local tr = pendulum:simulate{ q0 = { 1 }, t1 = 5, dt = 0.1, method = method, events = {
+        { f = function(t, q) return q[1] end, name = "zero" },
+        { f = function(t, q, qd) return qd[1] end, direction = 1, name = "left turn" },
+        { f = function(t, q, qd) return qd[1] end, direction = -1, name = "right turn" } } }
+      assert.are.equal(#b.events, #tr.events)
+      check_directions(tr, method .. " with dense output")
+    end
   end)
   it("a stopping event: the point where it stops ends the trajectory (with the monitors recorded there)", function()
     local _, b = both(pendulum, { q0 = { 1 }, t1 = 5, dt = 0.1, monitors = { energy = true },

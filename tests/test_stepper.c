@@ -175,7 +175,7 @@ static void check_run(const char *name)
   nz_run_set_events(r, ev_x, NULL);
   /* x = A cos(w t - phi): zeros at w t = phi + pi/2 + n pi */
   double phi = atan2(V0 / W, X0);
-  int npts = 0, nev = 0, located_all = 1, status;
+  int npts = 0, nev = 0, located_all = 1, wrong_dir = 0, status;
   double worst = 0.0, worst_ev = 0.0;
   nz_run_status rs;
   while ((rs = nz_run_advance(r, &s, 0, 0.0, &status)) != NZ_RUN_DONE) {
@@ -183,9 +183,12 @@ static void check_run(const char *name)
       int e;
       double te;
       const double *ye;
-      if (nz_run_located(r, &e, &te, &ye)) {
+      int dir;
+      if (nz_run_located(r, &e, &te, &ye, &dir)) {
         double n = round((W * te - phi - M_PI / 2) / M_PI);
         worst_ev = fmax(worst_ev, fmax(fabs(te - (phi + M_PI / 2 + n * M_PI) / W), fabs(ye[0])));
+        /* x' = -A w sin(w t - phi) = -A w (-1)^n there: falling for even n */
+        wrong_dir += dir != ((long)n % 2 == 0 ? -1 : 1);
       } else located_all = 0;
       nev++;
       continue;
@@ -215,6 +218,8 @@ static void check_run(const char *name)
   if (st->exact_dense)
     gsl_test(!located_all || !(worst_ev <= 1e-11),
              "%s: each located on the polynomial within 1e-11 of (n pi + pi/2 + phi) / w (%.3g)", name, worst_ev);
+  if (st->exact_dense)
+    gsl_test(wrong_dir != 0, "%s: each said rising or falling as x' says (%d wrong)", name, wrong_dir);
   else gsl_test(located_all, "%s: crossings handed to the caller to locate", name);
   /* a point the interpolant's control made a step end costs a step taken
    * again, which the integrator counts too */

@@ -742,12 +742,14 @@ static int lo_run(lua_State *L)
     int e, dim = rb->ode->dim;
     double ta, ga, tb, gb;
     const double *ya, *yb;
-    if (nz_run_located(rb->r, &e, &ta, &ya)) {   /* located here (taylor): "located", e, te, ye */
+    int dir;
+    if (nz_run_located(rb->r, &e, &ta, &ya, &dir)) {   /* located here (taylor): "located", e, te, ye, dir */
       lua_pushliteral(L, "located");
       lua_pushinteger(L, e + 1);
       lua_pushnumber(L, ta);
       nz_lua_push_vector(L, ya, dim);
-      return 4;
+      lua_pushinteger(L, dir);
+      return 5;
     }
     nz_run_event(rb->r, &e, &ta, &ya, &ga, &tb, &gb, &yb);
     lua_pushliteral(L, "event");

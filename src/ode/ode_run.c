@@ -67,7 +67,7 @@ struct nz_run {
   int exact;                      /* dense output from an exact one, nothing projected: exact_step */
   int locate, nloc, loc_next, loc_located;
   double *loc_t, *loc_y;          /* nev times, nev states */
-  int *loc_e;
+  int *loc_e, *loc_dir;            /* which event, and which way it crossed (1 rising, -1 falling) */
 };
 
 double nz_run_clock(void)
@@ -118,7 +118,8 @@ nz_run *nz_run_alloc(nz_stepper *st, const nz_run_config *cfg, const double *y0)
   r->loc_t = malloc((size_t)r->nev * sizeof(double) + 1);
   r->loc_y = malloc((size_t)r->nev * dim * sizeof(double) + 1);
   r->loc_e = malloc((size_t)r->nev * sizeof(int) + 1);
-  if (!r->loc_t || !r->loc_y || !r->loc_e) r->yi = (free(r->yi), NULL);
+  r->loc_dir = malloc((size_t)r->nev * sizeof(int) + 1);
+  if (!r->loc_t || !r->loc_y || !r->loc_e || !r->loc_dir) r->yi = (free(r->yi), NULL);
   /* Dense output needs adaptive steps and a tolerance to control it by. */
   r->c.dense = cfg->dense && cfg->step == 0.0 && finite_positive(cfg->rtol + cfg->atol) && cfg->rtol >= 0.0 &&
                cfg->atol >= 0.0;
@@ -164,6 +165,7 @@ void nz_run_free(nz_run *r)
   free(r->loc_t);
   free(r->loc_y);
   free(r->loc_e);
+  free(r->loc_dir);
   free(r);
 }
 
@@ -410,6 +412,7 @@ static int locate_events(nz_run *r, const nz_system *s, int from, int *all_ok)
     int n = r->nloc;
     if ((st = locate(r, s, e, r->ta, ga, r->t, g, &r->loc_t[n], r->loc_y + (size_t)n * dim, all_ok))) return st;
     r->loc_e[n] = e;
+    r->loc_dir[n] = g > ga ? 1 : -1;
     for (; n > 0 && r->loc_t[n] < r->loc_t[n - 1]; n--) {
       double tt = r->loc_t[n];
       r->loc_t[n] = r->loc_t[n - 1];
@@ -417,6 +420,9 @@ static int locate_events(nz_run *r, const nz_system *s, int from, int *all_ok)
       int ee = r->loc_e[n];
       r->loc_e[n] = r->loc_e[n - 1];
       r->loc_e[n - 1] = ee;
+      int dd = r->loc_dir[n];
+      r->loc_dir[n] = r->loc_dir[n - 1];
+      r->loc_dir[n - 1] = dd;
       double *a = r->loc_y + (size_t)n * dim, *b = a - dim;
       for (size_t i = 0; i < dim; i++) {
         double v = a[i];
@@ -694,11 +700,12 @@ void nz_run_set_state(nz_run *r, const double *y)
   r->start_ok = 0;
 }
 
-int nz_run_located(const nz_run *r, int *e, double *te, const double **ye)
+int nz_run_located(const nz_run *r, int *e, double *te, const double **ye, int *dir)
 {
   if (r->phase != PH_LOCATED) return 0;
   int i = r->loc_located;
   *e = r->loc_e[i];
+  if (dir) *dir = r->loc_dir[i];
   *te = r->loc_t[i];
   *ye = r->loc_y + (size_t)i * (size_t)r->dim;
   return 1;

@@ -156,8 +156,9 @@ void nz_run_set_events(nz_run *r, nz_run_event_fn fn, void *ctx);
 void nz_run_event(const nz_run *r, int *e, double *ta, const double **ya, double *ga, double *tb,
                   double *gb, const double **yb);
 /* After NZ_RUN_EVENT: 1 when the loop located it (event e at te, state ye,
- * valid until the next call), 0 when the caller locates it. */
-int nz_run_located(const nz_run *r, int *e, double *te, const double **ye);
+ * valid until the next call; *dir, unless dir is NULL, 1 when its value
+ * rose through zero and -1 when it fell), 0 when the caller locates it. */
+int nz_run_located(const nz_run *r, int *e, double *te, const double **ye, int *dir);
 
 /* Replace the state of the last accepted step (dim values: the projected
  * state after NZ_RUN_PROJECT); the next step starts afresh from it. */

@@ -1024,13 +1024,13 @@ function M.simulate(sys, opts)
     end
   end
 
-  -- Event e at te, state ye: recorded; true when it stops the run (its
-  -- point recorded).
-  local function on_located(e, te, ye)
+  -- Event e at te, state ye, its value rising through zero (dir = 1) or
+  -- falling (-1): recorded; true when it stops the run (its point recorded).
+  local function on_located(e, te, ye, dir)
     if e > #cfg.events then return contact:located(e - #cfg.events, te, ye) end   -- a contact's event
     local ev = cfg.events[e]
     local q, qd = split(ye, k)
-    tr.events[#tr.events + 1] = { name = ev.name, t = te, q = q, qd = qd }
+    tr.events[#tr.events + 1] = { name = ev.name, t = te, q = q, qd = qd, direction = dir }
     if ev.stop then
       -- dense output recorded the step's output points before its events:
       -- those past the event go
@@ -1051,8 +1051,13 @@ function M.simulate(sys, opts)
   -- Event e crossed in the step from (ta, ya) to (tb, yb): locate it and
   -- record it; true when it stops the run (its point recorded).
   local function on_event(e, ta, ya, ga, tb, gb, yb)
-    if contact then return on_located(contact:first(e, ta, ya, ga, tb, gb, yb)) end   -- the earliest event first
-    return on_located(e, locate(cfg.events[e], ta, ya, ga, tb, gb, yb))
+    local dir = gb > ga and 1 or -1
+    if contact then                                  -- the earliest event first
+      local ef, te, ye = contact:first(e, ta, ya, ga, tb, gb, yb)
+      return on_located(ef, te, ye, dir)
+    end
+    local te, ye = locate(cfg.events[e], ta, ya, ga, tb, gb, yb)
+    return on_located(e, te, ye, dir)
   end
 
   -- A Taylor step that failed ({taylor_stop = why, message = what} from the
@@ -1170,7 +1175,7 @@ function M.simulate(sys, opts)
         cdone = #tr.t                               -- its point recorded whole by record()
         return
       end
-      if status == "located" and on_located(a1, a2, a3) then   -- located in C (taylor's polynomial)
+      if status == "located" and on_located(a1, a2, a3, a4) then   -- located in C (taylor's polynomial)
         cdone = #tr.t
         return
       end

@@ -125,6 +125,7 @@ local function objects()
           { "t", "the time of the crossing, located to event_tol (1e-12)" },
           { "q", "the coordinates there: tr.events[e].q[j]" },
           { "qd", "the velocities there (a contact's: before its impact)" },
+          { "direction", "1 when the event's f rose through zero, -1 when it fell (not a contact's)" },
           { "contact", "a contact's event: the contact's number; its name is .name" },
           { "kind", "a contact's event: \"impact\", \"closes\", \"opens\", \"sticks\" or \"slips\"" },
           { "qd_after", "a contact's event: the velocities after it (an impact's q'+)" },
