@@ -202,7 +202,7 @@ describe("integration at level 3: a servo constraint on the jerk", function()
     local s = math.sin(t) / 5
     assert(max_diff(q3, { s, 2 * s }) <= 1e-15, ("{%.17g, %.17g}"):format(q3[1], q3[2]))
   end)
-  it("tr:column(\"x'''\") is the run's q''' = (1, 2) sin t / 5 (closed form), from the equations of level 3", function()
+  it("tr:column(\"x'''\") and tr:csv hold the run's q''' = (1, 2) sin t / 5 (closed form), from the equations of level 3", function()
     local _, _, rep = sys:project(0, q0, qd0, { qdd = { 0.2, 0.1 } })
     local tr = sys:simulate{ q0 = q0, qd0 = qd0, qdd0 = rep.qdd, t1 = 2, dt = 0.1 }
     local x3, y3 = tr:column("x'''"), tr:column("y'''")
@@ -219,6 +219,18 @@ describe("integration at level 3: a servo constraint on the jerk", function()
     assert.is_false(ok)
     assert.truthy(msg:find([[no quantity "x''''": this run holds the derivatives up to x''' only]], 1, true), msg)
     assert.truthy(msg:find("x'', y'', x''', y''', lambda1", 1, true), msg)
+    -- and tr:csv writes them, after q'' and before the multipliers, as the same numbers
+    local text = tr:csv()
+    local header = text:match("^[^\n]*")
+    assert.are.equal("t,x,y,x',y',x'',y'',x''',y''',lambda1,violation", header)
+    local n = 0
+    for line in text:gmatch("\n([^\n]+)") do
+      n = n + 1
+      local cols = {}
+      for v in line:gmatch("[^,]+") do cols[#cols + 1] = tonumber(v) end
+      assert(cols[8] == x3[n] and cols[9] == y3[n] and cols[10] == tr.lambda[n][1], line)
+    end
+    assert.are.equal(#tr.t, n)
   end)
   it("tr.violation records the drift of (6.2): an inconsistent start (check = false) keeps its residual", function()
     -- qdd0 = (1/2, 1/2): the best multiplier minimizes (a - l)^2 + (b - 2 l)^2 with

@@ -189,6 +189,14 @@ local function write_csv(self, f)
   for _, c in ipairs(self.coords) do head[#head + 1] = c end
   for _, c in ipairs(self.coords) do head[#head + 1] = c .. "'" end
   for _, c in ipairs(self.coords) do head[#head + 1] = c .. "''" end
+  -- q''' and above where the run holds them (constraints of order >= 3), as tr:column gives them
+  local higher = {}
+  for m = 3, highest(self) do
+    for j, c in ipairs(self.coords) do
+      higher[#higher + 1] = level_values(self, j, m)
+      head[#head + 1] = c .. ("'"):rep(m)
+    end
+  end
   for _, name in ipairs(lambda_names(self)) do head[#head + 1] = name end
   local extra = {}
   for _, name in ipairs{ "violation", "E", "H", "work" } do
@@ -200,9 +208,12 @@ local function write_csv(self, f)
   local number = require("nz.base.formula").number
   for i = 1, #self.t do
     local row = { number(self.t[i]) }
-    for _, src in ipairs{ self.q[i], self.qd[i], self.qdd[i], self.lambda[i] } do
+    for _, src in ipairs{ self.q[i], self.qd[i], self.qdd[i] } do
       for j = 1, #src do row[#row + 1] = number(src[j]) end
     end
+    for _, col in ipairs(higher) do row[#row + 1] = number(col[i]) end
+    local lam = self.lambda and self.lambda[i] or {}
+    for j = 1, #lam do row[#row + 1] = number(lam[j]) end
     for _, col in ipairs(extra) do row[#row + 1] = number(col[i]) end
     assert(f:write(table.concat(row, ","), "\n"))
   end

@@ -498,7 +498,9 @@ help(tr.NAME) shows one method, e.g. help(tr.plot):
                              size in characters as for the terminal (8 x 16
                              pixels each); tr:section, sw:plot and the
                              work-precision diagram too
-  tr:csv([file])             CSV with a header naming every column: to the
+  tr:csv([file])             CSV with a header naming every column (t, q,
+                             q', q'', q''' and above where the run holds
+                             them, the multipliers, the monitors): to the
                              file (written beside it and renamed: never half
                              a file; returns its name), or without a file
                              the CSV text (the session shows it; a script
