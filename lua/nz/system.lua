@@ -454,11 +454,7 @@ M.principle = require("nz.model.constraints").principle
 
 local function fmt(x) return ("%.10g"):format(x) end
 
-local function vector_text(v)
-  local parts = {}
-  for i = 1, #v do parts[i] = text.number(v[i]) end
-  return "{" .. table.concat(parts, ", ") .. "}"
-end
+local function vector_text(v) return text.list(v) end
 
 -- Aligned table of rows of strings; the first row is the header
 -- (nz/base/text.lua: every table of nz is made there).

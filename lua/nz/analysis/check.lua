@@ -19,7 +19,7 @@ M.TOL = 1e-8
 
 -- %.6g, with NaN as "NaN" on every C library (not "-nan")
 local function g6(x) return x ~= x and "NaN" or ("%.6g"):format(x) end
-local function vec(v) local p = {}; for i = 1, #v do p[i] = g6(v[i]) end; return "{" .. table.concat(p, ", ") .. "}" end
+local function vec(v) return require("nz.base.text").list(v, g6) end
 
 local generator = require("nz.model.constraints").generator   -- deterministic draws
 

@@ -28,6 +28,16 @@ end
 -- text (nz/draw/display.lua).  The terminal sets nothing and pays nothing.
 M.on_table = nil
 
+-- A list of numbers as "{a, b, c}", each written by fmt: a function, a
+-- format ("%.6g", as messages give a state) or by default M.number, the
+-- shortest digits that read back exactly.
+function M.list(v, fmt)
+  fmt = fmt or M.number
+  local p = {}
+  for i = 1, #v do p[i] = type(fmt) == "string" and fmt:format(v[i]) or fmt(v[i]) end
+  return "{" .. table.concat(p, ", ") .. "}"
+end
+
 -- Aligned table of rows of strings; the first row is the header, ruled
 -- below; the first column left-aligned, the others right-aligned.
 function M.table(rows, indent)

@@ -160,7 +160,7 @@ local function slot_sizes(st)
   return sizes
 end
 
-local function vector_text(v) local p = {}; for i = 1, #v do p[i] = ("%.6g"):format(v[i]) end; return "{" .. table.concat(p, ", ") .. "}" end
+local function vector_text(v) return require("nz.base.text").list(v, "%.6g") end
 
 local function fmt_state(st)
   local vec = vector_text

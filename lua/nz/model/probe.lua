@@ -122,11 +122,7 @@ local function shape_error(v, is_Q, k)
     type(v) == "table" and "a table (one value is returned, not a list)" or kind(v))
 end
 
-local function vector_text(v)
-  local p = {}
-  for i = 1, #v do p[i] = ("%.6g"):format(v[i]) end
-  return "{" .. table.concat(p, ", ") .. "}"
-end
+local function vector_text(v) return require("nz.base.text").list(v, "%.6g") end
 
 -- The functions of sys that were not recorded (all of them with compile =
 -- false): {label, f, slots, is_Q}, in the order print(sys) lists them.

@@ -34,11 +34,7 @@ Run.__index = Run
 M.Run = Run   -- (for tests)
 
 local function num(v) return require("nz.base.text").number(v) end
-local function nums(v)
-  local p = {}
-  for i = 1, #v do p[i] = num(v[i]) end
-  return "{" .. table.concat(p, ", ") .. "}"
-end
+local function nums(v) return require("nz.base.text").list(v) end
 
 -- What a run with contacts refuses, the checks of the contacts at the
 -- start, and the mode there (an impact at t0 when a contact touches with

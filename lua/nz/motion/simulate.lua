@@ -568,11 +568,7 @@ local function num(v)
   local text = ("%.15g"):format(v)
   return tonumber(text) == v and text or ("%.17g"):format(v)
 end
-local function nums(v)
-  local parts = {}
-  for i, x in ipairs(v) do parts[i] = num(x) end
-  return "{" .. table.concat(parts, ", ") .. "}"
-end
+local function nums(v) return require("nz.base.text").list(v, num) end
 local function state_text(t, q, qd) return (" at t = %s, q = %s, qd = %s"):format(num(t), nums(q), nums(qd)) end
 
 -- simulate{guess = {lambda = {...}, q3d = {...}}}: Newton's first start for

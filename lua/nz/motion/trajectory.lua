@@ -24,11 +24,7 @@ end
 
 function Trajectory:__len() return #self.t end
 
-local function short(v)
-  local p = {}
-  for i = 1, #v do p[i] = ("%.6g"):format(v[i]) end
-  return "{" .. table.concat(p, ", ") .. "}"
-end
+local function short(v) return require("nz.base.text").list(v, "%.6g") end
 
 local function max_abs_change(list)
   if not list or #list == 0 then return nil end
