@@ -110,6 +110,19 @@ static int collect(lua_State *L)
   return 0;
 }
 
+/* The candidates for word into *c, collected under a protected call (an
+ * error in a user's __index cannot escape into readline), the stack as it
+ * was. */
+static void collect_into(lua_State *L, candidates *c, const char *word)
+{
+  int top = lua_gettop(L);
+  lua_pushcfunction(L, collect);
+  lua_pushlightuserdata(L, c);
+  lua_pushstring(L, word);
+  lua_pcall(L, 2, 0, 0);
+  lua_settop(L, top);
+}
+
 static candidates current;
 static size_t current_next;
 
@@ -135,12 +148,7 @@ static char **attempt(const char *text, int start, int end)
   current_next = 0;
   rl_attempted_completion_over = 1;    /* never fall back to file names */
   rl_completion_suppress_append = 1;
-  int top = lua_gettop(L);
-  lua_pushcfunction(L, collect);
-  lua_pushlightuserdata(L, &current);
-  lua_pushstring(L, text);
-  lua_pcall(L, 2, 0, 0);
-  lua_settop(L, top);
+  collect_into(L, &current, text);
   if (current.n == 0) return NULL;
   return rl_completion_matches(text, generator);
 }
@@ -160,12 +168,7 @@ void nz_complete_install(lua_State *L)
 void nz_complete_push(lua_State *L, const char *word)
 {
   candidates c = { 0 };
-  int top = lua_gettop(L);
-  lua_pushcfunction(L, collect);
-  lua_pushlightuserdata(L, &c);
-  lua_pushstring(L, word);
-  lua_pcall(L, 2, 0, 0);
-  lua_settop(L, top);
+  collect_into(L, &c, word);
   lua_createtable(L, (int)c.n, 0);
   for (size_t i = 0; i < c.n; i++) {
     lua_pushstring(L, c.items[i]);
