@@ -47,6 +47,10 @@ long long nz_native_cache_limit(void)
   return (long long)nz_native_setting("NZLUA_CACHE_MAX", 100.0 * 1024 * 1024, 1);
 }
 
+double nz_native_cc_timeout(void) { return nz_native_setting("NZLUA_CC_TIMEOUT", 300, 0); }
+
+int nz_native_cc_jobs(void) { return (int)nz_native_setting("NZLUA_CC_JOBS", 2, 0); }
+
 static void (*notice_fn)(const char *);
 
 void nz_native_set_notice(void (*fn)(const char *line)) { notice_fn = fn; }
@@ -196,6 +200,8 @@ static int transfer(int fd, void *buf, size_t n, off_t at, int out)
 }
 
 static int read_at(int fd, void *buf, size_t n, off_t at) { return transfer(fd, buf, n, at, 0); }
+
+int nz_native_write_at(int fd, const void *buf, size_t n, off_t at) { return transfer(fd, (void *)buf, n, at, 1); }
 
 /* The checksum of the first n bytes: words folded in by a bijection of the
  * state each (xor, an odd multiplier, a shift-xor), so one damaged word
@@ -349,7 +355,7 @@ int nz_native_cache_seal(int fd, const char *key, char *why, size_t whylen)
     return -1;
   }
   put64(t + 32, h);
-  if (transfer(fd, t, sizeof t, st.st_size, 1) || fchmod(fd, 0600) || fsync(fd)) {
+  if (nz_native_write_at(fd, t, sizeof t, st.st_size) || fchmod(fd, 0600) || fsync(fd)) {
     nz_native_say(why, whylen, "cannot write the object in the cache: %s", strerror(errno));
     return -1;
   }
@@ -411,7 +417,7 @@ void nz_native_cache_prune(int dfd, const char *keep)
   long long total = 0, limit = nz_native_cache_limit();
   /* A worker is stopped after NZLUA_CC_TIMEOUT: a temporary or a lock much
    * older than that was left by one that died. */
-  double stale = 2 * nz_native_setting("NZLUA_CC_TIMEOUT", 300, 0);
+  double stale = 2 * nz_native_cc_timeout();
   if (stale < 3600) stale = 3600;
   time_t now = time(NULL);
   struct dirent *de;

@@ -267,18 +267,6 @@ static int temp_file(int dfd, const char *base, const char *ext, int flags, char
   return -1;
 }
 
-static int write_all(int fd, const char *s, size_t n)
-{
-  while (n) {
-    ssize_t k = write(fd, s, n);
-    if (k < 0 && errno == EINTR) continue;
-    if (k <= 0) return -1;
-    s += k;
-    n -= (size_t)k;
-  }
-  return 0;
-}
-
 /* Write src, compile it, seal the object and rename it into place as
  * <base>.so (the source too, as <base>.c, with NZLUA_KEEP_C=1). */
 static int compile_into(int dfd, const char *dir, const char *base, const char *key, const char *src, char **argv,
@@ -294,7 +282,7 @@ static int compile_into(int dfd, const char *dir, const char *base, const char *
     nz_native_say(why, whylen, "cannot write in the cache directory '%s': %s", dir, strerror(errno));
     goto done;
   }
-  if (write_all(cfd, src, strlen(src)) || close(cfd)) {
+  if (nz_native_write_at(cfd, src, strlen(src), 0) || close(cfd)) {
     cfd = -1;
     nz_native_say(why, whylen, "cannot write the generated C in the cache directory '%s': %s", dir, strerror(errno));
     goto done;
@@ -307,7 +295,7 @@ static int compile_into(int dfd, const char *dir, const char *base, const char *
   argv[k + 2] = path_c;
   argv[k + 3] = "-lm";
   argv[k + 4] = NULL;
-  int st = run(argv, logfd, nz_native_setting("NZLUA_CC_TIMEOUT", 300, 0), why, whylen);
+  int st = run(argv, logfd, nz_native_cc_timeout(), why, whylen);
   if (st < 0) goto done;
   if (!WIFEXITED(st) || WEXITSTATUS(st) != 0) {
     char msg[600];
@@ -646,7 +634,7 @@ int nz_native_object_get(const char *src, const char *version, const char *prefi
   j->src = b.s;
   j->t_start = t_start;
   o->job = j;
-  if (how == NZ_NATIVE_BACKGROUND && running_workers() >= (int)nz_native_setting("NZLUA_CC_JOBS", 2, 0)) return 1;
+  if (how == NZ_NATIVE_BACKGROUND && running_workers() >= nz_native_cc_jobs()) return 1;
   if (start_worker(j, why, whylen)) {
     o->job = NULL;
     goto fail;
@@ -670,7 +658,7 @@ int nz_native_object_ready(nz_native_object *o, int wait, char *why, size_t whyl
     return -1;
   }
   if (!j->started) {
-    if (!wait && running_workers() >= (int)nz_native_setting("NZLUA_CC_JOBS", 2, 0)) return 1;
+    if (!wait && running_workers() >= nz_native_cc_jobs()) return 1;
     if (start_worker(j, why, whylen)) goto fail;
   }
   double t0 = nz_native_now();

@@ -64,6 +64,7 @@
 #define NZ_NATIVE_OBJECT_H
 
 #include <stddef.h>
+#include <sys/types.h>
 
 /* A growing string, for generating source: an allocation failure sets oom
  * and later calls do nothing. */
@@ -148,5 +149,13 @@ void nz_native_notice(const char *fmt, ...) __attribute__((format(printf, 1, 2))
 /* A setting from the environment: a positive number (with K, M, G when
  * bytes is set), else def. */
 double nz_native_setting(const char *name, double def, int bytes);
+/* Seconds a compiler may run before it is stopped ($NZLUA_CC_TIMEOUT,
+ * default 300), and compile workers at once per process ($NZLUA_CC_JOBS,
+ * default 2). */
+double nz_native_cc_timeout(void);
+int nz_native_cc_jobs(void);
+/* All n bytes of buf written at offset at, through interrupted calls; 0,
+ * or -1 with errno. */
+int nz_native_write_at(int fd, const void *buf, size_t n, off_t at);
 
 #endif

@@ -254,22 +254,18 @@ static void dplan_series_native(nz_compiled *c, dplan *d, int N, const nz_series
  * the interpreter, which names the node), else interpreted. */
 static inline nz_status dplan_eval(nz_compiled *c, dplan *d, const double *in, double *out)
 {
+  if (!d->used) {                      /* a compile that loads later counts it native then (dplan_switch) */
+    d->used = 1;
+    c->plans_used++;
+    c->plans_native += d->native != NULL;
+  }
   if (!d->native) {
-    if (!d->used) {
-      d->used = 1;
-      c->plans_used++;
-    }
     if (d->compiling) {
       if (++d->polls % 64 == 0) dplan_poll(c, d, 0);   /* a system call: not at every evaluation */
     } else if (!d->tried && (c->native_mode == 1 || (c->native_mode < 0 && d->work >= d->start)))
       dplan_compile(c, d, c->native_mode == 1);
   }
   if (d->native) {
-    if (!d->used) {
-      d->used = 1;
-      c->plans_used++;
-      c->plans_native++;
-    }
     if (nz_native_eval(d->native, in, out) == NZ_OK) return NZ_OK;
   }
   d->work += nz_graph_plan_nodes(d->plan);
@@ -288,7 +284,7 @@ int nz_compiled_all_native(void *ctx)
 /* Wait for every compile under way. */
 void nz_compiled_native_wait(nz_compiled *c)
 {
-  dplan *all[3] = { c->mb_plan, c->acc_plan, NULL };
+  dplan *all[2] = { c->mb_plan, c->acc_plan };
   for (int i = 0; i < 2; i++)
     if (all[i] && all[i]->compiling) dplan_poll(c, all[i], 1);
   for (int r = 0; c->rows && r < 3 * c->nc; r++)
