@@ -391,6 +391,18 @@ static int locate(nz_run *r, const nz_system *s, int e, double ta, double ga, do
   return st;
 }
 
+/* Event e's value at the step's end: a contact's as computed with the
+ * step (gnext), else from the event callback. */
+static int step_end_value(nz_run *r, int e, double *g)
+{
+  int first = r->nev - r->nchange;
+  if (r->gnext_ok && e >= first) {
+    *g = r->gnext[e - first];
+    return NZ_OK;
+  }
+  return r->event_fn(r->event_ctx, e, r->t, r->y, g);
+}
+
 /* Every event from `from` on of the step just taken, at its end; those
  * that crossed located on the dense output and sorted by time (stable:
  * event order for equal times), for PH_LOCATED to hand over; *all_ok
@@ -401,8 +413,7 @@ static int locate_events(nz_run *r, const nz_system *s, int from, int *all_ok)
   r->nloc = r->loc_next = 0;
   for (int e = from; e < r->nev; e++) {
     double g;
-    int first = r->nev - r->nchange;
-    int st = r->gnext_ok && e >= first ? (g = r->gnext[e - first], NZ_OK) : r->event_fn(r->event_ctx, e, r->t, r->y, &g);
+    int st = step_end_value(r, e, &g);
     if (!st && !isfinite(g)) st = NZ_EDOM;
     r->ev_e = e;
     if (st) return st;
@@ -562,7 +573,7 @@ nz_run_status nz_run_advance(nz_run *r, const nz_system *s, unsigned long pause_
           memcpy(r->gvals, r->gsave, (size_t)r->nev * sizeof(double));
         }
         double g;
-        int st = r->gnext_ok && e >= first ? (g = r->gnext[e - first], NZ_OK) : r->event_fn(r->event_ctx, e, r->t, r->y, &g);
+        int st = step_end_value(r, e, &g);
         if (st) return fail(r, NZ_RUN_FAIL_EVENT, st, status);
         double ga = r->gvals[e];
         r->gvals[e] = g;
