@@ -30,8 +30,8 @@ struct nz_contacts {
   /* the offsets of the events (2n): a gap left open at zero, a slip
    * started at zero slip velocity, start the new mode strictly positive */
   double *offset;
-  /* Zeno: the last three impacts of each contact, and its velocity scales */
-  double *ht, *hv, *vmax, *vtmax;
+  /* Zeno: the times of the last three impacts of each contact, and its velocity scales */
+  double *ht, *vmax, *vtmax;
   int *nh;
   /* the frame at a state */
   double *M, *h;               /* k k, k */
@@ -119,7 +119,7 @@ nz_contacts *nz_contacts_new(int k, const nz_contacts_config *cfg)
   c->def = malloc(N * sizeof *c->def);
   c->mode = calloc(2 * N, sizeof(int));                 /* mode, nh */
   c->offset = calloc(2 * N, sizeof(double));
-  c->ht = calloc(12 * N, sizeof(double));               /* ht, hv (3n each), vmax, vtmax, phi, vn, vt, e_eff */
+  c->ht = calloc(9 * N, sizeof(double));                /* ht (3n), vmax, vtmax, phi, vn, vt, e_eff */
   c->M = calloc(K * K + 3 * K + C * K + C, sizeof(double));   /* M, h, zero, a0, A, b */
   c->rows = calloc(3 * C + 1, sizeof(int));             /* rows, couple (ints), coef below */
   /* S: the mode solve's X (k (nc + 1)), M's factor (k k), G and its
@@ -150,8 +150,7 @@ nz_contacts *nz_contacts_new(int k, const nz_contacts_config *cfg)
   memcpy(c->orders, cfg->orders, C * sizeof(int));
   memcpy(c->def, cfg->defs, N * sizeof *c->def);
   c->nh = c->mode + N;
-  c->hv = c->ht + 3 * N;
-  c->vmax = c->hv + 3 * N;
+  c->vmax = c->ht + 3 * N;
   c->vtmax = c->vmax + N;
   c->phi = c->vtmax + N;
   c->vn = c->phi + N;
@@ -785,7 +784,7 @@ static double zval(const nz_contacts *c, int j, int kind)
  * accumulate at t + dt r / (1 - r): the impact is made plastic. */
 static int zeno(nz_contacts *c, int j, double t, double v, double *tinf)
 {
-  double *ht = c->ht + 3 * j, *hv = c->hv + 3 * j;
+  double *ht = c->ht + 3 * j;
   int n = c->nh[j], hit = 0;
   if (n >= 3) {
     double d1 = ht[1] - ht[0], d2 = ht[2] - ht[1], d3 = t - ht[2];
@@ -796,10 +795,10 @@ static int zeno(nz_contacts *c, int j, double t, double v, double *tinf)
     }
   }
   if (n == 3) {
-    ht[0] = ht[1], ht[1] = ht[2], hv[0] = hv[1], hv[1] = hv[2];
+    ht[0] = ht[1], ht[1] = ht[2];
     n = 2;
   }
-  ht[n] = t, hv[n] = v;
+  ht[n] = t;
   c->nh[j] = n + 1;
   return hit;
 }

@@ -159,13 +159,16 @@ function Run:first(e, ta, ya, ga, tb, gb, yb)
     best_e = e
     best_t, best_y = loop.locate(self.cfg.events[e], ta, ya, ga, tb, gb, yb)
   end
+  -- every event at ta, then every event at tb: the contacts' mode at a state
+  -- is solved once and kept (src/mech/contact.c), so one state after the
+  -- other costs two solves where alternating would cost two per event
+  local a, b = {}, {}
+  for c = 1, 2 * self.n do a[c] = nuser + c == e and ga or loop.value(self:event(c), ta, ya) end
+  for c = 1, 2 * self.n do b[c] = nuser + c == e and gb or loop.value(self:event(c), tb, yb) end
   for c = 1, 2 * self.n do
-    local ev, ec = self:event(c), nuser + c
-    local a = ec == e and ga or loop.value(ev, ta, ya)
-    local b = ec == e and gb or loop.value(ev, tb, yb)
-    if a > 0 and b <= 0 then
-      local tc, yc = loop.locate(ev, ta, ya, a, tb, b, yb)
-      if not best_t or tc < best_t then best_e, best_t, best_y = ec, tc, yc end
+    if a[c] > 0 and b[c] <= 0 then
+      local tc, yc = loop.locate(self:event(c), ta, ya, a[c], tb, b[c], yb)
+      if not best_t or tc < best_t then best_e, best_t, best_y = nuser + c, tc, yc end
     end
   end
   return best_e, best_t, best_y
