@@ -105,7 +105,7 @@ static void emit_block(nz_sbuf *b, const nz_gnode *nd, int n, int z, size_t a, s
   nz_sb_printf(b, "  { const int32_t *A = nzc_T + %zu", a);
   if (binary) nz_sb_printf(b, ", *B = nzc_T + %zu", bb);
   if (select) nz_sb_printf(b, ", *C = nzc_T + %zu", c);
-  nz_sb_printf(b, ";\n    for (int i = 0; i < %d; i++) { const double x = v[A[i]]%s%s; v[%d + i] = %s; } }\n", n,
+  nz_sb_printf(b, ";\n    _Pragma(\"GCC unroll 4\") for (int i = 0; i < %d; i++) { const double x = v[A[i]]%s%s; v[%d + i] = %s; } }\n", n,
                binary ? ", y = v[B[i]]" : "", select ? ", c = v[C[i]]" : "", z, e);
 }
 

@@ -512,3 +512,4 @@ double nz_native_compile_seconds(const nz_native *f) { return f->obj.seconds; }
 double nz_native_waited(const nz_native *f) { return f->obj.waited; }
 const char *nz_native_path(const nz_native *f) { return f->obj.path; }
 int nz_native_nodes(const nz_native *f) { return f->nodes; }
+int nz_native_compact_code(const nz_native *f) { return f->compact; }

@@ -451,4 +451,5 @@ void nz_series_native_free(nz_series_native *s)
 double nz_series_native_seconds(const nz_series_native *s) { return s->obj.seconds; }
 double nz_series_native_waited(const nz_series_native *s) { return s->obj.waited; }
 int nz_series_native_slots(const nz_series_native *s) { return s->slots; }
+int nz_series_native_compact_code(const nz_series_native *s) { return s->compact; }
 const char *nz_series_native_path(const nz_series_native *s) { return s->obj.path; }
