@@ -54,11 +54,11 @@ local function child(model, n)
   print("machine", info.native_plans, info.native_series, tostring(info.native_why))
   local qv, qdv = state(model, n)
   for i = 1, n do qdv[i] = 0.9 * math.cos(0.7 * i + 0.2) end
-  print("accel", (timing.per_call(function() sys:accel(0, qv, qdv) end, { budget = 1 })))
+  print("accel", (timing.per_call(function() sys:accel(0, qv, qdv) end, { budget = 1, clock = os.clock })))
   for i, tol in ipairs(TOLS) do
     for _, method in ipairs{ "rk8pd", "taylor" } do
       local tr
-      local t = timing.per_call(function() tr = runs[i](method) end, { budget = 2, samples = 3 })
+      local t = timing.per_call(function() tr = runs[i](method) end, { budget = 2, samples = 3, clock = os.clock })
       local last = #tr.t
       print(("%s_%g"):format(method, tol), t, tr.stats.steps, table.concat(tr.q[last], " "))
     end
@@ -114,11 +114,11 @@ end
 
 -- The C program's ns per accel at n (before and after a row: the mean).
 local function c_accel(n)
-  local out = timing.run(("%sbuild/pendulum_c accel %d"):format(root, n))
+  local out = timing.run(("PENDULUM_C_CPU=1 %sbuild/pendulum_c accel %d"):format(root, n))
   return tonumber(out:match("accel %d+ ([%d.]+)")) * 1e-9
 end
 local function c_sim(n, tol)
-  local out = timing.run(("%sbuild/pendulum_c sim %d %g %g"):format(root, n, T1, tol))
+  local out = timing.run(("PENDULUM_C_CPU=1 %sbuild/pendulum_c sim %d %g %g"):format(root, n, T1, tol))
   local f = {}
   for x in out:gsub("^sim ", ""):gmatch("%S+") do f[#f + 1] = tonumber(x) end
   local y = {}
@@ -266,6 +266,7 @@ for _, r in ipairs(planar) do
   end
 end
 print(("agreement: the final positions of rk8pd in nzlua and in C differ by at most %.1e (the same model, method and tolerances)"):format(worst))
-print(("notes: wall-clock medians (timing.lua); C: median of 9, its accel run before and after each row; straight-line"
+print(("notes: processor time, medians (timing.lua with os.clock; C: PENDULUM_C_CPU, median of 9, its accel run before and"
+  .. " after each row: on a shared machine wall time measures the other processes); straight-line"
   .. " code is compiled for plans up to %d nodes (BENCH_SCALE_STRAIGHT_NODES); sizes up to %d (BENCH_SCALE_MAX), the 3-D"
   .. " chain up to %d (BENCH_SCALE_3D_MAX)"):format(STRAIGHT_NODES, MAX, MAX3D))

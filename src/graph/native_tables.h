@@ -23,7 +23,7 @@
 /* Plans of more computed nodes than this, and series of more computed
  * slots than that, get compact code (measured on the n-link pendulum:
  * README's performance section; bench/scale.lua prints both emitters). */
-#define NZ_NATIVE_COMPACT_NODES 60000
+#define NZ_NATIVE_COMPACT_NODES 20000
 #define NZ_SERIES_COMPACT_SLOTS 1000
 
 /* Compact code for `size` nodes or slots?  size > threshold, unless

@@ -7,21 +7,9 @@
 local nz = rawget(_G, "nz") or require "nz"
 local fmt = function(v) local s = {} for i, x in ipairs(v) do s[i] = ("%a"):format(x) end return table.concat(s, " ") end
 
--- A chain of k point masses from bodies (masses 1 + 0.1 i, links 0.5):
--- M and h not constant.
-local function chain(k)
-  local bodies = { gravity = { 0, -9.81, 0 } }
-  for i = 1, k do
-    bodies[i] = { mass = 1 + 0.1 * i, pos = function(t, q)
-      local x, y = 0, 0
-      for j = 1, i do x = x + 0.5 * nz.sin(q[j]); y = y - 0.5 * nz.cos(q[j]) end
-      return { x, y, 0 }
-    end }
-  end
-  local coords = {}
-  for i = 1, k do coords[i] = "th" .. i end
-  return nz.system{ name = ("chain of %d"):format(k), coords = coords, bodies = bodies }
-end
+-- A chain of point masses from bodies (bench/chain.lua: masses 1 + 0.1 i,
+-- links 0.5): M and h not constant.
+local chain = require "bench.chain"
 
 -- Henon-Heiles: a constant M (q'' as one plan, the fused series loop).
 local henon = nz.system{ name = "Henon-Heiles", coords = { "x", "y" },
@@ -29,13 +17,7 @@ local henon = nz.system{ name = "Henon-Heiles", coords = { "x", "y" },
   V = function(t, q) return 0.5 * (q[1] ^ 2 + q[2] ^ 2) + q[1] ^ 2 * q[2] - q[2] ^ 3 / 3 end }
 
 -- The Chaplygin sleigh: a nonholonomic constraint (its rows as plans).
-local m, I, a = 2.0, 0.3, 0.4
-local sleigh = nz.system{ name = "sleigh", coords = { "x", "y", "th" },
-  T = function(t, q, qd)
-    local vx, vy = qd[1] - a * nz.sin(q[3]) * qd[3], qd[2] + a * nz.cos(q[3]) * qd[3]
-    return 0.5 * m * (vx * vx + vy * vy) + 0.5 * I * qd[3] ^ 2
-  end,
-  constraints = { function(t, q, qd) return -qd[1] * nz.sin(q[3]) + qd[2] * nz.cos(q[3]) end } }
+local sleigh = require("tests.constraint_systems").sleigh().sys
 
 local function run(sys, q0, qd0, t1, methods)
   for _, method in ipairs(methods) do
