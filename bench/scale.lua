@@ -169,7 +169,8 @@ local function rows_of(model, sizes)
       r.forced_straight = measure(model, n, "0")
     end
     local function with(part, kind)
-      for _, m in ipairs{ r.default, r.forced_compact, r.forced_straight } do
+      for _, key in ipairs{ "default", "forced_compact", "forced_straight" } do
+        local m = r[key]
         if m and m[part .. "_kind"] == kind then return m end
       end
     end

@@ -21,10 +21,18 @@
 #include "graph/native_object.h"
 
 /* Plans of more computed nodes than this, and series of more computed
- * slots than that, get compact code (measured on the n-link pendulum:
- * README's performance section; bench/scale.lua prints both emitters). */
+ * slots than that, get compact code.  Measured on the n-link pendulum from
+ * bodies (bench/scale.lua prints both emitters; processor time): as
+ * straight-line code a plan costs the compiler about 0.2 ms per node (the
+ * 64-link pendulum's M and h, 39,915 nodes: 8.4 s at -O1) and evaluates 2x
+ * faster than compact code (9.9 against 21 us), which compiles in about a
+ * second at any size; so straight-line code while its compile stays a few
+ * seconds.  A series costs about 1 ms of cc per slot as straight-line code
+ * (2,663 slots: 3.8 s; 39,915: 41 s), and compact code runs it as fast
+ * from some 700 slots on (763: 62 us for 20 orders both ways; 9,959: 0.58
+ * against 1.15 ms), 25 % slower at 235. */
 #define NZ_NATIVE_COMPACT_NODES 20000
-#define NZ_SERIES_COMPACT_SLOTS 1000
+#define NZ_SERIES_COMPACT_SLOTS 500
 
 /* Compact code for `size` nodes or slots?  size > threshold, unless
  * $NZLUA_COMPACT is 0 (never: straight-line code) or 1 (always). */

@@ -103,7 +103,14 @@ def session():
                 outs.append({"type": t, "data": c["data"]})
             elif t == "error":
                 outs.append({"type": t, "ename": c["ename"], "evalue": c["evalue"], "traceback": "\n".join(c["traceback"])})
-        reply = kc.get_shell_msg(timeout=30)["content"]
+        # this request's reply (wait_for_ready may have left replies to its
+        # kernel_info requests in the queue: it sends one more each time the
+        # kernel is slow to answer)
+        while True:
+            m = kc.get_shell_msg(timeout=30)
+            if m["parent_header"].get("msg_id") == msg_id:
+                break
+        reply = m["content"]
         return {"status": reply["status"], "ename": reply.get("ename"), "outputs": outs,
                 "interrupted_after": sent, "seconds": time.time() - t0}
 
