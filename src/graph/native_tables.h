@@ -28,11 +28,11 @@
  * faster than compact code (9.9 against 21 us), which compiles in about a
  * second at any size; so straight-line code while its compile stays a few
  * seconds.  A series costs about 1 ms of cc per slot as straight-line code
- * (2,663 slots: 3.8 s; 39,915: 41 s), and compact code runs it as fast
- * from some 700 slots on (763: 62 us for 20 orders both ways; 9,959: 0.58
- * against 1.15 ms), 25 % slower at 235. */
+ * (2,663 slots: 3.8 s; 39,915: 41 s), and compact code runs it faster
+ * from some 2,000 slots on (2,663: 134 against 168 us for 20 orders;
+ * 9,959: 0.58 against 1.15 ms), 10 % slower at 763 and 20 % at 235. */
 #define NZ_NATIVE_COMPACT_NODES 20000
-#define NZ_SERIES_COMPACT_SLOTS 500
+#define NZ_SERIES_COMPACT_SLOTS 1000
 
 /* Compact code for `size` nodes or slots?  size > threshold, unless
  * $NZLUA_COMPACT is 0 (never: straight-line code) or 1 (always). */
