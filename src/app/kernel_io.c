@@ -210,6 +210,12 @@ int nz_kernel_io_serve(lua_State *L)
   lua_getfield(L, -1, "serve");
   lua_remove(L, -2);
   luaL_newlib(L, host);
+  /* the library itself, handed down: kernel.lua sits below the face that
+   * require "nz" loads */
+  lua_getglobal(L, "require");
+  lua_pushliteral(L, "nz");
+  lua_call(L, 1, 1);
+  lua_setfield(L, -2, "nz");
   if (lua_pcall(L, 1, 0, 0) != LUA_OK) {
     fprintf(stderr, "nzlua: kernel-io: %s\n", lua_tostring(L, -1));
     return LUA_ERRRUN;

@@ -506,7 +506,7 @@ end
 -- Record functions f(t, q, qd, params) of engine's state, each returning a
 -- number, into a graph of their own (inputs numbered as the system's:
 -- src/mech/mech_graph.h), each checked against its function at the sample
--- state on numbers, as the Lua loop calls them.  Returns { compiled =,
+-- state on numbers, as the loop calls them where a graph fails.  Returns { compiled =,
 -- nodes = {one node per function}, params = {names}, values = {their
 -- values now} }, or nil, the index of the first function that cannot be
 -- recorded, and why.

@@ -82,7 +82,7 @@ function M.scene(def)
     local ok, err = pcall(effects.attach_friction, sc, contacts, f)
     if not ok then error(err, 2) end
   end
-  local sys = require("nz").system{ name = name, coords = coords, T = #T > 0 and T or nil, V = #V > 0 and V or nil,
+  local sys = require("nz.base.classes").new_system{ name = name, coords = coords, T = #T > 0 and T or nil, V = #V > 0 and V or nil,
     Q = #Q > 0 and Q or nil, L = #L > 0 and L or nil, S = S, constraints = #C > 0 and C or nil,
     params = def.params, sample = def.sample }
   sys.effects = kinds

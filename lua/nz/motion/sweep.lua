@@ -36,7 +36,7 @@ local known = require("nz.base.options").declare("nz.sweep", { system = true, fi
 
 local function fail(msg, ...) error(user_where() .. ("sweep: " .. msg):format(...), 0) end
 
-local show, finite = require("nz.motion.simulate").show, require("nz.motion.simulate").finite
+local show, finite = require("nz.motion.options").show, require("nz.base.args").finite
 
 local function is_name(s) return type(s) == "string" and s:match("^[%a_][%w_]*$") ~= nil and s ~= "error" end
 

@@ -306,11 +306,12 @@ one, e.g. help(sys.simulate):
         and goes on (tr.stats.long_run); one whose steps stop advancing t
         stops with the state and M.
         Event functions are recorded and watched in C; one that cannot be
-        recorded keeps the run in Lua (tr.stats.loop_why says why).
+        recorded is called in Lua (tr.stats.events_why says why).  The
+        events of a step are located and handed over in time order.
         Unilateral contacts (help(nz.unilateral)): the run stops at nothing;
         impacts, contacts opening and closing, stick and slip are its events
         (tr.events), the motion goes on from each; not with project,
-        baumgarte, the work monitor or the Lua loop.
+        baumgarte or the work monitor.
         dense (true by default): a GSL stepper's output points inside a step
         come off the step's Hermite interpolant (q, qd, qdd at its ends and
         the one or two steps before), so a fine dt adds no step; an error
@@ -320,7 +321,7 @@ one, e.g. help(sys.simulate):
         dense = false: every output point is a step end (the grid caps the
         steps).  The grid still limits a run with dense = false, with a fixed
         step, with msadams and msbdf (off unless dense = true: a point made a
-        step end restarts them), and in the Lua loop; tr.stats.grid_why says
+        step end restarts them); tr.stats.grid_why says
         so when it set the steps; tr.stats.interpolated, forced: the points
         read off an interpolant, and those its control made step ends.
         method: a GSL stepper (nz.methods; rk8pd by default) or "taylor":

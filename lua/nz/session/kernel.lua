@@ -123,7 +123,7 @@ local function inspect(host, req)
     host.write("inspection", { "found", "false" })
     return
   end
-  local ok, text = pcall(require("nz").help, value, { quiet = true })
+  local ok, text = pcall(host.nz.help, value, { quiet = true })
   if not ok then text = tostring(text) end
   host.write("inspection", { "found", "true", "text/plain", text })
 end
@@ -158,12 +158,14 @@ function M.print(...)
   end
 end
 
--- The loop: requests until stdin ends or "shutdown".
+-- The loop: requests until stdin ends or "shutdown".  host: the frames'
+-- functions (src/app/kernel_io.c) and host.nz, the library (this floor is
+-- below the face that loads it).
 function M.serve(host)
   frontend.use(M.frontend(host))
   display.keep_tables(true)
   _G.print = M.print
-  local nz = require "nz"
+  local nz = host.nz
   host.write("hello", { "version", nz.version, "lua", _VERSION })
   while true do
     local kind, req = host.read()
