@@ -1261,6 +1261,13 @@ int nz_compiled_constrained_series(nz_compiled *c, const int *orders, double t0,
   return nz_compiled_constrained_series_sel(c, orders, NULL, t0, q0, qd0, qdd0, lam0, p, a, lambda);
 }
 
+int nz_compiled_series(void *ctx, const int *orders, const nz_series_selection *sel, double t0, const double *q0,
+                       const double *qd0, const double *qdd0, const double *lam0, int p, double *a)
+{
+  if (!orders) return nz_compiled_motion_series(ctx, t0, q0, qd0, p, a);
+  return nz_compiled_constrained_series_sel(ctx, orders, sel, t0, q0, qd0, qdd0, lam0, p, a, NULL);
+}
+
 int nz_compiled_constrained_series_sel(nz_compiled *c, const int *orders, const nz_series_selection *sel, double t0,
                                        const double *q0, const double *qd0, const double *qdd0, const double *lam0,
                                        int p, double *a, double *lambda)

@@ -161,15 +161,15 @@ int nz_compiled_constrained_series(nz_compiled *c, const int *orders, double t0,
  * lambda follow it); with couple, the force of row x is that of
  * W = A_rows[x] + coef[x] A_couple[x] (a sliding contact's friction riding
  * on its normal force) where couple[x] >= 0, the row couple[x] being of
- * order <= 1.  sel NULL: every constraint, none coupled. */
-typedef struct nz_series_selection {
-  int n;
-  const int *rows, *couple;
-  const double *coef;
-} nz_series_selection;
+ * order <= 1.  sel NULL: every constraint, none coupled
+ * (nz_series_selection: mech.h). */
 int nz_compiled_constrained_series_sel(nz_compiled *c, const int *orders, const nz_series_selection *sel, double t0,
                                        const double *q0, const double *qd0, const double *qdd0, const double *lam0,
                                        int p, double *a, double *lambda);
+/* nz_system's series hook (mech.h) on the recording ctx: the free motion's
+ * series when orders is NULL, else the constrained one on sel. */
+int nz_compiled_series(void *ctx, const int *orders, const nz_series_selection *sel, double t0, const double *q0,
+                       const double *qd0, const double *qdd0, const double *lam0, int p, double *a);
 /* Branches in the graphs the series of the motion runs on: comparisons,
  * selections, sign and abs whose operands move with the state (-1 when M
  * and h are not recorded).  The series keeps the branch that coefficient 0
