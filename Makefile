@@ -115,7 +115,7 @@ $(B)/bench_jet: bench/bench_jet.c $(CORE_OBJ) | $(B)
 	$(CC) $(ALL_CFLAGS) $(OPT) -o $@ $^ $(GSL_LIBS) $(DL_LIBS) -lm
 $(B)/bench_motion: bench/bench_motion.c $(CORE_OBJ) | $(B)
 	$(CC) $(ALL_CFLAGS) $(OPT) -o $@ $^ $(GSL_LIBS) $(DL_LIBS) -lm
-# The hand-written C baselines the benchmarks of issue 10 compare against.
+# The hand-written C baselines the benchmarks compare against.
 $(B)/henon_c: bench/henon_c.c | $(B)
 	$(CC) $(ALL_CFLAGS) $(OPT) -o $@ $^ $(GSL_LIBS) -lm
 $(B)/pendulum_c: bench/pendulum_c.c | $(B)

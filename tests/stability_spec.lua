@@ -284,7 +284,7 @@ describe("a motion that reaches a singular mass matrix", function()
   it("bsimp stops there with the time, the state and the condition of M; nz.last ends near 1/e", function()
     stops_at_the_singular_point("bsimp")
   end)
-  -- These once shrank the step to 1e-15 and never returned (issue 9); the
+  -- These once shrank the step to 1e-15 and never returned; the
   -- stall detection stops them where bsimp stops, and taylor's step-size
   -- control refuses a step below the time's resolution.
   for _, method in ipairs{ "rk8pd", "rkf45", "msbdf", "taylor" } do

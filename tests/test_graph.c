@@ -1478,7 +1478,7 @@ static double value_at(nz_graph *g, int x, const double *in)
 static int same_bits(double a, double b) { return memcmp(&a, &b, sizeof a) == 0; }
 
 /* An exact graph computes what IEEE arithmetic computes, zeros with their
- * signs; x^y with a folded exponent keeps x^y's domain (issue 23). */
+ * signs; x^y with a folded exponent keeps x^y's domain. */
 static void check_exact(void)
 {
   nz_graph *g = nz_graph_new();
@@ -1521,7 +1521,7 @@ static void check_exact(void)
 
 /* A simplification drops only what is defined everywhere: log(y) * 0,
  * log(y) - log(y), cmp(l, l), select with a constant condition or equal
- * branches, l^0 keep the log, which fails at y = -1 (issue 23). */
+ * branches, l^0 keep the log, which fails at y = -1. */
 static void check_drops(void)
 {
   nz_graph *g = nz_graph_new();
@@ -1553,7 +1553,7 @@ static void check_drops(void)
 }
 
 /* The guards of a plan: ties of cmp and sign and singular points of the
- * smooth roots fire exactly there, never for fixed inputs (issue 23). */
+ * smooth roots fire exactly there, never for fixed inputs. */
 static void check_guards(void)
 {
   nz_graph *g = nz_graph_new();

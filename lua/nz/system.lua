@@ -234,10 +234,8 @@ function System:residual(n, t, q, qd, qdd, a6, a7)
   n = n or self:rule()
   local r = mech.residual(self.engine, form, n, t, q, qd, qdd, higher)
   if lambda then
-    local A = constraints.gradients(self, t, { q, qd, qdd, table.unpack(higher or {}) })
-    for c = 1, self.nc do
-      for i = 1, self.k do r[i] = r[i] - A[c][i] * lambda[c] end
-    end
+    local f = constraints.multiplier_terms(self, t, { q, qd, qdd, table.unpack(higher or {}) }, lambda)
+    for i = 1, self.k do r[i] = r[i] - f[i] end
   end
   return r
 end
@@ -477,13 +475,8 @@ function System:equations(n, t, q, qd, qdd, opts)
   if not given then qdd, lambda = self:accel(t, q, qd) end
   if self.nc == 0 then lambda = nil end
   local r, terms = mech.residual(self.engine, "generalized", n, t, q, qd, qdd, nil, true)
-  local reaction = {}
-  for i = 1, self.k do reaction[i] = 0 end
-  if lambda then
-    local A = constraints.gradients(self, t, { q, qd, qdd })
-    for c = 1, self.nc do for i = 1, self.k do reaction[i] = reaction[i] + A[c][i] * lambda[c] end end
-    for i = 1, self.k do r[i] = r[i] - reaction[i] end
-  end
+  local reaction = lambda and constraints.multiplier_terms(self, t, { q, qd, qdd }, lambda)
+  if reaction then for i = 1, self.k do r[i] = r[i] - reaction[i] end end
   local last = given and "residual" or "rounding"
   local lines = {
     ("System '%s', order n = %d: %s"):format(self.name, n, M.principle(n)),

@@ -1,5 +1,5 @@
 /* graph.h - expression graphs recorded once from the user's functions and
- * evaluated in C (issue 10).
+ * evaluated in C.
  *
  * A graph is a list of nodes in topological order: a node refers only to
  * nodes with smaller ids.  Nodes are inputs (numbered by the recorder: t,

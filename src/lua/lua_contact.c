@@ -68,14 +68,8 @@ static int lc_new(lua_State *L)
   luaL_checktype(L, 2, LUA_TTABLE);
   int k = b.sys.k, nc = b.sys.nc;
   int nb = (int)nz_lua_field_number(L, 2, "nb", 0.0);
-  lua_getfield(L, 2, "orders");
-  luaL_checktype(L, -1, LUA_TTABLE);
   int *orders = lua_newuserdatauv(L, ((size_t)nc + 1) * sizeof(int), 0);
-  for (int r = 0; r < nc; r++) {
-    lua_geti(L, -2, r + 1);
-    orders[r] = (int)luaL_checkinteger(L, -1);
-    lua_pop(L, 1);
-  }
+  nz_lua_field_ints(L, 2, "orders", nc, orders);
   lua_getfield(L, 2, "contacts");
   luaL_checktype(L, -1, LUA_TTABLE);
   int n = (int)luaL_len(L, -1);

@@ -125,15 +125,8 @@ static int lo_new(lua_State *L)
     cfg.guess = g;                   /* kept on the stack until nz_ode_alloc copies it */
   }
   int *flags = lua_newuserdatauv(L, 2 * ((size_t)nc + 1) * sizeof(int), 0);
-  for (int r = 0; r < nc; r++) {
-    lua_getfield(L, 2, "orders");
-    lua_geti(L, -1, r + 1);
-    flags[r] = (int)luaL_checkinteger(L, -1);
-    lua_getfield(L, 2, "linear");
-    lua_geti(L, -1, r + 1);
-    flags[nc + 1 + r] = lua_toboolean(L, -1);
-    lua_pop(L, 4);
-  }
+  nz_lua_field_ints(L, 2, "orders", nc, flags);
+  nz_lua_field_ints(L, 2, "linear", nc, flags + nc + 1);
   cfg.orders = flags;
   cfg.linear = flags + nc + 1;
   nz_accel_options acc = NZ_ACCEL_DEFAULTS;
@@ -180,17 +173,8 @@ static int raise_failure(lua_State *L, ode_box *box, bound_system *b, int st)
   switch (f->kind) {
   case NZ_ODE_FAIL_MASS:
     return nz_lua_raise_singular_mass(L, 1, f->t, q, qd, k, &f->mass);
-  case NZ_ODE_FAIL_CONSTRAINTS: {
-    int *orders = lua_newuserdatauv(L, ((size_t)box->nc + 1) * sizeof(int), 0);
-    memset(orders, 0, ((size_t)box->nc + 1) * sizeof(int));
-    lua_getfield(L, 1, "orders");          /* the definition keeps the classification */
-    for (int r = 0; r < box->nc && lua_istable(L, -1); r++) {
-      lua_geti(L, -1, r + 1);
-      orders[r] = (int)lua_tointeger(L, -1);
-      lua_pop(L, 1);
-    }
-    return nz_lua_raise_accel_failure(L, 1, &f->accel, orders, f->t, q, qd, k, box->nc);
-  }
+  case NZ_ODE_FAIL_CONSTRAINTS:
+    return nz_lua_raise_accel_failure(L, 1, &f->accel, nz_ode_orders(box->o), f->t, q, qd, k, box->nc);
   case NZ_ODE_FAIL_STEP:
   case NZ_ODE_FAIL_NONFINITE: {
     luaL_Buffer msg;
@@ -564,22 +548,6 @@ static int run_gc(lua_State *L)
   return 0;
 }
 
-/* An integer array of n from the list field name of the table at idx
- * (NULL when n is 0), left on the stack. */
-static int *field_ints(lua_State *L, int idx, const char *name, int n)
-{
-  int *v = lua_newuserdatauv(L, ((size_t)n + 1) * sizeof(int), 0);
-  if (n == 0) return NULL;
-  lua_getfield(L, idx, name);
-  luaL_checktype(L, -1, LUA_TTABLE);
-  for (int i = 0; i < n; i++) {
-    lua_geti(L, -1, i + 1);
-    v[i] = (int)luaL_checkinteger(L, -1);
-    lua_pop(L, 1);
-  }
-  lua_pop(L, 1);
-  return v;
-}
 
 /* ode_run_new(ode, {t0, t1, dt, step, h0, y, stall_window, stall_fraction
  * [, capacity] [, events, directions, fallback, locator, event_tol]
@@ -632,13 +600,13 @@ static int lo_run_new(lua_State *L)
   int ncontact = ob->contacts ? nz_contacts_nevents(ob->contacts) : 0;
   c.nevents = nuser + ncontact;
   int *dirs = lua_newuserdatauv(L, ((size_t)c.nevents + 1) * sizeof(int), 0);
-  if (nuser > 0) memcpy(dirs, field_ints(L, 2, "directions", nuser), (size_t)nuser * sizeof(int));
+  nz_lua_field_ints(L, 2, "directions", nuser, dirs);
   for (int e = nuser; e < c.nevents; e++) dirs[e] = -1;
   c.directions = dirs;
   c.locator = loc ? loc->st : NULL;
-  int *orders = c.project_tol > 0.0 && lua_isnil(L, 5) ? field_ints(L, 2, "orders", ob->nc) : NULL;
-  if (c.project_tol > 0.0 && lua_isnil(L, 5) && ob->nc > 0 && !orders)
-    return luaL_error(L, "internal: projecting needs 'orders' or 'violation'");
+  int in_c = c.project_tol > 0.0 && lua_isnil(L, 5) && ob->nc > 0;   /* the violation computed in C */
+  int *orders = lua_newuserdatauv(L, ((size_t)ob->nc + 1) * sizeof(int), 0);
+  if (in_c) nz_lua_field_ints(L, 2, "orders", ob->nc, orders);
   int dim = ob->dim;
   double *y = lua_newuserdatauv(L, (size_t)dim * sizeof(double), 0);
   lua_getfield(L, 2, "y");
@@ -655,7 +623,7 @@ static int lo_run_new(lua_State *L)
   rb->locator = loc;
   rb->events = eb;
   rb->nuser = nuser;
-  if (orders) {
+  if (in_c) {
     rb->orders = (int *)(void *)(rb + 1);
     memcpy(rb->orders, orders, (size_t)ob->nc * sizeof(int));
   }

@@ -490,6 +490,18 @@ function M.gradients(sys, t, levels)
   return A
 end
 
+-- The constraint forces of (6.2), A^T lambda (k values), at the state
+-- (levels q, qd, qdd, ...) with the multipliers lambda.
+function M.multiplier_terms(sys, t, levels, lambda)
+  local A, f = M.gradients(sys, t, levels), {}
+  for i = 1, sys.k do
+    local s = 0
+    for c = 1, sys.nc do s = s + A[c][i] * lambda[c] end
+    f[i] = s
+  end
+  return f
+end
+
 -- ------------------------------------------------------------------ --
 -- Projection onto the constraints                                      --
 
