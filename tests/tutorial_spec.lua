@@ -70,25 +70,6 @@ describe("docs/tutorial.md", function()
   end)
 end)
 
-describe("the README's quick start", function()
-  it("names every Debian package make deps installs (the Makefile's DEB_PKGS)", function()
-    local makefile = assert(h.slurp("Makefile"))
-    local list = assert(makefile:match("\nDEB_PKGS%s*=%s*(.-[^\\])\n"), "no DEB_PKGS in the Makefile"):gsub("\\\n", " ")
-    local readme = assert(h.slurp("README.md"))
-    local start = assert(readme:find("## Quick start", 1, true))
-    local section = readme:sub(start, readme:find("\n## ", start + 1, true))
-    -- the packages the section names in `code`
-    local named = {}
-    for code in section:gmatch("`([^`]+)`") do for word in code:gmatch("%S+") do named[word] = true end end
-    local n = 0
-    for pkg in list:gmatch("%S+") do
-      assert(named[pkg], ("the README's quick start does not name %s, which make deps installs"):format(pkg))
-      n = n + 1
-    end
-    assert(n >= 10, list)
-  end)
-end)
-
 describe("the lua blocks of the README and docs/", function()
   it("declare no local at their top level (at the prompt it would be gone on the next line)", function()
     local files = { "README.md", "examples/README.md" }
