@@ -560,10 +560,13 @@ Each body: mass (a positive number), pos = function(t, q, params) returning its
 centre of mass {x, y, z}; a rigid body also has rot = function(t, q, params)
 returning its 3x3 rotation matrix (body axes to space) and inertia =
 {I1, I2, I3} (principal, about the centre of mass) or a symmetric 3x3 matrix,
-in body axes.  gravity = {gx, gy, gz} adds V = -sum m g.r.  Velocities come
-from the jets.  Returns {T = ..., V = ..., S = ...} (S, for Wassmuth's form,
-for particles only); nz.system{coords = ..., bodies = {...}} does the same
-inline.]] },
+in body axes.  gravity = {gx, gy, gz} adds V = -sum m g.r.  The mass, the
+inertia and the gravity may each be a function of the params instead:
+mass = function(p) return p.m end, gravity = function(p) return {0, -p.g, 0}
+end; the equations then keep the symbols (sys:show prints m and g) and
+follow sys.params.  Velocities come from the jets.  Returns {T = ..., V =
+..., S = ...} (S, for Wassmuth's form, for particles only); nz.system{coords
+= ..., bodies = {...}} does the same inline.]] },
   { name = "unilateral", section = "mechanics",
     usage = "nz.unilateral(gap [, {e =, mu =, mu_s =, slip =, name =, at =}])",
     summary = "a unilateral constraint gap(t, q) >= 0: contact, impacts, friction",
@@ -601,8 +604,11 @@ effects).]] },
     summary = "gravity, spring, damper, force, driven, knife_edge, rolling_disk, rolling_ball, constant_speed, constraint, contact, friction",
     text = [[
 Points are body names, functions (t, q, params) -> {x, y, z} (moving
-supports) or fixed {x, y, z}; coordinates are given by name.  A wrong or
-missing parameter is an error naming the effect and the parameter.
+supports) or fixed {x, y, z}; coordinates are given by name.  g, k,
+length, rest, cubic, c, radius and speed may be functions of the params
+(k = function(p) return p.k end: sys:show keeps the symbol); e, mu and mu_s
+are numbers.  A wrong or missing parameter is an error naming the effect
+and the parameter.
 help(nz.effects.NAME) explains one, with its parameters.
   gravity{g = {0, 0, -9.81}, bodies = {names}}     V = -sum m g . r
   spring{between = {A, B}, k =, length =, cubic =, energy = f(s)}  or
