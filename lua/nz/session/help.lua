@@ -577,13 +577,19 @@ multiplier is then the contact force).  While it touches and pushes
 reaches 0, and closes where the gap reaches 0, with an impact when it
 approaches: Lagrange's impulse equations M (q'+ - q'-) = J^T P with Newton's
 law J q'+ = -e J q'- (e in [0, 1], 0 by default: it stays closed), every
-touching contact at once (an LCP, Lemke's algorithm).  Coulomb friction:
-mu (sliding), mu_s >= mu (sticking), slip = function(t, q, qd, params), the
-slip velocity (or a function of (t, q) whose rate it is); it sticks where
-the slip velocity reaches 0 and the force to hold is within mu_s lambda,
-and slides again where it leaves that cone.  Painleve's paradox is an error
-naming the contact.  Impacts accumulating in finite time (Zeno) end in
-persistent contact.  at = function(t, q, params) -> {x, y, z}: the point
+touching contact at once (an LCP, Lemke's algorithm): Newton's cradle of
+three touching balls hit at v leaves with (-1/3, 2/3, 2/3) v, where a real
+cradle's quick sequence of binary impacts gives (0, 0, v); a small gap
+between the balls (1 mm) gives that sequence and that outcome.  Coulomb
+friction: mu (sliding), mu_s >= mu (sticking), slip = function(t, q, qd,
+params), the slip velocity (or a function of (t, q) whose rate it is); it
+sticks where the slip velocity reaches 0 and the force to hold is within
+mu_s lambda, and slides again where it leaves that cone.  Painleve's paradox
+is an error naming the contact.  Impacts accumulating in finite time
+(Zeno) end in persistent contact: tr.contacts.zeno[i] has .accumulation,
+the time the impacts predicted (a bouncing ball's t1 (1 + e)/(1 - e)), .t,
+the last impact's, made plastic, from which the contact is held, and
+.contact, its name.  at = function(t, q, params) -> {x, y, z}: the point
 tr:animate draws while it is held.  Every method runs it (the GSL steppers
 and taylor; events on their dense output).  tr.events lists each impact,
 closing, opening, stick and slip; tr.contacts the modes; sys:accel and the

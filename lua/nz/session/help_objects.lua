@@ -103,7 +103,8 @@ local function objects()
           .. "(tr:column(\"work\"))" },
         { "events", "tr.events[e]: each located crossing of simulate's events, in time order (below)" },
         { "contacts", "with unilateral contacts: .names, .modes[i] = {t, states} (each mode from its start), "
-          .. ".impacts, .zeno (each rest after impacts accumulating), .final (the last mode)" },
+          .. ".impacts, .zeno (each rest after impacts accumulating: .accumulation, the time they predicted, .t, the "
+          .. "rest's start, .contact), .final (the last mode)" },
         { "lambda_names", "with unilateral contacts: the names of tr.lambda's columns, lambda1, ..., then N.name and "
           .. "T.name (each contact's normal and friction force: tr:column(\"N.floor\"))" },
         { "projections", "project = true: how many times the state was projected onto the constraints" },
