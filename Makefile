@@ -22,7 +22,7 @@ PKGS      = lua5.4 gsl readline
 # writes), GNU parallel (sweeps across machines), and nbclient, nbconvert
 # and chromium (the kernel run as a notebook, exported, shown in a browser).
 DEMO_PKGS   = make gcc pkg-config liblua5.4-dev lua5.4 libreadline-dev libgsl-dev gnuplot-nox
-KERNEL_PKGS = python3-ipykernel jupyter-client python3-zmq jupyter-notebook libjs-mathjax libjs-three
+KERNEL_PKGS = python3-ipykernel jupyter-client python3-zmq jupyter-notebook jupyter-nbconvert libjs-mathjax libjs-three
 TEST_PKGS   = $(DEMO_PKGS) $(KERNEL_PKGS) lua-busted tmux python3-numpy parallel \
               python3-nbclient python3-nbconvert chromium
 

@@ -22,7 +22,8 @@ local function set_of(list) local s = {}; for _, p in ipairs(list) do s[p] = tru
 -- What building and running need: the compiler, Lua, readline, GSL, gnuplot.
 local DEMO = { "make", "gcc", "pkg-config", "liblua5.4-dev", "lua5.4", "libreadline-dev", "libgsl-dev", "gnuplot-nox" }
 -- The Jupyter kernel: ipykernel, the notebook, MathJax and three.js.
-local KERNEL = { "python3-ipykernel", "jupyter-client", "python3-zmq", "jupyter-notebook", "libjs-mathjax", "libjs-three" }
+local KERNEL = { "python3-ipykernel", "jupyter-client", "python3-zmq", "jupyter-notebook", "jupyter-nbconvert", "libjs-mathjax",
+  "libjs-three" }
 -- What the suite uses besides (busted runs it, tmux drives the session,
 -- numpy runs sys:export's Python, parallel the sweeps, nbclient, nbconvert
 -- and chromium the notebook): with the two sets above, every package that

@@ -221,8 +221,7 @@ function M.inline_animation(tr, opts, nframes)
   display.show(display.bundle{
     ["image/gif"] = gif,
     -- the same GIF as an image in HTML, for renderers without image/gif (nbconvert's HTML)
-    ["text/html"] = function() return ('<img src="data:image/gif;base64,%s" alt="animation of %s"/>'):format(display.base64(gif),
-      display.escape(tr.system.name)) end,
+    ["text/html"] = function() return display.img("image/gif", gif, "animation of " .. tr.system.name) end,
     ["text/plain"] = ("animation of '%s': %d frames"):format(tr.system.name, nframes),
   })
   return require("nz.base.frontend").shown(nframes, {})   -- shown: nothing more at the prompt
