@@ -184,7 +184,7 @@ notebook-screenshot: deps all
 	JUPYTER_PATH=$(CURDIR)/$(B)/jupyter/share/jupyter /usr/bin/python3 tools/notebook.py execute \
 	  examples/classroom_pendulum.ipynb $(B)/classroom_pendulum.ipynb
 	/usr/bin/python3 tools/notebook.py html $(B)/classroom_pendulum.ipynb $(B)/classroom_pendulum.html
-	/usr/bin/python3 tools/notebook.py screenshot $(B)/classroom_pendulum.html docs/notebook.png 1000 1900
+	/usr/bin/python3 tools/notebook.py screenshot $(B)/classroom_pendulum.html docs/notebook.png 1000 2900
 
 clean:
 	rm -rf $(B)

@@ -131,10 +131,11 @@ local value = require("nz.model.bodies").value
 -- ------------------------------------------------------------------ --
 -- Forces                                                               --
 
+M.DEFAULT_GRAVITY = { 0, 0, -9.81 }
 define("gravity", { g = { type = "vector", param = true, doc = "{gx, gy, gz}, default {0, 0, -9.81}" },
   bodies = { type = "coordinates", doc = "names of the bodies it acts on (default all)" } },
   function(e, sc)
-    local g = e.g or { 0, 0, -9.81 }
+    local g = e.g or M.DEFAULT_GRAVITY
     local list = {}
     for _, name in ipairs(e.bodies or sc.body_names) do
       local b = sc.body(name)

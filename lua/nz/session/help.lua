@@ -536,7 +536,7 @@ help(tr.NAME) shows one method, e.g. help(tr.plot):
                              pixels in a file)
   tr:animate{[file = "m.gif" | "m.svg", frames = 60, fps = 20, draw = f,
               plane = "xy", links = true, range = {x0, x1, y0, y1},
-              title =, width =, height =]}
+              title =, width =, height =, view = "2d" | "3d"]}
                              the mechanism frame by frame: in the terminal,
                              as an animated GIF, or SVG frames; from the
                              bodies (a point each, linked as a chain from a
@@ -548,7 +548,14 @@ help(tr.NAME) shows one method, e.g. help(tr.plot):
                              "xy", "xz" or "yz" (bodies only), links true or
                              false (false: no links, no pivot), range four
                              numbers: checked before drawing.  In a
-                             notebook: an inline animated GIF
+                             notebook: an inline animated GIF.  view =
+                             "3d": the bodies in space (a particle a
+                             sphere, a rigid body its ellipsoid of inertia
+                             and axes, the links, the contacts' points, a
+                             grid across gravity): in a notebook a three.js
+                             scene to turn, play/pause and a time slider;
+                             in the terminal and to a file the same seen
+                             from a fixed direction
   print(tr)                  a summary: cost, status, drift, monitors
   print(sys)                 a summary]] },
   { name = "forms", section = "mechanics", usage = "nz.forms",
