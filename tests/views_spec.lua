@@ -14,6 +14,15 @@ end
 
 local function slurp(path) return assert(h.slurp(path), path) end
 
+-- The frames of a GIF file: one Graphic Control Extension (0x21 0xF9 0x04) each.
+local function gif_frames(path)
+  local data = slurp(path)
+  assert.are.equal("GIF8", data:sub(1, 4))
+  local frames = 0
+  for _ in data:gmatch("\33\249\4") do frames = frames + 1 end
+  return frames
+end
+
 -- A terminal plot taken apart: its lines, the frame (first and last line,
 -- first and last column), the x tick labels (the line under the frame), the
 -- y tick labels (each ending one blank left of the frame), and count(c):
@@ -259,12 +268,7 @@ describe("tr:animate", function()
     local gif = os.tmpname() .. ".gif"
     local n = tr:animate{ file = gif, frames = 12 }
     assert.are.equal(12, n)
-    local data = slurp(gif)
-    assert.are.equal("GIF8", data:sub(1, 4))
-    -- one Graphic Control Extension (0x21 0xF9 0x04) per frame
-    local frames = 0
-    for _ in data:gmatch("\33\249\4") do frames = frames + 1 end
-    assert.are.equal(12, frames)
+    assert.are.equal(12, gif_frames(gif))
     os.remove(gif)
   end)
   it("SVG frames, and a user's drawing function", function()
@@ -441,10 +445,7 @@ describe("tr:animate{ view = \"3d\" }", function()
     assert(text:find("#", 1, true), "no pivot at the origin")
     local gif = os.tmpname() .. ".gif"
     assert.are.equal(5, tr:animate{ view = "3d", frames = 5, file = gif })
-    local data = slurp(gif)
-    local count = 0
-    for _ in data:gmatch("\33\249\4") do count = count + 1 end
-    assert.are.equal(5, count)
+    assert.are.equal(5, gif_frames(gif))
     os.remove(gif)
   end)
 
