@@ -430,6 +430,31 @@ describe("tr:animate{ view = \"3d\" }", function()
     assert.are.same({ 0, 0, 1 }, view3d.model(run(top()), { 1 }, {}).up)
   end)
 
+  it("marks a contact's point while it is held: a ball dropped on the floor, from its rest on", function()
+    -- dropped from z = 1 with e = 0.5, it is in the air until sqrt(2/g) and
+    -- rests from 3 sqrt(2/g) on (t1 (1 + e)/(1 - e)), its point on the floor
+    local ball = nz.scene{ name = "ball", coords = { "z" },
+      bodies = { { name = "b", mass = 1, pos = function(t, q) return { 0, 0, q[1] } end } },
+      effects = { nz.effects.gravity{}, nz.effects.contact{ name = "floor", at = "b", e = 0.5,
+        plane = { normal = { 0, 0, 1 } } } } }
+    local tr = ball:simulate{ q0 = { 1 }, t1 = 2, dt = 0.01 }
+    local idx = {}
+    for i = 1, #tr.t, 10 do idx[#idx + 1] = i end
+    local model = view3d.model(tr, idx, { links = false })
+    local fall, rest = math.sqrt(2 / 9.81), 3 * math.sqrt(2 / 9.81)
+    local air, held = 0, 0
+    for _, f in ipairs(model.frames) do
+      if f.t < fall - 1e-6 then
+        assert(f.c[1] == false, ("t = %g: in the air, yet a contact point is drawn"):format(f.t))
+        air = air + 1
+      elseif f.t > rest + 1e-3 then
+        assert(f.c[1] and math.abs(f.c[1][3]) <= 1e-9, ("t = %g: resting, and no point on the floor"):format(f.t))
+        held = held + 1
+      end
+    end
+    assert(air > 2 and held > 2, ("frames in the air %d, at rest %d"):format(air, held))
+  end)
+
   it("in the terminal and to a file: the scene from a fixed direction, frame by frame", function()
     local tr = run(top())
     local written, write = {}, io.write
