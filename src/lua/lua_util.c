@@ -180,10 +180,9 @@ void nz_lua_read_ints(lua_State *L, int idx, int n, int *v, const char *what)
 {
   luaL_checktype(L, idx, LUA_TTABLE);
   for (int r = 0; r < n; r++) {
-    lua_geti(L, idx, r + 1);
-    v[r] = lua_isboolean(L, -1) ? lua_toboolean(L, -1) : (int)luaL_optinteger(L, -1, -1);
+    if (lua_geti(L, idx, r + 1) == LUA_TNIL) luaL_error(L, "internal: %s[%d] missing", what, r + 1);
+    v[r] = lua_isboolean(L, -1) ? lua_toboolean(L, -1) : (int)luaL_checkinteger(L, -1);
     lua_pop(L, 1);
-    if (v[r] < 0) luaL_error(L, "internal: %s[%d] missing", what, r + 1);
   }
 }
 

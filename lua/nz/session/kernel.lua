@@ -247,7 +247,19 @@ function M.install(args)
     f:write(text)
     f:close()
   end
-  print(("nzlua: kernel spec 'nzlua' installed in %s (it starts %s)"):format(dir, program))
+  -- three.js for tr:animate{ view = "3d" }, served by the notebook server
+  -- from this folder (kernelspecs/nzlua/three.min.js): Debian's copy, linked
+  local three = require("nz.draw.three").DEBIAN
+  local note, found = "", io.open(three)
+  if found then
+    found:close()
+    if not os.execute(("ln -sf %s %s"):format(quote(three), quote(dir .. "/three.min.js"))) then
+      fail("cannot link '%s' into '%s'", three, dir)
+    end
+  else
+    note = "; three.js is not installed (sudo apt-get install libjs-three): 3-D views show their GIF"
+  end
+  print(("nzlua: kernel spec 'nzlua' installed in %s (it starts %s)%s"):format(dir, program, note))
   return dir
 end
 
