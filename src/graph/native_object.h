@@ -65,6 +65,7 @@
 
 #include <stddef.h>
 #include <sys/types.h>
+#include "graph/native_cache.h"
 
 /* A growing string, for generating source: an allocation failure sets oom
  * and later calls do nothing. */
@@ -74,9 +75,6 @@ typedef struct nz_sbuf {
   int oom;
 } nz_sbuf;
 void nz_sb_printf(nz_sbuf *b, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
-
-/* A one-line reason into why[n] (why may be NULL). */
-void nz_native_say(char *why, size_t n, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
 
 /* v as a C expression that is exactly v: a hexadecimal literal, NAN,
  * HUGE_VAL or (-HUGE_VAL). */
@@ -121,41 +119,5 @@ void nz_native_object_close(nz_native_object *o);
 
 /* A monotonic clock in seconds. */
 double nz_native_now(void);
-
-/* -- The cache's files (native_cache.c), for native_object.c ------------ */
-
-/* Bytes of the trailer after the compiler's output. */
-#define NZ_NATIVE_TRAILER 40
-
-/* A descriptor of the cache directory dir (created 0700 with its missing
- * parents when create is set) when it is trusted, else -1 with the reason. */
-int nz_native_cache_open(const char *dir, int create, char *why, size_t whylen);
-/* The object called name in the directory dfd, for the key: 1 with *fd
- * open on it (O_NOFOLLOW) when it passes every check (owner, mode, a regular
- * file, the trailer, the checksum, the ELF segments inside the file; its
- * modification time is set to now, for the least-recently-used rule); 0
- * when there is none; -1 when it is there but fails, why saying what. */
-int nz_native_cache_check(int dfd, const char *name, const char *key, int *fd, char *why, size_t whylen);
-/* The compiler's output open in fd, of the user's: check that it is a
- * whole shared object, append the trailer for key, make it 0600, fsync it.
- * 0, or -1 with the reason. */
-int nz_native_cache_seal(int fd, const char *key, char *why, size_t whylen);
-/* After a compile: temporaries and locks left by dead workers removed,
- * then objects, least recently used first, until the cache is under its
- * limit (never keep, the one just made). */
-void nz_native_cache_prune(int dfd, const char *keep);
-/* A one-line notice to the binding's callback. */
-void nz_native_notice(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
-/* A setting from the environment: a positive number (with K, M, G when
- * bytes is set), else def. */
-double nz_native_setting(const char *name, double def, int bytes);
-/* Seconds a compiler may run before it is stopped ($NZLUA_CC_TIMEOUT,
- * default 300), and compile workers at once per process ($NZLUA_CC_JOBS,
- * default 2). */
-double nz_native_cc_timeout(void);
-int nz_native_cc_jobs(void);
-/* All n bytes of buf written at offset at, through interrupted calls; 0,
- * or -1 with errno. */
-int nz_native_write_at(int fd, const void *buf, size_t n, off_t at);
 
 #endif
