@@ -83,8 +83,14 @@ local function execute(host, req)
     return
   end
   repl.begin()
-  host.write("started", {})
-  local res = table.pack(host.run(f))
+  -- "started" is written inside the run: the kernel passes the stop button
+  -- on once it has read it, and only inside the run is SIGINT Ctrl-C
+  -- (between requests nzlua ignores it), so a stop that comes at once is
+  -- never lost
+  local res = table.pack(host.run(function()
+    host.write("started", {})
+    return f()
+  end))
   local ok, interrupted = res[1], res[2]
   if ok then
     -- the value shown once, as the session shows it; built under run too
