@@ -578,6 +578,16 @@ local function second_user()
   return ("setpriv --reuid=%s --regid=%s --clear-groups"):format(uid, gid), uid
 end
 
+-- The second user's prefix and a fresh directory others may enter (0755),
+-- or nil and why there is no second user.
+local function two_users()
+  local as, why = second_user()
+  if not as then return nil, why end
+  local base = tempdir()
+  sh("chmod 755 " .. q(base))
+  return as, base
+end
+
 -- A compiler of the victim's own (a shell script in dir, `$CC --version`
 -- says version), its body after the version line.
 local function cc_script(dir, name, body)
@@ -592,10 +602,8 @@ end
 describe("another local user cannot reach the cache through its path, its compiler or its objects", function()
   it("a directory on the path that another user owns: no cache, interpreted, native_why names it and its owner",
     function()
-      local as, why = second_user()
-      if not as then pending(why) return end
-      local base = tempdir()
-      sh("chmod 755 " .. q(base))
+      local as, base = two_users()
+      if not as then pending(base) return end
       local shared = base .. "/shared"
       sh(("mkdir -m 755 %s && chown %s %s"):format(q(shared), OTHER, q(shared)))
       local cache = shared .. "/cache"   -- root's own 0700 directory, inside theirs
@@ -625,10 +633,8 @@ describe("another local user cannot reach the cache through its path, its compil
     end)
 
   it("a sticky directory others write (as /tmp) may be passed only to what is the user's own", function()
-    local as, why = second_user()
-    if not as then pending(why) return end
-    local base = tempdir()
-    sh("chmod 755 " .. q(base))
+    local as, base = two_users()
+    if not as then pending(base) return end
     local sticky = base .. "/tmp"
     sh(("mkdir -m 1777 %s"):format(q(sticky)))
     local mine, theirs = sticky .. "/mine", sticky .. "/theirs"
@@ -665,10 +671,8 @@ describe("another local user cannot reach the cache through its path, its compil
     -- given paths through the parent compiles their source into the
     -- victim's cache; one given names in a directory it was started in
     -- compiles the victim's.
-    local as, why = second_user()
-    if not as then pending(why) return end
-    local base = tempdir()
-    sh("chmod 755 " .. q(base))
+    local as, base = two_users()
+    if not as then pending(base) return end
     local parent, marker = base .. "/p", base .. "/ran"
     sh("mkdir -m 755 " .. q(parent))
     local cc = cc_script(base, "racecc", ([[

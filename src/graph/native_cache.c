@@ -403,20 +403,6 @@ static uint64_t get64(const unsigned char *p)
   return v;
 }
 
-int nz_native_write_at(int fd, const void *buf, size_t n, off_t at)
-{
-  const unsigned char *p = buf;
-  while (n) {
-    ssize_t k = pwrite(fd, p, n, at);
-    if (k < 0 && errno == EINTR) continue;
-    if (k <= 0) return -1;
-    p += k;
-    n -= (size_t)k;
-    at += k;
-  }
-  return 0;
-}
-
 /* The checksum of the first n bytes: words folded in by a bijection of the
  * state each (xor, an odd multiplier, a shift-xor), so one damaged word
  * always changes the result and several almost always do.  Not a

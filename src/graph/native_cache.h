@@ -91,8 +91,5 @@ void nz_native_notice(const char *fmt, ...) __attribute__((format(printf, 1, 2))
  * one out of range clamped, each with one notice line. */
 double nz_native_cc_timeout(void);
 int nz_native_cc_jobs(void);
-/* All n bytes of buf written at offset at, through interrupted calls; 0,
- * or -1 with errno. */
-int nz_native_write_at(int fd, const void *buf, size_t n, off_t at);
 
 #endif

@@ -9,14 +9,15 @@
 #include <stdio.h>
 #include <string.h>
 #include <unistd.h>
-#include "graph/native_cache.h"
 #include "graph/native_elf.h"
 
-int nz_native_read_at(int fd, void *buf, size_t n, long long at)
+/* All n bytes read (out = 0) or written (out = 1) at offset at, through
+ * interrupted calls; 0, or -1. */
+static int transfer(int fd, void *buf, size_t n, long long at, int out)
 {
   unsigned char *p = buf;
   while (n) {
-    ssize_t k = pread(fd, p, n, (off_t)at);
+    ssize_t k = out ? pwrite(fd, p, n, (off_t)at) : pread(fd, p, n, (off_t)at);
     if (k < 0 && errno == EINTR) continue;
     if (k <= 0) return -1;
     p += k;
@@ -25,6 +26,10 @@ int nz_native_read_at(int fd, void *buf, size_t n, long long at)
   }
   return 0;
 }
+
+int nz_native_read_at(int fd, void *buf, size_t n, long long at) { return transfer(fd, buf, n, at, 0); }
+
+int nz_native_write_at(int fd, const void *buf, size_t n, off_t at) { return transfer(fd, (void *)buf, n, at, 1); }
 
 #if __SIZEOF_POINTER__ == 8
 #define REL_TYPE ELF64_R_TYPE
@@ -54,29 +59,29 @@ int nz_native_elf_whole(int fd, long long size, char *why, size_t whylen)
 {
   ElfW(Ehdr) e;
   if (size < (long long)sizeof e || nz_native_read_at(fd, &e, sizeof e, 0) || memcmp(e.e_ident, ELFMAG, SELFMAG)) {
-    nz_native_say(why, whylen, "not a shared object (%lld bytes, no ELF header)", size);
+    snprintf(why, whylen, "not a shared object (%lld bytes, no ELF header)", size);
     return -1;
   }
   if (e.e_ident[EI_CLASS] != (sizeof(void *) == 8 ? ELFCLASS64 : ELFCLASS32) || e.e_type != ET_DYN ||
       e.e_phentsize != sizeof(ElfW(Phdr))) {
-    nz_native_say(why, whylen, "not a shared object of this machine's kind");
+    snprintf(why, whylen, "not a shared object of this machine's kind");
     return -1;
   }
   long long ph_end = (long long)e.e_phoff + (long long)e.e_phnum * e.e_phentsize;
   long long sh_end = e.e_shnum ? (long long)e.e_shoff + (long long)e.e_shnum * e.e_shentsize : 0;
   if (ph_end > size || sh_end > size) {
-    nz_native_say(why, whylen, "truncated: %lld bytes, its headers reach byte %lld", size,
+    snprintf(why, whylen, "truncated: %lld bytes, its headers reach byte %lld", size,
                   ph_end > sh_end ? ph_end : sh_end);
     return -1;
   }
   for (int i = 0; i < e.e_phnum; i++) {
     ElfW(Phdr) ph;
     if (nz_native_read_at(fd, &ph, sizeof ph, (long long)e.e_phoff + (long long)i * (long long)sizeof ph)) {
-      nz_native_say(why, whylen, "cannot read its program header %d", i);
+      snprintf(why, whylen, "cannot read its program header %d", i);
       return -1;
     }
     if (ph.p_type == PT_LOAD && (long long)(ph.p_offset + ph.p_filesz) > size) {
-      nz_native_say(why, whylen, "truncated: %lld bytes, a segment reaches byte %lld", size,
+      snprintf(why, whylen, "truncated: %lld bytes, a segment reaches byte %lld", size,
                     (long long)(ph.p_offset + ph.p_filesz));
       return -1;
     }
@@ -173,17 +178,17 @@ static int check_dynamic(const elf_file *f, long long off, long long n, dyn_tabl
     for (long long i = 0; i < count; i++) {
       ElfW(Dyn) d;
       if (entry_at(f, off, i, sizeof d, &d, sizeof d)) {
-        nz_native_say(why, whylen, "its dynamic section lies outside the file");
+        snprintf(why, whylen, "its dynamic section lies outside the file");
         return -1;
       }
       if (d.d_tag == DT_NULL) break;
       const char *danger = dynamic_tag_danger(d.d_tag);
       if (pass == 0) {
-        if (danger) nz_native_say(why, whylen, "has %s", danger);
+        if (danger) snprintf(why, whylen, "has %s", danger);
         else if (d.d_tag == DT_FLAGS && (d.d_un.d_val & DF_TEXTREL))
-          nz_native_say(why, whylen, "has text relocations (DF_TEXTREL)");
+          snprintf(why, whylen, "has text relocations (DF_TEXTREL)");
         else if (d.d_tag == DT_FLAGS_1 && (d.d_un.d_val & DF_1_INITFIRST))
-          nz_native_say(why, whylen, "asks to be initialised first (DF_1_INITFIRST)");
+          snprintf(why, whylen, "asks to be initialised first (DF_1_INITFIRST)");
         else {
           note_table(&d, t);
           continue;
@@ -193,11 +198,11 @@ static int check_dynamic(const elf_file *f, long long off, long long n, dyn_tabl
       if (d.d_tag != DT_NEEDED) continue;
       char name[256];
       if (string_at(f, t->strtab, d.d_un.d_val, name, sizeof name)) {
-        nz_native_say(why, whylen, "names a library whose name lies outside the file");
+        snprintf(why, whylen, "names a library whose name lies outside the file");
         return -1;
       }
       if (!allowed_library(name)) {
-        nz_native_say(why, whylen, "needs the library '%s' (only the C library and libm may be loaded with it)", name);
+        snprintf(why, whylen, "needs the library '%s' (only the C library and libm may be loaded with it)", name);
         return -1;
       }
     }
@@ -225,11 +230,11 @@ static int check_relocations(const elf_file *f, const dyn_tables *t, char *why, 
     for (long long i = 0; i < (long long)(t->relsz[k] / ent); i++) {
       ElfW(Rel) r;   /* a Rela begins as a Rel does */
       if (off < 0 || entry_at(f, off, i, ent, &r, sizeof r)) {
-        nz_native_say(why, whylen, "its relocations lie outside the file");
+        snprintf(why, whylen, "its relocations lie outside the file");
         return -1;
       }
       if ((long long)REL_TYPE(r.r_info) == IRELATIVE) {
-        nz_native_say(why, whylen, "has an indirect function whose resolver runs when it is loaded (IRELATIVE)");
+        snprintf(why, whylen, "has an indirect function whose resolver runs when it is loaded (IRELATIVE)");
         return -1;
       }
     }
@@ -274,12 +279,12 @@ static int check_symbols(const elf_file *f, const dyn_tables *t, char *why, size
     ElfW(Sym) s;
     if (entry_at(f, off, i, t->syment ? t->syment : sizeof s, &s, sizeof s)) n = -1;
     else if (SYM_TYPE(s.st_info) == STT_GNU_IFUNC && s.st_shndx != SHN_UNDEF) {
-      nz_native_say(why, whylen, "has an indirect function whose resolver runs when it is looked up (IFUNC)");
+      snprintf(why, whylen, "has an indirect function whose resolver runs when it is looked up (IFUNC)");
       return -1;
     }
   }
   if (n < 0) {
-    nz_native_say(why, whylen, "its symbol table lies outside the file");
+    snprintf(why, whylen, "its symbol table lies outside the file");
     return -1;
   }
   return 0;
@@ -297,7 +302,7 @@ static int check_sections(const elf_file *f, char *why, size_t whylen)
     ElfW(Shdr) sh;
     char name[32] = "";
     if (entry_at(f, (long long)e->e_shoff, i, e->e_shentsize, &sh, sizeof sh)) {
-      nz_native_say(why, whylen, "its section header %d lies outside the file", i);
+      snprintf(why, whylen, "its section header %d lies outside the file", i);
       return -1;
     }
     if (have_names && (long long)(names.sh_offset + sh.sh_name) < f->size) {
@@ -311,7 +316,7 @@ static int check_sections(const elf_file *f, char *why, size_t whylen)
     int hit = sh.sh_type == SHT_INIT_ARRAY || sh.sh_type == SHT_FINI_ARRAY || sh.sh_type == SHT_PREINIT_ARRAY;
     for (size_t k = 0; k < sizeof bad / sizeof bad[0]; k++) hit = hit || !strcmp(name, bad[k]);
     if (hit) {
-      nz_native_say(why, whylen, "has a section of code run at load or unload ('%s')", name[0] ? name : "?");
+      snprintf(why, whylen, "has a section of code run at load or unload ('%s')", name[0] ? name : "?");
       return -1;
     }
   }
@@ -325,7 +330,7 @@ int nz_native_elf_inert(int fd, long long size, char *why, size_t whylen)
   f.fd = fd;
   f.size = size;
   if (nz_native_read_at(fd, &f.e, sizeof f.e, 0)) {
-    nz_native_say(why, whylen, "has no ELF header");
+    snprintf(why, whylen, "has no ELF header");
     return -1;
   }
   int stack = 0, dynamics = 0;
@@ -334,23 +339,23 @@ int nz_native_elf_inert(int fd, long long size, char *why, size_t whylen)
   for (int i = 0; i < f.e.e_phnum; i++) {
     ElfW(Phdr) ph;
     if (entry_at(&f, (long long)f.e.e_phoff, i, f.e.e_phentsize, &ph, sizeof ph)) {
-      nz_native_say(why, whylen, "its program header %d lies outside the file", i);
+      snprintf(why, whylen, "its program header %d lies outside the file", i);
       return -1;
     }
     if (ph.p_type == PT_GNU_STACK && (ph.p_flags & PF_X)) {
-      nz_native_say(why, whylen, "asks for an executable stack (PT_GNU_STACK with PF_X)");
+      snprintf(why, whylen, "asks for an executable stack (PT_GNU_STACK with PF_X)");
       return -1;
     }
     stack |= ph.p_type == PT_GNU_STACK;
     if (ph.p_type == PT_DYNAMIC && dynamics++) {
-      nz_native_say(why, whylen, "has two dynamic sections");
+      snprintf(why, whylen, "has two dynamic sections");
       return -1;
     }
     if (ph.p_type == PT_DYNAMIC && check_dynamic(&f, (long long)ph.p_offset, (long long)ph.p_filesz, &t, why, whylen))
       return -1;
   }
   if (!stack) {
-    nz_native_say(why, whylen, "does not say its stack is not executable (no PT_GNU_STACK: the loader would make "
+    snprintf(why, whylen, "does not say its stack is not executable (no PT_GNU_STACK: the loader would make "
                   "every stack executable)");
     return -1;
   }

@@ -16,15 +16,19 @@
  * was not made by nzlua's generator as nzlua runs it, whatever CC did, and
  * is refused before it is loaded.
  *
- * Plain C: no Lua, no printing. */
+ * Plain C: no Lua, no printing, and no other file of nzlua's (the cache
+ * uses it, it uses nothing of the cache's). */
 #ifndef NZ_NATIVE_ELF_H
 #define NZ_NATIVE_ELF_H
 
 #include <stddef.h>
+#include <sys/types.h>
 
-/* All n bytes read at offset at, through interrupted calls; 0, or -1
- * (an error, or the file ends first). */
+/* All n bytes read at offset at (or written: nz_native_write_at), through
+ * interrupted calls; 0, or -1 with errno (an error, or the file ends
+ * first).  The cache's files are read and written with these too. */
 int nz_native_read_at(int fd, void *buf, size_t n, long long at);
+int nz_native_write_at(int fd, const void *buf, size_t n, off_t at);
 
 /* The first size bytes of fd hold a whole shared object of this machine's
  * class: its program headers and every loaded segment, and its section

@@ -23,6 +23,7 @@
 #include <time.h>
 #include <unistd.h>
 #include "core/interrupt.h"
+#include "graph/native_elf.h"
 #include "graph/native_object.h"
 
 extern char **environ;
