@@ -56,7 +56,7 @@ typedef struct setting {
   double def, max;
   int bytes;          /* a size: K, M, G or T may follow the number */
   int whole;          /* a whole number */
-  char seen[80];      /* the value last read, and what it gave */
+  char seen[80];      /* the value last read (its first bytes), and what it gave */
   double value;
 } setting;
 
@@ -101,7 +101,9 @@ static double setting_value(setting *s)
 {
   const char *e = getenv(s->name);
   if (!e || !*e) return s->def;
-  if (s->seen[0] && strlen(e) < sizeof s->seen && !strcmp(s->seen, e)) return s->value;
+  /* a value already read gives what it gave, without a second notice (a
+   * value longer than seen is known by its first bytes) */
+  if (s->seen[0] && !strncmp(s->seen, e, sizeof s->seen - 1)) return s->value;
   int clamped;
   double v = parse_setting(s, e, &clamped);
   char used[40], largest[40];
@@ -112,7 +114,7 @@ static double setting_value(setting *s)
   else if (clamped)
     nz_native_notice("%s='%.40s' is more than the largest accepted, %s: %s is used", s->name, e, largest, used);
   s->value = isnan(v) ? s->def : v;
-  snprintf(s->seen, sizeof s->seen, "%s", strlen(e) < sizeof s->seen ? e : "");
+  snprintf(s->seen, sizeof s->seen, "%s", e);
   return s->value;
 }
 
