@@ -33,8 +33,7 @@ M.Contact = Contact
 
 local KNOWN = { e = true, mu = true, mu_s = true, slip = true, name = true, at = true }
 
-local function finite(v) return type(v) == "number" and v == v and math.abs(v) ~= math.huge end
-local function shown(v) return type(v) == "number" and require("nz.base.text").number(v) or type(v) end
+local finite, shown = require("nz.base.args").finite, require("nz.base.args").shown
 
 -- A contact's parameters checked, each error naming the contact and the
 -- parameter with what it accepts (raised at `level`, counted from here as

@@ -300,7 +300,7 @@ local function check_plot_options(opts)
   local function bad(key, want)
     local v = opts[key]
     error(("%strajectory:plot: %s = %s: %s"):format(require("nz.base.where").user_where(), key,
-      type(v) == "string" and ("%q"):format(v) or tostring(v), want), 0)
+      require("nz.base.text").literal(v), want), 0)
   end
   local y = opts.y
   local names = type(y) == "table" and #y > 0
