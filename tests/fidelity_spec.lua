@@ -1,5 +1,5 @@
 -- fidelity_spec.lua - a recorded function never answers differently from
--- the same function in Lua (issue 23).
+-- the same function in Lua.
 --
 -- Each system is made twice, recorded (the default) and with
 -- compile = false (every function run by Lua on jets): the two must give
@@ -191,7 +191,7 @@ describe("each recording is checked on jets with tangents, and a failed check na
     end, stop = true }
     local ta = a:simulate{ q0 = { 1 }, t1 = 3, events = { ev } }
     local tb = b:simulate{ q0 = { 1 }, t1 = 3, events = { ev } }
-    assert.truthy(tostring(ta.stats.loop_why):find("tests type() of a traced value", 1, true), tostring(ta.stats.loop_why))
+    assert.truthy(tostring(ta.stats.events_why):find("tests type() of a traced value", 1, true), tostring(ta.stats.events_why))
     -- both stop where the numbers say: x = 0.5 at t = acos(0.5) = pi/3
     assert.is_true(math.abs(ta.t[#ta.t] - math.pi / 3) < 1e-8 and math.abs(tb.t[#tb.t] - math.pi / 3) < 1e-8,
       ("stopped at %.17g and %.17g"):format(ta.t[#ta.t], tb.t[#tb.t]))

@@ -82,4 +82,82 @@ function M.checkerror(pattern, f, ...)
     ("expected an error containing %q, got %q"):format(pattern, tostring(msg)))
 end
 
+-- A reference run written here, independent of the stepping loop of
+-- src/ode/ode_run.c: the same integrator (core.mech.ode_new) stepped from
+-- Lua to each output time of the grid t0 + i dt (the last t1), adaptive
+-- steps towards it or fixed steps no longer than `step` that land on it,
+-- with q, qd, the whole state y and (mech.ode_accel) q'' and lambda at
+-- each point.  A run of
+-- sys:simulate with dense = false takes the same steps, so the two agree
+-- to the bit: what the loop adds (buffers, pauses, resumption, the grid's
+-- arithmetic) changes nothing.  opts: q0, qd0, t0, t1, dt, method, rtol,
+-- atol, step, h0 (as sys:simulate), and what the integrator needs beside
+-- them (orders, linear, alpha, beta, work, level, top; y0: the whole start
+-- state).
+function M.reference_run(sys, opts)
+  local mech = require("nz.core").mech
+  local k = sys.k
+  local t0, t1 = opts.t0 or 0, opts.t1
+  local dt = opts.dt or (t1 - t0) / 200
+  local cfg = { method = opts.method or "rk8pd", rtol = opts.rtol or 1e-10, atol = opts.atol or 1e-12,
+    h0 = opts.h0 or math.min(dt, 1e-3), orders = opts.orders or {}, linear = opts.linear or {}, alpha = opts.alpha,
+    beta = opts.beta, work = opts.work, level = opts.level, top = opts.top }
+  local engine = sys.engine
+  engine.orders = cfg.orders
+  local ode = mech.ode_new(engine, cfg)
+  local y = opts.y0
+  if not y then
+    y = {}
+    for i = 1, k do y[i], y[k + i] = opts.q0[i], opts.qd0 and opts.qd0[i] or 0 end
+    if opts.work then y[2 * k + 1] = 0 end
+  end
+  local tr = { t = {}, q = {}, qd = {}, qdd = {}, lambda = {}, y = {} }
+  local function record(t)
+    local n = #tr.t + 1
+    local q, qd = {}, {}
+    for i = 1, k do q[i], qd[i] = y[i], y[k + i] end
+    tr.t[n], tr.q[n], tr.qd[n], tr.y[n] = t, q, qd, { table.unpack(y) }
+    tr.qdd[n], tr.lambda[n] = mech.ode_accel(ode, engine, t, y)
+  end
+  local t, h = t0, cfg.h0
+  record(t)
+  local nout = math.ceil((t1 - t0) / dt - 1e-9)
+  for i = 1, nout do
+    local tout = i == nout and t1 or t0 + i * dt
+    local nfixed = opts.step and math.max(1, math.ceil((tout - t) / opts.step - 1e-9))
+    local hfixed = opts.step and (tout - t) / nfixed
+    while t < tout do
+      if opts.step then
+        nfixed = nfixed - 1
+        t, y = mech.ode_step_fixed(ode, engine, t, hfixed, y)
+        if nfixed == 0 then t = tout end
+      else
+        t, h, y = mech.ode_step(ode, engine, t, tout, h, y)
+      end
+    end
+    record(t)
+  end
+  tr.stats = mech.ode_stats(ode)
+  return tr
+end
+
+-- Base64 decoded (RFC 4648), written here apart from the library's
+-- encoder: an image in a data URI read back as its bytes.
+function M.unbase64(s)
+  local alphabet = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/"
+  local bits = s:gsub("[^%w+/]", ""):gsub(".", function(c)
+    local v = alphabet:find(c, 1, true) - 1
+    local out = {}
+    for b = 5, 0, -1 do out[#out + 1] = (v >> b) & 1 end
+    return table.concat(out)
+  end)
+  return (bits:gsub("%d%d%d%d%d%d%d%d", function(byte) return string.char(tonumber(byte, 2)) end):gsub("[01]+$", ""))
+end
+
+-- The bytes of the first <img src="data:MIME;base64,..."> in a page, or nil.
+function M.img_data(html, mime)
+  local coded = html and html:match('<img src="data:' .. mime:gsub("%p", "%%%0") .. ';base64,([^"]+)"')
+  return coded and M.unbase64(coded)
+end
+
 return M

@@ -26,12 +26,27 @@ describe("the Lua half's floors", function()
     assert.truthy(bad:find("folder 'shelf' is not a floor", 1, true), bad)
   end)
 
+  it("sees every require in the code, bare 'nz' and inside functions, and none in comments or strings", function()
+    local src = table.concat({
+      'local a = require "nz.base.text"',
+      'local function f() return require("nz").last end',
+      "local g = function() return require 'nz.model.record' end",
+      '-- require "nz.analysis.check" (a comment)',
+      '--[[ require("nz.analysis.defect") ]]',
+      'local msg = "see require(\'nz.motion.simulate\').MAX_MEMORY"',
+      'local long = [==[ require "nz.draw.plot" ]==]',
+      'local t = x.require("nz.session.help")',
+    }, "\n")
+    assert.are.same({ "nz.base.text", "nz.init", "nz.model.record" }, requires.scan_requires(src))
+  end)
+
   it("docs/architecture.md shows the require graph as it is (lua5.4 tools/requires.lua prints it)", function()
     local f = assert(io.open("docs/architecture.md"))
     local doc = f:read("a")
     f:close()
     local shown = doc:match("<!%-%- requires: begin[^\n]*%-%->\n(.-)\n<!%-%- requires: end %-%->")
     assert.truthy(shown, "docs/architecture.md has no block between <!-- requires: begin --> and <!-- requires: end -->")
+    -- (lua5.4 tools/requires.lua --write puts the graph there)
     assert.are.equal(requires.markdown(mods), shown)
   end)
 end)

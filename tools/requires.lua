@@ -2,6 +2,8 @@
 --
 --   lua5.4 tools/requires.lua          the graph as docs/architecture.md
 --                                      shows it (markdown)
+--   lua5.4 tools/requires.lua --write  the same, written into
+--                                      docs/architecture.md's block
 --   dofile("tools/requires.lua")       the functions, for tests/layers_spec.lua
 --
 -- lua/nz/ holds one folder per floor; a module may require modules of its
@@ -36,6 +38,53 @@ local function list(cmd)
   return out
 end
 
+-- The modules a Lua source requires: every `require "name"` or
+-- `require("name")` written in its code, at the top or inside a function,
+-- read by a small scanner that skips comments and the text of strings (a
+-- message that names a module, "require('nz.motion.simulate').MAX_MEMORY",
+-- is no require).  `require "nz"` is the face's init.lua.
+local function scan_requires(src)
+  local found, i, n = {}, 1, #src
+  local function skip_long(at)            -- [[ ... ]], [==[ ... ]==] from at: the index after it, or nil
+    local eq = src:match("^%[(=*)%[", at)
+    if not eq then return nil end
+    local _, e = src:find("]" .. eq .. "]", at + #eq + 2, true)
+    return (e or n) + 1
+  end
+  local function skip_string(at)          -- "..." or '...' from at: the index after it
+    local q, j = src:sub(at, at), at + 1
+    while j <= n do
+      local c = src:sub(j, j)
+      if c == "\\" then j = j + 2
+      elseif c == q or c == "\n" then return j + 1
+      else j = j + 1 end
+    end
+    return j
+  end
+  while i <= n do
+    local c = src:sub(i, i)
+    if src:sub(i, i + 1) == "--" then
+      i = skip_long(i + 2) or ((src:find("\n", i, true) or n) + 1)
+    elseif c == '"' or c == "'" then
+      i = skip_string(i)
+    elseif c == "[" and skip_long(i) then
+      i = skip_long(i)
+    elseif c:match("[%a_]") then
+      local word = src:match("^[%w_]+", i)
+      local before = i > 1 and src:sub(i - 1, i - 1) or ""
+      i = i + #word
+      if word == "require" and before ~= "." and before ~= ":" then
+        local name = src:match("^%s*%(?%s*[\"']([%w_.]+)[\"']", i)
+        if name then found[#found + 1] = name == "nz" and "nz.init" or name end
+      end
+    else
+      i = i + 1
+    end
+  end
+  return found
+end
+M.scan_requires = scan_requires
+
 -- Every module: {name = "nz.model.record", path, floor, requires = {names}}.
 function M.modules(root)
   root = root or "."
@@ -49,10 +98,10 @@ function M.modules(root)
     f:close()
     local reqs, seen = {}, {}
     -- (not the C binding nz.core below them all, not the files nzlua
-    -- carries (nz.files.*, tools/embed.lua), not itself: a message that
-    -- shows its own require)
-    for r in src:gmatch("require%s*%(?%s*[\"'](nz%.[%w_.]+)[\"']") do
-      if r ~= "nz.core" and not r:match("^nz%.files%.") and r ~= name and not seen[r] then
+    -- carries (nz.files.*, tools/embed.lua), not the modules of other
+    -- libraries)
+    for _, r in ipairs(scan_requires(src)) do
+      if r:match("^nz%.") and r ~= "nz.core" and not r:match("^nz%.files%.") and r ~= name and not seen[r] then
         seen[r] = true
         reqs[#reqs + 1] = r
       end
@@ -124,8 +173,22 @@ function M.markdown(mods)
   return table.concat(out, "\n")
 end
 
+-- The page with its block between <!-- requires: begin ... --> and
+-- <!-- requires: end --> replaced by the graph.
+function M.write(path, graph)
+  local f = assert(io.open(path))
+  local doc = f:read("a")
+  f:close()
+  local head, tail = doc:match("^(.-<!%-%- requires: begin[^\n]*%-%->\n).-(\n<!%-%- requires: end %-%->.*)$")
+  assert(head, path .. " has no block between <!-- requires: begin --> and <!-- requires: end -->")
+  f = assert(io.open(path, "w"))
+  f:write(head, graph, tail)
+  f:close()
+end
+
 if arg and arg[0] and arg[0]:match("requires%.lua$") and not debug.getinfo(3) then
-  print(M.markdown(M.modules(".")))
+  local graph = M.markdown(M.modules("."))
+  if arg[1] == "--write" then M.write(arg[2] or "docs/architecture.md", graph) else print(graph) end
 end
 
 return M

@@ -31,4 +31,12 @@ nz.print = require("nz.draw.display").print    -- print values as the session do
 
 nz.help = require("nz.session.help").bind(nz)
 
+-- nz.last: the trajectory of the last run that was interrupted or failed,
+-- kept on the base floor (nz/base/session.lua) by the runs themselves.
+local session = require "nz.base.session"
+setmetatable(nz, {
+  __index = function(_, key) if key == "last" then return session.last end end,
+  __newindex = function(t, key, v) if key == "last" then session.last = v else rawset(t, key, v) end end,
+})
+
 return nz

@@ -20,6 +20,8 @@
 #include "lua/lua_util.h"
 #include "mech/constrained.h"
 #include "mech/contact.h"
+#include "mech/mech_graph.h"
+#include "graph/graph_rounding.h"
 #include "ode/ode.h"
 #include "ode/ode_run.h"
 #include "ode/stepper.h"
@@ -125,15 +127,8 @@ static int lo_new(lua_State *L)
     cfg.guess = g;                   /* kept on the stack until nz_ode_alloc copies it */
   }
   int *flags = lua_newuserdatauv(L, 2 * ((size_t)nc + 1) * sizeof(int), 0);
-  for (int r = 0; r < nc; r++) {
-    lua_getfield(L, 2, "orders");
-    lua_geti(L, -1, r + 1);
-    flags[r] = (int)luaL_checkinteger(L, -1);
-    lua_getfield(L, 2, "linear");
-    lua_geti(L, -1, r + 1);
-    flags[nc + 1 + r] = lua_toboolean(L, -1);
-    lua_pop(L, 4);
-  }
+  nz_lua_field_ints(L, 2, "orders", nc, flags);
+  nz_lua_field_ints(L, 2, "linear", nc, flags + nc + 1);
   cfg.orders = flags;
   cfg.linear = flags + nc + 1;
   nz_accel_options acc = NZ_ACCEL_DEFAULTS;
@@ -180,17 +175,8 @@ static int raise_failure(lua_State *L, ode_box *box, bound_system *b, int st)
   switch (f->kind) {
   case NZ_ODE_FAIL_MASS:
     return nz_lua_raise_singular_mass(L, 1, f->t, q, qd, k, &f->mass);
-  case NZ_ODE_FAIL_CONSTRAINTS: {
-    int *orders = lua_newuserdatauv(L, ((size_t)box->nc + 1) * sizeof(int), 0);
-    memset(orders, 0, ((size_t)box->nc + 1) * sizeof(int));
-    lua_getfield(L, 1, "orders");          /* the definition keeps the classification */
-    for (int r = 0; r < box->nc && lua_istable(L, -1); r++) {
-      lua_geti(L, -1, r + 1);
-      orders[r] = (int)lua_tointeger(L, -1);
-      lua_pop(L, 1);
-    }
-    return nz_lua_raise_accel_failure(L, 1, &f->accel, orders, f->t, q, qd, k, box->nc);
-  }
+  case NZ_ODE_FAIL_CONSTRAINTS:
+    return nz_lua_raise_accel_failure(L, 1, &f->accel, nz_ode_orders(box->o), f->t, q, qd, k, box->nc);
   case NZ_ODE_FAIL_STEP:
   case NZ_ODE_FAIL_NONFINITE: {
     luaL_Buffer msg;
@@ -489,44 +475,64 @@ static int lo_run_violation(lua_State *L)
 
 typedef struct run_box {
   nz_run *r;
-  ode_box *ode;
-  events_box *events;                /* NULL: none (kept alive as user value 2) */
+  ode_box *ode, *locator;            /* (kept alive as user values 1 and 5) */
+  events_box *events;                /* NULL: none recorded (user value 2) */
   int nuser;                         /* the user's events; the contacts' follow */
+  int *orders;                       /* nc: the violation in C (NULL: none, or in Lua) */
 } run_box;
 
-/* The event callback of one ode_run call: the graph's value, else the Lua
- * fallback's (at stack index fallback) under lua_pcall, whose error is
+/* The hooks of one ode_run call (ode_run.h): an event's value from its
+ * graph, else from the Lua fallback (at stack index fallback), a contact's
+ * from the contacts; the violation in C, or from the Lua function at stack
+ * index violation.  A Lua function runs under lua_pcall, and its error is
  * kept at stack index err for ode_run to raise once the C loop has
  * returned (a Lua error never unwinds through the C core). */
-typedef struct event_ctx {
+typedef struct hook_ctx {
   lua_State *L;
-  events_box *eb;
-  int fallback, err, dim, failed;
-  nz_contacts *contacts;           /* its events after the user's (nuser) */
+  run_box *rb;
+  int fallback, violation, err, failed;
   const nz_system *s;
-  int nuser;
-} event_ctx;
+} hook_ctx;
 
-static int run_event(void *ctx, int e, double t, const double *y, double *g)
+/* Call the Lua function at stack index fn with (e + 1 unless e < 0, t, y):
+ * its number, or NZ_EFUNC with its error kept. */
+static int call_lua(hook_ctx *c, int fn, int e, double t, const double *y, double *out)
 {
-  event_ctx *c = ctx;
-  if (e >= c->nuser) return nz_contacts_event(c->contacts, c->s, e - c->nuser, t, y, g);
-  if (events_eval(c->eb, e, t, y, g) == NZ_OK) return NZ_OK;
   lua_State *L = c->L;
-  if (lua_isnil(L, c->fallback)) return NZ_EDOM;   /* none: the graph's failure fails the run */
   if (!lua_checkstack(L, 5)) return NZ_ENOMEM;
-  lua_pushvalue(L, c->fallback);
-  lua_pushinteger(L, e + 1);
+  lua_pushvalue(L, fn);
+  if (e >= 0) lua_pushinteger(L, e + 1);
   lua_pushnumber(L, t);
-  nz_lua_push_vector(L, y, c->dim);
-  if (lua_pcall(L, 3, 1, 0) != LUA_OK) {
+  nz_lua_push_vector(L, y, c->rb->ode->dim);
+  if (lua_pcall(L, e >= 0 ? 3 : 2, 1, 0) != LUA_OK) {
     lua_replace(L, c->err);
     c->failed = 1;
     return NZ_EFUNC;
   }
-  *g = lua_tonumber(L, -1);
+  *out = lua_tonumber(L, -1);
   lua_pop(L, 1);
   return NZ_OK;
+}
+
+static int run_event(void *ctx, int e, double t, const double *y, double *g)
+{
+  hook_ctx *c = ctx;
+  run_box *rb = c->rb;
+  if (e >= rb->nuser) return nz_contacts_event(rb->ode->contacts, c->s, e - rb->nuser, t, y, g);
+  if (rb->events && events_eval(rb->events, e, t, y, g) == NZ_OK) return NZ_OK;
+  if (lua_isnil(c->L, c->fallback)) return NZ_EDOM;   /* none: the graph's failure fails the run */
+  return call_lua(c, c->fallback, e, t, y, g);
+}
+
+static int run_violation(void *ctx, double t, const double *y, double *v)
+{
+  hook_ctx *c = ctx;
+  if (c->rb->orders) return nz_state_violation(c->s, c->rb->orders, t, y, y + c->rb->ode->k, v);
+  if (lua_isnil(c->L, c->violation)) {   /* no constraints: nothing to violate */
+    *v = 0.0;
+    return NZ_OK;
+  }
+  return call_lua(c, c->violation, -1, t, y, v);
 }
 
 static run_box *check_run(lua_State *L, int idx)
@@ -544,14 +550,19 @@ static int run_gc(lua_State *L)
   return 0;
 }
 
+
 /* ode_run_new(ode, {t0, t1, dt, step, h0, y, stall_window, stall_fraction
- * [, capacity] [, events, directions, fallback] [, project_tol, orders]
- * [, dense, rtol, atol] [, event_tol]})
- * -> run.  events: an nz.ode_events, directions its events' (0, 1, -1),
- * fallback(e, t, y) the value of event e where its graph fails (it raises
- * the event's error; nil: the graph's failure fails the run); event_tol:
- * the tolerance of the events the loop locates itself (taylor); project_tol > 0 with the constraints' orders: return
- * "project" when the violation exceeds it. */
+ * [, capacity] [, events, directions, fallback, locator, event_tol]
+ * [, project_tol, orders | violation] [, dense, rtol, atol]}) -> run.
+ * events: an nz.ode_events (the recorded graphs), or nil when none is
+ * recorded; directions: one per user event (0, 1, -1); fallback(e, t, y):
+ * event e's value where its graph fails or is absent (it raises the
+ * event's error; nil: the graph's failure fails the run); locator: an
+ * nz.ode that integrates a step again to locate an event where the dense
+ * output misses the tolerance (required with events, unless the method's
+ * dense output is exact); project_tol > 0: return "project" when the
+ * violation exceeds it, computed in C from the constraints' orders, or by
+ * violation(t, y). */
 static int lo_run_new(lua_State *L)
 {
   lua_settop(L, 2);
@@ -570,55 +581,54 @@ static int lo_run_new(lua_State *L)
   c.project_tol = nz_lua_field_number(L, 2, "project_tol", 0.0);
   c.rtol = nz_lua_field_number(L, 2, "rtol", 0.0);
   c.atol = nz_lua_field_number(L, 2, "atol", 0.0);
+  c.event_tol = nz_lua_field_number(L, 2, "event_tol", 1e-12);
   lua_getfield(L, 2, "dense");
   c.dense = lua_toboolean(L, -1);
   lua_pop(L, 1);
   lua_getfield(L, 2, "events");                            /* at 3 */
   events_box *eb = lua_isnil(L, 3) ? NULL : luaL_checkudata(L, 3, NZ_EVENTS_METATABLE);
   lua_getfield(L, 2, "fallback");                          /* at 4 */
-  if (eb && !lua_isnil(L, 4)) luaL_checktype(L, 4, LUA_TFUNCTION);
-  c.event_tol = nz_lua_field_number(L, 2, "event_tol", 1e-12);
-  int nuser = eb ? eb->n : 0;
+  if (!lua_isnil(L, 4)) luaL_checktype(L, 4, LUA_TFUNCTION);
+  lua_getfield(L, 2, "violation");                         /* at 5 */
+  if (!lua_isnil(L, 5)) luaL_checktype(L, 5, LUA_TFUNCTION);
+  lua_getfield(L, 2, "locator");                           /* at 6 */
+  ode_box *loc = lua_isnil(L, 6) ? NULL : check_ode(L, 6);
+  lua_getfield(L, 2, "directions");
+  int nuser = lua_istable(L, -1) ? (int)luaL_len(L, -1) : 0;
+  lua_pop(L, 1);
+  if (eb && eb->n != nuser) return luaL_error(L, "internal: %d directions for %d recorded events", nuser, eb->n);
+  if (nuser > 0 && !eb && lua_isnil(L, 4)) return luaL_error(L, "internal: events without graphs need a fallback");
   /* the contacts' events follow the user's, each falling through zero */
-  c.nchange = ob->contacts ? nz_contacts_nevents(ob->contacts) : 0;
-  c.nevents = nuser + c.nchange;
-  int *ints = lua_newuserdatauv(L, ((size_t)c.nevents + (size_t)ob->nc + 1) * sizeof(int), 0);
-  for (int e = 0; e < c.nevents; e++) {
-    if (e >= nuser) {
-      ints[e] = -1;
-      continue;
-    }
-    lua_getfield(L, 2, "directions");
-    lua_geti(L, -1, e + 1);
-    ints[e] = (int)luaL_checkinteger(L, -1);
-    lua_pop(L, 2);
-  }
-  c.directions = ints;
-  if (c.project_tol > 0.0)
-    for (int r = 0; r < ob->nc; r++) {
-      lua_getfield(L, 2, "orders");
-      lua_geti(L, -1, r + 1);
-      ints[c.nevents + r] = (int)luaL_checkinteger(L, -1);
-      lua_pop(L, 2);
-    }
-  c.orders = ints + c.nevents;
+  int ncontact = ob->contacts ? nz_contacts_nevents(ob->contacts) : 0;
+  c.nevents = nuser + ncontact;
+  int *dirs = lua_newuserdatauv(L, ((size_t)c.nevents + 1) * sizeof(int), 0);
+  nz_lua_field_ints(L, 2, "directions", nuser, dirs);
+  for (int e = nuser; e < c.nevents; e++) dirs[e] = -1;
+  c.directions = dirs;
+  c.locator = loc ? loc->st : NULL;
+  int in_c = c.project_tol > 0.0 && lua_isnil(L, 5) && ob->nc > 0;   /* the violation computed in C */
+  int *orders = lua_newuserdatauv(L, ((size_t)ob->nc + 1) * sizeof(int), 0);
+  if (in_c) nz_lua_field_ints(L, 2, "orders", ob->nc, orders);
   int dim = ob->dim;
   double *y = lua_newuserdatauv(L, (size_t)dim * sizeof(double), 0);
   lua_getfield(L, 2, "y");
   nz_lua_read_vector(L, lua_gettop(L), dim, y, "y", 0, "simulate");
   lua_pop(L, 1);
-  run_box *rb = lua_newuserdatauv(L, sizeof *rb, 3);
+  run_box *rb = lua_newuserdatauv(L, sizeof *rb + ((size_t)ob->nc + 1) * sizeof(int), 6);
   memset(rb, 0, sizeof *rb);
   luaL_setmetatable(L, NZ_RUN_METATABLE);
-  lua_pushvalue(L, 1);
-  lua_setiuservalue(L, -2, 1);
-  lua_pushvalue(L, 3);                                     /* the events and their fallback */
-  lua_setiuservalue(L, -2, 2);
-  lua_pushvalue(L, 4);
-  lua_setiuservalue(L, -2, 3);
+  for (int u = 1; u <= 5; u++) {                           /* ode, events, fallback, violation, locator */
+    lua_pushvalue(L, u == 1 ? 1 : u + 1);
+    lua_setiuservalue(L, -2, u);
+  }
   rb->ode = ob;
+  rb->locator = loc;
   rb->events = eb;
   rb->nuser = nuser;
+  if (in_c) {
+    rb->orders = (int *)(void *)(rb + 1);
+    memcpy(rb->orders, orders, (size_t)ob->nc * sizeof(int));
+  }
   if (!(rb->r = nz_run_alloc(ob->st, &c, y)))
     return nz_lua_error(L, "simulate: the run could not start (no memory, or a bad grid: t0 = %f, t1 = %f, dt = %f, step = %f)",
                       c.t0, c.t1, c.dt, c.step);
@@ -675,62 +685,78 @@ static void flush_points(lua_State *L, run_box *rb, int tr, int pend)
   lua_settop(L, base);
 }
 
+/* The failure of a run's hook or of its locator, raised (the points
+ * computed before it were handed over). */
+static int raise_run_failure(lua_State *L, run_box *rb, bound_system *b, hook_ctx *hc, int st)
+{
+  nz_run_failure f = nz_run_failure_of(rb->r);
+  if (hc->failed) {                  /* a Lua function's error, as it raised it */
+    lua_pushvalue(L, hc->err);
+    return lua_error(L);
+  }
+  if (f == NZ_RUN_FAIL_LOCATOR) return raise_failure(L, rb->locator, b, st);
+  if (f == NZ_RUN_FAIL_VIOLATION) return nz_lua_raise_core(L, b, st, "constraint_partials");
+  if (f != NZ_RUN_FAIL_EVENT) return raise_failure(L, rb->ode, b, st);
+  if (nz_lua_contacts_failed(rb->ode->contacts)) return nz_lua_contacts_raise(L, rb->ode->contacts, b);
+  int e;
+  double ta;
+  nz_run_failed_event(rb->r, &e, &ta);
+  if (e < rb->nuser && lua_isnil(L, hc->fallback)) {   /* no fallback (taylor): the step and the event */
+    char num[64];
+    nz_lua_fmt_num(num, sizeof num, ta);
+    lua_createtable(L, 0, 2);
+    lua_pushliteral(L, "hook");
+    lua_setfield(L, -2, "taylor_stop");
+    lua_pushfstring(L, "stopped in the step from t = %s: event %d's recorded function failed (a domain error, "
+                    "or not finite) on the step's polynomial", num, e + 1);
+    lua_setfield(L, -2, "message");
+    return lua_error(L);
+  }
+  return nz_lua_error(L, "simulate: event %d could not be evaluated in the step from t = %g (status %d)", e + 1, ta, st);
+}
+
 /* ode_run(run, def, tr, pend, pause_step, pause_wall) -> "done" | "paused" |
- * "full" | "stalled", advance | "project" | "event", e, ta, ya, ga, tb, gb,
- * yb | "located", e, te, ye (an event the loop located itself, on Taylor's
- * polynomial): steps until simulate.lua must act, hands the output points over
+ * "full" | "stalled", advance | "project" | "event", e, te, ye, dir (an
+ * event located in the last step, 1-based, rising (1) or falling (-1)):
+ * steps until simulate.lua must act, hands the output points over
  * (flush_points) and raises the interrupt and failures as ode_step does
  * (an event's error as its Lua function raised it, a violation's as
  * constraint_partials does), the points computed before them handed over
  * first. */
+/* The head of a call (run, def, a3, a4): the stack made 1 def (as
+ * raise_failure expects; the caller keeps run), 2 def, 3, 4 the arguments,
+ * 5 the events' fallback, 6 the violation's Lua function, 7 the place of a
+ * Lua function's error; the system bound into b and the hooks set on the
+ * run with hc (which lives on the caller's stack: the caller clears them). */
+static void begin_run_call(lua_State *L, run_box *rb, bound_system *b, hook_ctx *hc)
+{
+  lua_settop(L, 4);
+  lua_getiuservalue(L, 1, 3);
+  lua_getiuservalue(L, 1, 4);
+  lua_pushnil(L);
+  lua_copy(L, 2, 1);
+  nz_lua_bind_system(L, 1, b);
+  *hc = (hook_ctx){ L, rb, 5, 6, 7, 0, &b->sys };
+  nz_run_hooks hooks = { run_event, run_violation, hc };
+  nz_run_set_hooks(rb->r, &hooks);
+}
+
 static int lo_run(lua_State *L)
 {
   run_box *rb = check_run(L, 1);
   luaL_checktype(L, 3, LUA_TTABLE);
   lua_Integer pause_step = luaL_optinteger(L, 5, 0);
   double pause_wall = luaL_optnumber(L, 6, 0.0);
-  lua_settop(L, 4);
-  lua_getiuservalue(L, 1, 3);        /* 5: the events' fallback */
-  lua_pushnil(L);                    /* 6: an event's error */
-  lua_copy(L, 2, 1);                 /* def first, as raise_failure expects; the caller keeps run */
   bound_system b;
-  nz_lua_bind_system(L, 1, &b);
-  event_ctx ec = { L, rb->events, 5, 6, rb->ode->dim, 0, rb->ode->contacts, &b.sys, rb->nuser };
-  nz_run_set_events(rb->r, rb->events || rb->ode->contacts ? run_event : NULL, &ec);
+  hook_ctx hc;
+  begin_run_call(L, rb, &b, &hc);
   int st;
   nz_run_status rs = nz_run_advance(rb->r, &b.sys, pause_step > 0 ? (unsigned long)pause_step : 0, pause_wall, &st);
-  nz_run_set_events(rb->r, NULL, NULL);     /* ec dies with this call */
+  nz_run_set_hooks(rb->r, NULL);     /* hc dies with this call */
   flush_points(L, rb, 3, 4);
   switch (rs) {
   case NZ_RUN_INTERRUPTED: return nz_lua_raise_interrupt(L);
-  case NZ_RUN_FAILED:
-    switch (nz_run_failure_of(rb->r)) {
-    case NZ_RUN_FAIL_EVENT:
-      if (nz_lua_contacts_failed(rb->ode->contacts)) return nz_lua_contacts_raise(L, rb->ode->contacts, &b);
-      if (ec.failed) {
-        lua_pushvalue(L, 6);
-        return lua_error(L);
-      }
-      if (lua_isnil(L, 5)) {         /* no fallback (taylor): the step and the event, for simulate.lua */
-        int e;
-        double ta, ga, tb, gb;
-        const double *ya, *yb;
-        nz_run_event(rb->r, &e, &ta, &ya, &ga, &tb, &gb, &yb);
-        char num[64];
-        nz_lua_fmt_num(num, sizeof num, ta);
-        lua_createtable(L, 0, 2);
-        lua_pushliteral(L, "hook");
-        lua_setfield(L, -2, "taylor_stop");
-        lua_pushfstring(L, "stopped in the step from t = %s: event %d's recorded function failed (a domain error, "
-                        "or not finite) on the step's polynomial", num, e + 1);
-        lua_setfield(L, -2, "message");
-        return lua_error(L);
-      }
-      return nz_lua_error(L, "simulate: the events could not be evaluated (status %d)", st);
-    case NZ_RUN_FAIL_VIOLATION: return nz_lua_raise_core(L, &b, st, "constraint_partials");
-    case NZ_RUN_FAIL_ODE: break;
-    }
-    return raise_failure(L, rb->ode, &b, st);
+  case NZ_RUN_FAILED: return raise_run_failure(L, rb, &b, &hc, st);
   case NZ_RUN_STALLED:
     lua_pushliteral(L, "stalled");
     lua_pushnumber(L, nz_run_stall_advance(rb->r));
@@ -739,53 +765,21 @@ static int lo_run(lua_State *L)
   case NZ_RUN_FULL: lua_pushliteral(L, "full"); return 1;
   case NZ_RUN_PROJECT: lua_pushliteral(L, "project"); return 1;
   case NZ_RUN_EVENT: {
-    int e, dim = rb->ode->dim;
-    double ta, ga, tb, gb;
-    const double *ya, *yb;
-    int dir;
-    if (nz_run_located(rb->r, &e, &ta, &ya, &dir)) {   /* located here (taylor): "located", e, te, ye, dir */
-      lua_pushliteral(L, "located");
-      lua_pushinteger(L, e + 1);
-      lua_pushnumber(L, ta);
-      nz_lua_push_vector(L, ya, dim);
-      lua_pushinteger(L, dir);
-      return 5;
-    }
-    nz_run_event(rb->r, &e, &ta, &ya, &ga, &tb, &gb, &yb);
+    int e, dir;
+    double te;
+    const double *ye;
+    nz_run_located(rb->r, &e, &te, &ye, &dir);
     lua_pushliteral(L, "event");
     lua_pushinteger(L, e + 1);
-    lua_pushnumber(L, ta);
-    nz_lua_push_vector(L, ya, dim);
-    lua_pushnumber(L, ga);
-    lua_pushnumber(L, tb);
-    lua_pushnumber(L, gb);
-    nz_lua_push_vector(L, yb, dim);
-    return 8;
+    lua_pushnumber(L, te);
+    nz_lua_push_vector(L, ye, rb->ode->dim);
+    lua_pushinteger(L, dir);
+    return 5;
   }
   case NZ_RUN_DONE: break;
   }
   lua_pushliteral(L, "done");
   return 1;
-}
-
-/* ode_run_record_until(run, def, te, tr, pend): the last step's output
- * points up to te, when its events came first (a contact's), handed over
- * to tr as ode_run hands its points (nz_run_record_until). */
-static int lo_run_record_until(lua_State *L)
-{
-  run_box *rb = check_run(L, 1);
-  double te = luaL_checknumber(L, 3);
-  luaL_checktype(L, 4, LUA_TTABLE);
-  lua_settop(L, 5);
-  lua_copy(L, 2, 1);                 /* def first; the caller keeps run */
-  bound_system b;
-  nz_lua_bind_system(L, 1, &b);
-  int st;
-  nz_run_status rs;
-  while ((rs = nz_run_record_until(rb->r, &b.sys, te, &st)) == NZ_RUN_FULL) flush_points(L, rb, 4, 5);
-  flush_points(L, rb, 4, 5);
-  if (rs == NZ_RUN_FAILED) return raise_failure(L, rb->ode, &b, st);
-  return 0;
 }
 
 /* ode_run_jump(run, def, te, y): the motion jumps at te to y (an impact, a
@@ -795,24 +789,16 @@ static int lo_run_jump(lua_State *L)
   run_box *rb = check_run(L, 1);
   double te = luaL_checknumber(L, 3);
   int dim = rb->ode->dim;
-  lua_settop(L, 4);
-  lua_getiuservalue(L, 1, 3);        /* 5: the events' fallback */
-  lua_pushnil(L);                    /* 6: an event's error */
   double *y = lua_newuserdatauv(L, (size_t)dim * sizeof(double), 0);
   nz_lua_read_vector(L, 4, dim, y, "y", 0, "simulate");
-  lua_copy(L, 2, 1);                 /* def first; the caller keeps run */
+  lua_replace(L, 4);                 /* (kept alive at 4) */
   bound_system b;
-  nz_lua_bind_system(L, 1, &b);
-  event_ctx ec = { L, rb->events, 5, 6, dim, 0, rb->ode->contacts, &b.sys, rb->nuser };
-  nz_run_set_events(rb->r, rb->events || rb->ode->contacts ? run_event : NULL, &ec);
+  hook_ctx hc;
+  begin_run_call(L, rb, &b, &hc);
   int st = nz_run_jump(rb->r, &b.sys, te, y);
-  nz_run_set_events(rb->r, NULL, NULL);
-  if (ec.failed) {
-    lua_pushvalue(L, 6);
-    return lua_error(L);
-  }
-  if (st && nz_lua_contacts_failed(rb->ode->contacts)) return nz_lua_contacts_raise(L, rb->ode->contacts, &b);
-  if (st) return nz_lua_error(L, "simulate: the run could not go on from t = %f (status %d)", te, st);
+  nz_run_set_hooks(rb->r, NULL);
+  if (st == NZ_EARG) return nz_lua_error(L, "simulate: the run could not go on from t = %f (status %d)", te, st);
+  if (st) return raise_run_failure(L, rb, &b, &hc, st);
   return 0;
 }
 
@@ -847,26 +833,6 @@ static int lo_run_native(lua_State *L)
   return 1;
 }
 
-/* ode_run_interpolate(run, def, tau) -> y | nil: the state at tau in the
- * last step from its interpolant, nil when dense output is off or its
- * estimate misses the tolerance there (the caller integrates again). */
-static int lo_run_interpolate(lua_State *L)
-{
-  run_box *rb = check_run(L, 1);
-  double tau = luaL_checknumber(L, 3);
-  int dim = rb->ode->dim;
-  double *y = lua_newuserdatauv(L, (size_t)dim * sizeof(double), 0);
-  lua_settop(L, 4);
-  lua_copy(L, 2, 1);                 /* def first, as raise_failure expects */
-  bound_system b;
-  nz_lua_bind_system(L, 1, &b);
-  int st = nz_run_interpolate(rb->r, &b.sys, tau, y);
-  if (st == NZ_EARG) return 0;
-  if (st) return raise_failure(L, rb->ode, &b, st);
-  nz_lua_push_vector(L, y, dim);
-  return 1;
-}
-
 /* ode_run_state(run) -> t, y, steps: where the run is. */
 static int lo_run_state(lua_State *L)
 {
@@ -876,6 +842,73 @@ static int lo_run_state(lua_State *L)
   lua_pushinteger(L, (lua_Integer)nz_run_steps(rb->r));
   return 3;
 }
+
+/* ode_rounding_branch(def, t, q, qd, qdd, tol) -> nil | {piece,
+ * constraint, op, fn, value, bound, a, b, rounding}: the first branch of
+ * the recording whose choice is decided by rounding at the state, or whose
+ * deciding number lies within tol of its switch (graph_rounding.h): the
+ * pieces whose functions hold it ("V", "Q", "constraint", ... joined by
+ * " and "), the operation (a node op's name; fn the function's or the
+ * comparison's number), the number that decides it and its rounding bound,
+ * the branch's operands, and whether rounding decides it.  For a run
+ * whose steps collapsed (advice.lua). */
+static int lo_rounding_branch(lua_State *L)
+{
+  static const char *const names[NZ_PIECE_COUNT] = { "T", "T", "V", "Q", "S", "constraint" };
+  lua_settop(L, 6);
+  bound_system b;
+  nz_lua_bind_system(L, 1, &b);
+  if (!b.comp) return 0;
+  int k = b.sys.k;
+  double t = luaL_checknumber(L, 2), tol = luaL_optnumber(L, 6, 0.0);
+  double *y = lua_newuserdatauv(L, 3 * (size_t)k * sizeof(double), 0);
+  nz_lua_read_vector(L, 3, k, y, "q", 0, "rounding_branch");
+  nz_lua_read_vector(L, 4, k, y + k, "qd", 0, "rounding_branch");
+  int nstate = 2;
+  if (!lua_isnil(L, 5)) {
+    nz_lua_read_vector(L, 5, k, y + 2 * k, "qdd", 0, "rounding_branch");
+    nstate = 3;
+  }
+  const double *state[3] = { y, y + k, y + 2 * k };
+  nz_rounding_branch br;
+  unsigned pieces = 0;
+  int constraint = -1;
+  if (nz_compiled_rounding_branch(b.comp, t, state, nstate, tol, &br, &pieces, &constraint) != 1) return 0;
+  const nz_gnode *nd = &nz_graph_nodes(nz_compiled_graph(b.comp))[br.node];
+  luaL_Buffer which;
+  luaL_buffinit(L, &which);
+  int first = 1;
+  for (int p = NZ_PIECE_T; p < NZ_PIECE_COUNT; p++)   /* (F is the T the user wrote: named T) */
+    if ((pieces >> p & 1u) || (p == NZ_PIECE_T && (pieces & 1u))) {
+      if (!first) luaL_addstring(&which, " and ");
+      luaL_addstring(&which, names[p]);
+      first = 0;
+    }
+  luaL_pushresult(&which);
+  lua_createtable(L, 0, 9);
+  lua_insert(L, -2);
+  lua_setfield(L, -2, "piece");
+  if (constraint >= 0) {
+    lua_pushinteger(L, constraint + 1);
+    lua_setfield(L, -2, "constraint");
+  }
+  lua_pushstring(L, nz_gop_names[nd->op]);
+  lua_setfield(L, -2, "op");
+  lua_pushinteger(L, nd->fn);
+  lua_setfield(L, -2, "fn");
+  lua_pushnumber(L, br.value);
+  lua_setfield(L, -2, "value");
+  lua_pushnumber(L, br.bound);
+  lua_setfield(L, -2, "bound");
+  lua_pushnumber(L, br.a);
+  lua_setfield(L, -2, "a");
+  lua_pushnumber(L, br.b);
+  lua_setfield(L, -2, "b");
+  lua_pushboolean(L, br.rounding);
+  lua_setfield(L, -2, "rounding");
+  return 1;
+}
+
 
 /* _set_interrupt(flag): request (true) or clear (false) the interrupt, as
  * Ctrl-C does; for tests only (tests/simulate_loop_spec.lua). */
@@ -927,8 +960,8 @@ static const luaL_Reg ode_functions[] = {
   { "ode_accel", lo_accel }, { "ode_rhs", lo_rhs }, { "ode_reset", lo_reset }, { "ode_jacobian", lo_jacobian }, { "ode_stats", lo_stats },
   { "now", lo_now }, { "isatty", lo_isatty }, { "interrupted", lo_interrupted },
   { "ode_methods", lo_methods }, { "ode_run_new", lo_run_new }, { "ode_run", lo_run },
-  { "ode_run_state", lo_run_state }, { "ode_run_dense", lo_run_dense }, { "ode_run_native", lo_run_native }, { "ode_run_interpolate", lo_run_interpolate }, { "ode_run_set_state", lo_run_set_state },
-  { "ode_run_jump", lo_run_jump }, { "ode_run_record_until", lo_run_record_until },
+  { "ode_run_state", lo_run_state }, { "ode_run_dense", lo_run_dense }, { "ode_run_native", lo_run_native }, { "ode_run_set_state", lo_run_set_state },
+  { "ode_run_jump", lo_run_jump }, { "ode_rounding_branch", lo_rounding_branch },
   { "ode_run_violation", lo_run_violation }, { "ode_events_new", lo_events_new },
   { "ode_event_value", lo_event_value }, { "_set_interrupt", lo_set_interrupt },
   { NULL, NULL }

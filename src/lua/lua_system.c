@@ -479,6 +479,7 @@ static void object_compiled(lua_State *L, int def, system_object *o)
     o->sys.accel = nz_compiled_accel;
     o->sys.free_rhs = nz_compiled_free_rhs;
     o->sys.native_ready = nz_compiled_all_native;
+    o->sys.series = nz_compiled_series;
   }
   lua_pop(L, 1);
   o->sys.constraint_row = nz_compiled_constraint_row;

@@ -1,6 +1,6 @@
 /* lua_taylor.c - Taylor's method for Lua, on a system whose M and h (and
- * constraints, of order <= 2) are recorded (issue 11).  The integrator
- * (ode/taylor.h) is made here for core.mech.ode_new{method = "taylor"}
+ * constraints, of order <= 2) are recorded.  The integrator
+ * (ode/taylor_motion.h) is made here for core.mech.ode_new{method = "taylor"}
  * (lua_ode.c), so that sys:simulate runs it through the same stepping loop
  * as GSL's steppers (ode/ode_run.h); and two functions go to core.mech:
  *   core.mech.motion_series(engine, t0, q0, qd0, p) -> { a_0, ..., a_p }
@@ -26,7 +26,7 @@
 #include "mech/contact.h"
 #include "mech/mech_graph.h"
 #include "ode/ode_run.h"
-#include "ode/taylor.h"
+#include "ode/taylor_motion.h"
 #include "lua/lua_contact.h"
 #include "lua/lua_system.h"
 #include "lua/lua_taylor.h"
@@ -49,199 +49,47 @@ static void bind_recorded(lua_State *L, bound_system *b, const char *fname)
                  "runs in Lua (print(sys) says why)", name, fname, r + 1);
 }
 
-/* The context of the series and accel functions: the free motion, or the
- * motion under the constraints (their classification in orders and
- * linear): the start's accelerations and multipliers by the constrained
- * solver (Newton where a constraint is not linear in q''), then the series
- * order by order on the saddle-point system (nz_compiled_constrained_series).
- * One block, freed with the stepper; it records the last failure. */
-typedef struct series_ctx {
-  int k, nc;
-  int *orders, *linear;   /* nc each (NULL: free)                           */
-  double *qdd, *lam;      /* the start's, k and nc                           */
-  nz_accel_report rep;    /* of the last constrained solve                   */
-  int *involved;          /* nc + 1: rep.involved, the constraints in a dependence */
-  double *A, *Aend;       /* nc x k each: the rows at the step's start and at its end */
-  double *zero;           /* k zeros: q'' for the rows of orders 0 and 1      */
-  int have_start;         /* A holds a step's start                          */
-  int accel_failed;       /* a constrained solve failed (rep says why)       */
-  nz_solve_info mass;     /* of the last unconstrained solve                 */
-  int mass_failed;        /* M was singular there                            */
-  double t;               /* where                                           */
-  double *q, *qd;         /* the state there (k each)                        */
-  /* Unilateral contacts (mech/contact.h): the series of their mode, on the
-   * rows it holds (nz_contacts_active: rows, couple, coef, and the
-   * multipliers in that order, lam_sel, from all of them, lam_all). */
-  struct nz_contacts *contacts;
-  int *rows, *couple;
-  double *coef, *lam_sel, *lam_all;
-} series_ctx;
-
-/* The recording behind s: s is the sys of a bound_system (its first
- * member), bound for this call (nz_lua_bind_system). */
-static nz_compiled *comp_of(const nz_system *s) { return ((const bound_system *)(const void *)s)->comp; }
-
-static void failed_at(series_ctx *c, double t, const double *q, const double *qd)
-{
-  c->t = t;
-  memcpy(c->q, q, (size_t)c->k * sizeof(double));
-  memcpy(c->qd, qd, (size_t)c->k * sizeof(double));
-}
-
-/* The stepper's look at each step's end: 1 + a constraint whose row
- * reversed since the step's start (the rows of its solve, c->A), or 0
- * (nz_constraint_row_reversed says what that means). */
-static int check_end(void *ctx, const nz_system *s, double t, const double *q, const double *qd)
-{
-  series_ctx *c = ctx;
-  if (!c->orders || !c->have_start) return 0;
-  if (nz_constraint_rows_01(s, c->nc, c->orders, t, q, qd, c->zero, c->Aend)) return 0;   /* the next solve says why */
-  return nz_constraint_row_reversed(c->nc, c->k, c->orders, c->A, c->Aend);
-}
-
-/* The series in the contacts' mode: the free motion's when it holds no
- * row, else the constrained one on the rows it holds, friction riding on
- * the normal forces of the sliding contacts (mech_graph.h's selection). */
-static int contact_series(series_ctx *c, const nz_system *s, double t0, const double *q0, const double *qd0, int p,
-                          double *a)
-{
-  int k = c->k, st = nz_contacts_accel(c->contacts, s, t0, q0, qd0, c->qdd, c->lam_all);
-  if (st) {
-    failed_at(c, t0, q0, qd0);
-    return st;
-  }
-  if (p < 2) {
-    memcpy(a, q0, (size_t)k * sizeof(double));
-    if (p >= 1) memcpy(a + k, qd0, (size_t)k * sizeof(double));
-    return NZ_OK;
-  }
-  int na = nz_contacts_active(c->contacts, c->rows, c->couple, c->coef);
-  if (na == 0) return nz_compiled_motion_series(comp_of(s), t0, q0, qd0, p, a);
-  for (int x = 0; x < na; x++) c->lam_sel[x] = c->lam_all[c->rows[x]];
-  nz_series_selection sel = { na, c->rows, c->couple, c->coef };
-  return nz_compiled_constrained_series_sel(comp_of(s), c->orders, &sel, t0, q0, qd0, c->qdd, c->lam_sel, p, a, NULL);
-}
-
-static int motion_series(void *ctx, const nz_system *s, double t0, const double *q0, const double *qd0, int p,
-                         double *a)
-{
-  series_ctx *c = ctx;
-  c->accel_failed = 0;
-  if (c->contacts) return contact_series(c, s, t0, q0, qd0, p, a);
-  if (!c->orders) return nz_compiled_motion_series(comp_of(s), t0, q0, qd0, p, a);
-  int k = c->k;
-  nz_accel_options opt = NZ_ACCEL_DEFAULTS;
-  memset(&c->rep, 0, sizeof c->rep);
-  c->rep.involved = c->involved;   /* read by the error that names dependent constraints */
-  c->rep.A = c->A;
-  int st = nz_accel_constrained(s, c->orders, c->linear, t0, q0, qd0, &opt, c->qdd, c->lam, &c->rep);
-  if (st) {
-    c->accel_failed = 1;
-    failed_at(c, t0, q0, qd0);
-    return st;
-  }
-  c->have_start = 1;                     /* c->A: the rows at the step's start, for check_end */
-  if (p < 2) {
-    memcpy(a, q0, (size_t)k * sizeof(double));
-    if (p >= 1) memcpy(a + k, qd0, (size_t)k * sizeof(double));
-    return NZ_OK;
-  }
-  return nz_compiled_constrained_series(comp_of(s), c->orders, t0, q0, qd0, c->qdd, c->lam, p, a, NULL);
-}
-
-/* q'' and lambda at an output point, by the solves the GSL steppers record
- * with (ode.c's accelerations): nz_accel, or nz_accel_constrained. */
-static int accel_at(void *ctx, const nz_system *s, double t, const double *q, const double *qd, double *out)
-{
-  series_ctx *c = ctx;
-  nz_accel_options opt = NZ_ACCEL_DEFAULTS;
-  c->accel_failed = c->mass_failed = 0;
-  if (c->contacts) {
-    int st = nz_contacts_accel(c->contacts, s, t, q, qd, out, out + c->k);
-    if (st) failed_at(c, t, q, qd);
-    return st;
-  }
-  if (!c->orders) {
-    int st = nz_accel(s, t, q, qd, opt.rcond_min, out, &c->mass);
-    if (st == NZ_ESINGULAR) {
-      c->mass_failed = 1;
-      failed_at(c, t, q, qd);
-    }
-    return st;
-  }
-  memset(&c->rep, 0, sizeof c->rep);
-  c->rep.involved = c->involved;   /* read by the error that names dependent constraints */
-  int st = nz_accel_constrained(s, c->orders, c->linear, t, q, qd, &opt, out, out + c->k, &c->rep);
-  if (st) {
-    c->accel_failed = 1;
-    failed_at(c, t, q, qd);
-  }
-  return st;
-}
-
-/* The context for the system bound in b: with constraints, their
- * classification from the table at index idx (fields orders and linear,
- * as sys:simulate passes them to its integrators).  lua_owned: a userdata
- * left on the stack; else malloc'd (NULL: no memory), for the stepper. */
-static series_ctx *series_new(lua_State *L, bound_system *b, int idx, const char *fname, int lua_owned)
+/* The constraints' classification from the table at index idx (fields
+ * orders and linear, as sys:simulate passes them to its integrators) into
+ * the setup; the arrays are left on the stack (the stepper copies them). */
+static void read_setup(lua_State *L, bound_system *b, int idx, const char *fname, nz_motion_setup *m)
 {
   int nc = b->sys.nc, k = b->sys.k;
-  int *flags = lua_newuserdatauv(L, 2 * ((size_t)nc + 1) * sizeof(int), 0);   /* read first: errors free nothing */
-  int fidx = lua_gettop(L);
+  int *flags = lua_newuserdatauv(L, 2 * ((size_t)nc + 1) * sizeof(int), 0);
   if (nc > 0) {
     if (!idx || lua_getfield(L, idx, "orders") != LUA_TTABLE)
       nz_lua_error(L, "system '%s': '%s': a system with constraints needs their classification (orders, linear; "
                  "sys:simulate{method = \"taylor\"} passes it)", nz_lua_system_name(L, 1), fname);
-    lua_getfield(L, idx, "linear");
-    int top = lua_gettop(L);
-    for (int r = 0; r < nc; r++) {
-      lua_geti(L, top - 1, r + 1);
-      flags[r] = (int)luaL_checkinteger(L, -1);
-      lua_geti(L, top, r + 1);
-      flags[nc + 1 + r] = lua_toboolean(L, -1);
-      lua_pop(L, 2);
-      if (flags[r] < 0 || flags[r] > 2)
+    lua_pop(L, 1);
+    nz_lua_field_ints(L, idx, "orders", nc, flags);
+    nz_lua_field_ints(L, idx, "linear", nc, flags + nc + 1);
+    for (int r = 0; r < nc; r++)
+      if (flags[r] > 2)
         nz_lua_error(L, "system '%s': '%s': constraint %d is of order %d; the Taylor method takes constraints of order "
                    "0, 1 and 2", nz_lua_system_name(L, 1), fname, r + 1, flags[r]);
-    }
-    lua_pop(L, 2);
   }
-  size_t ints = 5 * ((size_t)nc + 1), doubles = 4 * (size_t)k + (size_t)nc + 1 + 2 * (size_t)nc * (size_t)k + 3 * ((size_t)nc + 1);
-  size_t size = sizeof(series_ctx) + ints * sizeof(int) + doubles * sizeof(double);
-  series_ctx *c = lua_owned ? lua_newuserdatauv(L, size, 0) : malloc(size);
-  if (!c) {
-    lua_remove(L, fidx);
-    return NULL;
+  nz_accel_options opt = NZ_ACCEL_DEFAULTS;
+  *m = (nz_motion_setup){ k, nc, nc > 0 ? flags : NULL, nc > 0 ? flags + nc + 1 : NULL, NULL, opt };
+  if (idx) {                         /* unilateral contacts: their mode's series (kept alive by ode_new's box) */
+    lua_getfield(L, idx, "contacts");
+    m->contacts = nz_lua_tocontacts(L, -1);
+    lua_pop(L, 1);
   }
-  memset(c, 0, size);
-  double *d = (double *)(void *)(c + 1);
-  int *iw = (int *)(void *)(d + doubles);
-  c->k = k;
-  c->nc = nc;
-  c->qdd = d, c->q = d + k, c->qd = d + 2 * k, c->lam = d + 3 * k;
-  c->A = d + 3 * k + nc + 1;
-  c->Aend = c->A + (size_t)nc * (size_t)k;
-  c->zero = c->Aend + (size_t)nc * (size_t)k;
-  if (nc > 0) {
-    memcpy(iw, flags, 2 * ((size_t)nc + 1) * sizeof(int));
-    c->orders = iw;
-    c->linear = iw + nc + 1;
-    c->involved = iw + 2 * (nc + 1);
-    c->rows = iw + 3 * (nc + 1);
-    c->couple = iw + 4 * (nc + 1);
-    c->coef = c->zero + k;
-    c->lam_sel = c->coef + nc + 1;
-    c->lam_all = c->lam_sel + nc + 1;
-  }
-  lua_remove(L, fidx);
-  return c;
 }
 
-/* A failed constrained solve or a singular M, raised with where. */
-static int raise_accel(lua_State *L, series_ctx *c)
+/* A failed solve of the motion (a singular M, the constraints), raised
+ * with where: NULL-safe, 0 when the stepper's last failure was not one. */
+static int raise_motion(lua_State *L, nz_stepper *st)
 {
-  if (c->mass_failed) return nz_lua_raise_singular_mass(L, 1, c->t, c->q, c->qd, c->k, &c->mass);
-  return nz_lua_raise_accel_failure(L, 1, &c->rep, c->orders, c->t, c->q, c->qd, c->k, c->nc);
+  double t;
+  const double *q, *qd;
+  const nz_motion_outcome *oc = nz_taylor_motion_failure(st, &t, &q, &qd);
+  const nz_motion_setup *m = nz_taylor_motion_setup(st);
+  if (!oc) return 0;
+  if (oc->failed == NZ_MOTION_FAILED_MASS) return nz_lua_raise_singular_mass(L, 1, t, q, qd, m->k, &oc->mass);
+  if (oc->failed == NZ_MOTION_FAILED_CONSTRAINTS)
+    return nz_lua_raise_accel_failure(L, 1, &oc->rep, m->orders, t, q, qd, m->k, m->nc);
+  return 0;
 }
 
 /* The error of a failed series, with where it failed. */
@@ -271,7 +119,6 @@ static double opt_number(lua_State *L, int idx, const char *name, double def, co
   return v;
 }
 
-static void free_ctx(void *ctx) { free(ctx); }
 
 nz_stepper *nz_lua_taylor_new(lua_State *L, int cfg, const char *fname)
 {
@@ -286,10 +133,8 @@ nz_stepper *nz_lua_taylor_new(lua_State *L, int cfg, const char *fname)
     nz_lua_error(L, "system '%s': '%s': the Taylor method does not step across branches yet, and "
                "M or h has %d (comparisons, nz.ifelse, min, max, abs or sign on the state)",
                nz_lua_system_name(L, 1), fname, branches);
-  nz_taylor_config tc;
+  nz_taylor_motion_config tc;
   memset(&tc, 0, sizeof tc);
-  tc.k = b.sys.k;
-  tc.nc = b.sys.nc;
   double tol = opt_number(L, cfg, "tol", 1e-12, fname);
   tc.rtol = opt_number(L, cfg, "rtol", tol, fname);
   tc.atol = opt_number(L, cfg, "atol", tol, fname);
@@ -299,35 +144,39 @@ nz_stepper *nz_lua_taylor_new(lua_State *L, int cfg, const char *fname)
   if (!(order == 0.0 || (order >= 2.0 && order <= 1000.0 && order == floor(order))))
     nz_lua_error(L, "bad argument to '%s' (order must be a whole number in 2 .. 1000)", fname);
   tc.order = (int)order;
-  series_ctx *c = series_new(L, &b, cfg, fname, 0);
-  if (!c) luaL_error(L, "not enough memory for the integrator");
-  lua_getfield(L, cfg, "contacts");   /* unilateral contacts: their mode's series (kept alive by ode_new's box) */
-  c->contacts = nz_lua_tocontacts(L, -1);
-  lua_pop(L, 1);
-  tc.series = motion_series;
-  tc.accel = accel_at;
-  /* the rows' check only where there are constraints, and not across the
-   * changes of a contact mode (each restarts the step's rows) */
-  tc.check = tc.nc > 0 && !c->contacts ? check_end : NULL;
-  tc.ctx = c;
-  tc.ctx_free = free_ctx;
-  nz_stepper *st = nz_taylor_stepper_new(&tc);
-  if (!st) {
-    free(c);
-    luaL_error(L, "not enough memory for the integrator");
-  }
+  read_setup(L, &b, cfg, fname, &tc.setup);
+  nz_stepper *st = nz_taylor_motion_new(&tc);
+  lua_pop(L, 1);                     /* (the setup's arrays: copied) */
+  if (!st) luaL_error(L, "not enough memory for the integrator");
   return st;
 }
 
+/* taylor_run's integrator and run, freed by the collector whatever raises. */
+#define TAYLOR_RUN_METATABLE "nz.taylor_run"
+typedef struct taylor_box {
+  nz_stepper *st;
+  nz_run *r;
+} taylor_box;
+
+static int taylor_box_gc(lua_State *L)
+{
+  taylor_box *tb = luaL_checkudata(L, 1, TAYLOR_RUN_METATABLE);
+  nz_run_free(tb->r);
+  nz_stepper_free(tb->st);
+  tb->r = NULL;
+  tb->st = NULL;
+  return 0;
+}
+
 /* What stopped a Taylor step: why (a word) and what (a sentence), or
- * NULL when what failed was an output point's accelerations (raise_accel,
- * or the user function's error). */
+ * NULL when what failed was a solve of the motion (raise_motion) or a user
+ * function (its error). */
 static const char *failure_text(nz_stepper *st, nz_compiled *comp, char *what, size_t n, double *tfail)
 {
   int status;
-  double t;
+  double t, tm;
+  const double *q, *qd;
   nz_taylor_failure f = nz_taylor_last_failure(st, &status, &t, NULL);
-  series_ctx *c = nz_taylor_ctx(st);
   char num[64];
   nz_lua_fmt_num(num, sizeof num, t);
   *tfail = t;
@@ -337,7 +186,7 @@ static const char *failure_text(nz_stepper *st, nz_compiled *comp, char *what, s
   }
   if (f != NZ_TAYLOR_SERIES) return NULL;
   if (status == NZ_ENOMEM) snprintf(what, n, "not enough memory");
-  else if (c->accel_failed)   /* the start of the series under constraints: said as the GSL steppers say it */
+  else if (nz_taylor_motion_failure(st, &tm, &q, &qd))   /* the start of the series: said as the GSL steppers say it */
     return NULL;
   else snprintf(what, n, "the series of the motion failed at t = %s: %s (status %d)", num, nz_compiled_failure(comp),
                 status);
@@ -351,8 +200,7 @@ int nz_lua_taylor_raise(lua_State *L, nz_stepper *st, int status)
   bound_system b;
   nz_lua_bind_system(L, 1, &b);
   const char *why = failure_text(st, b.comp, what, sizeof what, &t);
-  series_ctx *c = nz_taylor_ctx(st);
-  if (!why && (c->mass_failed || c->accel_failed)) return raise_accel(L, c);
+  if (!why && raise_motion(L, st)) return 0;
   if (!why) return nz_lua_raise_core(L, &b, status ? status : NZ_EFUNC, "simulate");   /* a user function's error */
   /* { taylor_stop = why, message = what }: simulate.lua says it with the
    * user's line and the last output point */
@@ -374,13 +222,25 @@ int nz_lua_taylor_raise(lua_State *L, nz_stepper *st, int status)
   return lua_error(L);
 }
 
+/* A box for an integrator (and a run) that the collector frees, left on the stack. */
+static taylor_box *new_box(lua_State *L)
+{
+  taylor_box *tb = lua_newuserdatauv(L, sizeof *tb, 0);
+  memset(tb, 0, sizeof *tb);
+  if (luaL_newmetatable(L, TAYLOR_RUN_METATABLE)) {
+    lua_pushcfunction(L, taylor_box_gc);
+    lua_setfield(L, -2, "__gc");
+  }
+  lua_setmetatable(L, -2);
+  return tb;
+}
+
 /* motion_series(engine, t0, q0, qd0, p [, {orders, linear}]) -> { a_0, ..., a_p } */
 static int lt_motion_series(lua_State *L)
 {
   lua_settop(L, 6);
   bound_system b;
   bind_recorded(L, &b, "motion_series");
-  series_ctx *c = series_new(L, &b, lua_istable(L, 6) ? 6 : 0, "motion_series", 1);
   int k = b.sys.k;
   double t0 = luaL_checknumber(L, 2);
   lua_Integer p = luaL_checkinteger(L, 5);
@@ -389,8 +249,14 @@ static int lt_motion_series(lua_State *L)
   double *q0 = buf, *qd0 = buf + k, *a = buf + 2 * k;
   nz_lua_read_vector(L, 3, k, q0, "q0", 0, "motion_series");
   nz_lua_read_vector(L, 4, k, qd0, "qd0", 1, "motion_series");
-  int st = motion_series(c, &b.sys, t0, q0, qd0, (int)p, a);
-  if (st && c->accel_failed) return raise_accel(L, c);
+  taylor_box *tb = new_box(L);
+  nz_taylor_motion_config tc;
+  memset(&tc, 0, sizeof tc);
+  tc.rtol = tc.atol = 1e-12;
+  read_setup(L, &b, lua_istable(L, 6) ? 6 : 0, "motion_series", &tc.setup);
+  if (!(tb->st = nz_taylor_motion_new(&tc))) return luaL_error(L, "not enough memory for the series");
+  int st = nz_taylor_motion_series(tb->st, &b.sys, t0, q0, qd0, (int)p, a);
+  if (st && raise_motion(L, tb->st)) return 0;
   if (st) return raise_series(L, &b, st, t0, "motion_series");
   lua_createtable(L, (int)p + 1, 0);
   for (int n = 0; n <= p; n++) {
@@ -398,22 +264,6 @@ static int lt_motion_series(lua_State *L)
     lua_rawseti(L, -2, n + 1);
   }
   return 1;
-}
-/* taylor_run's integrator and run, freed by the collector whatever raises. */
-#define TAYLOR_RUN_METATABLE "nz.taylor_run"
-typedef struct taylor_box {
-  nz_stepper *st;
-  nz_run *r;
-} taylor_box;
-
-static int taylor_box_gc(lua_State *L)
-{
-  taylor_box *tb = luaL_checkudata(L, 1, TAYLOR_RUN_METATABLE);
-  nz_run_free(tb->r);
-  nz_stepper_free(tb->st);
-  tb->r = NULL;
-  tb->st = NULL;
-  return 0;
 }
 
 /* The buffered points appended to the tables t, q, qd at tidx, tidx + 1,
@@ -464,13 +314,7 @@ static int lt_taylor_run(lua_State *L)
   lua_getfield(L, 2, "qd0");
   nz_lua_read_vector(L, lua_gettop(L), k, y0 + k, "qd0", 1, "taylor_run");
   lua_pop(L, 2);
-  taylor_box *tb = lua_newuserdatauv(L, sizeof *tb, 0);
-  memset(tb, 0, sizeof *tb);
-  if (luaL_newmetatable(L, TAYLOR_RUN_METATABLE)) {
-    lua_pushcfunction(L, taylor_box_gc);
-    lua_setfield(L, -2, "__gc");
-  }
-  lua_setmetatable(L, -2);
+  taylor_box *tb = new_box(L);
   tb->st = nz_lua_taylor_new(L, 2, "taylor_run");
   c.h0 = 1.0;                        /* (Taylor's steps are its own) */
   c.stall_window = ULONG_MAX;        /* no stall detection: the step size's own check */
@@ -503,8 +347,8 @@ static int lt_taylor_run(lua_State *L)
     char what[512];
     double t;
     const char *why = failure_text(tb->st, b.comp, what, sizeof what, &t);
-    series_ctx *sc = nz_taylor_ctx(tb->st);
-    if (!why || sc->accel_failed) return raise_accel(L, sc);
+    if (!why && raise_motion(L, tb->st)) return 0;
+    if (!why) return nz_lua_raise_core(L, &b, st ? st : NZ_EFUNC, "taylor_run");
     if (!strcmp(why, "series")) return raise_series(L, &b, st, t, "taylor_run");
     return nz_lua_error(L, "system '%s': 'taylor_run' %s", nz_lua_system_name(L, 1), what);
   }

@@ -70,6 +70,16 @@ static inline double nz_check_slot_weight(int j, int i, int k) { return 1.0 + 0.
 
 struct nz_solve_info;   /* linalg.h */
 
+/* The constraints a series holds (the series hook below): rows[x], x < n,
+ * the constraints held, in that order; with couple, the force of row x is
+ * that of W = A_rows[x] + coef[x] A_couple[x] (a sliding contact's friction
+ * riding on its normal force) where couple[x] >= 0. */
+typedef struct nz_series_selection {
+  int n;
+  const int *rows, *couple;
+  const double *coef;
+} nz_series_selection;
+
 typedef struct nz_system {
   int k;
   int nc;                    /* number of constraints */
@@ -102,7 +112,15 @@ typedef struct nz_system {
    * machine code is off: the stepping loop asks after each step until it
    * is 1, to say which evaluator ran which steps. */
   int (*native_ready)(void *ctx);
-  void *mass_bias_ctx;   /* of all five */
+  /* Optional: the Taylor coefficients a_0 .. a_p (k values each) of the
+   * motion q(t0 + tau) from (t0, q0, qd0), for Taylor's method: the free
+   * motion's when orders is NULL, else under the constraints classified by
+   * orders (of order <= 2), all of them (sel NULL) or those sel holds, from
+   * the start's accelerations qdd0 and multipliers lam0 (of the rows held).
+   * NZ_EARG: the pieces it needs are not recorded (mech_graph.h). */
+  int (*series)(void *ctx, const int *orders, const nz_series_selection *sel, double t0, const double *q0,
+                const double *qd0, const double *qdd0, const double *lam0, int p, double *a);
+  void *mass_bias_ctx;   /* of all six */
 } nz_system;
 
 static inline int nz_system_has(const nz_system *s, nz_piece p) { return (s->has >> p) & 1u; }

@@ -161,15 +161,15 @@ int nz_compiled_constrained_series(nz_compiled *c, const int *orders, double t0,
  * lambda follow it); with couple, the force of row x is that of
  * W = A_rows[x] + coef[x] A_couple[x] (a sliding contact's friction riding
  * on its normal force) where couple[x] >= 0, the row couple[x] being of
- * order <= 1.  sel NULL: every constraint, none coupled. */
-typedef struct nz_series_selection {
-  int n;
-  const int *rows, *couple;
-  const double *coef;
-} nz_series_selection;
+ * order <= 1.  sel NULL: every constraint, none coupled
+ * (nz_series_selection: mech.h). */
 int nz_compiled_constrained_series_sel(nz_compiled *c, const int *orders, const nz_series_selection *sel, double t0,
                                        const double *q0, const double *qd0, const double *qdd0, const double *lam0,
                                        int p, double *a, double *lambda);
+/* nz_system's series hook (mech.h) on the recording ctx: the free motion's
+ * series when orders is NULL, else the constrained one on sel. */
+int nz_compiled_series(void *ctx, const int *orders, const nz_series_selection *sel, double t0, const double *q0,
+                       const double *qd0, const double *qdd0, const double *lam0, int p, double *a);
 /* Branches in the graphs the series of the motion runs on: comparisons,
  * selections, sign and abs whose operands move with the state (-1 when M
  * and h are not recorded).  The series keeps the branch that coefficient 0
@@ -185,6 +185,17 @@ int nz_compiled_mass_bias_nodes(const nz_compiled *c);
  * the piece has, 0 when it is not recorded: call with max = 0 to size out). */
 int nz_compiled_mass_bias_outputs(nz_compiled *c, int *out);
 int nz_compiled_piece_outputs(const nz_compiled *c, nz_piece piece, int index, int *out, int max);
+
+/* The first branch of M, h and the recorded pieces whose choice is decided
+ * by rounding at the state (t, state[0 .. nstate - 1]: q, q', ...;
+ * graph_rounding.h), or whose deciding number lies within tol of its
+ * switch: 1 when one is found (*out, *pieces a mask of 1 <<
+ * piece for the pieces whose functions hold the number that decides it and,
+ * for a constraint, *constraint the first one's index), 0 when none, -1
+ * when a node failed or memory ran out.  For a run whose steps collapsed. */
+struct nz_rounding_branch;
+int nz_compiled_rounding_branch(nz_compiled *c, double t, const double *const *state, int nstate, double tol,
+                                struct nz_rounding_branch *out, unsigned *pieces, int *constraint);
 
 
 #endif

@@ -14,6 +14,7 @@
 #include "mech/constrained_series.h"
 #include "mech/contact.h"
 #include "mech/mech_jacobian.h"
+#include "mech/motion_accel.h"
 #include "ode/ode.h"
 
 const char *const nz_ode_methods[] = {
@@ -51,6 +52,7 @@ struct nz_ode {
   const nz_system *s;             /* bound for the current call */
   int *orders, *linear, *involved;
   nz_accel_options accel;
+  nz_motion_setup setup;          /* which solve gives q'' (motion_accel.h) */
   double *last;                   /* k + nc: last q'' and lambda, Newton's next start */
   int have_last;
   double *A;                      /* nc x k gradients from the last solve */
@@ -110,8 +112,7 @@ static int top_solve(nz_ode *o, double t, const double *y, double *f, double *la
 /* q'' and lambda into out (k + nc), and A; status of the mechanics. */
 static int accelerations(nz_ode *o, double t, const double *y, double *out)
 {
-  int k = o->k, st;
-  const double *q = y, *qd = y + k;
+  int k = o->k;
   if (o->top) {                    /* q'' is in the state, lambda solved with q^(p) */
     memcpy(out, y + 2 * k, (size_t)k * sizeof(double));
     return top_solve(o, t, y, NULL, out + k);
@@ -121,32 +122,23 @@ static int accelerations(nz_ode *o, double t, const double *y, double *out)
     memcpy(out + k, y + (size_t)o->level * k, (size_t)o->nc * sizeof(double));
     return NZ_OK;
   }
-  if (o->contacts) {               /* the contacts' mode (mech/contact.h) */
-    st = nz_contacts_accel(o->contacts, o->s, t, q, qd, out, out + k);
-    if (st) fail(o, NZ_ODE_FAIL_CONTACT, st, t, y);
+  nz_motion_outcome oc;
+  oc.rep.involved = o->involved;
+  oc.rep.A = o->A;
+  int st = nz_motion_accel(o->s, &o->setup, t, y, y + k, o->have_last ? o->last : NULL, out, out + k, &oc);
+  switch (oc.failed) {
+  case NZ_MOTION_FAILED_CONTACTS: fail(o, NZ_ODE_FAIL_CONTACT, st, t, y); return st;
+  case NZ_MOTION_FAILED_MASS:
+    o->failure.mass = oc.mass;
+    fail(o, NZ_ODE_FAIL_MASS, st, t, y);
     return st;
-  }
-  if (o->nc == 0) {
-    st = nz_accel(o->s, t, q, qd, o->accel.rcond_min, out, &o->failure.mass);
-    return st == NZ_ESINGULAR ? (fail(o, NZ_ODE_FAIL_MASS, st, t, y), st) : st;
-  }
-  nz_accel_options opt = o->accel;
-  if (o->have_last) {              /* stay on the branch of the last root */
-    opt.guess_qdd = o->last;
-    opt.guess_lambda = o->last + k;
-  }
-  nz_accel_report rep;
-  memset(&rep, 0, sizeof rep);
-  rep.involved = o->involved;
-  rep.A = o->A;
-  memset(o->involved, 0, (size_t)o->nc * sizeof(int));
-  st = nz_accel_constrained(o->s, o->orders, o->linear, t, q, qd, &opt, out, out + k, &rep);
-  if (st == NZ_ESINGULAR || st == NZ_EARG) {
-    o->failure.accel = rep;
+  case NZ_MOTION_FAILED_CONSTRAINTS:
+    o->failure.accel = oc.rep;
     fail(o, NZ_ODE_FAIL_CONSTRAINTS, st, t, y);
     return st;
+  case NZ_MOTION_OK: break;
   }
-  if (!st) {
+  if (!st && o->nc > 0 && !o->contacts) {   /* Newton's next start */
     memcpy(o->last, out, (size_t)(k + o->nc) * sizeof(double));
     o->have_last = 1;
   }
@@ -357,6 +349,7 @@ nz_ode *nz_ode_alloc(int k, const nz_ode_config *cfg)
     o->orders[r] = cfg->orders[r];
     o->linear[r] = cfg->linear[r];
   }
+  o->setup = (nz_motion_setup){ k, nc, o->orders, o->linear, o->contacts, o->accel };
   if (o->top && cfg->guess) {
     memcpy(o->last, cfg->guess, ((size_t)k + (size_t)nc) * sizeof(double));
     o->have_last = 1;
@@ -388,6 +381,7 @@ void nz_ode_free(nz_ode *o)
   free(o);
 }
 
+const int *nz_ode_orders(const nz_ode *o) { return o->orders; }
 int nz_ode_dim(const nz_ode *o) { return o->dim; }
 const char *nz_ode_method(const nz_ode *o) { return o->method; }
 int nz_ode_is_multistep(const nz_ode *o) { return o->multistep; }

@@ -1,23 +1,19 @@
-/* ode_run.c - the stepping loop of sys:simulate in C (see ode_run.h), over
- * any integrator of the interface of stepper.h.
- *
- * Each arithmetic step below mirrors a line of the Lua loop in
- * lua/nz/motion/simulate.lua (run()), in the same order and on the same doubles:
- * change one and the other together, or the two loops stop agreeing to the
- * bit (tests/simulate_loop_spec.lua would say so).  The Lua loop steps GSL's
- * steppers only; Taylor's method runs here alone. */
+/* ode_run.c - the stepping loop of sys:simulate (see ode_run.h), over any
+ * integrator of the interface of stepper.h: the output grid, the events,
+ * the watch on the constraints' drift, the stall and the pauses, in one
+ * place for every method. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
 #include "core/interrupt.h"
-#include "mech/constrained.h"
 #include "ode/ode_run.h"
 
 struct nz_run {
-  nz_stepper *st;
+  nz_stepper *st, *locator;
   int k, nc, dim;
   nz_run_config c;
+  nz_run_hooks hooks;
   double nout;                    /* output intervals (an integer, as a double) */
   double i;                       /* the interval being stepped, 1 .. nout */
   int started;                    /* the point at t0 is recorded */
@@ -33,28 +29,17 @@ struct nz_run {
   unsigned char *has_root;
   /* Where a step's work stands, so that a return for an event, a
    * projection or a pause resumes in the middle of it: PH_STEP takes the
-   * next step; PH_COUNT counts it (after the projection); PH_GRID records
-   * the output points inside it (dense output); PH_EVENTS looks
-   * at events ev_next, ev_next + 1, ... of the step just taken; PH_LOCATED
-   * hands over the events located in it (loc_next, ... of nloc);
-   * PH_GRID_AFTER records the output points of a step whose events came
-   * first (deferred: a motion-changing event crossed in it). */
-  enum { PH_STEP, PH_COUNT, PH_GRID, PH_EVENTS, PH_LOCATED, PH_GRID_AFTER } phase;
-  /* The last nchange events change the motion where they cross (contacts):
-   * a step in which one crosses hands its events over before recording its
-   * points (deferred), their values at its end kept in gnext. */
-  int nchange, deferred, gnext_ok;
-  double *gnext, *gsave;          /* nev each: gsave, gvals before a location that falls back */
+   * next step; PH_COUNT counts it (after the projection); PH_EVENTS
+   * locates its events; PH_LOCATED hands them over (loc_next, ... of nloc),
+   * each after the output points up to it; PH_GRID records the step's
+   * other output points (dense output). */
+  enum { PH_STEP, PH_COUNT, PH_EVENTS, PH_LOCATED, PH_GRID } phase;
   double *sacc;                   /* 2 (k + nc): accelerations for the step after a jump */
-  int nev, ev_next;
+  int nev;
   int *dirs;                      /* nev directions */
   double *gvals;                  /* nev: each event's value at the last accepted step */
-  nz_run_event_fn event_fn;
-  void *event_ctx;
-  int *orders;                    /* nc, when projecting */
   double ta;                      /* the step's start; its state is ytry once it is taken */
-  int ev_e;                       /* the last crossing: event, values */
-  double ev_ga, ev_gb;
+  int ev_e;                       /* the event looked at when the hook failed */
   nz_run_failure failure;
   /* Dense output (ode_run.h), from the integrator's dense(); start_ok: the
    * last step is whole and the state its end (no projection since). */
@@ -62,12 +47,11 @@ struct nz_run {
   int gridded;                    /* a step failed: the grid sets the steps from there */
   double *yi;                     /* an interpolated state */
   unsigned long ninterp, nforced;
-  /* Events located here, on an exact dense output (the integrator's
-   * exact_dense): the step's crossings in time order. */
   int exact;                      /* dense output from an exact one, nothing projected: exact_step */
-  int locate, nloc, loc_next, loc_located;
+  /* The events located in the last step, in time order. */
+  int nloc, loc_next, loc_located;
   double *loc_t, *loc_y;          /* nev times, nev states */
-  int *loc_e, *loc_dir;            /* which event, and which way it crossed (1 rising, -1 falling) */
+  int *loc_e, *loc_dir;           /* which event, and which way it crossed (1 rising, -1 falling) */
 };
 
 double nz_run_clock(void)
@@ -86,18 +70,19 @@ nz_run *nz_run_alloc(nz_stepper *st, const nz_run_config *cfg, const double *y0)
   if (k < 1 || nc < 0 || cfg->capacity < 1 || !isfinite(cfg->t0) || !(cfg->t1 > cfg->t0) ||
       !isfinite(cfg->t1) || !finite_positive(cfg->dt) || !finite_positive(cfg->h0) ||
       !(cfg->step == 0.0 || finite_positive(cfg->step)) || cfg->stall_window < 1 || cfg->nevents < 0 ||
-      (cfg->nevents > 0 && !cfg->directions) || (cfg->project_tol > 0.0 && nc > 0 && !cfg->orders) ||
-      (cfg->step > 0.0 && !st->ops->step_fixed) || (st->exact_dense && cfg->nevents > 0 && !finite_positive(cfg->event_tol)))
+      (cfg->nevents > 0 && (!cfg->directions || !finite_positive(cfg->event_tol))) ||
+      (cfg->step > 0.0 && !st->ops->step_fixed))
     return NULL;
   nz_run *r = calloc(1, sizeof *r);
   if (!r) return NULL;
   r->st = st;
+  r->locator = cfg->locator;
   r->k = k;
   r->nc = nc;
   r->dim = st->dim;
   r->c = *cfg;
   r->cap = cfg->capacity;
-  size_t cap = (size_t)r->cap, dim = (size_t)r->dim, kk = (size_t)k, ncc = (size_t)nc;
+  size_t cap = (size_t)r->cap, dim = (size_t)r->dim, kk = (size_t)k, ncc = (size_t)nc, nev = (size_t)cfg->nevents;
   r->y = malloc(dim * sizeof(double));
   r->ytry = malloc(dim * sizeof(double));
   r->bt = malloc(cap * sizeof(double));
@@ -106,39 +91,31 @@ nz_run *nz_run_alloc(nz_stepper *st, const nz_run_config *cfg, const double *y0)
   r->broot = malloc(cap * kk * sizeof(double));
   r->has_root = calloc(cap, 1);
   r->nev = cfg->nevents;
-  r->dirs = malloc((size_t)r->nev * sizeof(int) + 1);
-  r->gvals = malloc((size_t)r->nev * sizeof(double) + 1);
-  r->orders = malloc(ncc * sizeof(int) + 1);
-  r->gnext = malloc((size_t)r->nev * sizeof(double) + 1);
-  r->gsave = malloc((size_t)r->nev * sizeof(double) + 1);
+  r->dirs = malloc(nev * sizeof(int) + 1);
+  r->gvals = malloc(nev * sizeof(double) + 1);
   r->sacc = malloc(2 * (kk + ncc) * sizeof(double));
-  r->nchange = cfg->nchange > 0 && cfg->nchange <= r->nev ? cfg->nchange : 0;
   r->yi = malloc(dim * sizeof(double));
-  r->locate = st->exact_dense && r->nev > 0;
-  r->loc_t = malloc((size_t)r->nev * sizeof(double) + 1);
-  r->loc_y = malloc((size_t)r->nev * dim * sizeof(double) + 1);
-  r->loc_e = malloc((size_t)r->nev * sizeof(int) + 1);
-  r->loc_dir = malloc((size_t)r->nev * sizeof(int) + 1);
-  if (!r->loc_t || !r->loc_y || !r->loc_e || !r->loc_dir) r->yi = (free(r->yi), NULL);
+  r->loc_t = malloc(nev * sizeof(double) + 1);
+  r->loc_y = malloc(nev * dim * sizeof(double) + 1);
+  r->loc_e = malloc(nev * sizeof(int) + 1);
+  r->loc_dir = malloc(nev * sizeof(int) + 1);
   /* Dense output needs adaptive steps and a tolerance to control it by. */
   r->c.dense = cfg->dense && cfg->step == 0.0 && finite_positive(cfg->rtol + cfg->atol) && cfg->rtol >= 0.0 &&
                cfg->atol >= 0.0;
-  r->exact = st->exact_dense && r->c.dense && !(cfg->project_tol > 0.0 && nc > 0);
-  if (!r->yi || !r->gnext || !r->gsave || !r->sacc ||
-      !r->y || !r->ytry || !r->bt || !r->by || !r->bacc || !r->broot || !r->has_root || !r->dirs || !r->gvals ||
-      !r->orders) {
+  r->exact = st->exact_dense && r->c.dense && !(cfg->project_tol > 0.0);
+  if (!r->yi || !r->sacc || !r->y || !r->ytry || !r->bt || !r->by || !r->bacc || !r->broot || !r->has_root ||
+      !r->dirs || !r->gvals || !r->loc_t || !r->loc_y || !r->loc_e || !r->loc_dir ||
+      (r->nev > 0 && !r->exact && !r->locator)) {
     nz_run_free(r);
     return NULL;
   }
-  if (r->nev) memcpy(r->dirs, cfg->directions, (size_t)r->nev * sizeof(int));
-  if (cfg->project_tol > 0.0 && nc > 0) memcpy(r->orders, cfg->orders, ncc * sizeof(int));
-  r->c.directions = r->c.orders = NULL;          /* the caller's arrays may go */
+  if (r->nev) memcpy(r->dirs, cfg->directions, nev * sizeof(int));
+  r->c.directions = NULL;                          /* the caller's array may go */
   memcpy(r->y, y0, dim * sizeof(double));
   r->t = r->ta = cfg->t0;
   r->h = cfg->h0;
   r->window_t = cfg->t0;
   r->window_left = cfg->stall_window;
-  /* local nout = math.ceil((cfg.t1 - cfg.t0) / cfg.dt - 1e-9) */
   r->nout = ceil((cfg->t1 - cfg->t0) / cfg->dt - 1e-9);
   if (!(r->nout >= 0.0)) r->nout = 0.0;          /* -0 */
   r->i = 1.0;
@@ -157,9 +134,6 @@ void nz_run_free(nz_run *r)
   free(r->has_root);
   free(r->dirs);
   free(r->gvals);
-  free(r->orders);
-  free(r->gnext);
-  free(r->gsave);
   free(r->sacc);
   free(r->yi);
   free(r->loc_t);
@@ -244,7 +218,7 @@ static int interpolate(nz_run *r, const nz_system *s, double tau, double *y, int
 static int dense_step(nz_run *r, const nz_system *s)
 {
   r->start_ok = 0;
-  int projecting = r->c.project_tol > 0.0 && r->nc > 0;
+  int projecting = r->c.project_tol > 0.0;
   double tlimit = r->gridded ? r->tout : r->c.t1, h = r->h;
   for (;;) {
     int st = one_step(r, s, tlimit);
@@ -273,7 +247,7 @@ static int dense_step(nz_run *r, const nz_system *s)
          * (the interpolant is not on them) is made a step end, which the
          * run then projects */
         double v;
-        if ((st = nz_state_violation(s, r->orders, tj, r->yi, r->yi + r->k, &v))) {
+        if ((st = r->hooks.violation(r->hooks.ctx, tj, r->yi, &v))) {
           r->failure = NZ_RUN_FAIL_VIOLATION;
           return st;
         }
@@ -341,16 +315,48 @@ static int stalled(nz_run *r)
   return 0;
 }
 
-/* Illinois' variant of regula falsi on [ta, tb] for event e, from ga to
- * gb, on the integrator's dense output, as locate() in simulate.lua but on
- * the offsets from ta (the secant's ta gb - tb ga loses the digits that
- * ta and tb share): the time te and the state ye (the step's end itself
- * when the root is there). */
-static int locate(nz_run *r, const nz_system *s, int e, double ta, double ga, double tb, double gb, double *te,
-                  double *ye, int *all_ok)
+/* The state at tau inside the last step: the dense output where it meets
+ * the tolerance there, else the step integrated again from its start (ta,
+ * ytry) by the locator at its own tolerance (ode_run.h). */
+static int state_at(nz_run *r, const nz_system *s, double tau, double *y)
 {
-  int ok, st;
-  double a = 0.0, b = tb - ta;
+  if (r->c.dense && r->start_ok) {
+    int ok, st = interpolate(r, s, tau, y, &ok);
+    if (st || ok) return st;
+  }
+  nz_stepper *loc = r->locator;
+  loc->ops->reset(loc);
+  double t = r->ta, h = fmax(tau - r->ta, 1e-12);
+  memcpy(y, r->ytry, (size_t)r->dim * sizeof(double));
+  while (t < tau) {
+    int st = loc->ops->step(loc, s, &t, tau, &h, y);
+    if (st) {
+      r->failure = NZ_RUN_FAIL_LOCATOR;
+      return st;
+    }
+  }
+  return NZ_OK;
+}
+
+/* Event e's value at (t, y) through the hook; a value that is not finite
+ * has no sign to follow and fails the run. */
+static int event_value(nz_run *r, int e, double t, const double *y, double *g)
+{
+  r->ev_e = e;
+  int st = r->hooks.event(r->hooks.ctx, e, t, y, g);
+  if (!st && !isfinite(*g)) st = NZ_EDOM;
+  if (st) r->failure = NZ_RUN_FAIL_EVENT;
+  return st;
+}
+
+/* Illinois' variant of regula falsi on [ta, tb] for event e, from ga to
+ * gb, on the offsets from ta (the secant's ta gb - tb ga loses the digits
+ * that ta and tb share): the time te and the state ye (the step's end
+ * itself when the root is there). */
+static int locate(nz_run *r, const nz_system *s, int e, double ga, double gb, double *te, double *ye)
+{
+  int st;
+  double ta = r->ta, tb = r->t, a = 0.0, b = tb - ta;
   if (gb != 0.0) {
     double tol = r->c.event_tol * fmax(1.0, fabs(tb)), gm;
     int side = 0;
@@ -361,10 +367,7 @@ static int locate(nz_run *r, const nz_system *s, int e, double ta, double ga, do
        * halvings would take hundreds of steps to leave it: bisect */
       if (!(m > a && m < b) || fabs(ga) < NZ_RUN_SECANT_RATIO * fabs(gb) || fabs(gb) < NZ_RUN_SECANT_RATIO * fabs(ga))
         m = 0.5 * (a + b);
-      if ((st = interpolate(r, s, ta + m, ye, &ok))) return st;
-      *all_ok &= ok;
-      if ((st = r->event_fn(r->event_ctx, e, ta + m, ye, &gm))) return st;
-      if (!isfinite(gm)) return NZ_EDOM;
+      if ((st = state_at(r, s, ta + m, ye)) || (st = event_value(r, e, ta + m, ye, &gm))) return st;
       if (gm == 0.0) {
         a = b = m;
         break;
@@ -386,42 +389,25 @@ static int locate(nz_run *r, const nz_system *s, int e, double ta, double ga, do
     return NZ_OK;
   }
   *te = ta + b;
-  st = interpolate(r, s, *te, ye, &ok);
-  *all_ok &= ok;
-  return st;
+  return state_at(r, s, *te, ye);
 }
 
-/* Event e's value at the step's end: a contact's as computed with the
- * step (gnext), else from the event callback. */
-static int step_end_value(nz_run *r, int e, double *g)
-{
-  int first = r->nev - r->nchange;
-  if (r->gnext_ok && e >= first) {
-    *g = r->gnext[e - first];
-    return NZ_OK;
-  }
-  return r->event_fn(r->event_ctx, e, r->t, r->y, g);
-}
-
-/* Every event from `from` on of the step just taken, at its end; those
- * that crossed located on the dense output and sorted by time (stable:
- * event order for equal times), for PH_LOCATED to hand over; *all_ok
- * cleared when an interpolated state missed its tolerance. */
-static int locate_events(nz_run *r, const nz_system *s, int from, int *all_ok)
+/* Every event of the step just taken, at its end; those that crossed
+ * located and sorted by time (stable: event order for equal times), for
+ * PH_LOCATED to hand over. */
+static int locate_events(nz_run *r, const nz_system *s)
 {
   size_t dim = (size_t)r->dim;
   r->nloc = r->loc_next = 0;
-  for (int e = from; e < r->nev; e++) {
+  for (int e = 0; e < r->nev; e++) {
     double g;
-    int st = step_end_value(r, e, &g);
-    if (!st && !isfinite(g)) st = NZ_EDOM;
-    r->ev_e = e;
+    int st = event_value(r, e, r->t, r->y, &g);
     if (st) return st;
     double ga = r->gvals[e];
     r->gvals[e] = g;
     if (!nz_event_crosses(r->dirs[e], ga, g)) continue;
     int n = r->nloc;
-    if ((st = locate(r, s, e, r->ta, ga, r->t, g, &r->loc_t[n], r->loc_y + (size_t)n * dim, all_ok))) return st;
+    if ((st = locate(r, s, e, ga, g, &r->loc_t[n], r->loc_y + (size_t)n * dim))) return st;
     r->loc_e[n] = e;
     r->loc_dir[n] = g > ga ? 1 : -1;
     for (; n > 0 && r->loc_t[n] < r->loc_t[n - 1]; n--) {
@@ -456,34 +442,21 @@ static void native_check(nz_run *r, const nz_system *s)
 
 long nz_run_native_from(const nz_run *r) { return r->native_from; }
 
-/* The output point at tout, inside the last step, from its dense output. */
-static int record_grid_point(nz_run *r, const nz_system *s)
+/* The output points inside the last step up to tlast (inclusive) from its
+ * dense output: NZ_RUN_FULL when the buffer fills first, NZ_RUN_FAILED with
+ * *status, or NZ_RUN_DONE. */
+static nz_run_status record_grid(nz_run *r, const nz_system *s, double tlast, int *status)
 {
-  int ok, st;
-  if ((st = interpolate(r, s, r->tout, r->yi, &ok)) || (st = record_at(r, s, r->tout, r->yi))) return st;
-  r->ninterp++;
-  r->i += 1.0;
-  begin_interval(r);
-  return NZ_OK;
-}
-
-/* The motion-changing events' values at the step's end (gnext), and
- * whether one of them crossed in the step (deferred). */
-static int change_values(nz_run *r)
-{
-  int first = r->nev - r->nchange;
-  for (int e = first; e < r->nev; e++) {
-    double *g = &r->gnext[e - first];
-    int st = r->event_fn(r->event_ctx, e, r->t, r->y, g);
-    if (!st && !isfinite(*g)) st = NZ_EDOM;
-    if (st) {
-      r->ev_e = e;
-      return st;
-    }
-    if (nz_event_crosses(r->dirs[e], r->gvals[e], *g)) r->deferred = 1;
+  while (r->c.dense && r->i <= r->nout && r->tout <= tlast && r->tout < r->t) {
+    if (r->n == r->cap) return NZ_RUN_FULL;
+    int ok;
+    if ((*status = interpolate(r, s, r->tout, r->yi, &ok)) || (*status = record_at(r, s, r->tout, r->yi)))
+      return NZ_RUN_FAILED;
+    r->ninterp++;
+    r->i += 1.0;
+    begin_interval(r);
   }
-  r->gnext_ok = 1;
-  return NZ_OK;
+  return NZ_RUN_DONE;
 }
 
 static int fail(nz_run *r, nz_run_failure what, int st, int *status)
@@ -493,104 +466,66 @@ static int fail(nz_run *r, nz_run_failure what, int st, int *status)
   return NZ_RUN_FAILED;
 }
 
+/* The run's first call: the point at t0, and each event's value there. */
+static nz_run_status start(nz_run *r, const nz_system *s, int *status)
+{
+  if ((*status = record(r, s))) return NZ_RUN_FAILED;
+  r->started = 1;
+  for (int e = 0; e < r->nev; e++)
+    if ((*status = event_value(r, e, r->t, r->y, &r->gvals[e]))) return NZ_RUN_FAILED;
+  return NZ_RUN_DONE;
+}
+
+/* The step from PH_STEP: taken, then the violation watched (NZ_RUN_PROJECT).
+ * Here and in start and record_grid, NZ_RUN_DONE means "go on". */
+static nz_run_status take_step(nz_run *r, const nz_system *s, int *status)
+{
+  if (nz_interrupt_requested()) return NZ_RUN_INTERRUPTED;
+  if (r->native_from == 0) native_check(r, s);
+  r->ta = r->t;
+  if ((*status = r->exact ? exact_step(r, s) : r->c.dense ? dense_step(r, s) : one_step(r, s, r->tout)))
+    return NZ_RUN_FAILED;
+  r->phase = PH_COUNT;
+  if (r->c.project_tol > 0.0) {        /* above the tolerance, the caller projects */
+    double v;
+    int st = r->hooks.violation(r->hooks.ctx, r->t, r->y, &v);
+    if (st) return fail(r, NZ_RUN_FAIL_VIOLATION, st, status);
+    if (!(v <= r->c.project_tol)) return NZ_RUN_PROJECT;   /* NaN too */
+  }
+  return NZ_RUN_DONE;
+}
+
 nz_run_status nz_run_advance(nz_run *r, const nz_system *s, unsigned long pause_step, double pause_wall,
                              int *status)
 {
+  nz_run_status rs;
   *status = NZ_OK;
   r->failure = NZ_RUN_FAIL_ODE;
-  if (r->nev && !r->event_fn) return fail(r, NZ_RUN_FAIL_EVENT, NZ_EARG, status);
-  if (!r->started) {
-    if ((*status = record(r, s))) return NZ_RUN_FAILED;
-    r->started = 1;
-    for (int e = 0; e < r->nev; e++) {   /* gvals[i] = event_value(ev, t, y) */
-      r->ev_e = e;
-      int st = r->event_fn(r->event_ctx, e, r->t, r->y, &r->gvals[e]);
-      if (!st && r->locate && !isfinite(r->gvals[e])) st = NZ_EDOM;
-      if (st) return fail(r, NZ_RUN_FAIL_EVENT, st, status);
-    }
-  }
-  int projecting = r->c.project_tol > 0.0 && r->nc > 0;
+  if ((r->nev && !r->hooks.event) || (r->c.project_tol > 0.0 && !r->hooks.violation))
+    return fail(r, NZ_RUN_FAIL_EVENT, NZ_EARG, status);
+  if (!r->started && (rs = start(r, s, status)) != NZ_RUN_DONE) return rs;
   for (;;) {
     if (r->i > r->nout) return NZ_RUN_DONE;
     if (!r->in_interval) begin_interval(r);
     while (r->phase != PH_STEP || r->t < r->tout) {
-      if (r->phase == PH_STEP) {
-        if (nz_interrupt_requested()) return NZ_RUN_INTERRUPTED;
-        if (r->native_from == 0) native_check(r, s);
-        r->ta = r->t;
-        if ((*status = r->exact ? exact_step(r, s) : r->c.dense ? dense_step(r, s) : one_step(r, s, r->tout)))
-          return NZ_RUN_FAILED;
-        r->phase = PH_COUNT;
-        if (projecting) {                /* project(t): above the tolerance, the caller projects */
-          double v;
-          int st = nz_state_violation(s, r->orders, r->t, r->y, r->y + r->k, &v);
-          if (st) return fail(r, NZ_RUN_FAIL_VIOLATION, st, status);
-          if (!(v <= r->c.project_tol)) return NZ_RUN_PROJECT;   /* NaN too, as project() says */
-        }
-      }
+      if (r->phase == PH_STEP && (rs = take_step(r, s, status)) != NZ_RUN_DONE) return rs;
       if (r->phase == PH_COUNT) {
         r->nsteps++;
-        r->ev_next = 0;
-        r->deferred = r->gnext_ok = 0;
-        if (r->nchange) {                /* a motion-changing event in this step: its points after the events */
-          int st = change_values(r);
-          if (st) return fail(r, NZ_RUN_FAIL_EVENT, st, status);
-        }
-        r->phase = r->c.dense && !r->deferred ? PH_GRID : PH_EVENTS;
+        r->phase = PH_EVENTS;
         if (stalled(r)) return NZ_RUN_STALLED;
         if (pause_step && r->nsteps == pause_step) return NZ_RUN_PAUSED;
       }
-      while (r->phase == PH_GRID && r->tout < r->t) {   /* the output points inside the step */
-        if (r->n == r->cap) return NZ_RUN_FULL;
-        if ((*status = record_grid_point(r, s))) return NZ_RUN_FAILED;
-      }
-      r->phase = r->phase == PH_GRID ? PH_EVENTS : r->phase;
-      if (r->locate && r->phase == PH_EVENTS) {
-        int ok = 1, st = locate_events(r, s, 0, &ok);
-        if (st) return fail(r, NZ_RUN_FAIL_EVENT, st, status);
+      if (r->phase == PH_EVENTS) {
+        if ((*status = locate_events(r, s))) return NZ_RUN_FAILED;
         r->phase = PH_LOCATED;
-        r->ev_next = r->nev;
       }
-      if (r->phase == PH_LOCATED && r->loc_next < r->nloc) {
+      if (r->phase == PH_LOCATED && r->loc_next < r->nloc) {   /* the points before it, then the event */
+        if ((rs = record_grid(r, s, r->loc_t[r->loc_next], status)) != NZ_RUN_DONE) return rs;
         r->loc_located = r->loc_next++;
         return NZ_RUN_EVENT;
       }
-      while (r->ev_next < r->nev) {      /* events e = ev_next .. nev - 1 of this step */
-        int e = r->ev_next, first = r->nev - r->nchange;
-        if (e == first && r->deferred && r->c.dense && r->start_ok) {
-          /* the motion-changing events that crossed, located here on the
-           * interpolant when it meets the tolerance wherever they were
-           * looked for (else handed over, for the caller to locate) */
-          memcpy(r->gsave, r->gvals, (size_t)r->nev * sizeof(double));
-          int ok = 1, st = locate_events(r, s, first, &ok);
-          if (st) return fail(r, NZ_RUN_FAIL_EVENT, st, status);
-          if (ok) {
-            r->ev_next = r->nev;
-            r->phase = PH_LOCATED;
-            break;
-          }
-          r->nloc = r->loc_next = 0;
-          memcpy(r->gvals, r->gsave, (size_t)r->nev * sizeof(double));
-        }
-        double g;
-        int st = step_end_value(r, e, &g);
-        if (st) return fail(r, NZ_RUN_FAIL_EVENT, st, status);
-        double ga = r->gvals[e];
-        r->gvals[e] = g;
-        r->ev_next = e + 1;
-        if (nz_event_crosses(r->dirs[e], ga, g)) {
-          r->ev_e = e;
-          r->ev_ga = ga;
-          r->ev_gb = g;
-          return NZ_RUN_EVENT;
-        }
-      }
-      if (r->phase == PH_LOCATED && r->loc_next < r->nloc) continue;   /* located just above: hand them over */
-      if (r->deferred && r->c.dense && r->phase != PH_GRID_AFTER) r->phase = PH_GRID_AFTER;
-      while (r->phase == PH_GRID_AFTER && r->tout < r->t) {   /* the deferred points */
-        if (r->n == r->cap) return NZ_RUN_FULL;
-        if ((*status = record_grid_point(r, s))) return NZ_RUN_FAILED;
-      }
+      r->phase = PH_GRID;
+      if ((rs = record_grid(r, s, r->t, status)) != NZ_RUN_DONE) return rs;
       r->phase = PH_STEP;
       if (pause_wall > 0.0 && nz_run_clock() >= pause_wall) return NZ_RUN_PAUSED;
     }
@@ -601,37 +536,16 @@ nz_run_status nz_run_advance(nz_run *r, const nz_system *s, unsigned long pause_
   }
 }
 
-void nz_run_set_events(nz_run *r, nz_run_event_fn fn, void *ctx)
+void nz_run_set_hooks(nz_run *r, const nz_run_hooks *h)
 {
-  r->event_fn = fn;
-  r->event_ctx = ctx;
+  if (h) r->hooks = *h;
+  else memset(&r->hooks, 0, sizeof r->hooks);
 }
 
-/* After a step, ytry holds the state it started from (one_step swaps). */
-void nz_run_event(const nz_run *r, int *e, double *ta, const double **ya, double *ga, double *tb,
-                  double *gb, const double **yb)
+void nz_run_failed_event(const nz_run *r, int *e, double *ta)
 {
   *e = r->ev_e;
   *ta = r->ta;
-  *ya = r->ytry;
-  *ga = r->ev_ga;
-  *tb = r->t;
-  *gb = r->ev_gb;
-  *yb = r->y;
-}
-
-nz_run_status nz_run_record_until(nz_run *r, const nz_system *s, double te, int *status)
-{
-  *status = NZ_OK;
-  if (!(te >= r->ta && te <= r->t)) {
-    *status = NZ_EARG;
-    return NZ_RUN_FAILED;
-  }
-  while (r->c.dense && r->start_ok && r->i <= r->nout && r->tout <= te && r->tout < r->t) {
-    if (r->n == r->cap) return NZ_RUN_FULL;
-    if ((*status = record_grid_point(r, s))) return NZ_RUN_FAILED;
-  }
-  return NZ_RUN_DONE;
 }
 
 /* The first step from (t, y) after a jump, by Hairer, Norsett and Wanner's
@@ -672,7 +586,7 @@ static int starting_step(nz_run *r, const nz_system *s, double *h)
 
 int nz_run_jump(nz_run *r, const nz_system *s, double te, const double *y)
 {
-  if (!(te >= r->ta && te <= r->t) || (r->nev && !r->event_fn)) return NZ_EARG;
+  if (!(te >= r->ta && te <= r->t) || (r->nev && !r->hooks.event)) return NZ_EARG;
   memcpy(r->y, y, (size_t)r->dim * sizeof(double));
   r->t = r->ta = te;
   r->st->ops->reset(r->st);
@@ -684,21 +598,13 @@ int nz_run_jump(nz_run *r, const nz_system *s, double te, const double *y)
   }
   r->start_ok = 0;
   r->phase = PH_STEP;
-  r->ev_next = r->nev;
   r->nloc = r->loc_next = 0;
-  r->deferred = r->gnext_ok = 0;
-  /* back to the first output time after te that a dense step recorded;
-   * every earlier one is at or before te */
-  while (r->i > 1.0 && grid_time(r, r->i - 1.0) > te) r->i -= 1.0;
+  /* the output points up to te are recorded (PH_LOCATED); the grid goes on
+   * from the first after te */
   r->in_interval = 0;
   for (int e = 0; e < r->nev; e++) {
-    r->ev_e = e;
-    int st = r->event_fn(r->event_ctx, e, r->t, r->y, &r->gvals[e]);
-    if (!st && !isfinite(r->gvals[e])) st = NZ_EDOM;
-    if (st) {
-      r->failure = NZ_RUN_FAIL_EVENT;
-      return st;
-    }
+    int st = event_value(r, e, r->t, r->y, &r->gvals[e]);
+    if (st) return st;
   }
   return NZ_OK;
 }
@@ -713,7 +619,7 @@ void nz_run_set_state(nz_run *r, const double *y)
 
 int nz_run_located(const nz_run *r, int *e, double *te, const double **ye, int *dir)
 {
-  if (r->phase != PH_LOCATED) return 0;
+  if (r->phase != PH_LOCATED || r->loc_next == 0) return 0;
   int i = r->loc_located;
   *e = r->loc_e[i];
   if (dir) *dir = r->loc_dir[i];
@@ -728,19 +634,13 @@ void nz_run_dense_stats(const nz_run *r, unsigned long *interpolated, unsigned l
   *forced = r->nforced;
 }
 
-int nz_run_interpolate(nz_run *r, const nz_system *s, double tau, double *y)
-{
-  if (!r->c.dense || !r->start_ok) return NZ_EARG;
-  int ok, st = interpolate(r, s, tau, y, &ok);
-  return st ? st : ok ? NZ_OK : NZ_EARG;
-}
-
 nz_run_failure nz_run_failure_of(const nz_run *r) { return r->failure; }
 
 double nz_run_time(const nz_run *r) { return r->t; }
 const double *nz_run_state(const nz_run *r) { return r->y; }
 unsigned long nz_run_steps(const nz_run *r) { return r->nsteps; }
 double nz_run_stall_advance(const nz_run *r) { return r->advance; }
+
 int nz_run_count(const nz_run *r) { return r->n; }
 
 void nz_run_point(const nz_run *r, int i, double *t, const double **y, const double **acc,

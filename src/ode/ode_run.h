@@ -1,41 +1,42 @@
-/* ode_run.h - the stepping loop of sys:simulate in C (issue 10, item 6),
- * driving any integrator of the interface of stepper.h: GSL's steppers
- * (stepper_gsl.c) and Taylor's method (taylor.c) run here alike.
+/* ode_run.h - the stepping loop of sys:simulate, in C: the only one.  It
+ * drives any integrator of the interface of stepper.h (GSL's steppers,
+ * stepper_gsl.c; Taylor's method, taylor.c) over the output grid and hands
+ * lua/nz/motion/simulate.lua the output points, the located events, the
+ * projections and the pauses it asks for.
  *
- * lua/nz/motion/simulate.lua steps a GSL integrator (ode.h) one step at a time, in
- * Lua (run()).  This loop does the same work without returning to Lua per
- * step: the output grid (t0 + i dt, the last point at t1), fixed steps that
- * land on each output time, the accelerations and multipliers recorded at
- * each output point, the stall detection, the polling of the interrupt,
+ * The loop: the output grid (t0 + i dt, the last point at t1), fixed steps
+ * that land on each output time, the accelerations and multipliers recorded
+ * at each output point, the stall detection, the polling of the interrupt,
  * and, when asked, the watch for events and for the drift off the
- * constraints.  It performs the same floating-point operations in the same
- * order as the Lua loop, so the two give bit-identical trajectories and
- * statistics (the Lua loop stays the reference; tests/simulate_loop_spec.lua
- * compares them).
+ * constraints.  What the loop cannot know it asks of hooks
+ * (nz_run_set_hooks): an event's value (the caller's recorded graph, a
+ * contact's gap, or the user's Lua function) and the state's violation of
+ * the constraints (computed in C for constraints of order <= 2, in Lua
+ * above), so that this layer knows nothing of graphs, contacts or Lua.
  *
  * Events: after every accepted step the loop evaluates event e = 0, 1, ...
- * through a callback (nz_run_set_events: the caller's recorded graphs, so
- * that this layer knows nothing of graphs or Lua) and, when one crosses zero
- * (the rule of crosses() in simulate.lua), returns NZ_RUN_EVENT with the
- * step (nz_run_event); the caller locates and records the event and, unless
- * it stops the run, calls again: the loop goes on with the next event of the
- * same step (with an exact dense output the loop locates them itself: see
- * nz_run_located).  Projection: with project_tol > 0, after every accepted
- * step the loop computes the state's violation of the constraints of order <= 1
- * (nz_state_violation, constrained.h: what the Lua loop's state_violation
- * computes, by the same primitive in the same order) and, above the
- * tolerance, returns NZ_RUN_PROJECT; the caller projects, writes the state
- * back (nz_run_set_state) and calls again.  Locating and projecting stay in
- * Lua: they happen a few times per run, not per step.
+ * at the step's end; each that crossed zero (nz_event_crosses) is located
+ * by Illinois' regula falsi on the state inside the step (the integrator's
+ * dense output where it meets the tolerance there, else the step integrated
+ * again from its start by the locator, an integrator of the caller's at a
+ * tight tolerance) to event_tol, and the step's events are handed over one
+ * NZ_RUN_EVENT each, in time order (nz_run_located).  Before each, the
+ * output points of the step up to its time are recorded, and the rest of
+ * the step's points after the last: a caller that stops the run at an event
+ * or makes the motion jump there (nz_run_jump: an impact, a contact that
+ * opens or closes) finds exactly the points before it.  Projection: with
+ * project_tol > 0, after every accepted step the loop asks the violation
+ * hook and, above the tolerance, returns NZ_RUN_PROJECT; the caller
+ * projects, writes the state back (nz_run_set_state) and calls again.
  *
  * The loop is resumable: nz_run_advance returns to its caller when it must
  * act (the run is done, it stalled, it was interrupted, a step failed, the
- * output buffer is full, an event crossed, the state drifted, or the caller
- * asked for a pause at a step count or a wall time for its progress bar and
- * long-run notice) and goes on from where it stopped when called again.
- * Output points wait in a buffer of `capacity` points that the caller
- * empties (nz_run_clear), so the loop's own memory stays bounded whatever
- * the grid. */
+ * output buffer is full, an event was located, the state drifted, or the
+ * caller asked for a pause at a step count or a wall time for its progress
+ * bar and long-run notice) and goes on from where it stopped when called
+ * again.  Output points wait in a buffer of `capacity` points that the
+ * caller empties (nz_run_clear), so the loop's own memory stays bounded
+ * whatever the grid. */
 /* Dense output (cfg.dense, adaptive steps only): the steps go to t1, not to
  * each output time, and an output point inside a step is read from the
  * integrator's dense output, so that the output grid no longer caps the
@@ -56,17 +57,16 @@
  * there (the integrator reset: GSL's evolve object keeps its last step, a
  * multistep method its history).  A step that fails is taken again towards
  * the next output time, and every step after it: the run reaches a failure
- * as without dense output.  nz_run_dense_stats counts both kinds of point;
- * the caller locates a GSL stepper's events on the interpolant
- * (nz_run_interpolate). */
+ * as without dense output.  nz_run_dense_stats counts both kinds of
+ * point. */
 #ifndef NZ_ODE_RUN_H
 #define NZ_ODE_RUN_H
 
 #include "ode/stepper.h"
 
 /* Locating an event by regula falsi (Illinois), a step bisects instead
- * where one end's value is below this fraction of the other's (simulate.lua's
- * M.SECANT_RATIO): the secant would hug that end. */
+ * where one end's value is below this fraction of the other's: the secant
+ * would hug that end. */
 #define NZ_RUN_SECANT_RATIO 1e-12
 
 typedef struct nz_run_config {
@@ -78,24 +78,28 @@ typedef struct nz_run_config {
   int capacity;              /* output points buffered (>= 1)                     */
   int nevents;               /* event functions watched (0: none)                 */
   const int *directions;     /* nevents: 0 any crossing, +1 rising, -1 falling (copied) */
+  double event_tol;          /* the tolerance on the events' times, relative to   */
+                             /* max(1, |t|)                                        */
+  nz_stepper *locator;       /* the caller's: integrates a step again where the   */
+                             /* dense output misses the tolerance at a point an   */
+                             /* event is looked for (required with events, unless */
+                             /* the dense output is exact)                        */
   double project_tol;        /* > 0: NZ_RUN_PROJECT when the violation exceeds it  */
-  const int *orders;         /* nc classified orders, for the violation (copied)   */
   int dense;                 /* adaptive steps: output points inside a step from   */
-                             /* the step's Hermite interpolant (see below)         */
+                             /* the step's dense output (see above)                */
   double rtol, atol;         /* dense: the interpolant's tolerance per component   */
-  double event_tol;          /* events located here (an exact dense output): the   */
-                             /* tolerance on their times, relative to max(1, |t|)  */
   int no_accel;              /* output points without q'' and lambda (zeros)       */
-  int nchange;               /* the last nchange events change the motion where    */
-                             /* they cross (contacts): a step in which one crosses */
-                             /* hands its events over before its output points,   */
-                             /* which the caller records up to the event's time    */
-                             /* (nz_run_record_until) before it jumps (nz_run_jump) */
 } nz_run_config;
 
-/* The value g of event e (0-based) at (t, y); NZ_OK, or a status that makes
- * the run fail (NZ_RUN_FAILED, nz_run_failure_of = NZ_RUN_FAIL_EVENT). */
-typedef int (*nz_run_event_fn)(void *ctx, int e, double t, const double *y, double *g);
+/* What the loop asks of its caller, each with ctx: event e's value g
+ * (0-based) at (t, y), and the violation v of the constraints at (t, y)
+ * (when project_tol > 0).  NZ_OK, or a status that makes the run fail
+ * (nz_run_failure_of says which hook). */
+typedef struct nz_run_hooks {
+  int (*event)(void *ctx, int e, double t, const double *y, double *g);
+  int (*violation)(void *ctx, double t, const double *y, double *v);
+  void *ctx;
+} nz_run_hooks;
 
 typedef enum nz_run_status {
   NZ_RUN_DONE = 0,           /* t1 reached, its point recorded                    */
@@ -105,85 +109,71 @@ typedef enum nz_run_status {
   NZ_RUN_STALLED,            /* the last stall_window steps advanced t too little  */
   NZ_RUN_FAILED,             /* a step, an output point, an event or the violation */
                              /* failed (nz_run_failure_of says which)              */
-  NZ_RUN_EVENT,              /* an event crossed in the last step (nz_run_event)   */
+  NZ_RUN_EVENT,              /* an event was located in the last step            */
+                             /* (nz_run_located)                                  */
   NZ_RUN_PROJECT             /* the violation exceeds project_tol (or is NaN):     */
                              /* project, nz_run_set_state, and call again          */
 } nz_run_status;
 
 typedef enum nz_run_failure {
   NZ_RUN_FAIL_ODE = 0,       /* the integrator's (see nz_run_advance)              */
-  NZ_RUN_FAIL_EVENT,         /* the event callback's status                        */
-  NZ_RUN_FAIL_VIOLATION      /* nz_state_violation's (a constraint failed)         */
+  NZ_RUN_FAIL_EVENT,         /* the event hook's status, or a value not finite     */
+  NZ_RUN_FAIL_VIOLATION,     /* the violation hook's status                        */
+  NZ_RUN_FAIL_LOCATOR        /* the locator's step (its own report says why)       */
 } nz_run_failure;
 
 typedef struct nz_run nz_run;
 
-/* A run of the integrator st (which stays the caller's) from (t0, y0)
- * (st->dim values).  NULL: no memory or a bad configuration (dt, step or
- * span not positive and finite, capacity < 1, events without directions,
- * project_tol > 0 without orders, a fixed step for an integrator without
- * fixed steps, events on an exact dense output without event_tol). */
+/* A run of the integrator st (which stays the caller's, as the locator)
+ * from (t0, y0) (st->dim values).  NULL: no memory or a bad configuration
+ * (dt, step or span not positive and finite, capacity < 1, events without
+ * directions or event_tol or, unless the dense output is exact, without a
+ * locator, a fixed step for an integrator without fixed steps). */
 nz_run *nz_run_alloc(nz_stepper *st, const nz_run_config *cfg, const double *y0);
 void nz_run_free(nz_run *r);
+
+/* The hooks (with their context) used by the following calls of
+ * nz_run_advance and nz_run_jump; the event hook is required when nevents >
+ * 0, the violation hook when project_tol > 0 (set them before every call
+ * when their context lives on the caller's stack). */
+void nz_run_set_hooks(nz_run *r, const nz_run_hooks *h);
 
 /* Step until something needs the caller (see nz_run_status).  pause_step:
  * pause right after the accepted step that makes the count equal to it (0:
  * never); pause_wall: pause after the first step at or past this monotonic
  * time in seconds (0: never).  On NZ_RUN_FAILED, *status holds the nz
  * status of the failing call and, when nz_run_failure_of says
- * NZ_RUN_FAIL_ODE, the integrator's report the details (nz_ode_last_failure,
- * nz_taylor_last_failure).  The order within a
- * step is the Lua loop's: step, violation (NZ_RUN_PROJECT), count, stall,
- * pause at a step count, events in their order (NZ_RUN_EVENT), pause at a
- * wall time; a call after a return goes on from there. */
+ * NZ_RUN_FAIL_ODE (or _LOCATOR), the integrator's (the locator's) report
+ * the details (nz_ode_last_failure, nz_taylor_last_failure).  The order
+ * within a step: the step, the violation (NZ_RUN_PROJECT), the count, the
+ * stall, the pause at a step count, the events located (NZ_RUN_EVENT each,
+ * after the output points up to it), the step's other output points, the
+ * pause at a wall time; a call after a return goes on from there. */
 nz_run_status nz_run_advance(nz_run *r, const nz_system *s, unsigned long pause_step, double pause_wall,
                              int *status);
 
-/* The event callback (with its context) used by the following calls of
- * nz_run_advance; required when nevents > 0 (set it before every call when
- * its context lives on the caller's stack). */
-void nz_run_set_events(nz_run *r, nz_run_event_fn fn, void *ctx);
-
-/* After NZ_RUN_EVENT: event e (0-based) crossed in the step from (ta, ya)
- * to (tb, yb), its values ga before and gb after (the arrays stay valid
- * until the next call of nz_run_advance).  With an integrator whose dense
- * output is exact (Taylor's polynomial), the loop locates the events itself
- * (Illinois' regula falsi, as simulate.lua's locate(), to event_tol) after
- * each step and hands them over in time order, one NZ_RUN_EVENT each:
- * nz_run_located says so and gives the time and state.  An event whose
- * value fails or is not finite there fails the run (NZ_RUN_FAIL_EVENT,
- * nz_run_event's e names it, ta the step's start; ya is not kept then). */
-void nz_run_event(const nz_run *r, int *e, double *ta, const double **ya, double *ga, double *tb,
-                  double *gb, const double **yb);
-/* After NZ_RUN_EVENT: 1 when the loop located it (event e at te, state ye,
- * valid until the next call; *dir, unless dir is NULL, 1 when its value
- * rose through zero and -1 when it fell), 0 when the caller locates it. */
+/* After NZ_RUN_EVENT: event e (0-based) at te, state ye (valid until the
+ * next call), *dir (unless dir is NULL) 1 when its value rose through zero
+ * and -1 when it fell.  Returns 0 when no event is being handed over. */
 int nz_run_located(const nz_run *r, int *e, double *te, const double **ye, int *dir);
+/* After NZ_RUN_FAILED with NZ_RUN_FAIL_EVENT: the event that failed and
+ * the start of the step in which it was looked at. */
+void nz_run_failed_event(const nz_run *r, int *e, double *ta);
 
 /* Replace the state of the last accepted step (dim values: the projected
  * state after NZ_RUN_PROJECT); the next step starts afresh from it. */
 void nz_run_set_state(nz_run *r, const double *y);
 
-/* The output points of the last step up to te (inclusive) from its dense
- * output, when its events came first (nz_run_config's nchange): before a
- * jump at te, in the motion before it.  NZ_RUN_DONE, NZ_RUN_FULL (take the
- * points, call again), or NZ_RUN_FAILED with *status. */
-nz_run_status nz_run_record_until(nz_run *r, const nz_system *s, double te, int *status);
-
-/* The motion jumps at te, inside or at the end of the last step, to the
- * state y (dim values): an impact, or equations that change there (a
- * contact opening or closing, contact.h).  The run goes on from (te, y) as
- * from a new start: the integrator forgets its history, the events left in
- * the last step are dropped, each event's value is taken at (te, y)
- * through the callback (set it first: nz_run_set_events), and the output
- * grid goes back to its first time after te (with dense output the step
- * recorded the points inside it; the caller drops those after te, the
- * buffer being handed over at every return).  A point at te itself keeps
- * the state before the jump if it was recorded, else it gets y.  An
- * adaptive step starts with Hairer, Norsett and Wanner's estimate at (te,
- * y) (two evaluations of the accelerations), not the step before.  NZ_OK,
- * NZ_EARG (te outside the last step, no callback with events), or the
- * callback's status. */
+/* The motion jumps at te (an event's time, inside or at the end of the
+ * last step) to the state y (dim values): an impact, or equations that
+ * change there (a contact opening or closing, contact.h).  The run goes on
+ * from (te, y) as from a new start: the integrator forgets its history, the
+ * events left in the last step and its output points after te are dropped
+ * (those up to te are recorded), each event's value is taken at (te, y)
+ * through the hook, and an adaptive step starts with Hairer, Norsett and
+ * Wanner's estimate at (te, y) (two evaluations of the accelerations), not
+ * the step before.  NZ_OK, NZ_EARG (te outside the last step, no event
+ * hook with events), or the hook's status. */
 int nz_run_jump(nz_run *r, const nz_system *s, double te, const double *y);
 
 /* After NZ_RUN_FAILED: what failed. */
@@ -214,9 +204,7 @@ void nz_run_point(const nz_run *r, int i, double *t, const double **y, const dou
 void nz_run_clear(nz_run *r);
 
 /* Does event g cross over a step from ga to gb, in direction dir (0: either,
- * 1: rising, -1: falling)?  A sign change, or a step that lands on the zero;
- * the rule of simulate.lua's crosses(), shared by this loop and the Taylor
- * runs (src/lua/lua_taylor.c). */
+ * 1: rising, -1: falling)?  A sign change, or a step that lands on the zero. */
 static inline int nz_event_crosses(int dir, double ga, double gb)
 {
   if (ga == 0.0 || (gb != 0.0 && (ga > 0.0) == (gb > 0.0))) return 0;
@@ -226,12 +214,6 @@ static inline int nz_event_crosses(int dir, double ga, double gb)
 /* Dense output: the output points read from an interpolant, and those
  * that its error control made step ends (each also cost a step taken again). */
 void nz_run_dense_stats(const nz_run *r, unsigned long *interpolated, unsigned long *forced);
-
-/* The state at tau in [ta, tb] of the last step (after NZ_RUN_EVENT), from
- * its interpolant: NZ_OK with y (dim values) when the error estimate meets
- * the tolerance, NZ_EARG when dense output is off or it does not (locate by
- * integrating again), or the status of a failed evaluation of f. */
-int nz_run_interpolate(nz_run *r, const nz_system *s, double tau, double *y);
 
 /* The monotonic clock the pauses use (the one of mech.now()). */
 double nz_run_clock(void);

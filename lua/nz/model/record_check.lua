@@ -1,7 +1,7 @@
 -- nz/model/record_check.lua - a recording against its function (nz/model/record.lua):
 -- the function run by the Lua evaluator, the path of compile = false, on
 -- jets with tangents and along a state direction, at two states (or, for
--- simulate's event functions, on numbers, as the Lua loop calls them); and,
+-- simulate's event functions, on numbers, as the loop calls them); and,
 -- where they differ, what the function reads besides its arguments, found
 -- by running it on tracers once more under a call hook (a type test, a
 -- table of its own keyed by the state, a counter, math.random).
@@ -210,7 +210,7 @@ function M.jets(c, f, ids, nslots, k, names, params, index, piece)
   return true
 end
 
--- The same on plain numbers, for the functions the Lua loop calls with
+-- The same on plain numbers, for the functions the stepping loop calls with
 -- numbers (simulate's event functions).
 function M.numbers(c, f, ids, nslots, k, names, params, index)
   local inputs = { [0] = SAMPLE_T }

@@ -82,11 +82,16 @@ function M.scene(def)
     local ok, err = pcall(effects.attach_friction, sc, contacts, f)
     if not ok then error(err, 2) end
   end
-  local sys = require("nz").system{ name = name, coords = coords, T = #T > 0 and T or nil, V = #V > 0 and V or nil,
+  local sys = require("nz.base.classes").new_system{ name = name, coords = coords, T = #T > 0 and T or nil, V = #V > 0 and V or nil,
     Q = #Q > 0 and Q or nil, L = #L > 0 and L or nil, S = S, constraints = #C > 0 and C or nil,
     params = def.params, sample = def.sample }
   sys.effects = kinds
   sys.bodies = def.bodies      -- kept for drawing (tr:animate)
+  -- the gravity of the first gravity effect, for drawing: tr:animate{
+  -- view = "3d" } puts up against it
+  for _, e in ipairs(def.effects or {}) do
+    if e.kind == "gravity" then sys.gravity = e.g or effects.DEFAULT_GRAVITY; break end
+  end
   return sys
 end
 

@@ -1,13 +1,13 @@
--- nz/motion/contact_run.lua - a simulation with unilateral contacts (issue 26):
--- what sys:simulate does differently when the system has contacts
--- (nz/model/contact.lua).  simulate.lua calls it at five places: begin (the
--- checks, the contacts' state for the run, the mode at the start), attach
--- (the trajectory and the loop's services), first and located (an event
--- of the contacts: the earliest in the step, then the impact and the new
--- mode, src/mech/contact.c, and the run going on from there,
--- src/ode/ode_run.c's nz_run_jump), finish.  It integrates the contact
--- system (sys.contact.system: the constraints, then every gap and slip
--- function) with the integrator holding the mode (core.mech.contacts_*).
+-- nz/motion/contact_run.lua - a simulation with unilateral contacts: what
+-- sys:simulate does differently when the system has contacts
+-- (nz/model/contact.lua).  simulate.lua and run.lua call it at four places:
+-- begin (the checks, the contacts' state for the run, the mode at the
+-- start), attach (the trajectory and the loop), located (an event of the
+-- contacts, located by the loop in C: the impact and the new mode,
+-- src/mech/contact.c, and the run going on from there, src/ode/ode_run.c's
+-- nz_run_jump), finish.  It integrates the contact system
+-- (sys.contact.system: the constraints, then every gap and slip function)
+-- with the integrator holding the mode (core.mech.contacts_*).
 --
 -- What a run records: tr.events gets one entry per contact that changed
 -- (kind "impact", "closes", "opens", "sticks", "slips"), with its time, the
@@ -46,8 +46,7 @@ function M.begin(sys, cfg, q0, qd0, fail)
     { cfg.project, "'project'", "the contacts held are put back on their gaps at every event" },
     { cfg.alpha, "'baumgarte'", "the contacts held are put back on their gaps at every event" },
     { cfg.monitors.work, "the 'work' monitor", "each impact's loss of kinetic energy is in tr.events (energy_lost), "
-      .. "and monitors = {energy = true} records T + V" },
-    { cfg._loop == "lua", "'_loop' = \"lua\"", "a run with contacts steps in the loop in C" } } do
+      .. "and monitors = {energy = true} records T + V" } } do
     if refused[1] then fail("%s is not available with unilateral contacts: %s", refused[2], refused[3]) end
   end
   local orders, linear = constraints.orders(csys, { t = cfg.t0, q = q0, qd = qd0 })
@@ -79,23 +78,12 @@ function M.begin(sys, cfg, q0, qd0, fail)
   return self
 end
 
--- The pseudo-event of contact event e (1-based: 2j - 1 the normal one of
--- contact j, 2j its friction one) for simulate's locate and event_value.
-function Run:event(e)
-  self.events = self.events or {}
-  local ev = self.events[e]
-  if not ev then
-    local j = (e + 1) // 2
-    ev = { contact = e, cs = self.cs, direction = -1, name = ("contact '%s'"):format(self.names[j]) }
-    self.events[e] = ev
-  end
-  return ev
-end
+-- The name of contact event e (1-based: 2j - 1 the normal one of contact
+-- j, 2j its friction one).
+function Run:event_name(e) return ("contact '%s'"):format(self.names[(e + 1) // 2]) end
 
--- The trajectory and the loop's services: loop = {locate = locate(ev, ta,
--- ya, ga, tb, gb, yb), value = event_value(ev, t, y), run = function()
--- return crun end, pend = the points' states simulate records its extras
--- from}.  The start's changes are recorded.
+-- The trajectory and the loop: loop = {run = function() return the run
+-- (core.mech.ode_run_new) end}.  The start's changes are recorded.
 function Run:attach(tr, loop)
   self.tr, self.loop = tr, loop
   tr.contacts = { names = self.names, modes = {}, impacts = 0, zeno = {}, run = self }
@@ -145,44 +133,6 @@ function Run:record_changes(t, q, qd, qd_after, rep, start)
   tr.contacts.modes[#tr.contacts.modes + 1] = { t = t, states = states }
 end
 
--- A step from (ta, ya) to (tb, yb) in which event e crossed (e numbered as
--- the loop numbers them: the user's events, then the contacts'): the
--- event to handle first, located: the earliest crossing of the contacts'
--- events when it comes before the user's event e (the motion changes
--- there, and the user's event may not happen), else e.  Every contact
--- event falls through zero (simulate.lua's crosses with direction -1).
--- Returns e, te, ye.
-function Run:first(e, ta, ya, ga, tb, gb, yb)
-  local loop, nuser = self.loop, #self.cfg.events
-  local best_e, best_t, best_y
-  if e <= nuser then
-    best_e = e
-    best_t, best_y = loop.locate(self.cfg.events[e], ta, ya, ga, tb, gb, yb)
-  end
-  -- every event at ta, then every event at tb: the contacts' mode at a state
-  -- is solved once and kept (src/mech/contact.c), so one state after the
-  -- other costs two solves where alternating would cost two per event
-  local a, b = {}, {}
-  for c = 1, 2 * self.n do a[c] = nuser + c == e and ga or loop.value(self:event(c), ta, ya) end
-  for c = 1, 2 * self.n do b[c] = nuser + c == e and gb or loop.value(self:event(c), tb, yb) end
-  for c = 1, 2 * self.n do
-    if a[c] > 0 and b[c] <= 0 then
-      local tc, yc = loop.locate(self:event(c), ta, ya, a[c], tb, b[c], yb)
-      if not best_t or tc < best_t then best_e, best_t, best_y = nuser + c, tc, yc end
-    end
-  end
-  return best_e, best_t, best_y
-end
-
--- Drop the points after te: a dense step recorded them before the event.
-local SERIES = { "t", "q", "qd", "qdd", "lambda", "violation", "energy", "generalized_energy", "work" }
-local function drop_after(tr, te)
-  while #tr.t > 0 and tr.t[#tr.t] > te do
-    local n = #tr.t
-    for _, key in ipairs(SERIES) do if tr[key] then tr[key][n] = nil end end
-  end
-end
-
 -- Transitions at one time (te) one after the other: after M.CYCLE the
 -- modes cycle without the motion going on, and the run fails.
 function Run:guard(te, e)
@@ -191,7 +141,7 @@ function Run:guard(te, e)
     if self.same >= M.CYCLE then
       error(("%ssimulate '%s': the contacts' mode changed %d times at t = %s without the motion going on (the last "
         .. "event: %s): no consistent contact mode there (a contact closing and opening again and again)")
-        :format(require("nz.base.where").user_where(), self.sys.name, self.same, num(te), self:event(e).name), 0)
+        :format(require("nz.base.where").user_where(), self.sys.name, self.same, num(te), self:event_name(e)), 0)
     end
   else
     self.same = 0
@@ -199,16 +149,14 @@ function Run:guard(te, e)
   self.last_t = te
 end
 
--- Contact event e (1-based among the contacts') at te, state ye: the
--- impact and the new mode (core.mech.contacts_transition), recorded; the
--- run goes on from te with the new velocities.  Returns false (the run
--- does not stop).
+-- Contact event e (1-based among the contacts') at te, state ye, located
+-- by the loop (which recorded the step's output points up to te, in the
+-- mode before): the impact and the new mode
+-- (core.mech.contacts_transition), recorded; the run goes on from te with
+-- the new velocities.  Returns false (the run does not stop).
 function Run:located(e, te, ye)
-  local tr, k = self.tr, self.k
-  drop_after(tr, te)
+  local k = self.k
   self:guard(te, e)
-  -- the step's output points up to te, in the mode before (its events came first)
-  mech.ode_run_record_until(self.loop.run(), self.engine, te, tr, self.loop.pend)
   local q, qd = {}, {}
   for i = 1, k do q[i], qd[i] = ye[i], ye[k + i] end
   local qd_after, rep, q_after = mech.contacts_transition(self.cs, self.engine, te, q, qd, e)
