@@ -964,20 +964,8 @@ static const luaL_Reg ode_functions[] = {
 /* Add the functions to the table on top of the stack (core.mech). */
 void nz_lua_open_ode(lua_State *L)
 {
-  if (luaL_newmetatable(L, NZ_ODE_METATABLE)) {
-    lua_pushcfunction(L, ode_gc);
-    lua_setfield(L, -2, "__gc");
-  }
-  lua_pop(L, 1);
-  if (luaL_newmetatable(L, NZ_EVENTS_METATABLE)) {
-    lua_pushcfunction(L, events_gc);
-    lua_setfield(L, -2, "__gc");
-  }
-  lua_pop(L, 1);
-  if (luaL_newmetatable(L, NZ_RUN_METATABLE)) {
-    lua_pushcfunction(L, run_gc);
-    lua_setfield(L, -2, "__gc");
-  }
-  lua_pop(L, 1);
+  nz_lua_gc_metatable(L, NZ_ODE_METATABLE, ode_gc);
+  nz_lua_gc_metatable(L, NZ_EVENTS_METATABLE, events_gc);
+  nz_lua_gc_metatable(L, NZ_RUN_METATABLE, run_gc);
   luaL_setfuncs(L, ode_functions, 0);
 }

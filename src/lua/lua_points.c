@@ -11,6 +11,7 @@
 #include <string.h>
 #include <lauxlib.h>
 #include "lua/lua_points.h"
+#include "lua/lua_util.h"
 
 #define NZ_POINTS_METATABLE "nz.points"
 
@@ -165,10 +166,6 @@ static const luaL_Reg points_functions[] = {
 /* Add the functions to the table on top of the stack (core.mech). */
 void nz_lua_open_points(lua_State *L)
 {
-  if (luaL_newmetatable(L, NZ_POINTS_METATABLE)) {
-    lua_pushcfunction(L, points_gc);
-    lua_setfield(L, -2, "__gc");
-  }
-  lua_pop(L, 1);
+  nz_lua_gc_metatable(L, NZ_POINTS_METATABLE, points_gc);
   luaL_setfuncs(L, points_functions, 0);
 }
