@@ -63,7 +63,8 @@ function M.begin(sys, cfg, q0, qd0, fail)
   for j, s in ipairs(c.contacts) do defs[j] = { gap = s.gap, slip = s.slip, e = s.e, mu = s.mu, mu_s = s.mu_s } end
   local engine = csys.engine
   engine.orders = orders
-  local cs = mech.contacts_new(engine, { nb = c.nb, orders = orders, contacts = defs, names = c.names })
+  local cs = mech.contacts_new(engine, { nb = c.nb, orders = orders, contacts = defs, names = c.names,
+    rtol = cfg.rtol, atol = cfg.atol })
   for j, kin in ipairs(mech.contacts_kinematics(cs, engine, cfg.t0, q0, qd0)) do
     if kin[1] < -M.START_TOL * kin[4] or (kin[4] == 0 and kin[1] < 0) then
       fail("contact '%s' (a unilateral constraint, gap >= 0) is violated at the start: its gap is %s at t = %s, q = %s: "
