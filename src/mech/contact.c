@@ -541,7 +541,8 @@ static int friction_event(nz_contacts *c, const nz_system *s, int j, double t, c
   }
   double vt[2] = { 0.0, 0.0 };
   if ((st = nz_c_slip_velocities(c, s, j, t, q, qd, vt))) return st;
-  if (state == NZ_CONTACT_SLIP) *g = vt[0] * c->dir[2 * j] + vt[1] * c->dir[2 * j + 1];
+  if (state == NZ_CONTACT_SLIP)
+    *g = vt[0] * c->dir[2 * j] + vt[1] * c->dir[2 * j + 1] - NZ_CONTACT_TURN * hypot(vt[0], vt[1]);
   else *g = state == NZ_CONTACT_SLIP_POS ? vt[0] : -vt[0];
   *g += c->offset[2 * j + 1];
   return NZ_OK;

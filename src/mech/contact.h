@@ -93,6 +93,14 @@ typedef struct nz_contact_def {
  * (in the metric of M^-1, the bilateral constraints held) is below this
  * fraction of its own size. */
 #define NZ_CONTACT_DEPENDENT 1e-9
+/* An isotropic contact sliding has its event where its slip velocity v
+ * stops, v . u - NZ_CONTACT_TURN |v| with u its direction when the mode
+ * began: a clean crossing where it stops along a direction within 60
+ * degrees of u (v . u alone would be flat where the slip turned square to
+ * u, as a block sent across a slope stops sliding downhill); and where the
+ * slip turns further the event comes first, and the mode begins again
+ * along the new direction. */
+#define NZ_CONTACT_TURN 0.5
 /* Zeno by resolution: an impact whose rebound would rise less than this
  * fraction of the run's absolute resolution of the gap (atol + rtol times
  * the size of its terms) is made plastic: the integrator cannot follow it. */
@@ -227,8 +235,8 @@ int nz_contacts_accel(nz_contacts *c, const nz_system *s, double t, const double
 
 /* Event e (0 .. 2n-1) at (t, y = (q, q')) in the current mode, falling
  * through zero where the mode ends: the gap (open), lambda_n (held);
- * +-v_t (sliding; an isotropic cone: v_t . u, u its direction when it
- * began), mu_s lambda_n - |lambda_t| (sticking); 1 when the event does not
+ * +-v_t (sliding; an isotropic cone: v_t . u - NZ_CONTACT_TURN |v_t|, u
+ * its direction when it began), mu_s lambda_n - |lambda_t| (sticking); 1 when the event does not
  * apply (a dependent contact resting without a force, one whose friction
  * is held at its cone by the others).  A contact left open at zero gap by a transition (a
  * bounce), or set sliding at zero slip velocity, has its value offset by

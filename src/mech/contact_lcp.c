@@ -262,10 +262,15 @@ static void lcp_assemble(nz_contacts *c, int nv)
   }
 }
 
-/* The solution per contact (sol_*) and the motion's change from lz. */
+/* The solution per contact (sol_*) and the motion's change from lz.  A
+ * cone's slack sigma (a slip's size) below NZ_CONTACT_ROUND of the
+ * problem's largest row is zero: Lemke leaves a basic variable at the
+ * rounding of its pivots, and a slip of that size is a contact that sticks
+ * (a box held on four corners, one of them at its cone). */
 static void lcp_extract(nz_contacts *c, int nv)
 {
   int k = c->k;
+  double scale = nz_c_max_abs(nv, c->lq);
   memset(c->sol_dx, 0, (size_t)k * sizeof(double));
   for (int v = 0; v < nv; v++)
     for (int i = 0; i < k; i++) c->sol_dx[i] += c->resp[(size_t)v * k + i] * c->lz[v];
@@ -280,7 +285,7 @@ static void lcp_extract(nz_contacts *c, int nv)
       c->sol_t[2 * j] += c->lz[at[1] + i] * g[0];
       c->sol_t[2 * j + 1] += c->lz[at[1] + i] * g[1];
     }
-    c->sol_sig[j] = c->lz[at[2]];
+    c->sol_sig[j] = c->lz[at[2]] > NZ_CONTACT_ROUND * scale ? c->lz[at[2]] : 0.0;
   }
 }
 

@@ -263,24 +263,32 @@ int nz_c_share_forces(nz_contacts *c, const nz_system *s, double t, const double
 /* ------------------------------------------------------------------ */
 /* The roles at a transition                                            */
 
-/* The worst violation of the shared forces: a normal force below zero
- * (*what 0) or a friction outside its cone (1); -1 when admissible. */
-static int worst_violation(nz_contacts *c, int impact, int *what)
+/* The violations of the shared forces: a normal force below zero (kind
+ * 1) or a friction outside its cone (2), relative to the largest normal
+ * force, into kind[] for the worst and those within a relative 1e-9 of it
+ * (twins by symmetry are set together: a box's two back corners reach
+ * their cones at once), 0 elsewhere.  0 when the forces are admissible. */
+static int violations(nz_contacts *c, int impact, int *kind)
 {
-  int worst = -1;
-  double wv = 0.0, scale = 0.0;
-  for (int j = 0; j < c->n; j++) scale = fmax(scale, fabs(c->share_N[j]));
-  for (int j = 0; j < c->n; j++) {
+  int n = c->n, any = 0;
+  double wv = 0.0, scale = 0.0, v[n];
+  for (int j = 0; j < n; j++) scale = fmax(scale, fabs(c->share_N[j]));
+  if (!(scale > 0.0)) scale = 1.0;
+  for (int j = 0; j < n; j++) {
+    kind[j] = 0, v[j] = 0.0;
     if (!c->part[j]) continue;
-    double v = -c->share_N[j] / (scale > 0.0 ? scale : 1.0);
-    if (v > 1e-12 && v > wv) wv = v, worst = j, *what = 0;
-    if (!c->tfree[j]) continue;
-    double T = hypot(c->share_T[2 * j], c->share_T[2 * j + 1]);
-    double lim = (impact ? c->def[j].mu : c->def[j].mu_s) * c->share_N[j];
-    v = (T - lim) / (scale > 0.0 ? scale : 1.0);
-    if (v > 1e-12 && v > wv) wv = v, worst = j, *what = 1;
+    double vn = -c->share_N[j] / scale, vt = 0.0;
+    if (c->tfree[j]) {
+      double T = hypot(c->share_T[2 * j], c->share_T[2 * j + 1]);
+      vt = (T - (impact ? c->def[j].mu : c->def[j].mu_s) * c->share_N[j]) / scale;
+    }
+    v[j] = fmax(vn, vt);
+    if (v[j] > 1e-12) kind[j] = vn >= vt ? 1 : 2, any = 1;
+    wv = fmax(wv, v[j]);
   }
-  return worst;
+  for (int j = 0; j < n; j++)
+    if (kind[j] && v[j] < wv * (1.0 - 1e-9)) kind[j] = 0;
+  return any;
 }
 
 /* A sliding contact off the carriers: does a unit of normal force moved
@@ -341,15 +349,16 @@ int nz_c_settle_roles(nz_contacts *c, const nz_system *s, double t, const double
     c->cvalid = 0;
     if ((st = nz_contacts_accel(c, s, t, q, qd, NULL, NULL))) return st;
     if (!c->share_ok) break;
-    int what = 0, j = worst_violation(c, 0, &what);
-    if (j < 0) return NZ_OK;
-    if (what == 0) {
-      c->share[j] = 0;          /* it lies on the others, without a force */
-    } else {
-      double T = hypot(c->share_T[2 * j], c->share_T[2 * j + 1]);
-      c->atcone[j] = 1;         /* its friction held at its cone; the others keep its slip */
-      c->dir[2 * j] = c->share_T[2 * j] / T;
-      c->dir[2 * j + 1] = c->share_T[2 * j + 1] / T;
+    int kind[c->n];
+    if (!violations(c, 0, kind)) return NZ_OK;
+    for (int j = 0; j < c->n; j++) {
+      if (kind[j] == 1) c->share[j] = 0;          /* it lies on the others, without a force */
+      if (kind[j] == 2) {                         /* its friction held at its cone; the others keep its slip */
+        double T = hypot(c->share_T[2 * j], c->share_T[2 * j + 1]);
+        c->atcone[j] = 1;
+        c->dir[2 * j] = c->share_T[2 * j] / T;
+        c->dir[2 * j + 1] = c->share_T[2 * j + 1] / T;
+      }
     }
   }
   /* not settled: the carriers' own forces (the LCP's, admissible) */
@@ -386,20 +395,21 @@ void nz_c_share_impulses(nz_contacts *c, const int *set, nz_contact_report *rep)
   }
   /* where the least norm would pull or leave a cone, the contact leaves
    * the sharing or its friction is held at the cone, as for the forces */
-  int ok = 0;
+  int ok = 0, kind[c->n];
   for (int round = 0; round <= 3 * c->n; round++) {
     share_solve(c);
-    int what = 0, j = c->share_ok ? worst_violation(c, 1, &what) : -1;
-    if (!c->share_ok || j < 0) {
+    if (!c->share_ok || !violations(c, 1, kind)) {
       ok = c->share_ok;
       break;
     }
-    if (what == 0) c->part[j] = 0;
-    else {
-      double T = hypot(c->share_T[2 * j], c->share_T[2 * j + 1]);
-      c->tfree[j] = 0;
-      c->tcoup[2 * j] = c->def[j].mu * c->share_T[2 * j] / T;
-      c->tcoup[2 * j + 1] = c->def[j].mu * c->share_T[2 * j + 1] / T;
+    for (int j = 0; j < c->n; j++) {
+      if (kind[j] == 1) c->part[j] = 0;
+      if (kind[j] == 2) {
+        double T = hypot(c->share_T[2 * j], c->share_T[2 * j + 1]);
+        c->tfree[j] = 0;
+        c->tcoup[2 * j] = c->def[j].mu * c->share_T[2 * j] / T;
+        c->tcoup[2 * j + 1] = c->def[j].mu * c->share_T[2 * j + 1] / T;
+      }
     }
   }
   for (int j = 0; rep->c && j < c->n; j++) {

@@ -226,6 +226,30 @@ static int mode_lcp(nz_contacts *c, double t, const double *q, const double *qd,
   return NZ_OK;
 }
 
+/* Contact j at rest with no force and a zero normal complement, its normal
+ * row kept by the carriers: the state it rests in. */
+static void resting_state(nz_contacts *c, int j)
+{
+  const nz_contact_def *d = &c->def[j];
+  int keeps = 1, k = c->k;
+  for (int i = 0; i < nz_c_ntan(d); i++) keeps &= nz_c_dependent_on_carriers(c, nz_c_tan_row(d, i));
+  if (d->slip < 0) c->mode[j] = NZ_CONTACT_CLOSED;
+  else if (c->sliding[j] == 2) c->mode[j] = NZ_CONTACT_SLIP;
+  else if (c->sliding[j]) c->mode[j] = c->sliding[j] > 0 ? NZ_CONTACT_SLIP_POS : NZ_CONTACT_SLIP_NEG;
+  else if (keeps) c->mode[j] = NZ_CONTACT_STICK;
+  else {      /* its slip goes with the motion the others make: it slides along it */
+    double w[2] = { c->base_t[2 * j], c->base_t[2 * j + 1] }, dx[k];
+    nz_c_lcp_motion(c, dx);
+    for (int i = 0; i < nz_c_ntan(d); i++) w[i] += nz_c_dot(k, nz_c_row(c, nz_c_tan_row(d, i)), dx);
+    double f = hypot(w[0], w[1]);
+    if (!(f > 0.0)) return;    /* no slip either: it stays open */
+    if (nz_c_iso(d)) {
+      c->mode[j] = NZ_CONTACT_SLIP;
+      c->dir[2 * j] = w[0] / f, c->dir[2 * j + 1] = w[1] / f;
+    } else c->mode[j] = w[0] > 0.0 ? NZ_CONTACT_SLIP_POS : NZ_CONTACT_SLIP_NEG;
+  }
+}
+
 /* The new mode from the LCP's solution: a contact pushing is held, and
  * sticks, or slides (on, or from rest against its friction force); one at
  * rest without a force whose rows the held ones keep at zero rests on them
@@ -256,16 +280,14 @@ static int new_mode(nz_contacts *c, const nz_system *s, double t, const double *
   }
   memcpy(c->mode, c->newmode, (size_t)n * sizeof(int));
   nz_c_carriers(c, 1);
-  /* resting: its normal row (and, with friction, its slip rows) kept by the
-   * carriers; it shares the load until the sharing would make it pull
-   * (nz_c_settle_roles) */
+  /* resting: its normal row kept by the carriers (and, where it would stick,
+   * its slip rows too; else it slides as its slip goes, against the slip
+   * acceleration the LCP's solution gives it); it shares the load until
+   * the sharing would make it pull (nz_c_settle_roles) */
   int more = 0;
   for (int j = 0; j < n; j++) {
     if (!resting[j] || !nz_c_dependent_on_carriers(c, c->def[j].gap)) continue;
-    int keeps = 1;
-    for (int i = 0; i < nz_c_ntan(&c->def[j]); i++) keeps &= nz_c_dependent_on_carriers(c, nz_c_tan_row(&c->def[j], i));
-    if (!keeps) continue;
-    c->mode[j] = c->def[j].slip < 0 ? NZ_CONTACT_CLOSED : NZ_CONTACT_STICK;
+    resting_state(c, j);
     more = 1;
   }
   if (more) nz_c_carriers(c, 1);
@@ -384,8 +406,9 @@ static void offsets_and_report(nz_contacts *c, const double *q, const double *qd
       c->offset[2 * j] = fmax(0.0, -c->phi[j]) + 16 * DBL_EPSILON * nz_c_abs_dot(k, nz_c_row(c, d->gap), q) + DBL_MIN;
     int started = nz_c_slides(state) && (state != c->mode0[j] || (state == NZ_CONTACT_SLIP && !c->sliding[j]));
     if (started) {
-      double g = state == NZ_CONTACT_SLIP ? c->vt[2 * j] * c->dir[2 * j] + c->vt[2 * j + 1] * c->dir[2 * j + 1]
-                                          : nz_c_slip_sign(state) * c->vt[2 * j];
+      const double *v = c->vt + 2 * j, *u = c->dir + 2 * j;
+      double g = state == NZ_CONTACT_SLIP ? v[0] * u[0] + v[1] * u[1] - NZ_CONTACT_TURN * hypot(v[0], v[1])
+                                          : nz_c_slip_sign(state) * v[0];
       double size = nz_c_abs_dot(k, nz_c_row(c, d->slip), qd) + (nz_c_iso(d) ? nz_c_abs_dot(k, nz_c_row(c, d->slip2), qd) : 0.0);
       c->offset[2 * j + 1] = fmax(0.0, -g) + 16 * DBL_EPSILON * size + DBL_MIN;
     }

@@ -60,7 +60,9 @@ function M.begin(sys, cfg, q0, qd0, fail)
   local defs = {}
   -- (a gap receives (t, q, params), a slip (t, q, qd, params): of order 0
   -- and <= 1, as src/mech/contact.c takes them)
-  for j, s in ipairs(c.contacts) do defs[j] = { gap = s.gap, slip = s.slip, e = s.e, mu = s.mu, mu_s = s.mu_s } end
+  for j, s in ipairs(c.contacts) do
+    defs[j] = { gap = s.gap, slip = s.slip, slip2 = s.slip2, speed = s.speed, e = s.e, mu = s.mu, mu_s = s.mu_s }
+  end
   local engine = csys.engine
   engine.orders = orders
   local cs = mech.contacts_new(engine, { nb = c.nb, orders = orders, contacts = defs, names = c.names,
@@ -92,7 +94,10 @@ function Run:attach(tr, loop)
   for r = 1, self.sys.contact.nb do tr.lambda_names[r] = "lambda" .. r end
   for j, s in ipairs(self.specs) do
     tr.lambda_names[s.gap] = "N." .. self.names[j]
-    if s.slip then tr.lambda_names[s.slip] = "T." .. self.names[j] end
+    if s.slip2 then    -- an isotropic cone: its two components (its speed's column goes at the end: finish)
+      tr.lambda_names[s.slip], tr.lambda_names[s.slip2] = "T1." .. self.names[j], "T2." .. self.names[j]
+      tr.lambda_names[s.speed] = "|v_t|." .. self.names[j]
+    elseif s.slip then tr.lambda_names[s.slip] = "T." .. self.names[j] end
   end
   self:record_changes(self.cfg.t0, self.start.q, self.start.qd, self.start.qd_after, self.start.rep, true)
 end
@@ -102,7 +107,7 @@ local function energy(self, t, q, qd)
   return T
 end
 
-local KIND = { open = "opens", closed = "closes", stick = "sticks", ["slip+"] = "slips", ["slip-"] = "slips" }
+local KIND = { open = "opens", closed = "closes", stick = "sticks", ["slip+"] = "slips", ["slip-"] = "slips", slip = "slips" }
 
 -- tr.events for a transition at t from (q, qd) to qd_after, and the mode.
 function Run:record_changes(t, q, qd, qd_after, rep, start)
@@ -172,6 +177,16 @@ end
 function Run:finish(tr)
   tr.contacts.run = nil
   tr.contacts.final = tr.contacts.modes[#tr.contacts.modes].states
+  -- an isotropic cone's speed |v_t| is a row of Taylor's series, not a
+  -- force: its column (always 0) leaves tr.lambda
+  local drop = {}
+  for _, s in ipairs(self.specs) do if s.speed then drop[#drop + 1] = s.speed end end
+  if #drop == 0 then return end
+  table.sort(drop, function(a, b) return a > b end)
+  for _, r in ipairs(drop) do table.remove(tr.lambda_names, r) end
+  for _, row in ipairs(tr.lambda or {}) do
+    for _, r in ipairs(drop) do table.remove(row, r) end
+  end
 end
 
 -- ------------------------------------------------------------------ --
