@@ -364,6 +364,53 @@ static void test_ball(void)
 }
 
 /* Frictional impacts and the block on a slope. */
+/* Two contacts on the same gap (y >= 0 twice, dependent rows): the impact
+ * and the rest of one contact, the impulse and the weight shared by least
+ * norm, half each; and with friction at both (two equal slip rows), a push
+ * below mu m g held by halves. */
+static void test_dependent(void)
+{
+  tsys ts = particle();
+  ts.nc = 4;
+  ts.con[2] = ts.con[0];
+  ts.con[3] = ts.con[1];
+  nz_system s = system_of(&ts);
+  nz_contact_def d[2] = { { 0, -1, -1, -1, 0.7, 0.0, 0.0 }, { 2, -1, -1, -1, 0.7, 0.0, 0.0 } };
+  nz_contacts *c = contacts_of(&ts, 0, 2, d);
+  nz_contact_change ch[2];
+  nz_contact_report rep = { .c = ch };
+  double q[2] = { 0.3, 0.0 }, qd[2] = { 0.5, -2.1 };
+  int st = nz_contacts_transition(c, &s, 0.4, q, qd, -1, &rep);
+  gsl_test(st || fabs(qd[1] - 0.7 * 2.1) > 1e-15 || fabs(ch[0].Pn - MASS * 1.7 * 2.1 / 2) > 1e-14 ||
+           fabs(ch[1].Pn - MASS * 1.7 * 2.1 / 2) > 1e-14,
+           "dependent: one gap twice bounces as one, each taking half the impulse %.17g (got %.17g, %.17g, status %d)",
+           MASS * 1.7 * 2.1 / 2, ch[0].Pn, ch[1].Pn, st);
+  qd[1] = 0.0;
+  double lam[4], qdd[2];
+  int mode[2];
+  st = nz_contacts_transition(c, &s, 0.5, q, qd, 0, &rep);
+  nz_contacts_get_mode(c, mode);
+  nz_contacts_accel(c, &s, 0.5, q, qd, qdd, lam);
+  gsl_test(st || mode[0] != NZ_CONTACT_CLOSED || mode[1] != NZ_CONTACT_CLOSED || fabs(lam[0] - MASS * G / 2) > 1e-13 ||
+           fabs(lam[2] - MASS * G / 2) > 1e-13 || qdd[1] != 0.0,
+           "dependent: at rest both held with m g/2 each (got %.17g, %.17g, modes %d %d)", lam[0], lam[2], mode[0], mode[1]);
+  nz_contacts_free(c);
+  /* with friction at both, pushed by 0.3 m g along x */
+  ts.f[0] = 0.3 * MASS * G;
+  s = system_of(&ts);
+  nz_contact_def f[2] = { { 0, 1, -1, -1, 0.0, 0.4, 0.5 }, { 2, 3, -1, -1, 0.0, 0.4, 0.5 } };
+  c = contacts_of(&ts, 0, 2, f);
+  double q2[2] = { 0.0, 0.0 }, qd2[2] = { 0.0, 0.0 };
+  st = nz_contacts_transition(c, &s, 0.0, q2, qd2, -1, &rep);
+  nz_contacts_get_mode(c, mode);
+  nz_contacts_accel(c, &s, 0.0, q2, qd2, qdd, lam);
+  gsl_test(st || mode[0] != NZ_CONTACT_STICK || mode[1] != NZ_CONTACT_STICK || fabs(lam[1] + 0.15 * MASS * G) > 1e-13 ||
+           fabs(lam[3] + 0.15 * MASS * G) > 1e-13 || fabs(qdd[0]) > 1e-15,
+           "dependent: pushed by 0.3 m g, both stick with -0.15 m g each (got %.17g, %.17g, modes %d %d)", lam[1], lam[3],
+           mode[0], mode[1]);
+  nz_contacts_free(c);
+}
+
 static void test_friction(void)
 {
   tsys ts = particle();
@@ -604,7 +651,7 @@ static void test_errors(void)
   int m = NZ_CONTACT_STICK;
   gsl_test(nz_contacts_set_mode(c, &m) != NZ_EARG, "errors: a frictionless contact cannot stick");
   nz_contacts_free(c);
-  /* two identical gaps held together: dependent, the mode's matrix singular */
+  /* two identical gaps set held by hand (nz_contacts_set_mode takes every row held as a carrier): singular */
   ts = particle();
   ts.con[1] = ts.con[0];
   s = system_of(&ts);
@@ -617,7 +664,7 @@ static void test_errors(void)
   double qdd[2], lam[2];
   st = nz_contacts_accel(c, &s, 0.0, q, qd, qdd, lam);
   gsl_test(st != NZ_ESINGULAR || nz_contacts_failure(c)->kind != NZ_CONTACT_SINGULAR,
-           "errors: two dependent contacts held make the mode singular (status %d)", st);
+           "errors: two dependent contacts set held by hand make the mode singular (status %d)", st);
   nz_contacts_free(c);
 }
 
@@ -627,6 +674,7 @@ int main(void)
   gsl_test_verbose(1);
   test_lcp();
   test_ball();
+  test_dependent();
   test_friction();
   test_cradle();
   test_general_impact();

@@ -110,24 +110,29 @@ end
 local KIND = { open = "opens", closed = "closes", stick = "sticks", ["slip+"] = "slips", ["slip-"] = "slips", slip = "slips" }
 
 -- tr.events for a transition at t from (q, qd) to qd_after, and the mode.
+-- An impact gives an event to each contact that takes an impulse: those
+-- that closed at a speed, and those touching at rest that pass the impulse
+-- on (Newton's cradle: the middle ball's contact with the third); the
+-- kinetic energy lost is on the first.
 function Run:record_changes(t, q, qd, qd_after, rep, start)
   local tr = self.tr
   local lost
   if rep.impact then
     local T0, T1 = energy(self, t, q, qd), energy(self, t, q, qd_after)
     lost = T0 and T1 and T0 - T1
+    tr.contacts.impacts = tr.contacts.impacts + 1
   end
   local states = {}
   for j, ch in ipairs(rep.contacts) do
     states[j] = ch.to
-    local kind = ch.impact and "impact" or (ch.to ~= ch.from and KIND[ch.to]) or nil
+    local struck = rep.impact and (ch.impact or (ch.share and ch.Pn > 0))
+    local kind = struck and "impact" or (ch.to ~= ch.from and KIND[ch.to]) or nil
     if kind and not (start and kind == "opens") then
       local ev = { name = self.names[j], contact = j, kind = kind, t = t, q = q, qd = qd, qd_after = qd_after,
         from = ch.from, to = ch.to, gap = ch.gap, normal_velocity = ch.vn_before, slip_velocity = ch.vt_before }
-      if ch.impact then
-        ev.impulse, ev.tangential_impulse, ev.speed = ch.Pn, ch.Pt, -ch.vn_before
+      if struck then
+        ev.impulse, ev.tangential_impulse, ev.speed = ch.Pn, ch.Pt, math.max(0, -ch.vn_before)
         ev.energy_lost, lost = lost, nil          -- the impact's loss, on its first contact
-        tr.contacts.impacts = tr.contacts.impacts + 1
       end
       if ch.zeno then
         ev.zeno = rep.zeno and rep.zeno.time
@@ -192,7 +197,8 @@ end
 -- ------------------------------------------------------------------ --
 -- What the trajectory shows                                          --
 
--- The summary line of print(tr).
+-- The summary line of print(tr): the impacts (each with its contacts'
+-- impulses), the other changes, the energy lost, Zeno, the final mode.
 function M.summary(tr)
   local c = tr.contacts
   local counts, lost = {}, 0
@@ -203,10 +209,14 @@ function M.summary(tr)
     end
   end
   local parts = {}
-  for _, kind in ipairs{ "impact", "closes", "opens", "sticks", "slips" } do
+  if counts.impact then
+    parts[1] = ("%d impact%s (%d impulse%s)"):format(c.impacts, c.impacts == 1 and "" or "s", counts.impact,
+      counts.impact == 1 and "" or "s")
+  end
+  for _, kind in ipairs{ "closes", "opens", "sticks", "slips" } do
     local n = counts[kind]
     if n then
-      local word = ({ impact = "impact", closes = "closing", opens = "opening", sticks = "stick", slips = "slip" })[kind]
+      local word = ({ closes = "closing", opens = "opening", sticks = "stick", slips = "slip" })[kind]
       parts[#parts + 1] = ("%d %s%s"):format(n, word, n == 1 and "" or "s")
     end
   end
