@@ -76,7 +76,7 @@ int nz_solve_square(int N, const double *J, const double *rhs, double *x, double
  * NZ_OK, NZ_ENOMEM, or NZ_ERANGE when the QR iteration did not converge. */
 int nz_eigen(int n, const double *A, double *re, double *im, double *vr, double *vi);
 
-/* An LU factorization (partial pivoting, GSL) kept for several right-hand
+/* An LU factorization (partial pivoting, written out) kept for several right-hand
  * sides: the saddle-point matrix of a constrained Taylor step, factored once
  * per step and solved once per order.  nz_lu_new(N) holds matrices up to N x
  * N; NULL when out of memory. */

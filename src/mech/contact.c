@@ -392,10 +392,15 @@ static double delassus(nz_contacts *c, const double *X, const double *Mw, double
   int k = c->k, na = c->na;
   for (int a = 0; a < na; a++) {
     const double *R = nz_c_row(c, c->rows[a]);
-    double *y = c->scr;
-    memcpy(y, R, (size_t)k * sizeof(double));
-    nz_cholesky_solve(k, Mw, y);
-    double ref = nz_c_dot(k, R, y), sc = ref > 0.0 ? 1.0 / ref : 1.0;
+    double ref;
+    if (c->ckind[a] == NZ_CARRY_PLAIN) ref = nz_c_dot(k, R, X + (size_t)k * (size_t)(a + 1));   /* W_a = R_a */
+    else {
+      double *y = c->scr;
+      memcpy(y, R, (size_t)k * sizeof(double));
+      nz_cholesky_solve(k, Mw, y);
+      ref = nz_c_dot(k, R, y);
+    }
+    double sc = ref > 0.0 ? 1.0 / ref : 1.0;
     for (int x = 0; x < na; x++) G[a * na + x] = nz_c_dot(k, R, X + (size_t)k * (size_t)(x + 1)) * sc;
     lam[a] = (nz_c_dot(k, R, X) - c->b[c->rows[a]]) * sc;
   }

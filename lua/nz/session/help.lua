@@ -577,16 +577,25 @@ approaches: Lagrange's impulse equations M (q'+ - q'-) = J^T P with Newton's
 law J q'+ = -e J q'- (e in [0, 1], 0 by default: it stays closed), every
 touching contact at once (an LCP, Lemke's algorithm).  Coulomb friction:
 mu (sliding), mu_s >= mu (sticking), slip = function(t, q, qd, params), the
-slip velocity (or a function of (t, q) whose rate it is); it sticks where
-the slip velocity reaches 0 and the force to hold is within mu_s lambda,
-and slides again where it leaves that cone.  Painleve's paradox is an error
-naming the contact.  Impacts accumulating in finite time (Zeno) end in
-persistent contact.  at = function(t, q, params) -> {x, y, z}: the point
-tr:animate draws while it is held.  Every method runs it (the GSL steppers
-and taylor; events on their dense output).  tr.events lists each impact,
-closing, opening, stick and slip; tr.contacts the modes; sys:accel and the
-other methods see the system without its contacts.  nz.effects.contact and
-friction declare the same in a scene.  docs/theory.md §13.]] },
+slip velocity (or a function of (t, q) whose rate it is), or slip = {f1,
+f2}: the two slip velocities along orthonormal tangent directions, the
+isotropic cone |F_t| <= mu lambda with the friction against the slip in any
+direction (a puck on ice); it sticks where the slip velocity reaches 0 and
+the force to hold is within mu_s lambda, and slides again where it leaves
+that cone.  Contacts that depend on each other (a block on two corners with
+friction at both, a table on four legs) are held together: the motion is
+unique, their forces are the least-norm ones that are admissible (m g/2 per
+corner, m g/4 per leg).  Painleve's paradox is an error naming the contact.
+Impacts accumulating in finite time (Zeno), or rebounds below what the run
+resolves, end in persistent contact.  at = function(t, q, params) ->
+{x, y, z}: the point tr:animate draws while it is held.  Every method runs
+it (the GSL steppers and taylor; events on their dense output; taylor
+cannot start an isotropic cone sliding from rest).  tr.events lists each
+contact's impulse at an impact, and each closing, opening, stick and slip;
+tr.contacts the modes; sys:show{} writes the contacts' forces and laws;
+sys:accel and the other methods see the system without its contacts.
+nz.effects.contact and friction declare the same in a scene.
+docs/theory.md §13.]] },
   { name = "scene", section = "scenes",
     usage = "nz.scene{coords =, bodies = {{name =, mass =, pos = ...}}, effects = {...}}",
     summary = "a system built from bodies and the effects the scene declares",
