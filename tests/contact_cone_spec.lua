@@ -21,19 +21,7 @@ local function errmsg(f, ...)
   return tostring(err)
 end
 
--- Gauss-Legendre on [a, b] in n panels of 10 points.
-local GX = { -0.9739065285171717, -0.8650633666889845, -0.6794095682990244, -0.4333953941292472, -0.1488743389816312,
-  0.1488743389816312, 0.4333953941292472, 0.6794095682990244, 0.8650633666889845, 0.9739065285171717 }
-local GW = { 0.0666713443086881, 0.1494513491505806, 0.2190863625159820, 0.2692667193099963, 0.2955242247147529,
-  0.2955242247147529, 0.2692667193099963, 0.2190863625159820, 0.1494513491505806, 0.0666713443086881 }
-local function quad(f, a, b, n)
-  local s = 0
-  for i = 0, n - 1 do
-    local lo, hi = a + (b - a) * i / n, a + (b - a) * (i + 1) / n
-    for j = 1, 10 do s = s + 0.5 * (hi - lo) * GW[j] * f(0.5 * (lo + hi) + 0.5 * (hi - lo) * GX[j]) end
-  end
-  return s
-end
+local quad = h.gauss_legendre
 
 -- A point mass (x, y, z) on the plane z = 0 with an isotropic cone.
 local function slider(name, m, mu, mus, e, V)

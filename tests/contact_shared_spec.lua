@@ -18,29 +18,11 @@ local g = 9.81
 local METHODS = { "rk8pd", "taylor" }
 
 local function max_abs(v) local m = 0; for i = 1, #v do m = math.max(m, math.abs(v[i])) end; return m end
-local function events_of(tr, kind, name)
-  local out = {}
-  for _, ev in ipairs(tr.events) do
-    if (not kind or ev.kind == kind) and (not name or ev.name == name) then out[#out + 1] = ev end
-  end
-  return out
-end
+local events_of = h.contact_events
 local function last(tr, name) local col = tr:column(name); return col[#col] end
 local function near(a, b, tol, what) assert(math.abs(a - b) <= tol, ("%s: %.17g, expected %.17g"):format(what, a, b)) end
 
--- Gauss-Legendre on [a, b] in n panels of 10 points.
-local GX = { -0.9739065285171717, -0.8650633666889845, -0.6794095682990244, -0.4333953941292472, -0.1488743389816312,
-  0.1488743389816312, 0.4333953941292472, 0.6794095682990244, 0.8650633666889845, 0.9739065285171717 }
-local GW = { 0.0666713443086881, 0.1494513491505806, 0.2190863625159820, 0.2692667193099963, 0.2955242247147529,
-  0.2955242247147529, 0.2692667193099963, 0.2190863625159820, 0.1494513491505806, 0.0666713443086881 }
-local function quad(f, a, b, n)
-  local s = 0
-  for i = 0, n - 1 do
-    local lo, hi = a + (b - a) * i / n, a + (b - a) * (i + 1) / n
-    for j = 1, 10 do s = s + 0.5 * (hi - lo) * GW[j] * f(0.5 * (lo + hi) + 0.5 * (hi - lo) * GX[j]) end
-  end
-  return s
-end
+local quad = h.gauss_legendre
 
 describe("a block on its two corners, friction at both", function()
   -- centre (x, y) at height b above the corners (+-a, 0), angle th; the

@@ -327,17 +327,25 @@ static double motion_change(nz_contacts *c, int j, const double *qd)
   return own > 0.0 ? nz_c_max_abs(k, dq) / own : 0.0;
 }
 
+/* Is contact j's normal row a carrier? */
+static int carried(const nz_contacts *c, int j)
+{
+  for (int a = 0; a < c->na; a++)
+    if (c->rows[a] == c->def[j].gap) return 1;
+  return 0;
+}
+
 int nz_c_settle_roles(nz_contacts *c, const nz_system *s, double t, const double *q, const double *qd)
 {
-  int st;
-  c->cvalid = 0;
-  if ((st = nz_contacts_accel(c, s, t, q, qd, NULL, NULL))) return st;   /* the carriers' columns at the state */
+  int st, solved = 0;
+  /* a held row off the carriers is dependent on them (they were chosen so) */
   for (int j = 0; j < c->n; j++) {
-    if (!nz_c_held(c->mode[j]) || !nz_c_slides(c->mode[j]) || !nz_c_dependent_on_carriers(c, c->def[j].gap))
-      continue;
-    int carried = 0;
-    for (int a = 0; a < c->na; a++) carried |= c->rows[a] == c->def[j].gap;
-    if (carried) continue;
+    if (!nz_c_held(c->mode[j]) || !nz_c_slides(c->mode[j]) || carried(c, j)) continue;
+    if (!solved) {           /* the carriers' columns at the state */
+      c->cvalid = 0;
+      if ((st = nz_contacts_accel(c, s, t, q, qd, NULL, NULL))) return st;
+      solved = 1;
+    }
     double change = motion_change(c, j, qd);
     if (change > 1e-8) {
       nz_c_fail_at(c, NZ_CONTACT_INDETERMINATE, NZ_EARG, j, t, q, qd);
@@ -394,9 +402,11 @@ void nz_c_share_impulses(nz_contacts *c, const int *set, nz_contact_report *rep)
     }
   }
   /* where the least norm would pull or leave a cone, the contact leaves
-   * the sharing or its friction is held at the cone, as for the forces */
-  int ok = 0, kind[c->n];
-  for (int round = 0; round <= 3 * c->n; round++) {
+   * the sharing or its friction is held at the cone, as for the forces (one
+   * contact alone has its impulse: nothing to share) */
+  int ok = 0, kind[c->n], parts = 0;
+  for (int j = 0; j < c->n; j++) parts += c->part[j];
+  for (int round = 0; parts > 1 && round <= 3 * c->n; round++) {
     share_solve(c);
     if (!c->share_ok || !violations(c, 1, kind)) {
       ok = c->share_ok;

@@ -118,8 +118,7 @@ static void report_before(nz_contacts *c, nz_contact_report *rep)
 static int impact(nz_contacts *c, const nz_system *s, double t, const double *q, double *qd, int tj,
                   nz_contact_report *rep)
 {
-  int k = c->k, n = c->n, nappr = 0, st;
-  nz_c_free_accel(c);                        /* (the free normal accelerations, for Zeno by resolution) */
+  int k = c->k, n = c->n, nappr = 0, st, accel = 0;
   for (int j = 0; j < n; j++) {
     double tol = nz_c_rest_tol(c, c->def[j].gap, qd, c->vmax[j], c->vn[j]), tinf;
     /* an open contact closes with an impact; one held already only drifts
@@ -129,6 +128,7 @@ static int impact(nz_contacts *c, const nz_system *s, double t, const double *q,
     c->sliding[j] = 0;
     if (!c->appr[j]) continue;
     nappr++;
+    if (!accel) nz_c_free_accel(c), accel = 1;   /* (the free normal accelerations, for Zeno by resolution) */
     int z = zeno(c, j, t, -c->vn[j], &tinf) || unresolved(c, j, t, q, -c->vn[j], &tinf);
     if (z) {
       c->e_eff[j] = 0.0;
