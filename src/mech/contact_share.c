@@ -311,7 +311,8 @@ static double motion_change(nz_contacts *c, int j, const double *qd)
   for (int a = 0; a < m; a++)
     for (int i = 0; i < k; i++) dF[i] -= coefs[a] * c->W[(size_t)(nb + a) * (size_t)k + i];
   /* its response with the carriers held: y - sum mu_b K^-1 W_b, G mu = R y */
-  double *Y = c->share_C, *G = c->L, mu[na + 1], *dq = c->scr + 2 * k;
+  /* (the mode solve's X and G as scratch: room for every carrier, nc of them) */
+  double *Y = c->S, *G = c->S + (size_t)k * (size_t)(c->nc + 1) + (size_t)k * (size_t)k, mu[na + 1], *dq = c->scr + 2 * k;
   nz_c_solve_bilateral(c, dF, NULL, dq);
   for (int b = 0; b < na; b++) nz_c_solve_bilateral(c, c->W + (size_t)b * (size_t)k, NULL, Y + (size_t)b * k);
   for (int a = 0; a < na; a++) {

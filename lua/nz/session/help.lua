@@ -422,8 +422,8 @@ one, e.g. help(sys.simulate):
                              q^(N) (whole for N = 1, held velocities written
                              th'_0); lua, mass, bias, reduced, tex as above
   sys:export{lang = "c" | "python" | "octave", file = "name.c"
-             [, jacobian = false, main = {q0 =, qd0 =, t1 =, dt = [, t0,
-             rtol, atol]}]}
+             [, jacobian = false, smooth = true, main = {q0 =, qd0 =,
+             t1 =, dt = [, t0, rtol, atol]}]}
                              the equations as code that runs without nzlua:
                              nzx_accel (q'' and lambda: the saddle-point
                              system by an included LU), nzx_rhs (f = (q', q'')),
@@ -434,7 +434,10 @@ one, e.g. help(sys.simulate):
                              Constraints of order 0, 1 and 2 are exported (one
                              of order 2 must be linear in q''); the others,
                              and functions that run in Lua, are refused with
-                             the reason
+                             the reason.  A system with unilateral contacts is
+                             refused (the code has no events or impacts);
+                             smooth = true writes it without its contacts and
+                             says so on the file's first line
   sys:energy_integral()      whether H = T2 - T0 + V is a first integral and why
                              (L free of t, constraints homogeneous in the
                              velocities, no force doing work), checked at
