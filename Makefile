@@ -1,8 +1,9 @@
 # nzlua - analytical mechanics with Taylor jets, in C with Lua 5.4.
 #
 #   make          build build/nzlua (the program) and build/nz.so (the module)
-#   make demo     install missing Debian packages, build, run the showcase
-#   make test     build and run every test (also under ASan and UBSan)
+#   make demo     install the missing Debian packages of DEMO_PKGS, build, run the showcase
+#   make test     install TEST_PKGS, build and run every test (also under ASan and UBSan)
+#   make kernel   the Jupyter kernel spec for you (KERNEL_PKGS installed first)
 #   make sanitize only the tests under AddressSanitizer + UBSan
 #   make bench    print the benchmark tables
 #   make fuzz     the differential fuzzer: random systems recorded against Lua
@@ -10,15 +11,20 @@
 #   make clean
 
 PKGS      = lua5.4 gsl readline
-# Debian packages for building, testing (busted, tmux; python3-numpy runs the
-# Python that sys:export writes), plotting (gnuplot), sweeps across machines
-# (GNU parallel), and the Jupyter kernel (docs/kernel.md: ipykernel speaks
-# the protocol; nbclient, nbconvert and chromium test it as a notebook and
-# in a browser; libjs-mathjax typesets offline).
-DEB_PKGS  = make gcc pkg-config liblua5.4-dev lua5.4 libreadline-dev libgsl-dev \
-            lua-busted tmux gnuplot-nox python3-numpy parallel \
-            python3-ipykernel jupyter-client python3-nbclient python3-nbconvert jupyter-notebook \
-            python3-zmq libjs-mathjax chromium
+# Debian packages, in three sets (tools/deps.sh installs the missing ones as
+# root, else prints the apt-get line).  What building and running need
+# (`make`, `make demo`): the compiler, Lua, readline, GSL, and gnuplot to
+# plot.  What the Jupyter kernel needs (`make kernel`, `make install`;
+# docs/kernel.md): ipykernel speaks the protocol, the notebook itself,
+# MathJax and three.js served from Debian's copies.  What the tests need
+# (`make test`, `check`, `sanitize`, `bench`, `notebook-screenshot`): both
+# sets, busted and tmux, python3-numpy (it runs the Python that sys:export
+# writes), GNU parallel (sweeps across machines), and nbclient, nbconvert
+# and chromium (the kernel run as a notebook, exported, shown in a browser).
+DEMO_PKGS   = make gcc pkg-config liblua5.4-dev lua5.4 libreadline-dev libgsl-dev gnuplot-nox
+KERNEL_PKGS = python3-ipykernel jupyter-client python3-zmq jupyter-notebook jupyter-nbconvert libjs-mathjax libjs-three
+TEST_PKGS   = $(DEMO_PKGS) $(KERNEL_PKGS) lua-busted tmux python3-numpy parallel \
+              python3-nbclient python3-nbconvert chromium
 
 CC       ?= cc
 WARN      = -Wall -Wextra -Werror -Wshadow -Wstrict-prototypes -Wmissing-prototypes
@@ -59,12 +65,16 @@ SAN_CORE  = $(patsubst src/%.c,$(B)/asan/%.o,$(CORE_SRC))
 PREFIX   ?= /usr/local
 DESTDIR  ?=
 
-.PHONY: all deps demo test check sanitize bench fuzz install uninstall kernel notebook-screenshot clean
+.PHONY: all deps deps-demo deps-kernel demo test check sanitize bench fuzz install uninstall kernel notebook-screenshot clean
 
 all: $(B)/nzlua $(B)/nz.so
 
 deps:
-	@tools/deps.sh $(DEB_PKGS)
+	@tools/deps.sh $(TEST_PKGS)
+deps-demo:
+	@tools/deps.sh $(DEMO_PKGS)
+deps-kernel:
+	@tools/deps.sh $(DEMO_PKGS) $(KERNEL_PKGS)
 
 $(GEN_SRC): tools/embed.lua $(LUA_MODS) $(KERNEL_PY) | $(B)/gen
 	lua5.4 tools/embed.lua $@ $(LUA_MODS) $(KERNEL_PY)
@@ -115,7 +125,7 @@ $(B)/bench_jet: bench/bench_jet.c $(CORE_OBJ) | $(B)
 	$(CC) $(ALL_CFLAGS) $(OPT) -o $@ $^ $(GSL_LIBS) $(DL_LIBS) -lm
 $(B)/bench_motion: bench/bench_motion.c $(CORE_OBJ) | $(B)
 	$(CC) $(ALL_CFLAGS) $(OPT) -o $@ $^ $(GSL_LIBS) $(DL_LIBS) -lm
-# The hand-written C baselines the benchmarks of issue 10 compare against.
+# The hand-written C baselines the benchmarks compare against.
 $(B)/henon_c: bench/henon_c.c | $(B)
 	$(CC) $(ALL_CFLAGS) $(OPT) -o $@ $^ $(GSL_LIBS) -lm
 $(B)/pendulum_c: bench/pendulum_c.c | $(B)
@@ -124,7 +134,7 @@ $(B)/pendulum_c: bench/pendulum_c.c | $(B)
 $(B) $(B)/obj $(B)/asan $(B)/gen:
 	mkdir -p $@
 
-demo: deps all
+demo: deps-demo all
 	$(B)/nzlua examples/demo.lua
 
 # Every test, normal build then sanitized build; one tally line at the end.
@@ -153,7 +163,7 @@ fuzz: all
 # Jupyter kernel spec "nzlua" goes to $(PREFIX)/share/jupyter/kernels/nzlua
 # (Jupyter looks in /usr/local/share/jupyter and /usr/share/jupyter) and
 # starts $(PREFIX)/bin/nzlua (docs/kernel.md).
-install: all
+install: deps-kernel all
 	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/lib/lua/5.4
 	install -m 755 $(B)/nzlua $(DESTDIR)$(PREFIX)/bin/nzlua
 	install -m 644 $(B)/nz.so $(DESTDIR)$(PREFIX)/lib/lua/5.4/nz.so
@@ -164,7 +174,7 @@ uninstall:
 	rm -rf $(DESTDIR)$(PREFIX)/share/jupyter/kernels/nzlua
 
 # The kernel spec for you alone, starting this checkout's build/nzlua.
-kernel: all
+kernel: deps-kernel all
 	$(B)/nzlua --install-kernel --user
 
 # docs/notebook.png: examples/classroom_pendulum.ipynb run on this build's
@@ -174,7 +184,7 @@ notebook-screenshot: deps all
 	JUPYTER_PATH=$(CURDIR)/$(B)/jupyter/share/jupyter /usr/bin/python3 tools/notebook.py execute \
 	  examples/classroom_pendulum.ipynb $(B)/classroom_pendulum.ipynb
 	/usr/bin/python3 tools/notebook.py html $(B)/classroom_pendulum.ipynb $(B)/classroom_pendulum.html
-	/usr/bin/python3 tools/notebook.py screenshot $(B)/classroom_pendulum.html docs/notebook.png 1000 1900
+	/usr/bin/python3 tools/notebook.py screenshot $(B)/classroom_pendulum.html docs/notebook.png 1000 2900
 
 clean:
 	rm -rf $(B)

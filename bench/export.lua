@@ -1,4 +1,4 @@
--- export.lua - what sys:export's C costs and gives (issue 14): the exported
+-- export.lua - what sys:export's C costs and gives: the exported
 -- accelerations of the n-link pendulum (bench/chain.lua; k = 8, 16) against
 -- the same equations written by hand in C (build/pendulum_c, run in the same
 -- benchmark), and the Whipple bicycle's exported constrained accelerations

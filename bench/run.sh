@@ -15,10 +15,10 @@ build/nzlua bench/scene_cost.lua
 echo
 build/nzlua bench/accel_check.lua
 echo
-# Issue 10: nzlua against hand-written C, measured in the same run.
+# nzlua against hand-written C, measured in the same run.
 build/nzlua bench/henon.lua
 echo
-# Issue 11: Taylor's method against the same C program.
+# Taylor's method against the same C program.
 build/nzlua bench/taylor.lua
 echo
 build/nzlua bench/taylor_problems.lua
@@ -36,11 +36,11 @@ build/nzlua bench/loop_cost.lua
 echo
 build/nzlua bench/loop_events.lua
 echo
-# Issue 14: the exported C against hand-written C and nzlua.
+# The exported C against hand-written C and nzlua.
 build/nzlua bench/export.lua
 echo
-# Issue 16: nz.sweep on 1, 2 and every core, and its overhead per point.
+# nz.sweep on 1, 2 and every core, and its overhead per point.
 build/nzlua bench/sweep.lua
 echo
-# Issue 26: contacts, impacts and friction against their closed forms.
+# Contacts, impacts and friction against their closed forms.
 build/nzlua bench/contact.lua

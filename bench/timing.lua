@@ -1,4 +1,4 @@
--- timing.lua - what the benchmarks of issue 10 share: a wall clock (the
+-- timing.lua - what the benchmarks against hand-written C share: a wall clock (the
 -- same CLOCK_MONOTONIC the C baselines read), the median time of a call,
 -- the path of the C baselines, and the graph line (sys:graph_info, when the
 -- engine has it).  Speed is measured and printed here, never asserted.

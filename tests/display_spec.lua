@@ -117,6 +117,36 @@ describe("the display layer", function()
     end)
   end)
 
+  it("sends a notebook's plot as an <img> of its SVG for HTML (nbconvert's too) and as a PNG for a PDF", function()
+    local plot = require "nz.draw.plot"
+    local drawn, real = {}, plot.drawn
+    plot.drawn = function(ext, ...) drawn[#drawn + 1] = ext; return real(ext, ...) end
+    local series = { { name = "line", x = { 0, 1, 2 }, y = { 0, 1, 4 } } }
+    local fe = notebook(display.MIMES)
+    local ok, err = pcall(with, fe, function() plot.lines{ series = series, title = "a plot", width = 70, height = 16 } end)
+    -- a front-end that renders HTML and text only: no PNG made
+    local html_only = notebook{ "text/plain", "text/html" }
+    local drawn_all = #drawn
+    if ok then ok, err = pcall(with, html_only, function() plot.lines{ series = series } end) end
+    plot.drawn = real
+    assert(ok, err)
+    local data = fe.shown[1].data
+    local html, png = data["text/html"], data["image/png"]
+    assert(html and html:find([[alt="plot 'a plot': line"/>$]]), tostring(html):sub(-80))
+    local svg = h.img_data(html, "image/svg+xml")
+    assert(svg and svg:find("<svg", 1, true) and svg:find(">a plot</tspan>", 1, true), "no SVG of the plot in the <img>")
+    assert(svg:find('width="560" height="256"', 1, true), "70 x 16 characters are 560 x 256 pixels")
+    -- not as image/svg+xml: nbconvert's LaTeX would need Inkscape for it
+    assert(data["image/svg+xml"] == nil)
+    -- a PNG (its signature), 560 x 256 pixels (IHDR's width and height)
+    assert(png and png:sub(1, 8) == "\137PNG\r\n\26\n", "no PNG")
+    assert(string.unpack(">I4", png, 17) == 560 and string.unpack(">I4", png, 21) == 256,
+      ("the PNG is %d x %d"):format(string.unpack(">I4", png, 17), string.unpack(">I4", png, 21)))
+    assert(data["text/plain"] == "plot 'a plot': line")
+    assert(drawn_all == 2 and #drawn == 3 and drawn[3] == "svg", table.concat(drawn, " "))
+    assert(not html_only.shown[1].data["image/png"] and html_only.shown[1].data["text/html"])
+  end)
+
   it("writes base64 as RFC 4648's examples", function()
     for plain, coded in pairs{ [""] = "", f = "Zg==", fo = "Zm8=", foo = "Zm9v", foob = "Zm9vYg==", fooba = "Zm9vYmE=",
         foobar = "Zm9vYmFy" } do

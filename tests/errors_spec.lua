@@ -521,7 +521,7 @@ describe("a recorded function that fails at a state", function()
   end)
 end)
 
--- Probes of issue 24: each a value or a state nothing said anything about,
+-- Probes: each a value or a state nothing said anything about,
 -- or said too much about.
 describe("what is not finite, off the constraints, or nested is said once and clearly", function()
   local osc = nz.system{ name = "osc", coords = { "x" }, T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end,

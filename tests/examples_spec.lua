@@ -336,7 +336,7 @@ describe("examples", function()
     assert(fractions[5].f > 0.7, out)
     assert.truthy(out:find("chaotic fraction", 1, true), out)
   end)
-  -- Contacts (issue 26): the figures each example prints, and its captured
+  -- Contacts: the figures each example prints, and its captured
   -- motion against the closed form written here.
   it("sphere_particle.lua: it leaves where cos th = (2/3) cos th0, after sliding with N = m g (3 cos th - 2 cos th0)", function()
     local out, runs = run("sphere_particle.lua", true)

@@ -1,5 +1,5 @@
 -- fidelity_spec.lua - a recorded function never answers differently from
--- the same function in Lua (issue 23).
+-- the same function in Lua.
 --
 -- Each system is made twice, recorded (the default) and with
 -- compile = false (every function run by Lua on jets): the two must give

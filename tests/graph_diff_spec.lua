@@ -50,18 +50,8 @@ end
 
 local function uniform(a, b) return a + (b - a) * math.random() end
 
--- A random jet around the value v: order K, D tangents.
-local function random_jet(v, K, D)
-  local c = { v, order = K }
-  for j = 1, K do c[j + 1] = uniform(-0.5, 0.5) * 0.6 ^ j end
-  local tan = {}
-  for d = 1, D do
-    tan[d] = {}
-    for j = 1, K + 1 do tan[d][j] = uniform(-1, 1) * 0.6 ^ (j - 1) end
-  end
-  if D > 0 then c.tangents = tan end
-  return nz.jet(c)
-end
+local random_jet = require("nz.model.record").random_jet
+local worst = require("nz.model.record").jets_worst
 
 local function state_of(twin)
   if twin.draw then
@@ -83,23 +73,6 @@ local function levels_of(twin, nlev, K, D, t0, q, qd)
     end
   end
   return random_jet(t0, K, D), lv
-end
-
--- Worst difference of two lists of jets, relative to each series' size.
-local function worst(got, want)
-  local w = 0
-  for o = 1, #want do
-    local a, b = got[o], want[o]
-    local K, D = b:order(), b:ntangents()
-    for d = 0, D do
-      local sa = d == 0 and a or a:tangent(d)
-      local sb = d == 0 and b or b:tangent(d)
-      local scale = 1
-      for j = 0, K do scale = math.max(scale, math.abs(sb:coef(j))) end
-      for j = 0, K do w = math.max(w, math.abs(sa:coef(j) - sb:coef(j)) / scale) end
-    end
-  end
-  return w
 end
 
 local function pieces_of(sys)

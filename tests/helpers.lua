@@ -166,4 +166,23 @@ function M.reference_run(sys, opts)
   return tr
 end
 
+-- Base64 decoded (RFC 4648), written here apart from the library's
+-- encoder: an image in a data URI read back as its bytes.
+function M.unbase64(s)
+  local alphabet = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/"
+  local bits = s:gsub("[^%w+/]", ""):gsub(".", function(c)
+    local v = alphabet:find(c, 1, true) - 1
+    local out = {}
+    for b = 5, 0, -1 do out[#out + 1] = (v >> b) & 1 end
+    return table.concat(out)
+  end)
+  return (bits:gsub("%d%d%d%d%d%d%d%d", function(byte) return string.char(tonumber(byte, 2)) end):gsub("[01]+$", ""))
+end
+
+-- The bytes of the first <img src="data:MIME;base64,..."> in a page, or nil.
+function M.img_data(html, mime)
+  local coded = html and html:match('<img src="data:' .. mime:gsub("%p", "%%%0") .. ';base64,([^"]+)"')
+  return coded and M.unbase64(coded)
+end
+
 return M

@@ -128,7 +128,7 @@ end
 local multistep = { msadams = true, msbdf = true }
 
 -- The tolerance of the "tight" set: 1e-10, except where a low order would
--- need 1e5-1e6 steps per unit of time (the long runs of issue 9); those
+-- need 1e5-1e6 steps per unit of time (the long runs of stiff problems); those
 -- take the tolerance that keeps them near 1e3 steps (rk1imp: 3e-6, tighter
 -- than its loose 1e-5; measured 3,051 steps at 1e-6 on the pendulum).
 local tight = { rk1imp = 3e-6, rk2imp = 1e-8, rk2 = 1e-8 }
@@ -170,7 +170,7 @@ end
 
 -- Steps a run may take: adaptive runs of every method here take < 6000
 -- steps (measured: at most 2,838, rk2imp on the knife edge); fixed steps exactly
--- t1 / h.  The regressions of issue 9 took 1e5-1e7 (project = true with
+-- t1 / h.  Past regressions took 1e5-1e7 (project = true with
 -- msbdf, a zero Jacobian row with bsimp).
 local MAX_ADAPTIVE_STEPS = 6000
 
@@ -210,7 +210,7 @@ local function battery(filter, t1, list)
               local most = MAX_ADAPTIVE_STEPS * T1          -- the steps grow with the span
               assert(steps <= most, ("%s: %d steps (at most %d expected)"):format(what, steps, most))
               -- Rejections: GSL's controllers reject some steps, never most
-              -- (bsimp with a work monitor rejected ~40% before issue 9).
+              -- (bsimp with a work monitor once rejected ~40%).
               assert(tr.stats.rejected <= 0.25 * steps + 10,
                 ("%s: %d of %d steps rejected"):format(what, tr.stats.rejected, steps))
             end
@@ -261,7 +261,7 @@ describe("integrator battery: every stepper x option set x problem #slow", funct
   end)
 end)
 
--- t1 = 10, where the failures of issue 9 showed (rk1imp hours, msbdf with
+-- t1 = 10, where past failures showed (rk1imp hours, msbdf with
 -- project never finishing, bsimp with a work monitor rejecting 40%): every
 -- stepper, every option set, on the pendulum and the knife edge, steps
 -- counted against 10x the bound at t1 = 1.

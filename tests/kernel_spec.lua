@@ -62,6 +62,73 @@ local function html_row(html, first)
   return cells
 end
 
+-- The frames nzlua --kernel-io wrote (docs/kernel.md), as {kind, fields}.
+local function frames(out)
+  local list, at = {}, 1
+  while at <= #out do
+    local kind, n, stop = out:match("^NZ (%S+) (%d+)\n()", at)
+    assert(kind, "not a frame at byte " .. at .. ": " .. out:sub(at, at + 80))
+    at = stop
+    local fields = {}
+    for _ = 1, tonumber(n) do
+      local name, len, start = out:match("^(%S+) (%d+)\n()", at)
+      fields[name] = out:sub(start, start + tonumber(len) - 1)
+      at = start + tonumber(len) + 1
+    end
+    list[#list + 1] = { kind = kind, fields = fields }
+  end
+  return list
+end
+
+-- A request frame.
+local function frame(kind, ...)
+  local parts, fields = { "" }, { ... }
+  for i = 1, #fields, 2 do parts[#parts + 1] = ("%s %d\n%s\n"):format(fields[i], #fields[i + 1], fields[i + 1]) end
+  return ("NZ %s %d\n"):format(kind, #fields // 2) .. table.concat(parts)
+end
+
+describe("nzlua --kernel-io: a malformed request gets a protocol error and the session goes on", function()
+  -- each case: the request's bytes, then what the error says
+  local cases = {
+    { "a cell number 1e999", frame("execute", "cell", "1e999", "code", "1+1"), "field 'cell' must be a whole number" },
+    { "a cell number -99999999999999999999", frame("execute", "cell", "-99999999999999999999", "code", "1"),
+      "got '-99999999999999999999'" },
+    { "a cursor 1e300", frame("complete", "code", "nz.si", "cursor", "1e300"), "field 'cursor' must be a whole number from 0 to 5" },
+    { "a cursor -99999999999999999999", frame("inspect", "code", "nz.si", "cursor", "-99999999999999999999"),
+      "field 'cursor' must be a whole number" },
+    { "a cursor abc", frame("complete", "code", "nz.si", "cursor", "abc"), "got 'abc'" },
+    { "a negative field length", "NZ execute 1\ncode -5\nxxxxx\n", "its length is not a count of bytes" },
+    { "a huge field length", "NZ execute 1\ncode 99999999999999999999\n", "its length 99999999999999999999 is more "
+      .. "than the cap (16777216 bytes a field, 67108864 bytes a frame)" },
+    { "a field just over the cap", "NZ execute 1\ncode 16777217\n", "is more than the cap" },
+    { "fields over the cap of a frame together", "NZ execute 5\na 16777216\n" .. ("x"):rep(16777216) .. "\nb 16777216\n"
+      .. ("x"):rep(16777216) .. "\nc 16777216\n" .. ("x"):rep(16777216) .. "\nd 16777216\n" .. ("x"):rep(16777216)
+      .. "\ne 1\n", "is more than the cap" },
+    { "a field count 1e3", "NZ execute 1e3\n", "a frame must start with 'NZ <kind> <nfields>'" },
+    { "a field count of -1", "NZ execute -1\n", "nfields from 0 to 64" },
+  }
+  for _, c in ipairs(cases) do
+    it(c[1], function()
+      local input = c[2] .. frame("execute", "cell", "2", "code", "6 * 7")
+      local code, out, err = h.run(h.nzlua .. " --kernel-io", input)
+      assert.equal(0, code, err)
+      local list = frames(out)
+      assert.equal("hello", list[1].kind)
+      local bad = list[2]
+      assert.equal("done", bad.kind)
+      assert.equal("error", bad.fields.status)
+      assert.equal("protocol", bad.fields.ename)
+      assert.truthy(bad.fields.evalue:find(c[3], 1, true), bad.fields.evalue)
+      -- and the next request is answered as ever
+      local kinds = {}
+      for i = 3, #list do kinds[#kinds + 1] = list[i].kind end
+      assert.equal("started result done", table.concat(kinds, " "))
+      assert.equal("42", list[4].fields["text/plain"])
+      assert.equal("ok", list[5].fields.status)
+    end)
+  end
+end)
+
 describe("the Jupyter kernel", function()
   local why = missing()
   if why then
@@ -75,6 +142,14 @@ describe("the Jupyter kernel", function()
     assert(out:find("kernel spec 'nzlua' installed", 1, true), out)
     local spec = assert(h.slurp(jupyter_path .. "/kernels/nzlua/kernel.json"))
     assert(spec:find('"{resource_dir}/nzlua_kernel.py"', 1, true), spec)
+    -- three.js for the 3-D view, served from the spec's folder (Debian's copy)
+    local three = io.open("/usr/share/javascript/three/build/three.min.js")
+    if three then
+      three:close()
+      local served = assert(io.open(jupyter_path .. "/kernels/nzlua/three.min.js"), "three.js is not in the kernel spec")
+      assert(served:read(2000):find("THREE", 1, true), "the kernel spec's three.min.js is not three.js")
+      served:close()
+    end
     code, out, err = h.run(env .. PYTHON .. " -m jupyter_client.kernelspecapp list")
     assert(code == 0, out .. err)
     assert(out:match("\n%s*nzlua%s+" .. jupyter_path:gsub("%p", "%%%0") .. "/kernels/nzlua"), out)
@@ -163,12 +238,15 @@ swing:animate{ frames = 5 }]],
       assert(err:find("four\n", 1, true) and err:find("five\n", 1, true), ("%q"):format(err))
     end)
 
-    it("draws tr:plot{} as an inline SVG with the plot's labels, sized from its characters", function()
+    it("draws tr:plot{} as an SVG in an <img> with the plot's labels, sized from its characters, and a PNG", function()
       local c = nb.cells[5]    -- tr:plot{ x = "x", y = { "y" }, width = 70, height = 16 }
-      local svg, kind = data(c, "image/svg+xml")
-      assert(kind == "display_data" and svg, "no SVG in section 5's outputs")
-      assert(svg:find("^<svg"), svg:sub(1, 80))
+      local html, kind = data(c, "text/html")
+      assert(kind == "display_data" and html, "no HTML in section 5's outputs")
+      local svg = h.img_data(html, "image/svg+xml")
+      assert(svg and svg:find("<svg", 1, true), "no <img> of an SVG: " .. html:sub(1, 80))
       assert(svg:find('width="560" height="256"', 1, true), "70 x 16 characters are 560 x 256 pixels")
+      local png = h.unbase64(assert(data(c, "image/png"), "no PNG"))
+      assert(png:sub(1, 8) == "\137PNG\r\n\26\n" and string.unpack(">I4", png, 17) == 560, "no PNG of 560 pixels")
       for _, label in ipairs{ "sleigh", "x", "y" } do     -- title (the system), x and y labels
         assert(svg:find(">" .. label .. "</tspan>", 1, true), "the SVG has no label " .. label)
       end
@@ -276,6 +354,90 @@ swing:animate{ frames = 5 }]],
 
   describe("in a browser #slow", function()
     local chromium = "/usr/bin/chromium"
+    it("keeps a plot in a notebook exported by python3 -m nbconvert (HTML, and the PNG LaTeX takes for a PDF)", function()
+      if not io.open(chromium) then pending("Debian's chromium is not installed (make deps)") return end
+      local cells, nb = dir .. "/export.lua", dir .. "/export.ipynb"
+      local f = assert(io.open(cells, "w"))
+      f:write([[
+bob = nz.system{ name = "bob", coords = { "x" }, T = function(t, q, qd) return 0.5 * qd[1]^2 end,
+  V = function(t, q) return 0.5 * q[1]^2 end }
+tr = bob:simulate{ q0 = { 1 }, t1 = 10, dt = 0.05 }
+tr:plot{ y = { "x" }, title = "exported" }]])
+      f:close()
+      drive(("notebook %s %s"):format(cells, nb))
+      -- what a teacher types: nbconvert as it is, nothing of ours around it
+      local code, out, err = h.run(("cd %s && %s -m nbconvert --to html export.ipynb"):format(dir, PYTHON))
+      assert(code == 0, out .. err)
+      local page = assert(h.slurp(dir .. "/export.html"))
+      assert(page:find('<img src="data:image/svg+xml;base64,', 1, true), "the page has no image of the plot")
+      local png = dir .. "/export.png"
+      code, out, err = h.run(env .. PYTHON .. " tools/notebook.py screenshot " .. dir .. "/export.html " .. png .. " 1000 900")
+      assert(code == 0, out .. err)
+      -- the plot's curve in its colour (#9400D3, plot.lua's first): inline, nbconvert left a blank box
+      local shot = drive("pixels " .. png)
+      assert(shot.purple > 100, "the exported page shows no curve: " .. shot.purple .. " purple pixels")
+      -- LaTeX (nbconvert's way to a PDF) takes the PNG, written beside the .tex
+      code, out, err = h.run(("cd %s && %s -m nbconvert --to latex export.ipynb"):format(dir, PYTHON))
+      assert(code == 0, out .. err)
+      local tex = assert(h.slurp(dir .. "/export.tex"))
+      local image = tex:match("\\adjustimage{[^\n]-}{([^{}\n]+%.png)}")
+      assert(image, "the LaTeX includes no PNG")
+      local bytes = assert(h.slurp(dir .. "/" .. image), image)
+      assert(bytes:sub(1, 8) == "\137PNG\r\n\26\n", image .. " is not a PNG")
+    end)
+
+    it("draws tr:animate{ view = '3d' } of the heavy top and the rolling disk with three.js in an exported page", function()
+      if not io.open(chromium) then pending("Debian's chromium is not installed (make deps)") return end
+      if not io.open("/usr/share/javascript/three/build/three.min.js") then
+        pending("Debian's libjs-three is not installed (make kernel)") return
+      end
+      local cells, nb = dir .. "/scene.lua", dir .. "/scene.ipynb"
+      local f = assert(io.open(cells, "w"))
+      -- the heavy top and the rolling disk of examples/ (nothing else on the
+      -- page is purple: no plot)
+      f:write([[
+m, lc = 1.5, 0.4
+function rot(t, q) return nz.rotations.euler_zxz(q[1], q[2], q[3]) end
+top = nz.scene{ name = "heavy symmetric top", coords = { "psi", "theta", "phi" },
+  bodies = { { name = "top", mass = m, inertia = { 0.06, 0.06, 0.2 }, rot = rot,
+    pos = function(t, q) local R = rot(t, q); return { lc * R[1][3], lc * R[2][3], lc * R[3][3] } end } },
+  effects = { nz.effects.gravity{ g = { 0, 0, -9.81 } } } }
+spin = top:simulate{ q0 = { 0, 0.5, 0 }, qd0 = { 0, 0, 40 }, t1 = 1, dt = 0.01 }
+spin:animate{ view = "3d", frames = 30, width = 50, height = 20 }
+-- %%
+R, z, x = 0.3, nz.rotations.z, nz.rotations.x
+disk = nz.scene{ name = "vertical rolling disk", coords = { "x", "y", "th", "ph" },
+  bodies = { { name = "disk", mass = 1.2, inertia = { 0.05, 0.05, 0.08 }, pos = function(t, q) return { q[1], q[2], R } end,
+    rot = function(t, q) return nz.rotations.mul(nz.rotations.mul(z(q[3]), x(-math.pi / 2)), z(q[4])) end } },
+  effects = { nz.effects.rolling_disk{ x = "x", y = "y", heading = "th", angle = "ph", radius = R } } }
+roll = disk:simulate{ q0 = { 0, 0, 0, 0 }, qd0 = { 0.9, 0, 0.7, 3 }, t1 = 10, dt = 0.05 }
+roll:animate{ view = "3d", frames = 30, links = false, width = 50, height = 20 }]])
+      f:close()
+      drive(("notebook %s %s"):format(cells, nb))
+      local code, out, err = h.run(("cd %s && %s -m nbconvert --to html scene.ipynb"):format(dir, PYTHON))
+      assert(code == 0, out .. err)
+      local page = dir .. "/scene.html"
+      local tool = env .. PYTHON .. " tools/notebook.py "
+      -- after the page's scripts ran: each scene drawn by WebGL (the player
+      -- says so on its root once it rendered), not left at its GIF
+      local dom
+      code, dom = h.run(tool .. "dom " .. page)
+      assert(code == 0)
+      local states = {}
+      for state in dom:gmatch('class="nzlua%-3d"[^>]-data%-nz%-view="([^"]*)"') do states[#states + 1] = state end
+      if #states == 0 then for state in dom:gmatch('data%-nz%-view="([^"]*)"') do states[#states + 1] = state end end
+      assert(#states == 2 and states[1] == "webgl" and states[2] == "webgl", "the scenes: " .. table.concat(states, ", "))
+      -- the picture: each scene's body shaded in its colour (#9400D3 and
+      -- lighter and darker), many shades of it: a lit ellipsoid, not a
+      -- flat GIF
+      local png = dir .. "/scene.png"
+      code, out, err = h.run(tool .. "screenshot " .. page .. " " .. png .. " 1000 1300")
+      assert(code == 0, out .. err)
+      local shot = drive("pixels " .. png)
+      assert(shot.purple > 2000, "the bodies are not drawn: " .. shot.purple .. " purple pixels")
+      assert(shot.purple_shades > 40, "flat colour, not a lit scene: " .. shot.purple_shades .. " shades of purple")
+    end)
+
     it("renders the example notebook: mathematics typeset by MathJax, the plot drawn", function()
       if not io.open(chromium) then pending("Debian's chromium is not installed (make deps)") return end
       local nb, html, png = dir .. "/classroom.ipynb", dir .. "/classroom.html", dir .. "/classroom.png"
@@ -285,8 +447,24 @@ swing:animate{ frames = 5 }]],
         local code, out, err = h.run(tool .. step)
         assert(code == 0, step .. ":\n" .. out .. err)
       end
+      -- what the text says nzlua finds, it finds: m l^2 th'' + m g l sin th = 0, with the params' symbols
+      local run = drive("read " .. nb)
+      local shown, text, view = nil, "", nil
+      for _, c in ipairs(run.cells) do
+        if c.type == "markdown" then text = text .. c.source end
+        for _, o in ipairs(c.outputs) do
+          assert(o.type ~= "error", "a cell of the example failed: " .. c.source .. "\n" .. tostring(o.evalue))
+          if o.data and c.source:find("pend:show{}", 1, true) then shown = o.data["text/plain"] end
+          if o.data and c.source:find('view = "3d"', 1, true) then view = o.data["text/html"] end
+        end
+      end
+      assert(text:find("m l^2 \\ddot\\theta + m g l \\sin\\theta = 0", 1, true), "the text's equation changed")
+      assert(shown and shown:find("th:  l^2 m th'' + g l m sin(th) = 0", 1, true), tostring(shown))
+      assert(view and view:find("nzlua-3d", 1, true), "no 3-D view of the top")
       local page = assert(h.slurp(html))
-      assert(page:find("<svg", 1, true) and page:find("released from 1 rad", 1, true), "the page has no SVG plot")
+      assert(page:find('<img src="data:image/svg+xml;base64,', 1, true) and page:find("released from 1 rad", 1, true),
+        "the page has no plot")
+      assert(page:find('class="nzlua-3d"', 1, true), "the page has no 3-D scene")
       assert(page:find("file:///usr/share/javascript/mathjax/MathJax.js", 1, true), "MathJax is not the local one")
       -- after its scripts ran: MathJax replaced the LaTeX by its own elements
       local code, dom = h.run(tool .. "dom " .. html)

@@ -1,4 +1,4 @@
--- linearize_spec.lua - sys:linearize (issue 12, first part: systems without
+-- linearize_spec.lua - sys:linearize (systems without
 -- constraints): the state matrix against closed forms (the double
 -- pendulum's M, K and eigenfrequencies, the inverted pendulum, a bead on a
 -- hoop driven at a held rate below and above the critical rate and at its

@@ -93,6 +93,98 @@ describe("effects against hand-derived forces", function()
   end)
 end)
 
+describe("masses, inertias, gravity and effects' numbers as functions of the params", function()
+  local function pendulum_bodies()
+    return nz.system{ name = "pendulum", coords = { "th" }, params = { m = 2.0, l = 1.3, g = 9.81 },
+      bodies = { gravity = function(p) return { 0, -p.g, 0 } end,
+        { mass = function(p) return p.m end, pos = function(t, q, p) return { p.l * nz.sin(q[1]), -p.l * nz.cos(q[1]), 0 } end } } }
+  end
+
+  it("keep the symbols in sys:show: the pendulum's l^2 m th'' + g l m sin(th) = 0", function()
+    -- Lagrange by hand: T = m l^2 th'^2 / 2, V = -m g l cos th
+    local text = pendulum_bodies():show{}
+    assert(text:find("th:  l^2 m th'' + g l m sin(th) = 0", 1, true), text)
+    local spring = nz.scene{ name = "spring", coords = { "x" }, params = { m = 1.5, k = 4, c = 0.3 },
+      bodies = { { name = "b", mass = function(p) return p.m end, pos = function(t, q) return { q[1], 0, 0 } end } },
+      effects = { E.spring{ coordinate = "x", k = function(p) return p.k end },
+        E.damper{ coordinate = "x", c = function(p) return p.c end } } }
+    text = spring:show{}
+    assert(text:find("x:  m x'' + c x' + k x = 0", 1, true), text)
+  end)
+
+  it("follow sys.params: a run with other params moves as the closed forms say", function()
+    -- a mass on a spring: x = x0 cos(sqrt(k/m) t)
+    local osc = nz.scene{ name = "oscillator", coords = { "x" }, params = { m = 2, k = 8 },
+      bodies = { { name = "b", mass = function(p) return p.m end, pos = function(t, q) return { q[1], 0, 0 } end } },
+      effects = { E.spring{ coordinate = "x", k = function(p) return p.k end } } }
+    for _, pk in ipairs{ { 2, 8 }, { 0.5, 18 } } do
+      osc.params.m, osc.params.k = pk[1], pk[2]
+      local tr = osc:simulate{ q0 = { 0.7 }, t1 = 2, dt = 0.5, rtol = 1e-12 }
+      local w = math.sqrt(pk[2] / pk[1])
+      for i = 1, #tr.t do
+        assert(math.abs(tr.q[i][1] - 0.7 * math.cos(w * tr.t[i])) <= 1e-9,
+          ("m = %g, k = %g: x(%g) = %.12g, closed form %.12g"):format(pk[1], pk[2], tr.t[i], tr.q[i][1], 0.7 * math.cos(w * tr.t[i])))
+      end
+    end
+    -- the pendulum: th'' = -(g / l) sin th, g read through the gravity function
+    local pend = pendulum_bodies()
+    for _, g in ipairs{ 9.81, 1.62 } do
+      pend.params.g = g
+      local a = pend:accel(0, { 0.8 }, { 0.3 })[1]
+      assert(math.abs(a + g / 1.3 * math.sin(0.8)) <= 1e-12, ("g = %g: th'' = %.15g"):format(g, a))
+    end
+    -- a compound pendulum, a rigid body whose inertia reads I:
+    -- th'' = -m g l sin th / (I + m l^2)
+    local rods = nz.system{ name = "compound", coords = { "th" }, params = { I = 0.05, m = 1.2, l = 0.4 },
+      bodies = { gravity = { 0, -9.81, 0 }, { mass = function(p) return p.m end, inertia = function(p) return { 0.01, 0.01, p.I } end,
+        rot = function(t, q) return nz.rotations.z(q[1]) end,
+        pos = function(t, q, p) return { p.l * nz.sin(q[1]), -p.l * nz.cos(q[1]), 0 } end } } }
+    for _, I in ipairs{ 0.05, 0.3 } do
+      rods.params.I = I
+      local a = rods:accel(0, { 0.8 }, { 0.3 })[1]
+      assert(math.abs(a + 1.2 * 9.81 * 0.4 * math.sin(0.8) / (I + 1.2 * 0.4 ^ 2)) <= 1e-12, ("I = %g: th'' = %.15g"):format(I, a))
+    end
+  end)
+
+  it("in the effects: a rolling disk's radius and a contact's radius", function()
+    local case = cs.rolling_disk()
+    local sc = nz.scene{ coords = case.sys.coords, T = case.sys.engine.T, V = case.sys.engine.V, params = { R = 0.3 },
+      effects = { E.rolling_disk{ x = "x", y = "y", heading = "th", angle = "ph", radius = function(p) return p.R end } } }
+    for _ = 1, 3 do
+      local t, q, qd = case.draw()
+      assert(max_diff(sc:accel(t, q, qd), case.accel(t, q, qd)) <= 1e-11)
+    end
+    -- a ball of radius r dropped on the floor z = 0 comes to rest with its centre at z = r
+    local ball = nz.scene{ name = "ball", coords = { "z" }, params = { r = 0.25 },
+      bodies = { { name = "b", mass = 1, pos = function(t, q) return { 0, 0, q[1] } end } },
+      effects = { E.gravity{ g = function(p) return { 0, 0, -9.81 } end },
+        E.contact{ name = "floor", at = "b", plane = { normal = { 0, 0, 1 } }, radius = function(p) return p.r end } } }
+    for _, r in ipairs{ 0.25, 0.6 } do
+      ball.params.r = r
+      local tr = ball:simulate{ q0 = { 1 }, t1 = 1 }
+      assert(math.abs(tr.q[#tr.t][1] - r) <= 1e-9, ("r = %g: rests at %.12g"):format(r, tr.q[#tr.t][1]))
+    end
+  end)
+
+  it("say which body and field when the function returns no number", function()
+    -- (a parameter may be set later: the error comes at the first evaluation)
+    local bad = nz.system{ name = "bad", coords = { "x" }, params = { m = 1 },
+      bodies = { { name = "bob", mass = function(p) return p.mass end, pos = function(t, q) return { q[1], 0, 0 } end } } }
+    local ok, err = pcall(bad.accel, bad, 0, { 1 }, { 0 })
+    assert(not ok and err:find("T (bodies) raised an error: bob: 'mass' = function(params) returned nil: a positive "
+      .. "number expected at t = 0", 1, true), err)
+    -- recorded, the mass is the parameter's graph input: a negative one is
+    -- what the mass matrix says
+    bad.params.mass = -1
+    ok, err = pcall(bad.accel, bad, 0, { 1 }, { 0 })
+    assert(not ok and err:find("the mass matrix M = d2T/dqd2 is not positive definite", 1, true), err)
+    h.checkerror("effect 'spring': parameter 'k' must be a number or a function(params) returning one, got string",
+      E.spring, { coordinate = "x", k = "4" })
+    h.checkerror("'mass' must be a positive number or a function(params) returning one",
+      nz.bodies, { { mass = "m", pos = function() return { 0, 0, 0 } end } })
+  end)
+end)
+
 describe("only what a scene declares is computed", function()
   it("an effect made but not declared is never called; a declared one is", function()
     local undeclared, declared = 0, 0

@@ -1,5 +1,5 @@
 -- simulate_taylor_spec.lua - sys:simulate{method = "taylor"} on free recorded
--- systems (issue 11): closed forms, agreement with rk8pd on the same output
+-- systems: closed forms, agreement with rk8pd on the same output
 -- grid, Ctrl-C keeping the partial trajectory, failures and refusals.
 -- Every bound says why it is what it is.
 local h = require "tests.helpers"

@@ -14,6 +14,15 @@ end
 
 local function slurp(path) return assert(h.slurp(path), path) end
 
+-- The frames of a GIF file: one Graphic Control Extension (0x21 0xF9 0x04) each.
+local function gif_frames(path)
+  local data = slurp(path)
+  assert.are.equal("GIF8", data:sub(1, 4))
+  local frames = 0
+  for _ in data:gmatch("\33\249\4") do frames = frames + 1 end
+  return frames
+end
+
 -- A terminal plot taken apart: its lines, the frame (first and last line,
 -- first and last column), the x tick labels (the line under the frame), the
 -- y tick labels (each ending one blank left of the frame), and count(c):
@@ -185,6 +194,13 @@ describe("tr:csv without a file", function()
     assert.are.equal(slurp(file), tr:csv())
     os.remove(file)
     h.checkerror("bad argument #1 to 'csv' (a file name, or nothing for the CSV text, expected, got number)", tr.csv, tr, 5)
+    -- a directory is named as such, with what to write instead, at the caller's line
+    local ok, msg = pcall(function()
+      local f = tr:csv("/tmp/")
+      return f
+    end)
+    assert(not ok and msg:find("views_spec.lua:%d+: tr:csv: cannot write '/tmp/': it is a directory: give the name of "
+      .. "a file to write, as tr:csv%(\"/tmp/run.csv\"%)"), msg)
     local rc, out = h.run(h.nzlua .. " -i", "o = nz.system{ coords = {'x'}, T = function(t, q, qd) return qd[1]^2 / 2 end,"
       .. " V = function(t, q) return q[1]^2 / 2 end }\notr = o:simulate{ q0 = {1}, t1 = 1, dt = 0.5 }\notr:csv()\n")
     assert.are.equal(0, rc)
@@ -259,12 +275,7 @@ describe("tr:animate", function()
     local gif = os.tmpname() .. ".gif"
     local n = tr:animate{ file = gif, frames = 12 }
     assert.are.equal(12, n)
-    local data = slurp(gif)
-    assert.are.equal("GIF8", data:sub(1, 4))
-    -- one Graphic Control Extension (0x21 0xF9 0x04) per frame
-    local frames = 0
-    for _ in data:gmatch("\33\249\4") do frames = frames + 1 end
-    assert.are.equal(12, frames)
+    assert.are.equal(12, gif_frames(gif))
     os.remove(gif)
   end)
   it("SVG frames, and a user's drawing function", function()
@@ -365,6 +376,146 @@ describe("tr:animate", function()
     end
     -- and in the terminal, where sizes are characters
     h.checkerror("height = 5: a whole number from 20 to 10000 expected (characters of the terminal)", tr.animate, tr, { height = 5 })
+  end)
+end)
+
+describe("tr:animate{ view = \"3d\" }", function()
+  local view3d = require "nz.presentation.view3d"
+  local display = require "nz.draw.display"
+  local frontend = require "nz.base.frontend"
+  local R = nz.rotations
+  -- the heavy top of examples/heavy_top.lua, about its fixed point
+  local m, lc = 1.5, 0.4
+  local function rot(t, q) return R.euler_zxz(q[1], q[2], q[3]) end
+  local function top()
+    return nz.scene{ name = "top", coords = { "psi", "theta", "phi" },
+      bodies = { { name = "top", mass = m, inertia = { 0.06, 0.06, 0.2 }, rot = rot,
+        pos = function(t, q) local M = rot(t, q); return { lc * M[1][3], lc * M[2][3], lc * M[3][3] } end } },
+      effects = { nz.effects.gravity{ g = { 0, 0, -9.81 } } } }
+  end
+  local function run(sys) return sys:simulate{ q0 = { 0, 0.5, 0 }, qd0 = { 0, 0, 40 }, t1 = 0.5, dt = 0.01 } end
+
+  it("draws a rigid body as its ellipsoid of inertia, turned with it, and puts up against gravity", function()
+    -- inertia {a, b, c} turned by Q in the body: the principal moments found
+    -- again, semi-axes^2 = 5 (I_j + I_k - I_i) / (2 m) (a uniform ellipsoid's
+    -- moments are m (b^2 + c^2)/5, ...)
+    local a, b, c, mass = 0.3, 0.5, 0.7, 2.0
+    local Q = R.mul(R.z(0.4), R.x(1.1))
+    local D = { { a, 0, 0 }, { 0, b, 0 }, { 0, 0, c } }
+    local QT = { { Q[1][1], Q[2][1], Q[3][1] }, { Q[1][2], Q[2][2], Q[3][2] }, { Q[1][3], Q[2][3], Q[3][3] } }
+    local I = R.mul(R.mul(Q, D), QT)
+    local sys = nz.system{ name = "block", coords = { "x" }, bodies = { gravity = { 0, -9.81, 0 },
+      { name = "block", mass = mass, inertia = I, rot = function(t, q) return R.z(q[1]) end,
+        pos = function(t, q) return { q[1], 0, 0 } end } } }
+    local tr = sys:simulate{ q0 = { 0 }, qd0 = { 1 }, t1 = 1, dt = 0.5 }
+    local model = view3d.model(tr, { 1, 2, 3 }, {})
+    local shape = model.shapes[1]
+    for i, moment in ipairs{ a, b, c } do
+      local others = a + b + c - moment
+      local want = math.sqrt(5 * (others - moment) / (2 * mass))
+      -- the principal axis of this moment: column i of Q, found among E's
+      local found = false
+      for j = 1, 3 do
+        local along = math.abs(Q[1][i] * shape.E[1][j] + Q[2][i] * shape.E[2][j] + Q[3][i] * shape.E[3][j])
+        if along > 1 - 1e-9 then
+          found = true
+          assert(math.abs(shape.semi[j] - want) <= 1e-9, ("semi-axis %d: %.12g, by hand %.12g"):format(i, shape.semi[j], want))
+        end
+      end
+      assert(found, "no principal axis along Q's column " .. i)
+    end
+    assert.are.same({ 0, 1, 0 }, model.up)
+    -- seen from 28 degrees above the floor
+    local e = model.eye
+    assert(math.abs(e[1] * 0 + e[2] * 1 + e[3] * 0 - math.sin(math.rad(28))) <= 1e-12)
+    -- each frame: where pos and rot put the body
+    for f, i in ipairs{ 1, 2, 3 } do
+      assert(math.abs(model.frames[f].p[1][1] - tr.q[i][1]) <= 1e-15)
+      assert(math.abs(model.frames[f].R[1][1][2] + math.sin(tr.q[i][1])) <= 1e-15)
+    end
+    -- a scene's gravity effect: up is z for the top
+    assert.are.same({ 0, 0, 1 }, view3d.model(run(top()), { 1 }, {}).up)
+  end)
+
+  it("marks a contact's point while it is held: a ball dropped on the floor, from its rest on", function()
+    -- dropped from z = 1 with e = 0.5, it is in the air until sqrt(2/g) and
+    -- rests from 3 sqrt(2/g) on (t1 (1 + e)/(1 - e)), its point on the floor
+    local ball = nz.scene{ name = "ball", coords = { "z" },
+      bodies = { { name = "b", mass = 1, pos = function(t, q) return { 0, 0, q[1] } end } },
+      effects = { nz.effects.gravity{}, nz.effects.contact{ name = "floor", at = "b", e = 0.5,
+        plane = { normal = { 0, 0, 1 } } } } }
+    local tr = ball:simulate{ q0 = { 1 }, t1 = 2, dt = 0.01 }
+    local idx = {}
+    for i = 1, #tr.t, 10 do idx[#idx + 1] = i end
+    local model = view3d.model(tr, idx, { links = false })
+    local fall, rest = math.sqrt(2 / 9.81), 3 * math.sqrt(2 / 9.81)
+    local air, held = 0, 0
+    for _, f in ipairs(model.frames) do
+      if f.t < fall - 1e-6 then
+        assert(f.c[1] == false, ("t = %g: in the air, yet a contact point is drawn"):format(f.t))
+        air = air + 1
+      elseif f.t > rest + 1e-3 then
+        assert(f.c[1] and math.abs(f.c[1][3]) <= 1e-9, ("t = %g: resting, and no point on the floor"):format(f.t))
+        held = held + 1
+      end
+    end
+    assert(air > 2 and held > 2, ("frames in the air %d, at rest %d"):format(air, held))
+  end)
+
+  it("in the terminal and to a file: the scene from a fixed direction, frame by frame", function()
+    local tr = run(top())
+    local written, write = {}, io.write
+    io.write = function(...) for i = 1, select("#", ...) do written[#written + 1] = tostring(select(i, ...)) end end
+    local ok, n = pcall(tr.animate, tr, { view = "3d", frames = 3 })
+    io.write = write
+    assert(ok, n)
+    assert.are.equal(3, n)
+    local text = table.concat(written)
+    local frames = 0
+    for _ in text:gmatch("top  t = ") do frames = frames + 1 end
+    assert.are.equal(3, frames)
+    assert(text:find("#", 1, true), "no pivot at the origin")
+    local gif = os.tmpname() .. ".gif"
+    assert.are.equal(5, tr:animate{ view = "3d", frames = 5, file = gif })
+    assert.are.equal(5, gif_frames(gif))
+    os.remove(gif)
+  end)
+
+  it("in a notebook: the three.js scene with the frames' data and the GIF inside", function()
+    local tr = run(top())
+    local fe = { name = "test", accepts = {}, shown = {} }
+    for _, mime in ipairs(display.MIMES) do fe.accepts[mime] = true end
+    function fe.publish(data) fe.shown[#fe.shown + 1] = data end
+    function fe.progress() return false end
+    frontend.use(fe)
+    local ok, err = pcall(tr.animate, tr, { view = "3d", frames = 4 })
+    frontend.use(nil)
+    assert(ok, err)
+    local data = fe.shown[1]
+    local html = data["text/html"]
+    assert(html and html:find('data-nz-view="loading"', 1, true) and html:find("THREE", 1, true), "no scene")
+    assert(html:find("kernelspecs/nzlua/three.min.js", 1, true) and html:find("/usr/share/javascript/three/build/three.min.js",
+      1, true), "three.js is not looked for where it is served")
+    assert(not html:find("https?://"), "the scene reaches for the network")
+    local gif = h.img_data(html, "image/gif")
+    assert(gif and gif:sub(1, 6) == "GIF89a" and gif == data["image/gif"], "no GIF inside the scene")
+    assert(data["text/plain"] == "3-D view of 'top': 4 frames")
+    -- the first frame's position, as pos gives it at t = 0 (6 digits)
+    local x, y, z = html:match('"frames":%[{"t":0,"p":%[%[([^,]+),([^,]+),([^%]]+)%]')
+    local want = { lc * math.sin(0) * math.sin(0.5), -lc * math.cos(0) * math.sin(0.5), lc * math.cos(0.5) }
+    assert(x and math.abs(x - want[1]) + math.abs(y - want[2]) + math.abs(z - want[3]) <= 3e-6, tostring(x))
+    local _, nframes = html:gsub('{"t":', "")
+    assert.are.equal(4, nframes)
+  end)
+
+  it("refuses what a 3-D view cannot draw, from the caller's line", function()
+    local tr = run(top())
+    h.checkerror('view = "4d": "2d" (the bodies in a plane, the default) or "3d" (in space) expected', tr.animate, tr,
+      { view = "4d" })
+    h.checkerror('view = "3d" draws the bodies in space, and plane = ... is for a drawing in a plane', tr.animate, tr,
+      { view = "3d", plane = "xz" })
+    local otr = osc():simulate{ q0 = { 1 }, t1 = 1, dt = 0.1 }
+    h.checkerror('view = "3d" draws a system\'s bodies, and this one has none', otr.animate, otr, { view = "3d" })
   end)
 end)
 

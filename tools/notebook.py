@@ -20,10 +20,13 @@ MATHJAX = "/usr/share/javascript/mathjax/MathJax.js"
 CHROMIUM = os.environ.get("CHROMIUM", "/usr/bin/chromium")
 # Headless, offline, nothing kept between runs (a fresh profile each time):
 # without the background-networking flags Chromium keeps trying hosts that a
-# closed network refuses.
+# closed network refuses.  WebGL (tr:animate{ view = "3d" }) on the CPU,
+# with SwiftShader: there is no GPU, and Chromium no longer falls back to it
+# by itself.
 CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
                   "--disable-component-update", "--disable-sync", "--no-first-run", "--disable-quic",
-                  "--hide-scrollbars", "--allow-file-access-from-files"]
+                  "--hide-scrollbars", "--allow-file-access-from-files", "--use-angle=swiftshader",
+                  "--enable-unsafe-swiftshader"]
 
 
 def execute(src, dst, timeout=300):

@@ -2,6 +2,8 @@
 --
 --   lua5.4 tools/requires.lua          the graph as docs/architecture.md
 --                                      shows it (markdown)
+--   lua5.4 tools/requires.lua --write  the same, written into
+--                                      docs/architecture.md's block
 --   dofile("tools/requires.lua")       the functions, for tests/layers_spec.lua
 --
 -- lua/nz/ holds one folder per floor; a module may require modules of its
@@ -171,8 +173,22 @@ function M.markdown(mods)
   return table.concat(out, "\n")
 end
 
+-- The page with its block between <!-- requires: begin ... --> and
+-- <!-- requires: end --> replaced by the graph.
+function M.write(path, graph)
+  local f = assert(io.open(path))
+  local doc = f:read("a")
+  f:close()
+  local head, tail = doc:match("^(.-<!%-%- requires: begin[^\n]*%-%->\n).-(\n<!%-%- requires: end %-%->.*)$")
+  assert(head, path .. " has no block between <!-- requires: begin --> and <!-- requires: end -->")
+  f = assert(io.open(path, "w"))
+  f:write(head, graph, tail)
+  f:close()
+end
+
 if arg and arg[0] and arg[0]:match("requires%.lua$") and not debug.getinfo(3) then
-  print(M.markdown(M.modules(".")))
+  local graph = M.markdown(M.modules("."))
+  if arg[1] == "--write" then M.write(arg[2] or "docs/architecture.md", graph) else print(graph) end
 end
 
 return M

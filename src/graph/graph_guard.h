@@ -1,6 +1,5 @@
 /* graph_guard.h - where a plan on doubles must hand an evaluation to the
- * jets, so that the recorded graph answers as the function in Lua does
- * (issue 23).
+ * jets, so that the recorded graph answers as the function in Lua does.
  *
  * A plan on doubles sees values only.  Two things the jets decide by more:
  *   - a tie of a branch: cmp(a, b) with a == b, sign(x) at x == 0.  The

@@ -1,4 +1,4 @@
-/* graph_native.h - expression graphs compiled to machine code (issue 10).
+/* graph_native.h - expression graphs compiled to machine code.
  *
  * The plan interpreter of graph.c costs a few nanoseconds per node; the same
  * formulas written in C cost a fraction of one.  This module writes C for the

@@ -87,7 +87,7 @@ nz_status nz_jet_pow_jet(nz_jet *z, const nz_jet *x, const nz_jet *y, double *w)
 nz_status nz_jet_atan2(nz_jet *z, const nz_jet *y, const nz_jet *x, double *w);
 nz_status nz_jet_hypot(nz_jet *z, const nz_jet *a, const nz_jet *b, double *w);
 
-/* Branches that a recorded graph can hold (issue 10): a comparison gives a
+/* Branches that a recorded graph can hold: a comparison gives a
  * number, a selection picks a whole operand, so no C or Lua `if` on a traced
  * value is needed.
  *

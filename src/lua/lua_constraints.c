@@ -150,16 +150,6 @@ static int ls_constraint_state_gradient(lua_State *L)
   return 3;
 }
 
-static void read_flags(lua_State *L, int idx, int n, int *v, const char *what)
-{
-  luaL_checktype(L, idx, LUA_TTABLE);
-  for (int r = 0; r < n; r++) {
-    lua_geti(L, idx, r + 1);
-    v[r] = lua_isboolean(L, -1) ? lua_toboolean(L, -1) : (int)luaL_optinteger(L, -1, -1);
-    lua_pop(L, 1);
-    if (v[r] < 0) luaL_error(L, "internal: %s[%d] missing", what, r + 1);
-  }
-}
 
 
 /* accel_constrained(def, t, q, qd, orders, linear, opts) -> qdd, lambda, report */
@@ -176,8 +166,8 @@ static int ls_accel_constrained(lua_State *L)
   nz_lua_read_vector(L, 4, k, qd, "qd", 1, "accel");
   int *ints = lua_newuserdatauv(L, 3 * (size_t)(nc + 1) * sizeof(int), 0);
   int *orders = ints, *linear = ints + nc + 1, *involved = ints + 2 * (nc + 1);
-  read_flags(L, 5, nc, orders, "orders");
-  read_flags(L, 6, nc, linear, "linear");
+  nz_lua_read_ints(L, 5, nc, orders, "orders");
+  nz_lua_read_ints(L, 6, nc, linear, "linear");
   memset(involved, 0, (size_t)(nc + 1) * sizeof(int));
   nz_accel_options opt = NZ_ACCEL_DEFAULTS;
   if (lua_istable(L, 7)) {

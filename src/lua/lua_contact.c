@@ -72,14 +72,8 @@ static int lc_new(lua_State *L)
   luaL_checktype(L, 2, LUA_TTABLE);
   int k = b.sys.k, nc = b.sys.nc;
   int nb = (int)nz_lua_field_number(L, 2, "nb", 0.0);
-  lua_getfield(L, 2, "orders");
-  luaL_checktype(L, -1, LUA_TTABLE);
   int *orders = lua_newuserdatauv(L, ((size_t)nc + 1) * sizeof(int), 0);
-  for (int r = 0; r < nc; r++) {
-    lua_geti(L, -2, r + 1);
-    orders[r] = (int)luaL_checkinteger(L, -1);
-    lua_pop(L, 1);
-  }
+  nz_lua_field_ints(L, 2, "orders", nc, orders);
   lua_getfield(L, 2, "contacts");
   luaL_checktype(L, -1, LUA_TTABLE);
   int n = (int)luaL_len(L, -1);
@@ -205,8 +199,11 @@ int nz_lua_contacts_raise(lua_State *L, const nz_contacts *c, bound_system *b)
     lua_pushfstring(L, "contact '%s': its gap's gradient dPhi/dq vanishes where it touches", name ? name : "?");
     luaL_addvalue(&msg);
     nz_lua_add_state(&msg, f->t, f->q, f->qd, k);
-    luaL_addstring(&msg, ": there is no normal direction there; write the gap as a distance whose gradient does "
-                         "not vanish (not x^2 - a^2, whose gradient is 0 at x = 0)");
+    nz_lua_fmt_num(num, sizeof num, f->value);
+    lua_pushfstring(L, " (%s of the largest it had in the run): there is no normal direction there; write the gap "
+                    "as a distance whose gradient does not vanish (not q^3, nor x^2 - a^2 at a = 0, whose gradient "
+                    "is 0 where they are 0)", num);
+    luaL_addvalue(&msg);
     break;
   default:
     luaL_addstring(&msg, "the contacts failed");

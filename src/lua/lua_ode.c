@@ -20,6 +20,8 @@
 #include "lua/lua_util.h"
 #include "mech/constrained.h"
 #include "mech/contact.h"
+#include "mech/mech_graph.h"
+#include "graph/graph_rounding.h"
 #include "ode/ode.h"
 #include "ode/ode_run.h"
 #include "ode/stepper.h"
@@ -125,15 +127,8 @@ static int lo_new(lua_State *L)
     cfg.guess = g;                   /* kept on the stack until nz_ode_alloc copies it */
   }
   int *flags = lua_newuserdatauv(L, 2 * ((size_t)nc + 1) * sizeof(int), 0);
-  for (int r = 0; r < nc; r++) {
-    lua_getfield(L, 2, "orders");
-    lua_geti(L, -1, r + 1);
-    flags[r] = (int)luaL_checkinteger(L, -1);
-    lua_getfield(L, 2, "linear");
-    lua_geti(L, -1, r + 1);
-    flags[nc + 1 + r] = lua_toboolean(L, -1);
-    lua_pop(L, 4);
-  }
+  nz_lua_field_ints(L, 2, "orders", nc, flags);
+  nz_lua_field_ints(L, 2, "linear", nc, flags + nc + 1);
   cfg.orders = flags;
   cfg.linear = flags + nc + 1;
   nz_accel_options acc = NZ_ACCEL_DEFAULTS;
@@ -180,17 +175,8 @@ static int raise_failure(lua_State *L, ode_box *box, bound_system *b, int st)
   switch (f->kind) {
   case NZ_ODE_FAIL_MASS:
     return nz_lua_raise_singular_mass(L, 1, f->t, q, qd, k, &f->mass);
-  case NZ_ODE_FAIL_CONSTRAINTS: {
-    int *orders = lua_newuserdatauv(L, ((size_t)box->nc + 1) * sizeof(int), 0);
-    memset(orders, 0, ((size_t)box->nc + 1) * sizeof(int));
-    lua_getfield(L, 1, "orders");          /* the definition keeps the classification */
-    for (int r = 0; r < box->nc && lua_istable(L, -1); r++) {
-      lua_geti(L, -1, r + 1);
-      orders[r] = (int)lua_tointeger(L, -1);
-      lua_pop(L, 1);
-    }
-    return nz_lua_raise_accel_failure(L, 1, &f->accel, orders, f->t, q, qd, k, box->nc);
-  }
+  case NZ_ODE_FAIL_CONSTRAINTS:
+    return nz_lua_raise_accel_failure(L, 1, &f->accel, nz_ode_orders(box->o), f->t, q, qd, k, box->nc);
   case NZ_ODE_FAIL_STEP:
   case NZ_ODE_FAIL_NONFINITE: {
     luaL_Buffer msg;
@@ -564,22 +550,6 @@ static int run_gc(lua_State *L)
   return 0;
 }
 
-/* An integer array of n from the list field name of the table at idx
- * (NULL when n is 0), left on the stack. */
-static int *field_ints(lua_State *L, int idx, const char *name, int n)
-{
-  int *v = lua_newuserdatauv(L, ((size_t)n + 1) * sizeof(int), 0);
-  if (n == 0) return NULL;
-  lua_getfield(L, idx, name);
-  luaL_checktype(L, -1, LUA_TTABLE);
-  for (int i = 0; i < n; i++) {
-    lua_geti(L, -1, i + 1);
-    v[i] = (int)luaL_checkinteger(L, -1);
-    lua_pop(L, 1);
-  }
-  lua_pop(L, 1);
-  return v;
-}
 
 /* ode_run_new(ode, {t0, t1, dt, step, h0, y, stall_window, stall_fraction
  * [, capacity] [, events, directions, fallback, locator, event_tol]
@@ -632,13 +602,13 @@ static int lo_run_new(lua_State *L)
   int ncontact = ob->contacts ? nz_contacts_nevents(ob->contacts) : 0;
   c.nevents = nuser + ncontact;
   int *dirs = lua_newuserdatauv(L, ((size_t)c.nevents + 1) * sizeof(int), 0);
-  if (nuser > 0) memcpy(dirs, field_ints(L, 2, "directions", nuser), (size_t)nuser * sizeof(int));
+  nz_lua_field_ints(L, 2, "directions", nuser, dirs);
   for (int e = nuser; e < c.nevents; e++) dirs[e] = -1;
   c.directions = dirs;
   c.locator = loc ? loc->st : NULL;
-  int *orders = c.project_tol > 0.0 && lua_isnil(L, 5) ? field_ints(L, 2, "orders", ob->nc) : NULL;
-  if (c.project_tol > 0.0 && lua_isnil(L, 5) && ob->nc > 0 && !orders)
-    return luaL_error(L, "internal: projecting needs 'orders' or 'violation'");
+  int in_c = c.project_tol > 0.0 && lua_isnil(L, 5) && ob->nc > 0;   /* the violation computed in C */
+  int *orders = lua_newuserdatauv(L, ((size_t)ob->nc + 1) * sizeof(int), 0);
+  if (in_c) nz_lua_field_ints(L, 2, "orders", ob->nc, orders);
   int dim = ob->dim;
   double *y = lua_newuserdatauv(L, (size_t)dim * sizeof(double), 0);
   lua_getfield(L, 2, "y");
@@ -655,7 +625,7 @@ static int lo_run_new(lua_State *L)
   rb->locator = loc;
   rb->events = eb;
   rb->nuser = nuser;
-  if (orders) {
+  if (in_c) {
     rb->orders = (int *)(void *)(rb + 1);
     memcpy(rb->orders, orders, (size_t)ob->nc * sizeof(int));
   }
@@ -873,6 +843,73 @@ static int lo_run_state(lua_State *L)
   return 3;
 }
 
+/* ode_rounding_branch(def, t, q, qd, qdd, tol) -> nil | {piece,
+ * constraint, op, fn, value, bound, a, b, rounding}: the first branch of
+ * the recording whose choice is decided by rounding at the state, or whose
+ * deciding number lies within tol of its switch (graph_rounding.h): the
+ * pieces whose functions hold it ("V", "Q", "constraint", ... joined by
+ * " and "), the operation (a node op's name; fn the function's or the
+ * comparison's number), the number that decides it and its rounding bound,
+ * the branch's operands, and whether rounding decides it.  For a run
+ * whose steps collapsed (advice.lua). */
+static int lo_rounding_branch(lua_State *L)
+{
+  static const char *const names[NZ_PIECE_COUNT] = { "T", "T", "V", "Q", "S", "constraint" };
+  lua_settop(L, 6);
+  bound_system b;
+  nz_lua_bind_system(L, 1, &b);
+  if (!b.comp) return 0;
+  int k = b.sys.k;
+  double t = luaL_checknumber(L, 2), tol = luaL_optnumber(L, 6, 0.0);
+  double *y = lua_newuserdatauv(L, 3 * (size_t)k * sizeof(double), 0);
+  nz_lua_read_vector(L, 3, k, y, "q", 0, "rounding_branch");
+  nz_lua_read_vector(L, 4, k, y + k, "qd", 0, "rounding_branch");
+  int nstate = 2;
+  if (!lua_isnil(L, 5)) {
+    nz_lua_read_vector(L, 5, k, y + 2 * k, "qdd", 0, "rounding_branch");
+    nstate = 3;
+  }
+  const double *state[3] = { y, y + k, y + 2 * k };
+  nz_rounding_branch br;
+  unsigned pieces = 0;
+  int constraint = -1;
+  if (nz_compiled_rounding_branch(b.comp, t, state, nstate, tol, &br, &pieces, &constraint) != 1) return 0;
+  const nz_gnode *nd = &nz_graph_nodes(nz_compiled_graph(b.comp))[br.node];
+  luaL_Buffer which;
+  luaL_buffinit(L, &which);
+  int first = 1;
+  for (int p = NZ_PIECE_T; p < NZ_PIECE_COUNT; p++)   /* (F is the T the user wrote: named T) */
+    if ((pieces >> p & 1u) || (p == NZ_PIECE_T && (pieces & 1u))) {
+      if (!first) luaL_addstring(&which, " and ");
+      luaL_addstring(&which, names[p]);
+      first = 0;
+    }
+  luaL_pushresult(&which);
+  lua_createtable(L, 0, 9);
+  lua_insert(L, -2);
+  lua_setfield(L, -2, "piece");
+  if (constraint >= 0) {
+    lua_pushinteger(L, constraint + 1);
+    lua_setfield(L, -2, "constraint");
+  }
+  lua_pushstring(L, nz_gop_names[nd->op]);
+  lua_setfield(L, -2, "op");
+  lua_pushinteger(L, nd->fn);
+  lua_setfield(L, -2, "fn");
+  lua_pushnumber(L, br.value);
+  lua_setfield(L, -2, "value");
+  lua_pushnumber(L, br.bound);
+  lua_setfield(L, -2, "bound");
+  lua_pushnumber(L, br.a);
+  lua_setfield(L, -2, "a");
+  lua_pushnumber(L, br.b);
+  lua_setfield(L, -2, "b");
+  lua_pushboolean(L, br.rounding);
+  lua_setfield(L, -2, "rounding");
+  return 1;
+}
+
+
 /* _set_interrupt(flag): request (true) or clear (false) the interrupt, as
  * Ctrl-C does; for tests only (tests/simulate_loop_spec.lua). */
 static int lo_set_interrupt(lua_State *L)
@@ -924,7 +961,7 @@ static const luaL_Reg ode_functions[] = {
   { "now", lo_now }, { "isatty", lo_isatty }, { "interrupted", lo_interrupted },
   { "ode_methods", lo_methods }, { "ode_run_new", lo_run_new }, { "ode_run", lo_run },
   { "ode_run_state", lo_run_state }, { "ode_run_dense", lo_run_dense }, { "ode_run_native", lo_run_native }, { "ode_run_set_state", lo_run_set_state },
-  { "ode_run_jump", lo_run_jump },
+  { "ode_run_jump", lo_run_jump }, { "ode_rounding_branch", lo_rounding_branch },
   { "ode_run_violation", lo_run_violation }, { "ode_events_new", lo_events_new },
   { "ode_event_value", lo_event_value }, { "_set_interrupt", lo_set_interrupt },
   { NULL, NULL }

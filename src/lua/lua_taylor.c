@@ -60,19 +60,13 @@ static void read_setup(lua_State *L, bound_system *b, int idx, const char *fname
     if (!idx || lua_getfield(L, idx, "orders") != LUA_TTABLE)
       nz_lua_error(L, "system '%s': '%s': a system with constraints needs their classification (orders, linear; "
                  "sys:simulate{method = \"taylor\"} passes it)", nz_lua_system_name(L, 1), fname);
-    lua_getfield(L, idx, "linear");
-    int top = lua_gettop(L);
-    for (int r = 0; r < nc; r++) {
-      lua_geti(L, top - 1, r + 1);
-      flags[r] = (int)luaL_checkinteger(L, -1);
-      lua_geti(L, top, r + 1);
-      flags[nc + 1 + r] = lua_toboolean(L, -1);
-      lua_pop(L, 2);
-      if (flags[r] < 0 || flags[r] > 2)
+    lua_pop(L, 1);
+    nz_lua_field_ints(L, idx, "orders", nc, flags);
+    nz_lua_field_ints(L, idx, "linear", nc, flags + nc + 1);
+    for (int r = 0; r < nc; r++)
+      if (flags[r] > 2)
         nz_lua_error(L, "system '%s': '%s': constraint %d is of order %d; the Taylor method takes constraints of order "
                    "0, 1 and 2", nz_lua_system_name(L, 1), fname, r + 1, flags[r]);
-    }
-    lua_pop(L, 2);
   }
   nz_accel_options opt = NZ_ACCEL_DEFAULTS;
   *m = (nz_motion_setup){ k, nc, nc > 0 ? flags : NULL, nc > 0 ? flags + nc + 1 : NULL, NULL, opt };

@@ -176,6 +176,24 @@ double nz_lua_field_number(lua_State *L, int idx, const char *name, double dflt)
   return v;
 }
 
+void nz_lua_read_ints(lua_State *L, int idx, int n, int *v, const char *what)
+{
+  luaL_checktype(L, idx, LUA_TTABLE);
+  for (int r = 0; r < n; r++) {
+    if (lua_geti(L, idx, r + 1) == LUA_TNIL) luaL_error(L, "internal: %s[%d] missing", what, r + 1);
+    v[r] = lua_isboolean(L, -1) ? lua_toboolean(L, -1) : (int)luaL_checkinteger(L, -1);
+    lua_pop(L, 1);
+  }
+}
+
+void nz_lua_field_ints(lua_State *L, int idx, const char *name, int n, int *v)
+{
+  if (n == 0) return;
+  lua_getfield(L, idx, name);
+  nz_lua_read_ints(L, lua_gettop(L), n, v, name);
+  lua_pop(L, 1);
+}
+
 void nz_lua_push_vector(lua_State *L, const double *v, int k)
 {
   lua_createtable(L, k, 0);

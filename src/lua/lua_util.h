@@ -39,6 +39,12 @@ void nz_lua_push_vector(lua_State *L, const double *v, int k);
 /* The number in field name of the table at idx, dflt when it is nil (a
  * configuration table the library's Lua side built and checked). */
 double nz_lua_field_number(lua_State *L, int idx, const char *name, double dflt);
+/* The list at idx (a table) as n ints into v: integers, or booleans read
+ * as 1 and 0 (the constraints' orders and linear flags as sys:simulate
+ * classifies them); an internal error naming what when one is missing.
+ * nz_lua_field_ints reads the list in field name of the table at idx. */
+void nz_lua_read_ints(lua_State *L, int idx, int n, int *v, const char *what);
+void nz_lua_field_ints(lua_State *L, int idx, const char *name, int n, int *v);
 void nz_lua_push_matrix(lua_State *L, const double *M, int k);
 /* Arguments 2, 3, 4: t, q, qd (nil qd: zeros). */
 void nz_lua_read_tq_qd(lua_State *L, int k, double *t, double *q, double *qd, const char *fname);

@@ -62,7 +62,8 @@ static void lay_out(nz_contacts *c, double *d, int *iw, size_t *nd, size_t *ni)
   size_t K = (size_t)c->k, C = (size_t)c->nc, N = (size_t)c->n, V = NZ_CONTACT_UNKNOWNS * N, T = 3 * N;
   size_t at = 0;
   c->dir = take_d(d, &at, 2 * N), c->offset = take_d(d, &at, 2 * N), c->ht = take_d(d, &at, 3 * N);
-  c->vmax = take_d(d, &at, N), c->vtmax = take_d(d, &at, N), c->phi = take_d(d, &at, N), c->vn = take_d(d, &at, N);
+  c->vmax = take_d(d, &at, N), c->vtmax = take_d(d, &at, N), c->gmax = take_d(d, &at, N);
+  c->phi = take_d(d, &at, N), c->vn = take_d(d, &at, N);
   c->vt = take_d(d, &at, 2 * N), c->e_eff = take_d(d, &at, N), c->base_n = take_d(d, &at, N);
   c->base_t = take_d(d, &at, 2 * N), c->mu_lcp = take_d(d, &at, N), c->turn = take_d(d, &at, N);
   c->sol_n = take_d(d, &at, N), c->sol_t = take_d(d, &at, 2 * N), c->sol_sig = take_d(d, &at, N);
@@ -196,6 +197,7 @@ void nz_contacts_reset(nz_contacts *c)
   memset(c->nh, 0, N * sizeof(int));
   memset(c->vmax, 0, N * sizeof(double));
   memset(c->vtmax, 0, N * sizeof(double));
+  memset(c->gmax, 0, N * sizeof(double));
   memset(c->offset, 0, 2 * N * sizeof(double));
   c->cvalid = 0;
 }

@@ -47,7 +47,7 @@ struct nz_contacts {
    * started at zero slip velocity, start the new mode strictly positive */
   double *offset;
   /* Zeno: the times of the last three impacts of each contact, and its velocity scales */
-  double *ht, *vmax, *vtmax;
+  double *ht, *vmax, *vtmax, *gmax;
   int *nh;
   /* the frame at a state */
   double *M, *h;               /* k k, k */

@@ -79,10 +79,17 @@ static int touching(nz_contacts *c, double t, const double *q, const double *qd,
   for (int j = 0; j < c->n; j++) {
     const double *J = nz_c_row(c, c->def[j].gap);
     double tol = tscale * fmax(0.0, -c->vn[j]) + NZ_CONTACT_ROUND * nz_c_abs_dot(k, J, q);
+    double g = nz_c_max_abs(k, J);
+    c->gmax[j] = fmax(c->gmax[j], g);
     c->touch[j] = nz_c_held(c->mode[j]) || c->phi[j] <= tol || (j == tj && !tfric);
     if (!c->touch[j]) continue;
-    if (!(nz_c_max_abs(k, J) > 0.0)) {
+    /* A gap whose gradient vanishes where it touches (q^3: a root of
+     * multiplicity 3) has no normal there, and its impacts are located
+     * only to the cube root of the rounding: zero, or a vanishing fraction
+     * of the largest it has had in this run, is refused. */
+    if (!(g > NZ_CONTACT_FLAT * c->gmax[j])) {
       nz_c_fail_at(c, NZ_CONTACT_GRADIENT, NZ_EARG, j, t, q, qd);
+      c->fail.value = c->gmax[j] > 0.0 ? g / c->gmax[j] : 0.0;
       return NZ_EARG;
     }
     c->vmax[j] = fmax(c->vmax[j], fabs(c->vn[j]));

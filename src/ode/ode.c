@@ -381,6 +381,7 @@ void nz_ode_free(nz_ode *o)
   free(o);
 }
 
+const int *nz_ode_orders(const nz_ode *o) { return o->orders; }
 int nz_ode_dim(const nz_ode *o) { return o->dim; }
 const char *nz_ode_method(const nz_ode *o) { return o->method; }
 int nz_ode_is_multistep(const nz_ode *o) { return o->multistep; }

@@ -46,6 +46,8 @@ int nz_ode_is_implicit(const char *method);
 nz_ode *nz_ode_alloc(int k, const nz_ode_config *cfg);
 void nz_ode_free(nz_ode *o);
 int nz_ode_dim(const nz_ode *o);
+/* The constraints' classification it was made with (nc orders). */
+const int *nz_ode_orders(const nz_ode *o);
 /* The stepper's name, one of nz_ode_methods. */
 const char *nz_ode_method(const nz_ode *o);
 /* msadams and msbdf: a history of steps, lost by a step taken again from

@@ -1,4 +1,4 @@
-/* stepper.h - the integrator interface of sys:simulate (issue 11): what
+/* stepper.h - the integrator interface of sys:simulate: what
  * the stepping loop (ode_run.h) asks of a method, implemented by GSL's
  * steppers (stepper_gsl.c, over ode.c) and by Taylor's method (taylor.c).
  *

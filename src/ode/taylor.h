@@ -1,5 +1,5 @@
-/* taylor.h - Taylor's method for the motion of a mechanical system (issue
- * 11), one of the two implementations of the integrator interface
+/* taylor.h - Taylor's method for the motion of a mechanical system, one of
+ * the implementations of the integrator interface
  * (stepper.h): the series function gives the motion's coefficients, free or
  * under constraints (mech_graph.h), the stepper does not know which.
  *

@@ -2,6 +2,7 @@
 
     driver.py notebook CELLS OUT.ipynb   a notebook of the cells in CELLS (separated
                                          by lines "-- %%"), run by nbclient
+    driver.py read NB.ipynb              a notebook's cells and outputs
     driver.py session                    jupyter_client by hand: an interrupt during
                                          a long simulate, completion, inspection,
                                          a restart
@@ -64,10 +65,16 @@ def notebook(cells_file, out):
     nbformat.write(nb, src)
     t0 = time.time()
     nbtool.execute(src, out, timeout=120)
-    seconds = time.time() - t0
-    done = nbformat.read(out, as_version=4)
-    print("return " + lua({"seconds": seconds, "cells": [
-        {"source": c.source, "count": c.get("execution_count"), "outputs": [output_of(o) for o in c.outputs]}
+    read(out, time.time() - t0)
+
+
+def read(path, seconds=0):
+    """A notebook's cells and their outputs, as the spec reads them."""
+    import nbformat
+    done = nbformat.read(path, as_version=4)
+    print("return " + lua({"seconds": float(seconds), "cells": [
+        {"type": c.cell_type, "source": c.source, "count": c.get("execution_count"),
+         "outputs": [output_of(o) for o in c.get("outputs", [])]}
         for c in done.cells]}))
 
 
@@ -79,6 +86,18 @@ def session():
     kc.start_channels()
     kc.wait_for_ready(timeout=60)
     result = {}
+
+    def reply_to(msg_id, timeout=30):
+        """The shell reply to msg_id.  Others are passed over: under load
+        wait_for_ready sends kernel_info_request again after a second
+        without an answer, so a second kernel_info_reply may wait in the
+        channel, and the next request's first reply would be that one (or,
+        one later, the previous cell's 'ok')."""
+        t0 = time.time()
+        while True:
+            m = kc.get_shell_msg(timeout=max(0.1, timeout - (time.time() - t0)))
+            if m["parent_header"].get("msg_id") == msg_id:
+                return m["content"]
 
     def run(code, interrupt_when=None, limit=120):
         """Execute; collect the cell's outputs; interrupt once interrupt_when(outputs) holds."""
@@ -103,7 +122,7 @@ def session():
                 outs.append({"type": t, "data": c["data"]})
             elif t == "error":
                 outs.append({"type": t, "ename": c["ename"], "evalue": c["evalue"], "traceback": "\n".join(c["traceback"])})
-        reply = kc.get_shell_msg(timeout=30)["content"]
+        reply = reply_to(msg_id)
         return {"status": reply["status"], "ename": reply.get("ename"), "outputs": outs,
                 "interrupted_after": sent, "seconds": time.time() - t0}
 
@@ -123,8 +142,7 @@ def session():
     result["inspect"] = kc.inspect("y = nz.sin(1)", 9, reply=True, timeout=30)["content"]
     result["inspect_missing"] = kc.inspect("nz.no_such_thing", 10, reply=True, timeout=30)["content"]
     result["help_cell"] = run("nz.sin?")
-    kc.is_complete("for i = 1, 3 do")
-    result["complete_cell"] = kc.get_shell_msg(timeout=30)["content"]
+    result["complete_cell"] = reply_to(kc.is_complete("for i = 1, 3 do"))
     result["exit"] = run("os.exit(3)")
     result["after_exit"] = run("print(pend)\n1 + 1")
     km.restart_kernel(now=True)
@@ -136,8 +154,9 @@ def session():
 
 
 def pixels(png):
-    """How many colours a screenshot has, and how many pixels are within 40
-    of #9400D3 (the first series' colour): a PNG read with zlib alone
+    """How many colours a screenshot has, how many pixels are within 40 of
+    #9400D3 (the first series' colour, the first body's), and how many
+    shades of that purple there are: a PNG read with zlib alone
     (8-bit RGB or RGBA, not interlaced, as Chromium writes them)."""
     import struct
     import zlib
@@ -155,7 +174,7 @@ def pixels(png):
             idat += body
         pos += 12 + n
     raw, stride = zlib.decompress(idat), width * bpp
-    prev, colours, purple, i = bytearray(stride), set(), 0, 0
+    prev, colours, purple, shades, i = bytearray(stride), set(), 0, set(), 0
     for _ in range(height):
         f, line = raw[i], bytearray(raw[i + 1:i + 1 + stride])
         i += 1 + stride
@@ -177,9 +196,13 @@ def pixels(png):
             colours.add((r, g, bl))
             if abs(r - 148) + abs(g - 0) + abs(bl - 211) < 40:
                 purple += 1
+            # #9400D3 lit and shaded: red and blue well above green, blue the larger
+            if r > g + 60 and bl > g + 60 and bl >= r:
+                shades.add((r, g, bl))
         prev = line
-    print("return " + lua({"colours": len(colours), "purple": purple, "width": width, "height": height}))
+    print("return " + lua({"colours": len(colours), "purple": purple, "purple_shades": len(shades), "width": width,
+                           "height": height}))
 
 
 if __name__ == "__main__":
-    {"notebook": notebook, "session": session, "pixels": pixels}[sys.argv[1]](*sys.argv[2:])
+    {"notebook": notebook, "read": read, "session": session, "pixels": pixels}[sys.argv[1]](*sys.argv[2:])

@@ -30,7 +30,7 @@ Sweep.__index = Sweep
 
 local function fail(sys, ...) require("nz.base.where").method_error("eigen_sweep", sys, ...) end
 
-local function finite(v) return type(v) == "number" and v == v and math.abs(v) ~= math.huge end
+local finite = require("nz.base.args").finite
 
 -- The eigenvalues at one value, their largest real part and the status.
 local function at_value(sys, opts, v)

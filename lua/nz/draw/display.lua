@@ -1,6 +1,6 @@
 -- nz/draw/display.lua - one display layer for every front-end.  A value to show
 -- becomes a bundle of representations keyed by MIME type (text/plain,
--- text/latex, text/html, image/svg+xml, image/gif), each built only when a
+-- text/latex, text/html, image/svg+xml, image/png, image/gif), each built only when a
 -- front-end asks for it: the terminal takes the text, a notebook everything
 -- it renders (nz/base/frontend.lua says which front-end is in use).  So the
 -- terminal never pays for the LaTeX, HTML or SVG it would not show.
@@ -12,13 +12,19 @@
 --   others      offered by the code that made the value (M.offer: sys:show's
 --               LaTeX) or published directly (a plot's SVG, an animation's
 --               GIF: M.show with a bundle).
+--
+-- A picture goes as an <img> in text/html (an SVG or GIF inside) and as a
+-- PNG, so that it survives a notebook's export: nbconvert's HTML takes
+-- text/html first and blanks an SVG put inline (its cleaner strips the
+-- SVG's attributes, nbconvert issue 1894), and its LaTeX (the road to a
+-- PDF) takes a PNG.
 local text = require "nz.base.text"
 local frontend = require "nz.base.frontend"
 
 local M = {}
 
 -- The types a bundle can hold, in the order a front-end receives them.
-M.MIMES = { "text/plain", "text/latex", "text/html", "image/svg+xml", "image/gif" }
+M.MIMES = { "text/plain", "text/latex", "text/html", "image/svg+xml", "image/png", "image/gif" }
 
 M.number = text.number
 
@@ -216,6 +222,12 @@ function M.latex(tex)
     end
   end
   return table.concat(out, "\n")
+end
+
+-- An image as HTML, its bytes inside (a data URI: the notebook and its
+-- exported page need no file beside them).
+function M.img(mime, bytes, alt)
+  return ('<img src="data:%s;base64,%s" alt="%s"/>'):format(mime, M.base64(bytes), M.escape(alt))
 end
 
 -- Base64 (RFC 4648), for an image inside HTML.

@@ -78,7 +78,7 @@ local function check_common(opts)
     local whole = type(v) == "number" and v == math.floor(v)
     if v ~= nil and (not whole or v < min[i] or v > 10000) then
       fail("%s = %s: a whole number from %d to 10000 expected (%s, %s)", key,
-        type(v) == "string" and ("%q"):format(v) or tostring(v), min[i],
+        require("nz.base.text").literal(v), min[i],
         file and "pixels of the file" or "characters of the terminal", key == "width" and "columns" or "lines")
     end
   end
@@ -298,16 +298,24 @@ function M.drawn(ext, draw, opts, width, height)
   return bytes
 end
 
--- A notebook's plot: the SVG of the same plot shown inline, sized from the
--- terminal's characters, with a line of text beside it.
+-- A notebook's plot: gnuplot's SVG of the same plot, sized from the
+-- terminal's characters, as an <img> in HTML, with a PNG of it (another
+-- gnuplot run, pngcairo at the same size) and a line of text beside it,
+-- each made only if the front-end takes it (nz/draw/display.lua).  Not as
+-- image/svg+xml: nbconvert's LaTeX, the road to a PDF, converts every SVG
+-- with Inkscape before it looks for a PNG, and fails where Inkscape is not.
 function M.inline(opts)
-  local svg = M.drawn("svg", M.lines, opts, opts.width or 100, opts.height or 30)
+  local width, height = opts.width or 100, opts.height or 30
   local names = {}
   for i, s in ipairs(opts.series) do names[i] = s.name or ("series " .. i) end
+  local text = ("plot%s: %s"):format(opts.title and (" '" .. opts.title .. "'") or "", table.concat(names, ", "))
   display.show(display.bundle{
-    -- from <svg on: the XML declaration and doctype do not belong inside a page
-    ["image/svg+xml"] = svg and svg:match("<svg.*$") or svg,
-    ["text/plain"] = ("plot%s: %s"):format(opts.title and (" '" .. opts.title .. "'") or "", table.concat(names, ", ")),
+    ["text/html"] = function()
+      local svg = M.drawn("svg", M.lines, opts, width, height)
+      return svg and display.img("image/svg+xml", svg, text)
+    end,
+    ["image/png"] = function() return M.drawn("png", M.lines, opts, width, height) end,
+    ["text/plain"] = text,
   })
 end
 
@@ -322,7 +330,9 @@ function M.lines(opts)
   local series = opts.series
   if type(series) ~= "table" or #series == 0 then fail("no series to draw") end
   check_common(opts)
-  if not opts.file and not opts.quiet and frontend.accepts("image/svg+xml") then return M.inline(opts) end
+  if not opts.file and not opts.quiet and (frontend.accepts("text/html") or frontend.accepts("image/png")) then
+    return M.inline(opts)
+  end
   local data = os.tmpname()
   local f = assert(io.open(data, "w"))
   local xlo, xhi, ylo, yhi = math.huge, -math.huge, math.huge, -math.huge

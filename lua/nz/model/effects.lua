@@ -6,7 +6,11 @@
 -- definition: V, Q, T functions and constraints.  Nothing in the engine
 -- knows an effect by name, and an effect that a scene does not declare costs
 -- nothing.  Points are body names, functions (t, q, params) -> {x, y, z}
--- (moving supports) or fixed {x, y, z}; coordinates are given by name.
+-- (moving supports) or fixed {x, y, z}; coordinates are given by name.  A
+-- number that enters the equations (a stiffness, a radius, the gravity) may
+-- also be a function of the params (k = function(p) return p.k end), read
+-- at each evaluation as a body's mass is (nz/model/bodies.lua): the
+-- equations keep the parameter's symbol and follow sys.params.
 local core = require "nz.core"
 local hyperdual = require "nz.model.hyperdual"
 
@@ -21,7 +25,9 @@ local function param_error(kind, param, msg, ...)
 end
 
 -- Check args against spec {name = {type = "number"|"point"|"coordinate"|
--- "function"|"vector"|"coordinates", required =, positive =, nonnegative =}}.
+-- "function"|"vector"|"coordinates", required =, positive =, nonnegative =,
+-- param = (a function of the params is taken too, and checked where it is
+-- used)}}.
 local function check(kind, args, spec)
   if type(args) ~= "table" then error(("effect '%s': a table of parameters expected"):format(kind), 3) end
   for key in pairs(args) do
@@ -36,8 +42,12 @@ local function check(kind, args, spec)
     local v = args[name]
     if v == nil then
       if s.required then param_error(kind, name, "is missing (%s)", s.doc or s.type) end
+    elseif s.param and type(v) == "function" then
+      -- a function of the params: its value is checked where it is read
     elseif s.type == "number" then
-      if type(v) ~= "number" or v ~= v then param_error(kind, name, "must be a number, got %s", type(v)) end
+      if type(v) ~= "number" or v ~= v then
+        param_error(kind, name, "must be a number%s, got %s", s.param and " or a function(params) returning one" or "", type(v))
+      end
       if s.positive and not (v > 0) then param_error(kind, name, "must be positive, got %g", v) end
       if s.nonnegative and not (v >= 0) then param_error(kind, name, "must not be negative, got %g", v) end
       if s.max and not (v <= s.max) then param_error(kind, name, "must be at most %g (%s), got %g", s.max, s.doc, v) end
@@ -52,7 +62,9 @@ local function check(kind, args, spec)
     elseif s.type == "coordinates" then
       if type(v) ~= "table" or #v == 0 then param_error(kind, name, "must be a list of coordinate names") end
     elseif s.type == "vector" then
-      if type(v) ~= "table" or #v ~= 3 then param_error(kind, name, "must be a vector {x, y, z}") end
+      if type(v) ~= "table" or #v ~= 3 then
+        param_error(kind, name, "must be a vector {x, y, z}%s", s.param and " or a function(params) returning one" or "")
+      end
     elseif s.type == "point" or s.type == "pair" then
       local pts = s.type == "pair" and v or { v }
       if s.type == "pair" and (type(v) ~= "table" or #v ~= 2) then param_error(kind, name, "must be two points {A, B}") end
@@ -113,13 +125,17 @@ end
 
 local function unit(k, i) local e = {}; for j = 1, k do e[j] = j == i and 1 or 0 end; return e end
 
+-- A parameter given as a number or a function of the params: its value.
+local value = require("nz.model.bodies").value
+
 -- ------------------------------------------------------------------ --
 -- Forces                                                               --
 
-define("gravity", { g = { type = "vector", doc = "{gx, gy, gz}, default {0, 0, -9.81}" },
+M.DEFAULT_GRAVITY = { 0, 0, -9.81 }
+define("gravity", { g = { type = "vector", param = true, doc = "{gx, gy, gz}, default {0, 0, -9.81}" },
   bodies = { type = "coordinates", doc = "names of the bodies it acts on (default all)" } },
   function(e, sc)
-    local g = e.g or { 0, 0, -9.81 }
+    local g = e.g or M.DEFAULT_GRAVITY
     local list = {}
     for _, name in ipairs(e.bodies or sc.body_names) do
       local b = sc.body(name)
@@ -131,34 +147,34 @@ define("gravity", { g = { type = "vector", doc = "{gx, gy, gz}, default {0, 0, -
 
 define("spring", {
   between = { type = "pair", doc = "two points {A, B}" }, coordinate = { type = "coordinate" },
-  k = { type = "number", required = true, positive = true, doc = "the stiffness, a positive number" },
-  length = { type = "number", nonnegative = true }, rest = { type = "number" },
-  cubic = { type = "number" }, energy = { type = "function" } },
+  k = { type = "number", required = true, positive = true, param = true, doc = "the stiffness, a positive number" },
+  length = { type = "number", nonnegative = true, param = true }, rest = { type = "number", param = true },
+  cubic = { type = "number", param = true }, energy = { type = "function" } },
   function(e, sc)
-    local k, k3 = e.k, e.cubic or 0
-    local law = e.energy or function(s) return 0.5 * k * s * s + 0.25 * k3 * s * s * s * s end
+    local function law(s, p)
+      if e.energy then return e.energy(s) end
+      local k, k3 = value(e.k, p), value(e.cubic or 0, p)
+      return 0.5 * k * s * s + 0.25 * k3 * s * s * s * s
+    end
     if e.coordinate then
       local j = sc.coordinate(e, "coordinate", e.coordinate)
-      local rest = e.rest or 0
-      return { V = function(t, q) return law(q[j] - rest) end }
+      return { V = function(t, q, p) return law(q[j] - value(e.rest or 0, p), p) end }
     end
     if not e.between then sc.fail(e, "between", "is missing: give two points {A, B} or a coordinate") end
     local a, b = point_fn(sc, e, "between", e.between[1]), point_fn(sc, e, "between", e.between[2])
-    local l0 = e.length or 0
-    return { V = function(t, q, p) return law(distance(a(t, q, p), b(t, q, p)) - l0) end }
+    return { V = function(t, q, p) return law(distance(a(t, q, p), b(t, q, p)) - value(e.length or 0, p), p) end }
   end, "a spring between two points (or on a coordinate): V = k s^2/2 + cubic s^4/4, or energy(s)")
 
 define("damper", {
   between = { type = "pair" }, coordinate = { type = "coordinate" },
-  c = { type = "number", required = true, positive = true, doc = "the damping coefficient" } },
+  c = { type = "number", required = true, positive = true, param = true, doc = "the damping coefficient" } },
   function(e, sc)
-    local c = e.c
     if e.coordinate then
       local j = sc.coordinate(e, "coordinate", e.coordinate)
-      return { Q = function(t, q, qd)
+      return { Q = function(t, q, qd, p)
         local Q = {}
         for i = 1, sc.k do Q[i] = 0 end
-        Q[j] = -c * qd[j]
+        Q[j] = -value(e.c, p) * qd[j]
         return Q
       end }
     end
@@ -168,6 +184,7 @@ define("damper", {
     -- Rayleigh's D = c s'^2 / 2: Q_i = -dD/dq'_i = -c s' ds/dq_i.
     return { Q = function(t, q, qd, p)
       local _, sdot = along(s, t, q, p, 1, qd)
+      local c = value(e.c, p)
       local Q = {}
       for i = 1, sc.k do
         local _, ds = along(s, t, q, p, 0, unit(sc.k, i))
@@ -215,23 +232,22 @@ define("knife_edge", { x = { type = "coordinate", required = true }, y = { type 
 
 define("rolling_disk", { x = { type = "coordinate", required = true }, y = { type = "coordinate", required = true },
   heading = { type = "coordinate", required = true }, angle = { type = "coordinate", required = true },
-  radius = { type = "number", required = true, positive = true } },
+  radius = { type = "number", required = true, positive = true, param = true } },
   function(e, sc)
     local x, y = sc.coordinate(e, "x", e.x), sc.coordinate(e, "y", e.y)
-    local th, ph, R = sc.coordinate(e, "heading", e.heading), sc.coordinate(e, "angle", e.angle), e.radius
+    local th, ph = sc.coordinate(e, "heading", e.heading), sc.coordinate(e, "angle", e.angle)
     return { constraints = {
-      function(t, q, qd) return qd[x] - R * qd[ph] * core.cos(q[th]) end,
-      function(t, q, qd) return qd[y] - R * qd[ph] * core.sin(q[th]) end,
+      function(t, q, qd, qdd, qddd, p) return qd[x] - value(e.radius, p) * qd[ph] * core.cos(q[th]) end,
+      function(t, q, qd, qdd, qddd, p) return qd[y] - value(e.radius, p) * qd[ph] * core.sin(q[th]) end,
     } }
   end, "a vertical disk rolling without slipping: x' = R ph' cos th, y' = R ph' sin th")
 
 define("rolling_ball", { body = { type = "coordinate", required = true, doc = "the name of the ball's body (with rot)" },
-  radius = { type = "number", required = true, positive = true } },
+  radius = { type = "number", required = true, positive = true, param = true } },
   function(e, sc)
     local b = sc.body(e.body)
     if not b then sc.fail(e, "body", "names no body '%s'", e.body) end
     if not b.rot then sc.fail(e, "body", "'%s' has no rotation (rot): a ball needs one", e.body) end
-    local R = e.radius
     -- The contact point's velocity v + omega x (0, 0, -R) vanishes, with
     -- omega = vee(R' R^T) in space axes: v_x - R omega_y = 0, v_y + R omega_x = 0.
     local function contact(comp)
@@ -249,6 +265,7 @@ define("rolling_ball", { body = { type = "coordinate", required = true, doc = "t
         local omega = { W(3, 2), W(1, 3), W(2, 1) }
         local _, vx = hyperdual.parts(r[1])
         local _, vy = hyperdual.parts(r[2])
+        local R = value(e.radius, p)
         if comp == 1 then return vx - R * omega[2] end
         return vy + R * omega[1]
       end
@@ -257,15 +274,15 @@ define("rolling_ball", { body = { type = "coordinate", required = true, doc = "t
   end, "a ball (a body with rot) rolling without slipping on the plane z = const")
 
 define("constant_speed", { coords = { type = "coordinates", required = true },
-  speed = { type = "number", required = true, positive = true } },
+  speed = { type = "number", required = true, positive = true, param = true } },
   function(e, sc)
     local idx = {}
     for i, name in ipairs(e.coords) do idx[i] = sc.coordinate(e, "coords", name) end
-    local v2 = e.speed * e.speed
-    return { constraints = { function(t, q, qd)
+    return { constraints = { function(t, q, qd, qdd, qddd, p)
       local s = 0
       for _, j in ipairs(idx) do s = s + qd[j] * qd[j] end
-      return s - v2
+      local v = value(e.speed, p)
+      return s - v * v
     end } }
   end, "the speed in the given coordinates is held constant (nonlinear, first order)")
 
@@ -289,12 +306,11 @@ define("contact", {
   at = { type = "point", doc = "the point that touches: a body, a function(t, q, params) or {x, y, z}" },
   plane = { type = "table", doc = "{point = {x, y, z}, normal = {x, y, z}}: at stays on the normal's side" },
   sphere = { type = "table", doc = "{center = {x, y, z}, radius = R}: at stays outside" },
-  radius = { type = "number", nonnegative = true, doc = "the touching body's radius (default 0)" },
+  radius = { type = "number", nonnegative = true, param = true, doc = "the touching body's radius (default 0)" },
   e = { type = "number", nonnegative = true, max = 1, doc = "Newton's restitution in [0, 1] (default 0: plastic)" } },
   function(e, sc)
     local name = e.name or "contact"
     local gap, at = e.gap, e.at and point_fn(sc, e, "at", e.at)
-    local rad = e.radius or 0
     if not gap then
       if not at or not (e.plane or e.sphere) then
         sc.fail(e, "gap", "is missing: give gap = function(t, q, params), or at = a point with plane = {...} or sphere = {...}")
@@ -305,12 +321,14 @@ define("contact", {
         local n = unit3("contact", sc, e, "plane", pn)
         gap = function(t, q, p)
           local r = at(t, q, p)
-          return n[1] * (r[1] - p0[1]) + n[2] * (r[2] - p0[2]) + n[3] * (r[3] - p0[3]) - rad
+          return n[1] * (r[1] - p0[1]) + n[2] * (r[2] - p0[2]) + n[3] * (r[3] - p0[3]) - value(e.radius or 0, p)
         end
       else
         local c, R = e.sphere.center or { 0, 0, 0 }, e.sphere.radius
-        if type(R) ~= "number" or not (R > 0) then sc.fail(e, "sphere", "must be {center = {x, y, z}, radius = R > 0}") end
-        gap = function(t, q, p) return distance(at(t, q, p), c) - R - rad end
+        if type(R) ~= "function" and (type(R) ~= "number" or not (R > 0)) then
+          sc.fail(e, "sphere", "must be {center = {x, y, z}, radius = R > 0 (or a function(params))}")
+        end
+        gap = function(t, q, p) return distance(at(t, q, p), c) - value(R, p) - value(e.radius or 0, p) end
       end
     end
     local spec = require("nz.model.contact").unilateral(gap, { e = e.e or 0, name = name })

@@ -538,7 +538,11 @@ end
 -- the tests define is checked this way; an error names the piece.
 M.DIFF_TOL = 1e-13
 
-local function random_jet(v, K, D)
+-- A random jet around the value v (order K, D tangents) and the worst
+-- difference of two lists of jets relative to each series' size: the
+-- differential check below and tests/graph_diff_spec.lua compare the
+-- recording with the Lua evaluator with them.
+function M.random_jet(v, K, D)
   local c = { v, order = K }
   for j = 1, K do c[j + 1] = (math.random() - 0.5) * 0.6 ^ j end
   if D > 0 then
@@ -551,7 +555,7 @@ local function random_jet(v, K, D)
   return core.jet(c)
 end
 
-local function jets_worst(a, b)
+function M.jets_worst(a, b)
   local w = 0
   for o = 1, #b do
     for d = 0, b[o]:ntangents() do
@@ -580,21 +584,21 @@ function M.diff_check(engine, levels, name)
     -- a piece that runs in Lua on both sides has nothing to compare
     for trial = 0, engine.compiled:piece_nodes(pc[1], pc[2]) > 0 and 8 or -1 do
       local K, D = trial, trial % 4
-      local tj = random_jet(SAMPLE_T + math.random() - 0.5, K, D)
+      local tj = M.random_jet(SAMPLE_T + math.random() - 0.5, K, D)
       local lv, dlv = {}, {}
       for j = 1, pc[3] do
         lv[j], dlv[j] = {}, {}
         for i = 1, engine.k do
-          lv[j][i] = random_jet(sample(j - 1, i) + 0.4 * (math.random() - 0.5), K, D)
-          dlv[j][i] = random_jet(math.random() - 0.5, K, D)
+          lv[j][i] = M.random_jet(sample(j - 1, i) + 0.4 * (math.random() - 0.5), K, D)
+          dlv[j][i] = M.random_jet(math.random() - 0.5, K, D)
         end
       end
-      local dt = random_jet(math.random() - 0.5, K, D)
+      local dt = M.random_jet(math.random() - 0.5, K, D)
       local oka, va, da = pcall(mech.piece, engine, pc[1], pc[2], tj, lv, dt, dlv)
       local okb, vb, db = pcall(mech.piece, lua_engine, pc[1], pc[2], tj, lv, dt, dlv)
       if rawequal(va, core.interrupted) or rawequal(vb, core.interrupted) then error(core.interrupted, 0) end
       if oka and okb then
-        local e = math.max(jets_worst(va, vb), jets_worst(da, db))
+        local e = math.max(M.jets_worst(va, vb), M.jets_worst(da, db))
         if e > M.DIFF_TOL then
           error(("NZ_GRAPH_CHECK: system '%s': %s %d differs from the Lua evaluation by %.3g (order %d, %d tangents)")
             :format(name, pc[1], pc[2], e, K, D), 0)

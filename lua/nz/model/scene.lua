@@ -87,6 +87,11 @@ function M.scene(def)
     params = def.params, sample = def.sample }
   sys.effects = kinds
   sys.bodies = def.bodies      -- kept for drawing (tr:animate)
+  -- the gravity of the first gravity effect, for drawing: tr:animate{
+  -- view = "3d" } puts up against it
+  for _, e in ipairs(def.effects or {}) do
+    if e.kind == "gravity" then sys.gravity = e.g or effects.DEFAULT_GRAVITY; break end
+  end
   return sys
 end
 

@@ -234,77 +234,10 @@ end
 -- ------------------------------------------------------------------ --
 -- C
 
-local function c_file(sys, out, nodes, opts)
-  local k, nc, e = sys.k, sys.nc, sys.engine
-  local names = e.compiled_params or {}
-  local np = #names
-  local L = C
-  local w = {}
-  local function add(s) w[#w + 1] = s end
-  add(("// %s: the equations of motion of '%s', written by nzlua's sys:export."):format(opts.file or "export.c", sys.name))
-  add("// Self-contained: C99 and libm (GSL only for the main). Coordinates:")
-  for i = 1, k do add(("//   q[%d] = %s, qd[%d] = %s'"):format(i - 1, sys.coords[i], i - 1, sys.coords[i])) end
-  add("// M q'' + h = A^T lambda (the equations of every order n collected), the constraints")
-  add("// closed at the acceleration level: A q'' + b = 0.  The state is y = (q, q').")
-  add("#include <math.h>")
-  add("#include <stdio.h>")
-  add("#include <stdlib.h>")
-  add("#include <string.h>")
-  add("")
-  add(("enum { NZX_K = %d, NZX_NC = %d, NZX_DIM = %d };"):format(k, nc, 2 * k))
-  -- (not static: without a main nothing in the file reads it)
-  add(("const char *const nzx_names[NZX_K] = { %s };"):format((function()
-    local t = {}
-    for i = 1, k do t[i] = ("%q"):format(sys.coords[i]) end
-    return table.concat(t, ", ")
-  end)()))
-  if np > 0 then
-    add("// parameters (sys.params when exported); change them before calling")
-    for _, n in ipairs(names) do add(("double p_%s = %s;"):format(n, num(sys.params[n]))) end
-  end
-  add("")
-  -- one function per group of outputs, each with its own straight-line code
-  local function emit(fname, sig, roots_named, qdd_zero)
-    local roots = {}
-    for _, r in ipairs(roots_named) do roots[#roots + 1] = r.id end
-    local list = needed(nodes, roots)
-    add(("static void %s(%s)"):format(fname, sig))
-    add("{")
-    if qdd_zero then
-      add("  double qdd[NZX_K];")
-      add("  memset(qdd, 0, sizeof qdd);")
-    end
-    -- every parameter marked used: a function of the state that reads only
-    -- part of it compiles without -Wunused-parameter under -Wall -Wextra
-    local used = {}
-    for param in (sig .. ","):gmatch("([%a_][%w_]*)%s*,") do used[#used + 1] = ("(void)%s;"):format(param) end
-    add("  " .. table.concat(used, " "))
-    local lines, v = body(L, sys, nodes, list, np, names)
-    for _, l in ipairs(lines) do add(l) end
-    for _, r in ipairs(roots_named) do add(("  %s = %s;"):format(r.target, v(r.id))) end
-    add("}")
-    add("")
-  end
-  local function mb_roots(src, prefix)
-    local rs = {}
-    for n = 1, k * k do rs[#rs + 1] = { id = src.M[n], target = ("%sM[%d]"):format(prefix, n - 1) } end
-    for i = 1, k do rs[#rs + 1] = { id = src.h[i], target = ("%sh[%d]"):format(prefix, i - 1) } end
-    for r = 1, nc do
-      for i = 1, k do rs[#rs + 1] = { id = src.A[r][i], target = ("%sA[%d]"):format(prefix, (r - 1) * k + i - 1) } end
-      rs[#rs + 1] = { id = src.b[r], target = ("%sb[%d]"):format(prefix, r - 1) }
-    end
-    return rs
-  end
-  emit("nzx_terms", "double t, const double *q, const double *qd, double *M, double *h, double *A, double *b", mb_roots(out, ""), true)
-  local phis = {}
-  for r = 1, nc do phis[r] = { id = out.phi[r], target = ("phi[%d]"):format(r - 1) } end
-  add("// The constraint values Phi_r(t, q, q', q''), to watch their drift.")
-  emit("nzx_constraints_raw", "double t, const double *q, const double *qd, const double *qdd, double *phi", phis, false)
-  if out.d then
-    for j = 1, 2 * k do emit(("nzx_dterms_%d"):format(j - 1),
-      "double t, const double *q, const double *qd, double *dM, double *dh, double *dA, double *db", mb_roots(out.d[j], "d"), true) end
-  end
-  add([=[
+-- The C file's fixed parts: the saddle-point solve and the right-hand side
+-- (LU with partial pivoting, written out: the file needs only libm), the
+-- Jacobian of the right-hand side, and a main that integrates with GSL.
+local C_SOLVER = [=[
 // LU with partial pivoting of the n x n matrix a (row-major), in place;
 // 0, or -1 when a pivot is zero (a singular mass matrix or dependent
 // constraints at this state).
@@ -388,13 +321,9 @@ int nzx_constraints(double t, const double *q, const double *qd, double *phi)
   nzx_constraints_raw(t, q, qd, qdd, phi);
   return 0;
 }
-]=])
-  if out.d then
-    local calls = {}
-    for j = 1, 2 * k do calls[j] = ("nzx_dterms_%d"):format(j - 1) end
-    add(("static void (*const nzx_dterms[NZX_DIM])(double, const double *, const double *, double *, double *, double *, double *) = { %s };")
-      :format(table.concat(calls, ", ")))
-    add([=[
+]=]
+
+local C_JACOBIAN = [=[
 
 // The Jacobian df/dy (dim x dim, row-major) at (t, y): the q' rows are the
 // identity's; the q'' rows from the derivative of the saddle-point solve,
@@ -426,13 +355,9 @@ int nzx_jacobian(double t, const double *y, double *J)
   }
   return 0;
 }
-]=])
-  end
-  if opts.main then
-    local m = opts.main
-    local q0, qd0 = {}, {}
-    for i = 1, k do q0[i], qd0[i] = num(m.q0[i]), num((m.qd0 or {})[i] or 0) end
-    add(([=[
+]=]
+
+local C_MAIN = [=[
 #ifndef NZX_NO_MAIN
 #include <gsl/gsl_errno.h>
 #include <gsl/gsl_odeiv2.h>
@@ -471,7 +396,104 @@ int main(void)
   return 0;
 }
 #endif
-]=]):format(num(m.t0 or 0), num(m.t1), num(m.dt), num(m.rtol or 1e-10), num(m.atol or 1e-10), table.concat(q0, ", "),
+]=]
+
+-- The C file's head: what it is, the coordinates, its includes, its sizes,
+-- the names and the parameters.
+local function c_header(sys, opts, add, names)
+  local k, nc = sys.k, sys.nc
+  add(("// %s: the equations of motion of '%s', written by nzlua's sys:export."):format(opts.file or "export.c", sys.name))
+  add("// Self-contained: C99 and libm (GSL only for the main). Coordinates:")
+  for i = 1, k do add(("//   q[%d] = %s, qd[%d] = %s'"):format(i - 1, sys.coords[i], i - 1, sys.coords[i])) end
+  add("// M q'' + h = A^T lambda (the equations of every order n collected), the constraints")
+  add("// closed at the acceleration level: A q'' + b = 0.  The state is y = (q, q').")
+  add("#include <math.h>")
+  add("#include <stdio.h>")
+  add("#include <stdlib.h>")
+  add("#include <string.h>")
+  add("")
+  add(("enum { NZX_K = %d, NZX_NC = %d, NZX_DIM = %d };"):format(k, nc, 2 * k))
+  -- (not static: without a main nothing in the file reads it)
+  add(("const char *const nzx_names[NZX_K] = { %s };"):format((function()
+    local t = {}
+    for i = 1, k do t[i] = ("%q"):format(sys.coords[i]) end
+    return table.concat(t, ", ")
+  end)()))
+  if #names > 0 then
+    add("// parameters (sys.params when exported); change them before calling")
+    for _, n in ipairs(names) do add(("double p_%s = %s;"):format(n, num(sys.params[n]))) end
+  end
+end
+
+-- One C function per group of outputs (M, h, A, b; the constraints'
+-- values; their derivatives along each state component), each with its own
+-- straight-line code.
+local function c_functions(sys, out, nodes, add, np, names)
+  local k, nc, L = sys.k, sys.nc, C
+  local function emit(fname, sig, roots_named, qdd_zero)
+    local roots = {}
+    for _, r in ipairs(roots_named) do roots[#roots + 1] = r.id end
+    local list = needed(nodes, roots)
+    add(("static void %s(%s)"):format(fname, sig))
+    add("{")
+    if qdd_zero then
+      add("  double qdd[NZX_K];")
+      add("  memset(qdd, 0, sizeof qdd);")
+    end
+    -- every parameter marked used: a function of the state that reads only
+    -- part of it compiles without -Wunused-parameter under -Wall -Wextra
+    local used = {}
+    for param in (sig .. ","):gmatch("([%a_][%w_]*)%s*,") do used[#used + 1] = ("(void)%s;"):format(param) end
+    add("  " .. table.concat(used, " "))
+    local lines, v = body(L, sys, nodes, list, np, names)
+    for _, l in ipairs(lines) do add(l) end
+    for _, r in ipairs(roots_named) do add(("  %s = %s;"):format(r.target, v(r.id))) end
+    add("}")
+    add("")
+  end
+  local function mb_roots(src, prefix)
+    local rs = {}
+    for n = 1, k * k do rs[#rs + 1] = { id = src.M[n], target = ("%sM[%d]"):format(prefix, n - 1) } end
+    for i = 1, k do rs[#rs + 1] = { id = src.h[i], target = ("%sh[%d]"):format(prefix, i - 1) } end
+    for r = 1, nc do
+      for i = 1, k do rs[#rs + 1] = { id = src.A[r][i], target = ("%sA[%d]"):format(prefix, (r - 1) * k + i - 1) } end
+      rs[#rs + 1] = { id = src.b[r], target = ("%sb[%d]"):format(prefix, r - 1) }
+    end
+    return rs
+  end
+  emit("nzx_terms", "double t, const double *q, const double *qd, double *M, double *h, double *A, double *b", mb_roots(out, ""), true)
+  local phis = {}
+  for r = 1, nc do phis[r] = { id = out.phi[r], target = ("phi[%d]"):format(r - 1) } end
+  add("// The constraint values Phi_r(t, q, q', q''), to watch their drift.")
+  emit("nzx_constraints_raw", "double t, const double *q, const double *qd, const double *qdd, double *phi", phis, false)
+  if out.d then
+    for j = 1, 2 * k do emit(("nzx_dterms_%d"):format(j - 1),
+      "double t, const double *q, const double *qd, double *dM, double *dh, double *dA, double *db", mb_roots(out.d[j], "d"), true) end
+  end
+end
+
+local function c_file(sys, out, nodes, opts)
+  local k = sys.k
+  local names = sys.engine.compiled_params or {}
+  local np = #names
+  local w = {}
+  local function add(s) w[#w + 1] = s end
+  c_header(sys, opts, add, names)
+  add("")
+  c_functions(sys, out, nodes, add, np, names)
+  add(C_SOLVER)
+  if out.d then
+    local calls = {}
+    for j = 1, 2 * k do calls[j] = ("nzx_dterms_%d"):format(j - 1) end
+    add(("static void (*const nzx_dterms[NZX_DIM])(double, const double *, const double *, double *, double *, double *, double *) = { %s };")
+      :format(table.concat(calls, ", ")))
+    add(C_JACOBIAN)
+  end
+  if opts.main then
+    local m = opts.main
+    local q0, qd0 = {}, {}
+    for i = 1, k do q0[i], qd0[i] = num(m.q0[i]), num((m.qd0 or {})[i] or 0) end
+    add(C_MAIN:format(num(m.t0 or 0), num(m.t1), num(m.dt), num(m.rtol or 1e-10), num(m.atol or 1e-10), table.concat(q0, ", "),
       table.concat(qd0, ", ")))
   end
   return table.concat(w, "\n") .. "\n"
@@ -479,6 +501,170 @@ end
 
 -- ------------------------------------------------------------------ --
 -- Python (NumPy) and Octave: the same functions, in one file each
+
+-- The Python and Octave files' fixed parts: the saddle-point solve and the
+-- right-hand side, the Jacobian, and a main (Dormand-Prince in Python, so
+-- that NumPy is all it needs; ode45 in Octave).
+local PY_SOLVER = [=[
+def _kkt(M, h, A, b):
+    n = K + NC
+    Kk = np.zeros((n, n)); r = np.zeros(n)
+    Kk[:K, :K] = M; Kk[:K, K:] = -A.T; Kk[K:, :K] = A
+    r[:K] = -h; r[K:] = -b
+    return Kk, r
+
+def nzx_accel(t, q, qd):
+    """q'' and the multipliers at (t, q, q')."""
+    M, h, A, b = nzx_terms(t, q, qd)
+    Kk, r = _kkt(M, h, A, b)
+    z = np.linalg.solve(Kk, r)
+    return z[:K], z[K:]
+
+def nzx_rhs(t, y):
+    """f(t, y) = (q', q'')."""
+    y = np.asarray(y, dtype=float)
+    qdd, _ = nzx_accel(t, y[:K], y[K:])
+    return np.concatenate((y[K:], qdd))
+
+def nzx_constraints(t, q, qd):
+    qdd, _ = nzx_accel(t, q, qd)
+    return nzx_constraints_raw(t, q, qd, qdd)
+]=]
+
+local PY_JACOBIAN = [=[
+
+def nzx_jacobian(t, y):
+    """df/dy from the derivative of the saddle-point solve (exact terms)."""
+    y = np.asarray(y, dtype=float)
+    q, qd = y[:K], y[K:]
+    M, h, A, b = nzx_terms(t, q, qd)
+    Kk, r = _kkt(M, h, A, b)
+    z = np.linalg.solve(Kk, r)
+    J = np.zeros((2 * K, 2 * K))
+    J[:K, K:] = np.eye(K)
+    for j, d in enumerate(_DTERMS):
+        dK, dr = _kkt(*d(t, q, qd))
+        J[K:, j] = np.linalg.solve(Kk, dr - dK @ z)[:K]
+    return J
+]=]
+
+local PY_MAIN = [=[
+def _dopri(f, t, y, t1, rtol, atol, h):
+    """Dormand-Prince 5(4) with error control, from t to t1."""
+    c = [0, 1/5, 3/10, 4/5, 8/9, 1, 1]
+    a = [[], [1/5], [3/40, 9/40], [44/45, -56/15, 32/9],
+         [19372/6561, -25360/2187, 64448/6561, -212/729],
+         [9017/3168, -355/33, 46732/5247, 49/176, -5103/18656],
+         [35/384, 0, 500/1113, 125/192, -2187/6784, 11/84]]
+    e = [71/57600, 0, -71/16695, 71/1920, -17253/339200, 22/525, -1/40]
+    while t < t1:
+        h = min(h, t1 - t)
+        ks = []
+        for i in range(7):
+            yi = y + h * sum(a[i][j] * ks[j] for j in range(i)) if i else y
+            ks.append(f(t + c[i] * h, yi))
+        y5 = y + h * sum(a[6][j] * ks[j] for j in range(6))
+        err = h * sum(e[j] * ks[j] for j in range(7))
+        sc = atol + rtol * np.maximum(np.abs(y), np.abs(y5))
+        en = math.sqrt(np.mean((err / sc) ** 2))
+        if en <= 1.0:
+            t, y = t + h, y5
+        h *= min(5.0, max(0.2, 0.9 * (en if en > 0 else 1e-10) ** -0.2))
+    return y, h
+
+def main():
+    t0, t1, dt, rtol, atol = %s, %s, %s, %s, %s
+    y = np.array([%s])
+    print("t," + ",".join(NAMES) + "," + ",".join(n + "'" for n in NAMES))
+    n = int(math.floor((t1 - t0) / dt + 0.5))
+    h, t = min(dt, 1e-3), t0
+    for s in range(n + 1):
+        ts = t1 if s == n else t0 + s * dt
+        if s > 0:
+            y, h = _dopri(nzx_rhs, t, y, ts, rtol, atol, h)
+            t = ts
+        print(",".join(repr(float(v)) for v in [ts] + list(y)))
+
+if __name__ == "__main__":
+    main()
+]=]
+
+local OCTAVE_SOLVER = [=[
+function [Kk, r] = kkt_(M, h, A, b)
+  k = %d; nc = %d;
+  Kk = zeros(k + nc); r = zeros(k + nc, 1);
+  Kk(1:k, 1:k) = M;
+  if nc > 0
+    Kk(1:k, k+1:end) = -A'; Kk(k+1:end, 1:k) = A; r(k+1:end) = -b;
+  end
+  r(1:k) = -h;
+end
+function [qdd, lambda] = nzx_accel(t, q, qd)
+  [M, h, A, b] = nzx_terms(t, q, qd);
+  [Kk, r] = kkt_(M, h, A, b);
+  z = Kk \ r;
+  qdd = z(1:%d); lambda = z(%d+1:end);
+end
+function f = nzx_rhs(t, y)
+  k = %d;
+  qdd = nzx_accel(t, y(1:k), y(k+1:end));
+  f = [y(k+1:end); qdd];
+end]=]
+
+local OCTAVE_MAIN = [=[
+t0 = %s; t1 = %s; dt = %s;
+n = round((t1 - t0) / dt);
+ts = t0 + (0:n)' * dt; ts(end) = t1;
+opts = odeset('RelTol', %s, 'AbsTol', %s);
+[tt, yy] = ode45(@nzx_rhs, ts, [%s]', opts);
+printf('%s\n');
+for s = 1:numel(tt)
+  printf('%%.17g', tt(s)); printf(',%%.17g', yy(s, :)); printf('\n');
+end]=]
+
+-- The Python file after the terms: the constraints, the solve, the
+-- Jacobian and the main (emit writes a function of the graph's outputs).
+local function python_tail(sys, out, opts, add, emit, phis)
+  local k, L = sys.k, PY
+  add("def nzx_constraints_raw(t, q, qd, qdd):")
+  add("    phi = np.zeros(NC)")
+  add("    return _phi_fill(t, q, qd, qdd, phi)")
+  add("")
+  emit("_phi_fill", "t, q, qd, qdd, phi", phis, false, "phi")
+  add(PY_SOLVER)
+  if out.d then
+    local names_d = {}
+    for j = 1, 2 * k do names_d[j] = ("nzx_dterms_%d"):format(j) end
+    add(("_DTERMS = [%s]"):format(table.concat(names_d, ", ")))
+    add(PY_JACOBIAN)
+  end
+  if opts.main then
+    local m = opts.main
+    local y0 = {}
+    for i = 1, k do y0[i] = L.num(m.q0[i]) end
+    for i = 1, k do y0[k + i] = L.num((m.qd0 or {})[i] or 0) end
+    add(PY_MAIN:format(L.num(m.t0 or 0), L.num(m.t1), L.num(m.dt), L.num(m.rtol or 1e-10), L.num(m.atol or 1e-10), table.concat(y0, ", ")))
+  end
+end
+
+-- The Octave file after the terms.
+local function octave_tail(sys, opts, add, emit, phis)
+  local k, nc, L = sys.k, sys.nc, OCT
+  add(("function phi = nzx_constraints_raw(t, q, qd, qdd)\n  phi = zeros(%d, 1);\n  phi = phi_fill_(t, q, qd, qdd, phi);\nend"):format(nc))
+  emit("phi_fill_", "t, q, qd, qdd, phi", phis, false, "phi")
+  add(OCTAVE_SOLVER:format(k, nc, k, k, k))
+  if opts.main then
+    local m = opts.main
+    local y0 = {}
+    for i = 1, k do y0[i] = L.num(m.q0[i]) end
+    for i = 1, k do y0[k + i] = L.num((m.qd0 or {})[i] or 0) end
+    local head = { "t" }
+    for i = 1, k do head[#head + 1] = sys.coords[i] end
+    for i = 1, k do head[#head + 1] = sys.coords[i] .. "'" end
+    add(OCTAVE_MAIN:format(L.num(m.t0 or 0), L.num(m.t1), L.num(m.dt), L.num(m.rtol or 1e-10), L.num(m.atol or 1e-10),
+      table.concat(y0, "; "), (table.concat(head, ","):gsub("'", "''"))))   -- a quote doubled in Octave's strings
+  end
+end
 
 local function script_file(sys, out, nodes, opts, L)
   local k, nc, e = sys.k, sys.nc, sys.engine
@@ -554,149 +740,7 @@ local function script_file(sys, out, nodes, opts, L)
   if out.d then for j = 1, 2 * k do terms(("nzx_dterms_%d"):format(j), out.d[j]) end end
   local phis = {}
   for r = 1, nc do phis[r] = { id = out.phi[r], target = py and ("phi[%d]"):format(r - 1) or ("phi(%d)"):format(r) } end
-  if py then
-    add("def nzx_constraints_raw(t, q, qd, qdd):")
-    add("    phi = np.zeros(NC)")
-    add("    return _phi_fill(t, q, qd, qdd, phi)")
-    add("")
-    emit("_phi_fill", "t, q, qd, qdd, phi", phis, false, "phi")
-    add([=[
-def _kkt(M, h, A, b):
-    n = K + NC
-    Kk = np.zeros((n, n)); r = np.zeros(n)
-    Kk[:K, :K] = M; Kk[:K, K:] = -A.T; Kk[K:, :K] = A
-    r[:K] = -h; r[K:] = -b
-    return Kk, r
-
-def nzx_accel(t, q, qd):
-    """q'' and the multipliers at (t, q, q')."""
-    M, h, A, b = nzx_terms(t, q, qd)
-    Kk, r = _kkt(M, h, A, b)
-    z = np.linalg.solve(Kk, r)
-    return z[:K], z[K:]
-
-def nzx_rhs(t, y):
-    """f(t, y) = (q', q'')."""
-    y = np.asarray(y, dtype=float)
-    qdd, _ = nzx_accel(t, y[:K], y[K:])
-    return np.concatenate((y[K:], qdd))
-
-def nzx_constraints(t, q, qd):
-    qdd, _ = nzx_accel(t, q, qd)
-    return nzx_constraints_raw(t, q, qd, qdd)
-]=])
-    if out.d then
-      local names_d = {}
-      for j = 1, 2 * k do names_d[j] = ("nzx_dterms_%d"):format(j) end
-      add(("_DTERMS = [%s]"):format(table.concat(names_d, ", ")))
-      add([=[
-
-def nzx_jacobian(t, y):
-    """df/dy from the derivative of the saddle-point solve (exact terms)."""
-    y = np.asarray(y, dtype=float)
-    q, qd = y[:K], y[K:]
-    M, h, A, b = nzx_terms(t, q, qd)
-    Kk, r = _kkt(M, h, A, b)
-    z = np.linalg.solve(Kk, r)
-    J = np.zeros((2 * K, 2 * K))
-    J[:K, K:] = np.eye(K)
-    for j, d in enumerate(_DTERMS):
-        dK, dr = _kkt(*d(t, q, qd))
-        J[K:, j] = np.linalg.solve(Kk, dr - dK @ z)[:K]
-    return J
-]=])
-    end
-    if opts.main then
-      local m = opts.main
-      local y0 = {}
-      for i = 1, k do y0[i] = L.num(m.q0[i]) end
-      for i = 1, k do y0[k + i] = L.num((m.qd0 or {})[i] or 0) end
-      add(([=[
-def _dopri(f, t, y, t1, rtol, atol, h):
-    """Dormand-Prince 5(4) with error control, from t to t1."""
-    c = [0, 1/5, 3/10, 4/5, 8/9, 1, 1]
-    a = [[], [1/5], [3/40, 9/40], [44/45, -56/15, 32/9],
-         [19372/6561, -25360/2187, 64448/6561, -212/729],
-         [9017/3168, -355/33, 46732/5247, 49/176, -5103/18656],
-         [35/384, 0, 500/1113, 125/192, -2187/6784, 11/84]]
-    e = [71/57600, 0, -71/16695, 71/1920, -17253/339200, 22/525, -1/40]
-    while t < t1:
-        h = min(h, t1 - t)
-        ks = []
-        for i in range(7):
-            yi = y + h * sum(a[i][j] * ks[j] for j in range(i)) if i else y
-            ks.append(f(t + c[i] * h, yi))
-        y5 = y + h * sum(a[6][j] * ks[j] for j in range(6))
-        err = h * sum(e[j] * ks[j] for j in range(7))
-        sc = atol + rtol * np.maximum(np.abs(y), np.abs(y5))
-        en = math.sqrt(np.mean((err / sc) ** 2))
-        if en <= 1.0:
-            t, y = t + h, y5
-        h *= min(5.0, max(0.2, 0.9 * (en if en > 0 else 1e-10) ** -0.2))
-    return y, h
-
-def main():
-    t0, t1, dt, rtol, atol = %s, %s, %s, %s, %s
-    y = np.array([%s])
-    print("t," + ",".join(NAMES) + "," + ",".join(n + "'" for n in NAMES))
-    n = int(math.floor((t1 - t0) / dt + 0.5))
-    h, t = min(dt, 1e-3), t0
-    for s in range(n + 1):
-        ts = t1 if s == n else t0 + s * dt
-        if s > 0:
-            y, h = _dopri(nzx_rhs, t, y, ts, rtol, atol, h)
-            t = ts
-        print(",".join(repr(float(v)) for v in [ts] + list(y)))
-
-if __name__ == "__main__":
-    main()
-]=]):format(L.num(m.t0 or 0), L.num(m.t1), L.num(m.dt), L.num(m.rtol or 1e-10), L.num(m.atol or 1e-10), table.concat(y0, ", ")))
-    end
-  else
-    add(("function phi = nzx_constraints_raw(t, q, qd, qdd)\n  phi = zeros(%d, 1);\n  phi = phi_fill_(t, q, qd, qdd, phi);\nend"):format(nc))
-    emit("phi_fill_", "t, q, qd, qdd, phi", phis, false, "phi")
-    add(([=[
-function [Kk, r] = kkt_(M, h, A, b)
-  k = %d; nc = %d;
-  Kk = zeros(k + nc); r = zeros(k + nc, 1);
-  Kk(1:k, 1:k) = M;
-  if nc > 0
-    Kk(1:k, k+1:end) = -A'; Kk(k+1:end, 1:k) = A; r(k+1:end) = -b;
-  end
-  r(1:k) = -h;
-end
-function [qdd, lambda] = nzx_accel(t, q, qd)
-  [M, h, A, b] = nzx_terms(t, q, qd);
-  [Kk, r] = kkt_(M, h, A, b);
-  z = Kk \ r;
-  qdd = z(1:%d); lambda = z(%d+1:end);
-end
-function f = nzx_rhs(t, y)
-  k = %d;
-  qdd = nzx_accel(t, y(1:k), y(k+1:end));
-  f = [y(k+1:end); qdd];
-end]=]):format(k, nc, k, k, k))
-    if opts.main then
-      local m = opts.main
-      local y0 = {}
-      for i = 1, k do y0[i] = L.num(m.q0[i]) end
-      for i = 1, k do y0[k + i] = L.num((m.qd0 or {})[i] or 0) end
-      local head = { "t" }
-      for i = 1, k do head[#head + 1] = sys.coords[i] end
-      for i = 1, k do head[#head + 1] = sys.coords[i] .. "'" end
-      add(([=[
-t0 = %s; t1 = %s; dt = %s;
-n = round((t1 - t0) / dt);
-ts = t0 + (0:n)' * dt; ts(end) = t1;
-opts = odeset('RelTol', %s, 'AbsTol', %s);
-[tt, yy] = ode45(@nzx_rhs, ts, [%s]', opts);
-printf('%s\n');
-for s = 1:numel(tt)
-  printf('%%.17g', tt(s)); printf(',%%.17g', yy(s, :)); printf('\n');
-end]=]):format(L.num(m.t0 or 0), L.num(m.t1), L.num(m.dt), L.num(m.rtol or 1e-10), L.num(m.atol or 1e-10),
-        table.concat(y0, "; "), (table.concat(head, ","):gsub("'", "''"))))   -- a quote doubled in Octave's strings
-    end
-  end
+  if py then python_tail(sys, out, opts, add, emit, phis) else octave_tail(sys, opts, add, emit, phis) end
   return table.concat(w, "\n") .. "\n"
 end
 

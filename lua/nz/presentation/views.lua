@@ -3,7 +3,8 @@
 --                    run crossed zero (located by simulate, not read off the
 --                    output grid), two quantities against each other;
 --   tr:animate{...}  the mechanism drawn frame by frame: in the terminal,
---                    or to an animated GIF or SVG frames (gnuplot).
+--                    or to an animated GIF or SVG frames (gnuplot); with
+--                    view = "3d" the bodies in space (nz/presentation/view3d.lua).
 local plot = require "nz.draw.plot"
 
 local M = {}
@@ -17,7 +18,7 @@ local function check_options(fname, opts, known)
 end
 
 -- A value as the user wrote it, for messages.
-local function shown(v) return type(v) == "string" and ("%q"):format(v) or tostring(v) end
+local shown = require("nz.base.text").literal   -- an option as written: key = "value"
 
 -- The value of a named quantity at an event's state: a coordinate, or its
 -- velocity "name'".
@@ -116,7 +117,7 @@ local function shapes_of(tr, opts)
 end
 
 local function whole(v, lo, hi) return type(v) == "number" and v == math.floor(v) and v >= lo and v <= hi end
-local function finite(v) return type(v) == "number" and v == v and math.abs(v) < math.huge end
+local finite = require("nz.base.args").finite
 
 -- A point or segment as given, for messages.
 local function listed(v)
@@ -153,6 +154,21 @@ local function check_animate(tr, opts)
   end
   if opts.links ~= nil and type(opts.links) ~= "boolean" then
     bad("links", "true (lines from the origin through the bodies in turn, the default) or false expected")
+  end
+  if opts.view ~= nil and opts.view ~= "2d" and opts.view ~= "3d" then
+    bad("view", "\"2d\" (the bodies in a plane, the default) or \"3d\" (in space) expected")
+  end
+  if opts.view == "3d" then
+    for _, key in ipairs{ "draw", "plane", "range" } do
+      if opts[key] ~= nil then
+        fail("animate", "view = \"3d\" draws the bodies in space, and %s = ... is for a drawing in a plane: give one or the "
+          .. "other", key)
+      end
+    end
+    if not tr.system.bodies then
+      fail("animate", "view = \"3d\" draws a system's bodies, and this one has none: make it with bodies = {...} "
+        .. "(nz.system or nz.scene)")
+    end
   end
   if opts.draw and (opts.plane ~= nil or opts.links ~= nil) then
     fail("animate", "%s draws the bodies, and draw = function(t, q) ... replaces them: give one or the other",
@@ -205,12 +221,12 @@ end
 
 -- tr:animate{ [file = "motion.gif" | "frame.svg", frames = 60, fps = 20,
 --   draw = function(t, q) ... end, plane = "xy", links = true, range =
---   {xmin, xmax, ymin, ymax}] }: `frames` evenly spaced output points drawn
--- with gnuplot; with a .gif file one animated GIF, with .svg one file per
--- frame (name-001.svg, ...), else in the terminal, one frame after another.
--- Returns the number of frames (and the file names).
+--   {xmin, xmax, ymin, ymax}, view = "2d" | "3d"] }: `frames` evenly spaced
+-- output points drawn with gnuplot; with a .gif file one animated GIF, with
+-- .svg one file per frame (name-001.svg, ...), else in the terminal, one
+-- frame after another.  Returns the number of frames (and the file names).
 local ANIMATE = require("nz.base.options").declare("tr:animate", { file = true, frames = true, fps = true, draw = true,
-  plane = true, links = true, range = true, width = true, height = true, title = true })
+  plane = true, links = true, range = true, width = true, height = true, title = true, view = true })
 -- In a notebook: the animated GIF shown inline (sized as a file's unless
 -- width and height are given, then in the terminal's characters, as a
 -- plot's), with a line of text beside it.
@@ -221,23 +237,39 @@ function M.inline_animation(tr, opts, nframes)
   display.show(display.bundle{
     ["image/gif"] = gif,
     -- the same GIF as an image in HTML, for renderers without image/gif (nbconvert's HTML)
-    ["text/html"] = function() return ('<img src="data:image/gif;base64,%s" alt="animation of %s"/>'):format(display.base64(gif),
-      display.escape(tr.system.name)) end,
+    ["text/html"] = function() return display.img("image/gif", gif, "animation of " .. tr.system.name) end,
     ["text/plain"] = ("animation of '%s': %d frames"):format(tr.system.name, nframes),
   })
   return require("nz.base.frontend").shown(nframes, {})   -- shown: nothing more at the prompt
 end
+
+-- The output points drawn: `frames` of them (default 60, at most all),
+-- evenly spaced.
+local function frame_points(tr, opts)
+  local nframes = math.min(opts.frames or 60, #tr.t)
+  local idx = {}
+  for f = 1, nframes do idx[f] = nframes == 1 and 1 or math.floor(1 + (f - 1) * (#tr.t - 1) / (nframes - 1) + 0.5) end
+  return idx
+end
+
+-- The frames of draw(t, q) at the chosen output points, drawn by gnuplot
+-- (to opts.file, else in the terminal, or in a notebook its inline GIF).
+local draw_frames
 
 function M.animate(tr, opts)
   opts = opts or {}
   check_options("animate", opts, ANIMATE)
   check_animate(tr, opts)
   if #tr.t == 0 then fail("animate", "the trajectory is empty") end
+  if opts.view == "3d" then return require("nz.presentation.view3d").animate(tr, opts, frame_points(tr, opts), draw_frames) end
   local draw = shapes_of(tr, opts)
   if tr.contacts then draw = require("nz.motion.contact_run").drawing(tr, draw, PLANES[opts.plane or "xy"]) end
-  local nframes = math.min(opts.frames or 60, #tr.t)
-  local idx = {}
-  for f = 1, nframes do idx[f] = nframes == 1 and 1 or math.floor(1 + (f - 1) * (#tr.t - 1) / (nframes - 1) + 0.5) end
+  return draw_frames(tr, opts, draw)
+end
+
+function draw_frames(tr, opts, draw)
+  local idx = frame_points(tr, opts)
+  local nframes = #idx
   local frames = {}
   local xmin, xmax, ymin, ymax = math.huge, -math.huge, math.huge, -math.huge
   for f, i in ipairs(idx) do

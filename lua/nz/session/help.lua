@@ -304,7 +304,10 @@ one, e.g. help(sys.simulate):
         steps set the count; bsimp or msbdf only when its steps times the
         Jacobian's spectral radius sit at the method's stability boundary)
         and goes on (tr.stats.long_run); one whose steps stop advancing t
-        stops with the state and M.
+        stops with the state and M.  Steps that collapse against a jump of
+        the right-hand side stop the run with the branch that decides it (a
+        comparison, sign, ifelse or atan2's cut at rounding level or at the
+        switch), its function, the time and the state.
         Event functions are recorded and watched in C; one that cannot be
         recorded is called in Lua (tr.stats.events_why says why).  The
         events of a step are located and handed over in time order.
@@ -540,7 +543,7 @@ help(tr.NAME) shows one method, e.g. help(tr.plot):
                              pixels in a file)
   tr:animate{[file = "m.gif" | "m.svg", frames = 60, fps = 20, draw = f,
               plane = "xy", links = true, range = {x0, x1, y0, y1},
-              title =, width =, height =]}
+              title =, width =, height =, view = "2d" | "3d"]}
                              the mechanism frame by frame: in the terminal,
                              as an animated GIF, or SVG frames; from the
                              bodies (a point each, linked as a chain from a
@@ -552,7 +555,14 @@ help(tr.NAME) shows one method, e.g. help(tr.plot):
                              "xy", "xz" or "yz" (bodies only), links true or
                              false (false: no links, no pivot), range four
                              numbers: checked before drawing.  In a
-                             notebook: an inline animated GIF
+                             notebook: an inline animated GIF.  view =
+                             "3d": the bodies in space (a particle a
+                             sphere, a rigid body its ellipsoid of inertia
+                             and axes, the links, the contacts' points, a
+                             grid across gravity): in a notebook a three.js
+                             scene to turn, play/pause and a time slider;
+                             in the terminal and to a file the same seen
+                             from a fixed direction
   print(tr)                  a summary: cost, status, drift, monitors
   print(sys)                 a summary]] },
   { name = "forms", section = "mechanics", usage = "nz.forms",
@@ -564,10 +574,13 @@ Each body: mass (a positive number), pos = function(t, q, params) returning its
 centre of mass {x, y, z}; a rigid body also has rot = function(t, q, params)
 returning its 3x3 rotation matrix (body axes to space) and inertia =
 {I1, I2, I3} (principal, about the centre of mass) or a symmetric 3x3 matrix,
-in body axes.  gravity = {gx, gy, gz} adds V = -sum m g.r.  Velocities come
-from the jets.  Returns {T = ..., V = ..., S = ...} (S, for Wassmuth's form,
-for particles only); nz.system{coords = ..., bodies = {...}} does the same
-inline.]] },
+in body axes.  gravity = {gx, gy, gz} adds V = -sum m g.r.  The mass, the
+inertia and the gravity may each be a function of the params instead:
+mass = function(p) return p.m end, gravity = function(p) return {0, -p.g, 0}
+end; the equations then keep the symbols (sys:show prints m and g) and
+follow sys.params.  Velocities come from the jets.  Returns {T = ..., V =
+..., S = ...} (S, for Wassmuth's form, for particles only); nz.system{coords
+= ..., bodies = {...}} does the same inline.]] },
   { name = "unilateral", section = "mechanics",
     usage = "nz.unilateral(gap [, {e =, mu =, mu_s =, slip =, name =, at =}])",
     summary = "a unilateral constraint gap(t, q) >= 0: contact, impacts, friction",
@@ -578,27 +591,32 @@ multiplier is then the contact force).  While it touches and pushes
 reaches 0, and closes where the gap reaches 0, with an impact when it
 approaches: Lagrange's impulse equations M (q'+ - q'-) = J^T P with Newton's
 law J q'+ = -e J q'- (e in [0, 1], 0 by default: it stays closed), every
-touching contact at once (an LCP, Lemke's algorithm).  Coulomb friction:
-mu (sliding), mu_s >= mu (sticking), slip = function(t, q, qd, params), the
-slip velocity (or a function of (t, q) whose rate it is), or slip = {f1,
-f2}: the two slip velocities along orthonormal tangent directions, the
-isotropic cone |F_t| <= mu lambda with the friction against the slip in any
-direction (a puck on ice); it sticks where the slip velocity reaches 0 and
-the force to hold is within mu_s lambda, and slides again where it leaves
-that cone.  Contacts that depend on each other (a block on two corners with
-friction at both, a table on four legs) are held together: the motion is
-unique, their forces are the least-norm ones that are admissible (m g/2 per
-corner, m g/4 per leg).  Painleve's paradox is an error naming the contact.
-Impacts accumulating in finite time (Zeno), or rebounds below what the run
-resolves, end in persistent contact.  at = function(t, q, params) ->
-{x, y, z}: the point tr:animate draws while it is held.  Every method runs
-it (the GSL steppers and taylor; events on their dense output; taylor
-cannot start an isotropic cone sliding from rest).  tr.events lists each
-contact's impulse at an impact, and each closing, opening, stick and slip;
-tr.contacts the modes; sys:show{} writes the contacts' forces and laws;
-sys:accel and the other methods see the system without its contacts.
-nz.effects.contact and friction declare the same in a scene.
-docs/theory.md §13.]] },
+touching contact at once (an LCP, Lemke's algorithm): Newton's cradle of
+three touching balls hit at v leaves with (-1/3, 2/3, 2/3) v, where a real
+cradle's quick sequence of binary impacts gives (0, 0, v); a small gap
+between the balls (1 mm) gives that sequence and that outcome.  Coulomb
+friction: mu (sliding), mu_s >= mu (sticking), slip = function(t, q, qd,
+params), the slip velocity (or a function of (t, q) whose rate it is), or
+slip = {f1, f2}: the two slip velocities along orthonormal tangent
+directions, the isotropic cone |F_t| <= mu lambda with the friction against
+the slip in any direction (a puck on ice); it sticks where the slip velocity
+reaches 0 and the force to hold is within mu_s lambda, and slides again where
+it leaves that cone.  Contacts that depend on each other (a block on two
+corners with friction at both, a table on four legs) are held together: the
+motion is unique, their forces are the least-norm ones that are admissible
+(m g/2 per corner, m g/4 per leg).  Painleve's paradox is an error naming the
+contact.  Impacts accumulating in finite time (Zeno), or rebounds below what
+the run resolves, end in persistent contact: tr.contacts.zeno[i] has
+.accumulation, the time the impacts predicted (a bouncing ball's t1 (1 +
+e)/(1 - e)), .t, the last impact's, made plastic, from which the contact is
+held, and .contact, its name.  at = function(t, q, params) -> {x, y, z}: the
+point tr:animate draws while it is held.  Every method runs it (the GSL
+steppers and taylor; events on their dense output; taylor cannot start an
+isotropic cone sliding from rest).  tr.events lists each contact's impulse
+at an impact, and each closing, opening, stick and slip; tr.contacts the
+modes; sys:show{} writes the contacts' forces and laws; sys:accel and the
+other methods see the system without its contacts.  nz.effects.contact and
+friction declare the same in a scene.  docs/theory.md §13.]] },
   { name = "scene", section = "scenes",
     usage = "nz.scene{coords =, bodies = {{name =, mass =, pos = ...}}, effects = {...}}",
     summary = "a system built from bodies and the effects the scene declares",
@@ -614,8 +632,11 @@ effects).]] },
     summary = "gravity, spring, damper, force, driven, knife_edge, rolling_disk, rolling_ball, constant_speed, constraint, contact, friction",
     text = [[
 Points are body names, functions (t, q, params) -> {x, y, z} (moving
-supports) or fixed {x, y, z}; coordinates are given by name.  A wrong or
-missing parameter is an error naming the effect and the parameter.
+supports) or fixed {x, y, z}; coordinates are given by name.  g, k,
+length, rest, cubic, c, radius and speed may be functions of the params
+(k = function(p) return p.k end: sys:show keeps the symbol); e, mu and mu_s
+are numbers.  A wrong or missing parameter is an error naming the effect
+and the parameter.
 help(nz.effects.NAME) explains one, with its parameters.
   gravity{g = {0, 0, -9.81}, bodies = {names}}     V = -sum m g . r
   spring{between = {A, B}, k =, length =, cubic =, energy = f(s)}  or

@@ -33,6 +33,7 @@ local function objects()
         { "constraint_levels", "per constraint, the derivative slots it receives (q, qd, qdd, ...)" },
         { "bodies", "the bodies of nz.system{bodies = ...} or of a scene, which tr:animate draws" },
         { "effects", "a scene's effects, by kind (nz.scene)" },
+        { "gravity", "a scene's gravity (its gravity effect's g), against which tr:animate{view = \"3d\"} puts up" },
         { "contact", "with unilateral contacts (help(nz.unilateral)): their names and parameters, and the system a "
           .. "run integrates them with (contact.system: the constraints, then each gap and slip function)" },
         { "recording", "what was recorded as graphs evaluated in C, per function (print(sys) shows it; "
@@ -103,7 +104,8 @@ local function objects()
           .. "(tr:column(\"work\"))" },
         { "events", "tr.events[e]: each located crossing of simulate's events, in time order (below)" },
         { "contacts", "with unilateral contacts: .names, .modes[i] = {t, states} (each mode from its start), "
-          .. ".impacts (how many), .zeno (each rest after impacts accumulating), .final (the last mode)" },
+          .. ".impacts, .zeno (each rest after impacts accumulating: .accumulation, the time they predicted, .t, the "
+          .. "rest's start, .contact), .final (the last mode)" },
         { "lambda_names", "with unilateral contacts: the names of tr.lambda's columns, lambda1, ..., then N.name and "
           .. "T.name (each contact's normal and friction force: tr:column(\"N.floor\"); T1.name, T2.name for an "
           .. "isotropic cone)" },
@@ -167,7 +169,7 @@ local function objects()
         residuals = "the defect of the motion: how far the points are from satisfying the equations",
         consistency = "the forms of order n at the run's own q'': rounding, a check of the engine",
         section = "a Poincare section from the run's event crossings",
-        animate = "the mechanism frame by frame: terminal, GIF or SVG frames",
+        animate = "the mechanism frame by frame: terminal, GIF or SVG frames; view = \"3d\": the bodies in space",
       },
     },
     {
