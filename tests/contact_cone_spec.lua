@@ -13,8 +13,10 @@ local nz = h.nz
 local g = 9.81
 local METHODS = { "rk8pd", "taylor" }
 
-local function max_abs(v) local m = 0; for i = 1, #v do m = math.max(m, math.abs(v[i])) end; return m end
-local function near(a, b, tol, what) assert(math.abs(a - b) <= tol, ("%s: %.17g, expected %.17g"):format(what, a, b)) end
+local max_abs = h.max_abs
+local near = h.near
+-- (here, not in tests/helpers.lua: an error names the first frame outside
+-- the library, which must be this file's)
 local function errmsg(f, ...)
   local ok, err = pcall(f, ...)
   assert(not ok, "an error was expected")

@@ -17,10 +17,10 @@ local nz = h.nz
 local g = 9.81
 local METHODS = { "rk8pd", "taylor" }
 
-local function max_abs(v) local m = 0; for i = 1, #v do m = math.max(m, math.abs(v[i])) end; return m end
+local max_abs = h.max_abs
 local events_of = h.contact_events
 local function last(tr, name) local col = tr:column(name); return col[#col] end
-local function near(a, b, tol, what) assert(math.abs(a - b) <= tol, ("%s: %.17g, expected %.17g"):format(what, a, b)) end
+local near = h.near
 
 local quad = h.gauss_legendre
 

@@ -54,6 +54,18 @@ function M.contact_events(tr, kind, name)
   return out
 end
 
+-- The largest |v[i]|.
+function M.max_abs(v)
+  local m = 0
+  for i = 1, #v do m = math.max(m, math.abs(v[i])) end
+  return m
+end
+
+-- |a - b| <= tol, else a failure naming what and both values.
+function M.near(a, b, tol, what)
+  assert(math.abs(a - b) <= tol, ("%s: %.17g, expected %.17g"):format(what, a, b))
+end
+
 -- A file's whole text, or nil when it cannot be read.
 function M.slurp(path)
   local f = io.open(path, "rb")
