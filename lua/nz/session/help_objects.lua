@@ -6,6 +6,105 @@
 -- and every method of its class has its line.
 local M = {}
 
+-- The trajectory's entry (its fields are the most: one function of its own).
+local function trajectory()
+  return {
+    class = require("nz.motion.trajectory").Trajectory, prefix = "tr", what = "a trajectory (sys:simulate{...})",
+    title = function(tr)
+      local n = #tr.t
+      return ("a trajectory of '%s' (sys:simulate): %d point%s%s, status %s"):format(tr.system.name, n,
+        n == 1 and "" or "s", n > 0 and (", t = %.6g .. %.6g"):format(tr.t[1], tr.t[n]) or "", tostring(tr.status))
+    end,
+    long = "help(nz.system) explains sys:simulate's options; help(tr.NAME) one method; print(tr) sums the run up",
+    fields = {
+      { "t", "tr.t[i]: the time of output point i (t0, t0 + dt, ..., t1; up to the event that stopped the run)" },
+      { "q", "tr.q[i][j]: coordinate j at point i (tr:column(\"th\") gives one coordinate's list)" },
+      { "qd", "tr.qd[i][j]: its velocity (tr:column(\"th'\"))" },
+      { "qdd", "tr.qdd[i][j]: its acceleration, solved from the equations there (tr:column(\"th''\"))" },
+      { "lambda", "tr.lambda[i][r]: the multiplier of constraint r ({} without constraints; "
+        .. "tr:column(\"lambda1\"))" },
+      { "higher", "constraints of order p > 3: tr.higher[i] = {q''', ..., q^(p-1)}, the state's higher levels "
+        .. "(tr:column(\"th'''\"))" },
+      { "top", "a constraint of order p nonlinear in q^(p): tr.top[i], q^(p) solved at each point" },
+      { "branch", "that constraint's first root and how Newton started: {from = \"guess\" | \"least squares\", "
+        .. "q3d =, lambda =}" },
+      { "violation", "tr.violation[i]: with constraints, how far the state is from them (tr:column(\"violation\"))" },
+      { "energy", "monitors = {energy = true}: tr.energy[i] = T + V (tr:column(\"E\"))" },
+      { "generalized_energy", "monitors = {energy = true}: H = sum qd dL/dqd - L (tr:column(\"H\"))" },
+      { "work", "monitors = {work = true}: the work W of the moving constraints' reactions and of Q "
+        .. "(tr:column(\"work\"))" },
+      { "events", "tr.events[e]: each located crossing of simulate's events, in time order (below)" },
+      { "contacts", "with unilateral contacts: .names, .modes[i] = {t, states} (each mode from its start), "
+        .. ".impacts, .zeno (each rest after impacts accumulating: .accumulation, the time they predicted, .t, the "
+        .. "rest's start, .contact), .final (the last mode)" },
+      { "lambda_names", "with unilateral contacts: the names of tr.lambda's columns, lambda1, ..., then N.name and "
+        .. "T.name (each contact's normal and friction force: tr:column(\"N.floor\"); T1.name, T2.name for an "
+        .. "isotropic cone)" },
+      { "projections", "project = true: how many times the state was projected onto the constraints" },
+      { "status", "\"done\"; \"stopped\" (an event with stop = true); \"interrupted\" (Ctrl-C: the part computed); "
+        .. "\"failed\" (the error said why; nz.last holds the part computed)" },
+      { "message", "why the run stopped, when it stopped early" },
+      { "warnings", "the warnings the run gave (said once on stderr): options that do nothing, a long run, ..." },
+      { "stats", "what the run cost and how it ran (below)" },
+      { "system", "the system simulated" },
+      { "coords", "its coordinates' names" },
+      { "method", "the method (\"rk8pd\", \"taylor\", ...)" },
+      { "rtol", "the relative tolerance" },
+      { "atol", "the absolute tolerance" },
+      { "step", "the fixed step, or nil (adaptive)" },
+    },
+    groups = {
+      { title = "Each event crossing, tr.events[e]", prefix = ".", key = "events", fields = {
+        { "name", "the event's name (events = {{name = \"x=0\", f = ...}}; else \"event n\")" },
+        { "t", "the time of the crossing, located to event_tol (1e-12)" },
+        { "q", "the coordinates there: tr.events[e].q[j]" },
+        { "qd", "the velocities there (a contact's: before its impact)" },
+        { "direction", "1 when the event's f rose through zero, -1 when it fell (not a contact's)" },
+        { "contact", "a contact's event: the contact's number; its name is .name" },
+        { "kind", "a contact's event: \"impact\", \"closes\", \"opens\", \"sticks\" or \"slips\"" },
+        { "qd_after", "a contact's event: the velocities after it (an impact's q'+)" },
+        { "from", "a contact's event: its state before (\"open\", \"closed\", \"stick\", \"slip+\", \"slip-\"; "
+          .. "\"slip\" for an isotropic cone)" },
+        { "to", "a contact's event: its state after" },
+        { "gap", "a contact's event: its gap there (0 within the event's tolerance)" },
+        { "normal_velocity", "a contact's event: its normal velocity before" },
+        { "slip_velocity", "a contact's event: its slip velocity before (0 without friction; {x, y} for an isotropic cone)" },
+        { "impulse", "an impact: this contact's normal impulse P (Lagrange's impulse equations); every contact "
+          .. "taking an impulse has its event (Newton's cradle: the touching pair's too)" },
+        { "tangential_impulse", "an impact: the friction's impulse ({x, y} for an isotropic cone)" },
+        { "speed", "an impact: the approach speed -v- (0 for a contact touching at rest)" },
+        { "energy_lost", "an impact: the kinetic energy it took (on its first contact when several)" },
+        { "zeno", "an impact made plastic: the time its impacts accumulate at (Zeno)" },
+      }, note = "Which crossings count is the event's direction (1: rising, -1: falling, 0: both, the default); "
+        .. "stop = true ends the run at the first.  tr:section{when = \"x=0\"} draws them." },
+      { title = "The run's statistics, tr.stats", prefix = ".", key = "stats", fields = {
+        { "steps", "the steps accepted" },
+        { "rejected", "the steps rejected by the error control" },
+        { "nfev", "the right-hand sides evaluated (taylor: the series of the motion computed)" },
+        { "njev", "the Jacobians evaluated (implicit methods)" },
+        { "order", "the order of the method (taylor: the highest order used)" },
+        { "wall", "the seconds the stepping took (wall clock)" },
+        { "events_why", "why the event functions are called in Lua (one that cannot be recorded, ...)" },
+        { "interpolated", "the output points read off a step's interpolant (dense output)" },
+        { "forced", "the output points the interpolant's error control made step ends" },
+        { "grid_why", "why the output grid set the steps, when it did (nz.workprecision marks them (grid))" },
+        { "evaluator", "what evaluated the equations: machine code, the interpreted graph, or jets in Lua" },
+        { "native_from_step", "the step from which machine code ran, when it took over during the run" },
+        { "reversed", "{constraint =, ta =, tb =}: a constraint's gradient passed through zero in that step" },
+      } },
+    },
+    methods = {
+      column = "the values of a quantity along the motion: \"th\", \"th'\", \"t\", \"E\", \"lambda1\", ...",
+      plot = "draw quantities against t (or each other) in the terminal, or to an SVG or PNG",
+      csv = "the points as CSV, to a file or as text",
+      residuals = "the defect of the motion: how far the points are from satisfying the equations",
+      consistency = "the forms of order n at the run's own q'': rounding, a check of the engine",
+      section = "a Poincare section from the run's event crossings",
+      animate = "the mechanism frame by frame: terminal, GIF or SVG frames; view = \"3d\": the bodies in space",
+    },
+  }
+end
+
 -- Each object: its class, its name in the text (the prefix of its
 -- methods), a title, where the long help is, the fields in the order shown
 -- ({name, text}; a name "events[e]" documents the list events), groups of
@@ -77,101 +176,7 @@ local function objects()
         jacobi_whittaker = "with the energy fixed, the path as a system in another 'time'",
       },
     },
-    {
-      class = require("nz.motion.trajectory").Trajectory, prefix = "tr", what = "a trajectory (sys:simulate{...})",
-      title = function(tr)
-        local n = #tr.t
-        return ("a trajectory of '%s' (sys:simulate): %d point%s%s, status %s"):format(tr.system.name, n,
-          n == 1 and "" or "s", n > 0 and (", t = %.6g .. %.6g"):format(tr.t[1], tr.t[n]) or "", tostring(tr.status))
-      end,
-      long = "help(nz.system) explains sys:simulate's options; help(tr.NAME) one method; print(tr) sums the run up",
-      fields = {
-        { "t", "tr.t[i]: the time of output point i (t0, t0 + dt, ..., t1; up to the event that stopped the run)" },
-        { "q", "tr.q[i][j]: coordinate j at point i (tr:column(\"th\") gives one coordinate's list)" },
-        { "qd", "tr.qd[i][j]: its velocity (tr:column(\"th'\"))" },
-        { "qdd", "tr.qdd[i][j]: its acceleration, solved from the equations there (tr:column(\"th''\"))" },
-        { "lambda", "tr.lambda[i][r]: the multiplier of constraint r ({} without constraints; "
-          .. "tr:column(\"lambda1\"))" },
-        { "higher", "constraints of order p > 3: tr.higher[i] = {q''', ..., q^(p-1)}, the state's higher levels "
-          .. "(tr:column(\"th'''\"))" },
-        { "top", "a constraint of order p nonlinear in q^(p): tr.top[i], q^(p) solved at each point" },
-        { "branch", "that constraint's first root and how Newton started: {from = \"guess\" | \"least squares\", "
-          .. "q3d =, lambda =}" },
-        { "violation", "tr.violation[i]: with constraints, how far the state is from them (tr:column(\"violation\"))" },
-        { "energy", "monitors = {energy = true}: tr.energy[i] = T + V (tr:column(\"E\"))" },
-        { "generalized_energy", "monitors = {energy = true}: H = sum qd dL/dqd - L (tr:column(\"H\"))" },
-        { "work", "monitors = {work = true}: the work W of the moving constraints' reactions and of Q "
-          .. "(tr:column(\"work\"))" },
-        { "events", "tr.events[e]: each located crossing of simulate's events, in time order (below)" },
-        { "contacts", "with unilateral contacts: .names, .modes[i] = {t, states} (each mode from its start), "
-          .. ".impacts, .zeno (each rest after impacts accumulating: .accumulation, the time they predicted, .t, the "
-          .. "rest's start, .contact), .final (the last mode)" },
-        { "lambda_names", "with unilateral contacts: the names of tr.lambda's columns, lambda1, ..., then N.name and "
-          .. "T.name (each contact's normal and friction force: tr:column(\"N.floor\"); T1.name, T2.name for an "
-          .. "isotropic cone)" },
-        { "projections", "project = true: how many times the state was projected onto the constraints" },
-        { "status", "\"done\"; \"stopped\" (an event with stop = true); \"interrupted\" (Ctrl-C: the part computed); "
-          .. "\"failed\" (the error said why; nz.last holds the part computed)" },
-        { "message", "why the run stopped, when it stopped early" },
-        { "warnings", "the warnings the run gave (said once on stderr): options that do nothing, a long run, ..." },
-        { "stats", "what the run cost and how it ran (below)" },
-        { "system", "the system simulated" },
-        { "coords", "its coordinates' names" },
-        { "method", "the method (\"rk8pd\", \"taylor\", ...)" },
-        { "rtol", "the relative tolerance" },
-        { "atol", "the absolute tolerance" },
-        { "step", "the fixed step, or nil (adaptive)" },
-      },
-      groups = {
-        { title = "Each event crossing, tr.events[e]", prefix = ".", key = "events", fields = {
-          { "name", "the event's name (events = {{name = \"x=0\", f = ...}}; else \"event n\")" },
-          { "t", "the time of the crossing, located to event_tol (1e-12)" },
-          { "q", "the coordinates there: tr.events[e].q[j]" },
-          { "qd", "the velocities there (a contact's: before its impact)" },
-          { "direction", "1 when the event's f rose through zero, -1 when it fell (not a contact's)" },
-          { "contact", "a contact's event: the contact's number; its name is .name" },
-          { "kind", "a contact's event: \"impact\", \"closes\", \"opens\", \"sticks\" or \"slips\"" },
-          { "qd_after", "a contact's event: the velocities after it (an impact's q'+)" },
-          { "from", "a contact's event: its state before (\"open\", \"closed\", \"stick\", \"slip+\", \"slip-\"; "
-            .. "\"slip\" for an isotropic cone)" },
-          { "to", "a contact's event: its state after" },
-          { "gap", "a contact's event: its gap there (0 within the event's tolerance)" },
-          { "normal_velocity", "a contact's event: its normal velocity before" },
-          { "slip_velocity", "a contact's event: its slip velocity before (0 without friction; {x, y} for an isotropic cone)" },
-          { "impulse", "an impact: this contact's normal impulse P (Lagrange's impulse equations); every contact "
-            .. "taking an impulse has its event (Newton's cradle: the touching pair's too)" },
-          { "tangential_impulse", "an impact: the friction's impulse ({x, y} for an isotropic cone)" },
-          { "speed", "an impact: the approach speed -v- (0 for a contact touching at rest)" },
-          { "energy_lost", "an impact: the kinetic energy it took (on its first contact when several)" },
-          { "zeno", "an impact made plastic: the time its impacts accumulate at (Zeno)" },
-        }, note = "Which crossings count is the event's direction (1: rising, -1: falling, 0: both, the default); "
-          .. "stop = true ends the run at the first.  tr:section{when = \"x=0\"} draws them." },
-        { title = "The run's statistics, tr.stats", prefix = ".", key = "stats", fields = {
-          { "steps", "the steps accepted" },
-          { "rejected", "the steps rejected by the error control" },
-          { "nfev", "the right-hand sides evaluated (taylor: the series of the motion computed)" },
-          { "njev", "the Jacobians evaluated (implicit methods)" },
-          { "order", "the order of the method (taylor: the highest order used)" },
-          { "wall", "the seconds the stepping took (wall clock)" },
-          { "events_why", "why the event functions are called in Lua (one that cannot be recorded, ...)" },
-          { "interpolated", "the output points read off a step's interpolant (dense output)" },
-          { "forced", "the output points the interpolant's error control made step ends" },
-          { "grid_why", "why the output grid set the steps, when it did (nz.workprecision marks them (grid))" },
-          { "evaluator", "what evaluated the equations: machine code, the interpreted graph, or jets in Lua" },
-          { "native_from_step", "the step from which machine code ran, when it took over during the run" },
-          { "reversed", "{constraint =, ta =, tb =}: a constraint's gradient passed through zero in that step" },
-        } },
-      },
-      methods = {
-        column = "the values of a quantity along the motion: \"th\", \"th'\", \"t\", \"E\", \"lambda1\", ...",
-        plot = "draw quantities against t (or each other) in the terminal, or to an SVG or PNG",
-        csv = "the points as CSV, to a file or as text",
-        residuals = "the defect of the motion: how far the points are from satisfying the equations",
-        consistency = "the forms of order n at the run's own q'': rounding, a check of the engine",
-        section = "a Poincare section from the run's event crossings",
-        animate = "the mechanism frame by frame: terminal, GIF or SVG frames; view = \"3d\": the bodies in space",
-      },
-    },
+    trajectory(),
     {
       class = require("nz.analysis.linearize").Linear, prefix = "lin", what = "a linearization (sys:linearize{...})",
       title = function(lin)
