@@ -109,7 +109,8 @@ local function trajectory()
         .. ".impacts, .zeno (each rest after impacts accumulating: .accumulation, the time they predicted, .t, the "
         .. "rest's start, .contact), .final (the last mode)" },
       { "lambda_names", "with unilateral contacts: the names of tr.lambda's columns, lambda1, ..., then N.name and "
-        .. "T.name (each contact's normal and friction force: tr:column(\"N.floor\"))" },
+        .. "T.name (each contact's normal and friction force: tr:column(\"N.floor\"); T1.name, T2.name for an "
+        .. "isotropic cone)" },
       { "projections", "project = true: how many times the state was projected onto the constraints" },
       { "status", "\"done\"; \"stopped\" (an event with stop = true); \"interrupted\" (Ctrl-C: the part computed); "
         .. "\"failed\" (the error said why; nz.last holds the part computed)" },
@@ -133,14 +134,16 @@ local function trajectory()
         { "contact", "a contact's event: the contact's number; its name is .name" },
         { "kind", "a contact's event: \"impact\", \"closes\", \"opens\", \"sticks\" or \"slips\"" },
         { "qd_after", "a contact's event: the velocities after it (an impact's q'+)" },
-        { "from", "a contact's event: its state before (\"open\", \"closed\", \"stick\", \"slip+\", \"slip-\")" },
+        { "from", "a contact's event: its state before (\"open\", \"closed\", \"stick\", \"slip+\", \"slip-\"; "
+          .. "\"slip\" for an isotropic cone)" },
         { "to", "a contact's event: its state after" },
         { "gap", "a contact's event: its gap there (0 within the event's tolerance)" },
         { "normal_velocity", "a contact's event: its normal velocity before" },
-        { "slip_velocity", "a contact's event: its slip velocity before (0 without friction)" },
-        { "impulse", "an impact: the normal impulse P (Lagrange's impulse equations)" },
-        { "tangential_impulse", "an impact: the friction's impulse" },
-        { "speed", "an impact: the approach speed -v-" },
+        { "slip_velocity", "a contact's event: its slip velocity before (0 without friction; {x, y} for an isotropic cone)" },
+        { "impulse", "an impact: this contact's normal impulse P (Lagrange's impulse equations); every contact "
+          .. "taking an impulse has its event (Newton's cradle: the touching pair's too)" },
+        { "tangential_impulse", "an impact: the friction's impulse ({x, y} for an isotropic cone)" },
+        { "speed", "an impact: the approach speed -v- (0 for a contact touching at rest)" },
         { "energy_lost", "an impact: the kinetic energy it took (on its first contact when several)" },
         { "zeno", "an impact made plastic: the time its impacts accumulate at (Zeno)" },
       }, note = "Which crossings count is the event's direction (1: rising, -1: falling, 0: both, the default); "
