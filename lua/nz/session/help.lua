@@ -192,7 +192,7 @@ upvalue); a parameter it read while absent (p.c or 1) and that appears
 later makes the system record again (print(sys) says so).  Other numbers
 read from upvalues or globals are baked in when the system is made.
 sys:graph_info() gives the graph's size, the recording time and what runs
-as machine code; compile = false keeps everything in Lua.
+as machine code; compile = false means do not record: everything runs in Lua.
 
 Methods (t a number, q, qd, qdd tables of k numbers); help(sys.NAME) shows
 one, e.g. help(sys.simulate):
@@ -278,7 +278,8 @@ one, e.g. help(sys.simulate):
         t must increase; at least 8 points.  An integrator of order p shows
         its defect falling by 2^p when its step is halved
   sys:graph_info()           the recording's figures: nodes, record_seconds,
-                             mass_bias_nodes, functions compiled (recorded)
+                             mass_bias_nodes, functions recorded (also
+                             .compiled, its old name)
                              and interpreted, native_plans, native_series,
                              native_compiling (in the background),
                              native_seconds (compiling took), native_waited
@@ -814,7 +815,7 @@ else ~/.cache/nzlua (no HOME: no cache, the interpreter runs).
   nz.cache.dir()    the directory, or nil and why there is none
 Each object is checked before it is loaded (owner, mode, size, a checksum,
 its ELF segments); a damaged one is removed and compiled again.  Compiles
-run in the background (sys.engine.compiled:native_wait() waits for them);
+run in the background (sys.engine.recording:native_wait() waits for them);
 NZLUA_CACHE_MAX bounds the cache (default 100M, least recently used out
 first), NZLUA_CC_TIMEOUT limits a compile (300 s), NZLUA_CC_JOBS the
 compiles at once (2), NZLUA_KEEP_C=1 keeps the generated C.]] },
