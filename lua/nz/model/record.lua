@@ -454,7 +454,7 @@ function M.record_system(engine, levels, native)
   engine.record_again = M.record_again
   report.seconds = os.clock() - clock
   report.nodes = c:info().nodes
-  engine.recording = report
+  engine.record_report = report
   return report
 end
 
@@ -471,14 +471,14 @@ function M.record_again(engine)
   end
   engine.retired = engine.retired or {}
   engine.retired[#engine.retired + 1] = engine.recording
-  local old = engine.recording
+  local old = engine.record_report
   local report = M.record_system(engine, engine.record_levels, engine.record_native)
   if old then
     for key in pairs(old) do old[key] = nil end
     for key, v in pairs(report) do old[key] = v end
-    engine.recording = old
+    engine.record_report = old
   end
-  engine.recording.again = ("recorded again: %s %s added after the system was made (read while absent "
+  engine.record_report.again = ("recorded again: %s %s added after the system was made (read while absent "
     .. "when it was recorded)"):format(table.concat(added, ", "), #added == 1 and "was" or "were")
   -- the parameters each call checks: now with the new ones
   local names = recorded_params(engine.params)
