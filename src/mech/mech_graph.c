@@ -7,6 +7,7 @@
 #include "graph/graph_guard.h"
 #include "graph/graph_native.h"
 #include "graph/series_native.h"
+#include "jets/series.h"
 #include "core/linalg.h"
 #include "mech/mech_graph.h"
 
@@ -1057,13 +1058,12 @@ int nz_compiled_motion_series(nz_compiled *c, double t0, const double *q0, const
       }
     }
     /* q''(t0 + tau) = sum (j + 1)(j + 2) a_{j+2} tau^j */
-    double d = 1.0 / ((double)(n + 1) * (double)(n + 2));
     for (int i = 0; i < k; i++) {
       if (!isfinite(qn[i])) {
         snprintf(c->failure, sizeof c->failure, "coefficient %d of q''_%d is not finite", n, i + 1);
         return isnan(qn[i]) ? NZ_ENAN : NZ_ERANGE;
       }
-      a2[i] = qn[i] * d;
+      a2[i] = nz_series_ode2_coef(qn[i], n);
     }
   }
   return NZ_OK;
@@ -1393,9 +1393,10 @@ int nz_compiled_constrained_series_sel(nz_compiled *c, const int *orders, const 
       cseries_put(c, w->inp[r], j, t0, a, n + 1);
       if ((st = nz_graph_series_next(pr, j, NULL, NULL))) goto fail;
       /* ... is affine in q''_n with slope A_r0 times (slot m's coefficient
-       * j per unit of q''_n): 1 / ((n+1)(n+2)), 1 / (n+1), 1 */
-      double scale = m == 0 ? 1.0 / ((double)(n + 1) * (double)(n + 2)) : m == 1 ? 1.0 / (double)(n + 1) : 1.0;
-      u[k + x] = -w->phi[r][j] / scale;
+       * j per unit of q''_n): 1 / ((n+1)(n+2)), 1 / (n+1), 1, so that
+       * dividing by it is multiplying by an integer (one rounding, no bias) */
+      double per = m == 0 ? (double)(n + 1) * (double)(n + 2) : m == 1 ? (double)(n + 1) : 1.0;
+      u[k + x] = -w->phi[r][j] * per;
       if (d >= 0) {
         /* the row the force rides on, to its coefficient n: it reads q and
          * q' at most (order <= 1), known to a_{n+1} */
@@ -1422,14 +1423,13 @@ int nz_compiled_constrained_series_sel(nz_compiled *c, const int *orders, const 
       return st;
     }
     double *qn = w->qdd + (size_t)n * (size_t)k, *ln = w->lam + (size_t)n * (size_t)na;
-    double dd = 1.0 / ((double)(n + 1) * (double)(n + 2));
     for (int i = 0; i < k; i++) {
       if (!isfinite(u[i])) {
         snprintf(c->failure, sizeof c->failure, "coefficient %d of q''_%d is not finite", n, i + 1);
         return isnan(u[i]) ? NZ_ENAN : NZ_ERANGE;
       }
       qn[i] = u[i];
-      a[(size_t)(n + 2) * (size_t)k + (size_t)i] = u[i] * dd;
+      a[(size_t)(n + 2) * (size_t)k + (size_t)i] = nz_series_ode2_coef(u[i], n);
     }
     for (int x = 0; x < na; x++) ln[x] = u[k + x];
     /* the constraint plans' coefficient n + 2 - m again, with q''_n */
