@@ -119,18 +119,30 @@ function M.reference_run(sys, opts)
     tr.t[n], tr.q[n], tr.qd[n], tr.y[n] = t, q, qd, { table.unpack(y) }
     tr.qdd[n], tr.lambda[n] = mech.ode_accel(ode, engine, t, y)
   end
-  local t, h = t0, cfg.h0
+  -- fixed steps: the time is t + tlo (Knuth's two-sum, then renormalized),
+  -- the last step of an interval the rest to its output time
+  local function add(hi, lo, d)
+    local s = hi + d
+    local bp = s - hi
+    local l = lo + ((hi - (s - bp)) + (d - bp))
+    local t2 = s + l
+    return t2, l - (t2 - s)
+  end
+  local t, tlo, h = t0, 0, cfg.h0
   record(t)
   local nout = math.ceil((t1 - t0) / dt - 1e-9)
   for i = 1, nout do
     local tout = i == nout and t1 or t0 + i * dt
     local nfixed = opts.step and math.max(1, math.ceil((tout - t) / opts.step - 1e-9))
-    local hfixed = opts.step and (tout - t) / nfixed
+    local hfixed = opts.step and ((tout - t) - tlo) / nfixed
     while t < tout do
       if opts.step then
+        local hstep = nfixed == 1 and (tout - t) - tlo or hfixed
         nfixed = nfixed - 1
-        t, y = mech.ode_step_fixed(ode, engine, t, hfixed, y)
-        if nfixed == 0 then t = tout end
+        local _
+        _, y = mech.ode_step_fixed(ode, engine, t, hstep, y)
+        t, tlo = add(t, tlo, hstep)
+        if nfixed == 0 then t, tlo = tout, tlo + (t - tout) end
       else
         t, h, y = mech.ode_step(ode, engine, t, tout, h, y)
       end
