@@ -73,7 +73,7 @@ nz_run *nz_run_alloc(nz_stepper *st, const nz_run_config *cfg, const double *y0)
       !isfinite(cfg->t1) || !finite_positive(cfg->dt) || !finite_positive(cfg->h0) ||
       !(cfg->step == 0.0 || finite_positive(cfg->step)) || cfg->stall_window < 1 || cfg->nevents < 0 ||
       (cfg->nevents > 0 && (!cfg->directions || !finite_positive(cfg->event_tol))) ||
-      (cfg->step > 0.0 && !st->ops->step_fixed))
+      (cfg->step > 0.0 && !st->ops->step_fixed) || (cfg->step == 0.0 && !st->ops->step))
     return NULL;
   nz_run *r = calloc(1, sizeof *r);
   if (!r) return NULL;

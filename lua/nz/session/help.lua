@@ -284,8 +284,8 @@ one, e.g. help(sys.simulate):
                              native_seconds (compiling took), native_waited
                              (runs waited), native_why (why no machine code)
   sys:simulate{q0 =, qd0 =, t1 = [, t0, dt, method, rtol, atol, step, h0,
-        events, event_tol, project, baumgarte, monitors, progress, check,
-        dense]}  a trajectory (help(tr.NAME): its methods).
+        order, events, event_tol, project, baumgarte, monitors, progress,
+        check, dense]}  a trajectory (help(tr.NAME): its methods).
         Defaults: t0 = 0; qd0 at rest; dt = (t1 - t0)/200 (the output grid);
         method = "rk8pd"; rtol = 1e-10, atol = 1e-12; step none (adaptive;
         step = h: fixed steps of at most h); h0 = min(dt, 1e-3) (the first
@@ -336,6 +336,26 @@ one, e.g. help(sys.simulate):
         integration again; their functions must be recordable).  Not with
         taylor: constraints of order 3 or more, project and baumgarte, the
         work monitor, step and h0 (each refused with the method to take).
+        method = "variational", step = h [, order = 2 | 4 | 6 | 8]: a
+        variational integrator built from the Lagrangian L = T - V (Marsden
+        and West): the discrete action of the trapezoidal rule made
+        stationary, step by step, so that the energy stays within a bound
+        for all time (no drift) and the momentum of every symmetry of L (the
+        angular momentum of a central force, the momentum of a cyclic
+        coordinate) is kept to rounding.  A constant mass matrix with
+        forces that do not depend on qd (particles, Cartesian coordinates):
+        Stormer-Verlet, explicit, one evaluation of qdd a step; any other L:
+        the discrete Euler-Lagrange equations by Newton with the exact
+        Jacobian from the jets.  Forces Q by the discrete Lagrange-
+        d'Alembert principle; holonomic constraints (on q and t) held to
+        rounding at every step (RATTLE).  order = 4, 6, 8: symmetric
+        compositions of the order-2 step (Suzuki's 5 steps; Kahan and Li's
+        9 and 17), each as conservative.  Output velocities from the
+        discrete Legendre transform; events located as for rk4.  step is
+        required (equal steps, at most h, landing on each output time);
+        not with rtol, atol, h0, constraints on qd or qdd (nonholonomic),
+        contacts, project, baumgarte or the work monitor (each refused with
+        the reason).  order applies to this method only.
   sys:simulate{..., qdd0 =, q3d0 = ..., guess =}  constraints of order
                              p >= 3 (linear in their top derivative): the
                              state is q, qd,
