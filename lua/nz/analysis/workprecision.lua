@@ -93,12 +93,34 @@ local function max_error(tr, ref)
   return worst
 end
 
--- The methods a study can run: GSL's steppers, and taylor.
+-- The methods a study can run: GSL's steppers, taylor, and the
+-- variational integrators of orders 2 ("variational"), 4, 6, 8
+-- ("variational4", ...).
 local function method_names()
   local names = {}
   for i, m in ipairs(core.mech.ode_methods()) do names[i] = m.name end
-  names[#names + 1] = "taylor"
+  for _, m in ipairs{ "taylor", "variational", "variational4", "variational6", "variational8" } do names[#names + 1] = m end
   return names
+end
+M.method_names = method_names
+
+-- The options of sys:simulate that run `method` at the study's tolerance
+-- tol: rtol = tol, atol = tol / 100; a variational integrator of order p
+-- (fixed steps, no tolerance) at step = tol^(1/p), so that its error, C
+-- h^p, spans the same decades as the others' when C is about 1.
+-- A fixed step no longer than the output spacing, which sets the steps
+-- anyway (simulate would say so once): the options o of one run.
+function M.fit_step(o)
+  if not o.step then return o end
+  local dt = o.dt or (o.t1 - (o.t0 or 0)) / require("nz.motion.settings").defaults.points
+  if o.step > dt then o.step = dt end
+  return o
+end
+
+function M.method_options(method, tol)
+  local p = method == "variational" and 2 or tonumber(method:match("^variational(%d)$"))
+  if p then return { method = "variational", order = p, step = tol ^ (1 / p) } end
+  return { method = method, rtol = tol, atol = tol * 1e-2 }
 end
 
 -- The options' checkers (the methods' names are read at each check).
@@ -161,9 +183,10 @@ local function check(sys, opts)
     seen[tol] = i
   end
   -- the study sets these for every run: in 'simulate' they would be overwritten
-  for _, key in ipairs{ "method", "rtol", "atol" } do
+  for _, key in ipairs{ "method", "rtol", "atol", "step", "order" } do
     if opts.simulate and opts.simulate[key] ~= nil then
-      bad("option 'simulate': '%s' is set by the study for each run (methods =, tols = ; atol = tol / 100): drop it", key)
+      bad("option 'simulate': '%s' is set by the study for each run (methods =, tols = ; atol = tol / 100; a "
+        .. "variational integrator of order p: step = tol^(1/p)): drop it", key)
     end
   end
 end
@@ -242,7 +265,8 @@ local function warm_up(sys, opts, methods, tols, run)
       local ok, tr = pcall(run, method, tol)
       if interrupted(ok, tr) then return nil, method, tol end
       if ok then ran = ran + 1; break end
-      o.skip = method == "taylor" and tostring(tr):match("method 'taylor' cannot run this system: ([^;\n]*)") or nil
+      o.skip = method == "taylor" and tostring(tr):match("method 'taylor' cannot run this system: ([^;\n]*)")
+        or method:match("^variational") and tostring(tr):match("method 'variational' (.-): take ") or nil
       if o.skip then break end
       o[tol] = tostring(tr)
       failures[#failures + 1] = o[tol]
@@ -313,7 +337,7 @@ local function measured_row(p, reference)
   -- (msadams, msbdf, dense = false) stopped at about every output
   -- point, or the interpolant's error control made many points step
   -- ends (nz/motion/simulate.lua says which in tr.stats.grid_why)
-  r.grid = r.method ~= "taylor" and tr.stats.grid_why ~= nil
+  r.grid = r.method ~= "taylor" and not r.method:match("^variational") and tr.stats.grid_why ~= nil
   r.grid_why = r.grid and tr.stats.grid_why or nil
   return r
 end
@@ -412,7 +436,8 @@ function M.run(sys, opts)
   local function run(method, tol)
     local o = {}
     for k, v in pairs(base) do o[k] = v end
-    o.method, o.rtol, o.atol = method, tol, tol * 1e-2
+    for k, v in pairs(M.method_options(method, tol)) do o[k] = v end
+    M.fit_step(o)
     return sys:simulate(o)
   end
   local restore = one_evaluator(sys)
@@ -476,7 +501,7 @@ end
 function M.table(rows)
   M.flag(rows)
   local t = { { "method", "tol", "error", "time (s)", "median", "max", "runs", "rhs evals", "steps" } }
-  local skipped, taylor, grid, flagged = {}, false, false, {}
+  local skipped, taylor, variational, grid, flagged = {}, false, false, false, {}
   for _, r in ipairs(rows) do
     if r.status == "skipped" then           -- one row per method, not per tolerance
       if not skipped[r.method] then t[#t + 1] = { r.method, "all", "-", "-", "-", "-", "-", "-", r.message } end
@@ -492,6 +517,7 @@ function M.table(rows)
         r.time_max and ("%.3g"):format(r.time_max) or "-", tostring(r.runs or 1),
         tostring(r.nfev), tostring(r.steps) .. (r.grid and " (grid)" or "") }
       taylor = taylor or r.method == "taylor"
+      variational = variational or r.method:match("^variational") ~= nil
       grid = grid or r.grid
       if r.flag then flagged[#flagged + 1] = ("%s at %g"):format(r.method, r.tol) end
     end
@@ -516,7 +542,7 @@ function M.table(rows)
       .. "): the error does not follow the tolerance there (the method's error control, roundoff, or the "
       .. "reference's own error); the diagram draws these points apart, off the method's line"
   end
-  if next(skipped) then
+  if skipped.taylor then
     text = text .. "\nskipped: taylor runs recorded systems with constraints of order 0, 1 and 2 only"
   end
   if grid then
@@ -527,6 +553,10 @@ function M.table(rows)
   if taylor then
     text = text .. "\ntaylor: rhs evals counts the series of the motion (one per step, of order ~ -ln(tol)/2 + 1);"
       .. " its output points come off each step's polynomial (dt adds no steps)"
+  end
+  if variational then
+    text = text .. "\nvariational (of order p: variational, variational4, 6, 8): fixed steps, step = tol^(1/p); rhs "
+      .. "evals counts the evaluations of q'' (or of the Lagrangian, where Newton's method solves the steps)"
   end
   local advice = M.recommend(rows)
   if advice then text = text .. "\n" .. advice end

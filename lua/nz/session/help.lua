@@ -721,7 +721,11 @@ method, a tolerance <= 0, ...) is one error naming it.
 Defaults: methods rk4, rkf45, rkck, rk8pd, rk4imp, bsimp, msadams, msbdf,
 taylor (taylor runs free and constrained recorded systems; it is skipped, with
 the reason, for constraints of order 3 or more, a system that is not
-recorded, the work monitor, or whatever else it cannot run);
+recorded, the work monitor, or whatever else it cannot run); methods may also
+name variational, variational4, variational6, variational8 (method =
+"variational" of order 2, 4, 6, 8: fixed steps, run at step = tol^(1/order)
+so that their errors span the same decades; skipped, with the reason, where
+they do not apply);
 tols 1e-4, 1e-6, 1e-8, 1e-10; dt as simulate's (the output grid the error is
 measured on: with dense output it adds no steps).  The table ends with the
 cheapest method for each accuracy, and the methods within the noise of it
