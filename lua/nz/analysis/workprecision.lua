@@ -196,7 +196,7 @@ end
 -- which sets the mode when the system is made).  Returns a function that
 -- restores the system's own mode (-1: in the background once a plan is
 -- used, 1: at first use, 0: never; graph_info's native_mode).
-local function one_evaluator(sys)
+function M.one_evaluator(sys)
   local c = sys.recording and sys.engine.compiled
   if not c then return function() end end
   local own = c:info().native_mode
@@ -205,12 +205,12 @@ local function one_evaluator(sys)
   return function() c:set_native(own == 1 or nil) end
 end
 
-local function wait_for_compiles(sys)
+function M.wait_for_compiles(sys)
   local c = sys.recording and sys.engine.compiled
   if c and c.native_wait then c:native_wait() end
 end
 
-local function native_state(sys)
+function M.native_state(sys)
   if not sys.recording then return nil end
   local info = sys:graph_info()
   return { plans = info.native_plans or 0, series = info.native_series or 0, seconds = info.native_seconds or 0,
@@ -218,7 +218,7 @@ local function native_state(sys)
 end
 
 -- What the timed runs ran on, in words.
-local function evaluator_text(sys, state)
+function M.evaluator_text(sys, state)
   if not state then return "Lua functions (the system is not recorded: compile = false)" end
   if state.plans == 0 then
     return "interpreted graphs" .. (state.why and (" (no machine code: " .. state.why .. ")")
@@ -353,7 +353,7 @@ local function measure(sys, opts, methods, tols, budget, run)
   end
 
   -- 1. not timed: the reference, and a warm-up run per method
-  local before, untimed0 = native_state(sys), now()
+  local before, untimed0 = M.native_state(sys), now()
   local reference = opts.reference
   study.reference = "closed form"
   if not reference then
@@ -365,11 +365,11 @@ local function measure(sys, opts, methods, tols, budget, run)
   local outcome, method, tol = warm_up(sys, opts, methods, tols, run)
   if not outcome then
     stopped(method, tol)
-    study.evaluator = evaluator_text(sys, native_state(sys))
+    study.evaluator = M.evaluator_text(sys, M.native_state(sys))
     return rows
   end
-  wait_for_compiles(sys)
-  local warm = native_state(sys)
+  M.wait_for_compiles(sys)
+  local warm = M.native_state(sys)
   study.untimed_seconds = now() - untimed0
   study.compile_seconds = warm and (warm.seconds - before.seconds) or 0
   study.compiled = warm and (warm.plans - before.plans) or 0
@@ -393,17 +393,17 @@ local function measure(sys, opts, methods, tols, budget, run)
   local cut = time_points(points, budget, run)
   -- a plan compiled during the timed runs (one the warm-up did not use):
   -- the times before it ran on another evaluator; every point again
-  local final = native_state(sys)
+  local final = M.native_state(sys)
   if not cut and final and final.plans ~= warm.plans then
-    wait_for_compiles(sys)
-    study.retimed, warm = true, native_state(sys)
+    M.wait_for_compiles(sys)
+    study.retimed, warm = true, M.native_state(sys)
     for _, p in ipairs(points) do
       if p.tr then p.times, p.spent, p.wall_spent, p.active, p.tr, p.wall = {}, 0, 0, true, nil, nil end
     end
     cut = time_points(points, budget, run)
-    final = native_state(sys)
+    final = M.native_state(sys)
   end
-  study.evaluator = evaluator_text(sys, final)
+  study.evaluator = M.evaluator_text(sys, final)
   study.evaluator_changed = final and final.plans ~= warm.plans or nil
 
   for _, p in ipairs(points) do
@@ -440,7 +440,7 @@ function M.run(sys, opts)
     M.fit_step(o)
     return sys:simulate(o)
   end
-  local restore = one_evaluator(sys)
+  local restore = M.one_evaluator(sys)
   local ok_study, rows = pcall(measure, sys, opts, methods, tols, budget, run)
   restore()
   if not ok_study then error(rows, 0) end

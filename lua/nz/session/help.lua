@@ -678,6 +678,38 @@ accelerations and the value your equation gives.  Prints the verdict and
 returns ok, text (typed at the prompt, the verdict shows once); options
 {states = 10, tol = 1e-8, seed = 4711, quiet = true (print nothing)}.  Write
 the equations with nz.sin etc.]] },
+  { name = "longrun", section = "mechanics",
+    usage = "nz.longrun(sys, {q0 =, qd0 =, t0 =, t1 =, methods =, tol =, period =, from =, samples =, integrals =, "
+      .. "plot =, quiet =, simulate =})",
+    summary = "what accuracy costs over time: the error of the first integrals against time, its growth, the cost",
+    text = [[
+Runs the same motion over a long span once with each method and watches
+its first integrals: the energy T + V (integrals = {energy = false} leaves
+it out) and any given as integrals = {name = function(t, q, qd) return
+value end} (an angular momentum, say).  Each one's error |I(t) - I(t0)|
+(relative to |I(t0)| where that is not 0), at samples = 1000 output points,
+goes into a table with its growth: the exponent of a least-squares fit on
+log-log axes of its RMS over windows of a factor sqrt(10) in time, from
+`from` on (10 periods, or 10 samples), with the processor time of the run,
+per period when period = P is given (and the time axis in periods).  What
+the exponent says: about 1, a drift (a step whose error has a sign: rk4,
+rk8pd); 0.5, Brouwer's law (the rounding's random walk alone: taylor at
+rtol = atol = 1e-15); 0, bounded (method = "variational": its energy
+oscillates, the momentum of a symmetry is kept to rounding).
+methods: names as nz.workprecision takes them, run at tol (1e-10: rtol =
+tol, atol = tol / 100; variational, variational4, ..., at step =
+tol^(1/order)), or tables of simulate's options {method = "variational",
+step = P/400, order = 4, name = "verlet"}; the default rk8pd, taylor and
+variational.  A warm-up run per method over a hundredth of the span builds
+and compiles its plans first (not timed; one evaluator for the study, as
+nz.workprecision).  plot = true draws the errors against time (log-log, a
+line per method and integral, each point the largest error of its bin) in
+the terminal, plot = "file.svg" (or .png) to a file, a notebook inline;
+quiet = true prints nothing; simulate = {...} adds options to every run (not
+method, rtol, atol, step, order, dt).  Returns the rows {method, integral,
+error (RMS over the last window), final (at t1), exponent, windows, seconds,
+per_unit, steps, nfev, status}, which print as the table; a method that
+fails has its rows marked failed with the message.]] },
   { name = "workprecision", section = "mechanics",
     usage = "nz.workprecision(sys, {q0 =, qd0 =, t0 =, t1 =, dt =, methods =, tols =, reference =, reference_method =, "
       .. "reference_tol =, budget =, x =, plot =, quiet =, simulate =})",
