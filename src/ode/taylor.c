@@ -39,16 +39,20 @@
  * infinite): when all vanish the polynomial is exact and the step goes to
  * t1.
  *
- * q is kept to degree p + 2 and q' to degree p + 1 (the series to order
- * p + 2), one more than the step rule reads (a_{p+1}, in q''s part of
- * x^[p]): the error a step leaves is then the tail past x^[p+1], about s
- * (h/rho)^(p+2), 7x below the tail past x^[p] that q' of degree p left.
- * That tail is systematic: it drifted Kepler's energy (e = 0.5, 1e-15) by
- * 2e-17 an orbit, 2e-12 after 1e5 orbits, where Brouwer's law allows
- * 3e-13 (1.3e-13 with the extra degree); it costs one more coefficient of
- * the series (9 % of a Kepler step at 1e-15).  The dense output's q' is
- * the derivative of its q, both evaluated by Horner at any time inside the
- * step. */
+ * q is kept to degree p + 1 (a_{p+1} is needed for q''s part of x^[p]
+ * anyway), q' to degree p: the dense output's q' is the derivative of its
+ * q, both evaluated by Horner at any time inside the step.  Near machine
+ * precision (p >= TAYLOR_BROUWER_ORDER: tolerances below 1.3e-14) one
+ * degree more, q to p + 2 and q' to p + 1 (the series to order p + 2):
+ * the tail that q' of degree p leaves, about s (h/rho)^(p+1), is then
+ * within a few units of the rounding of a step, and being systematic it
+ * outgrows the rounding's random walk over a long run.  Kepler's energy
+ * (e = 0.5, 1e-15) drifted by 2e-17 an orbit that way, 2e-12 after 1e5
+ * orbits where Brouwer's law allows 3e-13 (1.3e-13 with the extra
+ * degree); the degree costs one more coefficient of the series (9 % of a
+ * Kepler step at 1e-15).  Looser tolerances leave a tail far above the
+ * rounding, which the degree would shrink 7x for the same 5-10 %: the
+ * order the tolerance asks is kept there. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -56,8 +60,10 @@
 #include "ode/stepper.h"
 #include "ode/taylor.h"
 
-/* The polynomial's degree above the order p: q to degree p + 2, q' to p + 1
- * (see the top of this file). */
+/* From this order on (tolerances below e^-32 = 1.3e-14) the polynomial
+ * has one degree more (see the top of this file); TAYLOR_EXTRA is the most
+ * degrees a step's polynomial has above p. */
+#define TAYLOR_BROUWER_ORDER 18
 #define TAYLOR_EXTRA 2
 
 int nz_taylor_order(double eps)
@@ -154,25 +160,29 @@ static int fail_at(taylor_stepper *ts, nz_taylor_failure kind, int status, doubl
   return status;
 }
 
-/* One step from (*t, y = (q, q')) towards tlimit: the series to order p + 2,
- * the step from its last coefficients (the top of this file), the state at
- * the step's end from the polynomial.
+/* One step from (*t, y = (q, q')) towards tlimit: the series to order
+ * p + 1 (p + 2 near machine precision), the step from its last
+ * coefficients (the top of this file), the state at the step's end from
+ * the polynomial.
  *
  * Sums that lose nothing (core/compensated.h), so that a long run's error
  * is the random walk of its roundings (Brouwer's law, growing as the
  * square root of the steps) and not their sum.  The time is t + tlo: t + h
  * rounds by up to half an ulp of t per step (1e-13 at t ~ 2000), and those
  * roundings would add up into a phase error larger than the tolerance (as
- * in heyoka, which keeps a double-length time for the same reason).  The
- * state is y + ylo: the increment of a step, about 1/6 of the state for
- * Kepler at 1e-15, is added to it with its rounding error kept in ylo
- * (Kahan-Babuska-Neumaier), as IAS15 (Rein and Spiegel 2015) does; the
- * series is computed from y alone (ylo is below the half ulp that the
- * series could see).  Kepler's energy at e = 0.5, 1e-15: 1.3e-13 after
- * 1e5 orbits instead of 7.8e-13.  *t is the time's rounded value; a step that
- * starts at another time, or from a component the stepper did not leave
- * there (the first step, a projection, a jump), starts with its low part 0.
- * *h gets the step taken. */
+ * in heyoka, which keeps a double-length time for the same reason).  Near
+ * machine precision (p >= TAYLOR_BROUWER_ORDER) the state is y + ylo too:
+ * the increment of a step, about 1/6 of the state for Kepler at 1e-15, is
+ * added to it with its rounding error kept in ylo (Kahan-Babuska-
+ * Neumaier), as IAS15 (Rein and Spiegel 2015) does; the series is computed
+ * from y alone (ylo is below the half ulp that the series could see).
+ * Kepler's energy at e = 0.5, 1e-15: 1.3e-13 after 1e5 orbits instead of
+ * 7.8e-13; at looser tolerances the tail of the series is far above the
+ * sum's rounding, and the plain sum is kept (the bookkeeping is 7 % of a
+ * Henon-Heiles step).  *t is the time's rounded value; a step that starts
+ * at another time, or from a component the stepper did not leave there
+ * (the first step, a projection, a jump), starts with its low part 0.  *h
+ * gets the step taken. */
 static int taylor_step(nz_stepper *st, const nz_system *s, double *t, double tlimit, double *h, double *y)
 {
   taylor_stepper *ts = as_taylor(st);
@@ -184,8 +194,6 @@ static int taylor_step(nz_stepper *st, const nz_system *s, double *t, double tli
     ts->t = *t;
     ts->tlo = 0.0;
   }
-  for (int i = 0; i < 2 * k; i++)
-    if (y[i] != ts->yend[i]) ylo[i] = 0.0;
   double tt = ts->t, tlo = ts->tlo;
   /* each component's scale (see the top of this file); the tolerances in
    * locals, which the stores to scale cannot alias */
@@ -206,7 +214,8 @@ static int taylor_step(nz_stepper *st, const nz_system *s, double *t, double tli
   if (p > ts->pmax) p = ts->pmax;
   double *a = ts->a;
   ts->nseries++;
-  int status = cfg->series(cfg->ctx, s, tt, q, qd, p + TAYLOR_EXTRA, a);
+  int brouwer = p >= TAYLOR_BROUWER_ORDER, P = p + (brouwer ? 2 : 1);
+  int status = cfg->series(cfg->ctx, s, tt, q, qd, P, a);
   if (status) {
     ts->P = 0;
     return fail_at(ts, NZ_TAYLOR_SERIES, status, tt, y);
@@ -228,17 +237,23 @@ static int taylor_step(nz_stepper *st, const nz_system *s, double *t, double tli
     ts->P = 0;
     return fail_at(ts, NZ_TAYLOR_STEP, NZ_ERANGE, tt, y);
   }
-  ts->P = p + TAYLOR_EXTRA;
+  ts->P = P;
   ts->ta = tt;
   ts->tlo_a = tlo;
   ts->h = hh;
   double *dy = ts->dy, *lo_a = ts->ylo_a, *yend = ts->yend;
   nz_taylor_increments(k, ts->P, a, hh, dy, dy + k);
-  for (int i = 0; i < 2 * k; i++) {   /* (a loop, not memcpy: no call on this path) */
-    lo_a[i] = ylo[i];
-    nz_dd_add(&y[i], &ylo[i], dy[i]);
-    yend[i] = y[i];
-  }
+  if (brouwer)
+    for (int i = 0; i < 2 * k; i++) {
+      /* the start's low part: 0 for a component the stepper did not leave */
+      double lo = y[i] == yend[i] ? ylo[i] : 0.0;
+      lo_a[i] = lo;
+      nz_dd_add(&y[i], &lo, dy[i]);
+      ylo[i] = lo;
+      yend[i] = y[i];
+    }
+  else   /* a rounding of the sum far below the tail the tolerance leaves */
+    for (int i = 0; i < 2 * k; i++) y[i] += dy[i];
   if (cfg->check && !ts->reversed) {
     int r = cfg->check(cfg->ctx, s, last ? tlimit : tt + hh, q, qd);
     if (r) ts->reversed = r, ts->reversed_ta = tt, ts->reversed_tb = last ? tlimit : tt + hh;
