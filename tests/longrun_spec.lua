@@ -90,7 +90,7 @@ describe("nz.longrun", function()
       assert(#s.x > 10 and #s.x <= 200, #s.x)
       for i = 2, #s.x do assert(s.x[i] > s.x[i - 1]) end
     end
-    assert.truthy(drawn.series[1].name:find("^variational, energy %(t%^"), drawn.series[1].name)
+    assert.truthy(drawn.series[1].name:find("^variational, energy %(slope %-?%d"), drawn.series[1].name)
     if not os.execute("command -v gnuplot >/dev/null 2>&1") then return end   -- (the diagram needs gnuplot)
     local svg = os.tmpname() .. ".svg"
     nz.longrun(oscillator, { q0 = { 1 }, qd0 = { 0 }, t1 = 10 * P, samples = 100, methods = { "rk8pd" }, quiet = true,

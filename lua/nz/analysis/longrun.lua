@@ -204,7 +204,7 @@ function M.diagram(rows, opts)
     if r.x then
       -- at most ~200 points: the largest error of each of 200 bins equal on the log axis
       local x, y, lo, hi = {}, {}, math.huge, 0
-      for i, v in ipairs(r.x) do if v > 0 then lo, hi = math.min(lo, v), math.max(hi, v) end end
+      for _, v in ipairs(r.x) do if v > 0 then lo, hi = math.min(lo, v), math.max(hi, v) end end
       local bins, best = 200, {}
       for i, v in ipairs(r.x) do
         if v > 0 and r.e[i] > 0 then
@@ -215,8 +215,8 @@ function M.diagram(rows, opts)
       for b = 0, bins - 1 do
         if best[b] then x[#x + 1], y[#y + 1] = r.x[best[b]], r.e[best[b]] end
       end
-      series[#series + 1] = { name = ("%s, %s%s"):format(r.method, r.integral, r.exponent and (" (t^%.2f)"):format(r.exponent)
-        or ""), x = x, y = y, style = ("lines") }
+      series[#series + 1] = { name = ("%s, %s%s"):format(r.method, r.integral, r.exponent and
+        (" (slope %.2f)"):format(r.exponent) or ""), x = x, y = y, style = "lines" }
     end
   end
   return plot.lines{ series = series, logx = true, logy = true, file = opts.file, quiet = opts.quiet,
