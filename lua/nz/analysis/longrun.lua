@@ -31,12 +31,7 @@ local OPTIONS = options.declare("nz.longrun", {
   methods = list, tol = positive, period = positive, from = positive,
   samples = function(v) return math.type(v) == "integer" and v >= 10, "an integer >= 10" end,
   integrals = function(v) return type(v) == "table" and getmetatable(v) == nil, "a table {energy = true, name = function(t, q, qd) ... end}" end,
-  plot = function(v)
-    return v == true or v == false or (type(v) == "string" and (v:match("%.svg$") or v:match("%.png$"))),
-      "true, or a file name ending in .svg or .png"
-  end,
-  quiet = function(v) return type(v) == "boolean", "true or false" end,
-  simulate = function(v) return type(v) == "table" and getmetatable(v) == nil, "a table of simulate's options" end,
+  plot = workprecision.checks.plot, quiet = workprecision.checks.quiet, simulate = workprecision.checks.simulate,
 })
 
 -- The methods as {label, options of simulate}: a name as nz.workprecision

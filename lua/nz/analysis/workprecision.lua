@@ -136,18 +136,22 @@ local function tolerance(v)
   return type(v) == "number" and v >= min_tol and v < 1, ("a tolerance from %g to 1 (each run takes rtol = tol, "
     .. "atol = tol / 100)"):format(min_tol)
 end
-local OPTIONS = options.declare("nz.workprecision", {
-  q0 = any, qd0 = any, t0 = any, t1 = any, dt = any,      -- simulate checks these
-  methods = list, tols = list, reference = function(v) return type(v) == "function", "a function(t) returning q" end,
-  reference_method = is_method, reference_tol = tolerance,
-  budget = function(v) return type(v) == "number" and v > 0 and v < math.huge, "seconds per point, a positive number" end,
-  x = function(v) return M.X[v] ~= nil, "\"time\", \"nfev\" or \"steps\"" end,
+-- The checkers of the options a study shares with nz.longrun.
+M.checks = {
   plot = function(v)
     return v == true or v == false or (type(v) == "string" and (v:match("%.svg$") or v:match("%.png$"))),
       "true, or a file name ending in .svg or .png"
   end,
   quiet = function(v) return type(v) == "boolean", "true or false" end,
   simulate = function(v) return type(v) == "table" and getmetatable(v) == nil, "a table of simulate's options" end,
+}
+local OPTIONS = options.declare("nz.workprecision", {
+  q0 = any, qd0 = any, t0 = any, t1 = any, dt = any,      -- simulate checks these
+  methods = list, tols = list, reference = function(v) return type(v) == "function", "a function(t) returning q" end,
+  reference_method = is_method, reference_tol = tolerance,
+  budget = function(v) return type(v) == "number" and v > 0 and v < math.huge, "seconds per point, a positive number" end,
+  x = function(v) return M.X[v] ~= nil, "\"time\", \"nfev\" or \"steps\"" end,
+  plot = M.checks.plot, quiet = M.checks.quiet, simulate = M.checks.simulate,
 })
 
 -- The options, checked before anything runs: one error, from the caller's
