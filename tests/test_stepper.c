@@ -402,6 +402,18 @@ static void check_variational(void)
            "1 - (w h)^2 / 2 (%.3g)", worst);
   gsl_test(ss.steps != 2000 || ss.nfev != 2001 || ss.order != 2, "variational: 2000 steps, 2001 evaluations of q'' "
            "(the end of one step serves the next), order 2 (%lu, %lu, %d)", ss.steps, ss.nfev, ss.order);
+  /* dense output: the cubic Hermite of the last step's ends, those ends
+   * themselves at ta and tb, q' its derivative, NZ_EARG outside */
+  double ya[2], yb[2], ym[2], yl[2], yr[2], ta = t - h, tm = t - h / 3, e = 1e-3 * h;
+  int ok1, ok2, ok3, ok4, ok5, out;
+  int st1 = st->ops->dense(st, &s, ta, ya, &ok1) || st->ops->dense(st, &s, t, yb, &ok2) ||
+            st->ops->dense(st, &s, tm, ym, &ok3) || st->ops->dense(st, &s, tm - e, yl, &ok4) ||
+            st->ops->dense(st, &s, tm + e, yr, &ok5);
+  double fd = (yr[0] - yl[0]) / ((tm + e) - (tm - e));   /* the times as rounded (ulp(t) = 1.4e-14 at t = 100) */
+  out = st->ops->dense(st, &s, t + h, ym, &ok1);
+  gsl_test(st1 || !(ok2 && ok3 && ok4 && ok5) || yb[0] != y[0] || yb[1] != y[1] || !(fabs(fd - ym[1]) <= 1e-8) ||
+           out != NZ_EARG, "variational: dense output ends on the step's end, its q' the derivative of its q "
+           "(%.3g), refused past the step", fabs(fd - ym[1]));
   nz_run_config c;
   memset(&c, 0, sizeof c);
   c.t0 = 0.0, c.t1 = 1.0, c.dt = 0.5, c.h0 = 1e-3, c.stall_window = 1000, c.capacity = 4;
