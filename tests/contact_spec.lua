@@ -568,6 +568,42 @@ describe("errors", function()
     assert(msg:find("contact 'square': its gap's gradient dPhi/dq vanishes where it touches at t = 0, q = {0}", 1, true), msg)
     assert(msg:find("write the gap as a distance whose gradient does not vanish", 1, true), msg)
   end)
+  it("a gap that raises or is not finite at the sample states is said at the user's line, as the contact", function()
+    local cases = {
+      { function(t, q) error("no floor here") end, "raised an error at t = " },
+      { function(t, q) return q[1] * (0 / 0) end, "NaN" },
+      { function(t, q) return q[1] + 1 / 0 end, "inf" },
+      { function(t, q) if q[1] then return nil end end, "returned nil" },
+      { function(t, q) return "floor" end, "returned a string" },
+    }
+    for i, c in ipairs(cases) do
+      local line = debug.getinfo(c[1], "S").linedefined
+      local msg = errmsg(function()
+        local s = nz.system{ name = "ball", coords = { "y" }, T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end,
+          V = function(t, q) return g * q[1] end, constraints = { nz.unilateral(c[1], { name = "floor", e = 0.5 }) } }
+        return s:simulate{ q0 = { 1 }, t1 = 1 }
+      end)
+      assert(not msg:find("model/contact.lua", 1, true), "case " .. i .. " is said at the library's line: " .. msg)
+      assert(msg:find("contact_spec.lua:" .. line .. ": ", 1, true), "case " .. i .. " not at the gap's line " .. line .. ": " .. msg)
+      assert(msg:find("contact 'floor' (its gap)", 1, true), "case " .. i .. " does not name the contact: " .. msg)
+      assert(msg:find(c[2], 1, true), "case " .. i .. ": " .. msg)
+    end
+  end)
+  it("a gap whose gradient vanishes where it touches (q^3, a triple root) is refused as q^2 at 0 is", function()
+    local cube = nz.system{ name = "cube", coords = { "y" }, T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end,
+      V = function(t, q) return g * q[1] end,
+      constraints = { nz.unilateral(function(t, q) return q[1] ^ 3 end, { name = "cubic", e = 0.5 }) } }
+    local msg = errmsg(cube.simulate, cube, { q0 = { 1 }, t1 = 2 })
+    assert(msg:find("contact 'cubic': its gap's gradient dPhi/dq vanishes where it touches at t = 0.45", 1, true), msg)
+    assert(msg:find("of the largest it had in the run", 1, true), msg)
+    -- and the same gap as a distance, q, is located to rounding: the impact at sqrt(2/g)
+    local ok = nz.system{ name = "line", coords = { "y" }, T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end,
+      V = function(t, q) return g * q[1] end,
+      constraints = { nz.unilateral(function(t, q) return q[1] end, { name = "floor", e = 0.5 }) } }
+    local tr = ok:simulate{ q0 = { 1 }, t1 = 0.5 }
+    local hit = events_of(tr, "impact")[1]
+    assert(hit and math.abs(hit.t - math.sqrt(2 / g)) < 1e-10, tostring(hit and hit.t))
+  end)
   it("what contacts do not take: project, baumgarte, the work monitor, a constraint of order 2, two names alike", function()
     local sys = ball(0.5, 0.1)
     for _, c in ipairs{ { { project = true }, "'project' is not available with unilateral contacts" },

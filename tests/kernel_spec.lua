@@ -62,6 +62,73 @@ local function html_row(html, first)
   return cells
 end
 
+-- The frames nzlua --kernel-io wrote (docs/kernel.md), as {kind, fields}.
+local function frames(out)
+  local list, at = {}, 1
+  while at <= #out do
+    local kind, n, stop = out:match("^NZ (%S+) (%d+)\n()", at)
+    assert(kind, "not a frame at byte " .. at .. ": " .. out:sub(at, at + 80))
+    at = stop
+    local fields = {}
+    for _ = 1, tonumber(n) do
+      local name, len, start = out:match("^(%S+) (%d+)\n()", at)
+      fields[name] = out:sub(start, start + tonumber(len) - 1)
+      at = start + tonumber(len) + 1
+    end
+    list[#list + 1] = { kind = kind, fields = fields }
+  end
+  return list
+end
+
+-- A request frame.
+local function frame(kind, ...)
+  local parts, fields = { "" }, { ... }
+  for i = 1, #fields, 2 do parts[#parts + 1] = ("%s %d\n%s\n"):format(fields[i], #fields[i + 1], fields[i + 1]) end
+  return ("NZ %s %d\n"):format(kind, #fields // 2) .. table.concat(parts)
+end
+
+describe("nzlua --kernel-io: a malformed request gets a protocol error and the session goes on", function()
+  -- each case: the request's bytes, then what the error says
+  local cases = {
+    { "a cell number 1e999", frame("execute", "cell", "1e999", "code", "1+1"), "field 'cell' must be a whole number" },
+    { "a cell number -99999999999999999999", frame("execute", "cell", "-99999999999999999999", "code", "1"),
+      "got '-99999999999999999999'" },
+    { "a cursor 1e300", frame("complete", "code", "nz.si", "cursor", "1e300"), "field 'cursor' must be a whole number from 0 to 5" },
+    { "a cursor -99999999999999999999", frame("inspect", "code", "nz.si", "cursor", "-99999999999999999999"),
+      "field 'cursor' must be a whole number" },
+    { "a cursor abc", frame("complete", "code", "nz.si", "cursor", "abc"), "got 'abc'" },
+    { "a negative field length", "NZ execute 1\ncode -5\nxxxxx\n", "its length is not a count of bytes" },
+    { "a huge field length", "NZ execute 1\ncode 99999999999999999999\n", "its length 99999999999999999999 is more "
+      .. "than the cap (16777216 bytes a field, 67108864 bytes a frame)" },
+    { "a field just over the cap", "NZ execute 1\ncode 16777217\n", "is more than the cap" },
+    { "fields over the cap of a frame together", "NZ execute 5\na 16777216\n" .. ("x"):rep(16777216) .. "\nb 16777216\n"
+      .. ("x"):rep(16777216) .. "\nc 16777216\n" .. ("x"):rep(16777216) .. "\nd 16777216\n" .. ("x"):rep(16777216)
+      .. "\ne 1\n", "is more than the cap" },
+    { "a field count 1e3", "NZ execute 1e3\n", "a frame must start with 'NZ <kind> <nfields>'" },
+    { "a field count of -1", "NZ execute -1\n", "nfields from 0 to 64" },
+  }
+  for _, c in ipairs(cases) do
+    it(c[1], function()
+      local input = c[2] .. frame("execute", "cell", "2", "code", "6 * 7")
+      local code, out, err = h.run(h.nzlua .. " --kernel-io", input)
+      assert.equal(0, code, err)
+      local list = frames(out)
+      assert.equal("hello", list[1].kind)
+      local bad = list[2]
+      assert.equal("done", bad.kind)
+      assert.equal("error", bad.fields.status)
+      assert.equal("protocol", bad.fields.ename)
+      assert.truthy(bad.fields.evalue:find(c[3], 1, true), bad.fields.evalue)
+      -- and the next request is answered as ever
+      local kinds = {}
+      for i = 3, #list do kinds[#kinds + 1] = list[i].kind end
+      assert.equal("started result done", table.concat(kinds, " "))
+      assert.equal("42", list[4].fields["text/plain"])
+      assert.equal("ok", list[5].fields.status)
+    end)
+  end
+end)
+
 describe("the Jupyter kernel", function()
   local why = missing()
   if why then

@@ -356,8 +356,18 @@ describe("misuse gets a clear error naming the system and the function", functio
     h.checkerror("nz.system 'x': unknown field 'Tt' (expected one of L, Q, S, T, V, bodies, compile, constraints, coords, name, native, params, sample)",
       nz.system, { name = "x", coords = { "a" }, Tt = 1 })
     h.checkerror("'coords' must be a non-empty list of coordinate names", nz.system, { T = function() return 0 end })
-    h.checkerror("coordinate 'a' appears twice", nz.system, { coords = { "a", "a" }, T = function() return 0 end })
-    h.checkerror("give the kinetic energy T (or a Lagrangian L)", nz.system, { coords = { "a" } })
+    h.checkerror("nz.system 'unnamed': coordinate 'a' appears twice (coords[1] and coords[3]): each coordinate needs a "
+      .. "name of its own", nz.system, { coords = { "a", "b", "a" }, T = function() return 0 end })
+    h.checkerror("coords[2] must be the coordinate's name, a string, got the number 2 (write coords = { \"x\", \"th\" }",
+      nz.system, { coords = { "a", 2 }, T = function() return 0 end })
+    h.checkerror("it has no kinetic energy: give the kinetic energy T = function(t, q, qd, params) (or a Lagrangian L)",
+      nz.system, { coords = { "a" } })
+    -- said at the caller's line
+    local ok, msg = pcall(function()
+      local s = nz.system{ coords = { "a", "a" }, T = function() return 0 end }
+      return s
+    end)
+    assert(not ok and msg:find("mech_spec.lua:%d+: nz.system"), msg)
     h.checkerror("T[2] must be a function, got number", nz.system, { coords = { "a" }, T = { function() return 0 end, 5 } })
     h.checkerror("'params' must be a table of named numbers", nz.system, { coords = { "a" }, T = function() return 0 end, params = 3 })
   end)

@@ -561,3 +561,276 @@ s:simulate{ q0 = { 1 }, t1 = 0.1 }
     assert.truthy(out:find("NOT trusted", 1, true), out)
   end)
 end)
+
+-- A second local user, real (useradd makes it when it is missing), and the
+-- prefix that runs a command as that user; or nil and why not.  CI runs as
+-- root on a fresh Debian machine: there it is always possible.
+local OTHER = "nzlua-other"
+local function second_user()
+  if not is_root then return nil, "needs root to act as a second user" end
+  if not has_setpriv then return nil, "needs setpriv (util-linux) to act as a second user" end
+  if h.run("id -u " .. OTHER) ~= 0 and
+     h.run("useradd --system --no-create-home --shell /usr/sbin/nologin " .. OTHER) ~= 0 then
+    return nil, "useradd could not make the user " .. OTHER
+  end
+  local uid = sh("id -u " .. OTHER):gsub("%s+$", "")
+  local gid = sh("id -g " .. OTHER):gsub("%s+$", "")
+  return ("setpriv --reuid=%s --regid=%s --clear-groups"):format(uid, gid), uid
+end
+
+-- The second user's prefix and a fresh directory others may enter (0755),
+-- or nil and why there is no second user.
+local function two_users()
+  local as, why = second_user()
+  if not as then return nil, why end
+  local base = tempdir()
+  sh("chmod 755 " .. q(base))
+  return as, base
+end
+
+-- A compiler of the victim's own (a shell script in dir, `$CC --version`
+-- says version), its body after the version line.
+local function cc_script(dir, name, body)
+  local path = dir .. "/" .. name
+  local f = assert(io.open(path, "w"))
+  f:write("#!/bin/sh\nif [ \"$1\" = --version ]; then echo " .. name .. " 1; exit 0; fi\n" .. body .. "\n")
+  f:close()
+  sh("chmod 755 " .. q(path))
+  return path
+end
+
+describe("another local user cannot reach the cache through its path, its compiler or its objects", function()
+  it("a directory on the path that another user owns: no cache, interpreted, native_why names it and its owner",
+    function()
+      local as, base = two_users()
+      if not as then pending(base) return end
+      local shared = base .. "/shared"
+      sh(("mkdir -m 755 %s && chown %s %s"):format(q(shared), OTHER, q(shared)))
+      local cache = shared .. "/cache"   -- root's own 0700 directory, inside theirs
+      sh("mkdir -m 700 " .. q(cache))
+      for _, native in ipairs{ "nil", "true" } do
+        local r = run_pend("NZLUA_CACHE=" .. q(cache), base, native)
+        assert.equal(0, r.code, r.err)
+        assert.near(ACCEL, tonumber(r.accel), 1e-13)
+        assert.equal("0", r.native_plans)
+        assert.truthy(r.native_why:find("the directory '" .. shared .. "' on the cache's path belongs to '" .. OTHER
+          .. "'", 1, true), r.native_why)
+      end
+      assert.equal(0, #objects(cache), "an object was written below another user's directory")
+      -- nothing is made below their directory either (mkdir then chmod by name could be turned)
+      local r = run_pend("NZLUA_CACHE=" .. q(shared .. "/new/cache"), base, "true")
+      assert.equal("0", r.native_plans)
+      assert.is_nil(io.open(shared .. "/new"), "a directory was made inside another user's directory")
+      -- --cache-clear and --cache-info neither read nor remove anything there
+      local planted = cache .. "/nzg-0123456789abcdef.so"
+      sh("touch " .. q(planted))
+      local code, out, err = h.run(("env NZLUA_CACHE=%s %s --cache-clear"):format(q(cache), nzlua))
+      assert.equal(1, code, out)
+      assert.truthy(err:find("belongs to '" .. OTHER .. "'", 1, true), err)
+      assert.truthy(io.open(planted), "--cache-clear removed a file through another user's directory")
+      code, out = h.run(("env NZLUA_CACHE=%s %s --cache-info"):format(q(cache), nzlua))
+      assert.truthy(out:find("NOT trusted", 1, true), out)
+    end)
+
+  it("a sticky directory others write (as /tmp) may be passed only to what is the user's own", function()
+    local as, base = two_users()
+    if not as then pending(base) return end
+    local sticky = base .. "/tmp"
+    sh(("mkdir -m 1777 %s"):format(q(sticky)))
+    local mine, theirs = sticky .. "/mine", sticky .. "/theirs"
+    sh("mkdir -m 700 " .. q(mine))
+    sh(("%s mkdir -m 755 %s"):format(as, q(theirs)))
+    local r = run_pend("NZLUA_CACHE=" .. q(mine .. "/c"), base, "true")
+    assert.equal("1", r.native_plans, r.native_why)
+    r = run_pend("NZLUA_CACHE=" .. q(theirs .. "/c"), base, "true")
+    assert.equal("0", r.native_plans)
+    assert.truthy(r.native_why:find("'" .. theirs .. "' on the cache's path belongs to '" .. OTHER .. "'", 1, true),
+      r.native_why)
+    assert.truthy(r.native_why:find("and lies in a directory others can write", 1, true), r.native_why)
+    -- a symbolic link of theirs in the sticky directory is not followed, one of the user's is
+    sh(("%s ln -s %s %s"):format(as, q(mine), q(sticky .. "/their-link")))
+    sh(("ln -s %s %s"):format(q(mine), q(sticky .. "/my-link")))
+    r = run_pend("NZLUA_CACHE=" .. q(sticky .. "/their-link/c"), base, "true")
+    assert.equal("0", r.native_plans)
+    assert.truthy(r.native_why:find("their-link' on the cache's path belongs to '" .. OTHER, 1, true), r.native_why)
+    r = run_pend("NZLUA_CACHE=" .. q(sticky .. "/my-link/c"), base, "true")
+    assert.equal("1", r.native_plans, r.native_why)
+    -- a directory others may write that is not sticky is never passed
+    local open = base .. "/open"
+    sh(("mkdir -m 777 %s && mkdir -m 700 %s"):format(q(open), q(open .. "/c")))
+    r = run_pend("NZLUA_CACHE=" .. q(open .. "/c"), base, "true")
+    assert.equal("0", r.native_plans)
+    assert.truthy(r.native_why:find("can be written by others (mode 0777) and is not sticky", 1, true), r.native_why)
+  end)
+
+  it("the compiler never sees a path that can move: the parent swapped while it compiles changes nothing", function()
+    -- The race of the issue, driven by the compiler itself: while it reads
+    -- its source, the cache's parent is another user's directory holding a
+    -- source of theirs (the victim's own source with a constructor added)
+    -- under the same name; while it links, the parent is back.  A compiler
+    -- given paths through the parent compiles their source into the
+    -- victim's cache; one given names in a directory it was started in
+    -- compiles the victim's.
+    local as, base = two_users()
+    if not as then pending(base) return end
+    local parent, marker = base .. "/p", base .. "/ran"
+    sh("mkdir -m 755 " .. q(parent))
+    local cc = cc_script(base, "racecc", ([[
+P=%s; AS=%q; MARK=%s
+src=; out=; prev=; n=0
+for a; do case "$a" in *.c) src=$a;; esac; [ "$prev" = -o ] && out=$a; prev=$a; done
+mv "$P" "$P.real"; mkdir -m 755 "$P"; chown %s "$P"
+case "$src" in
+  /*) rel=${src#$P/};;
+  *) rel=c/$src;;
+esac
+$AS mkdir -p "$P/$(dirname "$rel")"
+if [ -f "$P.real/$rel" ]; then
+  { cat "$P.real/$rel"; echo "#include <stdio.h>"; echo "__attribute__((constructor)) static void evil(void) { FILE *f = fopen(\"$MARK\", \"w\"); if (f) fclose(f); }"; } > "$P/$rel"
+fi
+obj=$(mktemp /tmp/racecc.XXXXXX.o)
+args=; for a; do case "$a" in "$src"|"$out"|-o|-lm|-shared|-nostartfiles) ;; *) args="$args $a";; esac; done
+cc $args -c -o "$obj" "$src"; st=$?
+rm -rf "$P"; mv "$P.real" "$P"
+[ $st = 0 ] || exit $st
+cc "$@" >/dev/null 2>&1 || true
+for a; do case "$a" in "$src") ;; *) set -- "$@" "$a";; esac; done
+cc -shared -nostartfiles -o "$out" "$obj" -lm; st=$?
+rm -f "$obj"; exit $st]]):format(q(parent), as, q(marker), OTHER))
+    local r = run_pend(("NZLUA_CACHE=%s CC=%s"):format(q(parent .. "/c"), q(cc)), base, "true")
+    assert.equal(0, r.code, r.err)
+    assert.is_nil(io.open(marker), "the other user's source was compiled into the cache and its constructor ran")
+    assert.is_nil(r.err:find("refused", 1, true), "the other user's source was compiled (then refused): " .. r.err)
+    assert.equal("1", r.native_plans, r.native_why)
+    assert.near(ACCEL, tonumber(r.accel), 1e-13)
+  end)
+
+  -- What a CC of the user's own may add to the object, and the line that
+  -- refuses it (the object is never loaded, never kept).
+  local additions = {
+    { "a constructor", [[__attribute__((constructor)) static void evil(void) { FILE *f = fopen("MARK", "w"); if (f) fclose(f); }]],
+      "", "constructors (DT_INIT_ARRAY)" },
+    { "a destructor", [[__attribute__((destructor)) static void evil(void) { FILE *f = fopen("MARK", "w"); if (f) fclose(f); }]],
+      "", "destructors (DT_FINI_ARRAY)" },
+    { "gcc's start files (_init, frame_dummy)", "int nzlua_extra;", "-startfiles", "an initialisation function (DT_INIT)" },
+    { "an indirect function", [[static void real(void) { FILE *f = fopen("MARK", "w"); if (f) fclose(f); }
+static void (*pick(void))(void) { real(); return real; }
+void nzlua_ifunc(void) __attribute__((ifunc("pick")));]], "", "IFUNC" },
+    { "another library", "int nzlua_extra;", "-lgslcblas -Wl,--no-as-needed -lgsl", "needs the library 'libgsl" },
+    { "an executable stack", "int nzlua_extra;", "-Wl,-z,execstack", "executable stack" },
+  }
+  for _, add in ipairs(additions) do
+    it(("an object that a CC of the user's own gives %s is refused before it is loaded, with one line"):format(add[1]),
+      function()
+        local base = tempdir()
+        local marker = base .. "/ran"
+        local extra = base .. "/extra.c"
+        local f = assert(io.open(extra, "w"))
+        f:write("#include <stdio.h>\n" .. add[2]:gsub("MARK", marker) .. "\n")
+        f:close()
+        local link = add[3] == "-startfiles" and "" or add[3]
+        local cc = cc_script(base, "addcc", ([[
+out=; prev=; for a; do [ "$prev" = -o ] && out=$a; prev=$a; done
+if [ %q = -startfiles ]; then
+  for a; do shift; [ "$a" = -nostartfiles ] || set -- "$@" "$a"; done
+fi
+exec cc "$@" %s %s]]):format(add[3], q(extra), link))
+        local dir = base .. "/c"
+        local r = run_pend(("NZLUA_CACHE=%s CC=%s"):format(q(dir), q(cc)), base, "true")
+        assert.equal(0, r.code, r.err)
+        assert.is_nil(io.open(marker), "the object's code ran")
+        assert.near(ACCEL, tonumber(r.accel), 1e-13)
+        assert.equal("0", r.native_plans)
+        assert.truthy(r.native_why:find(add[4], 1, true), r.native_why)
+        local lines = h.lines(r.err)
+        assert.equal(1, #lines, r.err)
+        assert.truthy(lines[1]:find("refused and removed, never loaded", 1, true), r.err)
+        assert.truthy(lines[1]:find(add[4], 1, true), r.err)
+        assert.equal(0, #objects(dir))
+        assert.equal("", sh("ls -A " .. q(dir) .. " | grep -v '\\.lock$' || true"))
+      end)
+  end
+
+  it("--cache-clear and the bound remove only files whose trailer says they are nzlua's", function()
+    local base = tempdir()
+    local dir = base .. "/c"
+    local r = run_pend("NZLUA_CACHE=" .. q(dir), base, "true")
+    assert.equal("1", r.native_plans, r.native_why)
+    -- a file of the user's under an object's name, and a source that is not generated
+    local mine, notes = dir .. "/nzg-0123456789abcdef.so", dir .. "/nzg-0123456789abcdef.c"
+    sh(("head -c 20000 /dev/urandom > %s && echo 'int main(void) { return 0; }' > %s"):format(q(mine), q(notes)))
+    local code, out = h.run(("env NZLUA_CACHE=%s %s --cache-info"):format(q(dir), nzlua))
+    assert.truthy(out:find("1 object,", 1, true), out)
+    code, out = h.run(("env NZLUA_CACHE=%s NZLUA_CACHE_MAX=1 %s --cache-clear"):format(q(dir), nzlua))
+    assert.equal(0, code, out)
+    assert.truthy(out:find("removed 1 file", 1, true), out)
+    assert.truthy(io.open(mine), "a file without nzlua's trailer was removed")
+    assert.truthy(io.open(notes), "a source nzlua did not generate was removed")
+    -- the bound: a compile with a limit of one byte keeps the new object and the user's files
+    r = run_pend(("NZLUA_CACHE=%s NZLUA_CACHE_MAX=1"):format(q(dir)), base, "true")
+    assert.equal("1", r.native_plans, r.native_why)
+    assert.truthy(io.open(mine), "the size bound removed a file without nzlua's trailer")
+  end)
+end)
+
+describe("the settings are read strictly: one line says what was read and what is used", function()
+  local cases = {
+    { "NZLUA_CACHE_MAX", "inf", "is more than the largest accepted, 1T: 1T is used", "limit 1048576 MB" },
+    { "NZLUA_CACHE_MAX", "1e400", "is more than the largest accepted, 1T: 1T is used", "limit 1048576 MB" },
+    { "NZLUA_CACHE_MAX", "18446744073709551616", "is more than the largest accepted, 1T: 1T is used", "limit 1048576 MB" },
+    { "NZLUA_CACHE_MAX", "lots", "is not a size in bytes (a positive number, K, M, G or T may follow): the default, "
+      .. "100M, is used", "limit 100 MB" },
+    { "NZLUA_CACHE_MAX", "-5M", "is not a size in bytes", "limit 100 MB" },
+    { "NZLUA_CACHE_MAX", "0", "is not a size in bytes", "limit 100 MB" },
+    { "NZLUA_CACHE_MAX", "300K", nil, "limit 0 MB" },
+  }
+  for _, c in ipairs(cases) do
+    it(("%s=%s"):format(c[1], c[2]), function()
+      local base = tempdir()
+      local code, out, err = h.run(("env NZLUA_CACHE=%s %s=%s %s --cache-info"):format(q(base), c[1], q(c[2]), nzlua))
+      assert.equal(0, code, err)
+      assert.truthy(out:find(c[4], 1, true), out)
+      if not c[3] then assert.equal("", err) return end
+      local lines = h.lines(err)
+      assert.equal(1, #lines, err)
+      assert.truthy(lines[1]:find(("%s='%s' "):format(c[1], c[2]), 1, true), err)
+      assert.truthy(lines[1]:find(c[3], 1, true), err)
+    end)
+  end
+
+  for _, c in ipairs{ { "NZLUA_CC_TIMEOUT", "soon", "is not a number of seconds (positive): the default, 300, is used" },
+                      { "NZLUA_CC_TIMEOUT", "1e400", "is more than the largest accepted, 86400: 86400 is used" },
+                      { "NZLUA_CC_TIMEOUT", "-3", "is not a number of seconds" },
+                      { "NZLUA_CC_JOBS", "2.5", "is not a whole number of compiles at once (1 or more): the default, 2, "
+                        .. "is used" },
+                      { "NZLUA_CC_JOBS", "many", "is not a whole number" },
+                      { "NZLUA_CC_JOBS", "-99999999999999999999", "is not a whole number" },
+                      { "NZLUA_CC_JOBS", "18446744073709551616", "is more than the largest accepted, 64: 64 is used" } } do
+    it(("%s=%s, read when a run compiles"):format(c[1], c[2]), function()
+      local base = tempdir()
+      local r = run_pend(("NZLUA_CACHE=%s %s=%s"):format(q(base .. "/c"), c[1], q(c[2])), base, "true")
+      assert.equal(0, r.code, r.err)
+      assert.equal("1", r.native_plans, r.native_why)
+      local lines = h.lines(r.err)
+      assert.equal(1, #lines, r.err)
+      assert.truthy(lines[1]:find(("%s='%s' "):format(c[1], c[2]), 1, true), r.err)
+      assert.truthy(lines[1]:find(c[3], 1, true), r.err)
+    end)
+  end
+
+  it("a relative NZLUA_CACHE is ignored as a relative XDG_CACHE_HOME is, with one line each", function()
+    local base = tempdir()
+    local home = base .. "/home"
+    sh("mkdir -m 700 " .. q(home))
+    local prog = nzlua:sub(1, 1) == "/" and nzlua or os.getenv("PWD") .. "/" .. nzlua
+    local code, out, err = h.run(("cd %s && env -u XDG_CACHE_HOME HOME=%s NZLUA_CACHE=rel %s --cache-info")
+      :format(q(base), q(home), prog))
+    assert.equal(0, code, err)
+    assert.truthy(out:find("cache of machine code: " .. home .. "/.cache/nzlua", 1, true), out)
+    assert.truthy(err:find("NZLUA_CACHE='rel' is not an absolute path: ignored", 1, true), err)
+    code, out, err = h.run(("cd %s && env -u NZLUA_CACHE HOME=%s XDG_CACHE_HOME=rel %s --cache-info")
+      :format(q(base), q(home), prog))
+    assert.truthy(out:find("cache of machine code: " .. home .. "/.cache/nzlua", 1, true), out)
+    assert.truthy(err:find("XDG_CACHE_HOME='rel' is not an absolute path: ignored", 1, true), err)
+  end)
+end)

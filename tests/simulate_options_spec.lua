@@ -146,7 +146,7 @@ describe("simulate's failures name the user's code first", function()
 
   it("an event that returns no number says so with the state", function()
     local msg = option_error(pendulum, { q0 = { 1 }, t1 = 1, events = { function() return "up" end } })
-    contains(msg, "event 'event 1' must return a finite number, got \"up\" at t = 0, q = {1}, qd = {0}")
+    contains(msg, "event 'event 1' must return a finite number, got the string \"up\" at t = 0, q = {1}, qd = {0}")
   end)
 
   it("a function that fails during the run: one location (where the user's function raised), no library prefix", function()

@@ -448,3 +448,63 @@ describe("two constraints that lose rank together on the motion", function()
     end)
   end
 end)
+
+describe("a right-hand side that jumps: the steps collapse, and the run names the branch", function()
+  -- A force atan2(w - 0.3 w - 0.7 w, -1) is 0.01 pi with the sign of a
+  -- rounding residue (exactly 0 in real arithmetic: on atan2's cut), so it
+  -- flips with the last bits of w and every step sees a jump of 0.02 pi:
+  -- rk8pd's steps fell to 1e-11 and the long-run notice announced days.
+  it("a sum that cancels to a rounding residue on atan2's cut: stopped, the branch named, the part kept", function()
+    local sys = nz.system{ name = "flip", coords = { "x" },
+      T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end,
+      Q = function(t, q, qd) local w = qd[1]; return { 0.01 * nz.atan2(w - 0.3 * w - 0.7 * w, -1) - q[1] } end }
+    local ok, msg = pcall(sys.simulate, sys, { q0 = { 0.2 }, qd0 = { 1 }, t1 = 10 })
+    assert.are.equal(false, ok)
+    assert.truthy(msg:find("stability_spec.lua:%d+: simulate 'flip': the integrator %(rk8pd%) took steps of only"), msg)
+    assert.truthy(msg:find("the right-hand side jumps there at rounding level at t = ", 1, true), msg)
+    assert.truthy(msg:find("in Q, atan2's first argument is ", 1, true), msg)
+    assert.truthy(msg:find("within its rounding error", 1, true), msg)
+    assert.truthy(msg:find("kept in nz.last", 1, true), msg)
+    assert.are.equal("failed", nz.last.status)
+    assert(#nz.last.t >= 10, #nz.last.t)
+  end)
+  -- x'' = -x - 0.5 sign(x') from rest at x = 2: it slides to x = -1 at t =
+  -- pi (x'' = -x + 0.5 about 0.5), back to x = 0 at t = 2 pi (about -0.5),
+  -- and sticks there (|x| < 0.5): the force by sign jumps at every step
+  -- across x' = 0, and the run stalls at t = 2 pi.
+  it("a friction force by sign that sticks: stopped at t = 2 pi, x = 0, sign named as the switch", function()
+    local sys = nz.system{ name = "stick", coords = { "x" },
+      T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end,
+      V = function(t, q) return 0.5 * q[1] ^ 2 end,
+      Q = function(t, q, qd) return { -0.5 * nz.sign(qd[1]) } end }
+    local ok, msg = pcall(sys.simulate, sys, { q0 = { 2 }, t1 = 20 })
+    assert.are.equal(false, ok)
+    assert.truthy(msg:find("the right-hand side jumps there at t = ", 1, true), msg)
+    assert.truthy(msg:find("in Q, sign's argument", 1, true), msg)
+    assert.truthy(msg:find("a unilateral contact with friction", 1, true), msg)
+    local t, x = msg:match("at t = ([%d.e+-]+), q = {([%d.e+-]+)}")
+    assert(math.abs(tonumber(t) - 2 * math.pi) < 1e-8 and math.abs(tonumber(x)) < 1e-8, msg)
+  end)
+  it("a kink crossed cleanly at every swing says nothing, and the motion is the closed form's", function()
+    -- V = |th|: th'' = -sign(th), a triangle well; from rest at th = 1 the
+    -- motion is made of parabolas, 1 - t^2/2 to th = 0 at sqrt 2, a swing
+    -- to -1 and back: period 4 sqrt 2.  The steps shrink at each crossing
+    -- and grow again: no collapse, no notice.
+    local sys = nz.system{ name = "kink", coords = { "th" },
+      T = function(t, q, qd) return 0.5 * qd[1] ^ 2 end,
+      V = function(t, q) return nz.abs(q[1]) end }
+    local r2 = math.sqrt(2)
+    local function exact(t)
+      local tau = t % (4 * r2)
+      if tau <= r2 then return 1 - tau ^ 2 / 2 end
+      if tau <= 3 * r2 then local s = tau - r2; return -r2 * s + s ^ 2 / 2 end
+      local u = tau - 3 * r2
+      return r2 * u - u ^ 2 / 2
+    end
+    local tr = sys:simulate{ q0 = { 1 }, t1 = 20 }
+    assert.are.equal("done", tr.status)
+    local worst = 0
+    for n, t in ipairs(tr.t) do worst = math.max(worst, math.abs(tr.q[n][1] - exact(t))) end
+    assert(worst < 1e-7, worst)
+  end)
+end)

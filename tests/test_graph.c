@@ -18,6 +18,7 @@
 #include <gsl/gsl_test.h>
 #include "graph/graph.h"
 #include "graph/graph_guard.h"
+#include "graph/graph_rounding.h"
 #include "test_util.h"
 
 /* ------------------------------------------------------------------ */
@@ -1588,6 +1589,47 @@ static void check_guards(void)
   nz_graph_free(g);
 }
 
+/* Branches decided by rounding (graph_rounding.h).  With w = 1.3 the sum
+ * w - 0.3 w - 0.7 w is 0 in real arithmetic and a residue in doubles; its
+ * running bound, by hand: 0.3 w and 0.7 w each carry u |value|, their
+ * differences add u |value| each, so the bound is at least u (0.39 + 0.91 +
+ * 0.91) and covers the residue; atan2 of it with x = -1 is on the cut.  The
+ * same with 0.69 w leaves 0.013, far from its rounding: no branch (the
+ * graph built exact, as a recording is: gathering like terms would fold
+ * the first sum to 0 itself).  A
+ * comparison q > 0.5 at q = 0.5 + 1e-12 is not rounding's, but lies within a
+ * tolerance of 1e-10 of its switch. */
+static void check_rounding(void)
+{
+  nz_graph *g = nz_graph_new();
+  nz_graph_set_exact(g, 1);       /* as a user's function is recorded: no like terms gathered */
+  int w = nz_graph_input(g, 0), q = nz_graph_input(g, 1);
+  int c3 = nz_graph_const(g, 0.3), c7 = nz_graph_const(g, 0.7), c69 = nz_graph_const(g, 0.69), m1 = nz_graph_const(g, -1.0);
+  int r = nz_graph_op(g, NZ_GOP_SUB, nz_graph_op(g, NZ_GOP_SUB, w, nz_graph_op(g, NZ_GOP_MUL, c3, w)),
+                      nz_graph_op(g, NZ_GOP_MUL, c7, w));
+  int far = nz_graph_op(g, NZ_GOP_SUB, nz_graph_op(g, NZ_GOP_SUB, w, nz_graph_op(g, NZ_GOP_MUL, c3, w)),
+                        nz_graph_op(g, NZ_GOP_MUL, c69, w));
+  int cut = nz_graph_op(g, NZ_GOP_ATAN2, r, m1), away = nz_graph_op(g, NZ_GOP_ATAN2, far, m1);
+  int cmp = nz_graph_cmp(g, NZ_CMP_GT, q, nz_graph_const(g, 0.5));
+  double in[2] = { 1.3, 0.5 + 1e-12 };
+  double residue = (1.3 - 0.3 * 1.3) - 0.7 * 1.3, u = DBL_EPSILON / 2;
+  nz_rounding_branch b;
+  int found = nz_graph_rounding_branch(g, &cut, 1, in, 0.0, &b);
+  gsl_test(found != 1 || b.node != cut || b.decider != r || b.value != residue || !b.rounding,
+           "rounding: atan2(w - 0.3 w - 0.7 w, -1) on its cut by rounding (residue %.3g, found %d)", residue, found);
+  gsl_test(found == 1 && !(b.bound >= fabs(residue) && b.bound >= u * (0.39 + 0.91 + 0.91)),
+           "rounding: its bound %.3g covers the residue and the hand bound %.3g", b.bound, u * 2.21);
+  gsl_test(nz_graph_rounding_branch(g, &away, 1, in, 0.0, &b) != 0, "rounding: with 0.69 w no branch is rounding's");
+  gsl_test(nz_graph_rounding_branch(g, &cmp, 1, in, 0.0, &b) != 0, "rounding: q > 0.5 at 0.5 + 1e-12 is not rounding's");
+  found = nz_graph_rounding_branch(g, &cmp, 1, in, 1e-10, &b);
+  gsl_test(found != 1 || b.rounding || b.value != in[1] - 0.5,
+           "rounding: ... but lies within 1e-10 of its switch (found %d, value %.3g)", found, found == 1 ? b.value : 0.0);
+  int roots[2] = { away, cut };
+  found = nz_graph_rounding_branch(g, roots, 2, in, 0.0, &b);
+  gsl_test(found != 1 || b.node != cut, "rounding: among several roots the branch of the one that flips");
+  nz_graph_free(g);
+}
+
 int main(void)
 {
   gsl_test_verbose(1);
@@ -1600,6 +1642,7 @@ int main(void)
   check_guards();
   check_like_terms();
   check_branches();
+  check_rounding();
   check_doubles();
   check_jets();
   check_mixed_shapes();

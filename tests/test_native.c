@@ -21,7 +21,9 @@
 #include "jets/series.h"
 #include "graph/graph_series.h"
 #include "graph/series_native.h"
+#include "graph/native_elf.h"
 #include "test_util.h"
+#include <fcntl.h>
 
 #if defined(__SANITIZE_ADDRESS__)
 #define SANITIZED 1
@@ -535,6 +537,8 @@ static void check_cache_dir(void)
   setenv("XDG_CACHE_HOME", "/x/xdg", 1);
   setenv("HOME", "/x/home", 1);
   int bad = strcmp(nz_native_cache_dir(buf, sizeof buf, why2, sizeof why2), "/x/nz");
+  setenv("NZLUA_CACHE", "relative/nz", 1);   /* ignored as a relative XDG_CACHE_HOME is */
+  bad += strcmp(nz_native_cache_dir(buf, sizeof buf, why2, sizeof why2), "/x/xdg/nzlua") != 0;
   unsetenv("NZLUA_CACHE");
   bad += strcmp(nz_native_cache_dir(buf, sizeof buf, why2, sizeof why2), "/x/xdg/nzlua") != 0;
   setenv("XDG_CACHE_HOME", "relative/xdg", 1);   /* the XDG rule: a relative path is ignored */
@@ -554,8 +558,87 @@ static void check_cache_dir(void)
     else unsetenv(names[i]);
   }
   (void)want;
-  gsl_test(bad, "the cache directory: $NZLUA_CACHE, an absolute $XDG_CACHE_HOME/nzlua, an absolute "
+  gsl_test(bad, "the cache directory: an absolute $NZLUA_CACHE, an absolute $XDG_CACHE_HOME/nzlua, an absolute "
            "$HOME/.cache/nzlua, else none (no /tmp fallback)");
+}
+
+/* The checks before dlopen (native_elf.h): objects built here by cc with
+ * one feature each that runs or loads code when loaded, each refused with
+ * its reason; the plain one, and every object nzlua compiled into this
+ * run's cache, accepted. */
+static int elf_verdict(const char *flags, const char *code, char *reason, size_t n)
+{
+  char c[256], so[256], cmd[1200];
+  snprintf(c, sizeof c, "%s/elf-case.c", cache);
+  snprintf(so, sizeof so, "%s/elf-case.so", cache);
+  FILE *f = fopen(c, "w");
+  if (!f) return -2;
+  fprintf(f, "#include <stdio.h>\ndouble nzlua_plain(double x) { return 2 * x; }\n%s\n", code);
+  fclose(f);
+  snprintf(cmd, sizeof cmd, "cc -fPIC -shared %s -o %s %s -lm 2>/dev/null", flags, so, c);
+  if (system(cmd) != 0) return -2;
+  int fd = open(so, O_RDONLY);
+  struct stat st;
+  int r = fd < 0 || fstat(fd, &st) ? -2 : nz_native_elf_inert(fd, (long long)st.st_size, reason, n);
+  if (fd >= 0) close(fd);
+  unlink(c);
+  unlink(so);
+  return r;
+}
+
+static void check_inert(void)
+{
+  static const struct { const char *what, *flags, *code, *reason; } cases[] = {
+    { "a constructor", "-nostartfiles", "__attribute__((constructor)) static void f(void) { puts(\"x\"); }",
+      "constructors (DT_INIT_ARRAY)" },
+    { "a destructor", "-nostartfiles", "__attribute__((destructor)) static void f(void) { puts(\"x\"); }",
+      "destructors (DT_FINI_ARRAY)" },
+    { "gcc's start files", "", "", "an initialisation function (DT_INIT)" },
+    { "an IFUNC", "-nostartfiles", "static void g(void) {} static void (*pick(void))(void) { return g; }\n"
+      "void h(void) __attribute__((ifunc(\"pick\")));", "IFUNC" },
+    { "another library", "-nostartfiles -Wl,--no-as-needed -lgslcblas", "", "needs the library 'libgslcblas" },
+    { "an executable stack", "-nostartfiles -Wl,-z,execstack", "", "executable stack (PT_GNU_STACK with PF_X)" },
+    { "text relocations", "-nostartfiles -Wl,-z,notext",   /* an absolute address in .text */
+      "__asm__(\".text\\n.p2align 3\\nnz_textref: .quad nzlua_plain\\n\");", "text relocations (DT_TEXTREL)" },
+  };
+  char reason[300];
+  int bad = 0, built = 0;
+  for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+    reason[0] = 0;
+    int r = elf_verdict(cases[i].flags, cases[i].code, reason, sizeof reason);
+    if (r == -2) {
+      printf("# %s: cc could not build the case here (skipped)\n", cases[i].what);
+      continue;
+    }
+    built++;
+    printf("# %s: %s\n", cases[i].what, r ? reason : "accepted");
+    if (r == 0 || !strstr(reason, cases[i].reason)) bad++;
+  }
+  int plain = elf_verdict("-nostartfiles", "", reason, sizeof reason);
+  gsl_test(bad || built < 7 || plain != 0,
+           "an object with a constructor, destructor, _init, IFUNC, another library, executable stack or text "
+           "relocations is refused before dlopen, each with its reason (%d built); a plain one is accepted", built);
+  /* every object nzlua compiled in this run: no start files, nothing that runs */
+  char cmd[200];
+  snprintf(cmd, sizeof cmd, "ls %s/*.so 2>/dev/null", cache);
+  FILE *ls = popen(cmd, "r");
+  char path[600];
+  int objects = 0, refused = 0;
+  while (ls && fgets(path, sizeof path, ls)) {
+    path[strcspn(path, "\n")] = 0;
+    int fd = open(path, O_RDONLY);
+    struct stat st;
+    if (fd < 0 || fstat(fd, &st)) continue;
+    objects++;
+    if (nz_native_elf_inert(fd, (long long)st.st_size - 40, reason, sizeof reason)) {   /* without the trailer */
+      printf("# %s: %s\n", path, reason);
+      refused++;
+    }
+    close(fd);
+  }
+  if (ls) pclose(ls);
+  gsl_test(objects == 0 || refused, "nzlua's own objects (%d, linked with -nostartfiles) have nothing that runs on load",
+           objects);
 }
 
 /* ------------------------------------------------------------------ */
@@ -952,6 +1035,7 @@ int main(void)
   check_loaded_twice();
   check_concurrent();
   check_failures();
+  check_inert();
   check_specials();
   check_random(600, 4096, 200);
   check_rewrites();

@@ -194,6 +194,13 @@ describe("tr:csv without a file", function()
     assert.are.equal(slurp(file), tr:csv())
     os.remove(file)
     h.checkerror("bad argument #1 to 'csv' (a file name, or nothing for the CSV text, expected, got number)", tr.csv, tr, 5)
+    -- a directory is named as such, with what to write instead, at the caller's line
+    local ok, msg = pcall(function()
+      local f = tr:csv("/tmp/")
+      return f
+    end)
+    assert(not ok and msg:find("views_spec.lua:%d+: tr:csv: cannot write '/tmp/': it is a directory: give the name of "
+      .. "a file to write, as tr:csv%(\"/tmp/run.csv\"%)"), msg)
     local rc, out = h.run(h.nzlua .. " -i", "o = nz.system{ coords = {'x'}, T = function(t, q, qd) return qd[1]^2 / 2 end,"
       .. " V = function(t, q) return q[1]^2 / 2 end }\notr = o:simulate{ q0 = {1}, t1 = 1, dt = 0.5 }\notr:csv()\n")
     assert.are.equal(0, rc)

@@ -33,6 +33,7 @@ local M = { System = System }
 -- not counted) and starts with the user's file:line.                     --
 
 local user_where = require("nz.base.where").user_where
+local unwrap = require("nz.base.where").unwrap
 local args = require "nz.base.args"
 local shown, arg_error, finite = args.shown, args.error, args.finite
 local check_number, check_vector, check_state = args.number, args.vector, args.state
@@ -100,10 +101,15 @@ function M.system(def)
   local seen = {}
   for i, c in ipairs(coords) do
     if type(c) ~= "string" or c == "" then
-      error(("nz.system '%s': coords[%d] must be a name (a string)"):format(name, i), 2)
+      local got = type(c) == "string" and "an empty string" or ("the %s %s"):format(type(c), tostring(c))
+      error(("nz.system '%s': coords[%d] must be the coordinate's name, a string, got %s (write coords = "
+        .. "{ \"x\", \"th\" }: the names q.x, qd.th and the messages use)"):format(name, i, got), 2)
     end
-    if seen[c] then error(("nz.system '%s': coordinate '%s' appears twice"):format(name, c), 2) end
-    seen[c] = true
+    if seen[c] then
+      error(("nz.system '%s': coordinate '%s' appears twice (coords[%d] and coords[%d]): each coordinate needs a "
+        .. "name of its own"):format(name, c, seen[c], i), 2)
+    end
+    seen[c] = i
   end
   if def.params ~= nil and type(def.params) ~= "table" then
     error(("nz.system '%s': 'params' must be a table of named numbers"):format(name), 2)
@@ -120,7 +126,8 @@ function M.system(def)
     if pieces.S and #S == 0 then append(S, lab.S, { pieces.S }, { "S (bodies)" }) end
   end
   if #T == 0 and #L == 0 then
-    error(("nz.system '%s': give the kinetic energy T (or a Lagrangian L)"):format(name), 2)
+    error(("nz.system '%s': it has no kinetic energy: give the kinetic energy T = function(t, q, qd, params) "
+      .. "(or a Lagrangian L), without which there is no motion to derive"):format(name), 2)
   end
   local F, Flab = {}, {}
   append(F, Flab, T, lab.T)
@@ -134,7 +141,7 @@ function M.system(def)
   end
   local C = as_list(bilateral, "constraints", name)
   local Clab = {}
-  for i = 1, #C do Clab[i] = ("constraint %d"):format(i) end
+  for i = 1, #C do Clab[i] = select(2, unwrap(C[i])) or ("constraint %d"):format(i) end
   local Clevels = constraints.levels(C, name)
   for _, key in ipairs{ "compile", "native" } do
     if def[key] ~= nil and type(def[key]) ~= "boolean" then

@@ -24,7 +24,9 @@
  * progress bars of long runs reach the notebook as they are written. */
 #include <errno.h>
 #include <fcntl.h>
+#include <limits.h>
 #include <signal.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -40,6 +42,8 @@
 #define FRAME_MAGIC "NZ"
 #define FRAME_MAX_FIELDS 64
 #define FRAME_MAX_LINE 256
+#define FRAME_MAX_FIELD (16 * 1024 * 1024)   /* bytes of one field of a request */
+#define FRAME_MAX_BYTES (64 * 1024 * 1024)   /* bytes of all the fields of one request */
 
 static FILE *proto_in = NULL;   /* requests */
 static FILE *proto_out = NULL;  /* replies, streams, displays */
@@ -102,27 +106,112 @@ int nz_kernel_io_begin(char *why, size_t n)
 /* ------------------------------------------------------------------ */
 /* What lua/nz/session/kernel.lua gets                                          */
 
-/* read() -> kind, {name = value, ...}, or nil at the end of the input. */
-static int k_read(lua_State *L)
+/* The line read before a malformed frame was given up: the next frame's
+ * header, read while skipping the bad one's rest (empty: none). */
+static char pending[FRAME_MAX_LINE];
+
+/* The next line of the requests into line[n]; 0 at the end of the input. */
+static int next_line(char *line, size_t n)
+{
+  if (pending[0]) {
+    snprintf(line, n, "%s", pending);
+    pending[0] = 0;
+    return 1;
+  }
+  return fgets(line, (int)n, proto_in) != NULL;
+}
+
+/* A count written in decimal digits alone, from 0 to max, into *out; 0, or
+ * -1 (a sign, a fraction, an exponent, letters, or more than max). */
+static int parse_count(const char *s, long long max, long long *out)
+{
+  long long v = 0;
+  if (*s < '0' || *s > '9') return -1;
+  for (; *s >= '0' && *s <= '9'; s++) {
+    if (v > max / 10 || 10 * v > max - (*s - '0')) return -1;
+    v = 10 * v + (*s - '0');
+  }
+  if (*s && *s != '\n') return -1;
+  *out = v;
+  return 0;
+}
+
+/* A malformed frame: its rest skipped (the lines up to the next that
+ * starts a frame, kept in pending), then false and the message. */
+static int malformed(lua_State *L, const char *fmt, ...)
 {
   char line[FRAME_MAX_LINE];
-  if (!fgets(line, sizeof line, proto_in)) return 0;
-  char kind[64];
-  int nfields;
-  if (sscanf(line, FRAME_MAGIC " %63s %d", kind, &nfields) != 2 || nfields < 0 || nfields > FRAME_MAX_FIELDS)
-    return luaL_error(L, "kernel-io: a frame must start with 'NZ <kind> <nfields>', got '%s'", line);
+  va_list ap;
+  va_start(ap, fmt);
+  lua_pushboolean(L, 0);
+  lua_pushvfstring(L, fmt, ap);
+  va_end(ap);
+  while (fgets(line, sizeof line, proto_in))
+    if (!strncmp(line, FRAME_MAGIC " ", 3)) {
+      snprintf(pending, sizeof pending, "%s", line);
+      break;
+    }
+  return 2;
+}
+
+/* One field's header "<name> <length>" (line) parsed into name[64] and
+ * *len (at most room); 0, or -1 with the reason in why[n]. */
+static int field_header(const char *line, char *name, long long *len, long long room, char *why, size_t n)
+{
+  const char *sp = strchr(line, ' ');
+  size_t k = sp ? (size_t)(sp - line) : 0;
+  const char *digits = sp ? sp + 1 : "";
+  size_t nd = strspn(digits, "0123456789");
+  if (!sp || k == 0 || k > 63)
+    snprintf(why, n, "'<name> <length>' expected");
+  else if (nd == 0 || (digits[nd] && digits[nd] != '\n'))
+    snprintf(why, n, "its length is not a count of bytes (decimal digits alone)");
+  else if (parse_count(digits, room, len))
+    snprintf(why, n, "its length %.*s is more than the cap (%d bytes a field, %d bytes a frame)", (int)(nd > 40 ? 40 : nd),
+             digits, FRAME_MAX_FIELD, FRAME_MAX_BYTES);
+  else {
+    memcpy(name, line, k);
+    name[k] = 0;
+    return 0;
+  }
+  return -1;
+}
+
+/* read() -> kind, {name = value, ...}; or false and a message for a
+ * malformed frame (skipped: the next read starts at the next frame); or
+ * nil at the end of the input.  Numbers in a frame are decimal digits
+ * alone; a field is at most FRAME_MAX_FIELD bytes and a frame's fields
+ * FRAME_MAX_BYTES together, so that a length is refused before anything
+ * is allocated for it. */
+static int k_read(lua_State *L)
+{
+  char line[FRAME_MAX_LINE], kind[64];
+  long long nfields;
+  if (!next_line(line, sizeof line)) return 0;
+  const char *sp = strchr(line + 3, ' ');
+  size_t kn = sp ? (size_t)(sp - line - 3) : 0;
+  if (strncmp(line, FRAME_MAGIC " ", 3) || kn == 0 || kn > 63 || parse_count(sp + 1, FRAME_MAX_FIELDS, &nfields))
+    return malformed(L, "a frame must start with 'NZ <kind> <nfields>' (nfields from 0 to %d), got '%s'",
+                     FRAME_MAX_FIELDS, (line[strcspn(line, "\n")] = 0, line));
+  memcpy(kind, line + 3, kn);
+  kind[kn] = 0;
   lua_pushstring(L, kind);
-  lua_createtable(L, 0, nfields);
+  lua_createtable(L, 0, (int)nfields);
+  long long room = FRAME_MAX_BYTES;
   for (int i = 0; i < nfields; i++) {
     char name[64];
-    size_t len;
-    if (!fgets(line, sizeof line, proto_in) || sscanf(line, "%63s %zu", name, &len) != 2)
-      return luaL_error(L, "kernel-io: field %d of a '%s' frame: '<name> <length>' expected", i + 1, kind);
+    long long len;
+    if (!next_line(line, sizeof line))
+      return malformed(L, "field %d of a '%s' frame: the input ends", i + 1, kind);
+    char why[200];
+    if (field_header(line, name, &len, room < FRAME_MAX_FIELD ? room : FRAME_MAX_FIELD, why, sizeof why))
+      return malformed(L, "field %d of a '%s' frame: %s", i + 1, kind, why);
+    room -= len;
     luaL_Buffer b;
-    char *p = luaL_buffinitsize(L, &b, len);
-    if (fread(p, 1, len, proto_in) != len || fgetc(proto_in) != '\n')
-      return luaL_error(L, "kernel-io: field '%s' of a '%s' frame ends early", name, kind);
-    luaL_pushresultsize(&b, len);
+    char *p = luaL_buffinitsize(L, &b, (size_t)len);
+    if (fread(p, 1, (size_t)len, proto_in) != (size_t)len || fgetc(proto_in) != '\n')
+      return malformed(L, "field '%s' of a '%s' frame ends early", name, kind);
+    luaL_pushresultsize(&b, (size_t)len);
     lua_setfield(L, -2, name);
   }
   return 2;

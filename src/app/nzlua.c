@@ -580,11 +580,18 @@ static int install_kernel_args = 0;
 static const char *sweep_worker_file = NULL;
 static const char *cache_option = NULL;   /* --cache-info or --cache-clear */
 
+/* A notice of the cache's (a setting refused or clamped) on stderr. */
+static void cache_notice(const char *line)
+{
+  fprintf(stderr, "%s: %s\n", progname, line);
+}
+
 /* nzlua --cache-info | --cache-clear: the machine code's cache
  * (src/graph/native_object.h).  0 on success. */
 static int docache(void)
 {
   char dir[4096], why[400];
+  nz_native_set_notice(cache_notice);
   if (!nz_native_cache_dir(dir, sizeof dir, why, sizeof why)) {
     fprintf(stderr, "%s: %s\n", progname, why);
     return 1;
@@ -603,12 +610,15 @@ static int docache(void)
     fprintf(stderr, "%s: %s\n", progname, why);
     return 1;
   }
-  printf("cache of machine code: %s\n"
-         "  %d object%s, %.1f MB in all (limit %.0f MB: NZLUA_CACHE_MAX; the least recently used go first)\n",
-         dir, st.objects, st.objects == 1 ? "" : "s", st.bytes / 1048576.0, st.limit / 1048576.0);
+  printf("cache of machine code: %s\n", dir);
+  if (!st.trusted) {   /* its files are not read */
+    printf("  NOT trusted: %s\n", st.why);
+    return 0;
+  }
+  printf("  %d object%s, %.1f MB in all (limit %.0f MB: NZLUA_CACHE_MAX; the least recently used go first)\n",
+         st.objects, st.objects == 1 ? "" : "s", st.bytes / 1048576.0, st.limit / 1048576.0);
   if (st.sources) printf("  %d generated source%s kept (NZLUA_KEEP_C=1)\n", st.sources, st.sources == 1 ? "" : "s");
-  if (st.trusted) printf("  trusted: yours alone, machine code is loaded from it\n");
-  else printf("  NOT trusted: %s\n", st.why);
+  printf("  trusted: yours alone, machine code is loaded from it\n");
   return 0;
 }
 

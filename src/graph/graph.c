@@ -206,6 +206,8 @@ static nz_status scalar_op(const nz_gnode *nd, double x, double y, double *z)
   return st ? st : d_finite(*z);
 }
 
+nz_status nz_graph_scalar(const nz_gnode *nd, double x, double y, double *z) { return scalar_op(nd, x, y, z); }
+
 /* ------------------------------------------------------------------ */
 /* The graph and hash-consing                                           */
 

@@ -116,6 +116,9 @@ int nz_graph_powc(nz_graph *g, int a, double p);
  * NZ_FN_SIGN (nz_graph_fn) is -1, 0, +1 by the same rule, derivative 0. */
 int nz_graph_cmp(nz_graph *g, nz_cmp op, int a, int b);
 int nz_graph_select(nz_graph *g, int c, int a, int b);
+/* The arithmetic of node nd on doubles, operands x and y (folding's and
+ * the plans'; not NZ_GOP_SELECT, which chooses): NZ_OK or a jet status. */
+nz_status nz_graph_scalar(const nz_gnode *nd, double x, double y, double *z);
 /* Is node x the constant v? (for callers that simplify further) */
 int nz_graph_is_const(const nz_graph *g, int x, double *v);
 /* Is node x defined at every finite value of the inputs, in every

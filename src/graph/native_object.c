@@ -23,18 +23,10 @@
 #include <time.h>
 #include <unistd.h>
 #include "core/interrupt.h"
+#include "graph/native_elf.h"
 #include "graph/native_object.h"
 
 extern char **environ;
-
-void nz_native_say(char *why, size_t n, const char *fmt, ...)
-{
-  if (!why || !n) return;
-  va_list ap;
-  va_start(ap, fmt);
-  vsnprintf(why, n, fmt, ap);
-  va_end(ap);
-}
 
 void nz_native_literal(char *s, size_t n, double v)
 {
@@ -90,7 +82,11 @@ static int compiler_argv(char *buf, size_t n, char **argv, const char *opt, int 
   }
   if (!k) return -1;
   *ncc = k;
-  static const char *const flags[] = { "-fPIC", "-shared", "-ffp-contract=off", "-fno-builtin", "-fno-math-errno", "-g0", "-w" };
+  /* -nostartfiles: gcc's start files would add a constructor (frame_dummy)
+   * and _init/_fini, and no object that runs code on load is loaded
+   * (native_elf.h); generated code needs none of them. */
+  static const char *const flags[] = { "-fPIC", "-shared", "-nostartfiles", "-ffp-contract=off", "-fno-builtin",
+                                       "-fno-math-errno", "-g0", "-w" };
   const char *o = getenv("NZLUA_COPT");   /* e.g. -O1, to measure */
   argv[k++] = (char *)(o && *o ? o : opt);
   for (size_t i = 0; i < sizeof flags / sizeof flags[0]; i++) argv[k++] = (char *)flags[i];
@@ -147,10 +143,29 @@ static int wait_child(pid_t pid, double deadline, int *timed_out)
   }
 }
 
+/* The environment with TMPDIR=. (malloc'd; the strings are environ's), or
+ * NULL. */
+static char **with_tmpdir(void)
+{
+  static char tmpdir[] = "TMPDIR=.";
+  size_t n = 0;
+  while (environ[n]) n++;
+  char **env = malloc((n + 2) * sizeof *env);
+  if (!env) return NULL;
+  size_t k = 0;
+  for (size_t i = 0; i < n; i++)
+    if (strncmp(environ[i], "TMPDIR=", 7)) env[k++] = environ[i];
+  env[k++] = tmpdir;
+  env[k] = NULL;
+  return env;
+}
+
 /* Run argv (in a process group of its own, so that a timeout kills the
  * compiler's own children too) with stdin from /dev/null and stdout and
- * stderr into the descriptor out.  The exit status, or -1 with why. */
-static int run(char **argv, int out, double seconds, char *why, size_t whylen)
+ * stderr into the descriptor out; in the directory open in cwd when cwd >=
+ * 0, with TMPDIR set to it (the compiler's own temporaries there too).
+ * The exit status, or -1 with why. */
+static int run(char **argv, int out, int cwd, double seconds, char *why, size_t whylen)
 {
   posix_spawn_file_actions_t fa;
   posix_spawnattr_t at;
@@ -165,7 +180,13 @@ static int run(char **argv, int out, double seconds, char *why, size_t whylen)
   posix_spawn_file_actions_addopen(&fa, 0, "/dev/null", O_RDONLY, 0);
   posix_spawn_file_actions_adddup2(&fa, out, 1);
   posix_spawn_file_actions_adddup2(&fa, out, 2);
-  int rc = posix_spawnp(&pid, argv[0], &fa, &at, argv, environ);
+  char **env = environ;
+  if (cwd >= 0) {
+    posix_spawn_file_actions_addfchdir_np(&fa, cwd);
+    env = with_tmpdir();
+  }
+  int rc = env ? posix_spawnp(&pid, argv[0], &fa, &at, argv, env) : ENOMEM;
+  if (env != environ) free(env);
   posix_spawn_file_actions_destroy(&fa);
   posix_spawnattr_destroy(&at);
   if (rc) {
@@ -208,7 +229,7 @@ static uint64_t compiler_identity(char **argv, int ncc)
   av[ncc] = "--version";
   av[ncc + 1] = NULL;
   FILE *tmp = tmpfile();
-  int st = tmp ? run(av, fileno(tmp), 30, NULL, 0) : -1;
+  int st = tmp ? run(av, fileno(tmp), -1, 30, NULL, 0) : -1;
   if (tmp) {
     char buf[4096];
     size_t n;
@@ -254,31 +275,64 @@ static int disk_full(const char *dir)
 /* ------------------------------------------------------------------ */
 /* A compile (inside the worker)                                        */
 
-/* A new file <base>.tmp-<pid>-<n><ext> in dfd, 0600, never through a
- * link; its name into name[n]. */
-static int temp_file(int dfd, const char *base, const char *ext, int flags, char *name, size_t n)
+/* A new directory <base>.tmp-<pid>-<n> in dfd for one compile, 0700 and
+ * the user's: opened (without following a link) into *fd, its name into
+ * name[n].  0, or -1 with errno. */
+static int private_dir(int dfd, const char *base, int *fd, char *name, size_t n)
 {
   static unsigned counter;
-  for (int tries = 0; tries < 100; tries++) {
-    snprintf(name, n, "%s.tmp-%ld-%u%s", base, (long)getpid(), counter++, ext);
-    int fd = openat(dfd, name, flags | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0600);
-    if (fd >= 0 || errno != EEXIST) return fd;
+  for (int tries = 0;; tries++) {
+    snprintf(name, n, "%s.tmp-%ld-%u", base, (long)getpid(), counter++);
+    if (mkdirat(dfd, name, 0700) == 0) break;
+    if (errno != EEXIST || tries == 99) {
+      name[0] = 0;
+      return -1;
+    }
   }
-  return -1;
+  struct stat st;
+  *fd = openat(dfd, name, O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
+  if (*fd < 0 || fstat(*fd, &st)) return -1;
+  if (st.st_uid != geteuid()) {
+    errno = EPERM;
+    return -1;
+  }
+  return fchmod(*fd, 0700);
+}
+
+/* The compiler's failure (status st, its messages in logfd) said in why. */
+static void compiler_failed(int st, int logfd, const char *dir, char **argv, char *why, size_t whylen)
+{
+  char msg[600];
+  int full = compiler_message(logfd, msg, sizeof msg);
+  if (full || disk_full(dir))
+    nz_native_say(why, whylen, "No space left on device in the cache directory '%s': the C compiler could not "
+                  "write the object (free some space, or empty the cache with nzlua --cache-clear)", dir);
+  else if (!WIFEXITED(st))
+    nz_native_say(why, whylen, "the C compiler '%s' was killed by signal %d", argv[0], WTERMSIG(st));
+  else if (!msg[0])
+    nz_native_say(why, whylen, "the C compiler '%s' failed (exit status %d) and printed nothing", argv[0],
+                  WEXITSTATUS(st));
+  else
+    nz_native_say(why, whylen, "the C compiler '%s' failed (exit status %d): %s", argv[0], WEXITSTATUS(st), msg);
 }
 
 /* Write src, compile it, seal the object and rename it into place as
- * <base>.so (the source too, as <base>.c, with NZLUA_KEEP_C=1). */
+ * <base>.so (the source too, as <base>.c, with NZLUA_KEEP_C=1).  The
+ * compiler never sees a path that another user could move: it runs in a
+ * directory of its own made under dfd, reached through dfd's descriptor,
+ * given the relative names src.c and out.so; the object is then opened,
+ * checked, sealed and renamed through the descriptors.  0, -1 with the
+ * reason, or -2 when the object was refused for what it would run. */
 static int compile_into(int dfd, const char *dir, const char *base, const char *key, const char *src, char **argv,
                         int k, char *why, size_t whylen)
 {
-  char cname[96], soname[96], logname[96], final[96], path_c[4200], path_so[4200];
-  int cfd = -1, sofd = -1, logfd = -1, rc = -1;
+  char tmp[96], final[96];
+  int pfd = -1, cfd = -1, sofd = -1, logfd = -1, rc = -1;
   const char *keep_c = getenv("NZLUA_KEEP_C");
-  cname[0] = soname[0] = logname[0] = 0;
-  if ((cfd = temp_file(dfd, base, ".c", O_WRONLY, cname, sizeof cname)) < 0 ||
-      (sofd = temp_file(dfd, base, ".so", O_RDWR, soname, sizeof soname)) < 0 ||
-      (logfd = temp_file(dfd, base, ".log", O_RDWR, logname, sizeof logname)) < 0) {
+  tmp[0] = 0;
+  if (private_dir(dfd, base, &pfd, tmp, sizeof tmp) ||
+      (cfd = openat(pfd, "src.c", O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0600)) < 0 ||
+      (logfd = openat(pfd, "log", O_RDWR | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0600)) < 0) {
     nz_native_say(why, whylen, "cannot write in the cache directory '%s': %s", dir, strerror(errno));
     goto done;
   }
@@ -288,49 +342,37 @@ static int compile_into(int dfd, const char *dir, const char *base, const char *
     goto done;
   }
   cfd = -1;
-  snprintf(path_c, sizeof path_c, "%s/%s", dir, cname);
-  snprintf(path_so, sizeof path_so, "%s/%s", dir, soname);
   argv[k] = "-o";
-  argv[k + 1] = path_so;
-  argv[k + 2] = path_c;
+  argv[k + 1] = "out.so";
+  argv[k + 2] = "src.c";
   argv[k + 3] = "-lm";
   argv[k + 4] = NULL;
-  int st = run(argv, logfd, nz_native_cc_timeout(), why, whylen);
+  int st = run(argv, logfd, pfd, nz_native_cc_timeout(), why, whylen);
   if (st < 0) goto done;
   if (!WIFEXITED(st) || WEXITSTATUS(st) != 0) {
-    char msg[600];
-    int full = compiler_message(logfd, msg, sizeof msg);
-    if (full || disk_full(dir))
-      nz_native_say(why, whylen, "No space left on device in the cache directory '%s': the C compiler could not "
-                    "write the object (free some space, or empty the cache with nzlua --cache-clear)", dir);
-    else if (!WIFEXITED(st))
-      nz_native_say(why, whylen, "the C compiler '%s' was killed by signal %d", argv[0], WTERMSIG(st));
-    else if (!msg[0])
-      nz_native_say(why, whylen, "the C compiler '%s' failed (exit status %d) and printed nothing", argv[0],
-                    WEXITSTATUS(st));
-    else
-      nz_native_say(why, whylen, "the C compiler '%s' failed (exit status %d): %s", argv[0], WEXITSTATUS(st), msg);
+    compiler_failed(st, logfd, dir, argv, why, whylen);
     goto done;
   }
-  /* The compiler may have replaced the file: seal what is under the name. */
-  close(sofd);
-  sofd = openat(dfd, soname, O_RDWR | O_NOFOLLOW | O_CLOEXEC);
-  if (sofd < 0 || nz_native_cache_seal(sofd, key, why, whylen)) {
-    if (sofd < 0) nz_native_say(why, whylen, "the C compiler '%s' exited 0 but wrote no object", argv[0]);
-    else if (disk_full(dir))
+  sofd = openat(pfd, "out.so", O_RDWR | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC);
+  if (sofd < 0) {
+    nz_native_say(why, whylen, "the C compiler '%s' exited 0 but wrote no object", argv[0]);
+    goto done;
+  }
+  if ((rc = nz_native_cache_seal(sofd, key, why, whylen)) < 0) {
+    if (rc == -1 && disk_full(dir))
       nz_native_say(why, whylen, "No space left on device in the cache directory '%s' (free some space, or empty "
                     "the cache with nzlua --cache-clear)", dir);
     goto done;
   }
+  rc = -1;
   snprintf(final, sizeof final, "%s.so", base);
-  if (renameat(dfd, soname, dfd, final)) {
+  if (renameat(pfd, "out.so", dfd, final)) {
     nz_native_say(why, whylen, "cannot rename the object into place in '%s': %s", dir, strerror(errno));
     goto done;
   }
-  soname[0] = 0;
   if (keep_c && !strcmp(keep_c, "1")) {
     snprintf(final, sizeof final, "%s.c", base);
-    if (renameat(dfd, cname, dfd, final) == 0) cname[0] = 0;
+    renameat(pfd, "src.c", dfd, final);
   }
   fsync(dfd);   /* the rename itself survives a power loss */
   rc = 0;
@@ -338,9 +380,8 @@ done:
   if (cfd >= 0) close(cfd);
   if (sofd >= 0) close(sofd);
   if (logfd >= 0) close(logfd);
-  if (cname[0]) unlinkat(dfd, cname, 0);
-  if (soname[0]) unlinkat(dfd, soname, 0);
-  if (logname[0]) unlinkat(dfd, logname, 0);
+  if (pfd >= 0) close(pfd);
+  if (tmp[0]) nz_native_cache_remove_temp(dfd, tmp);
   return rc;
 }
 
@@ -413,6 +454,7 @@ static int load(const char *cache_dir, const char *base, const char *key, const 
 typedef struct nz_native_job {
   int started;        /* its worker was started (else it waits for its turn) */
   int done, ok;       /* the worker has ended, and compiled the object */
+  int refused;        /* or its object was refused for what it would run */
   char msg[700];      /* else why not */
   char *src;          /* the source, until the worker starts */
   char ccbuf[2048];   /* argv's words live here */
@@ -448,8 +490,9 @@ static void collect(int i)
   if (w->job) {
     w->job->done = 1;
     w->job->ok = msg[0] == '0';
+    w->job->refused = msg[0] == '2';
     snprintf(w->job->msg, sizeof w->job->msg, "%s",
-             msg[0] == '1' ? msg + 1 : "the compile's worker ended without a reason (killed?)");
+             msg[0] == '1' || msg[0] == '2' ? msg + 1 : "the compile's worker ended without a reason (killed?)");
   }
   close(w->fd);
   *w = workers[--nworkers];
@@ -538,9 +581,11 @@ static int start_worker(nz_native_job *j, char *why, size_t whylen)
     if (fork() != 0) _exit(0);
     signal(SIGINT, SIG_DFL);
     signal(SIGPIPE, SIG_IGN);
+    nz_native_set_notice(NULL);   /* the caller says what there is to say */
     char w[700] = "1";
     int rc = worker(j, w + 1, sizeof w - 1);
     if (rc == 0) strcpy(w, "0");
+    if (rc == -2) w[0] = '2';   /* refused: the caller says so in a notice */
     if (write(p[1], w, strlen(w)) < 0) rc = 2;
     _exit(rc ? 1 : 0);
   }
@@ -579,6 +624,11 @@ int nz_native_object_get(const char *src, const char *version, const char *prefi
     nz_native_say(why, whylen, "out of memory");
     return -1;
   }
+  /* the settings read here, so that a notice about one comes from the
+   * caller, never from a worker */
+  nz_native_cc_timeout();
+  nz_native_cc_jobs();
+  nz_native_cache_limit();
   int ncc = 0;
   j->k = compiler_argv(j->ccbuf, sizeof j->ccbuf, j->argv, big ? "-O1" : "-O2", &ncc);
   if (j->k < 0) {
@@ -677,6 +727,7 @@ int nz_native_object_ready(nz_native_object *o, int wait, char *why, size_t whyl
   if (wait) o->waited += nz_native_now() - t0;
   if (!j->ok) {
     nz_native_say(why, whylen, "%s", j->msg);
+    if (j->refused) nz_native_notice("%s", j->msg);
     goto fail;
   }
   int damaged;

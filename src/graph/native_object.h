@@ -4,18 +4,26 @@
  * generators of src/graph (graph_native.c: plans on doubles;
  * series_native.c: series built order by order).
  *
- * Trust.  An object is loaded only from a cache directory that belongs to
- * the user (the effective uid) and that neither group nor others can write,
- * and only when the file itself is a regular file of the user's that
- * neither group nor others can write: otherwise another local user could
- * plant code that runs as this one (the rules of ccache and of Python's
- * __pycache__).  The directory is opened once per lookup and every file is
- * reached through that descriptor; the object is opened with O_NOFOLLOW,
- * checked on the open descriptor and loaded from that descriptor
- * (/proc/self/fd/N), so the file checked is the file loaded.  There is no
- * fallback under /tmp: without $NZLUA_CACHE, an absolute $XDG_CACHE_HOME or
- * an absolute $HOME there is no cache and the interpreter runs.  Directories
- * are created 0700 and objects written 0600 whatever the umask.
+ * Trust.  Machine code runs as the user, so nothing another local user
+ * controls may reach it (native_cache.h has the checks).  The cache
+ * directory is walked from '/' through descriptors: every directory on the
+ * way is root's or the user's and writable by no one else unless it is
+ * sticky and the next step is the user's own (OpenSSH's rule for
+ * authorized_keys); the cache directory is the user's alone.  An object is
+ * loaded only when the file itself is a regular file of the user's that
+ * neither group nor others can write.  The compiler runs in a private
+ * directory made under the checked directory's descriptor and is given
+ * relative names, so no path it sees can be moved.  The object is opened
+ * with O_NOFOLLOW, checked on the open descriptor, refused if it would run
+ * or load code when loaded (native_elf.h: constructors, IFUNC resolvers,
+ * libraries other than libc and libm, text relocations, an executable
+ * stack; nzlua links with -nostartfiles so its objects have none) and
+ * loaded from that descriptor (/proc/self/fd/N), so the file checked is the
+ * file loaded.  There is no fallback under /tmp: without an absolute
+ * $NZLUA_CACHE, $XDG_CACHE_HOME or $HOME there is no cache and the
+ * interpreter runs.  Directories are made 0700 (mkdirat, then fchmod on
+ * the new directory's descriptor) and objects written 0600 whatever the
+ * umask.
  *
  * Integrity.  Every object carries a trailer of 40 bytes appended after the
  * compiler's output: a magic, the key it is named after, the length of the
@@ -37,8 +45,8 @@
  *
  * The compiler is $CC if set (words split on blanks, e.g. "ccache gcc"),
  * else "cc", run with -O2 (or the -O1 a caller asks for big sources;
- * $NZLUA_COPT overrides), -fPIC -shared -ffp-contract=off -fno-builtin
- * -fno-math-errno: a fused multiply-add, or sin(atan(x)) rewritten as
+ * $NZLUA_COPT overrides), -fPIC -shared -nostartfiles -ffp-contract=off
+ * -fno-builtin -fno-math-errno: a fused multiply-add, or sin(atan(x)) rewritten as
  * x / sqrt(1 + x^2), would round differently from the interpreter the code
  * stands in for.  Flags that break that promise (-Ofast, -ffast-math,
  * -funsafe-math-optimizations, ...) in CC or NZLUA_COPT are refused.
@@ -47,14 +55,14 @@
  * own so that Ctrl-C at the terminal does not kill it), which takes a lock
  * file for the key (two processes needing the same object share one
  * compile), runs the compiler under a time limit ($NZLUA_CC_TIMEOUT
- * seconds, default 300), writes the object and bounds the cache; the
+ * seconds, default 300, at most 86400), writes the object and bounds the cache; the
  * caller goes on and polls.  A worker whose caller has exited finishes
  * alone: a short run still leaves its object for the next one.  At most
  * $NZLUA_CC_JOBS workers (default 2) run at once per process; more wait
  * their turn.
  *
  * Size.  After each compile the cache is kept under $NZLUA_CACHE_MAX bytes
- * (default 100 MB; suffixes K, M, G), the least recently used objects
+ * (default 100 MB, at most 1 TB; suffixes K, M, G, T), the least recently used objects
  * removed first (loading an object marks it used).  The generated source is
  * removed unless NZLUA_KEEP_C=1.
  *
@@ -65,6 +73,7 @@
 
 #include <stddef.h>
 #include <sys/types.h>
+#include "graph/native_cache.h"
 
 /* A growing string, for generating source: an allocation failure sets oom
  * and later calls do nothing. */
@@ -74,9 +83,6 @@ typedef struct nz_sbuf {
   int oom;
 } nz_sbuf;
 void nz_sb_printf(nz_sbuf *b, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
-
-/* A one-line reason into why[n] (why may be NULL). */
-void nz_native_say(char *why, size_t n, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
 
 /* v as a C expression that is exactly v: a hexadecimal literal, NAN,
  * HUGE_VAL or (-HUGE_VAL). */
@@ -121,41 +127,5 @@ void nz_native_object_close(nz_native_object *o);
 
 /* A monotonic clock in seconds. */
 double nz_native_now(void);
-
-/* -- The cache's files (native_cache.c), for native_object.c ------------ */
-
-/* Bytes of the trailer after the compiler's output. */
-#define NZ_NATIVE_TRAILER 40
-
-/* A descriptor of the cache directory dir (created 0700 with its missing
- * parents when create is set) when it is trusted, else -1 with the reason. */
-int nz_native_cache_open(const char *dir, int create, char *why, size_t whylen);
-/* The object called name in the directory dfd, for the key: 1 with *fd
- * open on it (O_NOFOLLOW) when it passes every check (owner, mode, a regular
- * file, the trailer, the checksum, the ELF segments inside the file; its
- * modification time is set to now, for the least-recently-used rule); 0
- * when there is none; -1 when it is there but fails, why saying what. */
-int nz_native_cache_check(int dfd, const char *name, const char *key, int *fd, char *why, size_t whylen);
-/* The compiler's output open in fd, of the user's: check that it is a
- * whole shared object, append the trailer for key, make it 0600, fsync it.
- * 0, or -1 with the reason. */
-int nz_native_cache_seal(int fd, const char *key, char *why, size_t whylen);
-/* After a compile: temporaries and locks left by dead workers removed,
- * then objects, least recently used first, until the cache is under its
- * limit (never keep, the one just made). */
-void nz_native_cache_prune(int dfd, const char *keep);
-/* A one-line notice to the binding's callback. */
-void nz_native_notice(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
-/* A setting from the environment: a positive number (with K, M, G when
- * bytes is set), else def. */
-double nz_native_setting(const char *name, double def, int bytes);
-/* Seconds a compiler may run before it is stopped ($NZLUA_CC_TIMEOUT,
- * default 300), and compile workers at once per process ($NZLUA_CC_JOBS,
- * default 2). */
-double nz_native_cc_timeout(void);
-int nz_native_cc_jobs(void);
-/* All n bytes of buf written at offset at, through interrupted calls; 0,
- * or -1 with errno. */
-int nz_native_write_at(int fd, const void *buf, size_t n, off_t at);
 
 #endif

@@ -163,8 +163,11 @@ int nz_lua_contacts_raise(lua_State *L, const nz_contacts *c, bound_system *b)
     lua_pushfstring(L, "contact '%s': its gap's gradient dPhi/dq vanishes where it touches", name ? name : "?");
     luaL_addvalue(&msg);
     nz_lua_add_state(&msg, f->t, f->q, f->qd, k);
-    luaL_addstring(&msg, ": there is no normal direction there; write the gap as a distance whose gradient does "
-                         "not vanish (not x^2 - a^2, whose gradient is 0 at x = 0)");
+    nz_lua_fmt_num(num, sizeof num, f->value);
+    lua_pushfstring(L, " (%s of the largest it had in the run): there is no normal direction there; write the gap "
+                    "as a distance whose gradient does not vanish (not q^3, nor x^2 - a^2 at a = 0, whose gradient "
+                    "is 0 where they are 0)", num);
+    luaL_addvalue(&msg);
     break;
   default:
     luaL_addstring(&msg, "the contacts failed");

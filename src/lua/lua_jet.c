@@ -555,13 +555,19 @@ static int lj_clamp(lua_State *L)
 /* ------------------------------------------------------------------ */
 /* Construction                                                         */
 
-static int check_count(lua_State *L, int idx, int lo, int hi, const char *what)
+/* Argument idx as a whole number from lo to hi (what names it; lo_is, when
+ * not NULL, says where lo comes from), else an error that says which
+ * numbers it takes and what it got (2.5, nan, 1e+300 too). */
+static int check_count(lua_State *L, int idx, int lo, int hi, const char *what, const char *lo_is)
 {
-  lua_Integer n = luaL_checkinteger(L, idx);
-  if (n < lo || n > hi)
-    return (int)luaL_error(L, "bad argument #%d to 'jet' (%s between %d and %d expected, got %I)",
-                           idx, what, lo, hi, (lua_Integer)n);
-  return (int)n;
+  double v = luaL_checknumber(L, idx);
+  if (!(v >= lo && v <= hi && v == floor(v))) {
+    char a[32];
+    return (int)luaL_error(L, "bad argument #%d to 'jet' (%s must be a whole number from %d%s%s%s to %d, got %s)",
+                           idx, what, lo, lo_is ? " (" : "", lo_is ? lo_is : "", lo_is ? ")" : "", hi,
+                           fmt_num(a, sizeof a, v));
+  }
+  return (int)v;
 }
 
 /* A jet starts finite: NaN or inf in a value or coefficient would only
@@ -602,9 +608,13 @@ static int jet_from_table(lua_State *L)
   int ncoef = (int)luaL_len(L, 1);
   int order = ncoef - 1;
   if (lua_getfield(L, 1, "order") != LUA_TNIL) {
-    if (!lua_isinteger(L, -1))
-      return luaL_error(L, "bad argument #1 to 'jet' (field 'order' must be an integer)");
-    order = (int)lua_tointeger(L, -1);
+    double v = lua_tonumber(L, -1);
+    if (!lua_isnumber(L, -1) || !(v >= 0 && v <= NZ_JET_MAX_ORDER && v == floor(v))) {
+      char a[32];
+      return luaL_error(L, "bad argument #1 to 'jet' (field 'order' must be a whole number from 0 to %d, got %s)",
+                        NZ_JET_MAX_ORDER, lua_isnumber(L, -1) ? fmt_num(a, sizeof a, v) : luaL_typename(L, -1));
+    }
+    order = (int)v;
   }
   lua_pop(L, 1);
   if (order < 0 || order > NZ_JET_MAX_ORDER)
@@ -639,12 +649,13 @@ static int lj_jet(lua_State *L)
 {
   if (lua_istable(L, 1)) return jet_from_table(L);
   double t0 = check_finite_arg(L, 1, "jet");
-  int order = lua_isnoneornil(L, 2) ? 1 : check_count(L, 2, 0, NZ_JET_MAX_ORDER, "order");
+  int order = lua_isnoneornil(L, 2) ? 1 : check_count(L, 2, 0, NZ_JET_MAX_ORDER, "the order", NULL);
   int seed = -1, ntan = 0;
   if (!lua_isnoneornil(L, 3)) {
-    seed = check_count(L, 3, 1, NZ_JET_MAX_TANGENTS, "tangent direction") - 1;
+    seed = check_count(L, 3, 1, NZ_JET_MAX_TANGENTS, "the tangent direction", NULL) - 1;
     ntan = lua_isnoneornil(L, 4) ? seed + 1
-                                 : check_count(L, 4, seed + 1, NZ_JET_MAX_TANGENTS, "tangent count");
+                                 : check_count(L, 4, seed + 1, NZ_JET_MAX_TANGENTS, "the tangent count",
+                                               "the tangent direction: direction d needs d tangents");
   }
   nz_jet_set_variable(nz_lua_newjet(L, order, ntan), t0, seed);
   return 1;
@@ -654,9 +665,10 @@ static int lj_jet(lua_State *L)
 static int lj_dual(lua_State *L)
 {
   double v = check_finite_arg(L, 1, "dual");
-  int seed = check_count(L, 2, 1, NZ_JET_MAX_TANGENTS, "tangent direction") - 1;
+  int seed = check_count(L, 2, 1, NZ_JET_MAX_TANGENTS, "the tangent direction", NULL) - 1;
   int ntan = lua_isnoneornil(L, 3) ? seed + 1
-                                   : check_count(L, 3, seed + 1, NZ_JET_MAX_TANGENTS, "tangent count");
+                                   : check_count(L, 3, seed + 1, NZ_JET_MAX_TANGENTS, "the tangent count",
+                                                 "the tangent direction: direction d needs d tangents");
   nz_jet_set_variable(nz_lua_newjet(L, 0, ntan), v, seed);
   return 1;
 }

@@ -22,6 +22,8 @@
 #include "lua/lua_variational.h"
 #include "mech/constrained.h"
 #include "mech/contact.h"
+#include "mech/mech_graph.h"
+#include "graph/graph_rounding.h"
 #include "ode/ode.h"
 #include "ode/ode_run.h"
 #include "ode/stepper.h"
@@ -847,6 +849,73 @@ static int lo_run_state(lua_State *L)
   return 3;
 }
 
+/* ode_rounding_branch(def, t, q, qd, qdd, tol) -> nil | {piece,
+ * constraint, op, fn, value, bound, a, b, rounding}: the first branch of
+ * the recording whose choice is decided by rounding at the state, or whose
+ * deciding number lies within tol of its switch (graph_rounding.h): the
+ * pieces whose functions hold it ("V", "Q", "constraint", ... joined by
+ * " and "), the operation (a node op's name; fn the function's or the
+ * comparison's number), the number that decides it and its rounding bound,
+ * the branch's operands, and whether rounding decides it.  For a run
+ * whose steps collapsed (advice.lua). */
+static int lo_rounding_branch(lua_State *L)
+{
+  static const char *const names[NZ_PIECE_COUNT] = { "T", "T", "V", "Q", "S", "constraint" };
+  lua_settop(L, 6);
+  bound_system b;
+  nz_lua_bind_system(L, 1, &b);
+  if (!b.comp) return 0;
+  int k = b.sys.k;
+  double t = luaL_checknumber(L, 2), tol = luaL_optnumber(L, 6, 0.0);
+  double *y = lua_newuserdatauv(L, 3 * (size_t)k * sizeof(double), 0);
+  nz_lua_read_vector(L, 3, k, y, "q", 0, "rounding_branch");
+  nz_lua_read_vector(L, 4, k, y + k, "qd", 0, "rounding_branch");
+  int nstate = 2;
+  if (!lua_isnil(L, 5)) {
+    nz_lua_read_vector(L, 5, k, y + 2 * k, "qdd", 0, "rounding_branch");
+    nstate = 3;
+  }
+  const double *state[3] = { y, y + k, y + 2 * k };
+  nz_rounding_branch br;
+  unsigned pieces = 0;
+  int constraint = -1;
+  if (nz_compiled_rounding_branch(b.comp, t, state, nstate, tol, &br, &pieces, &constraint) != 1) return 0;
+  const nz_gnode *nd = &nz_graph_nodes(nz_compiled_graph(b.comp))[br.node];
+  luaL_Buffer which;
+  luaL_buffinit(L, &which);
+  int first = 1;
+  for (int p = NZ_PIECE_T; p < NZ_PIECE_COUNT; p++)   /* (F is the T the user wrote: named T) */
+    if ((pieces >> p & 1u) || (p == NZ_PIECE_T && (pieces & 1u))) {
+      if (!first) luaL_addstring(&which, " and ");
+      luaL_addstring(&which, names[p]);
+      first = 0;
+    }
+  luaL_pushresult(&which);
+  lua_createtable(L, 0, 9);
+  lua_insert(L, -2);
+  lua_setfield(L, -2, "piece");
+  if (constraint >= 0) {
+    lua_pushinteger(L, constraint + 1);
+    lua_setfield(L, -2, "constraint");
+  }
+  lua_pushstring(L, nz_gop_names[nd->op]);
+  lua_setfield(L, -2, "op");
+  lua_pushinteger(L, nd->fn);
+  lua_setfield(L, -2, "fn");
+  lua_pushnumber(L, br.value);
+  lua_setfield(L, -2, "value");
+  lua_pushnumber(L, br.bound);
+  lua_setfield(L, -2, "bound");
+  lua_pushnumber(L, br.a);
+  lua_setfield(L, -2, "a");
+  lua_pushnumber(L, br.b);
+  lua_setfield(L, -2, "b");
+  lua_pushboolean(L, br.rounding);
+  lua_setfield(L, -2, "rounding");
+  return 1;
+}
+
+
 /* _set_interrupt(flag): request (true) or clear (false) the interrupt, as
  * Ctrl-C does; for tests only (tests/simulate_loop_spec.lua). */
 static int lo_set_interrupt(lua_State *L)
@@ -898,7 +967,7 @@ static const luaL_Reg ode_functions[] = {
   { "now", lo_now }, { "isatty", lo_isatty }, { "interrupted", lo_interrupted },
   { "ode_methods", lo_methods }, { "ode_run_new", lo_run_new }, { "ode_run", lo_run },
   { "ode_run_state", lo_run_state }, { "ode_run_dense", lo_run_dense }, { "ode_run_native", lo_run_native }, { "ode_run_set_state", lo_run_set_state },
-  { "ode_run_jump", lo_run_jump },
+  { "ode_run_jump", lo_run_jump }, { "ode_rounding_branch", lo_rounding_branch },
   { "ode_run_violation", lo_run_violation }, { "ode_events_new", lo_events_new },
   { "ode_event_value", lo_event_value }, { "_set_interrupt", lo_set_interrupt },
   { NULL, NULL }

@@ -31,7 +31,7 @@ struct nz_contacts {
    * started at zero slip velocity, start the new mode strictly positive */
   double *offset;
   /* Zeno: the times of the last three impacts of each contact, and its velocity scales */
-  double *ht, *vmax, *vtmax;
+  double *ht, *vmax, *vtmax, *gmax;
   int *nh;
   /* the frame at a state */
   double *M, *h;               /* k k, k */
@@ -119,7 +119,7 @@ nz_contacts *nz_contacts_new(int k, const nz_contacts_config *cfg)
   c->def = malloc(N * sizeof *c->def);
   c->mode = calloc(2 * N, sizeof(int));                 /* mode, nh */
   c->offset = calloc(2 * N, sizeof(double));
-  c->ht = calloc(9 * N, sizeof(double));                /* ht (3n), vmax, vtmax, phi, vn, vt, e_eff */
+  c->ht = calloc(10 * N, sizeof(double));               /* ht (3n), vmax, vtmax, phi, vn, vt, e_eff, gmax */
   c->M = calloc(K * K + 3 * K + C * K + C, sizeof(double));   /* M, h, zero, a0, A, b */
   c->rows = calloc(3 * C + 1, sizeof(int));             /* rows, couple (ints), coef below */
   /* S: the mode solve's X (k (nc + 1)), M's factor (k k), G and its
@@ -156,6 +156,7 @@ nz_contacts *nz_contacts_new(int k, const nz_contacts_config *cfg)
   c->vn = c->phi + N;
   c->vt = c->vn + N;
   c->e_eff = c->vt + N;
+  c->gmax = c->e_eff + N;
   c->h = c->M + K * K;
   c->zero = c->h + K;
   c->a0 = c->zero + K;
@@ -213,6 +214,7 @@ void nz_contacts_reset(nz_contacts *c)
   memset(c->nh, 0, N * sizeof(int));
   memset(c->vmax, 0, N * sizeof(double));
   memset(c->vtmax, 0, N * sizeof(double));
+  memset(c->gmax, 0, N * sizeof(double));
   memset(c->offset, 0, 2 * N * sizeof(double));
   c->cvalid = 0;
 }
@@ -882,10 +884,17 @@ int nz_contacts_transition(nz_contacts *c, const nz_system *s, double t, double 
   for (int j = 0; j < n; j++) {
     const double *J = row_of(c, c->def[j].gap);
     double tol = tscale * fmax(0.0, -c->vn[j]) + NZ_CONTACT_ROUND * abs_dot(k, J, q);
+    double g = max_abs(k, J);
+    c->gmax[j] = fmax(c->gmax[j], g);
     c->touch[j] = in_mode(c->mode[j]) || c->phi[j] <= tol || (j == tj && !tfric);
     if (!c->touch[j]) continue;
-    if (!(max_abs(k, J) > 0.0)) {
+    /* A gap whose gradient vanishes where it touches (q^3: a root of
+     * multiplicity 3) has no normal there, and its impacts are located
+     * only to the cube root of the rounding: zero, or a vanishing fraction
+     * of the largest it has had in this run, is refused. */
+    if (!(g > NZ_CONTACT_FLAT * c->gmax[j])) {
       fail_at(c, NZ_CONTACT_GRADIENT, NZ_EARG, j, t, q, qd);
+      c->fail.value = c->gmax[j] > 0.0 ? g / c->gmax[j] : 0.0;
       return NZ_EARG;
     }
     c->vmax[j] = fmax(c->vmax[j], fabs(c->vn[j]));

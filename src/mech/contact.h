@@ -86,6 +86,9 @@ typedef struct nz_contact_def {
  * velocity scale (the fastest the contact has had, or |J|_1 max |q'_i|) is
  * zero: an approach that slow is no impact, a slip that slow sticks. */
 #define NZ_CONTACT_REST 1e-9
+/* A touching contact's gap gradient |dPhi/dq| at or below this fraction of
+ * the largest it has had in the run vanishes there (a multiple root). */
+#define NZ_CONTACT_FLAT 1e-6
 
 typedef struct nz_contacts_config {
   int nc;                  /* the system's constraints: nb bilateral first    */

@@ -10,6 +10,7 @@
 #include "jets/series.h"
 #include "core/linalg.h"
 #include "mech/mech_graph.h"
+#include "graph/graph_rounding.h"
 
 /* A plan on doubles that runs as machine code (graph_native.h): in auto
  * mode its compile starts in the background once interpreting it has cost
@@ -916,6 +917,74 @@ int nz_compiled_piece_outputs(const nz_compiled *c, nz_piece piece, int index, i
   if (!p || !p->n) return 0;
   for (int i = 0; i < p->n && i < max; i++) out[i] = p->nodes[i];
   return p->n;
+}
+
+/* Does root depend on node x?  (mark: n bytes of scratch, zeroed here) */
+static int depends_on(const nz_graph *g, int root, int x, unsigned char *mark)
+{
+  const nz_gnode *nodes = nz_graph_nodes(g);
+  memset(mark, 0, (size_t)nz_graph_size(g));
+  mark[root] = 1;
+  for (int y = root; y >= x; y--) {    /* operands have smaller ids */
+    if (!mark[y]) continue;
+    if (y == x) return 1;
+    const nz_gnode *nd = &nodes[y];
+    if (nd->op == NZ_GOP_CONST || nd->op == NZ_GOP_INPUT) continue;
+    if (nd->a >= 0) mark[nd->a] = 1;
+    if (nd->b >= 0) mark[nd->b] = 1;
+    if (nd->op == NZ_GOP_SELECT && nd->c >= 0) mark[nd->c] = 1;
+  }
+  return 0;
+}
+
+/* Which pieces' functions hold node x: a mask of 1 << piece and, for a
+ * constraint, the first one's index in *constraint. */
+static unsigned pieces_holding(const nz_compiled *c, int x, int *constraint, unsigned char *mark)
+{
+  unsigned mask = 0;
+  *constraint = -1;
+  for (int piece = 0; piece < NZ_PIECE_COUNT; piece++) {
+    int n = piece == NZ_PIECE_PHI ? c->nc : 1;
+    for (int index = 0; index < n; index++) {
+      const compiled_piece *p = piece_of(c, (nz_piece)piece, index);
+      for (int o = 0; p && o < p->n; o++)
+        if (depends_on(c->g, p->nodes[o], x, mark)) {
+          mask |= 1u << piece;
+          if (piece == NZ_PIECE_PHI && *constraint < 0) *constraint = index;
+          break;
+        }
+    }
+  }
+  return mask;
+}
+
+int nz_compiled_rounding_branch(nz_compiled *c, double t, const double *const *state, int nstate, double tol,
+                                nz_rounding_branch *out, unsigned *pieces, int *constraint)
+{
+  int k = c->k, n = nz_graph_size(c->g), nroots = 0;
+  int *roots = malloc(((size_t)k * (size_t)k + (size_t)k + (size_t)n) * sizeof(int) + 1);
+  double *in = calloc((size_t)c->ninputs + 1, sizeof(double));
+  unsigned char *mark = malloc((size_t)n + 1);
+  int found = -1;
+  if (roots && in && mark) {
+    if (mass_bias_ready(c))                     /* M and h: what the integrators evaluate */
+      for (int i = 0; i < k * k + k; i++) roots[nroots++] = c->mb_plan->outs[i];
+    for (int piece = 0; piece < NZ_PIECE_COUNT; piece++)
+      for (int index = 0; index < (piece == NZ_PIECE_PHI ? c->nc : 1); index++) {
+        const compiled_piece *p = piece_of(c, (nz_piece)piece, index);
+        for (int o = 0; p && o < p->n && nroots < k * k + k + n; o++) roots[nroots++] = p->nodes[o];
+      }
+    fill_inputs(c, in, t, state, nstate, c->nslots);
+    found = nz_graph_rounding_branch(c->g, roots, nroots, in, tol, out);
+    /* the pieces whose functions hold the branch itself; a branch only M
+     * and h hold (sign from abs's derivative) is named by its operand's */
+    if (found == 1 && !(*pieces = pieces_holding(c, out->node, constraint, mark)))
+      *pieces = pieces_holding(c, out->decider, constraint, mark);
+  }
+  free(roots);
+  free(in);
+  free(mark);
+  return found;
 }
 
 /* ------------------------------------------------------------------ */

@@ -186,5 +186,16 @@ int nz_compiled_mass_bias_nodes(const nz_compiled *c);
 int nz_compiled_mass_bias_outputs(nz_compiled *c, int *out);
 int nz_compiled_piece_outputs(const nz_compiled *c, nz_piece piece, int index, int *out, int max);
 
+/* The first branch of M, h and the recorded pieces whose choice is decided
+ * by rounding at the state (t, state[0 .. nstate - 1]: q, q', ...;
+ * graph_rounding.h), or whose deciding number lies within tol of its
+ * switch: 1 when one is found (*out, *pieces a mask of 1 <<
+ * piece for the pieces whose functions hold the number that decides it and,
+ * for a constraint, *constraint the first one's index), 0 when none, -1
+ * when a node failed or memory ran out.  For a run whose steps collapsed. */
+struct nz_rounding_branch;
+int nz_compiled_rounding_branch(nz_compiled *c, double t, const double *const *state, int nstate, double tol,
+                                struct nz_rounding_branch *out, unsigned *pieces, int *constraint);
+
 
 #endif

@@ -659,6 +659,7 @@ double nz_run_time(const nz_run *r) { return r->t; }
 const double *nz_run_state(const nz_run *r) { return r->y; }
 unsigned long nz_run_steps(const nz_run *r) { return r->nsteps; }
 double nz_run_stall_advance(const nz_run *r) { return r->advance; }
+
 int nz_run_count(const nz_run *r) { return r->n; }
 
 void nz_run_point(const nz_run *r, int i, double *t, const double **y, const double **acc,

@@ -376,11 +376,7 @@ end
 
 local function fail(sys, fmt, ...) require("nz.base.where").method_error("residuals_of", sys, fmt, ...) end
 
-local function shown(v)
-  if type(v) == "number" then return require("nz.base.text").number(v) end
-  if type(v) == "string" then return ("the string %q"):format(v) end
-  return type(v)
-end
+local shown = require("nz.base.args").shown
 
 -- The columns of a CSV file with a header line (as tr:csv writes it):
 -- t, each coordinate, and each coordinate's velocity name' when every one

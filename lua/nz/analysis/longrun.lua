@@ -16,6 +16,7 @@
 -- values scatter by a factor of a few, its RMS over hundreds of samples far
 -- less.
 local plot = require "nz.draw.plot"
+local args = require "nz.base.args"
 local options = require "nz.base.options"
 local workprecision = require "nz.analysis.workprecision"
 
@@ -61,7 +62,7 @@ local function entries(opts, bad)
       e = { label = m.name or (m.method .. (#parts > 0 and (" " .. table.concat(parts, " ")) or "")), sim = sim }
     else
       bad("option 'methods': methods[%d] must be a method's name or a table {method = ..., step = ..., rtol = ...} "
-        .. "of simulate's options, got %s", i, require("nz.base.args").shown(m))
+        .. "of simulate's options, got %s", i, args.shown(m))
     end
     if seen[e.label] then bad("option 'methods': '%s' is listed twice (methods[%d] and methods[%d])", e.label, seen[e.label], i) end
     seen[e.label] = i
@@ -86,7 +87,7 @@ local function integral_list(sys, opts, bad)
       end
       names[#names + 1] = name
     elseif f ~= true and f ~= false then
-      bad("option 'integrals': energy must be true or false, got %s", require("nz.base.args").shown(f))
+      bad("option 'integrals': energy must be true or false, got %s", args.shown(f))
     end
   end
   table.sort(names)
@@ -96,7 +97,6 @@ local function integral_list(sys, opts, bad)
 end
 
 local function check(sys, opts)
-  local args = require "nz.base.args"
   local function bad(fmt, ...) args.error("longrun", 2, fmt, ...) end
   if not require("nz.base.classes").is_system(sys) then
     args.error("longrun", 1, "a system from nz.system{...} expected, got %s", args.shown(sys))

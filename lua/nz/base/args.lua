@@ -10,10 +10,13 @@ local user_where = require("nz.base.where").user_where
 
 local M = {}
 
--- A value as a message shows it (NaN as "NaN" on every C library).
+-- A value as a message shows it after "got" (NaN as "NaN" on every C
+-- library; "0" as the string "0", so that it is not read as a number): the
+-- one way every module shows a value it refuses.
 function M.shown(v)
   if type(v) == "number" then return text.number(v) end
   if type(v) == "string" then return ("the string %q"):format(v) end
+  if type(v) == "boolean" or v == nil then return tostring(v) end
   if type(v) == "table" and getmetatable(v) == nil then
     return #v == 1 and "a table of 1 entry" or ("a table of %d entries"):format(#v)
   end

@@ -28,6 +28,15 @@ end
 -- text (nz/draw/display.lua).  The terminal sets nothing and pays nothing.
 M.on_table = nil
 
+-- A value as Lua would write it, for a message in the form `key = value`:
+-- a string quoted ("xy"), a number in its shortest exact digits, anything
+-- else by tostring.  (After "got", base/args.lua's shown says more.)
+function M.literal(v)
+  if type(v) == "string" then return ("%q"):format(v) end
+  if type(v) == "number" then return M.number(v) end
+  return tostring(v)
+end
+
 -- A list of numbers as "{a, b, c}", each written by fmt: a function, a
 -- format ("%.6g", as messages give a state) or by default M.number, the
 -- shortest digits that read back exactly.

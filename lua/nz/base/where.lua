@@ -17,6 +17,33 @@ local function user_frame()
   end
 end
 
+-- The library's wrappers of a user's function (a contact's gap handed the
+-- constraint slots): the function each stands for and what to call it,
+-- so that a message about the wrapper names the user's function, where it
+-- is defined and what it is.
+local wrapped = setmetatable({}, { __mode = "k" })
+
+-- wrapper, registered as standing for fn, called label ("contact 'floor'
+-- (its gap)").
+function M.wrap(wrapper, fn, label)
+  wrapped[wrapper] = { fn = fn, label = label }
+  return wrapper
+end
+
+-- The user's function f stands for (f itself when it wraps none), and its
+-- label (nil when none was given).
+function M.unwrap(f)
+  local w = wrapped[f]
+  if w then return w.fn, w.label end
+  return f
+end
+
+-- "file:line" where the user's function behind f is defined, or nil.
+function M.defined(f)
+  local info = debug.getinfo(M.unwrap(f), "S")
+  return info.what == "Lua" and ("%s:%d"):format(info.short_src, info.linedefined) or nil
+end
+
 -- "file:line: " of the first frame outside the library, or "".
 function M.user_where()
   local info = user_frame()

@@ -78,7 +78,7 @@ local function check_common(opts)
     local whole = type(v) == "number" and v == math.floor(v)
     if v ~= nil and (not whole or v < min[i] or v > 10000) then
       fail("%s = %s: a whole number from %d to 10000 expected (%s, %s)", key,
-        type(v) == "string" and ("%q"):format(v) or tostring(v), min[i],
+        require("nz.base.text").literal(v), min[i],
         file and "pixels of the file" or "characters of the terminal", key == "width" and "columns" or "lines")
     end
   end

@@ -180,7 +180,7 @@ end
 -- returned or raised, at the user's file:line, and suggest a typical state
 -- only when it fails for want of one (a domain error at every sample).
 local function evaluation_failure(sys, r, failures, tried)
-  local prefix = ("system '%s': constraint %d"):format(sys.name, r)
+  local prefix = ("system '%s': %s"):format(sys.name, sys.engine.labels.constraints[r] or ("constraint %d"):format(r))
   local f, all_domain = failures[1], true
   for _, e in ipairs(failures) do
     if not is_domain_error(e.msg) then
@@ -190,8 +190,8 @@ local function evaluation_failure(sys, r, failures, tried)
   end
   local msg, st = tostring(f.msg), f.state
   local fn = sys.engine.constraints[r]
-  local info = type(fn) == "function" and debug.getinfo(fn, "S") or nil
-  local where = info and ("%s:%d: "):format(info.short_src, info.linedefined) or ""
+  local defined = type(fn) == "function" and require("nz.base.where").defined(fn)   -- the user's, not a wrapper's
+  local where = defined and defined .. ": " or ""
   -- The evaluator's words (lua_system.c): "raised an error: <error> at t = ...".
   local raised = msg:match("raised an error: (.-) at t = ")
   local loc, text

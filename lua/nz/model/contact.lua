@@ -18,6 +18,8 @@
 -- simulation integrates that one in the current contact mode
 -- (nz/motion/contact_run.lua, src/mech/contact.c), and a system without contacts
 -- has none, so it costs nothing.
+local where = require "nz.base.where"
+
 local M = {}
 
 local Contact = { __name = "nz.unilateral" }
@@ -31,8 +33,7 @@ M.Contact = Contact
 
 local KNOWN = { e = true, mu = true, mu_s = true, slip = true, name = true, at = true }
 
-local function finite(v) return type(v) == "number" and v == v and math.abs(v) ~= math.huge end
-local function shown(v) return type(v) == "number" and require("nz.base.text").number(v) or type(v) end
+local finite, shown = require("nz.base.args").finite, require("nz.base.args").shown
 
 -- A contact's parameters checked, each error naming the contact and the
 -- parameter with what it accepts (raised at `level`, counted from here as
@@ -111,13 +112,17 @@ function M.attach(sys, def, contacts, bilateral)
     seen[name] = true
     names[j] = name
     local gap = c.gap
-    C[#C + 1] = function(t, q, qd, qdd, qddd, p) return gap(t, q, p) end
+    -- registered as the user's gap, so that a message about it names their
+    -- function and line (nz/base/where.lua), not this wrapper's
+    C[#C + 1] = where.wrap(function(t, q, qd, qdd, qddd, p) return gap(t, q, p) end, gap,
+      ("contact '%s' (its gap)"):format(name))
     specs[j] = { gap = #C, e = c.e, mu = c.mu, mu_s = c.mu_s, at = c.at, name = name }
   end
   for j, c in ipairs(contacts) do
     if c.slip then
       local slip = c.slip
-      C[#C + 1] = function(t, q, qd, qdd, qddd, p) return slip(t, q, qd, p) end
+      C[#C + 1] = where.wrap(function(t, q, qd, qdd, qddd, p) return slip(t, q, qd, p) end, slip,
+        ("contact '%s' (its slip)"):format(names[j]))
       specs[j].slip = #C
     end
   end
@@ -125,11 +130,7 @@ function M.attach(sys, def, contacts, bilateral)
   for key, v in pairs(def) do cdef[key] = v end
   cdef.constraints = C
   cdef.params = sys.params           -- the same table: a parameter changed is seen by both
-  local csys = require("nz.base.classes").new_system(cdef)
-  for j, s in ipairs(specs) do
-    csys.engine.labels.constraints[s.gap] = ("contact '%s' (its gap)"):format(names[j])
-    if s.slip then csys.engine.labels.constraints[s.slip] = ("contact '%s' (its slip)"):format(names[j]) end
-  end
+  local csys = require("nz.base.classes").new_system(cdef)   -- its labels are the wrappers' (nz.system)
   sys.contact = { system = csys, nb = nb, contacts = specs, names = names, n = #contacts }
 end
 

@@ -179,10 +179,7 @@ function M.check(sys)
       what = what and fn.label .. " " .. what
     end
     if what then
-      if not at then
-        local defined = debug.getinfo(fn.f, "S")
-        at = defined.what == "Lua" and ("%s:%d"):format(defined.short_src, defined.linedefined)
-      end
+      at = at or where.defined(fn.f)   -- the user's function, not a wrapper's
       local st = ("t = %.6g, q = %s"):format(state.t, vector_text(state[1]))
       if fn.slots >= 2 then st = st .. ", qd = " .. vector_text(state[2]) end
       error(("%snz.system '%s': %s fails at every state (tried once as the system is made, at %s): %s%s")

@@ -174,6 +174,62 @@ function M.evaluator(sys, from)
   return "jets (a function of the system runs in Lua: print(sys) says which)"
 end
 
+-- What each kind of branch is, said where the number that decides it lies
+-- within its rounding error (src/graph/graph_rounding.h).
+local FLIPS = {
+  atan2 = function(b) return ("atan2's first argument is %.3g, within its rounding error (%.3g) of 0, where atan2(y, x) "
+    .. "jumps between pi and -pi (x = %.6g < 0)"):format(b.value, b.bound, b.b) end,
+  cmp = function(b) return ("the two sides of a comparison (nz.lt, nz.le, nz.gt, nz.ge, or a condition of nz.ifelse) "
+    .. "differ by %.3g, within their rounding error (%.3g)"):format(b.value, b.bound) end,
+  fn = function(b) return ("sign's argument (nz.sign, or the derivative of nz.abs, which has a corner at 0) is %.3g, "
+    .. "within its rounding error (%.3g) of 0"):format(b.value, b.bound) end,
+  select = function(b) return ("the condition of nz.ifelse is %.3g, within its rounding error (%.3g) of 0")
+    :format(b.value, b.bound) end,
+}
+
+-- The same where the deciding number is near its switch, beyond rounding.
+local NEAR = {
+  atan2 = function(b) return ("atan2's first argument is %.3g, at the cut of atan2(y, x) (x = %.6g < 0), where "
+    .. "it jumps between pi and -pi"):format(b.value, b.b) end,
+  cmp = function(b) return ("the two sides of a comparison (nz.lt, nz.le, nz.gt, nz.ge, or a condition of nz.ifelse) "
+    .. "differ by %.3g"):format(b.value) end,
+  fn = function(b) return ("sign's argument (nz.sign, or the derivative of nz.abs) is %.3g"):format(b.value) end,
+  select = function(b) return ("the condition of nz.ifelse is %.3g"):format(b.value) end,
+}
+
+-- A right-hand side that jumps makes the steps collapse: every step sees
+-- the jump, whatever its size.  When a run's steps have collapsed (the
+-- long-run notice, the stall), the recording is asked for a branch whose
+-- choice lies within rounding at the state y (q, qd, with q'' there), or
+-- whose deciding number is within the run's tolerance on the state of
+-- its switch (SWITCH_TOL times atol + rtol |y|); found, the run stops with
+-- the function and the operation, the time and the state (the part
+-- computed is kept in nz.last).
+M.SWITCH_TOL = 100
+function M.rounding_flip(sys, cfg, engine, tt, y, qdd, why)
+  if not engine.compiled then return end
+  local k = sys.k
+  local q, qd, ymax = {}, {}, 0
+  for i = 1, k do
+    q[i], qd[i] = y[i], y[k + i]
+    ymax = math.max(ymax, math.abs(y[i]), math.abs(y[k + i]))
+  end
+  local tol = M.SWITCH_TOL * ((cfg.atol or 0) + (cfg.step and 0 or cfg.rtol) * ymax)
+  local ok, b = pcall(mech.ode_rounding_branch, engine, tt, q, qd, qdd, tol)
+  if not ok or not b then return end
+  local where = b.constraint and ("constraint %d"):format(b.constraint) or (b.piece ~= "" and b.piece or "M and h")
+  if not b.rounding then
+    fail(sys, "the integrator (%s) %s: the right-hand side jumps there%s: in %s, %s, and every step across the switch "
+      .. "sees the jump: the model switches there (a force by sign or a comparison of the state); make the switch an "
+      .. "event, or a unilateral contact with friction (nz.unilateral), or smooth it (nz.smooth_abs)", cfg.method, why,
+      M.state_text(tt, q, qd), where, (NEAR[b.op] or NEAR.cmp)(b))
+  end
+  fail(sys, "the integrator (%s) %s: the right-hand side jumps there at rounding level%s: in %s, %s, so it flips with "
+    .. "the last bits of the state and every step sees the jump: write the expression so that it is exactly 0 where it "
+    .. "should vanish (a sum that cancels to a rounding residue: w - 0.3 w - 0.7 w), or smooth the switch "
+    .. "(nz.smooth_abs)", cfg.method, why, M.state_text(tt, q, qd), where, (FLIPS[b.op] or FLIPS.cmp)(b))
+end
+
 -- A run that will take long says so once, with what would be cheaper
 -- (tr.warnings, and the terminal): nsteps steps have brought it to tt,
 -- wall0 was its start, done() clears the progress bar's line.  It looks at
@@ -185,7 +241,7 @@ end
 -- spectral radius of the motion's Jacobian at the current state (one
 -- Jacobian and its eigenvalues, once, when the notice is given).  True when
 -- it said so.
-function M.long_run_notice(sys, cfg, tr, nsteps, tt, wall0, done, compiled0, pace, evidence)
+function M.long_run_notice(sys, cfg, tr, nsteps, tt, wall0, done, compiled0, pace, evidence, flip)
   local now, compiled = mech.now(), compile_seconds(sys)
   local elapsed = now - wall0 - (compiled - compiled0)
   local dsteps, dt_run = nsteps - pace.steps, tt - pace.t
@@ -197,6 +253,8 @@ function M.long_run_notice(sys, cfg, tr, nsteps, tt, wall0, done, compiled0, pac
   if not ((nsteps >= settings.LONG_RUN.check_steps and steps > settings.LONG_RUN.steps)
       or (elapsed >= 1 and seconds > settings.LONG_RUN.seconds)) then return false end
   local h = dt_run / dsteps
+  done()                                  -- the progress bar's line, if shown
+  flip(("took steps of only %.3g (at that pace the run would take %.3g steps)"):format(h, steps))
   local ok, rho = pcall(evidence, tt)
   local ev = { h = h, rho = ok and rho or nil }
   local s = stiffness(cfg, ev)
@@ -208,7 +266,6 @@ function M.long_run_notice(sys, cfg, tr, nsteps, tt, wall0, done, compiled0, pac
     cfg.t0, cfg.t1, nsteps, cfg.method, cfg.step and (" at step = %g"):format(cfg.step) or (" at rtol = %g"):format(cfg.rtol),
     cheaper(cfg, nsteps, tt, ev))
   tr.warnings[#tr.warnings + 1] = msg
-  done()                                  -- the progress bar's line, if shown
   settings.warn(msg)
   return true
 end
@@ -222,8 +279,9 @@ local ulp = require("nz.motion.options").ulp
 -- singular point they shrink by orders of magnitude): a time so large that
 -- such steps hardly move it (a few ulps of t each), and a span so long that
 -- they cover only a sliver of it.  Else the motion: M's conditioning there.
-function M.stalled(sys, cfg, tt, advance, nsteps, q, qd, qd0)
+function M.stalled(sys, cfg, tt, advance, nsteps, q, qd, qd0, flip)
   local window = settings.STALL.window
+  flip(("stopped making progress (the last %d steps advanced t by %.3g)"):format(window, advance))
   local span = cfg.t1 - cfg.t0
   local average = (tt - cfg.t0) / math.max(1, nsteps)
   if advance >= 0.1 * window * average then

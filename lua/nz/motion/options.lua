@@ -7,7 +7,6 @@
 local core = require "nz.core"
 local constraints = require "nz.model.constraints"
 local settings = require "nz.motion.settings"
-local text = require "nz.base.text"
 local options = require "nz.base.options"
 local user_where = require("nz.base.where").user_where
 local finite = require("nz.base.args").finite
@@ -41,12 +40,7 @@ local function fail(sys, msg, ...) error(user_where() .. ("simulate '%s': " .. m
 M.fail = fail
 
 -- An option's value in a message.
-local function show(v)
-  if type(v) == "string" then return ("%q"):format(v) end
-  if type(v) == "number" then return text.number(v) end
-  if type(v) == "table" then return "a table" end
-  return tostring(v)
-end
+local show = require("nz.base.args").shown
 M.show = show
 
 local function check_vector(sys, v, what)

@@ -284,6 +284,13 @@ local function evidence(run, tt)
   return rho
 end
 
+-- A collapse of the steps: a branch that flips at rounding level at the
+-- current state stops the run, naming it (advice.rounding_flip).
+local function flip(run, why)
+  local ok, qdd = pcall(mech.ode_accel, run.ode, run.engine, run.t, run.y)
+  advice.rounding_flip(run.sys, run.cfg, run.engine, run.t, run.y, ok and qdd or nil, why)
+end
+
 -- The loop, from the start to the end, a stop or a raise: it returns here
 -- to hand over the output points (every 1024, and at the end), at the step
 -- counts where the long-run notice looks, every PROGRESS_PAUSE seconds
@@ -305,7 +312,7 @@ local function step_all(run)
     if status == "done" then tr.status = "done"; return end
     if status == "stalled" then
       local q, qd = split(run.y, run.k)
-      advice.stalled(run.sys, cfg, run.t, a1, run.nsteps, q, qd, run.qd0)
+      advice.stalled(run.sys, cfg, run.t, a1, run.nsteps, q, qd, run.qd0, function(why) flip(run, why) end)
     end
     if status == "project" then
       run.y = project_state(run, run.t, run.y)
@@ -317,7 +324,7 @@ local function step_all(run)
     if status == "paused" and run.nsteps == next_check and not run.announced then
       next_check = 2 * next_check
       run.announced = advice.long_run_notice(run.sys, cfg, tr, run.nsteps, run.t, run.wall0, run.done, run.compiled0,
-        run.pace, function(tt) return evidence(run, tt) end)
+        run.pace, function(tt) return evidence(run, tt) end, function(why) flip(run, why) end)
     end
     if run.progress and mech.now() >= next_draw then
       run.update(run.t, function() return mech.ode_stats(run.ode).steps end)

@@ -36,7 +36,9 @@ local known = require("nz.base.options").declare("nz.sweep", { system = true, fi
 
 local function fail(msg, ...) error(user_where() .. ("sweep: " .. msg):format(...), 0) end
 
-local show, finite = require("nz.motion.options").show, require("nz.base.args").finite
+local show, finite = require("nz.base.args").shown, require("nz.base.args").finite
+-- A name in a message: "x y" quoted, anything else as a value.
+local function name_shown(v) return type(v) == "string" and ("%q"):format(v) or show(v) end
 
 local function is_name(s) return type(s) == "string" and s:match("^[%a_][%w_]*$") ~= nil and s ~= "error" end
 
@@ -198,7 +200,7 @@ local function grid_points(grid)
   if type(grid) ~= "table" or next(grid) == nil then fail("'grid' must be a table {name = {values...}, ...}, got %s", show(grid)) end
   local names, total = sorted_keys(grid), 1
   for _, name in ipairs(names) do
-    if not is_name(name) then fail("grid name %s must be a name (letters, digits, _; not 'error')", show(name)) end
+    if not is_name(name) then fail("grid name %s must be a name (letters, digits, _; not 'error')", name_shown(name)) end
     local values = grid[name]
     if type(values) ~= "table" or #values == 0 then
       fail("'grid.%s' must be a non-empty list of values, got %s", name, show(values))
@@ -229,7 +231,7 @@ local function list_points(list)
     if type(p) ~= "table" or next(p) == nil then fail("'list'[%d] must be a point {name = value, ...}, got %s", i, show(p)) end
     local these = sorted_keys(p)
     for _, name in ipairs(these) do
-      if not is_name(name) then fail("'list'[%d]: %s must be a name (letters, digits, _; not 'error')", i, show(name)) end
+      if not is_name(name) then fail("'list'[%d]: %s must be a name (letters, digits, _; not 'error')", i, name_shown(name)) end
       if not input_value(p[name]) then fail("'list'[%d].%s must be a number (not NaN) or a string, got %s", i, name, show(p[name])) end
     end
     names = names or these
@@ -265,7 +267,7 @@ local function sample_points(s)
   local names = sorted_keys(s.ranges)
   for _, name in ipairs(names) do
     local r = s.ranges[name]
-    if not is_name(name) then fail("sample name %s must be a name (letters, digits, _; not 'error')", show(name)) end
+    if not is_name(name) then fail("sample name %s must be a name (letters, digits, _; not 'error')", name_shown(name)) end
     if type(r) ~= "table" or not finite(r[1]) or not finite(r[2]) or not (r[1] <= r[2]) then
       fail("'sample.ranges.%s' must be {low, high} with finite low <= high, got %s", name,
         type(r) == "table" and ("{%s, %s}"):format(show(r[1]), show(r[2])) or show(r))
@@ -313,7 +315,7 @@ local function evaluate(sys, run, point, inputs)
   end
   local res = {}
   for k, v in pairs(out) do
-    if not is_name(k) then return nil, ("run returned the output name %s: names are letters, digits and _ (not 'error')"):format(show(k)) end
+    if not is_name(k) then return nil, ("run returned the output name %s: names are letters, digits and _ (not 'error')"):format(name_shown(k)) end
     if inputs[k] then return nil, ("run returned '%s', which is an input of the sweep: name the output differently"):format(k) end
     if type(v) ~= "number" and type(v) ~= "string" and type(v) ~= "boolean" then
       return nil, ("run returned %s for '%s'; outputs are numbers, strings or booleans"):format(show(v), k)

@@ -221,6 +221,15 @@ end
 -- previous file (or none), never one cut in the middle of a row.  Ctrl-C
 -- removes the file beside; SIGTERM is held until the write and the rename
 -- are done (then it ends the process), so it leaves nothing behind either.
+-- Whether path names a directory (reading it fails with EISDIR).
+local function is_directory(path)
+  local f = io.open(path, "r")
+  if not f then return false end
+  local got, _, code = f:read(1)
+  f:close()
+  return got == nil and code == 21
+end
+
 local function write_beside(self, file)
   local tmp, why = core.mech.temp_beside(file)
   if not tmp then return false, why end
@@ -248,13 +257,17 @@ function Trajectory:csv(file)
   if type(file) ~= "string" then
     error(("bad argument #1 to 'csv' (a file name, or nothing for the CSV text, expected, got %s)"):format(type(file)), 2)
   end
+  if is_directory(file) then
+    error(("tr:csv: cannot write '%s': it is a directory: give the name of a file to write, as "
+      .. "tr:csv(\"%s/run.csv\")"):format(file, (file:gsub("/+$", ""))), 2)
+  end
   core.mech.hold_term(true)
   local called, ok, failure = pcall(write_beside, self, file)
   if not called then ok, failure = false, ok end
   core.mech.hold_term(false)
   if not ok then
     if rawequal(failure, core.interrupted) then error(failure, 0) end   -- Ctrl-C stays Ctrl-C
-    error(("csv: cannot write '%s': %s"):format(file, tostring(failure)), 2)
+    error(("tr:csv: cannot write '%s': %s"):format(file, tostring(failure)), 2)
   end
   return file
 end
@@ -287,7 +300,7 @@ local function check_plot_options(opts)
   local function bad(key, want)
     local v = opts[key]
     error(("%strajectory:plot: %s = %s: %s"):format(require("nz.base.where").user_where(), key,
-      type(v) == "string" and ("%q"):format(v) or tostring(v), want), 0)
+      require("nz.base.text").literal(v), want), 0)
   end
   local y = opts.y
   local names = type(y) == "table" and #y > 0

@@ -18,7 +18,7 @@ local function check_options(fname, opts, known)
 end
 
 -- A value as the user wrote it, for messages.
-local function shown(v) return type(v) == "string" and ("%q"):format(v) or tostring(v) end
+local shown = require("nz.base.text").literal   -- an option as written: key = "value"
 
 -- The value of a named quantity at an event's state: a coordinate, or its
 -- velocity "name'".
@@ -117,7 +117,7 @@ local function shapes_of(tr, opts)
 end
 
 local function whole(v, lo, hi) return type(v) == "number" and v == math.floor(v) and v >= lo and v <= hi end
-local function finite(v) return type(v) == "number" and v == v and math.abs(v) < math.huge end
+local finite = require("nz.base.args").finite
 
 -- A point or segment as given, for messages.
 local function listed(v)

@@ -304,7 +304,10 @@ one, e.g. help(sys.simulate):
         steps set the count; bsimp or msbdf only when its steps times the
         Jacobian's spectral radius sit at the method's stability boundary)
         and goes on (tr.stats.long_run); one whose steps stop advancing t
-        stops with the state and M.
+        stops with the state and M.  Steps that collapse against a jump of
+        the right-hand side stop the run with the branch that decides it (a
+        comparison, sign, ifelse or atan2's cut at rounding level or at the
+        switch), its function, the time and the state.
         Event functions are recorded and watched in C; one that cannot be
         recorded is called in Lua (tr.stats.events_why says why).  The
         events of a step are located and handed over in time order.

@@ -53,8 +53,28 @@ local function help_request(code)
   return name and ("help(%s)"):format((name:gsub(":", ".")))
 end
 
+-- A request that cannot be answered: the "done" frame of a protocol error
+-- (the session goes on).
+local function protocol_error(host, msg)
+  msg = "kernel-io: " .. msg
+  host.write("done", { "status", "error", "ename", "protocol", "evalue", msg, "traceback", msg })
+end
+
+-- The field `name` of a request as a whole number from lo to hi (default
+-- when it is absent), or nil and why not: decimal digits alone, so that
+-- 1e999, 1e300, -99999999999999999999 or abc never reach a format or a
+-- C function that wants an integer.
+local function whole(req, name, default, lo, hi)
+  local s = req[name]
+  if s == nil then return default end
+  local n = s:match("^%-?%d+$") and math.tointeger(tonumber(s))
+  if n and n >= lo and n <= hi then return n end
+  return nil, ("field '%s' must be a whole number from %d to %d, got '%s'"):format(name, lo, hi, s:sub(1, 40))
+end
+
 local function execute(host, req)
-  local cell = tonumber(req.cell) or 0
+  local cell, why = whole(req, "cell", 0, 0, math.maxinteger)
+  if not cell then return protocol_error(host, why) end
   local name = ("In [%d]"):format(cell)
   local code = help_request(req.code or "") or req.code or ""
   local f, err = M.chunk(code, name)
@@ -63,8 +83,14 @@ local function execute(host, req)
     return
   end
   repl.begin()
-  host.write("started", {})
-  local res = table.pack(host.run(f))
+  -- "started" is written inside the run: the kernel passes the stop button
+  -- on once it has read it, and only inside the run is SIGINT Ctrl-C
+  -- (between requests nzlua ignores it), so a stop that comes at once is
+  -- never lost
+  local res = table.pack(host.run(function()
+    host.write("started", {})
+    return f()
+  end))
   local ok, interrupted = res[1], res[2]
   if ok then
     -- the value shown once, as the session shows it; built under run too
@@ -89,7 +115,9 @@ end
 -- Completion and inspection -------------------------------------------------
 
 local function complete(host, req)
-  local code, cursor = req.code or "", tonumber(req.cursor) or #(req.code or "")
+  local code = req.code or ""
+  local cursor, why = whole(req, "cursor", #code, 0, #code)
+  if not cursor then return protocol_error(host, why) end
   local list, start = host.complete(code, cursor)
   table.sort(list)
   local unique = {}
@@ -113,7 +141,9 @@ end
 
 -- Shift-Tab: help on the name under (or just before) the cursor.
 local function inspect(host, req)
-  local code, cursor = req.code or "", tonumber(req.cursor) or #(req.code or "")
+  local code = req.code or ""
+  local cursor, why = whole(req, "cursor", #code, 0, #code)
+  if not cursor then return protocol_error(host, why) end
   local _, start = host.complete(code, cursor)
   local stop = cursor
   while stop < #code and code:sub(stop + 1, stop + 1):match("[%w_]") do stop = stop + 1 end
@@ -171,11 +201,12 @@ function M.serve(host)
     local kind, req = host.read()
     if kind == nil or kind == "shutdown" then break end
     local handler = handlers[kind]
-    if handler then
+    if kind == false then
+      protocol_error(host, req)   -- a malformed frame, skipped
+    elseif handler then
       handler(host, req)
     else
-      host.write("done", { "status", "error", "ename", "protocol", "evalue", ("unknown request '%s'"):format(kind),
-        "traceback", ("kernel-io: unknown request '%s' (execute, complete, inspect, is_complete, shutdown)"):format(kind) })
+      protocol_error(host, ("unknown request '%s' (execute, complete, inspect, is_complete, shutdown)"):format(kind))
     end
   end
 end
