@@ -100,6 +100,34 @@ describe("nz.longrun", function()
     assert.truthy(file and file:find("<svg", 1, true), "an SVG file")
   end)
 
+  it("in a notebook: the table as HTML from its rows, the diagram inline", function()
+    local display, frontend = require "nz.draw.display", require "nz.base.frontend"
+    -- a front-end that renders text and HTML and keeps what it is given
+    local fe = { name = "test", accepts = { ["text/plain"] = true, ["text/html"] = true }, shown = {} }
+    function fe.publish(data, kind) fe.shown[#fe.shown + 1] = { data = data, kind = kind } end
+    function fe.print(s) display.show(display.of(s)) end
+    function fe.progress() return true end
+    local gnuplot = os.execute("command -v gnuplot >/dev/null 2>&1")
+    frontend.use(fe)
+    display.keep_tables(true)
+    local P = 2 * math.pi / w
+    local ok, rows = pcall(nz.longrun, oscillator, { q0 = { 1 }, qd0 = { 0 }, t1 = 400 * P, period = P, samples = 400,
+      methods = { "rk8pd" }, plot = gnuplot or nil })
+    frontend.use(nil)
+    display.keep_tables(false)
+    assert(ok, rows)
+    local html = fe.shown[1] and fe.shown[1].data["text/html"]
+    assert(html and html:find("Long run of &#39;lr oscillator&#39;", 1, true) or html:find("Long run of 'lr oscillator'",
+      1, true), tostring(html))
+    -- the row's own numbers in their cells: its exponent and its final error
+    assert.truthy(html:find(('<td style="text-align:right">t^%.2f</td>'):format(rows[1].exponent), 1, true), html)
+    assert.truthy(html:find(('<td style="text-align:right">%.2e</td>'):format(rows[1].final), 1, true), html)
+    if not gnuplot then return end   -- (the diagram needs gnuplot)
+    local img = fe.shown[2] and fe.shown[2].data["text/html"]
+    local svg = img and h.img_data(img, "image/svg+xml")
+    assert(svg and svg:find("<svg", 1, true) and svg:find("long run: lr oscillator", 1, true), tostring(img):sub(1, 200))
+  end)
+
   it("bad options: one error naming it, from the caller's line", function()
     local base = { q0 = { 1 }, qd0 = { 0 }, t1 = 1, quiet = true }
     local function with(changes)

@@ -119,6 +119,7 @@ describe("method 'variational'", function()
         local n = #tr.t
         err[j] = math.abs(tr.q[n][1] - math.cos(T1)) + math.abs(tr.qd[n][1] + math.sin(T1))
         assert.equal(p, tr.stats.order)
+        assert.truthy(tostring(tr):find(("method variational (order %d, fixed step %g)"):format(p, step), 1, true))
       end
       -- measured log2 ratios 1.99, 3.99, 6.00, 8.02 (errors 9.9e-3 to 3.3e-13
       -- at h = 0.1: above the rounding at every order)
@@ -202,6 +203,17 @@ describe("method 'variational'", function()
     h.checkerror("method 'variational' takes holonomic constraints (on q and t), and constraint 1 is on q' "
       .. "(nonholonomic", rd.sys.simulate, rd.sys, { method = "variational", step = 0.01, q0 = { 0, 0, 0, 0 },
         qd0 = { 0.6, 0, 0.7, 2 }, t1 = 1 })
+    -- constraints on q'' (order 2) and of order 3: the discrete principle
+    -- holds a constraint on the positions only
+    local program = require("tests.constraint_systems").program()
+    h.checkerror("method 'variational' takes holonomic constraints (on q and t), and constraint 1 is of order 2 (on "
+      .. "q''): take rk8pd, or taylor", program.sys.simulate, program.sys, { method = "variational", step = 0.01,
+        q0 = { 0, 0 }, qd0 = { 0, 0 }, t1 = 1 })
+    local jerk = nz.system{ name = "jerk", coords = { "x", "y" },
+      T = function(t, q, qd) return (qd[1] ^ 2 + qd[2] ^ 2) / 2 end,
+      constraints = { function(t, q, qd, qdd, q3) return q3[1] + q3[2] end } }
+    h.checkerror("method 'variational' takes holonomic constraints (on q and t), and this system's are of order 3: "
+      .. "take rk8pd, or taylor", jerk.simulate, jerk, { method = "variational", step = 0.01, q0 = { 0, 0 }, t1 = 1 })
     local pend = cartesian_pendulum()
     h.checkerror("method 'variational' takes no 'project' or 'baumgarte'", pend.simulate, pend,
       { method = "variational", step = 0.01, project = true, q0 = { L, 0 }, qd0 = { 0, 0 }, t1 = 1 })
@@ -227,6 +239,7 @@ describe("method 'variational'", function()
       h.checkerror("system 'wall': V raised an error: 'sqrt' of a negative value", wall.simulate, wall,
         { method = "variational", step = 0.05, q0 = { 1 }, qd0 = { -30 }, t1 = 10, dt = 0.05 })
       assert.equal(1, #nz.last.t)
+      assert.truthy(tostring(nz.last):find("method variational (order 2, fixed step 0.05)", 1, true), tostring(nz.last))
     end
   end)
 end)
