@@ -123,7 +123,7 @@ static int branch(const nz_series_slot *r)
          (r->gop == NZ_GOP_FN && (r->fn == NZ_FN_SIGN || r->fn == NZ_FN_ABS));
 }
 
-/* Slot i's kernel at coefficient k, as graph.c's series_coef; at k = 0
+/* Slot i's kernel at coefficient k, as graph_series.c's series_coef; at k = 0
  * also the domain checks of its series_first for an order >= 1 that a
  * finite coefficient 0 would not reveal (the others give an infinity or a
  * NaN: log 0, 1/0, sqrt(-1), ...), into `bad`. */
