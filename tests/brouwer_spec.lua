@@ -4,7 +4,6 @@
 -- linear drift of a biased step.  The figures of a million orbits are
 -- bench/longrun.lua's; these runs are short enough for make test.
 local h = require "tests.helpers"
-local nz = h.nz
 
 -- The growth of an error series: nz.longrun's fit (its windows of a
 -- factor sqrt(10) in time, the RMS over each, a least-squares line on
@@ -31,37 +30,29 @@ describe("Taylor's method at 1e-15 follows Brouwer's law #slow", function()
   it("Kepler, e = 0.5: the energy error grows as orbits^0.5 over 1e4 orbits, not as orbits", function()
     local e = 0.5
     local rp, vp = 1 - e, math.sqrt((1 + e) / (1 - e))
-    local kep = nz.system{ name = "kepler", coords = { "x", "y" },
-      T = function(t, q, qd) return (qd[1] ^ 2 + qd[2] ^ 2) / 2 end,
-      V = function(t, q) return -1 / nz.sqrt(q[1] ^ 2 + q[2] ^ 2) end }
+    local kep, H = h.kepler()
     local E0, per, N = vp ^ 2 / 2 - 1 / rp, 8, 1e4
     local tr = kep:simulate{ method = "taylor", rtol = 1e-15, atol = 1e-15, q0 = { rp, 0 }, qd0 = { 0, vp },
       t1 = N * 2 * math.pi, dt = 2 * math.pi / per }
-    local slope, rms = growth(function(i)
-      local q, v = tr.q[i], tr.qd[i]
-      return ((v[1] ^ 2 + v[2] ^ 2) / 2 - 1 / math.sqrt(q[1] ^ 2 + q[2] ^ 2) - E0) / E0
-    end, #tr.t, per, 10)
+    local slope, rms = growth(function(i) return (H(tr.q[i], tr.qd[i]) - E0) / E0 end, #tr.t, per, 10)
     -- Brouwer's law: about 1e-16 sqrt(steps) (380803 steps: 6e-14), the
-    -- exponent 1/2.  Measured: 0.52, and 2.6e-14 over the last window
+    -- exponent 1/2.  Measured: 0.515, and 2.55e-14 over the last window
     -- (orbits 3162-1e4).  The biased step before (the rounded 1/6, 1/12,
     -- ... of the series, q' one degree short, no compensated sum):
-    -- exponent 0.70, 2.9e-13 there.  Bounds: the issue's exponent 0.6;
+    -- exponent 0.696, 2.86e-13 there.  Bounds: the issue's exponent 0.6;
     -- 1e-13, 4x the measure and a third of the biased step's.
     assert(slope <= 0.6, ("energy error grows as orbits^%.3f (window RMS %s)"):format(slope, list(rms)))
     assert(rms[#rms] <= 1e-13, ("energy error %.3g over orbits 3162-1e4 (window RMS %s)"):format(rms[#rms], list(rms)))
   end)
 
   it("Henon-Heiles: the energy error grows as t^0.5 over t = 1e5", function()
-    local hh = nz.system{ name = "henon-heiles", coords = { "x", "y" },
-      T = function(t, q, qd) return (qd[1] ^ 2 + qd[2] ^ 2) / 2 end,
-      V = function(t, q) local x, y = q[1], q[2]; return (x ^ 2 + y ^ 2) / 2 + x ^ 2 * y - y ^ 3 / 3 end }
-    local function H(q, v) local x, y = q[1], q[2]; return (v[1] ^ 2 + v[2] ^ 2) / 2 + (x ^ 2 + y ^ 2) / 2 + x ^ 2 * y - y ^ 3 / 3 end
+    local hh, H = h.henon_heiles()
     local q0, qd0, T1 = { 0, 0.1 }, { 0.5, 0 }, 1e5
     local E0 = H(q0, qd0)
     local tr = hh:simulate{ method = "taylor", rtol = 1e-15, atol = 1e-15, q0 = q0, qd0 = qd0, t1 = T1, dt = 1 }
     local slope, rms = growth(function(i) return (H(tr.q[i], tr.qd[i]) - E0) / E0 end, #tr.t, 1, 10)
     -- 283082 steps: Brouwer's law allows about 5e-14.  Measured: exponent
-    -- 0.46, 1.7e-14 over t = 31623-1e5; the biased step: 0.81, 4.9e-13.
+    -- 0.463, 1.71e-14 over t = 31623-1e5; the biased step: 0.81, 4.9e-13.
     assert(slope <= 0.6, ("energy error grows as t^%.3f (window RMS %s)"):format(slope, list(rms)))
     assert(rms[#rms] <= 1e-13, ("energy error %.3g over t = 31623-1e5 (window RMS %s)"):format(rms[#rms], list(rms)))
   end)

@@ -172,4 +172,54 @@ function M.img_data(html, mime)
   return coded and M.unbase64(coded)
 end
 
+-- Each case {changes, message} of a study's options: f(sys, base with the
+-- changes) raises an error containing message (plain text), placed at the
+-- line that called f (the call below, so the test holds wherever the line
+-- check of args.error points: at the caller).
+function M.option_errors(f, sys, base, cases)
+  for _, case in ipairs(cases) do
+    local o = {}
+    for k, v in pairs(base) do o[k] = v end
+    for k, v in pairs(case[1]) do o[k] = v end
+    local line = debug.getinfo(1, "l").currentline + 1
+    local ok, msg = pcall(f, sys, o)
+    assert(not ok, case[2])
+    msg = tostring(msg)
+    assert(msg:find(case[2], 1, true), ("expected %q in %q"):format(case[2], msg))
+    assert(msg:find(("^[^:]*helpers.lua:%d: "):format(line)), msg)
+  end
+end
+
+-- Two conservative systems of the long runs, each with its energy written
+-- here (not the engine's): Kepler's problem (mu = 1) and Henon and
+-- Heiles' potential.
+function M.kepler()
+  local sys = M.nz.system{ name = "kepler", coords = { "x", "y" },
+    T = function(t, q, qd) return (qd[1] ^ 2 + qd[2] ^ 2) / 2 end,
+    V = function(t, q) return -1 / M.nz.sqrt(q[1] ^ 2 + q[2] ^ 2) end }
+  return sys, function(q, v) return (v[1] ^ 2 + v[2] ^ 2) / 2 - 1 / math.sqrt(q[1] ^ 2 + q[2] ^ 2) end
+end
+
+function M.henon_heiles()
+  local sys = M.nz.system{ name = "henon-heiles", coords = { "x", "y" },
+    T = function(t, q, qd) return (qd[1] ^ 2 + qd[2] ^ 2) / 2 end,
+    V = function(t, q) local x, y = q[1], q[2]; return (x ^ 2 + y ^ 2) / 2 + x ^ 2 * y - y ^ 3 / 3 end }
+  return sys, function(q, v)
+    local x, y = q[1], q[2]
+    return (v[1] ^ 2 + v[2] ^ 2) / 2 + (x ^ 2 + y ^ 2) / 2 + x ^ 2 * y - y ^ 3 / 3
+  end
+end
+
+-- The options that f(...) gave plot.lines (nz/draw/plot.lua), drawn
+-- nowhere.
+function M.plotted(f, ...)
+  local plot = require "nz.draw.plot"
+  local lines, drawn = plot.lines, nil
+  plot.lines = function(o) drawn = o; return "" end
+  local ok, err = pcall(f, ...)
+  plot.lines = lines
+  assert(ok, err)
+  return drawn
+end
+
 return M

@@ -435,12 +435,9 @@ nz_stepper *nz_variational_new(const nz_variational_config *cfg)
   v->free_setup = v->c.setup;
   v->free_setup.nc = 0;
   v->free_setup.orders = v->free_setup.linear = NULL;
-  v->base.ops = &var_ops;
-  v->base.name = "variational";
-  v->base.k = m->k;
-  v->base.nc = m->nc;
-  v->base.dim = 2 * m->k;
-  v->base.exact_dense = 0;
+  /* dense output: a Hermite cubic, not the method's own solution */
+  v->base = (nz_stepper){ .ops = &var_ops, .name = "variational", .k = m->k, .nc = m->nc, .dim = 2 * m->k,
+                          .exact_dense = 0 };
   return &v->base;
 }
 

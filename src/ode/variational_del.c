@@ -167,6 +167,22 @@ int nz_del_converged(const double *R, const double *size, int N, double *last)
   return done;
 }
 
+/* Row i of a residual whose momentum part is f (the sum of its terms'
+ * sizes: size), with the multipliers' forces G^T m added (G: nc x k, m
+ * the unknowns after the k of q or w in d->z), into d->R and its size into
+ * d->dz (nz_del_converged's test). */
+static void multiplier_row(nz_del *d, const double *G, int i, double f, double size)
+{
+  int k = d->k;
+  for (int r = 0; r < d->nc; r++) {
+    double c = G[(size_t)r * k + i] * d->z[k + r];
+    f += c;
+    size += fabs(c);
+  }
+  d->R[i] = f;
+  d->dz[i] = size;
+}
+
 /* The first two lines at the increment z = (q1 - q0, l): R and the size
  * of its terms into the workspace (R, dz), and, when jacobian, J; pA, gA,
  * pB, gB at z. */
@@ -198,13 +214,7 @@ static int residual(nz_del *d, const nz_system *s, double t0, double h, const do
   for (int i = 0; i < k; i++) {
     double f = -p0[i] + 0.5 * (d->pA[i] + d->pB[i]) - 0.5 * h * d->gA[i];
     double size = fabs(p0[i]) + 0.5 * (fabs(d->pA[i]) + fabs(d->pB[i])) + 0.5 * h * fabs(d->gA[i]);
-    for (int r = 0; r < nc; r++) {
-      double c = d->G0[(size_t)r * k + i] * d->z[k + r];
-      f += c;
-      size += fabs(c);
-    }
-    d->R[i] = f;
-    d->dz[i] = size;
+    multiplier_row(d, d->G0, i, f, size);
   }
   if (nc == 0) return NZ_OK;
   if ((st = nz_del_constraints(d, s, t1, d->x, d->phi, d->G1, d->phit))) return st;
@@ -243,14 +253,7 @@ static int velocity(nz_del *d, const nz_system *s, double t1, const double *pt, 
     *nfev += (unsigned long)k;
     ++*njev;
     for (int i = 0; i < k; i++) {
-      double f = d->pB[i] - pt[i], size = fabs(d->pB[i]) + fabs(pt[i]);
-      for (int r = 0; r < nc; r++) {
-        double c = d->G1[(size_t)r * k + i] * d->z[k + r];
-        f += c;
-        size += fabs(c);
-      }
-      d->R[i] = f;
-      d->dz[i] = size;
+      multiplier_row(d, d->G1, i, d->pB[i] - pt[i], fabs(d->pB[i]) + fabs(pt[i]));
     }
     for (int r = 0; r < nc; r++) {
       double f = d->phit[r], size = fabs(d->phit[r]);

@@ -97,12 +97,7 @@ local function integral_list(sys, opts, bad)
 end
 
 local function check(sys, opts)
-  local function bad(fmt, ...) args.error("longrun", 2, fmt, ...) end
-  if not require("nz.base.classes").is_system(sys) then
-    args.error("longrun", 1, "a system from nz.system{...} expected, got %s", args.shown(sys))
-  end
-  if type(opts) ~= "table" then bad("options {q0 =, t1 =, methods =, ...} expected, got %s", args.shown(opts)) end
-  args.options("longrun", 2, opts, OPTIONS)
+  local bad = workprecision.check_call("longrun", sys, opts, OPTIONS, "{q0 =, t1 =, methods =, ...}")
   for _, key in ipairs{ "method", "rtol", "atol", "step", "order", "dt" } do
     if opts.simulate and opts.simulate[key] ~= nil then
       bad("option 'simulate': '%s' is set by the study for each run (methods =, tol =, samples =): drop it", key)

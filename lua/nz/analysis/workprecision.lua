@@ -58,6 +58,7 @@
 local plot = require "nz.draw.plot"
 local core = require "nz.core"
 local options = require "nz.base.options"
+local args = require "nz.base.args"
 
 local M = {}
 
@@ -154,16 +155,24 @@ local OPTIONS = options.declare("nz.workprecision", {
   plot = M.checks.plot, quiet = M.checks.quiet, simulate = M.checks.simulate,
 })
 
--- The options, checked before anything runs: one error, from the caller's
--- line, naming the option ("bad argument #2 to 'workprecision' (...)").
-local function check(sys, opts)
-  local args = require("nz.base.args")
-  local function bad(fmt, ...) args.error("workprecision", 2, fmt, ...) end
+-- A study's call (nz.workprecision, nz.longrun) checked before anything
+-- runs: sys a system, opts a table of the options declared; each error
+-- from the caller's line, naming what is wrong ("bad argument #2 to
+-- 'workprecision' (...)").  Returns bad(fmt, ...), which raises such an
+-- error about the options.
+function M.check_call(name, sys, opts, declared, shape)
+  local function bad(fmt, ...) args.error(name, 2, fmt, ...) end
   if not require("nz.base.classes").is_system(sys) then
-    args.error("workprecision", 1, "a system from nz.system{...} expected, got %s", args.shown(sys))
+    args.error(name, 1, "a system from nz.system{...} expected, got %s", args.shown(sys))
   end
-  if type(opts) ~= "table" then bad("options {q0 =, t1 =, ...} expected, got %s", args.shown(opts)) end
-  args.options("workprecision", 2, opts, OPTIONS)
+  if type(opts) ~= "table" then bad("options %s expected, got %s", shape, args.shown(opts)) end
+  args.options(name, 2, opts, declared)
+  return bad
+end
+
+-- The options, checked before anything runs.
+local function check(sys, opts)
+  local bad = M.check_call("workprecision", sys, opts, OPTIONS, "{q0 =, t1 =, ...}")
   local names = method_names()
   local method = is_method
   -- the lists entry by entry, naming the entry

@@ -390,6 +390,19 @@ function M.check_memory(sys, cfg, p, top)
   end
 end
 
+-- What the GSL steppers' loop alone does, refused by taylor and
+-- variational alike (refuse prefixes the method): the work monitor, a part
+-- of the GSL steppers' state (take `instead`), and projection or
+-- Baumgarte's terms under constraints (`why` the method has no use for
+-- them; without constraints both do nothing, said once by validate as for
+-- every method).
+local function gsl_state_only(sys, cfg, refuse, instead, why)
+  if cfg.monitors.work then
+    refuse("does not integrate the 'work' monitor (it is part of the GSL steppers' state): leave it out, or take %s",
+      instead)
+  end
+  if (cfg.project or cfg.alpha) and sys.nc > 0 then refuse("takes no 'project' or 'baumgarte': %s", why) end
+end
 
 -- What method 'taylor' does not do, refused from the user's line; p: the
 -- level of constraints of order >= 3 (nil when none).
@@ -400,16 +413,8 @@ local function check_taylor(sys, cfg, p)
       .. "level %d (a constraint on the third derivative or higher): take a GSL stepper (rk8pd, the default, "
       .. "or any of %s)", p, table.concat(method_names(), " "))
   end
-  if cfg.monitors.work then
-    refuse("does not integrate the 'work' monitor yet (it is part of the GSL steppers' state): leave it out, "
-      .. "or take rk8pd")
-  end
-  -- without constraints both do nothing, said once by validate as for
-  -- every method; with them taylor has no use for either
-  if (cfg.project or cfg.alpha) and sys.nc > 0 then
-    refuse("takes no 'project' or 'baumgarte': its series keeps the constraints to the order of the method "
-      .. "along each step (their drift is the truncation's: tr:violation() shows it); take rk8pd to project")
-  end
+  gsl_state_only(sys, cfg, refuse, "rk8pd", "its series keeps the constraints to the order of the method along each "
+    .. "step (their drift is the truncation's: tr:violation() shows it); take rk8pd to project")
   if not sys.recording then
     refuse("needs a recorded system (made with compile = true, the default): it builds the series on the graphs; "
       .. "take rk8pd for a system made with compile = false")
@@ -435,14 +440,8 @@ local function check_variational(sys, cfg, p)
       refuse("takes holonomic constraints (on q and t), and constraint %d is of order %d (on q''): %s", r, m, other)
     end
   end
-  if cfg.monitors.work then
-    refuse("does not integrate the 'work' monitor (it is part of the GSL steppers' state): leave it out, or take rk4 "
-      .. "at the same step")
-  end
-  if (cfg.project or cfg.alpha) and sys.nc > 0 then
-    refuse("takes no 'project' or 'baumgarte': its discrete equations hold the constraints to rounding at every step "
-      .. "(RATTLE)")
-  end
+  gsl_state_only(sys, cfg, refuse, "rk4 at the same step", "its discrete equations hold the constraints to rounding "
+    .. "at every step (RATTLE)")
 end
 
 -- A run's configuration from the user's options: validated, with the
