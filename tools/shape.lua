@@ -3,7 +3,8 @@
 -- no Lua function over MAX_LUA_FUNCTION, and no circle of includes between
 -- the C files of src/ (a file's .c and .h count as one: native_cache.c
 -- including native_object.h, and native_object.c including native_cache.h,
--- is a circle).
+-- is a circle; a private header X_impl.h, the insides X.c shares with the
+-- files split from it, counts as X's own).
 --
 --   lua5.4 tools/shape.lua             what breaks the limits (nothing when none)
 --   lua5.4 tools/shape.lua --sizes     the largest files and functions
@@ -96,17 +97,18 @@ function M.lua_functions(lines)
 end
 
 -- The includes of src/: {[unit] = {units it includes}}, a unit being a
--- path without its extension (src/graph/native_cache).
+-- path without its extension (src/graph/native_cache), a private header
+-- X_impl.h belonging to X.
 function M.includes(root)
   root = root or "."
   local units = {}
   for _, path in ipairs(list(("cd %s && find src -name '*.c' -o -name '*.h'"):format(root))) do
-    local unit = path:gsub("%.[ch]$", "")
+    local unit = path:gsub("%.[ch]$", ""):gsub("_impl$", "")
     units[unit] = units[unit] or {}
     for l in io.lines(root .. "/" .. path) do
       local inc = l:match('^#include%s+"([%w_/]+)%.h"')
       if inc then
-        local target = "src/" .. inc
+        local target = ("src/" .. inc):gsub("_impl$", "")
         if target ~= unit then units[unit][target] = true end
       end
     end

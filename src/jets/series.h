@@ -99,7 +99,7 @@ double nz_series_atan2_coef(const double *z, const double *y, const double *x, c
  * h^{n+2} is about e^(-2(n+2)) of the state at the steps of taylor.c, so
  * the orders from NZ_SERIES_ODE2_DIVIDED on (terms below e^-16 of the
  * state) keep the product.  Written once here, read by the interpreter
- * (mech_graph.c) and printed into the machine code (series_native.c), so
+ * (mech_graph_series.c) and printed into the machine code (series_native.c), so
  * both give the same numbers. */
 #define NZ_SERIES_ODE2_DIVIDED 6
 static inline double nz_series_ode2_coef(double x, int n)
