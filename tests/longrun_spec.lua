@@ -87,6 +87,11 @@ describe("nz.longrun", function()
     end
     assert.truthy(drawn.series[1].name:find("^variational, energy %(slope %-?%d"), drawn.series[1].name)
     if not os.execute("command -v gnuplot >/dev/null 2>&1") then return end   -- (the diagram needs gnuplot)
+    -- in the terminal the key goes under the axes (at the right, its long
+    -- names left the plot a fifth of the width): the x label, then the key
+    local text = longrun.diagram(rows, { quiet = true })
+    local xlabel, key = text:find("t - t0 (periods)", 1, true), text:find("variational, energy (slope", 1, true)
+    assert(xlabel and key and xlabel < key, text)
     local svg = os.tmpname() .. ".svg"
     nz.longrun(oscillator, { q0 = { 1 }, qd0 = { 0 }, t1 = 10 * P, samples = 100, methods = { "rk8pd" }, quiet = true,
       plot = svg })
