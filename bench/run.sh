@@ -23,7 +23,7 @@ build/nzlua bench/taylor.lua
 echo
 build/nzlua bench/taylor_problems.lua
 echo
-# Issue 33: long runs at machine precision (Brouwer's law), variational integrators.
+# Long runs at machine precision (Brouwer's law), variational integrators.
 build/nzlua bench/longrun.lua
 echo
 build/nzlua bench/accel_scaling.lua

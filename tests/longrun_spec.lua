@@ -146,6 +146,11 @@ describe("nz.longrun", function()
       { { tol = -1 }, "option 'tol': a positive number expected" },
       { { simulate = { step = 0.1 } }, "option 'simulate': 'step' is set by the study for each run" },
       { { perod = 1 }, "unknown option 'perod' (did you mean 'period'?)" },
+      -- an integral that is not a finite number where the run has been
+      { { methods = { "rk8pd" }, integrals = { L = function() return 0 / 0 end } }, "option 'integrals': 'L' gave NaN at "
+        .. "t = 0.0, q = {1}, qd = {0} (method rk8pd): a finite number expected" },
+      { { methods = { "rk8pd" }, integrals = { L = function(t) return t < 0.5 and 1 or "one" end } }, "option "
+        .. "'integrals': 'L' gave the string \"one\" at t = 0.5, q = {" },
     })
     local ok, msg = pcall(nz.longrun, base)
     assert.is_false(ok)

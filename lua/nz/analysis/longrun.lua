@@ -17,6 +17,7 @@
 -- less.
 local plot = require "nz.draw.plot"
 local args = require "nz.base.args"
+local text = require "nz.base.text"
 local options = require "nz.base.options"
 local workprecision = require "nz.analysis.workprecision"
 
@@ -152,10 +153,20 @@ local function measure(sys, e, integrals, base, unit, from)
   local x = {}
   for i = 2, #tr.t do x[i - 1] = (tr.t[i] - t0) / unit end
   for _, I in ipairs(integrals) do
-    local v0 = I.f(tr.t[1], tr.q[1], tr.qd[1])
+    -- the integral at point i: a finite number, or an error that says where
+    local function value(i)
+      local v = I.f(tr.t[i], tr.q[i], tr.qd[i])
+      if not args.finite(v) then
+        args.error("longrun", 2, "option 'integrals': '%s' gave %s at t = %s, q = %s, qd = %s (method %s): a finite "
+          .. "number expected", I.name, args.shown(v), text.number(tr.t[i]), text.list(tr.q[i], "%.6g"),
+          text.list(tr.qd[i], "%.6g"), e.label)
+      end
+      return v
+    end
+    local v0 = value(1)
     local scale = v0 ~= 0 and math.abs(v0) or 1
     local err = {}
-    for i = 2, #tr.t do err[i - 1] = math.abs(I.f(tr.t[i], tr.q[i], tr.qd[i]) - v0) / scale end
+    for i = 2, #tr.t do err[i - 1] = math.abs(value(i) - v0) / scale end
     local exponent, wins = M.growth(x, err, from)
     rows[#rows + 1] = { method = e.label, integral = I.name, status = tr.status, relative = v0 ~= 0,
       exponent = exponent, windows = wins, error = #wins > 0 and wins[#wins].rms or nil, final = err[#err],
@@ -178,8 +189,8 @@ function M.table(rows)
         tostring(r.steps), tostring(r.nfev) }
     end
   end
-  local text = require("nz.base.text").table(t)
-  return text .. ("\nerror: |I(t) - I(t0)|, relative to |I(t0)| where that is not 0, its RMS over the last window "
+  local out = text.table(t)
+  return out .. ("\nerror: |I(t) - I(t0)|, relative to |I(t0)| where that is not 0, its RMS over the last window "
     .. "(a factor sqrt(10) in time) and at t1; grows as: the slope of log(RMS) against log(t - t0) over windows of a "
     .. "factor sqrt(10) from %g %s on (a drift grows as t^1, the rounding's random walk as t^0.5 (Brouwer's law), a "
     .. "variational integrator's bounded error as t^0); time: processor time of the one run (a warm-up run per method "
