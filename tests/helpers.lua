@@ -29,6 +29,43 @@ function M.assert_series(got, want, K, tol, what, scale)
     what, at, e, tol))
 end
 
+-- Gauss-Legendre quadrature of f on [a, b] in n panels of 10 points (the
+-- closed forms the contact tests compare with: times by quadrature).
+local GX = { -0.9739065285171717, -0.8650633666889845, -0.6794095682990244, -0.4333953941292472, -0.1488743389816312,
+  0.1488743389816312, 0.4333953941292472, 0.6794095682990244, 0.8650633666889845, 0.9739065285171717 }
+local GW = { 0.0666713443086881, 0.1494513491505806, 0.2190863625159820, 0.2692667193099963, 0.2955242247147529,
+  0.2955242247147529, 0.2692667193099963, 0.2190863625159820, 0.1494513491505806, 0.0666713443086881 }
+function M.gauss_legendre(f, a, b, n)
+  local s = 0
+  for i = 0, n - 1 do
+    local lo, hi = a + (b - a) * i / n, a + (b - a) * (i + 1) / n
+    for j = 1, 10 do s = s + 0.5 * (hi - lo) * GW[j] * f(0.5 * (lo + hi) + 0.5 * (hi - lo) * GX[j]) end
+  end
+  return s
+end
+
+-- The contact events of a trajectory of one kind ("impact", "sticks", ...;
+-- nil: any) and of one contact (nil: any), in order.
+function M.contact_events(tr, kind, name)
+  local out = {}
+  for _, ev in ipairs(tr.events) do
+    if (not kind or ev.kind == kind) and (not name or ev.name == name) then out[#out + 1] = ev end
+  end
+  return out
+end
+
+-- The largest |v[i]|.
+function M.max_abs(v)
+  local m = 0
+  for i = 1, #v do m = math.max(m, math.abs(v[i])) end
+  return m
+end
+
+-- |a - b| <= tol, else a failure naming what and both values.
+function M.near(a, b, tol, what)
+  assert(math.abs(a - b) <= tol, ("%s: %.17g, expected %.17g"):format(what, a, b))
+end
+
 -- A file's whole text, or nil when it cannot be read.
 function M.slurp(path)
   local f = io.open(path, "rb")

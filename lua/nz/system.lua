@@ -184,7 +184,11 @@ function M.system(def)
   -- here, at the user's nz.system line (nz/model/probe.lua).
   probe.check(self)
   if GRAPH_CHECK and self.recording then record.diff_check(self.engine, Clevels, name) end
-  if contacts then require("nz.model.contact").attach(self, def, contacts, C) end
+  if contacts then
+    require("nz.model.contact").attach(self, def, contacts, C)
+    local notice = require("nz.model.contact_check").notice(self)   -- two contacts with one gap
+    if notice then M.warn(require("nz.base.where").user_where() .. notice) end
+  end
   return self
 end
 
@@ -336,7 +340,11 @@ end
 local RULE_OPTIONS = declare("sys:rule", { extremal = boolean })
 function System:rule(opts)
   check_options("rule", 1, opts, RULE_OPTIONS)
-  return constraints.rule(self, opts)
+  local n, text = constraints.rule(self, opts)
+  if self.contact then   -- its unilateral contacts, held while they push (nz/presentation/contact_laws.lua)
+    text = text .. " " .. require("nz.presentation.contact_laws").rule_text(self)
+  end
+  return n, text
 end
 
 -- Accelerations from Tsenov's reduced equations (7.1), without multipliers.

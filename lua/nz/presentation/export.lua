@@ -746,7 +746,7 @@ end
 
 -- ------------------------------------------------------------------ --
 
-local OPTIONS = options.declare("sys:export", { "lang", "file", "main", "jacobian" })
+local OPTIONS = options.declare("sys:export", { "lang", "file", "main", "jacobian", "smooth" })
 local MAIN_OPTIONS = options.declare("sys:export main", { "q0", "qd0", "t0", "t1", "dt", "rtol", "atol" })
 
 function M.export(sys, opts)
@@ -765,10 +765,15 @@ function M.export(sys, opts)
       fail(sys, "main.t1 and main.dt: numbers with t1 > t0 and dt > 0 expected")
     end
   end
+  -- unilateral contacts have events and impacts the exported code does not:
+  -- refused, or with smooth = true the system without them, said first
+  local laws = sys.contact and require("nz.presentation.contact_laws")
+  if laws and not opts.smooth then fail(sys, "%s", laws.export_refusal(sys)) end
   local jac = opts.jacobian ~= false
   local out = outputs(sys, jac)
   local nodes = sys.engine.compiled:nodes()
   local text = lang == "c" and c_file(sys, out, nodes, opts) or script_file(sys, out, nodes, opts, L)
+  if laws then text = ("%s %s\n"):format(L.comment, laws.export_note(sys)) .. text end
   if opts.file then
     local f, err = io.open(opts.file, "w")
     if not f then fail(sys, "cannot write %s: %s", opts.file, tostring(err)) end

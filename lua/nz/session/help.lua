@@ -445,8 +445,8 @@ one, e.g. help(sys.simulate):
                              q^(N) (whole for N = 1, held velocities written
                              th'_0); lua, mass, bias, reduced, tex as above
   sys:export{lang = "c" | "python" | "octave", file = "name.c"
-             [, jacobian = false, main = {q0 =, qd0 =, t1 =, dt = [, t0,
-             rtol, atol]}]}
+             [, jacobian = false, smooth = true, main = {q0 =, qd0 =,
+             t1 =, dt = [, t0, rtol, atol]}]}
                              the equations as code that runs without nzlua:
                              nzx_accel (q'' and lambda: the saddle-point
                              system by an included LU), nzx_rhs (f = (q', q'')),
@@ -457,7 +457,10 @@ one, e.g. help(sys.simulate):
                              Constraints of order 0, 1 and 2 are exported (one
                              of order 2 must be linear in q''); the others,
                              and functions that run in Lua, are refused with
-                             the reason
+                             the reason.  A system with unilateral contacts is
+                             refused (the code has no events or impacts);
+                             smooth = true writes it without its contacts and
+                             says so on the file's first line
   sys:energy_integral()      whether H = T2 - T0 + V is a first integral and why
                              (L free of t, constraints homogeneous in the
                              velocities, no force doing work), checked at
@@ -613,17 +616,25 @@ three touching balls hit at v leaves with (-1/3, 2/3, 2/3) v, where a real
 cradle's quick sequence of binary impacts gives (0, 0, v); a small gap
 between the balls (1 mm) gives that sequence and that outcome.  Coulomb
 friction: mu (sliding), mu_s >= mu (sticking), slip = function(t, q, qd,
-params), the slip velocity (or a function of (t, q) whose rate it is); it
-sticks where the slip velocity reaches 0 and the force to hold is within
-mu_s lambda, and slides again where it leaves that cone.  Painleve's paradox
-is an error naming the contact.  Impacts accumulating in finite time
-(Zeno) end in persistent contact: tr.contacts.zeno[i] has .accumulation,
-the time the impacts predicted (a bouncing ball's t1 (1 + e)/(1 - e)), .t,
-the last impact's, made plastic, from which the contact is held, and
-.contact, its name.  at = function(t, q, params) -> {x, y, z}: the point
-tr:animate draws while it is held.  Every method runs it (the GSL steppers
-and taylor; events on their dense output).  tr.events lists each impact,
-closing, opening, stick and slip; tr.contacts the modes; sys:accel and the
+params), the slip velocity (or a function of (t, q) whose rate it is), or
+slip = {f1, f2}: the two slip velocities along orthonormal tangent
+directions, the isotropic cone |F_t| <= mu lambda with the friction against
+the slip in any direction (a puck on ice); it sticks where the slip velocity
+reaches 0 and the force to hold is within mu_s lambda, and slides again where
+it leaves that cone.  Contacts that depend on each other (a block on two
+corners with friction at both, a table on four legs) are held together: the
+motion is unique, their forces are the least-norm ones that are admissible
+(m g/2 per corner, m g/4 per leg).  Painleve's paradox is an error naming the
+contact.  Impacts accumulating in finite time (Zeno), or rebounds below what
+the run resolves, end in persistent contact: tr.contacts.zeno[i] has
+.accumulation, the time the impacts predicted (a bouncing ball's t1 (1 +
+e)/(1 - e)), .t, the last impact's, made plastic, from which the contact is
+held, and .contact, its name.  at = function(t, q, params) -> {x, y, z}: the
+point tr:animate draws while it is held.  Every method runs it (the GSL
+steppers and taylor; events on their dense output; taylor cannot start an
+isotropic cone sliding from rest).  tr.events lists each contact's impulse
+at an impact, and each closing, opening, stick and slip; tr.contacts the
+modes; sys:show{} writes the contacts' forces and laws; sys:accel and the
 other methods see the system without its contacts.  nz.effects.contact and
 friction declare the same in a scene.  docs/theory.md §13.]] },
   { name = "scene", section = "scenes",
