@@ -210,7 +210,7 @@ describe("nz.workprecision's timing", function()
     local native_off = os.getenv("NZLUA_NATIVE") == "0"
     -- the machine-code setting as the study sets it (the compiled object's
     -- set_native: true, false, or nil for "once it has earned it")
-    local methods = getmetatable(fresh_kepler().engine.compiled).__index
+    local methods = getmetatable(fresh_kepler().engine.recording).__index
     local set_native, calls = methods.set_native, {}
     methods.set_native = function(c, v) calls[#calls + 1] = tostring(v); return set_native(c, v) end
     local function study(sys)

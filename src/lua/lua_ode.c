@@ -367,7 +367,7 @@ static int lo_stats(lua_State *L)
  * state_functions): a userdata "nz.ode_events" with one plan on doubles per
  * event, its inputs numbered as mech_graph.h says (0 = t, 1..np the
  * parameters, then slot j of q_i at 1 + np + j k + i, j = 0, 1), and the
- * recording (an nz.compiled) kept alive as its user value.  Both loops of
+ * recording (an nz.recording) kept alive as its user value.  Both loops of
  * simulate.lua take an event's value from here, so that they see the same
  * numbers; where a plan fails (a domain error at this state) the event's
  * Lua function gives the value, or the error with the user's line. */
@@ -389,17 +389,17 @@ static int events_gc(lua_State *L)
   return 0;
 }
 
-/* ode_events_new(compiled, {node per event}, {parameter values}, k) -> events */
+/* ode_events_new(recording, {node per event}, {parameter values}, k) -> events */
 static int lo_events_new(lua_State *L)
 {
-  nz_compiled *c = nz_lua_tocompiled(L, 1);
-  luaL_argcheck(L, c != NULL, 1, "a recording (nz.compiled) expected");
+  nz_recording *c = nz_lua_torecording(L, 1);
+  luaL_argcheck(L, c != NULL, 1, "a recording (nz.recording) expected");
   luaL_checktype(L, 2, LUA_TTABLE);
   luaL_checktype(L, 3, LUA_TTABLE);
   int k = (int)luaL_checkinteger(L, 4);
-  nz_graph *g = nz_compiled_graph(c);
+  nz_graph *g = nz_recording_graph(c);
   int n = (int)luaL_len(L, 2), np = (int)luaL_len(L, 3);
-  luaL_argcheck(L, np == nz_compiled_nparams(c), 3, "one value per recorded parameter expected");
+  luaL_argcheck(L, np == nz_recording_nparams(c), 3, "one value per recorded parameter expected");
   events_box *eb = lua_newuserdatauv(L, sizeof *eb, 1);
   memset(eb, 0, sizeof *eb);
   luaL_setmetatable(L, NZ_EVENTS_METATABLE);
@@ -879,8 +879,8 @@ static int lo_rounding_branch(lua_State *L)
   nz_rounding_branch br;
   unsigned pieces = 0;
   int constraint = -1;
-  if (nz_compiled_rounding_branch(b.comp, t, state, nstate, tol, &br, &pieces, &constraint) != 1) return 0;
-  const nz_gnode *nd = &nz_graph_nodes(nz_compiled_graph(b.comp))[br.node];
+  if (nz_recording_rounding_branch(b.comp, t, state, nstate, tol, &br, &pieces, &constraint) != 1) return 0;
+  const nz_gnode *nd = &nz_graph_nodes(nz_recording_graph(b.comp))[br.node];
   luaL_Buffer which;
   luaL_buffinit(L, &which);
   int first = 1;

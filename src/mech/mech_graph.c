@@ -39,7 +39,7 @@ dplan *nz_dplan_new(const nz_graph *g, const int *outs, int n)
 }
 
 /* The cache directory, or 0 with the reason kept for graph_info. */
-static int cache_dir(nz_compiled *c, char *dir, size_t n)
+static int cache_dir(nz_recording *c, char *dir, size_t n)
 {
   char why[300];
   if (nz_native_cache_dir(dir, n, why, sizeof why)) return 1;
@@ -50,7 +50,7 @@ static int cache_dir(nz_compiled *c, char *dir, size_t n)
 /* A plan whose object is already in the cache runs natively at once
  * (auto and on; loading costs microseconds per node).  An untrusted cache
  * says why. */
-static void dplan_load_cached(nz_compiled *c, dplan *d)
+static void dplan_load_cached(nz_recording *c, dplan *d)
 {
   char dir[1024], why[300];
   if (c->native_mode == 0 || !cache_dir(c, dir, sizeof dir)) return;
@@ -62,7 +62,7 @@ static void dplan_load_cached(nz_compiled *c, dplan *d)
 }
 
 /* The object is loaded: count it, and its compile's time. */
-static void dplan_switch(nz_compiled *c, dplan *d, nz_native *f)
+static void dplan_switch(nz_recording *c, dplan *d, nz_native *f)
 {
   d->native = f;
   c->native_count++;
@@ -72,7 +72,7 @@ static void dplan_switch(nz_compiled *c, dplan *d, nz_native *f)
 }
 
 /* Compile d: in the background (auto mode), or now, waiting (native on). */
-static void dplan_compile(nz_compiled *c, dplan *d, int wait)
+static void dplan_compile(nz_recording *c, dplan *d, int wait)
 {
   char dir[1024];
   d->tried = 1;
@@ -88,7 +88,7 @@ static void dplan_compile(nz_compiled *c, dplan *d, int wait)
 }
 
 /* A compile under way: loaded now (wait = 1: once it is done)? */
-static void dplan_poll(nz_compiled *c, dplan *d, int wait)
+static void dplan_poll(nz_recording *c, dplan *d, int wait)
 {
   int r = nz_native_ready(d->compiling, wait, c->native_why, sizeof c->native_why);
   if (r == 1) return;
@@ -100,7 +100,7 @@ static void dplan_poll(nz_compiled *c, dplan *d, int wait)
 }
 
 /* A series compile under way: attached now (wait = 1: once it is done)? */
-static void dplan_series_poll(nz_compiled *c, dplan *d, int wait)
+static void dplan_series_poll(nz_recording *c, dplan *d, int wait)
 {
   int r = nz_series_native_ready(d->ser_compiling, wait, c->native_why, sizeof c->native_why);
   if (r == 1) return;
@@ -124,7 +124,7 @@ static void dplan_series_poll(nz_compiled *c, dplan *d, int wait)
  * of the plans on doubles (in node coefficients, about 4 ns each
  * interpreted: NZ_SERIES_NATIVE_PER_NODE), or at once when cached.  A
  * compile in the background is attached at a later begin, once ready. */
-void nz_dplan_series_native(nz_compiled *c, dplan *d, int N, const nz_series_ode2 *ode2)
+void nz_dplan_series_native(nz_recording *c, dplan *d, int N, const nz_series_ode2 *ode2)
 {
   if (!d->ser_used) {
     d->ser_used = 1;
@@ -165,7 +165,7 @@ void nz_dplan_series_native(nz_compiled *c, dplan *d, int N, const nz_series_ode
 
 /* Evaluate on doubles: natively when compiled (its refusal is confirmed by
  * the interpreter, which names the node), else interpreted. */
-static inline nz_status dplan_eval(nz_compiled *c, dplan *d, const double *in, double *out)
+static inline nz_status dplan_eval(nz_recording *c, dplan *d, const double *in, double *out)
 {
   if (!d->used) {                      /* a compile that loads later counts it native then (dplan_switch) */
     d->used = 1;
@@ -187,15 +187,15 @@ static inline nz_status dplan_eval(nz_compiled *c, dplan *d, const double *in, d
 
 /* Every plan on doubles and every series evaluated so far runs as machine
  * code (the evaluator of the steps from now on). */
-int nz_compiled_all_native(void *ctx)
+int nz_recording_all_native(void *ctx)
 {
-  const nz_compiled *c = ctx;
+  const nz_recording *c = ctx;
   if (c->native_mode == 0) return -1;
   return c->plans_used == c->plans_native && c->series_used == c->series_native;
 }
 
 /* Wait for every compile under way. */
-void nz_compiled_native_wait(nz_compiled *c)
+void nz_recording_native_wait(nz_recording *c)
 {
   dplan *all[2] = { c->mb_plan, c->acc_plan };
   for (int i = 0; i < 2; i++)
@@ -206,26 +206,26 @@ void nz_compiled_native_wait(nz_compiled *c)
     if (all[i] && all[i]->ser_compiling) dplan_series_poll(c, all[i], 1);
 }
 
-int nz_compiled_native_compiling(const nz_compiled *c) { return c->compiling; }
-int nz_compiled_native_mode(const nz_compiled *c) { return c->native_mode; }
-double nz_compiled_native_waited(const nz_compiled *c) { return c->native_waited; }
+int nz_recording_native_compiling(const nz_recording *c) { return c->compiling; }
+int nz_recording_native_mode(const nz_recording *c) { return c->native_mode; }
+double nz_recording_native_waited(const nz_recording *c) { return c->native_waited; }
 
-int nz_compiled_native_series(const nz_compiled *c) { return c->native_series; }
+int nz_recording_native_series(const nz_recording *c) { return c->native_series; }
 
-void nz_compiled_set_native(nz_compiled *c, int mode) { c->native_mode = mode < 0 ? -1 : mode > 0; }
+void nz_recording_set_native(nz_recording *c, int mode) { c->native_mode = mode < 0 ? -1 : mode > 0; }
 
-int nz_compiled_native(const nz_compiled *c, double *seconds, const char **why)
+int nz_recording_native(const nz_recording *c, double *seconds, const char **why)
 {
   if (seconds) *seconds = c->native_seconds;
   if (why) *why = c->native_why[0] ? c->native_why : NULL;
   return c->native_count;
 }
 
-nz_compiled *nz_compiled_new(int k, int np, int nc, int nslots)
+nz_recording *nz_recording_new(int k, int np, int nc, int nslots)
 {
   if (k < 1 || np < 0 || nc < 0) return NULL;
   if (nslots < 2) nslots = 2;
-  nz_compiled *c = calloc(1, sizeof *c);
+  nz_recording *c = calloc(1, sizeof *c);
   if (!c) return NULL;
   c->k = k; c->np = np; c->nc = nc; c->nslots = nslots;
   c->ninputs = 1 + np + nslots * k + k;   /* the frozen velocities last (mech_graph.h) */
@@ -246,7 +246,7 @@ nz_compiled *nz_compiled_new(int k, int np, int nc, int nslots)
   c->row_outs = calloc(3 * (size_t)nc + 1, sizeof(double *));
   if (!c->g || !c->params || !c->phi || !c->in || !c->din || !c->pjet || !c->rows || !c->rows_built ||
       !c->row_in || !c->row_guards || !c->row_outs) {
-    nz_compiled_free(c);
+    nz_recording_free(c);
     return NULL;
   }
   return c;
@@ -259,7 +259,7 @@ static void piece_clear(compiled_piece *p)
   memset(p, 0, sizeof *p);
 }
 
-void nz_compiled_free(nz_compiled *c)
+void nz_recording_free(nz_recording *c)
 {
   if (!c) return;
   for (int p = 0; p < NZ_PIECE_COUNT; p++) piece_clear(&c->piece[p]);
@@ -281,7 +281,7 @@ void nz_compiled_free(nz_compiled *c)
   free(c->ts_in);
   free(c->ts_M);
   free(c->ts_inp);
-  nz_compiled_constrained_series_free(c);
+  nz_recording_constrained_series_free(c);
   free(c->ts_pos);
   free(c->mb_in);
   free(c->acc_A);
@@ -294,27 +294,27 @@ void nz_compiled_free(nz_compiled *c)
   free(c);
 }
 
-nz_graph *nz_compiled_graph(nz_compiled *c) { return c->g; }
-double *nz_compiled_params(nz_compiled *c) { return c->params; }
-int nz_compiled_nparams(const nz_compiled *c) { return c->np; }
-const char *nz_compiled_failure(const nz_compiled *c) { return c->failure; }
+nz_graph *nz_recording_graph(nz_recording *c) { return c->g; }
+double *nz_recording_params(nz_recording *c) { return c->params; }
+int nz_recording_nparams(const nz_recording *c) { return c->np; }
+const char *nz_recording_failure(const nz_recording *c) { return c->failure; }
 
-int nz_compiled_input_slot(const nz_compiled *c, int j, int i)
+int nz_recording_input_slot(const nz_recording *c, int j, int i)
 {
   return 1 + c->np + j * c->k + i;
 }
 
-int nz_compiled_input_frozen(const nz_compiled *c, int i) { return 1 + c->np + c->nslots * c->k + i; }
-int nz_compiled_nslots(const nz_compiled *c) { return c->nslots; }
-int nz_compiled_ncoords(const nz_compiled *c) { return c->k; }
+int nz_recording_input_frozen(const nz_recording *c, int i) { return 1 + c->np + c->nslots * c->k + i; }
+int nz_recording_nslots(const nz_recording *c) { return c->nslots; }
+int nz_recording_ncoords(const nz_recording *c) { return c->k; }
 
-static compiled_piece *piece_of(const nz_compiled *c, nz_piece piece, int index)
+static compiled_piece *piece_of(const nz_recording *c, nz_piece piece, int index)
 {
   if (piece == NZ_PIECE_PHI) return index >= 0 && index < c->nc ? &c->phi[index] : NULL;
   return piece >= 0 && piece < NZ_PIECE_COUNT ? (compiled_piece *)&c->piece[piece] : NULL;
 }
 
-int nz_compiled_set_piece(nz_compiled *c, nz_piece piece, int index, const int *nodes, int n)
+int nz_recording_set_piece(nz_recording *c, nz_piece piece, int index, const int *nodes, int n)
 {
   compiled_piece *p = piece_of(c, piece, index);
   if (!p || n != (piece == NZ_PIECE_Q ? c->k : 1)) return NZ_EARG;
@@ -331,20 +331,20 @@ int nz_compiled_set_piece(nz_compiled *c, nz_piece piece, int index, const int *
   return NZ_OK;
 }
 
-int nz_compiled_has(const nz_compiled *c, nz_piece piece, int index)
+int nz_recording_has(const nz_recording *c, nz_piece piece, int index)
 {
   const compiled_piece *p = piece_of(c, piece, index);
   return p && p->n > 0;
 }
 
-int nz_compiled_piece_nodes(const nz_compiled *c, nz_piece piece, int index)
+int nz_recording_piece_nodes(const nz_recording *c, nz_piece piece, int index)
 {
   const compiled_piece *p = piece_of(c, piece, index);
   return p && p->n > 0 ? nz_graph_plan_nodes(p->plan) : 0;
 }
 
 /* The parameters as constant jets of (at least) this order. */
-static int param_jets(nz_compiled *c, int order)
+static int param_jets(nz_recording *c, int order)
 {
   if (order > c->pcap) {
     for (int p = 0; p < c->np; p++) {
@@ -360,7 +360,7 @@ static int param_jets(nz_compiled *c, int order)
   return NZ_OK;
 }
 
-void nz_compiled_describe_failure(nz_compiled *c, const nz_graph_plan *plan, int st)
+void nz_recording_describe_failure(nz_recording *c, const nz_graph_plan *plan, int st)
 {
   int node;
   nz_gop op;
@@ -373,11 +373,11 @@ void nz_compiled_describe_failure(nz_compiled *c, const nz_graph_plan *plan, int
            node);
 }
 
-int nz_compiled_eval(void *ctx, nz_piece piece, int index, const nz_jet *t,
+int nz_recording_eval(void *ctx, nz_piece piece, int index, const nz_jet *t,
                      nz_jet *const *const *levels, int nlevels, nz_jet *const *out,
                      const nz_direction *dir)
 {
-  nz_compiled *c = ctx;
+  nz_recording *c = ctx;
   compiled_piece *p = piece_of(c, piece, index);
   if (!p || p->n == 0) return NZ_EARG;
   int st = param_jets(c, t->order);
@@ -390,12 +390,12 @@ int nz_compiled_eval(void *ctx, nz_piece piece, int index, const nz_jet *t,
   }
   for (int j = 0; j < c->nslots; j++)
     for (int i = 0; i < c->k; i++) {
-      int at = nz_compiled_input_slot(c, j, i);
+      int at = nz_recording_input_slot(c, j, i);
       c->in[at] = j < nlevels ? levels[j][i] : NULL;
       c->din[at] = dir && j < nlevels ? dir->dlevels[j][i] : NULL;
     }
   st = nz_graph_eval_jets(p->plan, c->in, out, dir ? c->din : NULL, dir ? dir->dout : NULL);
-  if (st) nz_compiled_describe_failure(c, p->plan, st);
+  if (st) nz_recording_describe_failure(c, p->plan, st);
   return st;
 }
 
@@ -410,10 +410,10 @@ static void no_motion(int *dir, int n)
 
 /* Graph nodes of M (k x k), h (k), then F and V (checked, not used), into
  * out[k k + k + 2]; -1 on failure. */
-static int build_mass_bias(nz_compiled *c, int *out)
+static int build_mass_bias(nz_recording *c, int *out)
 {
   nz_graph *g = c->g;
-  int k = c->k, n = c->ninputs;   /* nz_compiled_set_piece keeps the graph's inputs within */
+  int k = c->k, n = c->ninputs;   /* nz_recording_set_piece keeps the graph's inputs within */
   int *dir = malloc((size_t)n * sizeof(int));
   int *grad = malloc((size_t)(3 * k) * sizeof(int));
   int ok = dir && grad;
@@ -425,7 +425,7 @@ static int build_mass_bias(nz_compiled *c, int *out)
   for (int i = 0; ok && i < k; i++)
     for (int s = 0; s < 2 && ok; s++) {
       no_motion(dir, n);
-      dir[nz_compiled_input_slot(c, s, i)] = one;
+      dir[nz_recording_input_slot(c, s, i)] = one;
       int d = nz_graph_derivative(g, F, dir);
       if (d < 0) ok = 0;
       else (s ? gqd : gq)[i] = d;
@@ -433,7 +433,7 @@ static int build_mass_bias(nz_compiled *c, int *out)
   /* M_ij = d(dF/dq'_i)/dq'_j */
   for (int j = 0; ok && j < k; j++) {
     no_motion(dir, n);
-    dir[nz_compiled_input_slot(c, 1, j)] = one;
+    dir[nz_recording_input_slot(c, 1, j)] = one;
     if (nz_graph_derivatives(g, gqd, k, dir, tmp)) ok = 0;
     for (int i = 0; ok && i < k; i++) out[i * k + j] = tmp[i];
   }
@@ -441,9 +441,9 @@ static int build_mass_bias(nz_compiled *c, int *out)
   if (ok) {
     no_motion(dir, n);
     dir[0] = one;
-    for (int j = 0; j < k; j++) dir[nz_compiled_input_slot(c, 1, j)] = -1;
+    for (int j = 0; j < k; j++) dir[nz_recording_input_slot(c, 1, j)] = -1;
     for (int j = 0; j < k && ok; j++)
-      if ((dir[nz_compiled_input_slot(c, 0, j)] = nz_graph_input(g, nz_compiled_input_slot(c, 1, j))) < 0)
+      if ((dir[nz_recording_input_slot(c, 0, j)] = nz_graph_input(g, nz_recording_input_slot(c, 1, j))) < 0)
         ok = 0;
     if (ok && nz_graph_derivatives(g, gqd, k, dir, tmp)) ok = 0;
   }
@@ -453,7 +453,7 @@ static int build_mass_bias(nz_compiled *c, int *out)
     int h = nz_graph_op(g, NZ_GOP_SUB, tmp[i], gq[i]);
     if (V >= 0 && h >= 0) {
       no_motion(dir, n);
-      dir[nz_compiled_input_slot(c, 0, i)] = one;
+      dir[nz_recording_input_slot(c, 0, i)] = one;
       int dV = nz_graph_derivative(g, V, dir);
       h = dV < 0 ? -1 : nz_graph_op(g, NZ_GOP_ADD, h, dV);
     }
@@ -485,7 +485,7 @@ static int defined_everywhere(const nz_graph *g, int root) { return root < 0 || 
 /* The plan of outputs out[0..n-1] with its guards' nodes after them
  * (graph_guard.h; smooth: the functions the jets differentiate): the
  * plan, or NULL; *gd the guards (NULL when out of memory: no plan then). */
-static dplan *guarded_plan(nz_compiled *c, const int *out, int n, const int *smooth, int nsmooth,
+static dplan *guarded_plan(nz_recording *c, const int *out, int n, const int *smooth, int nsmooth,
                            nz_graph_guards **gd)
 {
   /* the parameters (inputs 1..np) do not move along the motion */
@@ -504,7 +504,7 @@ static dplan *guarded_plan(nz_compiled *c, const int *out, int n, const int *smo
 
 /* After a plan's evaluation: does it meet a tie or a singular point that
  * the jets must decide (vals: its outputs, the guards' after its own n)? */
-static int guards_fire(nz_compiled *c, const nz_graph_guards *gd, const double *vals, int n)
+static int guards_fire(nz_recording *c, const nz_graph_guards *gd, const double *vals, int n)
 {
   const char *what;
   if (!nz_graph_guards_fire(gd, vals + n, &what)) return 0;
@@ -516,7 +516,7 @@ static int guards_fire(nz_compiled *c, const nz_graph_guards *gd, const double *
  * q'' = -M^-1 h as a plan (M^-1 by k solves with unit right-hand sides), so
  * that an acceleration costs one pass.  No plan if M is not positive
  * definite: the general path reports that with the state. */
-static void invert_constant_mass(nz_compiled *c, const int *out)
+static void invert_constant_mass(nz_recording *c, const int *out)
 {
   int k = c->k;
   double *M = c->acc_A, v;
@@ -569,7 +569,7 @@ static void invert_constant_mass(nz_compiled *c, const int *out)
   free(minv);
 }
 
-int nz_compiled_mass_bias_ready(nz_compiled *c)
+int nz_recording_mass_bias_ready(nz_recording *c)
 {
   if (c->mb_built) return c->mb_built > 0;
   c->mb_built = -1;
@@ -600,45 +600,45 @@ int nz_compiled_mass_bias_ready(nz_compiled *c)
 /* The inputs of a plan on doubles: t, params, and slots 0 .. nfill-1 (those
  * past the state's nstate levels 0); the loops are short (k is small),
  * calls to memcpy would cost more. */
-static void fill_inputs(const nz_compiled *c, double *in, double t, const double *const *state,
+static void fill_inputs(const nz_recording *c, double *in, double t, const double *const *state,
                         int nstate, int nfill)
 {
   int k = c->k;
   in[0] = t;
   for (int p = 0; p < c->np; p++) in[1 + p] = c->params[p];
   for (int j = 0; j < nfill; j++) {
-    double *slot = in + nz_compiled_input_slot(c, j, 0);
+    double *slot = in + nz_recording_input_slot(c, j, 0);
     if (j < nstate) memcpy(slot, state[j], (size_t)k * sizeof(double));
     else memset(slot, 0, (size_t)k * sizeof(double));
   }
 }
 
 /* t, params, q and q' (the inputs M, h and q'' read). */
-static void state_inputs(const nz_compiled *c, double *in, double t, const double *q, const double *qd)
+static void state_inputs(const nz_recording *c, double *in, double t, const double *q, const double *qd)
 {
   const double *state[2] = { q, qd };
   fill_inputs(c, in, t, state, 2, 2);
 }
 
 /* M and h at a state into c->mb_out; NZ_EARG when the graphs cannot. */
-static int eval_mass_bias(nz_compiled *c, double t, const double *q, const double *qd)
+static int eval_mass_bias(nz_recording *c, double t, const double *q, const double *qd)
 {
-  if (!nz_compiled_mass_bias_ready(c)) return NZ_EARG;
+  if (!nz_recording_mass_bias_ready(c)) return NZ_EARG;
   double *in = c->mb_in;
   state_inputs(c, in, t, q, qd);
   int st = dplan_eval(c, c->mb_plan, in, c->mb_out);
   if (st) {
     /* Let the jet path run: it says which function failed, and where. */
-    nz_compiled_describe_failure(c, c->mb_plan->plan, st);
+    nz_recording_describe_failure(c, c->mb_plan->plan, st);
     return NZ_EARG;
   }
   return guards_fire(c, c->mb_guards, c->mb_out, c->mb_nout) ? NZ_EARG : NZ_OK;
 }
 
-int nz_compiled_mass_bias(void *ctx, double t, const double *q, const double *qd, double *M,
+int nz_recording_mass_bias(void *ctx, double t, const double *q, const double *qd, double *M,
                           double *h)
 {
-  nz_compiled *c = ctx;
+  nz_recording *c = ctx;
   int k = c->k, st = eval_mass_bias(c, t, q, qd);
   if (st) return st;
   memcpy(M, c->mb_out, (size_t)k * (size_t)k * sizeof(double));
@@ -646,10 +646,10 @@ int nz_compiled_mass_bias(void *ctx, double t, const double *q, const double *qd
   return NZ_OK;
 }
 
-int nz_compiled_accel(void *ctx, double t, const double *q, const double *qd, double rcond_min,
+int nz_recording_accel(void *ctx, double t, const double *q, const double *qd, double rcond_min,
                       double *qdd, nz_solve_info *info)
 {
-  nz_compiled *c = ctx;
+  nz_recording *c = ctx;
   int k = c->k, st;
   if (c->acc_plan) {                    /* made by mass_bias_ready */
     /* a constant M too badly conditioned: the jet path reports it */
@@ -674,8 +674,8 @@ int nz_compiled_accel(void *ctx, double t, const double *q, const double *qd, do
     *info = c->m_info;
     return NZ_OK;
   }
-  if (!nz_compiled_mass_bias_ready(c)) return NZ_EARG;
-  if (c->acc_plan) return nz_compiled_accel(ctx, t, q, qd, rcond_min, qdd, info);   /* the first call */
+  if (!nz_recording_mass_bias_ready(c)) return NZ_EARG;
+  if (c->acc_plan) return nz_recording_accel(ctx, t, q, qd, rcond_min, qdd, info);   /* the first call */
   if ((st = eval_mass_bias(c, t, q, qd))) return st;
   const double *h = c->mb_out + (size_t)k * (size_t)k;
   memcpy(c->acc_A, c->mb_out, (size_t)k * (size_t)k * sizeof(double));
@@ -683,9 +683,9 @@ int nz_compiled_accel(void *ctx, double t, const double *q, const double *qd, do
   return nz_solve_spd_in(k, c->acc_A, c->acc_rhs, qdd, rcond_min, info, c->acc_work);
 }
 
-int nz_compiled_free_rhs(void *ctx, double t, const double *y, double rcond_min, double *f)
+int nz_recording_free_rhs(void *ctx, double t, const double *y, double rcond_min, double *f)
 {
-  nz_compiled *c = ctx;
+  nz_recording *c = ctx;
   dplan *d = c->acc_plan;
   int k = c->k;
   if (!d || !d->native || d->nout != k || !(c->m_info.rcond >= rcond_min)) return NZ_EARG;
@@ -705,13 +705,13 @@ int nz_compiled_free_rhs(void *ctx, double t, const double *y, double rcond_min,
 
 /* The direction of D, the derivative along the motion: t moves by 1 and
  * slot j of q_i by slot j + 1 (none past the last slot). */
-static int motion_direction(nz_compiled *c, int *dir, int n)
+static int motion_direction(nz_recording *c, int *dir, int n)
 {
   no_motion(dir, n);
   if ((dir[0] = nz_graph_const(c->g, 1.0)) < 0) return -1;
   for (int j = 0; j + 1 < c->nslots; j++)
     for (int i = 0; i < c->k; i++)
-      if ((dir[nz_compiled_input_slot(c, j, i)] = nz_graph_input(c->g, nz_compiled_input_slot(c, j + 1, i))) < 0)
+      if ((dir[nz_recording_input_slot(c, j, i)] = nz_graph_input(c->g, nz_recording_input_slot(c, j + 1, i))) < 0)
         return -1;
   return 0;
 }
@@ -738,7 +738,7 @@ int nz_graph_reads_inputs(const nz_graph *g, int root, int lo, int hi)
 
 /* Outputs D^0 Phi .. D^K Phi, then dD^K Phi/dq''_i; 0 or -1.  A graph that
  * reads its last slot cannot be differentiated along the motion here. */
-int nz_compiled_build_row(nz_compiled *c, int r, int m, int *out)
+int nz_recording_build_row(nz_recording *c, int r, int m, int *out)
 {
   int K = 2 - m, k = c->k, n = c->ninputs, ok = 1;
   int *dir = malloc((size_t)n * sizeof(int));
@@ -746,14 +746,14 @@ int nz_compiled_build_row(nz_compiled *c, int r, int m, int *out)
   out[0] = c->phi[r].nodes[0];
   if (motion_direction(c, dir, n)) ok = 0;
   /* the last slot has no slot above it: refuse a constraint that reads it */
-  if (ok && nz_graph_reads_inputs(c->g, out[0], nz_compiled_input_slot(c, c->nslots - 1, 0),
-                         nz_compiled_input_slot(c, c->nslots - 1, k - 1)))
+  if (ok && nz_graph_reads_inputs(c->g, out[0], nz_recording_input_slot(c, c->nslots - 1, 0),
+                         nz_recording_input_slot(c, c->nslots - 1, k - 1)))
     ok = 0;
   for (int j = 0; ok && j < K; j++)
     if ((out[j + 1] = nz_graph_derivative(c->g, out[j], dir)) < 0) ok = 0;
   for (int i = 0; ok && i < k; i++) {
     no_motion(dir, n);
-    dir[nz_compiled_input_slot(c, 2, i)] = nz_graph_const(c->g, 1.0);
+    dir[nz_recording_input_slot(c, 2, i)] = nz_graph_const(c->g, 1.0);
     if ((out[K + 1 + i] = nz_graph_derivative(c->g, out[K], dir)) < 0) ok = 0;
   }
   /* The check's derivatives of Phi along slot j (j > m), weighted by
@@ -761,18 +761,18 @@ int nz_compiled_build_row(nz_compiled *c, int r, int m, int *out)
   for (int j = m + 1; ok && j < NZ_CONSTRAINT_SLOTS; j++) {
     no_motion(dir, n);
     for (int i = 0; i < k && ok; i++)
-      if ((dir[nz_compiled_input_slot(c, j, i)] = nz_graph_const(c->g, nz_check_slot_weight(j, i, k))) < 0) ok = 0;
+      if ((dir[nz_recording_input_slot(c, j, i)] = nz_graph_const(c->g, nz_check_slot_weight(j, i, k))) < 0) ok = 0;
     if (ok && (out[K + 1 + k + (j - m - 1)] = nz_graph_derivative(c->g, out[0], dir)) < 0) ok = 0;
   }
   free(dir);
   return ok ? 0 : -1;
 }
 
-int nz_compiled_constraint_row(void *ctx, int r, int m, double t, const double *const *state,
+int nz_recording_constraint_row(void *ctx, int r, int m, double t, const double *const *state,
                                int nstate, double alpha, double beta, double *A, double *value,
                                const double *slot_sizes, double *high)
 {
-  nz_compiled *c = ctx;
+  nz_recording *c = ctx;
   int k = c->k, K = 2 - m, at = 3 * r + m, nhigh = NZ_CONSTRAINT_SLOTS - 1 - m;
   if (r < 0 || r >= c->nc || m < 0 || m > 2 || !c->phi[r].n || c->nslots < NZ_CONSTRAINT_SLOTS + 2)
     return NZ_EARG;
@@ -781,7 +781,7 @@ int nz_compiled_constraint_row(void *ctx, int r, int m, double t, const double *
     int *out = malloc((size_t)(3 + k + NZ_CONSTRAINT_SLOTS) * sizeof(int));
     c->rows_built[at] = -1;
     /* Phi itself (output 0) is what the jets differentiate */
-    if (out && nz_compiled_build_row(c, r, m, out) == 0 &&
+    if (out && nz_recording_build_row(c, r, m, out) == 0 &&
         (c->rows[at] = guarded_plan(c, out, nout, out, 1, &c->row_guards[at])) &&
         (c->row_outs[at] = malloc((size_t)(nout + nz_graph_guards_count(c->row_guards[at])) * sizeof(double))))
       c->rows_built[at] = 1;
@@ -792,7 +792,7 @@ int nz_compiled_constraint_row(void *ctx, int r, int m, double t, const double *
   fill_inputs(c, in, t, state, nstate, c->nslots);
   int st = dplan_eval(c, c->rows[at], in, o);
   if (st) {
-    nz_compiled_describe_failure(c, c->rows[at]->plan, st);
+    nz_recording_describe_failure(c, c->rows[at]->plan, st);
     return NZ_EARG;
   }
   if (guards_fire(c, c->row_guards[at], o, nout)) return NZ_EARG;
@@ -807,20 +807,20 @@ int nz_compiled_constraint_row(void *ctx, int r, int m, double t, const double *
   return NZ_OK;
 }
 
-int nz_compiled_mass_bias_nodes(const nz_compiled *c)
+int nz_recording_mass_bias_nodes(const nz_recording *c)
 {
   return c->mb_built > 0 ? nz_graph_plan_nodes(c->mb_plan->plan) : 0;
 }
 
-int nz_compiled_mass_bias_outputs(nz_compiled *c, int *out)
+int nz_recording_mass_bias_outputs(nz_recording *c, int *out)
 {
-  if (!nz_compiled_mass_bias_ready(c)) return NZ_EARG;
+  if (!nz_recording_mass_bias_ready(c)) return NZ_EARG;
   int k = c->k;
   for (int i = 0; i < k * k + k; i++) out[i] = c->mb_plan->outs[i];
   return NZ_OK;
 }
 
-int nz_compiled_piece_outputs(const nz_compiled *c, nz_piece piece, int index, int *out, int max)
+int nz_recording_piece_outputs(const nz_recording *c, nz_piece piece, int index, int *out, int max)
 {
   const compiled_piece *p = piece_of(c, piece, index);
   if (!p || !p->n) return 0;
@@ -848,7 +848,7 @@ static int depends_on(const nz_graph *g, int root, int x, unsigned char *mark)
 
 /* Which pieces' functions hold node x: a mask of 1 << piece and, for a
  * constraint, the first one's index in *constraint. */
-static unsigned pieces_holding(const nz_compiled *c, int x, int *constraint, unsigned char *mark)
+static unsigned pieces_holding(const nz_recording *c, int x, int *constraint, unsigned char *mark)
 {
   unsigned mask = 0;
   *constraint = -1;
@@ -867,7 +867,7 @@ static unsigned pieces_holding(const nz_compiled *c, int x, int *constraint, uns
   return mask;
 }
 
-int nz_compiled_rounding_branch(nz_compiled *c, double t, const double *const *state, int nstate, double tol,
+int nz_recording_rounding_branch(nz_recording *c, double t, const double *const *state, int nstate, double tol,
                                 nz_rounding_branch *out, unsigned *pieces, int *constraint)
 {
   int k = c->k, n = nz_graph_size(c->g), nroots = 0;
@@ -876,7 +876,7 @@ int nz_compiled_rounding_branch(nz_compiled *c, double t, const double *const *s
   unsigned char *mark = malloc((size_t)n + 1);
   int found = -1;
   if (roots && in && mark) {
-    if (nz_compiled_mass_bias_ready(c))                     /* M and h: what the integrators evaluate */
+    if (nz_recording_mass_bias_ready(c))                     /* M and h: what the integrators evaluate */
       for (int i = 0; i < k * k + k; i++) roots[nroots++] = c->mb_plan->outs[i];
     for (int piece = 0; piece < NZ_PIECE_COUNT; piece++)
       for (int index = 0; index < (piece == NZ_PIECE_PHI ? c->nc : 1); index++) {

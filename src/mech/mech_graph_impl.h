@@ -1,5 +1,5 @@
 /* mech_graph_impl.h - inside mech_graph.c and mech_graph_series.c: the
- * recorded system (struct nz_compiled), its plans on doubles that switch to
+ * recorded system (struct nz_recording), its plans on doubles that switch to
  * machine code (dplan), and the few functions the series of the motion
  * (mech_graph_series.c) shares with the rest.  Internal to src/mech. */
 #ifndef NZ_MECH_GRAPH_IMPL_H
@@ -40,7 +40,7 @@ typedef struct compiled_piece {
   nz_graph_plan *plan;
 } compiled_piece;
 
-struct nz_compiled {
+struct nz_recording {
   int k, np, nc, nslots, ninputs;
   nz_graph *g;
   double *params;                      /* np current values */
@@ -65,7 +65,7 @@ struct nz_compiled {
   double native_seconds, native_waited;
   char native_why[300];
   int plans_used, plans_native, series_used, series_native, compiling;
-  /* nz_compiled_accel's workspace: A (k x k), rhs (k), the solver's. */
+  /* nz_recording_accel's workspace: A (k x k), rhs (k), the solver's. */
   double *acc_A, *acc_rhs, *acc_work;
   /* With a constant M, q'' = -M^-1 h as a plan of its own (M^-1's entries
    * are constants of the graph), and F, V checked: one pass per call;
@@ -82,7 +82,7 @@ struct nz_compiled {
   nz_graph_guards **row_guards;
   double **row_outs;                   /* each row plan's outputs, guards' after */
   double *row_in;
-  /* nz_compiled_motion_series's workspace, for series up to ts_cap + 1
+  /* nz_recording_motion_series's workspace, for series up to ts_cap + 1
    * coefficients of q (grown, never shrunk): the inputs' coefficient
    * (ninputs), M_0's factor and the solver's work, a right-hand side (k),
    * q''s coefficients ((ts_cap - 1) k), and the series of M's entries. */
@@ -90,7 +90,7 @@ struct nz_compiled {
   double *ts_in, *ts_L, *ts_work, *ts_rhs, *ts_qdd;
   const double **ts_M;
   double **ts_inp;   /* the plan's input series, written in place (ninputs) */
-  struct cseries *cs;   /* nz_compiled_constrained_series's plans and workspace */
+  struct cseries *cs;   /* nz_recording_constrained_series's plans and workspace */
   int *ts_pos;       /* input numbers of q_i, of q_i', output numbers of q_i'' (3k) */
   char failure[160];
 };
@@ -101,17 +101,17 @@ dplan *nz_dplan_new(const nz_graph *g, const int *outs, int n);
 void nz_dplan_free(dplan *d);
 /* After a begin of d's series to order N: its machine code (mech_graph.c's
  * policy for plans on doubles, in node coefficients). */
-void nz_dplan_series_native(nz_compiled *c, dplan *d, int N, const nz_series_ode2 *ode2);
+void nz_dplan_series_native(nz_recording *c, dplan *d, int N, const nz_series_ode2 *ode2);
 /* c->failure says which node of plan failed with status st. */
-void nz_compiled_describe_failure(nz_compiled *c, const nz_graph_plan *plan, int st);
+void nz_recording_describe_failure(nz_recording *c, const nz_graph_plan *plan, int st);
 /* The plan of M and h on doubles, built on first use: nonzero when it is. */
-int nz_compiled_mass_bias_ready(nz_compiled *c);
+int nz_recording_mass_bias_ready(nz_recording *c);
 /* Does node root depend on an input numbered lo..hi? */
 int nz_graph_reads_inputs(const nz_graph *g, int root, int lo, int hi);
 /* Constraint row r of order m's plan outputs (mech_graph.c): D^0..D^K Phi,
  * then dD^K Phi/dq''_i; 0 or -1. */
-int nz_compiled_build_row(nz_compiled *c, int r, int m, int *out);
+int nz_recording_build_row(nz_recording *c, int r, int m, int *out);
 /* The constrained series' plans and workspace freed (mech_graph_series.c). */
-void nz_compiled_constrained_series_free(nz_compiled *c);
+void nz_recording_constrained_series_free(nz_recording *c);
 
 #endif

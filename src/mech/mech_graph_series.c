@@ -8,8 +8,8 @@
 #include "jets/series.h"
 #include "mech/mech_graph_impl.h"
 
-/* The workspace of nz_compiled_motion_series for p + 1 coefficients. */
-static int series_workspace(nz_compiled *c, int p)
+/* The workspace of nz_recording_motion_series for p + 1 coefficients. */
+static int series_workspace(nz_recording *c, int p)
 {
   if (p <= c->ts_cap) return NZ_OK;
   size_t k = (size_t)c->k, kk = k * k, n = (size_t)c->ninputs;
@@ -28,8 +28,8 @@ static int series_workspace(nz_compiled *c, int p)
   c->ts_inp = inp;
   c->ts_pos = pos;
   for (int i = 0; i < c->k; i++) {
-    pos[i] = nz_compiled_input_slot(c, 0, i);
-    pos[k + (size_t)i] = nz_compiled_input_slot(c, 1, i);
+    pos[i] = nz_recording_input_slot(c, 0, i);
+    pos[k + (size_t)i] = nz_recording_input_slot(c, 1, i);
     pos[2 * k + (size_t)i] = i;
   }
   free(c->ts_in);
@@ -46,12 +46,12 @@ static int series_workspace(nz_compiled *c, int p)
 /* Coefficient n of the inputs along the motion t0 + tau: t is t0 + tau
  * (1 at n = 1, then 0), a parameter is constant, slot 0 of q_i is a_n and
  * slot 1 is (n + 1) a_{n+1}; higher slots (unread by M and h) are 0. */
-static void series_inputs_at(const nz_compiled *c, double *in, int n, double t0, const double *a)
+static void series_inputs_at(const nz_recording *c, double *in, int n, double t0, const double *a)
 {
   int k = c->k;
   in[0] = n == 0 ? t0 : n == 1 ? 1.0 : 0.0;
   for (int p = 0; p < c->np; p++) in[1 + p] = n == 0 ? c->params[p] : 0.0;
-  double *s0 = in + nz_compiled_input_slot(c, 0, 0), *s1 = s0 + k;
+  double *s0 = in + nz_recording_input_slot(c, 0, 0), *s1 = s0 + k;
   const double *an = a + (size_t)n * (size_t)k, *an1 = an + k;
   for (int i = 0; i < k; i++) {
     s0[i] = an[i];
@@ -61,9 +61,9 @@ static void series_inputs_at(const nz_compiled *c, double *in, int n, double t0,
 
 /* The same for n >= 1, written in place into the plan's input series
  * (nz_graph_series_inputs; NULL: an input the plan does not read). */
-static void series_inputs_put(const nz_compiled *c, double *const *ip, int n, const double *a)
+static void series_inputs_put(const nz_recording *c, double *const *ip, int n, const double *a)
 {
-  int k = c->k, s0 = nz_compiled_input_slot(c, 0, 0);
+  int k = c->k, s0 = nz_recording_input_slot(c, 0, 0);
   if (ip[0]) ip[0][n] = n == 1 ? 1.0 : 0.0;
   for (int x = 1; x < s0; x++)
     if (ip[x]) ip[x][n] = 0.0;
@@ -76,12 +76,12 @@ static void series_inputs_put(const nz_compiled *c, double *const *ip, int n, co
   }
 }
 
-int nz_compiled_motion_series(nz_compiled *c, double t0, const double *q0, const double *qd0, int p,
+int nz_recording_motion_series(nz_recording *c, double t0, const double *q0, const double *qd0, int p,
                               double *a)
 {
   int k = c->k, st;
   if (p < 0 || p > NZ_JET_MAX_ORDER + 2) return NZ_EDOM;
-  if (!nz_compiled_mass_bias_ready(c)) return NZ_EARG;
+  if (!nz_recording_mass_bias_ready(c)) return NZ_EARG;
   if ((st = series_workspace(c, p))) return st;
   memcpy(a, q0, (size_t)k * sizeof(double));
   if (p >= 1) memcpy(a + k, qd0, (size_t)k * sizeof(double));
@@ -94,7 +94,7 @@ int nz_compiled_motion_series(nz_compiled *c, double t0, const double *q0, const
   series_inputs_at(c, in, 0, t0, a);
   /* The plan's other outputs (F and V, evaluated to check that they are
    * defined) run along: a failure of any node is the jets' status, and
-   * nz_compiled_failure names it. */
+   * nz_recording_failure names it. */
   if ((st = nz_graph_series_begin(plan, N, in))) goto fail;
   if (constant) {
     /* q'' = -M^-1 h as a second-order ODE on the plan: its machine code
@@ -155,13 +155,13 @@ int nz_compiled_motion_series(nz_compiled *c, double t0, const double *q0, const
   }
   return NZ_OK;
 fail:
-  nz_compiled_describe_failure(c, plan, st);
+  nz_recording_describe_failure(c, plan, st);
   return st;
 }
 
-int nz_compiled_motion_branches(nz_compiled *c)
+int nz_recording_motion_branches(nz_recording *c)
 {
-  if (!nz_compiled_mass_bias_ready(c)) return -1;
+  if (!nz_recording_mass_bias_ready(c)) return -1;
   const dplan *d = c->acc_plan ? c->acc_plan : c->mb_plan;
   int root = -1;
   for (int o = 0; o < d->nout; o++)
@@ -226,7 +226,7 @@ static void cseries_free(cseries *w)
   free(w);
 }
 
-void nz_compiled_constrained_series_free(nz_compiled *c)
+void nz_recording_constrained_series_free(nz_recording *c)
 {
   cseries_free(c->cs);
   c->cs = NULL;
@@ -236,7 +236,7 @@ void nz_compiled_constrained_series_free(nz_compiled *c)
  * the reason in c->failure (a constraint not recorded, of order > 2, or
  * reading a derivative above its order: its series would need coefficients
  * of q not known yet). */
-static int cseries_plans(nz_compiled *c, const int *m)
+static int cseries_plans(nz_recording *c, const int *m)
 {
   cseries *w = c->cs;
   int k = c->k, nc = c->nc;
@@ -273,12 +273,12 @@ static int cseries_plans(nz_compiled *c, const int *m)
     } else if (!c->phi[r].n || c->nslots < NZ_CONSTRAINT_SLOTS + 2) {
       snprintf(c->failure, sizeof c->failure, "constraint %d is not recorded", r + 1);
       st = NZ_EARG;
-    } else if (m[r] < 2 && nz_graph_reads_inputs(c->g, c->phi[r].nodes[0], nz_compiled_input_slot(c, m[r] + 1, 0),
-                                        nz_compiled_input_slot(c, c->nslots - 1, k - 1))) {
+    } else if (m[r] < 2 && nz_graph_reads_inputs(c->g, c->phi[r].nodes[0], nz_recording_input_slot(c, m[r] + 1, 0),
+                                        nz_recording_input_slot(c, c->nslots - 1, k - 1))) {
       snprintf(c->failure, sizeof c->failure,
                "constraint %d is of order %d but its function reads higher derivatives of q", r + 1, m[r]);
       st = NZ_EARG;
-    } else if (nz_compiled_build_row(c, r, m[r], out)) {
+    } else if (nz_recording_build_row(c, r, m[r], out)) {
       snprintf(c->failure, sizeof c->failure, "constraint %d: its gradient could not be built on the graph", r + 1);
       st = NZ_EARG;
     } else {
@@ -296,7 +296,7 @@ static int cseries_plans(nz_compiled *c, const int *m)
 }
 
 /* The workspace for series of N + 1 coefficients of q''. */
-static int cseries_workspace(nz_compiled *c, int N)
+static int cseries_workspace(nz_recording *c, int N)
 {
   cseries *w = c->cs;
   if (N <= w->cap && w->S) return NZ_OK;
@@ -328,7 +328,7 @@ static double slot_coef(const double *a, int k, int i, int s, int j, int top)
 
 /* Write coefficient j of every input of a plan (q's slots from a[0..top],
  * t = t0 + tau, parameters constant) in place. */
-static void cseries_put(const nz_compiled *c, double *const *ip, int j, double t0, const double *a, int top)
+static void cseries_put(const nz_recording *c, double *const *ip, int j, double t0, const double *a, int top)
 {
   int k = c->k;
   if (ip[0]) ip[0][j] = j == 0 ? t0 : j == 1 ? 1.0 : 0.0;
@@ -336,23 +336,23 @@ static void cseries_put(const nz_compiled *c, double *const *ip, int j, double t
     if (ip[1 + p]) ip[1 + p][j] = j == 0 ? c->params[p] : 0.0;
   for (int s = 0; s < c->nslots; s++)
     for (int i = 0; i < k; i++) {
-      double *x = ip[nz_compiled_input_slot(c, s, i)];
+      double *x = ip[nz_recording_input_slot(c, s, i)];
       if (x) x[j] = s <= 2 ? slot_coef(a, k, i, s, j, top) : 0.0;
     }
 }
 
-int nz_compiled_constrained_series(nz_compiled *c, const int *orders, double t0, const double *q0,
+int nz_recording_constrained_series(nz_recording *c, const int *orders, double t0, const double *q0,
                                    const double *qd0, const double *qdd0, const double *lam0, int p, double *a,
                                    double *lambda)
 {
-  return nz_compiled_constrained_series_sel(c, orders, NULL, t0, q0, qd0, qdd0, lam0, p, a, lambda);
+  return nz_recording_constrained_series_sel(c, orders, NULL, t0, q0, qd0, qdd0, lam0, p, a, lambda);
 }
 
-int nz_compiled_series(void *ctx, const int *orders, const nz_series_selection *sel, double t0, const double *q0,
+int nz_recording_series(void *ctx, const int *orders, const nz_series_selection *sel, double t0, const double *q0,
                        const double *qd0, const double *qdd0, const double *lam0, int p, double *a)
 {
-  if (!orders) return nz_compiled_motion_series(ctx, t0, q0, qd0, p, a);
-  return nz_compiled_constrained_series_sel(ctx, orders, sel, t0, q0, qd0, qdd0, lam0, p, a, NULL);
+  if (!orders) return nz_recording_motion_series(ctx, t0, q0, qd0, p, a);
+  return nz_recording_constrained_series_sel(ctx, orders, sel, t0, q0, qd0, qdd0, lam0, p, a, NULL);
 }
 
 /* The rows held: every constraint, or the selection's (a contact mode);
@@ -366,7 +366,7 @@ static inline double coef_of(const nz_series_selection *sel, int x) { return sel
 /* Coefficient 0 of every plan (M and h to order N, the rows held to
  * N + 2); the constraint plans then up to their coefficient 2 - m, the one
  * order 0 settled.  On a plan's failure *fail is that plan. */
-static int cseries_begin(nz_compiled *c, const int *orders, const nz_series_selection *sel, int na, double t0,
+static int cseries_begin(nz_recording *c, const int *orders, const nz_series_selection *sel, int na, double t0,
                          const double *q0, const double *qd0, const double *qdd0, int N, double *a,
                          nz_graph_plan **fail)
 {
@@ -378,9 +378,9 @@ static int cseries_begin(nz_compiled *c, const int *orders, const nz_series_sele
   in[0] = t0;
   for (int q = 0; q < c->np; q++) in[1 + q] = c->params[q];
   for (int i = 0; i < k; i++) {
-    in[nz_compiled_input_slot(c, 0, i)] = q0[i];
-    in[nz_compiled_input_slot(c, 1, i)] = qd0[i];
-    in[nz_compiled_input_slot(c, 2, i)] = qdd0[i];
+    in[nz_recording_input_slot(c, 0, i)] = q0[i];
+    in[nz_recording_input_slot(c, 1, i)] = qd0[i];
+    in[nz_recording_input_slot(c, 2, i)] = qdd0[i];
   }
   *fail = mb;
   if ((st = nz_graph_series_begin(mb, N, in))) return st;
@@ -410,7 +410,7 @@ static int cseries_begin(nz_compiled *c, const int *orders, const nz_series_sele
  * H_r, -W_0^T; A_0, 0], H_r = dA_r/dq'' (zero unless constraint r is of
  * order 2 and not linear in q''), W the forces' rows (A, or A + CF D),
  * factored once (into w->lu) when N >= 1. */
-static int cseries_saddle(nz_compiled *c, const int *orders, const nz_series_selection *sel, int na, double t0,
+static int cseries_saddle(nz_recording *c, const int *orders, const nz_series_selection *sel, int na, double t0,
                           const double *lam0, int N, const double *a, nz_graph_plan **fail)
 {
   int k = c->k, n2 = k + na, st;
@@ -430,7 +430,7 @@ static int cseries_saddle(nz_compiled *c, const int *orders, const nz_series_sel
       if ((st = nz_graph_series_next(pr, 1, NULL, NULL))) return st;
       for (int i = 0; i < k; i++) base[i] = w->Aser[r * k + i][1];
       for (int j = 0; j < k; j++) {
-        double *xin = w->inp[r][nz_compiled_input_slot(c, 2, j)];
+        double *xin = w->inp[r][nz_recording_input_slot(c, 2, j)];
         if (!xin) continue;   /* A_r does not read q''_j */
         xin[1] = 1.0;
         if ((st = nz_graph_series_next(pr, 1, NULL, NULL))) return st;
@@ -466,7 +466,7 @@ static int cseries_saddle(nz_compiled *c, const int *orders, const nz_series_sel
 /* The right-hand side of order n >= 1 into w->rhs: -(h_n + sum M_j
  * q''_{n-j}) for the coordinates, then each row's coefficient n + 2 - m at
  * q''_n = 0 in q''_n's units, with the forces' known part added. */
-static int cseries_rhs(nz_compiled *c, const int *orders, const nz_series_selection *sel, int na, double t0,
+static int cseries_rhs(nz_recording *c, const int *orders, const nz_series_selection *sel, int na, double t0,
                        int n, const double *a, nz_graph_plan **fail)
 {
   int k = c->k, st;
@@ -521,7 +521,7 @@ static int cseries_rhs(nz_compiled *c, const int *orders, const nz_series_select
 
 /* Order n >= 1: solve for q''_n and lambda_n, store a_{n+2}, and run the
  * constraint plans' coefficient n + 2 - m again with q''_n. */
-static int cseries_order(nz_compiled *c, const int *orders, const nz_series_selection *sel, int na, double t0,
+static int cseries_order(nz_recording *c, const int *orders, const nz_series_selection *sel, int na, double t0,
                          int n, double *a, nz_graph_plan **fail)
 {
   int k = c->k, st;
@@ -553,7 +553,7 @@ static int cseries_order(nz_compiled *c, const int *orders, const nz_series_sele
   return NZ_OK;
 }
 
-int nz_compiled_constrained_series_sel(nz_compiled *c, const int *orders, const nz_series_selection *sel, double t0,
+int nz_recording_constrained_series_sel(nz_recording *c, const int *orders, const nz_series_selection *sel, double t0,
                                        const double *q0, const double *qd0, const double *qdd0, const double *lam0,
                                        int p, double *a, double *lambda)
 {
@@ -561,7 +561,7 @@ int nz_compiled_constrained_series_sel(nz_compiled *c, const int *orders, const 
   int na = sel ? sel->n : c->nc;
   if (p < 2 || p > NZ_JET_MAX_ORDER) return NZ_EDOM;
   if (na < 0 || na > c->nc) return NZ_EARG;
-  if (!nz_compiled_mass_bias_ready(c)) return NZ_EARG;
+  if (!nz_recording_mass_bias_ready(c)) return NZ_EARG;
   if ((st = cseries_plans(c, orders))) return st;
   int N = p - 2;   /* the coefficients 0 .. N of q'' give a_2 .. a_p */
   if ((st = cseries_workspace(c, N))) return st;
@@ -578,7 +578,7 @@ int nz_compiled_constrained_series_sel(nz_compiled *c, const int *orders, const 
       !(st = cseries_saddle(c, orders, sel, na, t0, lam0, N, a, &fail)))
     for (int n = 1; n <= N && !st; n++) st = cseries_order(c, orders, sel, na, t0, n, a, &fail);
   if (st) {
-    if (fail) nz_compiled_describe_failure(c, fail, st);
+    if (fail) nz_recording_describe_failure(c, fail, st);
     return st;
   }
   if (lambda) memcpy(lambda, w->lam, (size_t)(N + 1) * (size_t)na * sizeof(double));

@@ -5,7 +5,7 @@
  *
  * A step from (t, q, q') takes the series of the motion q(t + tau) =
  * sum_{n=0..p+1} a_n tau^n from a series function (for a recorded system
- * nz_compiled_motion_series, mech_graph.h), chooses the step size from the
+ * nz_recording_motion_series, mech_graph.h), chooses the step size from the
  * last coefficients (Jorba and Zou 2005, see taylor.c) and moves to the
  * polynomial's value and derivative at the step.  The polynomial is also the
  * dense output: the stepping loop (ode_run.c) reads the output points inside

@@ -210,7 +210,7 @@ end
 -- restores the system's own mode (-1: in the background once a plan is
 -- used, 1: at first use, 0: never; graph_info's native_mode).
 function M.one_evaluator(sys)
-  local c = sys.recording and sys.engine.compiled
+  local c = sys.recording and sys.engine.recording
   if not c then return function() end end
   local own = c:info().native_mode
   if own == 0 then return function() end end
@@ -219,7 +219,7 @@ function M.one_evaluator(sys)
 end
 
 function M.wait_for_compiles(sys)
-  local c = sys.recording and sys.engine.compiled
+  local c = sys.recording and sys.engine.recording
   if c and c.native_wait then c:native_wait() end
 end
 
@@ -227,7 +227,7 @@ function M.native_state(sys)
   if not sys.recording then return nil end
   local info = sys:graph_info()
   return { plans = info.native_plans or 0, series = info.native_series or 0, seconds = info.native_seconds or 0,
-    why = info.native_why, mode = sys.engine.compiled:info().native_mode }
+    why = info.native_why, mode = sys.engine.recording:info().native_mode }
 end
 
 -- What the timed runs ran on, in words.

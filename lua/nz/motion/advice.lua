@@ -150,7 +150,7 @@ end
 -- the system is not recorded): a one-time cost, not the run's pace.  A
 -- compile in the background costs the run nothing.
 local function compile_seconds(sys)
-  local c = sys.engine.compiled
+  local c = sys.engine.recording
   return c and c:info().native_waited or 0
 end
 M.compile_seconds = compile_seconds
@@ -165,7 +165,7 @@ function M.evaluator(sys, from)
     return ("interpreted graph for steps 1-%d, machine code from step %d (compiled in the background)")
       :format(from - 1, from), from
   end
-  local info = sys.engine.compiled and sys.engine.compiled:info()
+  local info = sys.engine.recording and sys.engine.recording:info()
   if from == 0 then
     return "interpreted graph" .. (info.native_compiling > 0 and " (machine code was still compiling)" or "")
   end
@@ -207,7 +207,7 @@ local NEAR = {
 -- computed is kept in nz.last).
 M.SWITCH_TOL = 100
 function M.rounding_flip(sys, cfg, engine, tt, y, qdd, why)
-  if not engine.compiled then return end
+  if not engine.recording then return end
   local k = sys.k
   local q, qd, ymax = {}, {}, 0
   for i = 1, k do

@@ -178,7 +178,7 @@ local function events_hooks(run)
     local fs = {}
     for i, ev in ipairs(cfg.events) do fs[i] = ev.f end
     local rec, bad, reason = record_graph.state_functions(run.engine, fs)
-    if rec then evals = mech.ode_events_new(rec.compiled, rec.nodes, rec.values, run.k)
+    if rec then evals = mech.ode_events_new(rec.recording, rec.nodes, rec.values, run.k)
     elseif run.taylor then
       fail(sys, "method 'taylor' needs event functions it can record, and event '%s' cannot be (%s): take rk8pd, which "
         .. "calls it in Lua", cfg.events[bad].name, reason)

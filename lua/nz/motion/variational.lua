@@ -42,10 +42,10 @@ local verdicts = setmetatable({}, { __mode = "k" })
 -- Whether the Stormer-Verlet form applies to the system whose definition
 -- table is engine (the system's, sys).
 function M.verlet(sys, engine)
-  local c = engine.compiled
+  local c = engine.recording
   if not c or record.mass_bias_in_lua(sys) then return false end
   if verdicts[c] ~= nil then return verdicts[c] end
-  local k, np = sys.k, #(engine.compiled_params or {})
+  local k, np = sys.k, #(engine.recording_params or {})
   local ids = c:mass_bias_outputs(k)
   local ok = ids ~= nil
   if ok then

@@ -25,16 +25,16 @@ local derivative_symbol = order_n.symbol
 -- from q').
 local function reader(sys, c, frozen)
   local e = sys.engine
-  if not e.compiled then
+  if not e.recording then
     fail(sys, "the system is not recorded (made with compile = false), so there are no formulas to read: make it without compile = false")
   end
-  c = c or e.compiled
-  local k, np = sys.k, #(e.compiled_params or {})
+  c = c or e.recording
+  local k, np = sys.k, #(e.recording_params or {})
   local frozen_from = 1 + np + c:nslots() * k
   local function sym(input)
     if input == 0 then return formula.symbol("t", { lua = "t", base = "t" }) end
     if input <= np then
-      local name = e.compiled_params[input]
+      local name = e.recording_params[input]
       return formula.symbol(name, { lua = ("params[%q]"):format(name), base = name })
     end
     if input >= frozen_from then

@@ -870,7 +870,7 @@ else ~/.cache/nzlua (no HOME: no cache, the interpreter runs).
   nz.cache.dir()    the directory, or nil and why there is none
 Each object is checked before it is loaded (owner, mode, size, a checksum,
 its ELF segments); a damaged one is removed and compiled again.  Compiles
-run in the background (sys.engine.compiled:native_wait() waits for them);
+run in the background (sys.engine.recording:native_wait() waits for them);
 NZLUA_CACHE_MAX bounds the cache (default 100M, least recently used out
 first), NZLUA_CC_TIMEOUT limits a compile (300 s), NZLUA_CC_JOBS the
 compiles at once (2), NZLUA_KEEP_C=1 keeps the generated C.]] },
