@@ -341,6 +341,49 @@ static void check_spd_solve(void)
            "SPD solve: [[1, 1], [1, 1 + 1e-15]] is refused as too badly conditioned (rcond %.3g)", info.rcond);
 }
 
+/* nz_series_ode2_coef: x / ((n + 1)(n + 2)) rounded as the division
+ * rounds it (the hardware's, correctly rounded) for the orders below
+ * NZ_SERIES_ODE2_DIVIDED, and within an ulp above; and, the point of it,
+ * without the bias of the rounded reciprocal there: over 20000 x in
+ * [1, 2) per order, the mean of the signed error in ulps is near 0 (below
+ * 0.05), where the product by the rounded 1/m is off by more than that in
+ * the mean for m = 6, 12, 20 (0.17, 0.33, 0.36 ulp: the reciprocal's
+ * relative error, the same at every x). */
+static void check_ode2_coef(void)
+{
+  int worst_ulps = 0, mismatches = 0, biased_plain = 0;
+  double worst_mean = 0.0;
+  unsigned long seed = 12345;
+  for (int n = 0; n <= 60; n++) {
+    double m = (double)(n + 1) * (double)(n + 2), sum = 0.0, sum_plain = 0.0;
+    for (int j = 0; j < 20000; j++) {
+      seed = seed * 6364136223846793005UL + 1442695040888963407UL;
+      double u = 1.0 + (double)(seed >> 11) / 9007199254740992.0;   /* [1, 2) */
+      double want = u / m, got = nz_series_ode2_coef(u, n), ulp = nextafter(want, INFINITY) - want;
+      int ulps = (int)fabs((got - want) / ulp);
+      if (ulps > worst_ulps) worst_ulps = ulps;
+      if (n < NZ_SERIES_ODE2_DIVIDED) {
+        mismatches += got != want;
+        /* the signed error against the exact u / m: m got - u is exact
+         * in one fma (a multiple of ulp(got) below m ulp(got)) */
+        sum += -fma(m, got, -u) / m / ulp;
+        sum_plain += -fma(m, u * (1.0 / m), -u) / m / ulp;
+      }
+    }
+    if (n < NZ_SERIES_ODE2_DIVIDED) {
+      double mean = sum / 20000, mean_plain = sum_plain / 20000;
+      if (fabs(mean) > worst_mean) worst_mean = fabs(mean);
+      biased_plain += fabs(mean_plain) > 0.05;
+    }
+  }
+  gsl_test(worst_ulps > 1 || mismatches > 0,
+           "ode2 coefficient: x / (n + 1)(n + 2) is the division below order %d (%d differ), within 1 ulp above "
+           "(worst %d)", NZ_SERIES_ODE2_DIVIDED, mismatches, worst_ulps);
+  gsl_test(!(worst_mean < 0.05) || biased_plain < 3,
+           "ode2 coefficient: mean signed error %.3g ulp at worst below order %d (the product by the rounded 1/m: "
+           "biased by more than 0.05 ulp at %d of those orders)", worst_mean, NZ_SERIES_ODE2_DIVIDED, biased_plain);
+}
+
 /* nz_lu (partial pivoting written out) against GSL's LU on 50 random
  * nonsymmetric systems of 1 to 12 unknowns, whose pivots come from every
  * column; and nz_lstsq_in's least-norm solution of a consistent wide system
@@ -416,6 +459,7 @@ int main(void)
 {
   check_central_jacobian();
   gsl_test_verbose(1);
+  check_ode2_coef();
   check_lu_lstsq();
   check_branches();
   check_coefficient_level();

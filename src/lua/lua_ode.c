@@ -1,5 +1,6 @@
 /* lua_ode.c - the integrator (stepper.h) for Lua: a userdata "nz.ode" owning
- * a GSL stepper (ode.h) or Taylor's method (taylor.h, made by lua_taylor.c)
+ * a GSL stepper (ode.h), Taylor's method (taylor.h, made by lua_taylor.c)
+ * or a variational integrator (variational.h, made by lua_variational.c)
  * for one system, stepped by lua/nz/motion/simulate.lua (GSL's steppers also in
  * its Lua loop, through ode_step).  Each call
  * binds the system's definition table again (the evaluator lives for one
@@ -18,6 +19,7 @@
 #include "lua/lua_system.h"
 #include "lua/lua_taylor.h"
 #include "lua/lua_util.h"
+#include "lua/lua_variational.h"
 #include "mech/constrained.h"
 #include "mech/contact.h"
 #include "mech/mech_graph.h"
@@ -81,7 +83,10 @@ static int lo_new(lua_State *L)
   int cs = lua_gettop(L);
   cfg.contacts = nz_lua_tocontacts(L, cs);
   if (!lua_isnil(L, cs) && !cfg.contacts) return luaL_error(L, "internal: 'contacts' is not an nz.contacts");
-  if (!strcmp(cfg.method, "taylor")) {   /* Taylor's method: lua_taylor.c checks and makes it */
+  int taylor = !strcmp(cfg.method, "taylor");
+  if (taylor || !strcmp(cfg.method, "variational")) {
+    /* Taylor's method and the variational integrators: lua_taylor.c and
+     * lua_variational.c check and make them */
     ode_box *box = lua_newuserdatauv(L, sizeof *box, 1);
     memset(box, 0, sizeof *box);
     luaL_setmetatable(L, NZ_ODE_METATABLE);
@@ -91,8 +96,8 @@ static int lo_new(lua_State *L)
     box->nc = nc;
     box->dim = 2 * k;
     box->contacts = cfg.contacts;
-    snprintf(box->method, sizeof box->method, "taylor");
-    box->st = nz_lua_taylor_new(L, 2, "simulate");
+    snprintf(box->method, sizeof box->method, "%s", cfg.method);
+    box->st = taylor ? nz_lua_taylor_new(L, 2, "simulate") : nz_lua_variational_new(L, 2);
     return 1;
   }
   int known = 0;
@@ -165,6 +170,7 @@ static int raise_failure(lua_State *L, ode_box *box, bound_system *b, int st)
     return nz_lua_contacts_raise(L, box->contacts, b);
   if (!box->o) {
     if (b->ev.interrupted) return nz_lua_raise_interrupt(L);
+    if (!strcmp(box->method, "variational")) return nz_lua_variational_raise(L, b, box->st, st);
     return nz_lua_taylor_raise(L, box->st, st);
   }
   const nz_ode_failure *f = nz_ode_last_failure(box->o);

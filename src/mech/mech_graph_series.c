@@ -5,6 +5,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include "jets/series.h"
 #include "mech/mech_graph_impl.h"
 
 /* The workspace of nz_recording_motion_series for p + 1 coefficients. */
@@ -144,13 +145,12 @@ int nz_recording_motion_series(nz_recording *c, double t0, const double *q0, con
       }
     }
     /* q''(t0 + tau) = sum (j + 1)(j + 2) a_{j+2} tau^j */
-    double d = 1.0 / ((double)(n + 1) * (double)(n + 2));
     for (int i = 0; i < k; i++) {
       if (!isfinite(qn[i])) {
         snprintf(c->failure, sizeof c->failure, "coefficient %d of q''_%d is not finite", n, i + 1);
         return isnan(qn[i]) ? NZ_ENAN : NZ_ERANGE;
       }
-      a2[i] = qn[i] * d;
+      a2[i] = nz_series_ode2_coef(qn[i], n);
     }
   }
   return NZ_OK;
@@ -491,9 +491,10 @@ static int cseries_rhs(nz_recording *c, const int *orders, const nz_series_selec
     cseries_put(c, w->inp[r], j, t0, a, n + 1);
     if ((st = nz_graph_series_next(pr, j, NULL, NULL))) return st;
     /* ... is affine in q''_n with slope A_r0 times (slot m's coefficient
-     * j per unit of q''_n): 1 / ((n+1)(n+2)), 1 / (n+1), 1 */
-    double scale = m == 0 ? 1.0 / ((double)(n + 1) * (double)(n + 2)) : m == 1 ? 1.0 / (double)(n + 1) : 1.0;
-    u[k + x] = -w->phi[r][j] / scale;
+     * j per unit of q''_n): 1 / ((n+1)(n+2)), 1 / (n+1), 1, so that
+     * dividing by it is multiplying by an integer (one rounding, no bias) */
+    double per = m == 0 ? (double)(n + 1) * (double)(n + 2) : m == 1 ? (double)(n + 1) : 1.0;
+    u[k + x] = -w->phi[r][j] * per;
     if (d >= 0) {
       /* the row the force rides on, to its coefficient n: it reads q and
        * q' at most (order <= 1), known to a_{n+1} */
@@ -533,14 +534,13 @@ static int cseries_order(nz_recording *c, const int *orders, const nz_series_sel
     return st;
   }
   double *qn = w->qdd + (size_t)n * (size_t)k, *ln = w->lam + (size_t)n * (size_t)na;
-  double dd = 1.0 / ((double)(n + 1) * (double)(n + 2));
   for (int i = 0; i < k; i++) {
     if (!isfinite(u[i])) {
       snprintf(c->failure, sizeof c->failure, "coefficient %d of q''_%d is not finite", n, i + 1);
       return isnan(u[i]) ? NZ_ENAN : NZ_ERANGE;
     }
     qn[i] = u[i];
-    a[(size_t)(n + 2) * (size_t)k + (size_t)i] = u[i] * dd;
+    a[(size_t)(n + 2) * (size_t)k + (size_t)i] = nz_series_ode2_coef(u[i], n);
   }
   for (int x = 0; x < na; x++) ln[x] = u[k + x];
   for (int x = 0; x < na; x++) {

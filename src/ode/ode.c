@@ -10,6 +10,7 @@
 #include <string.h>
 #include <gsl/gsl_errno.h>
 #include <gsl/gsl_odeiv2.h>
+#include "core/compensated.h"
 #include "core/linalg.h"
 #include "mech/constrained_series.h"
 #include "mech/contact.h"
@@ -75,6 +76,7 @@ struct nz_ode {
   int since_reset;                /* steps tried since the start or the last reset */
   unsigned long nfev, njev;
   unsigned long steps0, rejected0;  /* counts of the evolve objects reset before */
+  double ta, lo_a, tb, lo_b;      /* the last adaptive step's start and end, each t + lo */
   nz_ode_failure failure;
 };
 
@@ -324,6 +326,7 @@ nz_ode *nz_ode_alloc(int k, const nz_ode_config *cfg)
   if (!T) return NULL;
   nz_ode *o = calloc(1, sizeof *o);
   if (!o) return NULL;
+  o->ta = o->tb = NAN;            /* no step yet: no time carries a low part */
   for (int i = 0; nz_ode_methods[i]; i++)
     if (!strcmp(nz_ode_methods[i], cfg->method)) o->method = nz_ode_methods[i];
   o->k = k;
@@ -437,12 +440,35 @@ static void shift_work(nz_ode *o, double *y, double by)
   if (o->work) y[2 * o->k] += by;
 }
 
+/* The time of an adaptive step's end as t + lo (core/compensated.h), as
+ * Taylor's method keeps it (taylor.c): GSL puts the end at t0 + h0
+ * rounded, up to half an ulp of t a step, and over 1e8 steps those
+ * roundings add up to a phase error far above the tolerance.  GSL keeps
+ * the step it took (the evolve object's last_step); it is added here to
+ * the double-length time of the step's start, and *t is the sum rounded.
+ * A step that starts where the last one ended carries its low part, the
+ * last step taken again (the loop's dense output) its start's, any other
+ * start (the first, a jump) none.  A step that lands on t1 (GSL puts it
+ * there exactly) keeps t1, the rest in the low part. */
+static void step_time(nz_ode *o, double t0, double t1, double *t)
+{
+  double lo = t0 == o->tb ? o->lo_b : t0 == o->ta ? o->lo_a : 0.0, hi = t0, l = lo;
+  nz_dd_add(&hi, &l, o->driver->e->last_step);
+  if (*t == t1 || (hi - t1) * (t1 - t0) > 0.0) {
+    l += hi - t1;
+    hi = t1;
+  }
+  o->ta = t0, o->lo_a = lo;
+  o->tb = *t = hi, o->lo_b = l;
+}
+
 int nz_ode_step(nz_ode *o, const nz_system *s, double *t, double t1, double *h, double *y)
 {
   gsl_odeiv2_driver *d = o->driver;
   o->s = s;
   o->failure.kind = NZ_ODE_FAIL_NONE;
   if (!o->have_prev) check_gradients(o, *t, y);   /* the rows at the run's start */
+  double t0 = *t;
   shift_work(o, y, o->work_offset);
   /* msadams and msbdf start (and restart after every reset: each contact
    * transition) at order 1, and the first steps of a start committed
@@ -461,6 +487,7 @@ int nz_ode_step(nz_ode *o, const nz_system *s, double *t, double t1, double *h, 
   int gs = gsl_odeiv2_evolve_apply(d->e, d->c, d->s, &o->gsys, t, t1, h, y);
   d->c = c;
   shift_work(o, y, -o->work_offset);
+  if (gs == GSL_SUCCESS) step_time(o, t0, t1, t);
   return finish_step(o, gs, *t, y);
 }
 

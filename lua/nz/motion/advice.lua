@@ -113,6 +113,13 @@ local function cheaper(cfg, nsteps, tt, ev)
       .. "about %.2gx cheaper per step), or rk8pd"):format(stiff and ("bsimp or msbdf (%s), or "):format(stiff_words(cfg, s)) or "",
       cfg.rtol * 1e3, lp, p, (p / lp) ^ 2)
   end
+  if cfg.method == "variational" then
+    -- fixed steps only; its error is C h^order, bounded in time
+    local p = cfg.order or 2
+    return ("a larger 'step' (the variational integrator's error, bounded in time, grows as step^%d)%s"):format(p,
+      p < 8 and (", or order = %d at a larger step (its error falls as step^%d; a step is %d substeps)")
+        :format(p + 2, p + 2, ({ [2] = 5, [4] = 9, [6] = 17 })[p]) or "")
+  end
   if cfg.step then
     return ("the steps are fixed ('step' = %g; rtol does nothing for fixed steps): a larger 'step', "
       .. "or adaptive steps (drop 'step')"):format(cfg.step)
