@@ -419,13 +419,8 @@ describe("projection (the violation computed in C, or in Lua above q')", functio
   it("at level p >= 3 the loop asks Lua for the violation: projected, every point within the tolerance", function()
     -- a constraint nonlinear in q''' beside a circle: at rtol 1e-6 the circle
     -- drifts past PROJECT_TOL within 1 s (higher_order_spec measures it)
-    local M, Q = 1.3, { 0.7, -0.4, 2.0 }
-    local s3 = nz.system{ name = "hamel3 on a circle", coords = { "q1", "q2", "q3" },
-      T = function(t, q, qd) return 0.5 * M * (qd[1] ^ 2 + qd[2] ^ 2 + qd[3] ^ 2) end,
-      Q = function() return { Q[1], Q[2], Q[3] } end,
-      constraints = { function(t, q, qd, qdd, qddd) return qddd[3] - qddd[1] * qddd[2] end,
-        function(t, q) return q[1] ^ 2 + q[2] ^ 2 - 1 end } }
-    local q0, qd0 = { 0.6, 0.8, 0.3 }, { 0.4, -0.3, 0.6 }
+    local h3 = require("tests.constraint_systems").hamel3_on_circle()
+    local s3, q0, qd0 = h3.sys, h3.q0, h3.qd0
     local tr = s3:simulate{ q0 = q0, qd0 = qd0, qdd0 = { 0.138, -0.416, 0.5 }, t1 = 1, dt = 0.25, rtol = 1e-6,
       atol = 1e-8, project = true }
     assert(tr.projections >= 1, "projections: " .. tr.projections)

@@ -11,6 +11,9 @@
 --   dofile("tools/shape.lua")          the functions, for tests/layers_spec.lua
 local M = {}
 
+-- tools/circles.lua, beside this file wherever it is run from.
+local circles = dofile((debug.getinfo(1, "S").source:match("^@(.*/)") or "./") .. "circles.lua")
+
 M.MAX_FILE = 1200
 M.MAX_C_FUNCTION = 150
 M.MAX_LUA_FUNCTION = 200
@@ -118,36 +121,15 @@ end
 
 -- Circles in the include graph: a list of messages.
 function M.include_circles(units)
-  local bad, state, stack, said = {}, {}, {}, {}
   local names = {}
   for u in pairs(units) do names[#names + 1] = u end
   table.sort(names)
-  local function visit(u)
-    state[u] = 1
-    stack[#stack + 1] = u
+  return circles(names, function(u)
     local targets = {}
     for t in pairs(units[u] or {}) do targets[#targets + 1] = t end
     table.sort(targets)
-    for _, t in ipairs(targets) do
-      if state[t] == 1 then
-        local from
-        for i, s in ipairs(stack) do if s == t then from = i end end
-        local circle = {}
-        for i = from, #stack do circle[#circle + 1] = stack[i] end
-        local key = table.concat(circle, " ")
-        if not said[key] then
-          said[key] = true
-          bad[#bad + 1] = "a circle of includes: " .. table.concat(circle, " -> ") .. " -> " .. t
-        end
-      elseif not state[t] and units[t] then
-        visit(t)
-      end
-    end
-    stack[#stack] = nil
-    state[u] = 2
-  end
-  for _, u in ipairs(names) do if not state[u] then visit(u) end end
-  return bad
+    return targets
+  end, "includes")
 end
 
 -- Every file and function over its limit, and every include circle: a
