@@ -49,7 +49,7 @@ OPT       = -flto=auto -fno-semantic-interposition
 CORE_DIRS = core jets graph mech ode
 CORE_SRC  = $(foreach d,$(CORE_DIRS),$(sort $(wildcard src/$(d)/*.c)))
 LUA_SRC   = $(sort $(wildcard src/lua/*.c))
-APP_SRC   = src/app/nzlua.c src/app/repl_complete.c src/app/kernel_io.c
+APP_SRC   = src/app/nzlua.c src/app/session_call.c src/app/repl_complete.c src/app/kernel_io.c
 HDRS      = $(wildcard src/*/*.h)
 LUA_MODS  = $(sort $(wildcard lua/nz/*.lua lua/nz/*/*.lua))
 # The Jupyter kernel's Python half, carried inside nzlua for --install-kernel.

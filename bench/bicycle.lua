@@ -20,7 +20,7 @@ local first = clock() - t0
 local gi = bicycle:graph_info()
 
 local interp = timing.per_call(function() bicycle:accel(0, q, qd) end, { budget = 1.0 })
-bicycle.engine.compiled:set_native(true)
+bicycle.engine.recording:set_native(true)
 t0 = clock()
 bicycle:accel(0, q, qd)                 -- compiles the plans (or loads them from the cache)
 local compile = clock() - t0

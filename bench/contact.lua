@@ -1,6 +1,9 @@
--- contact.lua - what contacts cost (issue 26): a ball bouncing to rest and a
--- block on a belt through 100 stick-slip cycles, each run with rk8pd and
--- with taylor to its closed form's events, against the time the closed form
+-- contact.lua - what contacts cost (issues 26, 35): a ball bouncing to rest,
+-- a block on a belt through 100 stick-slip cycles, a table on four legs
+-- dropped flat to rest (dependent contacts: four rows on three coordinates,
+-- their forces shared by least norm) and a puck sliding along (1, 1) to a
+-- stop (an isotropic cone), each run with rk8pd and with taylor to its
+-- closed form's events, against the time the closed form
 -- itself takes to give them (evaluated in Lua, as nzlua's own Lua loop
 -- would: the floor of what any code pays to write the answers down), and
 -- against the same motion without its contacts (the run's cost without the
@@ -61,7 +64,7 @@ local function belt_closed(n)
   return slips, sticks
 end
 
-print("Contacts: runs to the closed form's events (issue 26); each time the least of 7 runs")
+print("Contacts: runs to the closed form's events (issues 26, 35); each time the least of 7 runs")
 print(("%-50s %-7s %7s %11s %10s %12s %11s %11s"):format("problem", "method", "events", "nzlua", "per event",
   "no contacts", "closed form", "max |dt|"))
 for _, method in ipairs{ "rk8pd", "taylor" } do
@@ -92,5 +95,103 @@ for _, method in ipairs{ "rk8pd", "taylor" } do
     ("block on a belt, %d stick-slip cycles"):format(cycles), method, #tr.events, 1e3 * t_run,
     1e6 * t_run / #tr.events, 1e3 * t_free, 1e6 * t_closed, worst))
 end
-print("per event: the run's time over its events (impacts, sticks, slips); no contacts: the same system and")
-print("span without its contact (a free fall; a block on its spring alone); closed form: its event times in Lua")
+
+-- The table: dropped flat from H with restitution e, it bounces flat at the
+-- ball's times (each bounce four impulses) until Zeno; legs at x_i below the
+-- top at depth d.
+local mt, It, d, H, et = 3.0, 0.8, 0.4, 0.5, 0.5
+local legs = {}
+for i, xi in ipairs{ -0.6, -0.2, 0.2, 0.6 } do
+  legs[i] = nz.unilateral(function(t, q) return q[2] + xi * nz.sin(q[3]) - d * nz.cos(q[3]) end, { name = "leg" .. i, e = et })
+end
+local tbl = nz.system{ name = "table", coords = { "x", "y", "th" },
+  T = function(t, q, qd) return 0.5 * mt * (qd[1] ^ 2 + qd[2] ^ 2) + 0.5 * It * qd[3] ^ 2 end,
+  V = function(t, q) return mt * g * q[2] end, constraints = legs }
+local free_tbl = nz.system{ name = "free table", coords = { "x", "y", "th" },
+  T = function(t, q, qd) return 0.5 * mt * (qd[1] ^ 2 + qd[2] ^ 2) + 0.5 * It * qd[3] ^ 2 end,
+  V = function(t, q) return mt * g * q[2] end }
+local function table_closed(n)
+  local t1, times = math.sqrt(2 * H / g), {}
+  for k = 1, n do times[k] = t1 * (1 + 2 * et * (1 - et ^ (k - 1)) / (1 - et)) end
+  return times
+end
+for _, method in ipairs{ "rk8pd", "taylor" } do
+  local t_run, tr = best(function() return tbl:simulate{ q0 = { 0, d + H, 0 }, t1 = 2, dt = 0.01, method = method,
+    progress = false } end)
+  local t_free = best(function() return free_tbl:simulate{ q0 = { 0, d + H, 0 }, t1 = 2, dt = 0.01, method = method,
+    progress = false } end)
+  local n = tr.contacts.impacts
+  local t_closed, times = best(function() return table_closed(n) end, 101)
+  local worst, k, last = 0, 0, nil
+  for _, ev in ipairs(tr.events) do
+    if ev.kind == "impact" and ev.t ~= last then
+      k, last = k + 1, ev.t
+      -- (the first 10: later the bounces rise less than 1e-8 m, and a rounding of the gap, 1e-15 m, over
+      -- their speed is already 1e-10 s)
+      if k <= 10 then worst = math.max(worst, math.abs(ev.t - times[k])) end
+    end
+  end
+  print(("%-50s %-7s %7d %8.3f ms %7.1f us %9.3f ms %8.1f us %11.2g"):format(
+    ("table on four legs, e = %g, to rest (%d impacts)"):format(et, n), method, #tr.events, 1e3 * t_run,
+    1e6 * t_run / #tr.events, 1e3 * t_free, 1e6 * t_closed, worst))
+end
+
+-- The puck: sent along (1, 1) at v0, it stops at v0/(mu g) after v0^2/(2 mu g).
+local mp, mup, v0 = 0.17, 0.3, 2.0
+local puck = nz.system{ name = "puck", coords = { "x", "y", "z" },
+  T = function(t, q, qd) return 0.5 * mp * (qd[1] ^ 2 + qd[2] ^ 2 + qd[3] ^ 2) end,
+  V = function(t, q) return mp * g * q[3] end,
+  constraints = { nz.unilateral(function(t, q) return q[3] end, { name = "ice", mu = mup,
+    slip = { function(t, q, qd) return qd[1] end, function(t, q, qd) return qd[2] end } }) } }
+local free_puck = nz.system{ name = "free puck", coords = { "x", "y", "z" },
+  T = function(t, q, qd) return 0.5 * mp * (qd[1] ^ 2 + qd[2] ^ 2 + qd[3] ^ 2) end }
+for _, method in ipairs{ "rk8pd", "taylor" } do
+  local c = v0 / math.sqrt(2)
+  local t_run, tr = best(function() return puck:simulate{ q0 = { 0, 0, 0 }, qd0 = { c, c, 0 }, t1 = 1.2, dt = 0.01,
+    method = method, progress = false } end)
+  local t_free = best(function() return free_puck:simulate{ q0 = { 0, 0, 0 }, qd0 = { c, c, 0 }, t1 = 1.2, dt = 0.01,
+    method = method, progress = false } end)
+  local t_closed, ts = best(function() return v0 / (mup * g) end, 101)
+  local stop = tr.events[#tr.events]
+  print(("%-50s %-7s %7d %8.3f ms %7.1f us %9.3f ms %8.1f us %11.2g"):format(
+    "puck along (1, 1) on ice to a stop (isotropic cone)", method, #tr.events, 1e3 * t_run, 1e6 * t_run / #tr.events,
+    1e3 * t_free, 1e6 * t_closed, math.abs(stop.t - ts)))
+end
+print("per event: the run's time over its events (impulses, sticks, slips); no contacts: the same system and")
+print("span without its contacts (a free fall; a block on its spring alone; the table falling; the puck gliding);")
+print("closed form: its event times in Lua")
+
+-- What the isotropic cone costs at a transition: one impact of a point on a
+-- plane (e = 0.6, mu = 0.2), its LCP with 4 unknowns for a planar contact
+-- and 10 for an isotropic one (an 8-generator pyramid), Newton's method on
+-- the slip's angle where it slides through off a generator.  Each the least
+-- of 5 means over 2000 transitions (core.mech.contacts_transition).
+local mech = require("nz.core").mech
+local function transition_cost(iso, mu, qd)
+  local slip = iso and { function(t, q, v) return v[1] end, function(t, q, v) return v[2] end }
+    or function(t, q, v) return v[1] end
+  local s = nz.system{ name = "point", coords = { "x", "y", "z" },
+    T = function(t, q, v) return 0.15 * (v[1] ^ 2 + v[2] ^ 2 + v[3] ^ 2) end, V = function(t, q) return 0.3 * g * q[3] end,
+    constraints = { nz.unilateral(function(t, q) return q[3] end, { name = "p", e = 0.6, mu = mu, slip = mu > 0 and slip or nil }) } }
+  local c, csys = s.contact, s.contact.system
+  local orders = require("nz.model.constraints").orders(csys, { t = 0, q = { 0, 0, 0 }, qd = { 1, 1, 1 } })
+  csys.engine.orders = orders
+  local sp = c.contacts[1]
+  local cs = mech.contacts_new(csys.engine, { nb = 0, orders = orders, names = c.names, contacts = { { gap = sp.gap,
+    slip = sp.slip, slip2 = sp.slip2, speed = sp.speed, e = sp.e, mu = sp.mu, mu_s = sp.mu_s } } })
+  local n = 2000
+  return best(function()
+    for _ = 1, n do
+      mech.contacts_set_mode(cs, { "open" })
+      mech.contacts_transition(cs, csys.engine, 0.1, { 0, 0, 0 }, qd, 1)
+    end
+  end, 5) / n
+end
+print()
+print("One impact's transition (the LCP, and Newton for the isotropic cone off a generator)")
+for _, row in ipairs{ { "frictionless", false, 0, { 1, 0, -3.13 } }, { "planar friction, sliding through", false, 0.2, { 1, 0, -3.13 } },
+  { "isotropic cone, sliding through along x (a generator)", true, 0.2, { 1, 0, -3.13 } },
+  { "isotropic cone, sliding through along (1, 2) (Newton)", true, 0.2, { 1, 2, -3.13 } },
+  { "isotropic cone, sticking", true, 0.2, { 0.3, 0.4, -3.13 } } } do
+  print(("  %-56s %6.1f us"):format(row[1], 1e6 * transition_cost(row[2], row[3], row[4])))
+end

@@ -23,6 +23,9 @@ build/nzlua bench/taylor.lua
 echo
 build/nzlua bench/taylor_problems.lua
 echo
+# Long runs at machine precision (Brouwer's law), variational integrators.
+build/nzlua bench/longrun.lua
+echo
 build/nzlua bench/accel_scaling.lua
 echo
 build/nzlua bench/bicycle.lua

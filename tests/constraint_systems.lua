@@ -163,6 +163,22 @@ function M.hamel()
   }
 end
 
+-- Hamel's constraint one order up, nonlinear in q''' (q3''' = q1''' q2'''),
+-- beside the unit circle in (q1, q2): a constraint of order 3 at the top
+-- level and a holonomic one below it.  q0, qd0 lie on the circle.
+function M.hamel3_on_circle()
+  local m, Q = 1.3, { 0.7, -0.4, 2.0 }
+  return {
+    name = "Hamel's third-order constraint on a circle", m = m, Q = Q,
+    q0 = { 0.6, 0.8, 0.3 }, qd0 = { 0.4, -0.3, 0.6 },
+    sys = nz.system{ name = "hamel3 on a circle", coords = { "q1", "q2", "q3" },
+      T = function(t, q, qd) return 0.5 * m * (qd[1] ^ 2 + qd[2] ^ 2 + qd[3] ^ 2) end,
+      Q = function() return { Q[1], Q[2], Q[3] } end,
+      constraints = { function(t, q, qd, qdd, qddd) return qddd[3] - qddd[1] * qddd[2] end,
+        function(t, q) return q[1] ^ 2 + q[2] ^ 2 - 1 end } },
+  }
+end
+
 -- A bead on a hoop of radius R turned at the rate W about the vertical:
 -- th from the bottom, ph = W t (a moving holonomic constraint, which works
 -- on the bead).  th'' = (W^2 cos th - g / R) sin th.  fields: added to the

@@ -101,7 +101,7 @@ describe("every operation of the dualjet against the recorded graph", function()
     for _, op in ipairs(ops) do
       local graph, lua = twins(op[2])
       for _, r in ipairs(graph.recording) do
-        assert(r.compiled, ("%s: %s was not recorded: %s"):format(op[1], r.label, tostring(r.why)))
+        assert(r.recorded, ("%s: %s was not recorded: %s"):format(op[1], r.label, tostring(r.why)))
       end
       for trial = 0, 6 do
         local t, lv, dt, dlv = random_args(trial, trial % 4)

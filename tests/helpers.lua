@@ -29,6 +29,43 @@ function M.assert_series(got, want, K, tol, what, scale)
     what, at, e, tol))
 end
 
+-- Gauss-Legendre quadrature of f on [a, b] in n panels of 10 points (the
+-- closed forms the contact tests compare with: times by quadrature).
+local GX = { -0.9739065285171717, -0.8650633666889845, -0.6794095682990244, -0.4333953941292472, -0.1488743389816312,
+  0.1488743389816312, 0.4333953941292472, 0.6794095682990244, 0.8650633666889845, 0.9739065285171717 }
+local GW = { 0.0666713443086881, 0.1494513491505806, 0.2190863625159820, 0.2692667193099963, 0.2955242247147529,
+  0.2955242247147529, 0.2692667193099963, 0.2190863625159820, 0.1494513491505806, 0.0666713443086881 }
+function M.gauss_legendre(f, a, b, n)
+  local s = 0
+  for i = 0, n - 1 do
+    local lo, hi = a + (b - a) * i / n, a + (b - a) * (i + 1) / n
+    for j = 1, 10 do s = s + 0.5 * (hi - lo) * GW[j] * f(0.5 * (lo + hi) + 0.5 * (hi - lo) * GX[j]) end
+  end
+  return s
+end
+
+-- The contact events of a trajectory of one kind ("impact", "sticks", ...;
+-- nil: any) and of one contact (nil: any), in order.
+function M.contact_events(tr, kind, name)
+  local out = {}
+  for _, ev in ipairs(tr.events) do
+    if (not kind or ev.kind == kind) and (not name or ev.name == name) then out[#out + 1] = ev end
+  end
+  return out
+end
+
+-- The largest |v[i]|.
+function M.max_abs(v)
+  local m = 0
+  for i = 1, #v do m = math.max(m, math.abs(v[i])) end
+  return m
+end
+
+-- |a - b| <= tol, else a failure naming what and both values.
+function M.near(a, b, tol, what)
+  assert(math.abs(a - b) <= tol, ("%s: %.17g, expected %.17g"):format(what, a, b))
+end
+
 -- A file's whole text, or nil when it cannot be read.
 function M.slurp(path)
   local f = io.open(path, "rb")
@@ -119,18 +156,30 @@ function M.reference_run(sys, opts)
     tr.t[n], tr.q[n], tr.qd[n], tr.y[n] = t, q, qd, { table.unpack(y) }
     tr.qdd[n], tr.lambda[n] = mech.ode_accel(ode, engine, t, y)
   end
-  local t, h = t0, cfg.h0
+  -- fixed steps: the time is t + tlo (Knuth's two-sum, then renormalized),
+  -- the last step of an interval the rest to its output time
+  local function add(hi, lo, d)
+    local s = hi + d
+    local bp = s - hi
+    local l = lo + ((hi - (s - bp)) + (d - bp))
+    local t2 = s + l
+    return t2, l - (t2 - s)
+  end
+  local t, tlo, h = t0, 0, cfg.h0
   record(t)
   local nout = math.ceil((t1 - t0) / dt - 1e-9)
   for i = 1, nout do
     local tout = i == nout and t1 or t0 + i * dt
     local nfixed = opts.step and math.max(1, math.ceil((tout - t) / opts.step - 1e-9))
-    local hfixed = opts.step and (tout - t) / nfixed
+    local hfixed = opts.step and ((tout - t) - tlo) / nfixed
     while t < tout do
       if opts.step then
+        local hstep = nfixed == 1 and (tout - t) - tlo or hfixed
         nfixed = nfixed - 1
-        t, y = mech.ode_step_fixed(ode, engine, t, hfixed, y)
-        if nfixed == 0 then t = tout end
+        local _
+        _, y = mech.ode_step_fixed(ode, engine, t, hstep, y)
+        t, tlo = add(t, tlo, hstep)
+        if nfixed == 0 then t, tlo = tout, tlo + (t - tout) end
       else
         t, h, y = mech.ode_step(ode, engine, t, tout, h, y)
       end
@@ -158,6 +207,56 @@ end
 function M.img_data(html, mime)
   local coded = html and html:match('<img src="data:' .. mime:gsub("%p", "%%%0") .. ';base64,([^"]+)"')
   return coded and M.unbase64(coded)
+end
+
+-- Each case {changes, message} of a study's options: f(sys, base with the
+-- changes) raises an error containing message (plain text), placed at the
+-- line that called f (the call below, so the test holds wherever the line
+-- check of args.error points: at the caller).
+function M.option_errors(f, sys, base, cases)
+  for _, case in ipairs(cases) do
+    local o = {}
+    for k, v in pairs(base) do o[k] = v end
+    for k, v in pairs(case[1]) do o[k] = v end
+    local line = debug.getinfo(1, "l").currentline + 1
+    local ok, msg = pcall(f, sys, o)
+    assert(not ok, case[2])
+    msg = tostring(msg)
+    assert(msg:find(case[2], 1, true), ("expected %q in %q"):format(case[2], msg))
+    assert(msg:find(("^[^:]*helpers.lua:%d: "):format(line)), msg)
+  end
+end
+
+-- Two conservative systems of the long runs, each with its energy written
+-- here (not the engine's): Kepler's problem (mu = 1) and Henon and
+-- Heiles' potential.
+function M.kepler()
+  local sys = M.nz.system{ name = "kepler", coords = { "x", "y" },
+    T = function(t, q, qd) return (qd[1] ^ 2 + qd[2] ^ 2) / 2 end,
+    V = function(t, q) return -1 / M.nz.sqrt(q[1] ^ 2 + q[2] ^ 2) end }
+  return sys, function(q, v) return (v[1] ^ 2 + v[2] ^ 2) / 2 - 1 / math.sqrt(q[1] ^ 2 + q[2] ^ 2) end
+end
+
+function M.henon_heiles()
+  local sys = M.nz.system{ name = "henon-heiles", coords = { "x", "y" },
+    T = function(t, q, qd) return (qd[1] ^ 2 + qd[2] ^ 2) / 2 end,
+    V = function(t, q) local x, y = q[1], q[2]; return (x ^ 2 + y ^ 2) / 2 + x ^ 2 * y - y ^ 3 / 3 end }
+  return sys, function(q, v)
+    local x, y = q[1], q[2]
+    return (v[1] ^ 2 + v[2] ^ 2) / 2 + (x ^ 2 + y ^ 2) / 2 + x ^ 2 * y - y ^ 3 / 3
+  end
+end
+
+-- The options that f(...) gave plot.lines (nz/draw/plot.lua), drawn
+-- nowhere.
+function M.plotted(f, ...)
+  local plot = require "nz.draw.plot"
+  local lines, drawn = plot.lines, nil
+  plot.lines = function(o) drawn = o; return "" end
+  local ok, err = pcall(f, ...)
+  plot.lines = lines
+  assert(ok, err)
+  return drawn
 end
 
 return M

@@ -680,13 +680,8 @@ describe("project = true at level p >= 3", function()
     assert(free > 1e-8 and held <= bound, ("without %.3g, with %.3g"):format(free, held))
   end)
   it("with a constraint nonlinear in q''' (top level) it holds the circle too", function()
-    local M, Q = 1.3, { 0.7, -0.4, 2.0 }
-    local s3 = nz.system{ name = "hamel3 on a circle", coords = { "q1", "q2", "q3" },
-      T = function(t, q, qd) return 0.5 * M * (qd[1] ^ 2 + qd[2] ^ 2 + qd[3] ^ 2) end,
-      Q = function() return { Q[1], Q[2], Q[3] } end,
-      constraints = { function(t, q, qd, qdd, qddd) return qddd[3] - qddd[1] * qddd[2] end,
-        function(t, q) return q[1] ^ 2 + q[2] ^ 2 - 1 end } }
-    local q0, qd0 = { 0.6, 0.8, 0.3 }, { 0.4, -0.3, 0.6 }
+    local h3 = require("tests.constraint_systems").hamel3_on_circle()
+    local s3, q0, qd0 = h3.sys, h3.q0, h3.qd0
     local _, _, rep = s3:project(0, q0, qd0, { qdd = { 0.3, -0.2, 0.5 } })
     -- the least change of qdd0 onto q1 q1'' + q2 q2'' = -(q1'^2 + q2'^2) = -0.25: the
     -- residual 0.18 - 0.16 + 0.25 = 0.27 moves (q1'', q2'') by -0.27 (0.6, 0.8)

@@ -168,13 +168,13 @@ end)
 describe("params stay inputs of the recording", function()
   it("sys.params.m = 3 changes the accelerations without recording again", function()
     local sys = particle("branches", V_branches, { m = 2, k = 50 })
-    local compiled = sys.engine.compiled
+    local compiled = sys.engine.recording
     for _, x in ipairs(XS) do close(accel(sys, x), -dV_branches(x, 50) / 2, 1e-13, "m = 2, x = " .. x) end
     local nodes = sys:graph_info().nodes   -- M and h are built at the first accel
     sys.params.m = 3
     sys.params.k = 20
     for _, x in ipairs(XS) do close(accel(sys, x), -dV_branches(x, 20) / 3, 1e-13, "m = 3, x = " .. x) end
-    assert.are.equal(compiled, sys.engine.compiled)
+    assert.are.equal(compiled, sys.engine.recording)
     assert.are.equal(nodes, sys:graph_info().nodes)
     assert.truthy(line_of(sys, "V"):find("recorded, runs in C", 1, true))
   end)

@@ -486,10 +486,10 @@ describe("sys:show{n = ...}: Dolapchiev's equations of order n as formulas", fun
     h.checkerror("unknown option 'm' (did you mean 'n'?)", p.show, p, { m = 3 })
     -- F^(n) is built in a graph of its own: the system's recording keeps
     -- its layout, whose slots and frozen velocities are all it accepts
-    local c = p.engine.compiled
+    local c = p.engine.recording
     local nodes = c:info().nodes
     p:show{ n = 9 }
-    assert.are.equal(c:nslots(), p.engine.compiled:nslots())
+    assert.are.equal(c:nslots(), p.engine.recording:nslots())
     h.checkerror("no such slot in the recording", c.slot, c, c:nslots(), 1)
     h.checkerror("no such coordinate", c.frozen, c, 2)
     assert(c:info().nodes - nodes < 20, "show{n = 9} built " .. (c:info().nodes - nodes) .. " nodes in the system's graph")

@@ -344,6 +344,14 @@ describe("a long run says so once, and goes on", function()
     assert.is_nil(msg:find("rtol = ", 1, true))
     assert.are.equal(2500, tr.stats.steps)                            -- 2.5 / 1e-3 fixed steps
   end)
+  it("method 'variational' (step = 1e-3 over 100 s): a larger step or a higher order, never adaptive steps", function()
+    local msg, tr = warned_on({ t1 = 100, step = 1e-3, method = "variational" }, 2.5)
+    contains(msg, "with variational at step = 0.001", "a larger 'step' (the variational integrator's error, bounded in "
+      .. "time, grows as step^2), or order = 4 at a larger step (its error falls as step^4; a step is 5 substeps)")
+    assert.is_nil(msg:find("drop 'step'", 1, true))
+    assert.is_nil(msg:find("rtol", 1, true))
+    assert.are.equal(2500, tr.stats.steps)
+  end)
   it("the projection is the pace of the last window, not the start-up spread over the run", function()
     -- A clock that the work drives: each call of Q costs 1 ms for the first
     -- 3600 calls (a slow start: the first steps, plans built, a graph

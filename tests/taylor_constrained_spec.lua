@@ -1,5 +1,5 @@
 -- taylor_constrained_spec.lua - Taylor's method under constraints of order
--- 0, 1 and 2 (src/mech/mech_graph.c, nz_compiled_constrained_series): the
+-- 0, 1 and 2 (src/mech/mech_graph.c, nz_recording_constrained_series): the
 -- series of a constrained motion against a closed form, runs against
 -- closed forms and against rk8pd at a tight tolerance, the constraints'
 -- drift over long runs, the multipliers, and what it refuses.  Every bound

@@ -288,7 +288,7 @@ static nz_contacts *contacts_of(const tsys *ts, int nb, int n, const nz_contact_
 {
   int orders[6];
   orders_of(ts, orders);
-  nz_contacts_config cfg = { ts->nc, nb, orders, n, defs, 0.0, 0.0 };
+  nz_contacts_config cfg = { ts->nc, nb, orders, n, defs, 0.0, 0.0, 0.0, 0.0 };
   return nz_contacts_new(ts->k, &cfg);
 }
 
@@ -312,7 +312,7 @@ static void test_ball(void)
 {
   tsys ts = particle();
   nz_system s = system_of(&ts);
-  nz_contact_def d = { 0, -1, 0.7, 0.0, 0.0 };
+  nz_contact_def d = { 0, -1, -1, -1, 0.7, 0.0, 0.0 };
   nz_contacts *c = contacts_of(&ts, 0, 1, &d);
   gsl_test(c == NULL, "ball: contacts made");
   if (!c) return;
@@ -364,11 +364,58 @@ static void test_ball(void)
 }
 
 /* Frictional impacts and the block on a slope. */
+/* Two contacts on the same gap (y >= 0 twice, dependent rows): the impact
+ * and the rest of one contact, the impulse and the weight shared by least
+ * norm, half each; and with friction at both (two equal slip rows), a push
+ * below mu m g held by halves. */
+static void test_dependent(void)
+{
+  tsys ts = particle();
+  ts.nc = 4;
+  ts.con[2] = ts.con[0];
+  ts.con[3] = ts.con[1];
+  nz_system s = system_of(&ts);
+  nz_contact_def d[2] = { { 0, -1, -1, -1, 0.7, 0.0, 0.0 }, { 2, -1, -1, -1, 0.7, 0.0, 0.0 } };
+  nz_contacts *c = contacts_of(&ts, 0, 2, d);
+  nz_contact_change ch[2];
+  nz_contact_report rep = { .c = ch };
+  double q[2] = { 0.3, 0.0 }, qd[2] = { 0.5, -2.1 };
+  int st = nz_contacts_transition(c, &s, 0.4, q, qd, -1, &rep);
+  gsl_test(st || fabs(qd[1] - 0.7 * 2.1) > 1e-15 || fabs(ch[0].Pn - MASS * 1.7 * 2.1 / 2) > 1e-14 ||
+           fabs(ch[1].Pn - MASS * 1.7 * 2.1 / 2) > 1e-14,
+           "dependent: one gap twice bounces as one, each taking half the impulse %.17g (got %.17g, %.17g, status %d)",
+           MASS * 1.7 * 2.1 / 2, ch[0].Pn, ch[1].Pn, st);
+  qd[1] = 0.0;
+  double lam[4], qdd[2];
+  int mode[2];
+  st = nz_contacts_transition(c, &s, 0.5, q, qd, 0, &rep);
+  nz_contacts_get_mode(c, mode);
+  nz_contacts_accel(c, &s, 0.5, q, qd, qdd, lam);
+  gsl_test(st || mode[0] != NZ_CONTACT_CLOSED || mode[1] != NZ_CONTACT_CLOSED || fabs(lam[0] - MASS * G / 2) > 1e-13 ||
+           fabs(lam[2] - MASS * G / 2) > 1e-13 || qdd[1] != 0.0,
+           "dependent: at rest both held with m g/2 each (got %.17g, %.17g, modes %d %d)", lam[0], lam[2], mode[0], mode[1]);
+  nz_contacts_free(c);
+  /* with friction at both, pushed by 0.3 m g along x */
+  ts.f[0] = 0.3 * MASS * G;
+  s = system_of(&ts);
+  nz_contact_def f[2] = { { 0, 1, -1, -1, 0.0, 0.4, 0.5 }, { 2, 3, -1, -1, 0.0, 0.4, 0.5 } };
+  c = contacts_of(&ts, 0, 2, f);
+  double q2[2] = { 0.0, 0.0 }, qd2[2] = { 0.0, 0.0 };
+  st = nz_contacts_transition(c, &s, 0.0, q2, qd2, -1, &rep);
+  nz_contacts_get_mode(c, mode);
+  nz_contacts_accel(c, &s, 0.0, q2, qd2, qdd, lam);
+  gsl_test(st || mode[0] != NZ_CONTACT_STICK || mode[1] != NZ_CONTACT_STICK || fabs(lam[1] + 0.15 * MASS * G) > 1e-13 ||
+           fabs(lam[3] + 0.15 * MASS * G) > 1e-13 || fabs(qdd[0]) > 1e-15,
+           "dependent: pushed by 0.3 m g, both stick with -0.15 m g each (got %.17g, %.17g, modes %d %d)", lam[1], lam[3],
+           mode[0], mode[1]);
+  nz_contacts_free(c);
+}
+
 static void test_friction(void)
 {
   tsys ts = particle();
   nz_system s = system_of(&ts);
-  nz_contact_def d = { 0, 1, 0.0, 0.3, 0.4 };
+  nz_contact_def d = { 0, 1, -1, -1, 0.0, 0.3, 0.4 };
   nz_contacts *c = contacts_of(&ts, 0, 1, &d);
   nz_contact_change ch[1];
   nz_contact_report rep = { .c = ch };
@@ -376,7 +423,7 @@ static void test_friction(void)
   int st = nz_contacts_transition(c, &s, 0.0, q, qd, -1, &rep), mode;
   nz_contacts_get_mode(c, &mode);
   /* P_n = m 2.1; stopping x' needs m 0.5 <= mu P_n = 0.63 m: it sticks */
-  gsl_test(st || fabs(qd[0]) > 1e-15 || qd[1] != 0.0 || mode != NZ_CONTACT_STICK || fabs(ch[0].Pt + MASS * 0.5) > 1e-14,
+  gsl_test(st || fabs(qd[0]) > 1e-15 || qd[1] != 0.0 || mode != NZ_CONTACT_STICK || fabs(ch[0].Pt[0] + MASS * 0.5) > 1e-14,
            "friction: a plastic impact within the cone sticks, P_t = -m 0.5 (got %.17g, mode %d, P_t %.17g)", qd[0], mode,
            ch[0].Pt);
   nz_contacts_free(c);
@@ -402,7 +449,7 @@ static void test_friction(void)
   for (int steep = 0; steep < 2; steep++) {
     double mus = steep ? 0.3 : 0.4, mu = 0.25;   /* tan alpha = 0.3668 */
     ts.f[0] = -MASS * G * sin(alpha), ts.f[1] = -MASS * G * cos(alpha);
-    nz_contact_def ds = { 0, 1, 0.0, mu, mus };
+    nz_contact_def ds = { 0, 1, -1, -1, 0.0, mu, mus };
     c = contacts_of(&ts, 0, 1, &ds);
     qd[0] = qd[1] = 0.0;
     st = nz_contacts_transition(c, &s, 0.0, q, qd, -1, &rep);
@@ -439,7 +486,7 @@ static void test_cradle(void)
   ts.con[0].kind = LIN_Q, ts.con[0].w[0] = -1.0, ts.con[0].w[1] = 1.0, ts.con[0].w0 = -0.2;
   ts.con[1].kind = LIN_Q, ts.con[1].w[1] = -1.0, ts.con[1].w[2] = 1.0, ts.con[1].w0 = -0.2;
   nz_system s = system_of(&ts);
-  nz_contact_def d[2] = { { 0, -1, 1.0, 0.0, 0.0 }, { 1, -1, 1.0, 0.0, 0.0 } };
+  nz_contact_def d[2] = { { 0, -1, -1, -1, 1.0, 0.0, 0.0 }, { 1, -1, -1, -1, 1.0, 0.0, 0.0 } };
   nz_contacts *c = contacts_of(&ts, 0, 2, d);
   double v = 1.913, q[3] = { 0.0, 0.2, 0.4 }, qd[3] = { v, 0.0, 0.0 };
   nz_contact_change ch[2];
@@ -465,7 +512,7 @@ static void test_general_impact(void)
   ts.M[0] = a, ts.M[1] = ts.M[2] = b, ts.M[3] = cc;
   ts.con[0].kind = LIN_Q, ts.con[0].w[0] = w0, ts.con[0].w[1] = w1;
   nz_system s = system_of(&ts);
-  nz_contact_def d = { 0, -1, e, 0.0, 0.0 };
+  nz_contact_def d = { 0, -1, -1, -1, e, 0.0, 0.0 };
   nz_contacts *c = contacts_of(&ts, 0, 1, &d);
   double q[2] = { 0.0, 0.0 }, qd[2] = { 0.83, 0.61 }, qd0[2] = { 0.83, 0.61 };
   double det = a * cc - b * b, Mi[4] = { cc / det, -b / det, -b / det, a / det };
@@ -495,7 +542,7 @@ static void test_painleve(void)
   ts.con[1].kind = ROD_SLIP;
   nz_system s = system_of(&ts);
   for (int spin = 0; spin < 2; spin++) {
-    nz_contact_def d = { 0, 1, 0.0, 1.5, 1.5 };
+    nz_contact_def d = { 0, 1, -1, -1, 0.0, 1.5, 1.5 };
     nz_contacts *c = contacts_of(&ts, 0, 1, &d);
     /* the lower end at y = 0, sliding left at 1 m/s; spinning fast enough
      * (l sin th th'^2 > g) it would lift off by itself */
@@ -515,7 +562,7 @@ static void test_painleve(void)
    * the mode's saddle point singular: Painleve again, from the integrator's
    * solve (where a slide turns into the paradox) */
   {
-    nz_contact_def d = { 0, 1, 0.0, 4.0 / 3.0, 4.0 / 3.0 };
+    nz_contact_def d = { 0, 1, -1, -1, 0.0, 4.0 / 3.0, 4.0 / 3.0 };
     nz_contacts *c = contacts_of(&ts, 0, 1, &d);
     int slide = NZ_CONTACT_SLIP_NEG;
     nz_contacts_set_mode(c, &slide);
@@ -528,7 +575,7 @@ static void test_painleve(void)
     nz_contacts_free(c);
   }
   /* mu = 1 < 4/3: consistent, it slides */
-  nz_contact_def d = { 0, 1, 0.0, 1.0, 1.0 };
+  nz_contact_def d = { 0, 1, -1, -1, 0.0, 1.0, 1.0 };
   nz_contacts *c = contacts_of(&ts, 0, 1, &d);
   double q[3] = { 0.0, l * sin(th), th }, qd[3] = { -1.0, 0.0, 0.0 };
   int mode, st = nz_contacts_transition(c, &s, 0.0, q, qd, -1, NULL);
@@ -545,7 +592,7 @@ static void test_zeno(void)
   tsys ts = particle();
   nz_system s = system_of(&ts);
   double e = 0.5, v1 = 4.43, t1 = v1 / G;
-  nz_contact_def d = { 0, -1, e, 0.0, 0.0 };
+  nz_contact_def d = { 0, -1, -1, -1, e, 0.0, 0.0 };
   nz_contacts *c = contacts_of(&ts, 0, 1, &d);
   nz_contact_report rep = { 0 };
   int bounce = 0, mode = NZ_CONTACT_OPEN, st = 0;
@@ -578,16 +625,16 @@ static void test_errors(void)
   nz_system s = system_of(&ts);
   int orders[2] = { 0, 1 };
   nz_contact_def bad[] = {
-    { 0, -1, 1.2, 0.0, 0.0 },   /* e > 1 */
-    { 0, -1, -0.1, 0.0, 0.0 },  /* e < 0 */
-    { 0, 1, 0.5, -0.3, 0.0 },   /* mu < 0 */
-    { 0, 1, 0.5, 0.4, 0.3 },    /* mu_s < mu */
-    { 1, -1, 0.5, 0.0, 0.0 },   /* a gap of order 1 */
-    { 0, 3, 0.5, 0.3, 0.3 },    /* no such slip */
-    { 0, -1, 0.5, 0.3, 0.3 },   /* friction without a slip function */
+    { 0, -1, -1, -1, 1.2, 0.0, 0.0 },   /* e > 1 */
+    { 0, -1, -1, -1, -0.1, 0.0, 0.0 },  /* e < 0 */
+    { 0, 1, -1, -1, 0.5, -0.3, 0.0 },   /* mu < 0 */
+    { 0, 1, -1, -1, 0.5, 0.4, 0.3 },    /* mu_s < mu */
+    { 1, -1, -1, -1, 0.5, 0.0, 0.0 },   /* a gap of order 1 */
+    { 0, 3, -1, -1, 0.5, 0.3, 0.3 },    /* no such slip */
+    { 0, -1, -1, -1, 0.5, 0.3, 0.3 },   /* friction without a slip function */
   };
   for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
-    nz_contacts_config cfg = { 2, 0, orders, 1, &bad[i], 0.0, 0.0 };
+    nz_contacts_config cfg = { 2, 0, orders, 1, &bad[i], 0.0, 0.0, 0.0, 0.0 };
     nz_contacts *c = nz_contacts_new(2, &cfg);
     gsl_test(c != NULL, "errors: bad contact %zu refused", i + 1);
     nz_contacts_free(c);
@@ -595,7 +642,7 @@ static void test_errors(void)
   nz_contacts_free(NULL);
   /* a touching contact without a normal */
   ts.con[0].w[1] = 0.0;
-  nz_contact_def d = { 0, -1, 0.5, 0.0, 0.0 };
+  nz_contact_def d = { 0, -1, -1, -1, 0.5, 0.0, 0.0 };
   nz_contacts *c = contacts_of(&ts, 0, 1, &d);
   double q[2] = { 0.0, 0.0 }, qd[2] = { 0.0, 0.0 };
   int st = nz_contacts_transition(c, &s, 0.0, q, qd, -1, NULL);
@@ -604,20 +651,20 @@ static void test_errors(void)
   int m = NZ_CONTACT_STICK;
   gsl_test(nz_contacts_set_mode(c, &m) != NZ_EARG, "errors: a frictionless contact cannot stick");
   nz_contacts_free(c);
-  /* two identical gaps held together: dependent, the mode's matrix singular */
+  /* two identical gaps set held by hand (nz_contacts_set_mode takes every row held as a carrier): singular */
   ts = particle();
   ts.con[1] = ts.con[0];
   s = system_of(&ts);
   orders[1] = 0;
-  nz_contact_def two[2] = { { 0, -1, 0.0, 0.0, 0.0 }, { 1, -1, 0.0, 0.0, 0.0 } };
-  nz_contacts_config cfg = { 2, 0, orders, 2, two, 0.0, 0.0 };
+  nz_contact_def two[2] = { { 0, -1, -1, -1, 0.0, 0.0, 0.0 }, { 1, -1, -1, -1, 0.0, 0.0, 0.0 } };
+  nz_contacts_config cfg = { 2, 0, orders, 2, two, 0.0, 0.0, 0.0, 0.0 };
   c = nz_contacts_new(2, &cfg);
   int closed[2] = { NZ_CONTACT_CLOSED, NZ_CONTACT_CLOSED };
   nz_contacts_set_mode(c, closed);
   double qdd[2], lam[2];
   st = nz_contacts_accel(c, &s, 0.0, q, qd, qdd, lam);
   gsl_test(st != NZ_ESINGULAR || nz_contacts_failure(c)->kind != NZ_CONTACT_SINGULAR,
-           "errors: two dependent contacts held make the mode singular (status %d)", st);
+           "errors: two dependent contacts set held by hand make the mode singular (status %d)", st);
   nz_contacts_free(c);
 }
 
@@ -627,6 +674,7 @@ int main(void)
   gsl_test_verbose(1);
   test_lcp();
   test_ball();
+  test_dependent();
   test_friction();
   test_cradle();
   test_general_impact();

@@ -18,6 +18,7 @@
 #include <sys/wait.h>
 #include <gsl/gsl_test.h>
 #include "graph/graph_native.h"
+#include "jets/series.h"
 #include "graph/graph_series.h"
 #include "graph/native_tables.h"
 #include "graph/series_native.h"
@@ -897,7 +898,7 @@ static void check_series_random(int size, int nout, int points, int K)
 /* The fused loop of a second-order ODE (nz_series_native_ode2) against
  * the same recurrence run order by order on the interpreter: q_i = inputs
  * 0, 1, q_i' = inputs 2, 3, t = input 4, q_i'' = outputs 0, 1, the other
- * inputs constant; a_{n+2} = q''_n / ((n + 1)(n + 2)).  Bit for bit, both
+ * inputs constant; a_{n+2} = q''_n / ((n + 1)(n + 2)) (nz_series_ode2_coef).  Bit for bit, both
  * below the orders written out (24) and above (the loop). */
 static void ode2_reference(nz_graph_plan *p, int N, double *a, nz_status *st)
 {
@@ -918,9 +919,8 @@ static void ode2_reference(nz_graph_plan *p, int N, double *a, nz_status *st)
       *st = nz_graph_series_next(p, n, in, NULL);
     }
     if (*st) break;
-    double d = 1.0 / ((double)(n + 1) * (double)(n + 2));
-    a[2 * (n + 2)] = nz_graph_series_coef(p, 0, n) * d;
-    a[2 * (n + 2) + 1] = nz_graph_series_coef(p, 1, n) * d;
+    a[2 * (n + 2)] = nz_series_ode2_coef(nz_graph_series_coef(p, 0, n), n);
+    a[2 * (n + 2) + 1] = nz_series_ode2_coef(nz_graph_series_coef(p, 1, n), n);
   }
 }
 

@@ -341,10 +341,126 @@ static void check_spd_solve(void)
            "SPD solve: [[1, 1], [1, 1 + 1e-15]] is refused as too badly conditioned (rcond %.3g)", info.rcond);
 }
 
+/* nz_series_ode2_coef: x / ((n + 1)(n + 2)) rounded as the division
+ * rounds it (the hardware's, correctly rounded) for the orders below
+ * NZ_SERIES_ODE2_DIVIDED, and within an ulp above; and, the point of it,
+ * without the bias of the rounded reciprocal there: over 20000 x in
+ * [1, 2) per order, the mean of the signed error in ulps is near 0 (below
+ * 0.05), where the product by the rounded 1/m is off by more than that in
+ * the mean for m = 6, 12, 20 (0.17, 0.33, 0.36 ulp: the reciprocal's
+ * relative error, the same at every x). */
+static void check_ode2_coef(void)
+{
+  int worst_ulps = 0, mismatches = 0, biased_plain = 0;
+  double worst_mean = 0.0;
+  unsigned long seed = 12345;
+  for (int n = 0; n <= 60; n++) {
+    double m = (double)(n + 1) * (double)(n + 2), sum = 0.0, sum_plain = 0.0;
+    for (int j = 0; j < 20000; j++) {
+      seed = seed * 6364136223846793005UL + 1442695040888963407UL;
+      double u = 1.0 + (double)(seed >> 11) / 9007199254740992.0;   /* [1, 2) */
+      double want = u / m, got = nz_series_ode2_coef(u, n), ulp = nextafter(want, INFINITY) - want;
+      int ulps = (int)fabs((got - want) / ulp);
+      if (ulps > worst_ulps) worst_ulps = ulps;
+      if (n < NZ_SERIES_ODE2_DIVIDED) {
+        mismatches += got != want;
+        /* the signed error against the exact u / m: m got - u is exact
+         * in one fma (a multiple of ulp(got) below m ulp(got)) */
+        sum += -fma(m, got, -u) / m / ulp;
+        sum_plain += -fma(m, u * (1.0 / m), -u) / m / ulp;
+      }
+    }
+    if (n < NZ_SERIES_ODE2_DIVIDED) {
+      double mean = sum / 20000, mean_plain = sum_plain / 20000;
+      if (fabs(mean) > worst_mean) worst_mean = fabs(mean);
+      biased_plain += fabs(mean_plain) > 0.05;
+    }
+  }
+  gsl_test(worst_ulps > 1 || mismatches > 0,
+           "ode2 coefficient: x / (n + 1)(n + 2) is the division below order %d (%d differ), within 1 ulp above "
+           "(worst %d)", NZ_SERIES_ODE2_DIVIDED, mismatches, worst_ulps);
+  gsl_test(!(worst_mean < 0.05) || biased_plain < 3,
+           "ode2 coefficient: mean signed error %.3g ulp at worst below order %d (the product by the rounded 1/m: "
+           "biased by more than 0.05 ulp at %d of those orders)", worst_mean, NZ_SERIES_ODE2_DIVIDED, biased_plain);
+}
+
+/* nz_lu (partial pivoting written out) against GSL's LU on 50 random
+ * nonsymmetric systems of 1 to 12 unknowns, whose pivots come from every
+ * column; and nz_lstsq_in's least-norm solution of a consistent wide system
+ * against its two properties (it solves it; it is orthogonal to the null
+ * space: x = A^T y). */
+static void check_lu_lstsq(void)
+{
+  unsigned seed = 2385u;
+  double worst = 0.0, worst_ln = 0.0;
+  nz_lu *f = nz_lu_new(12);
+  nz_lstsq_ws *ws = nz_lstsq_new(12);
+  for (int trial = 0; trial < 50; trial++) {
+    int n = 1 + trial % 12;
+    double A[144], b[12], sol[12], yy[12];
+    for (int i = 0; i < n * n; i++) {
+      seed = seed * 1103515245u + 12345u;
+      A[i] = ((seed >> 8) & 0xffff) / 65536.0 - 0.5;
+    }
+    for (int i = 0; i < n; i++) b[i] = sol[i] = 0.3 + 0.17 * i;
+    gsl_matrix *G = gsl_matrix_alloc((size_t)n, (size_t)n);
+    gsl_permutation *p = gsl_permutation_alloc((size_t)n);
+    gsl_vector *gx = gsl_vector_alloc((size_t)n);
+    int sg;
+    memcpy(G->data, A, (size_t)(n * n) * sizeof(double));
+    gsl_linalg_LU_decomp(G, p, &sg);
+    gsl_vector_const_view gb = gsl_vector_const_view_array(b, (size_t)n);
+    gsl_linalg_LU_solve(G, p, &gb.vector, gx);
+    if (nz_lu_factor(f, n, A) || nz_lu_solve(f, sol)) worst = INFINITY;
+    for (int i = 0; i < n; i++) worst = fmax(worst, fabs(sol[i] - gsl_vector_get(gx, (size_t)i)) / (1.0 + fabs(sol[i])));
+    gsl_matrix_free(G);
+    gsl_permutation_free(p);
+    gsl_vector_free(gx);
+    /* the wide system: the first n/2 + 1 rows of A, its right-hand side made consistent */
+    int m = n / 2 + 1, rank;
+    for (int i = 0; i < m; i++) {
+      b[i] = 0.0;
+      for (int j = 0; j < n; j++) b[i] += A[i * n + j] * (0.7 - 0.11 * j);
+    }
+    if (nz_lstsq_in(ws, m, n, A, b, sol, 1e-13, &rank) || rank != (m < n ? m : n)) worst_ln = INFINITY;
+    for (int i = 0; i < m; i++) {
+      double r = -b[i];
+      for (int j = 0; j < n; j++) r += A[i * n + j] * sol[j];
+      worst_ln = fmax(worst_ln, fabs(r));
+    }
+    /* least norm: x in the row space, y = (A A^T)^-1 A x reproduces it */
+    double AAt[144], Ax[12];
+    for (int i = 0; i < m; i++) {
+      Ax[i] = 0.0;
+      for (int j = 0; j < n; j++) Ax[i] += A[i * n + j] * sol[j];
+      for (int k2 = 0; k2 < m; k2++) {
+        AAt[i * m + k2] = 0.0;
+        for (int j = 0; j < n; j++) AAt[i * m + k2] += A[i * n + j] * A[k2 * n + j];
+      }
+    }
+    if (nz_lu_factor(f, m, AAt) == NZ_OK) {
+      memcpy(yy, Ax, (size_t)m * sizeof(double));
+      nz_lu_solve(f, yy);
+      for (int j = 0; j < n; j++) {
+        double v = 0.0;
+        for (int i = 0; i < m; i++) v += A[i * n + j] * yy[i];
+        worst_ln = fmax(worst_ln, fabs(v - sol[j]));
+      }
+    }
+  }
+  nz_lu_free(f);
+  nz_lstsq_free(ws);
+  gsl_test(worst > 1e-12, "LU: 50 random systems of 1 to 12 unknowns as GSL solves them (relative difference %.3g)", worst);
+  gsl_test(worst_ln > 1e-12, "least squares: the least-norm solution of 50 wide systems solves them, in A's row space "
+           "(%.3g)", worst_ln);
+}
+
 int main(void)
 {
   check_central_jacobian();
   gsl_test_verbose(1);
+  check_ode2_coef();
+  check_lu_lstsq();
   check_branches();
   check_coefficient_level();
   check_spd_solve();

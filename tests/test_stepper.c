@@ -12,11 +12,13 @@
 #include <gsl/gsl_errno.h>
 #include <gsl/gsl_math.h>
 #include <gsl/gsl_test.h>
+#include "core/compensated.h"
 #include "core/status.h"
 #include "ode/ode.h"
 #include "ode/ode_run.h"
 #include "ode/stepper.h"
 #include "ode/taylor.h"
+#include "ode/variational.h"
 
 /* The oscillator: high-entropy constants (STYLE.md) */
 static const double W = 1.37, X0 = 0.813, V0 = -0.412;
@@ -238,6 +240,190 @@ static void check_run(const char *name)
   nz_stepper_free(loc);
 }
 
+/* A clock behind the interface, for the loop's fixed steps: its state is
+ * the time it was stepped through, summed without loss (y[0] + y[1], a
+ * double-length number), whatever steps the loop asks for. */
+static int clock_step_fixed(nz_stepper *st, const nz_system *s, double *t, double h, double *y)
+{
+  (void)st, (void)s;
+  nz_dd_add(&y[0], &y[1], h);
+  *t += h;
+  return NZ_OK;
+}
+static int clock_accel(nz_stepper *st, const nz_system *s, double t, const double *y, double *out)
+{
+  (void)st, (void)s, (void)t, (void)y;
+  out[0] = 0.0;
+  return NZ_OK;
+}
+static void clock_stats(const nz_stepper *st, nz_stepper_stats *out)
+{
+  (void)st;
+  memset(out, 0, sizeof *out);
+  out->order = 1;
+}
+static const double *clock_root(const nz_stepper *st)
+{
+  (void)st;
+  return NULL;
+}
+static void clock_nothing(nz_stepper *st) { (void)st; }
+static const nz_stepper_ops clock_ops = { NULL, clock_step_fixed, NULL, clock_accel, clock_root, clock_stats,
+                                          clock_nothing, clock_nothing };
+
+/* The loop's fixed steps sum to every output time to the last bit: 1/7 of
+ * an output interval of 0.1 (neither representable) from t0 = 0.3, over
+ * 1e5 intervals (7e5 steps): at each output point the clock's exact sum
+ * is t - t0 within an ulp of the step (the rest's rounding, carried to the
+ * next interval; measured 0).  Equal steps of the rounded interval / 7
+ * ended each interval 7 times their rounding away: 8e-14 after these 1e5
+ * intervals. */
+static void check_fixed_time(void)
+{
+  nz_stepper clk = { &clock_ops, "clock", 1, 0, 2, 0 };
+  nz_system s = oscillator();
+  nz_run_config c;
+  memset(&c, 0, sizeof c);
+  c.t0 = 0.3, c.dt = 0.1, c.t1 = c.t0 + 1e5 * c.dt, c.step = c.dt / 7, c.h0 = c.step;
+  c.stall_window = 1000000, c.capacity = 4096;
+  double y0[2] = { 0.0, 0.0 };
+  nz_run *r = nz_run_alloc(&clk, &c, y0);
+  gsl_test(r == NULL, "fixed steps: a run of the loop over a clock");
+  if (!r) return;
+  nz_run_hooks hooks = { NULL, NULL, NULL };
+  nz_run_set_hooks(r, &hooks);
+  double worst = 0.0, tlast = 0.0;
+  int npts = 0, status, wrong_t = 0;
+  nz_run_status rs;
+  do {
+    rs = nz_run_advance(r, &s, 0, 0.0, &status);
+    for (int i = 0; i < nz_run_count(r); i++, npts++) {
+      double t;
+      const double *y, *acc, *root;
+      nz_run_point(r, i, &t, &y, &acc, &root);
+      /* (y0 + y1) - (t - t0), each difference exact in double-length */
+      double hi = y[0], lo = y[1];
+      nz_dd_add(&hi, &lo, -t);
+      nz_dd_add(&hi, &lo, c.t0);
+      worst = fmax(worst, fabs(hi + lo));
+      wrong_t += npts > 0 && t != (npts == 100000 ? c.t1 : c.t0 + npts * c.dt);
+      tlast = t;
+    }
+    nz_run_clear(r);
+  } while (rs == NZ_RUN_FULL);
+  gsl_test(rs != NZ_RUN_DONE || npts != 100001 || tlast != c.t1, "fixed steps: 100001 output points to t1 (%d)", npts);
+  gsl_test(wrong_t != 0, "fixed steps: every output time is t0 + i dt (%d are not)", wrong_t);
+  gsl_test(!(worst <= 2.8e-17), "fixed steps: the steps sum to each output time within an ulp of the step "
+           "(2.8e-17), over 7e5 steps (%.3g)", worst);
+  nz_run_free(r);
+}
+
+/* An adaptive step's end is t0 + h rounded, half an ulp of t each time:
+ * from t0 = 2^20 (ulp 2.3e-10) the oscillator's phase, read at the output
+ * times, carries the sum of those roundings unless the integrator keeps
+ * its time to twice the precision.  rk8pd and Taylor at 1e-13 over t0 ..
+ * t0 + 500 (~100 periods), against the closed form in t - t0. */
+static void check_adaptive_time(const char *name)
+{
+  nz_system s = oscillator();
+  nz_stepper *st = make(name, 1e-13);
+  nz_run_config c;
+  memset(&c, 0, sizeof c);
+  c.t0 = 1048576.0, c.t1 = c.t0 + 500.0, c.dt = 0.5, c.h0 = 1e-3, c.stall_window = 100000, c.stall_fraction = 1e-12;
+  c.capacity = 4096, c.dense = 1, c.rtol = c.atol = 1e-13;
+  double y0[2] = { X0, V0 };
+  nz_run *r = nz_run_alloc(st, &c, y0);
+  gsl_test(r == NULL, "%s: a run from t0 = 2^20", name);
+  if (!r) {
+    nz_stepper_free(st);
+    return;
+  }
+  nz_run_hooks hooks = { NULL, NULL, NULL };
+  nz_run_set_hooks(r, &hooks);
+  double worst = 0.0;
+  int status;
+  nz_run_status rs;
+  do {
+    rs = nz_run_advance(r, &s, 0, 0.0, &status);
+    for (int i = 0; i < nz_run_count(r); i++) {
+      double t;
+      const double *y, *acc, *root;
+      nz_run_point(r, i, &t, &y, &acc, &root);
+      worst = fmax(worst, fabs(y[0] - x_at(t - c.t0)));
+    }
+    nz_run_clear(r);
+  } while (rs == NZ_RUN_FULL);
+  /* measured 1.4e-10 (rk8pd) and 5.6e-14 (taylor) with the time kept
+   * double-length; rk8pd with t0 + h rounded: 3.3e-7.  Bound 1e-9 */
+  gsl_test(rs != NZ_RUN_DONE || !(worst <= 1e-9), "%s: from t0 = 2^20, the phase at t0 + 500 within 1e-9 of the "
+           "closed form in t - t0 (%.3g)", name, worst);
+  nz_run_free(r);
+  nz_stepper_free(st);
+}
+
+/* The variational integrator's explicit path (verlet = 1) through the
+ * interface, on the oscillator x'' = -w^2 x from x' = 0: the trapezoidal
+ * discrete Lagrangian's solution is x_n = x0 cos(n theta) with cos(theta)
+ * = 1 - (w h)^2 / 2, to rounding; each composition's fractions sum to 1
+ * and read the same backwards (symmetric); the loop refuses it adaptive
+ * steps. */
+static void check_variational(void)
+{
+  for (int p = 2; p <= 8; p += 2) {
+    int n;
+    const double *g = nz_variational_gammas(p, &n);
+    double sum = 0.0, asym = 0.0;
+    for (int i = 0; i < n; i++) sum += g[i], asym = fmax(asym, fabs(g[i] - g[n - 1 - i]));
+    gsl_test(!g || fabs(sum - 1.0) > 4e-16 || asym != 0.0, "variational order %d: %d fractions, sum 1 (%.17g), symmetric",
+             p, n, sum);
+  }
+  nz_variational_config vc;
+  memset(&vc, 0, sizeof vc);
+  vc.setup.k = 1;
+  vc.setup.opt = (nz_accel_options)NZ_ACCEL_DEFAULTS;
+  vc.order = 2;
+  vc.verlet = 1;
+  nz_stepper *st = nz_variational_new(&vc);
+  gsl_test(st == NULL || st->ops->step != NULL || st->ops->step_fixed == NULL,
+           "variational: made, with fixed steps only");
+  if (!st) return;
+  nz_system s = oscillator();
+  double y[2] = { X0, 0.0 }, t = 0.0, h = 0.05, worst = 0.0;
+  double theta = 2.0 * asin(W * h / 2.0);   /* cos(theta) = 1 - (w h)^2 / 2, well conditioned */
+  int status = 0;
+  for (int n = 1; n <= 2000 && !status; n++) {
+    status = st->ops->step_fixed(st, &s, &t, h, y);
+    worst = fmax(worst, fabs(y[0] - X0 * cos(n * theta)));
+  }
+  nz_stepper_stats ss;
+  st->ops->stats(st, &ss);
+  /* measured 1.9e-14 (the closed form's cos(n theta) carries ~1e-14 at n theta ~ 140) */
+  gsl_test(status || !(worst <= 1e-12), "variational: 2000 steps of the oscillator on x0 cos(n theta), cos(theta) = "
+           "1 - (w h)^2 / 2 (%.3g)", worst);
+  gsl_test(ss.steps != 2000 || ss.nfev != 2001 || ss.order != 2, "variational: 2000 steps, 2001 evaluations of q'' "
+           "(the end of one step serves the next), order 2 (%lu, %lu, %d)", ss.steps, ss.nfev, ss.order);
+  /* dense output: the cubic Hermite of the last step's ends, those ends
+   * themselves at ta and tb, q' its derivative, NZ_EARG outside */
+  double ya[2], yb[2], ym[2], yl[2], yr[2], ta = t - h, tm = t - h / 3, e = 1e-3 * h;
+  int ok1, ok2, ok3, ok4, ok5, out;
+  int st1 = st->ops->dense(st, &s, ta, ya, &ok1) || st->ops->dense(st, &s, t, yb, &ok2) ||
+            st->ops->dense(st, &s, tm, ym, &ok3) || st->ops->dense(st, &s, tm - e, yl, &ok4) ||
+            st->ops->dense(st, &s, tm + e, yr, &ok5);
+  double fd = (yr[0] - yl[0]) / ((tm + e) - (tm - e));   /* the times as rounded (ulp(t) = 1.4e-14 at t = 100) */
+  out = st->ops->dense(st, &s, t + h, ym, &ok1);
+  gsl_test(st1 || !(ok2 && ok3 && ok4 && ok5) || yb[0] != y[0] || yb[1] != y[1] || !(fabs(fd - ym[1]) <= 1e-8) ||
+           out != NZ_EARG, "variational: dense output ends on the step's end, its q' the derivative of its q "
+           "(%.3g), refused past the step", fabs(fd - ym[1]));
+  nz_run_config c;
+  memset(&c, 0, sizeof c);
+  c.t0 = 0.0, c.t1 = 1.0, c.dt = 0.5, c.h0 = 1e-3, c.stall_window = 1000, c.capacity = 4;
+  double y0[2] = { X0, V0 };
+  nz_run *r = nz_run_alloc(st, &c, y0);
+  gsl_test(r != NULL, "the loop refuses adaptive steps for an integrator with fixed steps only");
+  nz_run_free(r);
+  nz_stepper_free(st);
+}
+
 /* What the interface refuses. */
 static void check_refusals(void)
 {
@@ -268,6 +454,10 @@ int main(void)
   check_steps("taylor", 1e-6, 1e-4);
   check_run("taylor");
   check_run("rk8pd");
+  check_fixed_time();
+  check_variational();
+  check_adaptive_time("rk8pd");
+  check_adaptive_time("taylor");
   check_refusals();
   return gsl_test_summary();
 }

@@ -82,6 +82,32 @@ describe("nz.workprecision", function()
     assert.truthy(text:find("skipped: not recorded", 1, true), text)
   end)
 
+  it("the variational integrators run at step = tol^(1/order), and are skipped, with the reason, where they do not "
+    .. "apply", function()
+    local rows = nz.workprecision(oscillator, { budget = 0.01, q0 = { 1 }, qd0 = { 0 }, t1 = 10, dt = 1,
+      methods = { "variational", "variational4" }, tols = { 1e-4, 1e-8 }, reference = exact, quiet = true })
+    assert.are.equal(4, #rows)
+    for _, r in ipairs(rows) do
+      local p = r.method == "variational" and 2 or 4
+      -- steps of tol^(1/p) (no longer than dt = 1), equal and landing on each output time: ceil(1 / h) a unit of time
+      local hstep = math.min(1, r.tol ^ (1 / p))
+      assert.are.equal(10 * math.ceil(1 / hstep - 1e-9), r.steps)
+      -- the error, C h^p with C about 1 (w = 1.5 over 10 s): measured 0.2 to 0.3 tol at order 2, 1e-3 to 0.2 at 4
+      assert(r.error <= 10 * r.tol, ("%s at %g: error %.3g"):format(r.method, r.tol, r.error))
+    end
+    local sleigh = require("tests.constraint_systems").sleigh()
+    local rs = nz.workprecision(sleigh.sys, { budget = 0.01, q0 = { 0, 0, 0 }, qd0 = { 1, 0, 0.5 }, t1 = 1,
+      methods = { "rk8pd", "variational" }, tols = { 1e-6 }, quiet = true })
+    local text = require("nz.analysis.workprecision").table(rs)
+    assert.are.equal("skipped", rs[2].status)
+    assert.truthy(rs[2].message:find("skipped: takes holonomic constraints (on q and t), and constraint 1 is on q' "
+      .. "(nonholonomic", 1, true), rs[2].message)
+    assert.truthy(text:find("skipped: takes holonomic constraints", 1, true), text)
+    local measured = require("nz.analysis.workprecision").table(rows)
+    assert.truthy(measured:find("variational (of order p: variational, variational4, 6, 8): fixed steps, step = "
+      .. "tol^(1/p)", 1, true), measured)
+  end)
+
   it("taylor's rows for a system with a velocity constraint (the sleigh), against rk8pd's reference", function()
     local cs = require "tests.constraint_systems"
     local s = cs.sleigh()
@@ -184,7 +210,7 @@ describe("nz.workprecision's timing", function()
     local native_off = os.getenv("NZLUA_NATIVE") == "0"
     -- the machine-code setting as the study sets it (the compiled object's
     -- set_native: true, false, or nil for "once it has earned it")
-    local methods = getmetatable(fresh_kepler().engine.compiled).__index
+    local methods = getmetatable(fresh_kepler().engine.recording).__index
     local set_native, calls = methods.set_native, {}
     methods.set_native = function(c, v) calls[#calls + 1] = tostring(v); return set_native(c, v) end
     local function study(sys)
@@ -322,12 +348,7 @@ describe("nz.workprecision's flags, noise and axes", function()
     assert.falsy(advice:find("taylor at tol 1e-08", 1, true), advice)
     -- the diagram: the method's line without them, and a series of its own
     -- with the method in each label
-    local plot = require "nz.draw.plot"
-    local lines, drawn = plot.lines, nil
-    plot.lines = function(o) drawn = o; return "" end
-    local ok, err = pcall(wp.diagram, rows, { quiet = true })
-    plot.lines = lines
-    assert(ok, err)
+    local drawn = h.plotted(wp.diagram, rows, { quiet = true })
     local by = {}
     for _, s in ipairs(drawn.series) do by[s.name] = s end
     assert.are.same({ 0.28, 0.56 }, by.bsimp.x)
@@ -342,12 +363,8 @@ describe("nz.workprecision's flags, noise and axes", function()
   it("the x axis can be the time, the right-hand-side evaluations or the steps", function()
     local rows = { row("rk4", 1e-6, 1e-3, 0.002, nil, 9249, 812), row("rk4", 1e-9, 1e-5, 0.006, nil, 30413, 2736),
       row("taylor", 1e-6, 1e-6, 0.001, nil, 511, 511), row("taylor", 1e-9, 1e-9, 0.0015, nil, 480, 480) }
-    local plot = require "nz.draw.plot"
-    local lines, drawn = plot.lines, nil
-    plot.lines = function(o) drawn = o; return "" end
     local function draw(x)
-      local ok, err = pcall(wp.diagram, rows, { quiet = true, x = x })
-      assert(ok, err)
+      local drawn = h.plotted(wp.diagram, rows, { quiet = true, x = x })
       local by = {}
       for _, s in ipairs(drawn.series) do by[s.name] = s end
       return by, drawn
@@ -366,7 +383,6 @@ describe("nz.workprecision's flags, noise and axes", function()
     assert.is_nil(by.taylor)
     assert.are.equal("right-hand-side evaluations", d.xlabel)
     assert.truthy(d.title:find("taylor left out: its evaluations are series", 1, true), d.title)
-    plot.lines = lines
     -- the study takes x and draws with it
     local svg = os.tmpname() .. ".svg"
     nz.workprecision(oscillator, { budget = 0.01, q0 = { 1 }, qd0 = { 0 }, t1 = 10, methods = { "rk8pd" }, tols = { 1e-6, 1e-8 },
@@ -398,16 +414,11 @@ end)
 describe("nz.workprecision's options", function()
   local base = { q0 = { 1 }, qd0 = { 0 }, t1 = 1, methods = { "rk8pd" }, tols = { 1e-6 }, reference = exact, quiet = true,
     budget = 0.01 }
-  local function with(changes)
-    local o = {}
-    for k, v in pairs(base) do o[k] = v end
-    for k, v in pairs(changes) do o[k] = v end
-    return o
-  end
   it("an unknown method, a tolerance <= 0, a bad option: one error naming it, from the caller's line", function()
-    for _, case in ipairs{
+    h.option_errors(nz.workprecision, oscillator, base, {
       { { methods = { "rk8pd", "rk9" } }, "option 'methods': methods[2] = 'rk9' is not a method (did you mean 'rk2'?) "
-        .. "(the methods: rk2 rk4 rkf45 rkck rk8pd rk1imp rk2imp rk4imp bsimp msadams msbdf taylor)" },
+        .. "(the methods: rk2 rk4 rkf45 rkck rk8pd rk1imp rk2imp rk4imp bsimp msadams msbdf taylor variational "
+        .. "variational4 variational6 variational8)" },
       { { methods = { "rk8pd", "rk8pd" } }, "option 'methods': 'rk8pd' is listed twice (methods[1] and methods[2])" },
       { { methods = {} }, "option 'methods': a non-empty list expected" },
       { { tols = { 1e-6, 0 } }, "option 'tols': tols[2] = 0: a tolerance from 1e-15 to 1 (each run takes rtol = tol, "
@@ -423,13 +434,7 @@ describe("nz.workprecision's options", function()
       -- simulate's own checks, once instead of a failed row per method
       { { q0 = { 1, 2 } }, "simulate 'wp oscillator': 'q0' must be a table of 1 numbers" },
       { { simulate = { dens = false } }, "unknown option 'dens' (did you mean 'dense'?)" },
-    } do
-      local line = debug.getinfo(1, "l").currentline + 1
-      local ok, msg = pcall(nz.workprecision, oscillator, with(case[1]))
-      assert.is_false(ok, case[2])
-      assert.truthy(msg:find(case[2], 1, true), ("expected %q in %q"):format(case[2], msg))
-      assert.truthy(msg:find(("^[^:]*workprecision_spec.lua:%d: "):format(line)), msg)
-    end
+    })
     -- the first argument
     local line = debug.getinfo(1, "l").currentline + 1
     local ok, msg = pcall(nz.workprecision, base)

@@ -13,6 +13,9 @@
 -- lua/nz/init.lua) sits on top and requires what it attaches.
 local M = {}
 
+-- tools/circles.lua, beside this file wherever it is run from.
+local circles = dofile((debug.getinfo(1, "S").source:match("^@(.*/)") or "./") .. "circles.lua")
+
 -- Lowest first.
 M.FLOORS = { "base", "draw", "model", "motion", "analysis", "presentation", "session", "face" }
 M.JOB = {
@@ -20,7 +23,7 @@ M.JOB = {
   draw = "turning values into what a front-end shows: bundles, plots",
   model = "what a system is: recording, constraints, bodies, effects, scenes, contacts",
   motion = "running it: the stepping loop, trajectories, sweeps",
-  analysis = "asking it questions: linearization, stability, time as a coordinate, defects, work-precision",
+  analysis = "asking it questions: linearization, stability, time as a coordinate, defects, work-precision, long runs",
   presentation = "the equations as formulas and code, the views of a run",
   session = "the front-ends' shared part: the printer, help, the kernel",
   face = "nz itself: system.lua attaches the methods, init.lua assembles nz",
@@ -129,29 +132,12 @@ function M.violations(mods)
       end
     end
   end
-  -- circles: a depth-first search, each circle said once by its members
-  local state, stack, said = {}, {}, {}
-  local function visit(name)
-    state[name] = 1
-    stack[#stack + 1] = name
-    for _, r in ipairs(by[name] and by[name].requires or {}) do
-      if state[r] == 1 then
-        local circle, from = {}, nil
-        for i, s in ipairs(stack) do if s == r then from = i end end
-        for i = from, #stack do circle[#circle + 1] = stack[i] end
-        local key = table.concat(circle, " ")
-        if not said[key] then
-          said[key] = true
-          bad[#bad + 1] = "a circle of requires: " .. table.concat(circle, " -> ") .. " -> " .. r
-        end
-      elseif not state[r] and by[r] then
-        visit(r)
-      end
-    end
-    stack[#stack] = nil
-    state[name] = 2
+  -- circles, each said once by its members
+  local names = {}
+  for _, m in ipairs(mods) do names[#names + 1] = m.name end
+  for _, b in ipairs(circles(names, function(name) return by[name] and by[name].requires end, "requires")) do
+    bad[#bad + 1] = b
   end
-  for _, m in ipairs(mods) do if not state[m.name] then visit(m.name) end end
   return bad
 end
 

@@ -3,12 +3,16 @@
 -- no Lua function over MAX_LUA_FUNCTION, and no circle of includes between
 -- the C files of src/ (a file's .c and .h count as one: native_cache.c
 -- including native_object.h, and native_object.c including native_cache.h,
--- is a circle).
+-- is a circle; a private header X_impl.h, the insides X.c shares with the
+-- files split from it, counts as X's own).
 --
 --   lua5.4 tools/shape.lua             what breaks the limits (nothing when none)
 --   lua5.4 tools/shape.lua --sizes     the largest files and functions
 --   dofile("tools/shape.lua")          the functions, for tests/layers_spec.lua
 local M = {}
+
+-- tools/circles.lua, beside this file wherever it is run from.
+local circles = dofile((debug.getinfo(1, "S").source:match("^@(.*/)") or "./") .. "circles.lua")
 
 M.MAX_FILE = 1200
 M.MAX_C_FUNCTION = 150
@@ -96,17 +100,18 @@ function M.lua_functions(lines)
 end
 
 -- The includes of src/: {[unit] = {units it includes}}, a unit being a
--- path without its extension (src/graph/native_cache).
+-- path without its extension (src/graph/native_cache), a private header
+-- X_impl.h belonging to X.
 function M.includes(root)
   root = root or "."
   local units = {}
   for _, path in ipairs(list(("cd %s && find src -name '*.c' -o -name '*.h'"):format(root))) do
-    local unit = path:gsub("%.[ch]$", "")
+    local unit = path:gsub("%.[ch]$", ""):gsub("_impl$", "")
     units[unit] = units[unit] or {}
     for l in io.lines(root .. "/" .. path) do
       local inc = l:match('^#include%s+"([%w_/]+)%.h"')
       if inc then
-        local target = "src/" .. inc
+        local target = ("src/" .. inc):gsub("_impl$", "")
         if target ~= unit then units[unit][target] = true end
       end
     end
@@ -116,36 +121,15 @@ end
 
 -- Circles in the include graph: a list of messages.
 function M.include_circles(units)
-  local bad, state, stack, said = {}, {}, {}, {}
   local names = {}
   for u in pairs(units) do names[#names + 1] = u end
   table.sort(names)
-  local function visit(u)
-    state[u] = 1
-    stack[#stack + 1] = u
+  return circles(names, function(u)
     local targets = {}
     for t in pairs(units[u] or {}) do targets[#targets + 1] = t end
     table.sort(targets)
-    for _, t in ipairs(targets) do
-      if state[t] == 1 then
-        local from
-        for i, s in ipairs(stack) do if s == t then from = i end end
-        local circle = {}
-        for i = from, #stack do circle[#circle + 1] = stack[i] end
-        local key = table.concat(circle, " ")
-        if not said[key] then
-          said[key] = true
-          bad[#bad + 1] = "a circle of includes: " .. table.concat(circle, " -> ") .. " -> " .. t
-        end
-      elseif not state[t] and units[t] then
-        visit(t)
-      end
-    end
-    stack[#stack] = nil
-    state[u] = 2
-  end
-  for _, u in ipairs(names) do if not state[u] then visit(u) end end
-  return bad
+    return targets
+  end, "includes")
 end
 
 -- Every file and function over its limit, and every include circle: a

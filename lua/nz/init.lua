@@ -17,6 +17,7 @@ nz.top_coefficient = system.top_coefficient
 nz.bodies = require("nz.model.bodies").bodies
 nz.methods = core.mech.ode_methods()
 nz.workprecision = require("nz.analysis.workprecision").run
+nz.longrun = require("nz.analysis.longrun").run
 nz.effects = require "nz.model.effects"
 -- a contact in a system's constraints (nz/model/contact.lua, loaded when used)
 function nz.unilateral(gap, opts) return require("nz.model.contact").unilateral(gap, opts) end

@@ -178,13 +178,18 @@ function M.system(def)
   end
   table.sort(self.engine.param_names)
   -- Record the functions once as graphs evaluated in C (nz/model/record.lua);
-  -- compile = false keeps every function in Lua.
-  if def.compile ~= false then self.recording = record.compile(self.engine, Clevels, def.native) end
+  -- compile = false: do not record (every function runs in Lua; the option's
+  -- old name, "compile" now meaning machine code).
+  if def.compile ~= false then self.recording = record.record_system(self.engine, Clevels, def.native) end
   -- A function that fails at every state (math.cos on a jet, q.th) is said
   -- here, at the user's nz.system line (nz/model/probe.lua).
   probe.check(self)
   if GRAPH_CHECK and self.recording then record.diff_check(self.engine, Clevels, name) end
-  if contacts then require("nz.model.contact").attach(self, def, contacts, C) end
+  if contacts then
+    require("nz.model.contact").attach(self, def, contacts, C)
+    local notice = require("nz.model.contact_check").notice(self)   -- two contacts with one gap
+    if notice then M.warn(require("nz.base.where").user_where() .. notice) end
+  end
   return self
 end
 
@@ -356,7 +361,11 @@ end
 local RULE_OPTIONS = declare("sys:rule", { extremal = boolean })
 function System:rule(opts)
   check_options("rule", 1, opts, RULE_OPTIONS)
-  return constraints.rule(self, opts)
+  local n, text = constraints.rule(self, opts)
+  if self.contact then   -- its unilateral contacts, held while they push (nz/presentation/contact_laws.lua)
+    text = text .. " " .. require("nz.presentation.contact_laws").rule_text(self)
+  end
+  return n, text
 end
 
 -- Accelerations from Tsenov's reduced equations (7.1), without multipliers.
@@ -552,7 +561,7 @@ function System:__tostring()
     #params > 0 and ("; params {" .. table.concat(params, ", ") .. "}") or "") }
   -- One line per function: recorded into the graph (run in C), or in Lua and why.
   for _, r in ipairs(self.recording or {}) do
-    lines[#lines + 1] = r.compiled and ("  %s: recorded, runs in C"):format(r.label)
+    lines[#lines + 1] = r.recorded and ("  %s: recorded, runs in C"):format(r.label)
       or ("  %s: runs in Lua: %s"):format(r.label, r.why)
   end
   if not self.recording then lines[#lines + 1] = "  every function runs in Lua (compile = false)" end
@@ -568,9 +577,9 @@ end
 -- machine code.
 function System:graph_info()
   if not self.recording then return { nodes = 0, record_seconds = 0, mass_bias_nodes = 0, compiled = 0, interpreted = 0 } end
-  local info = self.engine.compiled:info()
+  local info = self.engine.recording:info()
   local nc, ni = 0, 0
-  for _, r in ipairs(self.recording) do if r.compiled then nc = nc + 1 else ni = ni + 1 end end
+  for _, r in ipairs(self.recording) do if r.recorded then nc = nc + 1 else ni = ni + 1 end end
   return { nodes = info.nodes, record_seconds = self.recording.seconds, mass_bias_nodes = info.mass_bias_nodes,
     compiled = nc, interpreted = ni, native_plans = info.native_plans, native_series = info.native_series,
     native_seconds = info.native_seconds, native_waited = info.native_waited,

@@ -11,7 +11,7 @@
  * parser on either side.  What a request means and what answers it is
  * lua/nz/session/kernel.lua's; this file moves the frames, makes everything the
  * process prints a frame, and lends Lua the session's way of running a
- * chunk (app/nzlua.h: Ctrl-C, that is SIGINT from the kernel's stop
+ * chunk (app/session_call.h: Ctrl-C, that is SIGINT from the kernel's stop
  * button, interrupts it exactly as at the prompt).
  *
  * The frames have descriptors of their own, duplicated from 0 and 1 when
@@ -36,7 +36,7 @@
 #include <lauxlib.h>
 
 #include "app/kernel_io.h"
-#include "app/nzlua.h"
+#include "app/session_call.h"
 #include "app/repl_complete.h"
 
 #define FRAME_MAGIC "NZ"

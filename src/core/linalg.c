@@ -239,28 +239,79 @@ int nz_svd_of(nz_svd *d, int rows, int cols, const double *a, int transpose)
   return NZ_OK;
 }
 
-int nz_lstsq(int m, int n, const double *A, const double *b, double *x)
+struct nz_lstsq_ws {
+  int cap;
+  gsl_matrix *U, *V;
+  gsl_vector *S, *work;
+};
+
+nz_lstsq_ws *nz_lstsq_new(int N)
 {
-  nz_svd d;
-  int transpose = m < n;
-  int st = nz_svd_of(&d, m, n, A, transpose);
-  if (st) return st;
+  if (N < 1) return NULL;
+  nz_lstsq_ws *w = calloc(1, sizeof *w);
+  if (!w) return NULL;
+  w->cap = N;
+  w->U = gsl_matrix_alloc((size_t)N, (size_t)N);
+  w->V = gsl_matrix_alloc((size_t)N, (size_t)N);
+  w->S = gsl_vector_alloc((size_t)N);
+  w->work = gsl_vector_alloc((size_t)N);
+  if (!w->U || !w->V || !w->S || !w->work) {
+    nz_lstsq_free(w);
+    return NULL;
+  }
+  return w;
+}
+
+void nz_lstsq_free(nz_lstsq_ws *w)
+{
+  if (!w) return;
+  if (w->U) gsl_matrix_free(w->U);
+  if (w->V) gsl_matrix_free(w->V);
+  if (w->S) gsl_vector_free(w->S);
+  if (w->work) gsl_vector_free(w->work);
+  free(w);
+}
+
+int nz_lstsq_in(nz_lstsq_ws *w, int m, int n, const double *A, const double *b, double *x, double cut, int *rank)
+{
+  if (m < 1 || n < 1 || m > w->cap || n > w->cap) return NZ_EDOM;
+  /* GSL decomposes R x C with R >= C: A itself, or A^T when it is wide */
+  int transpose = m < n, R = transpose ? n : m, C = transpose ? m : n;
+  gsl_matrix_view U = gsl_matrix_submatrix(w->U, 0, 0, (size_t)R, (size_t)C);
+  gsl_matrix_view V = gsl_matrix_submatrix(w->V, 0, 0, (size_t)C, (size_t)C);
+  gsl_vector_view S = gsl_vector_subvector(w->S, 0, (size_t)C), work = gsl_vector_subvector(w->work, 0, (size_t)C);
+  for (int i = 0; i < m; i++)
+    for (int j = 0; j < n; j++)
+      gsl_matrix_set(&U.matrix, (size_t)(transpose ? j : i), (size_t)(transpose ? i : j), A[(size_t)i * (size_t)n + (size_t)j]);
+  gsl_error_handler_t *old = gsl_set_error_handler_off();
+  int st = gsl_linalg_SV_decomp(&U.matrix, &V.matrix, &S.vector, &work.vector);
+  gsl_set_error_handler(old);
+  if (st) return NZ_ERANGE;
   /* A = U S V^T (or A^T = U S V^T): x = V S+ U^T b (or U S+ V^T b). */
-  int C = transpose ? m : n;
-  double smax = gsl_vector_get(d.S, 0), cut = 1e-13 * smax;
+  double smax = gsl_vector_get(&S.vector, 0), lim = cut * smax;
+  int r = 0;
   memset(x, 0, (size_t)n * sizeof(double));
   for (int c = 0; c < C; c++) {
-    double sc = gsl_vector_get(d.S, (size_t)c);
-    if (!(sc > cut)) continue;
+    double sc = gsl_vector_get(&S.vector, (size_t)c);
+    if (!(sc > lim)) continue;
+    r++;
+    const gsl_matrix *left = transpose ? &V.matrix : &U.matrix, *right = transpose ? &U.matrix : &V.matrix;
     double proj = 0.0;
-    if (!transpose) for (int i = 0; i < m; i++) proj += gsl_matrix_get(d.U, (size_t)i, (size_t)c) * b[i];
-    else for (int i = 0; i < m; i++) proj += gsl_matrix_get(d.V, (size_t)i, (size_t)c) * b[i];
+    for (int i = 0; i < m; i++) proj += gsl_matrix_get(left, (size_t)i, (size_t)c) * b[i];
     proj /= sc;
-    if (!transpose) for (int j = 0; j < n; j++) x[j] += gsl_matrix_get(d.V, (size_t)j, (size_t)c) * proj;
-    else for (int j = 0; j < n; j++) x[j] += gsl_matrix_get(d.U, (size_t)j, (size_t)c) * proj;
+    for (int j = 0; j < n; j++) x[j] += gsl_matrix_get(right, (size_t)j, (size_t)c) * proj;
   }
-  nz_svd_free(&d);
+  if (rank) *rank = r;
   return NZ_OK;
+}
+
+int nz_lstsq(int m, int n, const double *A, const double *b, double *x)
+{
+  nz_lstsq_ws *w = nz_lstsq_new(m > n ? m : n);
+  if (!w) return NZ_ENOMEM;
+  int st = nz_lstsq_in(w, m, n, A, b, x, 1e-13, NULL);
+  nz_lstsq_free(w);
+  return st;
 }
 
 /* Solve the N x N system J x = rhs by SVD; rcond = s_min / s_max. */
@@ -314,10 +365,15 @@ int nz_solve_square(int N, const double *J, const double *rhs, double *x, double
   return nz_solve_svd(N, J, rhs, x, rcond);
 }
 
+/* LU with partial pivoting written out, as the Cholesky above: the
+ * matrices are small (a contact mode's Delassus matrix of a few rows, at
+ * every right-hand side; a Taylor step's saddle point), where GSL's
+ * generic path (views, BLAS calls, its error handler switched per call)
+ * cost the contact bench's belt 7 % of its time. */
 struct nz_lu {
   int cap, N;
-  gsl_matrix *LU;
-  gsl_permutation *perm;
+  double *LU;                  /* cap x cap, row-major: L below the diagonal (unit), U on and above */
+  int *piv;                    /* the row swapped with row c at column c */
 };
 
 nz_lu *nz_lu_new(int N)
@@ -326,9 +382,9 @@ nz_lu *nz_lu_new(int N)
   nz_lu *f = calloc(1, sizeof *f);
   if (!f) return NULL;
   f->cap = N;
-  f->LU = gsl_matrix_alloc((size_t)N, (size_t)N);
-  f->perm = gsl_permutation_alloc((size_t)N);
-  if (!f->LU || !f->perm) {
+  f->LU = malloc((size_t)N * (size_t)N * sizeof(double));
+  f->piv = malloc((size_t)N * sizeof(int));
+  if (!f->LU || !f->piv) {
     nz_lu_free(f);
     return NULL;
   }
@@ -338,8 +394,8 @@ nz_lu *nz_lu_new(int N)
 void nz_lu_free(nz_lu *f)
 {
   if (!f) return;
-  if (f->LU) gsl_matrix_free(f->LU);
-  if (f->perm) gsl_permutation_free(f->perm);
+  free(f->LU);
+  free(f->piv);
   free(f);
 }
 
@@ -347,29 +403,44 @@ int nz_lu_factor(nz_lu *f, int N, const double *A)
 {
   if (N < 1 || N > f->cap) return NZ_EDOM;
   f->N = N;
-  gsl_matrix_view m = gsl_matrix_submatrix(f->LU, 0, 0, (size_t)N, (size_t)N);
-  for (int i = 0; i < N; i++)
-    for (int j = 0; j < N; j++) gsl_matrix_set(&m.matrix, (size_t)i, (size_t)j, A[(size_t)i * (size_t)N + (size_t)j]);
-  gsl_permutation pv = { (size_t)N, f->perm->data };   /* the first N of the allocated */
-  int sign;
-  gsl_error_handler_t *old = gsl_set_error_handler_off();
-  int st = gsl_linalg_LU_decomp(&m.matrix, &pv, &sign);
-  gsl_set_error_handler(old);
-  if (st) return NZ_ESINGULAR;
-  for (int i = 0; i < N; i++)
-    if (gsl_matrix_get(&m.matrix, (size_t)i, (size_t)i) == 0.0) return NZ_ESINGULAR;
+  double *G = f->LU;
+  memcpy(G, A, (size_t)N * (size_t)N * sizeof(double));
+  for (int c = 0; c < N; c++) {
+    int p = c;
+    for (int r = c + 1; r < N; r++)
+      if (fabs(G[r * N + c]) > fabs(G[p * N + c])) p = r;
+    f->piv[c] = p;
+    if (!(G[p * N + c] != 0.0)) return NZ_ESINGULAR;
+    if (p != c)
+      for (int x = 0; x < N; x++) {
+        double v = G[c * N + x];
+        G[c * N + x] = G[p * N + x], G[p * N + x] = v;
+      }
+    for (int r = c + 1; r < N; r++) {
+      double m = G[r * N + c] /= G[c * N + c];
+      if (m != 0.0)
+        for (int x = c + 1; x < N; x++) G[r * N + x] -= m * G[c * N + x];
+    }
+  }
   return NZ_OK;
 }
 
 int nz_lu_solve(nz_lu *f, double *x)
 {
-  gsl_matrix_view m = gsl_matrix_submatrix(f->LU, 0, 0, (size_t)f->N, (size_t)f->N);
-  gsl_permutation pv = { (size_t)f->N, f->perm->data };
-  gsl_vector_view v = gsl_vector_view_array(x, (size_t)f->N);
-  gsl_error_handler_t *old = gsl_set_error_handler_off();
-  int st = gsl_linalg_LU_svx(&m.matrix, &pv, &v.vector);
-  gsl_set_error_handler(old);
-  return st ? NZ_ESINGULAR : NZ_OK;
+  int N = f->N;
+  const double *G = f->LU;
+  /* P x (the factor swapped whole rows, its multipliers with them), then L, then U */
+  for (int c = 0; c < N; c++) {
+    double v = x[c];
+    x[c] = x[f->piv[c]], x[f->piv[c]] = v;
+  }
+  for (int c = 0; c < N; c++)
+    for (int r = c + 1; r < N; r++) x[r] -= G[r * N + c] * x[c];
+  for (int r = N - 1; r >= 0; r--) {
+    for (int c = r + 1; c < N; c++) x[r] -= G[r * N + c] * x[c];
+    x[r] /= G[r * N + r];
+  }
+  return NZ_OK;
 }
 
 int nz_eigen(int n, const double *A, double *re, double *im, double *vr, double *vi)

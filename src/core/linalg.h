@@ -50,6 +50,15 @@ void nz_svd_free(nz_svd *d);
 
 /* Least squares with the minimum norm (SVD): x minimizes |A x - b| (m x n). */
 int nz_lstsq(int m, int n, const double *A, const double *b, double *x);
+/* The same in a workspace made once for matrices up to N x N (either
+ * shape), for a caller that solves again and again: nothing is allocated
+ * per solve.  Singular values at or below cut times the largest count as
+ * zero; *rank (may be NULL) gets the number of the others.  NZ_OK, NZ_EDOM
+ * (a size beyond the workspace's), NZ_ERANGE (the SVD did not converge). */
+typedef struct nz_lstsq_ws nz_lstsq_ws;
+nz_lstsq_ws *nz_lstsq_new(int N);
+void nz_lstsq_free(nz_lstsq_ws *w);   /* NULL is harmless */
+int nz_lstsq_in(nz_lstsq_ws *w, int m, int n, const double *A, const double *b, double *x, double cut, int *rank);
 
 /* Solve the square N x N system J x = rhs through its SVD; *rcond is
  * s_min / s_max (x is left untouched when s_min = 0). */
@@ -67,7 +76,7 @@ int nz_solve_square(int N, const double *J, const double *rhs, double *x, double
  * NZ_OK, NZ_ENOMEM, or NZ_ERANGE when the QR iteration did not converge. */
 int nz_eigen(int n, const double *A, double *re, double *im, double *vr, double *vi);
 
-/* An LU factorization (partial pivoting, GSL) kept for several right-hand
+/* An LU factorization (partial pivoting, written out) kept for several right-hand
  * sides: the saddle-point matrix of a constrained Taylor step, factored once
  * per step and solved once per order.  nz_lu_new(N) holds matrices up to N x
  * N; NULL when out of memory. */

@@ -32,7 +32,7 @@
 #include "graph/series_native.h"
 #include "jets/series.h"
 
-#define SER_VERSION "nzlua-series 12"
+#define SER_VERSION "nzlua-series 13"
 #ifndef CHUNK
 #define CHUNK 2000
 #endif
@@ -219,7 +219,7 @@ void nz_series_emit_kernel(nz_sbuf *b, int kernel, const nz_series_ref *r)
   }
 }
 
-/* Slot i's kernel at coefficient k, as graph.c's series_coef; at k = 0
+/* Slot i's kernel at coefficient k, as graph_series.c's series_coef; at k = 0
  * also the domain checks of its series_first for an order >= 1 that a
  * finite coefficient 0 would not reveal (the others give an infinity or a
  * NaN: log 0, 1/0, sqrt(-1), ...), into `bad`.  kc >= 0: the code for
@@ -244,7 +244,7 @@ static void emit_slot(nz_sbuf *b, const nz_series_slot *r, int i, int check, int
 }
 
 /* The inputs of coefficient n (a C expression) of a second-order ODE, with
- * the very expressions of nz_compiled_motion_series (mech_graph.c) so that
+ * the very expressions of nz_recording_motion_series (mech_graph.c) so that
  * the numbers are the same: q_i from a[n], q_i' from a[n + 1], t, the rest
  * constant. */
 static void emit_ode2_inputs(nz_sbuf *b, const nz_graph_plan *p, const nz_series_ode2 *o, const int *in_num, int nin,
@@ -265,13 +265,21 @@ static void emit_ode2_inputs(nz_sbuf *b, const nz_graph_plan *p, const nz_series
   (void)p;
 }
 
-/* a[n + 2] from the outputs of coefficient n. */
+/* a[n + 2] from the outputs of coefficient n, as nz_series_ode2_coef
+ * (series.h) gives it: the division or the product by the reciprocal
+ * written out for an order known here, chosen in the loop. */
 static void emit_ode2_outputs(nz_sbuf *b, const nz_graph_plan *p, const nz_series_ode2 *o, const char *n)
 {
-  nz_sb_printf(b, "    { const double d = 1.0 / ((double)((%s) + 1) * (double)((%s) + 2));\n", n, n);
-  for (int i = 0; i < o->k; i++)
-    nz_sb_printf(b, "      a[(size_t)((%s) + 2) * %d + %d] = SER(%d)[%s] * d;\n", n, o->k, i,
-                 nz_graph_series_output(p, o->acc[i]), n);
+  int known = n[0] >= '0' && n[0] <= '9';
+  nz_sb_printf(b, "    { const double m_ = (double)((%s) + 1) * (double)((%s) + 2);\n", n, n);
+  for (int i = 0; i < o->k; i++) {
+    int x = nz_graph_series_output(p, o->acc[i]);
+    nz_sb_printf(b, "      a[(size_t)((%s) + 2) * %d + %d] = ", n, o->k, i);
+    if (!known) nz_sb_printf(b, "(%s) < %d ? SER(%d)[%s] / m_ : SER(%d)[%s] * (1.0 / m_);\n", n, NZ_SERIES_ODE2_DIVIDED, x,
+                             n, x, n);
+    else if (atoi(n) < NZ_SERIES_ODE2_DIVIDED) nz_sb_printf(b, "SER(%d)[%s] / m_;\n", x, n);
+    else nz_sb_printf(b, "SER(%d)[%s] * (1.0 / m_);\n", x, n);
+  }
   nz_sb_printf(b, "    }\n");
 }
 

@@ -1,7 +1,7 @@
 /* jet_eta.c - the eta-part of each jet operation (see jet_eta.h).
  *
  * Each rule is the derivative of the operation (the same rules as the
- * graph's forward differentiation, d_rule in graph.c) written in jet
+ * graph's forward differentiation, d_rule in graph_diff.c) written in jet
  * arithmetic: dz = f'(a) da for a function, (da - z db) / b for a quotient,
  * ...  A zero eta-part (NULL) is skipped rather than multiplied, so an
  * operand off the direction costs nothing. */

@@ -5,7 +5,7 @@
  * z = f(a, b) the eta-part is dz = f_a(a, b) da + f_b(a, b) db, computed in
  * jet arithmetic over the eta-part's shape.  These rules live here, once,
  * for the two evaluators that carry a direction: the graph's plans on jets
- * (graph/graph.c) and the Lua evaluator's dualjets (lua/lua_dualjet.c), so
+ * (graph/graph_jets.c) and the Lua evaluator's dualjets (lua/lua_dualjet.c), so
  * that they agree formula for formula.
  *
  * Eta-parts may have a lower order and more tangents than the values: the

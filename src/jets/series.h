@@ -88,4 +88,24 @@ void nz_series_atan2(double *z, const double *y, const double *x, int K, double 
 double nz_series_atan2_coef(const double *z, const double *y, const double *x, const double *d,
                             int k);
 
+/* A second-order ODE's coefficient a_{n+2} = x / ((n + 1)(n + 2)) from
+ * q''s coefficient n = x.  A product by the rounded reciprocal has the same
+ * relative error at every step (the reciprocal's, fixed for each n): a bias
+ * of every polynomial a Taylor step takes, which adds up over a long run
+ * into a drift of the energy (Henon-Heiles at 1e-15: 7e-13 after 1e5 time
+ * units, growing as t; 3e-14 with the division, whose rounding has no
+ * bias).  The division is dearer (its latency is on the path from one
+ * order to the next), and a bias matters only as much as its term: a_{n+2}
+ * h^{n+2} is about e^(-2(n+2)) of the state at the steps of taylor.c, so
+ * the orders from NZ_SERIES_ODE2_DIVIDED on (terms below e^-16 of the
+ * state) keep the product.  Written once here, read by the interpreter
+ * (mech_graph_series.c) and printed into the machine code (series_native.c), so
+ * both give the same numbers. */
+#define NZ_SERIES_ODE2_DIVIDED 6
+static inline double nz_series_ode2_coef(double x, int n)
+{
+  double m = (double)(n + 1) * (double)(n + 2);
+  return n < NZ_SERIES_ODE2_DIVIDED ? x / m : x * (1.0 / m);
+}
+
 #endif

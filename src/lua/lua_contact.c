@@ -1,15 +1,18 @@
 /* lua_contact.c - the contacts of a system for Lua (see lua_contact.h):
- *   contacts_new(def, {nb, orders, contacts = {{gap, slip, e, mu, mu_s}, ..},
- *                names = {...}}) -> cs
- *       gap and slip are 1-based constraint numbers of the system def (its
- *       constraints: nb bilateral first, then the contacts' functions),
- *       orders the classification of all of them
+ *   contacts_new(def, {nb, orders, contacts = {{gap, slip, slip2, speed, e,
+ *                mu, mu_s}, ..}, names = {...}, rtol, atol}) -> cs
+ *       gap, slip (slip2 and speed: an isotropic cone's second slip
+ *       velocity and |v_t|) are 1-based constraint numbers of the system
+ *       def (its constraints: nb bilateral first, then the contacts'
+ *       functions), orders the classification of all of them; rtol, atol
+ *       the run's tolerances
  *   contacts_transition(cs, def, t, q, qd, trigger) -> qd+, report, q+
  *       trigger: the contact event (1-based, 2j - 1 normal, 2j friction)
  *       that brought the run here, or 0 at the start; report = {impact,
  *       changed, zeno = {contact, time} | nil, contacts = {{from, to,
- *       impact, zeno, gap, vn_before, vn_after, vt_before, vt_after, Pn, Pt,
- *       lambda_n, lambda_t}, ...}} with the states as words
+ *       impact, zeno, share, gap, vn_before, vn_after, vt_before, vt_after,
+ *       Pn, Pt, lambda_n, lambda_t}, ...}} with the states as words (vt_*,
+ *       Pt and lambda_t are numbers, or {x, y} for an isotropic cone)
  *   contacts_event(cs, def, e, t, y) -> g         (e 1-based)
  *   contacts_mode(cs) -> {"open" | "closed" | "stick" | "slip+" | "slip-", ...}
  *   contacts_set_mode(cs, {...}) ; contacts_reset(cs)
@@ -29,9 +32,10 @@
 typedef struct contacts_box {
   nz_contacts *c;
   int k, n, nc;
+  int *iso;                          /* n: which contacts have an isotropic cone (user value 1) */
 } contacts_box;
 
-static const char *const STATE_NAMES[] = { "open", "closed", "stick", "slip+", "slip-", NULL };
+static const char *const STATE_NAMES[] = { "open", "closed", "stick", "slip+", "slip-", "slip", NULL };
 
 struct nz_contacts *nz_lua_tocontacts(lua_State *L, int idx)
 {
@@ -80,16 +84,22 @@ static int lc_new(lua_State *L)
     int top = lua_gettop(L);
     defs[j].gap = (int)nz_lua_field_number(L, top, "gap", 0.0) - 1;
     defs[j].slip = (int)nz_lua_field_number(L, top, "slip", 0.0) - 1;
+    defs[j].slip2 = (int)nz_lua_field_number(L, top, "slip2", 0.0) - 1;
+    defs[j].speed = (int)nz_lua_field_number(L, top, "speed", 0.0) - 1;
     defs[j].e = nz_lua_field_number(L, top, "e", 0.0);
     defs[j].mu = nz_lua_field_number(L, top, "mu", 0.0);
     defs[j].mu_s = nz_lua_field_number(L, top, "mu_s", defs[j].mu);
     lua_pop(L, 1);
   }
-  nz_contacts_config cfg = { nc, nb, orders, n, defs, nz_lua_field_number(L, 2, "zeno_speed", 0.0), 0.0 };
-  contacts_box *box = lua_newuserdatauv(L, sizeof *box, 0);
+  nz_contacts_config cfg = { nc, nb, orders, n, defs, nz_lua_field_number(L, 2, "zeno_speed", 0.0), 0.0,
+                             nz_lua_field_number(L, 2, "rtol", 0.0), nz_lua_field_number(L, 2, "atol", 0.0) };
+  contacts_box *box = lua_newuserdatauv(L, sizeof *box, 1);
   memset(box, 0, sizeof *box);
   luaL_setmetatable(L, NZ_CONTACTS_METATABLE);
   box->k = k, box->n = n, box->nc = nc;
+  box->iso = lua_newuserdatauv(L, ((size_t)n + 1) * sizeof(int), 0);
+  for (int j = 0; j < n; j++) box->iso[j] = defs[j].slip2 >= 0;
+  lua_setiuservalue(L, -2, 1);
   if (!(box->c = nz_contacts_new(k, &cfg)))
     return luaL_error(L, "internal: the contacts could not be made (a bad configuration, or no memory)");
   lua_getfield(L, 2, "names");        /* for the messages, under the contacts' address */
@@ -138,8 +148,34 @@ int nz_lua_contacts_raise(lua_State *L, const nz_contacts *c, bound_system *b)
     nz_lua_fmt_num(num, sizeof num, f->value);
     luaL_addstring(&msg, "the contacts held and the constraints are dependent");
     nz_lua_add_state(&msg, f->t, f->q, f->qd, k);
-    lua_pushfstring(L, " (the saddle point's reciprocal condition is %s): their forces are not determined; "
-                    "a redundant contact (three legs on a plane in 2-D, four in 3-D) must be left out", num);
+    lua_pushfstring(L, " (the saddle point's reciprocal condition is %s) and their rows do not keep each other: "
+                    "the rows held ask for accelerations no force can give; check the constraints beside the contacts", num);
+    luaL_addvalue(&msg);
+    break;
+  case NZ_CONTACT_INDETERMINATE:
+    nz_lua_fmt_num(num, sizeof num, f->value);
+    lua_pushfstring(L, "contact '%s' slides while its normal force is not determined (dependent contacts share "
+                    "the load)", name);
+    luaL_addvalue(&msg);
+    nz_lua_add_state(&msg, f->t, f->q, f->qd, k);
+    lua_pushfstring(L, ", and how the load is shared changes the motion (a unit of normal force moved onto it "
+                    "changes q'' by %s of its friction's own effect: the friction's moments differ): the rigid "
+                    "model does not determine the motion; leave a redundant contact out, or give the friction "
+                    "the same slip direction at every contact", num);
+    luaL_addvalue(&msg);
+    break;
+  case NZ_CONTACT_SERIES:
+    lua_pushfstring(L, "contact '%s' starts to slide from rest (its isotropic cone)", name ? name : "?");
+    luaL_addvalue(&msg);
+    nz_lua_add_state(&msg, f->t, f->q, f->qd, k);
+    luaL_addstring(&msg, ": method 'taylor' cannot start there, the series of its slip speed |v_t| being singular "
+                         "at zero; take a GSL stepper for this run (method = 'rk8pd')");
+    break;
+  case NZ_CONTACT_CONE:
+    luaL_addstring(&msg, "the friction cones' complementarity problem did not settle");
+    nz_lua_add_state(&msg, f->t, f->q, f->qd, k);
+    lua_pushfstring(L, " (at contact '%s'): the pyramid turned along its friction four times without a solution "
+                    "the cone itself holds", name ? name : "?");
     luaL_addvalue(&msg);
     break;
   case NZ_CONTACT_MASS:
@@ -190,9 +226,16 @@ static contacts_box *begin(lua_State *L, bound_system *b, double *t, double **q)
   return box;
 }
 
-static void push_change(lua_State *L, const nz_contact_change *c)
+/* A tangential quantity: a number, or {x, y} for an isotropic cone. */
+static void push_tangent(lua_State *L, const double *v, int iso)
 {
-  lua_createtable(L, 0, 13);
+  if (iso) nz_lua_push_vector(L, v, 2);
+  else lua_pushnumber(L, v[0]);
+}
+
+static void push_change(lua_State *L, const nz_contact_change *c, int iso)
+{
+  lua_createtable(L, 0, 14);
   lua_pushstring(L, STATE_NAMES[c->from]);
   lua_setfield(L, -2, "from");
   lua_pushstring(L, STATE_NAMES[c->to]);
@@ -201,14 +244,22 @@ static void push_change(lua_State *L, const nz_contact_change *c)
   lua_setfield(L, -2, "impact");
   lua_pushboolean(L, c->zeno);
   lua_setfield(L, -2, "zeno");
+  lua_pushboolean(L, c->share);
+  lua_setfield(L, -2, "share");
   const struct { const char *name; double v; } nums[] = {
-    { "gap", c->gap }, { "vn_before", c->vn_before }, { "vn_after", c->vn_after }, { "vt_before", c->vt_before },
-    { "vt_after", c->vt_after }, { "Pn", c->Pn }, { "Pt", c->Pt }, { "lambda_n", c->lambda_n },
-    { "lambda_t", c->lambda_t },
+    { "gap", c->gap }, { "vn_before", c->vn_before }, { "vn_after", c->vn_after }, { "Pn", c->Pn },
+    { "lambda_n", c->lambda_n },
   };
   for (size_t i = 0; i < sizeof nums / sizeof nums[0]; i++) {
     lua_pushnumber(L, nums[i].v);
     lua_setfield(L, -2, nums[i].name);
+  }
+  const struct { const char *name; const double *v; } tans[] = {
+    { "vt_before", c->vt_before }, { "vt_after", c->vt_after }, { "Pt", c->Pt }, { "lambda_t", c->lambda_t },
+  };
+  for (size_t i = 0; i < sizeof tans / sizeof tans[0]; i++) {
+    push_tangent(L, tans[i].v, iso);
+    lua_setfield(L, -2, tans[i].name);
   }
 }
 
@@ -243,7 +294,7 @@ static int lc_transition(lua_State *L)
   }
   lua_createtable(L, n, 0);
   for (int j = 0; j < n; j++) {
-    push_change(L, &ch[j]);
+    push_change(L, &ch[j], box->iso[j]);
     lua_rawseti(L, -2, j + 1);
   }
   lua_setfield(L, -2, "contacts");

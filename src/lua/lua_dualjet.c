@@ -6,7 +6,7 @@
  * dualjet is one userdata holding both jets, and each operation is one call.
  *
  * The eta-parts are the jets' rules (src/jets/jet_eta.c, nz_jet_eta), which
- * the graph evaluator (src/graph/graph.c) calls too, so that the two
+ * the graph evaluator (src/graph/graph_jets.c) calls too, so that the two
  * evaluators of a system agree along a direction as they agree on values.
  *   (v + eta d) op (w + eta e): add, sub linear; mul v w + eta (d w + v e);
  *   div z = v / w, eta (d - z e) / w; f(v + eta d) = f(v) + eta f'(v) d;

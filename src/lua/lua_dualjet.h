@@ -3,7 +3,7 @@
  * (each with its own tangent directions eps_d, whose products with eta are
  * kept).  The arguments of a user function evaluated along a state
  * direction are dualjets; the graph evaluator does the same arithmetic on
- * its nodes (src/graph/graph.c, the eta-part of nz_graph_eval_jets). */
+ * its nodes (src/graph/graph_jets.c, the eta-part of nz_graph_eval_jets). */
 #ifndef NZ_LUA_DUALJET_H
 #define NZ_LUA_DUALJET_H
 

@@ -4,24 +4,24 @@
  * operation on a tracer calls one of the methods below, which add a node
  * (folded and shared: graph.h) and return its id; cmp and select record the
  * branch functions (nz.gt, nz.ifelse, nz.max, ...).  The userdata owns the
- * nz_compiled (mech_graph.h) and frees it with the collector. */
+ * nz_recording (mech_graph.h) and frees it with the collector. */
 #include <lauxlib.h>
 #include <string.h>
 #include "lua/lua_graph.h"
 #include "lua/lua_jet.h"
 
-typedef struct compiled_box { nz_compiled *c; } compiled_box;
+typedef struct recording_box { nz_recording *c; } recording_box;
 
-nz_compiled *nz_lua_tocompiled(lua_State *L, int idx)
+nz_recording *nz_lua_torecording(lua_State *L, int idx)
 {
-  compiled_box *b = luaL_testudata(L, idx, NZ_COMPILED_METATABLE);
+  recording_box *b = luaL_testudata(L, idx, NZ_RECORDING_METATABLE);
   return b ? b->c : NULL;
 }
 
-static nz_compiled *check(lua_State *L)
+static nz_recording *check(lua_State *L)
 {
-  compiled_box *b = luaL_checkudata(L, 1, NZ_COMPILED_METATABLE);
-  if (!b->c) luaL_error(L, "internal: a freed compiled system");
+  recording_box *b = luaL_checkudata(L, 1, NZ_RECORDING_METATABLE);
+  if (!b->c) luaL_error(L, "internal: a freed recording");
   return b->c;
 }
 
@@ -40,15 +40,15 @@ static int push_node(lua_State *L, int id)
   return 1;
 }
 
-/* compiled_new(k, np, nc, nslots) */
+/* recording_new(k, np, nc, nslots) */
 static int lg_new(lua_State *L)
 {
   int k = (int)luaL_checkinteger(L, 1), np = (int)luaL_checkinteger(L, 2);
   int nc = (int)luaL_checkinteger(L, 3), nslots = (int)luaL_checkinteger(L, 4);
-  compiled_box *b = lua_newuserdatauv(L, sizeof *b, 0);
+  recording_box *b = lua_newuserdatauv(L, sizeof *b, 0);
   b->c = NULL;
-  luaL_setmetatable(L, NZ_COMPILED_METATABLE);
-  if (!(b->c = nz_compiled_new(k, np, nc, nslots))) return luaL_error(L, "not enough memory to record the graph");
+  luaL_setmetatable(L, NZ_RECORDING_METATABLE);
+  if (!(b->c = nz_recording_new(k, np, nc, nslots))) return luaL_error(L, "not enough memory to record the graph");
   return 1;
 }
 
@@ -66,16 +66,16 @@ static int lg_tracer(lua_State *L)
 
 static int lg_gc(lua_State *L)
 {
-  compiled_box *b = luaL_checkudata(L, 1, NZ_COMPILED_METATABLE);
-  nz_compiled_free(b->c);
+  recording_box *b = luaL_checkudata(L, 1, NZ_RECORDING_METATABLE);
+  nz_recording_free(b->c);
   b->c = NULL;
   return 0;
 }
 
 static int lg_const(lua_State *L)
 {
-  nz_compiled *c = check(L);
-  return push_node(L, nz_graph_const(nz_compiled_graph(c), luaL_checknumber(L, 2)));
+  nz_recording *c = check(L);
+  return push_node(L, nz_graph_const(nz_recording_graph(c), luaL_checknumber(L, 2)));
 }
 
 /* slot(j, i): slot j (0 = q, 0 <= j < nslots) of coordinate i (1-based);
@@ -85,39 +85,39 @@ static int lg_const(lua_State *L)
  * sizes by the layout. */
 static int lg_slot(lua_State *L)
 {
-  nz_compiled *c = check(L);
+  nz_recording *c = check(L);
   int j = (int)luaL_checkinteger(L, 2), i = (int)luaL_checkinteger(L, 3);
-  luaL_argcheck(L, j >= 0 && j < nz_compiled_nslots(c), 2, "no such slot in the recording");
-  luaL_argcheck(L, i >= 1 && i <= nz_compiled_ncoords(c), 3, "no such coordinate");
-  return push_node(L, nz_graph_input(nz_compiled_graph(c), nz_compiled_input_slot(c, j, i - 1)));
+  luaL_argcheck(L, j >= 0 && j < nz_recording_nslots(c), 2, "no such slot in the recording");
+  luaL_argcheck(L, i >= 1 && i <= nz_recording_ncoords(c), 3, "no such coordinate");
+  return push_node(L, nz_graph_input(nz_recording_graph(c), nz_recording_input_slot(c, j, i - 1)));
 }
 
 static int lg_frozen(lua_State *L)
 {
-  nz_compiled *c = check(L);
+  nz_recording *c = check(L);
   int i = (int)luaL_checkinteger(L, 2);
-  luaL_argcheck(L, i >= 1 && i <= nz_compiled_ncoords(c), 2, "no such coordinate");
-  return push_node(L, nz_graph_input(nz_compiled_graph(c), nz_compiled_input_frozen(c, i - 1)));
+  luaL_argcheck(L, i >= 1 && i <= nz_recording_ncoords(c), 2, "no such coordinate");
+  return push_node(L, nz_graph_input(nz_recording_graph(c), nz_recording_input_frozen(c, i - 1)));
 }
 
 /* nslots() -> the derivative slots of the layout (mech_graph.h) */
 static int lg_nslots(lua_State *L)
 {
-  lua_pushinteger(L, nz_compiled_nslots(check(L)));
+  lua_pushinteger(L, nz_recording_nslots(check(L)));
   return 1;
 }
 
 static int lg_time(lua_State *L)
 {
-  return push_node(L, nz_graph_input(nz_compiled_graph(check(L)), 0));
+  return push_node(L, nz_graph_input(nz_recording_graph(check(L)), 0));
 }
 
 static int lg_param(lua_State *L)
 {
-  nz_compiled *c = check(L);
+  nz_recording *c = check(L);
   int p = (int)luaL_checkinteger(L, 2);
-  luaL_argcheck(L, p >= 1 && p <= nz_compiled_nparams(c), 2, "no such parameter");
-  return push_node(L, nz_graph_input(nz_compiled_graph(c), nz_compiled_input_param(p - 1)));
+  luaL_argcheck(L, p >= 1 && p <= nz_recording_nparams(c), 2, "no such parameter");
+  return push_node(L, nz_graph_input(nz_recording_graph(c), nz_recording_input_param(p - 1)));
 }
 
 static const char *const op_names[] = { "add", "sub", "mul", "div", "neg", "pow", "atan2", "hypot", NULL };
@@ -127,8 +127,8 @@ static const nz_gop op_codes[] = { NZ_GOP_ADD, NZ_GOP_SUB, NZ_GOP_MUL, NZ_GOP_DI
 /* op(name, a [, b]) */
 static int lg_op(lua_State *L)
 {
-  nz_compiled *c = check(L);
-  nz_graph *g = nz_compiled_graph(c);
+  nz_recording *c = check(L);
+  nz_graph *g = nz_recording_graph(c);
   nz_gop op = op_codes[luaL_checkoption(L, 2, NULL, op_names)];
   int a = check_node(L, g, 3), b = op == NZ_GOP_NEG ? -1 : check_node(L, g, 4);
   return push_node(L, nz_graph_op(g, op, a, b));
@@ -137,8 +137,8 @@ static int lg_op(lua_State *L)
 /* fn(name, a): name one of the jets' unary functions (nz_jet_fn_names). */
 static int lg_fn(lua_State *L)
 {
-  nz_compiled *c = check(L);
-  nz_graph *g = nz_compiled_graph(c);
+  nz_recording *c = check(L);
+  nz_graph *g = nz_recording_graph(c);
   const char *name = luaL_checkstring(L, 2);
   int a = check_node(L, g, 3);
   for (int f = 0; f < NZ_FN_COUNT; f++)
@@ -152,8 +152,8 @@ static const nz_cmp cmp_codes[] = { NZ_CMP_LT, NZ_CMP_LE, NZ_CMP_GT, NZ_CMP_GE, 
 
 static int lg_cmp(lua_State *L)
 {
-  nz_compiled *c = check(L);
-  nz_graph *g = nz_compiled_graph(c);
+  nz_recording *c = check(L);
+  nz_graph *g = nz_recording_graph(c);
   nz_cmp op = cmp_codes[luaL_checkoption(L, 2, NULL, cmp_names)];
   int a = check_node(L, g, 3), b = check_node(L, g, 4);
   return push_node(L, nz_graph_cmp(g, op, a, b));
@@ -162,16 +162,16 @@ static int lg_cmp(lua_State *L)
 /* select(c, a, b): a where c != 0, else b. */
 static int lg_select(lua_State *L)
 {
-  nz_compiled *c = check(L);
-  nz_graph *g = nz_compiled_graph(c);
+  nz_recording *c = check(L);
+  nz_graph *g = nz_recording_graph(c);
   int cond = check_node(L, g, 2), a = check_node(L, g, 3), b = check_node(L, g, 4);
   return push_node(L, nz_graph_select(g, cond, a, b));
 }
 
 static int lg_powc(lua_State *L)
 {
-  nz_compiled *c = check(L);
-  nz_graph *g = nz_compiled_graph(c);
+  nz_recording *c = check(L);
+  nz_graph *g = nz_recording_graph(c);
   int a = check_node(L, g, 2);
   return push_node(L, nz_graph_powc(g, a, luaL_checknumber(L, 3)));
 }
@@ -179,8 +179,8 @@ static int lg_powc(lua_State *L)
 /* The constant value of a node, or nil. */
 static int lg_constant(lua_State *L)
 {
-  nz_compiled *c = check(L);
-  nz_graph *g = nz_compiled_graph(c);
+  nz_recording *c = check(L);
+  nz_graph *g = nz_recording_graph(c);
   double v;
   if (nz_graph_is_const(g, check_node(L, g, 2), &v)) lua_pushnumber(L, v);
   else lua_pushnil(L);
@@ -206,14 +206,14 @@ static int read_nodes(lua_State *L, int idx, nz_graph *g, int *ids, int n)
 /* set_piece(piece, index (1-based), {nodes}) */
 static int lg_set_piece(lua_State *L)
 {
-  nz_compiled *c = check(L);
-  nz_graph *g = nz_compiled_graph(c);
+  nz_recording *c = check(L);
+  nz_graph *g = nz_recording_graph(c);
   nz_piece piece = (nz_piece)luaL_checkoption(L, 2, NULL, piece_names);
   int index = (int)luaL_checkinteger(L, 3) - 1;
   int n = (int)luaL_len(L, 4);
   int *ids = lua_newuserdatauv(L, (size_t)(n + 1) * sizeof(int), 0);
   n = read_nodes(L, 4, g, ids, n);
-  int st = nz_compiled_set_piece(c, piece, index, ids, n);
+  int st = nz_recording_set_piece(c, piece, index, ids, n);
   if (st == NZ_ENOMEM) return luaL_error(L, "not enough memory to record the graph");
   if (st) return luaL_error(L, "internal: piece %s %d: wrong shape", piece_names[piece], index + 1);
   return 0;
@@ -222,25 +222,25 @@ static int lg_set_piece(lua_State *L)
 /* info() -> {nodes = graph size, pieces = {F = n, ..., constraints = {..}}, mass_bias = n} */
 static int lg_info(lua_State *L)
 {
-  nz_compiled *c = check(L);
+  nz_recording *c = check(L);
   lua_createtable(L, 0, 4);
-  lua_pushinteger(L, nz_graph_size(nz_compiled_graph(c)));
+  lua_pushinteger(L, nz_graph_size(nz_recording_graph(c)));
   lua_setfield(L, -2, "nodes");
-  lua_pushinteger(L, nz_compiled_mass_bias_nodes(c));
+  lua_pushinteger(L, nz_recording_mass_bias_nodes(c));
   lua_setfield(L, -2, "mass_bias_nodes");
   double secs;
   const char *why;
-  lua_pushinteger(L, nz_compiled_native(c, &secs, &why));
+  lua_pushinteger(L, nz_recording_native(c, &secs, &why));
   lua_setfield(L, -2, "native_plans");
-  lua_pushinteger(L, nz_compiled_native_series(c));
+  lua_pushinteger(L, nz_recording_native_series(c));
   lua_setfield(L, -2, "native_series");
   lua_pushnumber(L, secs);
   lua_setfield(L, -2, "native_seconds");
-  lua_pushnumber(L, nz_compiled_native_waited(c));
+  lua_pushnumber(L, nz_recording_native_waited(c));
   lua_setfield(L, -2, "native_waited");
-  lua_pushinteger(L, nz_compiled_native_compiling(c));
+  lua_pushinteger(L, nz_recording_native_compiling(c));
   lua_setfield(L, -2, "native_compiling");
-  lua_pushinteger(L, nz_compiled_native_mode(c));
+  lua_pushinteger(L, nz_recording_native_mode(c));
   lua_setfield(L, -2, "native_mode");
   if (why) {
     lua_pushstring(L, why);
@@ -252,7 +252,7 @@ static int lg_info(lua_State *L)
 /* native_wait(): wait for the compiles under way (a Ctrl-C stops the wait). */
 static int lg_native_wait(lua_State *L)
 {
-  nz_compiled_native_wait(check(L));
+  nz_recording_native_wait(check(L));
   return 0;
 }
 
@@ -266,8 +266,8 @@ static int lg_native_wait(lua_State *L)
  * v the constant (CONST) or the exponent (POWC). */
 static int lg_nodes(lua_State *L)
 {
-  nz_compiled *c = check(L);
-  const nz_graph *g = nz_compiled_graph(c);
+  nz_recording *c = check(L);
+  const nz_graph *g = nz_recording_graph(c);
   int n = nz_graph_size(g), from = (int)luaL_optinteger(L, 2, 0);
   const nz_gnode *nd = nz_graph_nodes(g);
   static const char *const fields[] = { "op", "fn", "a", "b", "v", "c" };
@@ -309,10 +309,10 @@ static void push_ids(lua_State *L, const int *ids, int n)
  * M and h cannot be built from the recording */
 static int lg_mass_bias_outputs(lua_State *L)
 {
-  nz_compiled *c = check(L);
+  nz_recording *c = check(L);
   int k = (int)luaL_checkinteger(L, 2);
   int *out = lua_newuserdatauv(L, ((size_t)k * (size_t)k + (size_t)k) * sizeof(int), 0);
-  if (nz_compiled_mass_bias_outputs(c, out)) { lua_pushnil(L); return 1; }
+  if (nz_recording_mass_bias_outputs(c, out)) { lua_pushnil(L); return 1; }
   push_ids(L, out, k * k + k);
   return 1;
 }
@@ -320,12 +320,12 @@ static int lg_mass_bias_outputs(lua_State *L)
 /* piece_outputs(piece, index (1-based)) -> {node ids} (empty: not recorded) */
 static int lg_piece_outputs(lua_State *L)
 {
-  nz_compiled *c = check(L);
+  nz_recording *c = check(L);
   nz_piece piece = (nz_piece)luaL_checkoption(L, 2, NULL, piece_names);
   int index = (int)luaL_optinteger(L, 3, 1) - 1;
-  int n = nz_compiled_piece_outputs(c, piece, index, NULL, 0);   /* how many: Q has k */
+  int n = nz_recording_piece_outputs(c, piece, index, NULL, 0);   /* how many: Q has k */
   int *out = lua_newuserdatauv(L, (size_t)(n > 0 ? n : 1) * sizeof(int), 0);
-  nz_compiled_piece_outputs(c, piece, index, out, n);
+  nz_recording_piece_outputs(c, piece, index, out, n);
   push_ids(L, out, n);
   return 1;
 }
@@ -334,8 +334,8 @@ static int lg_piece_outputs(lua_State *L)
  * inputs' motion (inputs not listed do not move); builds nodes in the graph */
 static int lg_derivative(lua_State *L)
 {
-  nz_compiled *c = check(L);
-  nz_graph *g = nz_compiled_graph(c);
+  nz_recording *c = check(L);
+  nz_graph *g = nz_recording_graph(c);
   int root = check_node(L, g, 2);
   luaL_checktype(L, 3, LUA_TTABLE);
   int n = nz_graph_ninputs(g);
@@ -355,10 +355,10 @@ static int lg_derivative(lua_State *L)
  * layout. */
 static int lg_copy(lua_State *L)
 {
-  nz_compiled *c = check(L);
-  compiled_box *b = luaL_checkudata(L, 2, NZ_COMPILED_METATABLE);
-  if (!b->c) return luaL_error(L, "internal: a freed compiled system");
-  nz_graph *g = nz_compiled_graph(c), *src = nz_compiled_graph(b->c);
+  nz_recording *c = check(L);
+  recording_box *b = luaL_checkudata(L, 2, NZ_RECORDING_METATABLE);
+  if (!b->c) return luaL_error(L, "internal: a freed recording");
+  nz_graph *g = nz_recording_graph(c), *src = nz_recording_graph(b->c);
   int n = (int)luaL_len(L, 3), ni = nz_graph_ninputs(src);
   luaL_checktype(L, 4, LUA_TTABLE);
   int *ids = lua_newuserdatauv(L, 2 * (size_t)(n + 1) * sizeof(int), 0), *out = ids + n + 1;
@@ -370,7 +370,7 @@ static int lg_copy(lua_State *L)
     lua_pop(L, 1);
   }
   /* unmapped inputs keep their numbers: within this layout */
-  int layout = nz_compiled_input_frozen(c, nz_compiled_ncoords(c) - 1) + 1;
+  int layout = nz_recording_input_frozen(c, nz_recording_ncoords(c) - 1) + 1;
   for (int i = 0; i < ni; i++)
     if (map[i] < 0 && i >= layout) return luaL_error(L, "internal: input %d is outside the layout", i);
   if (nz_graph_copy(g, src, ids, n, map, out)) return luaL_error(L, "not enough memory to record the graph");
@@ -381,9 +381,9 @@ static int lg_copy(lua_State *L)
 /* piece_nodes(piece, index (1-based)) -> nodes its evaluation visits */
 static int lg_piece_nodes(lua_State *L)
 {
-  nz_compiled *c = check(L);
+  nz_recording *c = check(L);
   nz_piece piece = (nz_piece)luaL_checkoption(L, 2, NULL, piece_names);
-  lua_pushinteger(L, nz_compiled_piece_nodes(c, piece, (int)luaL_optinteger(L, 3, 1) - 1));
+  lua_pushinteger(L, nz_recording_piece_nodes(c, piece, (int)luaL_optinteger(L, 3, 1) - 1));
   return 1;
 }
 
@@ -391,8 +391,8 @@ static int lg_piece_nodes(lua_State *L)
  * the doubles path, for checking a recording against the function. */
 static int lg_eval(lua_State *L)
 {
-  nz_compiled *c = check(L);
-  nz_graph *g = nz_compiled_graph(c);
+  nz_recording *c = check(L);
+  nz_graph *g = nz_recording_graph(c);
   int n = (int)luaL_len(L, 2);
   int ni = nz_graph_ninputs(g);
   int *ids = lua_newuserdatauv(L, (size_t)(n + 1) * sizeof(int), 0);
@@ -448,8 +448,8 @@ static void input_jets(lua_State *L, int idx, int ni, int K, const nz_jet **in)
  * have the lowest order of the jet inputs and their most tangents. */
 static int lg_eval_jets(lua_State *L)
 {
-  nz_compiled *c = check(L);
-  nz_graph *g = nz_compiled_graph(c);
+  nz_recording *c = check(L);
+  nz_graph *g = nz_recording_graph(c);
   int n = (int)luaL_len(L, 2), ni = nz_graph_ninputs(g), K = -1, D = 0, dir = lua_istable(L, 4);
   luaL_checktype(L, 3, LUA_TTABLE);
   lua_settop(L, 4);
@@ -497,7 +497,7 @@ static int lg_eval_jets(lua_State *L)
  * simplified (graph.h). */
 static int lg_set_exact(lua_State *L)
 {
-  nz_graph_set_exact(nz_compiled_graph(check(L)), lua_toboolean(L, 2));
+  nz_graph_set_exact(nz_recording_graph(check(L)), lua_toboolean(L, 2));
   return 0;
 }
 
@@ -505,8 +505,8 @@ static int lg_set_exact(lua_State *L)
  * never, or when they have earned it (mech_graph.h). */
 static int lg_set_native(lua_State *L)
 {
-  nz_compiled *c = check(L);
-  nz_compiled_set_native(c, lua_isnil(L, 2) ? -1 : lua_toboolean(L, 2));
+  nz_recording *c = check(L);
+  nz_recording_set_native(c, lua_isnil(L, 2) ? -1 : lua_toboolean(L, 2));
   return 0;
 }
 
@@ -524,7 +524,7 @@ static const luaL_Reg methods[] = {
 
 void nz_lua_open_graph(lua_State *L)
 {
-  if (luaL_newmetatable(L, NZ_COMPILED_METATABLE)) {
+  if (luaL_newmetatable(L, NZ_RECORDING_METATABLE)) {
     lua_pushcfunction(L, lg_gc);
     lua_setfield(L, -2, "__gc");
     luaL_newlib(L, methods);
@@ -532,7 +532,7 @@ void nz_lua_open_graph(lua_State *L)
   }
   lua_pop(L, 1);
   lua_pushcfunction(L, lg_new);
-  lua_setfield(L, -2, "compiled_new");
+  lua_setfield(L, -2, "recording_new");
   lua_pushcfunction(L, lg_tracer);
   lua_setfield(L, -2, "tracer");
 }

@@ -1,5 +1,6 @@
 /* lua_ode.c - the integrator (stepper.h) for Lua: a userdata "nz.ode" owning
- * a GSL stepper (ode.h) or Taylor's method (taylor.h, made by lua_taylor.c)
+ * a GSL stepper (ode.h), Taylor's method (taylor.h, made by lua_taylor.c)
+ * or a variational integrator (variational.h, made by lua_variational.c)
  * for one system, stepped by lua/nz/motion/simulate.lua (GSL's steppers also in
  * its Lua loop, through ode_step).  Each call
  * binds the system's definition table again (the evaluator lives for one
@@ -19,6 +20,7 @@
 #include "lua/lua_system.h"
 #include "lua/lua_taylor.h"
 #include "lua/lua_util.h"
+#include "lua/lua_variational.h"
 #include "mech/constrained.h"
 #include "mech/contact.h"
 #include "mech/mech_graph.h"
@@ -82,7 +84,10 @@ static int lo_new(lua_State *L)
   int cs = lua_gettop(L);
   cfg.contacts = nz_lua_tocontacts(L, cs);
   if (!lua_isnil(L, cs) && !cfg.contacts) return luaL_error(L, "internal: 'contacts' is not an nz.contacts");
-  if (!strcmp(cfg.method, "taylor")) {   /* Taylor's method: lua_taylor.c checks and makes it */
+  int taylor = !strcmp(cfg.method, "taylor");
+  if (taylor || !strcmp(cfg.method, "variational")) {
+    /* Taylor's method and the variational integrators: lua_taylor.c and
+     * lua_variational.c check and make them */
     ode_box *box = lua_newuserdatauv(L, sizeof *box, 1);
     memset(box, 0, sizeof *box);
     luaL_setmetatable(L, NZ_ODE_METATABLE);
@@ -92,8 +97,8 @@ static int lo_new(lua_State *L)
     box->nc = nc;
     box->dim = 2 * k;
     box->contacts = cfg.contacts;
-    snprintf(box->method, sizeof box->method, "taylor");
-    box->st = nz_lua_taylor_new(L, 2, "simulate");
+    snprintf(box->method, sizeof box->method, "%s", cfg.method);
+    box->st = taylor ? nz_lua_taylor_new(L, 2, "simulate") : nz_lua_variational_new(L, 2);
     return 1;
   }
   int known = 0;
@@ -166,6 +171,7 @@ static int raise_failure(lua_State *L, ode_box *box, bound_system *b, int st)
     return nz_lua_contacts_raise(L, box->contacts, b);
   if (!box->o) {
     if (b->ev.interrupted) return nz_lua_raise_interrupt(L);
+    if (!strcmp(box->method, "variational")) return nz_lua_variational_raise(L, b, box->st, st);
     return nz_lua_taylor_raise(L, box->st, st);
   }
   const nz_ode_failure *f = nz_ode_last_failure(box->o);
@@ -362,7 +368,7 @@ static int lo_stats(lua_State *L)
  * state_functions): a userdata "nz.ode_events" with one plan on doubles per
  * event, its inputs numbered as mech_graph.h says (0 = t, 1..np the
  * parameters, then slot j of q_i at 1 + np + j k + i, j = 0, 1), and the
- * recording (an nz.compiled) kept alive as its user value.  Both loops of
+ * recording (an nz.recording) kept alive as its user value.  Both loops of
  * simulate.lua take an event's value from here, so that they see the same
  * numbers; where a plan fails (a domain error at this state) the event's
  * Lua function gives the value, or the error with the user's line. */
@@ -384,17 +390,17 @@ static int events_gc(lua_State *L)
   return 0;
 }
 
-/* ode_events_new(compiled, {node per event}, {parameter values}, k) -> events */
+/* ode_events_new(recording, {node per event}, {parameter values}, k) -> events */
 static int lo_events_new(lua_State *L)
 {
-  nz_compiled *c = nz_lua_tocompiled(L, 1);
-  luaL_argcheck(L, c != NULL, 1, "a recording (nz.compiled) expected");
+  nz_recording *c = nz_lua_torecording(L, 1);
+  luaL_argcheck(L, c != NULL, 1, "a recording (nz.recording) expected");
   luaL_checktype(L, 2, LUA_TTABLE);
   luaL_checktype(L, 3, LUA_TTABLE);
   int k = (int)luaL_checkinteger(L, 4);
-  nz_graph *g = nz_compiled_graph(c);
+  nz_graph *g = nz_recording_graph(c);
   int n = (int)luaL_len(L, 2), np = (int)luaL_len(L, 3);
-  luaL_argcheck(L, np == nz_compiled_nparams(c), 3, "one value per recorded parameter expected");
+  luaL_argcheck(L, np == nz_recording_nparams(c), 3, "one value per recorded parameter expected");
   events_box *eb = lua_newuserdatauv(L, sizeof *eb, 1);
   memset(eb, 0, sizeof *eb);
   luaL_setmetatable(L, NZ_EVENTS_METATABLE);
@@ -867,8 +873,8 @@ static int lo_rounding_branch(lua_State *L)
   nz_rounding_branch br;
   unsigned pieces = 0;
   int constraint = -1;
-  if (nz_compiled_rounding_branch(b.comp, t, state, nstate, tol, &br, &pieces, &constraint) != 1) return 0;
-  const nz_gnode *nd = &nz_graph_nodes(nz_compiled_graph(b.comp))[br.node];
+  if (nz_recording_rounding_branch(b.comp, t, state, nstate, tol, &br, &pieces, &constraint) != 1) return 0;
+  const nz_gnode *nd = &nz_graph_nodes(nz_recording_graph(b.comp))[br.node];
   luaL_Buffer which;
   luaL_buffinit(L, &which);
   int first = 1;

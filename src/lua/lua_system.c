@@ -431,8 +431,8 @@ static int hybrid_eval(void *vctx, nz_piece piece, int index, const nz_jet *t,
                        const nz_direction *dir)
 {
   bound_system *b = vctx;
-  if (nz_compiled_has(b->comp, piece, index) &&
-      nz_compiled_eval(b->comp, piece, index, t, levels, nlevels, out, dir) == NZ_OK)
+  if (nz_recording_has(b->comp, piece, index) &&
+      nz_recording_eval(b->comp, piece, index, t, levels, nlevels, out, dir) == NZ_OK)
     return NZ_OK;
   return lua_eval(&b->ev, piece, index, t, levels, nlevels, out, dir);
 }
@@ -450,8 +450,8 @@ static int hybrid_eval(void *vctx, nz_piece piece, int index, const nz_jet *t,
 typedef struct system_object {
   const void *def;            /* the table it was made for (a copy is another system) */
   nz_system sys;              /* ev is set at binding */
-  struct nz_compiled *comp;   /* def.compiled, kept alive by def */
-  const void *comp_box;       /* def.compiled's userdata, kept alive by the object's user value */
+  struct nz_recording *comp;  /* def.recording, kept alive by def */
+  const void *comp_box;       /* def.recording's userdata, kept alive by the object's user value */
   int np;                     /* parameters of the recording */
   int absent;                 /* names of params its functions read while absent */
 } system_object;
@@ -462,27 +462,27 @@ static const char *const SYSTEM_OBJECT = "nz.evaluator";
  * instead of a lookup by name (sys:accel of a small system: 5 % of it). */
 static const char object_metatable_key = 0;
 
-/* The recording at def.compiled, if any, and its hooks. */
-static void object_compiled(lua_State *L, int def, system_object *o)
+/* The recording at def.recording, if any, and its hooks. */
+static void object_recording(lua_State *L, int def, system_object *o)
 {
-  if (lua_getfield(L, def, "compiled") != LUA_TUSERDATA || !(o->comp = nz_lua_tocompiled(L, -1))) {
+  if (lua_getfield(L, def, "recording") != LUA_TUSERDATA || !(o->comp = nz_lua_torecording(L, -1))) {
     lua_pop(L, 1);
     return;
   }
   o->comp_box = lua_touserdata(L, -1);
   lua_setiuservalue(L, -2, 1);   /* the object (below it) keeps the recording alive */
-  o->np = nz_compiled_nparams(o->comp);
+  o->np = nz_recording_nparams(o->comp);
   if (lua_getfield(L, def, "params_absent") == LUA_TTABLE) o->absent = (int)lua_rawlen(L, -1);
   lua_pop(L, 1);
-  if (lua_getfield(L, def, "compiled_mass_bias") == LUA_TBOOLEAN && lua_toboolean(L, -1)) {
-    o->sys.mass_bias = nz_compiled_mass_bias;
-    o->sys.accel = nz_compiled_accel;
-    o->sys.free_rhs = nz_compiled_free_rhs;
-    o->sys.native_ready = nz_compiled_all_native;
-    o->sys.series = nz_compiled_series;
+  if (lua_getfield(L, def, "recorded_mass_bias") == LUA_TBOOLEAN && lua_toboolean(L, -1)) {
+    o->sys.mass_bias = nz_recording_mass_bias;
+    o->sys.accel = nz_recording_accel;
+    o->sys.free_rhs = nz_recording_free_rhs;
+    o->sys.native_ready = nz_recording_all_native;
+    o->sys.series = nz_recording_series;
   }
   lua_pop(L, 1);
-  o->sys.constraint_row = nz_compiled_constraint_row;
+  o->sys.constraint_row = nz_recording_constraint_row;
   o->sys.mass_bias_ctx = o->comp;
 }
 
@@ -518,7 +518,7 @@ static system_object *object_new(lua_State *L, int def)
     o->sys.levels = lv + 1;
   }
   lua_pop(L, 1);
-  object_compiled(L, def, o);
+  object_recording(L, def, o);
   return o;
 }
 
@@ -536,8 +536,8 @@ static system_object *system_object_of(lua_State *L, int def)
   lua_pop(L, 1);
   if (o && o->def == lua_topointer(L, def)) {
     /* the same recording: the very userdata the object keeps alive */
-    int same = lua_getfield(L, def, "compiled") == LUA_TUSERDATA ? lua_touserdata(L, -1) == o->comp_box && o->comp
-                                                                  : o->comp == NULL;
+    int same = lua_getfield(L, def, "recording") == LUA_TUSERDATA ? lua_touserdata(L, -1) == o->comp_box && o->comp
+                                                                   : o->comp == NULL;
     lua_pop(L, 1);
     if (same) return o;
   }
@@ -590,11 +590,11 @@ static void check_params(lua_State *L, int def)
 }
 
 /* The recording's parameters take their current values from def.params
- * (def.compiled_params lists their names in input order), each checked. */
-static void read_params(lua_State *L, int def, struct nz_compiled *comp, int np)
+ * (def.recording_params lists their names in input order), each checked. */
+static void read_params(lua_State *L, int def, struct nz_recording *comp, int np)
 {
-  double *pv = nz_compiled_params(comp);
-  lua_getfield(L, def, "compiled_params");
+  double *pv = nz_recording_params(comp);
+  lua_getfield(L, def, "recording_params");
   lua_getfield(L, def, "params");
   for (int p = 0; p < np; p++) {
     lua_geti(L, -2, p + 1);

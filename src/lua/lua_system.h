@@ -25,12 +25,12 @@ typedef struct lua_evaluator {
 } lua_evaluator;
 
 /* A system bound to its definition table for the duration of one call.
- * With a recording (def.compiled), the pieces it holds are evaluated on
+ * With a recording (def.recording), the pieces it holds are evaluated on
  * their graphs in C and the others by the Lua evaluator. */
 typedef struct bound_system {
   nz_system sys;
   lua_evaluator ev;
-  struct nz_compiled *comp;   /* NULL: every piece in Lua */
+  struct nz_recording *comp;   /* NULL: every piece in Lua */
 } bound_system;
 
 void nz_lua_bind_system(lua_State *L, int def, bound_system *b);

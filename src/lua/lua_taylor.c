@@ -44,7 +44,7 @@ static void bind_recorded(lua_State *L, bound_system *b, const char *fname)
     nz_lua_error(L, "system '%s': '%s': the Taylor method needs T, V and Q recorded, and one of them fell back "
                "to Lua (print(sys) says which and why)", name, fname);
   for (int r = 0; r < b->sys.nc; r++)   /* else the first series would fail with a status, not this reason */
-    if (!nz_compiled_has(b->comp, NZ_PIECE_PHI, r))
+    if (!nz_recording_has(b->comp, NZ_PIECE_PHI, r))
       luaL_error(L, "system '%s': '%s': the Taylor method needs the constraints recorded, and constraint %d "
                  "runs in Lua (print(sys) says why)", name, fname, r + 1);
 }
@@ -102,7 +102,7 @@ static int raise_series(lua_State *L, bound_system *b, int st, double t, const c
   if (st == NZ_EARG)
     return nz_lua_error(L, "system '%s': '%s': the mass matrix and bias are not recorded", name, fname);
   return nz_lua_error(L, "system '%s': '%s': the series of the motion failed at t = %s: %s (status %d)", name,
-                    fname, num, nz_compiled_failure(b->comp), st);
+                    fname, num, nz_recording_failure(b->comp), st);
 }
 
 /* opts.name as a number, or def when absent. */
@@ -128,7 +128,7 @@ nz_stepper *nz_lua_taylor_new(lua_State *L, int cfg, const char *fname)
    * start: across a switch (abs(x) at x = 0) it is silently wrong, and its
    * coefficients do not show it (a V-shaped well gives a parabola, exact to
    * every order, and one step to t1). */
-  int branches = nz_compiled_motion_branches(b.comp);
+  int branches = nz_recording_motion_branches(b.comp);
   if (branches > 0)
     nz_lua_error(L, "system '%s': '%s': the Taylor method does not step across branches yet, and "
                "M or h has %d (comparisons, nz.ifelse, min, max, abs or sign on the state)",
@@ -171,7 +171,7 @@ static int taylor_box_gc(lua_State *L)
 /* What stopped a Taylor step: why (a word) and what (a sentence), or
  * NULL when what failed was a solve of the motion (raise_motion) or a user
  * function (its error). */
-static const char *failure_text(nz_stepper *st, nz_compiled *comp, char *what, size_t n, double *tfail)
+static const char *failure_text(nz_stepper *st, nz_recording *comp, char *what, size_t n, double *tfail)
 {
   int status;
   double t, tm;
@@ -188,7 +188,7 @@ static const char *failure_text(nz_stepper *st, nz_compiled *comp, char *what, s
   if (status == NZ_ENOMEM) snprintf(what, n, "not enough memory");
   else if (nz_taylor_motion_failure(st, &tm, &q, &qd))   /* the start of the series: said as the GSL steppers say it */
     return NULL;
-  else snprintf(what, n, "the series of the motion failed at t = %s: %s (status %d)", num, nz_compiled_failure(comp),
+  else snprintf(what, n, "the series of the motion failed at t = %s: %s (status %d)", num, nz_recording_failure(comp),
                 status);
   return "series";
 }

@@ -1,5 +1,5 @@
 /* lua_taylor.h - Taylor's method on a recorded system for Lua (ode/taylor.h,
- * mech_graph.h's nz_compiled_motion_series): functions added to core.mech. */
+ * mech_graph.h's nz_recording_motion_series): functions added to core.mech. */
 #ifndef NZ_LUA_TAYLOR_H
 #define NZ_LUA_TAYLOR_H
 #include <lua.h>

@@ -189,6 +189,12 @@ int nz_constraint_state_values(const nz_system *s, const int *orders, double t, 
   return st;
 }
 
+int nz_constraint_row_in(const nz_system *s, nz_motion *mo, int r, int m, double t, const double *const *state,
+                         int nstate, double *A, double *value)
+{
+  return row_in(s, mo, r, m, t, state, nstate, 0.0, 0.0, NULL, A, value, NULL, NULL);
+}
+
 int nz_constraint_row_along(const nz_system *s, int r, int m, double t, const double *const *state,
                             int nstate, double alpha, double beta, const nz_state_direction *dir,
                             double *A, double *value, double *dA, double *dvalue)

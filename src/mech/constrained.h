@@ -61,6 +61,11 @@ int nz_constraint_row_reversed(int nc, int k, const int *orders, const double *b
  * *value, and its gradient A = d Phi^(2-m) / d q'' (= dPhi/dq^(m) by (2.1)). */
 int nz_constraint_row(const nz_system *s, int r, int m, double t, const double *const *state,
                       int nstate, double *A, double *value);
+/* The same in the caller's workspace mo (reset here, freed by the caller):
+ * a caller that asks for rows again and again (the contacts, at every
+ * right-hand side) allocates nothing after the first. */
+int nz_constraint_row_in(const nz_system *s, nz_motion *mo, int r, int m, double t, const double *const *state,
+                         int nstate, double *A, double *value);
 /* The same row with Baumgarte's terms added to the value: for m = 0,
  * Phi'' + 2 alpha Phi' + beta^2 Phi; for m = 1, Phi' + alpha Phi (the
  * lower coefficients of the same jet give Phi and Phi'). */

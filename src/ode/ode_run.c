@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#include "core/compensated.h"
 #include "core/interrupt.h"
 #include "ode/ode_run.h"
 
@@ -19,6 +20,7 @@ struct nz_run {
   int started;                    /* the point at t0 is recorded */
   int in_interval;                /* tout (and the fixed steps) of interval i are set */
   double t, h, tout, hfixed, nfixed;
+  double tlo;                     /* fixed steps: the time is t + tlo (one_step) */
   double *y, *ytry;               /* the state, and the copy a step works on */
   unsigned long nsteps;
   long native_from;               /* the first step of machine code throughout (nz_run_native_from) */
@@ -71,7 +73,7 @@ nz_run *nz_run_alloc(nz_stepper *st, const nz_run_config *cfg, const double *y0)
       !isfinite(cfg->t1) || !finite_positive(cfg->dt) || !finite_positive(cfg->h0) ||
       !(cfg->step == 0.0 || finite_positive(cfg->step)) || cfg->stall_window < 1 || cfg->nevents < 0 ||
       (cfg->nevents > 0 && (!cfg->directions || !finite_positive(cfg->event_tol))) ||
-      (cfg->step > 0.0 && !st->ops->step_fixed))
+      (cfg->step > 0.0 && !st->ops->step_fixed) || (cfg->step == 0.0 && !st->ops->step))
     return NULL;
   nz_run *r = calloc(1, sizeof *r);
   if (!r) return NULL;
@@ -176,23 +178,38 @@ static void begin_interval(nz_run *r)
   if (r->c.step > 0.0) {
     double n = ceil((r->tout - r->t) / r->c.step - 1e-9);
     r->nfixed = n > 1.0 ? n : 1.0;               /* math.max(1, ...) */
-    r->hfixed = (r->tout - r->t) / r->nfixed;
+    r->hfixed = ((r->tout - r->t) - r->tlo) / r->nfixed;
   }
   r->in_interval = 1;
 }
 
 /* One step from (t, y), committed only when it succeeds (the Lua loop keeps
- * its t, h, y when the step raises). */
+ * its t, h, y when the step raises).
+ *
+ * Whoever chooses a step keeps the time it ends at to twice the precision
+ * (core/compensated.h): an adaptive integrator its own (taylor.c, ode.c),
+ * the loop that of its fixed steps, t + tlo.  The last fixed step of an
+ * output interval is the rest to the output time, so that the steps sum to
+ * it to the last bit: equal steps of the rounded (tout - t) / n would end
+ * n times their rounding away, the same at every interval, and a run of
+ * 1e8 steps would label its states with times off by that sum.  t is then
+ * the output time itself, the rest's own rounding kept in tlo. */
 static int one_step(nz_run *r, const nz_system *s, double tlimit)
 {
-  double t = r->t, h = r->h;
+  double t = r->t, h = r->h, tlo = r->tlo;
   int st;
   memcpy(r->ytry, r->y, (size_t)r->dim * sizeof(double));
   if (r->c.step > 0.0) {
-    st = r->st->ops->step_fixed(r->st, s, &t, r->hfixed, r->ytry);
+    double hstep = r->nfixed == 1.0 ? (r->tout - r->t) - r->tlo : r->hfixed;
+    st = r->st->ops->step_fixed(r->st, s, &t, hstep, r->ytry);
     if (st) return st;
     r->nfixed -= 1.0;
-    if (r->nfixed == 0.0) t = r->tout;
+    t = r->t;
+    nz_dd_add(&t, &tlo, hstep);
+    if (r->nfixed == 0.0) {
+      tlo += t - r->tout;
+      t = r->tout;
+    }
   } else {
     st = r->st->ops->step(r->st, s, &t, tlimit, &h, r->ytry);
     if (st) return st;
@@ -201,6 +218,7 @@ static int one_step(nz_run *r, const nz_system *s, double tlimit)
   r->y = r->ytry;
   r->ytry = swap;
   r->t = t;
+  r->tlo = tlo;
   r->h = h;
   return NZ_OK;
 }
@@ -589,6 +607,7 @@ int nz_run_jump(nz_run *r, const nz_system *s, double te, const double *y)
   if (!(te >= r->ta && te <= r->t) || (r->nev && !r->hooks.event)) return NZ_EARG;
   memcpy(r->y, y, (size_t)r->dim * sizeof(double));
   r->t = r->ta = te;
+  r->tlo = 0.0;
   r->st->ops->reset(r->st);
   if (!r->st->exact_dense && r->c.step == 0.0 && finite_positive(r->c.rtol + r->c.atol)) {
     double h;

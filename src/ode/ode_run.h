@@ -5,7 +5,9 @@
  * projections and the pauses it asks for.
  *
  * The loop: the output grid (t0 + i dt, the last point at t1), fixed steps
- * that land on each output time, the accelerations and multipliers recorded
+ * that land on each output time (to the last bit: the loop keeps their sum
+ * to twice the precision and makes an interval's last step the rest to its
+ * output time; see one_step), the accelerations and multipliers recorded
  * at each output point, the stall detection, the polling of the interrupt,
  * and, when asked, the watch for events and for the drift off the
  * constraints.  What the loop cannot know it asks of hooks

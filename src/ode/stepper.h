@@ -1,6 +1,7 @@
 /* stepper.h - the integrator interface of sys:simulate: what
  * the stepping loop (ode_run.h) asks of a method, implemented by GSL's
- * steppers (stepper_gsl.c, over ode.c) and by Taylor's method (taylor.c).
+ * steppers (stepper_gsl.c, over ode.c), by Taylor's method (taylor.c) and by
+ * the variational integrators (variational.c).
  *
  * An integrator advances the state y (dim values, q then q' first) one
  * step at a time towards a limit time, and can give the state anywhere
@@ -12,8 +13,14 @@
  *               the step to try and, on return, the next one (a method that
  *               chooses its own steps reads nothing from it and returns the
  *               step it took).  NZ_OK, or a failure that leaves *t and y as
- *               they were (the method's own report says what failed).
- *   step_fixed  one step of exactly h; NULL for a method without fixed steps.
+ *               they were (the method's own report says what failed).  The
+ *               method keeps the time its steps end at as a double-length
+ *               sum (core/compensated.h) and hands back its rounded value,
+ *               so that 1e8 steps lose nothing to t + h; a step from a time
+ *               it did not leave starts that sum afresh.  NULL for a method
+ *               with fixed steps only (variational.c).
+ *   step_fixed  one step of exactly h; NULL for a method without fixed steps
+ *               (the loop, which chose h, keeps the time).
  *   dense       the state at tau in [ta, tb] of the last step: *ok when it
  *               meets the method's tolerance there (an interpolant's error
  *               estimate; always for a method whose dense output is its own

@@ -5,7 +5,7 @@
  *
  * A step from (t, q, q') takes the series of the motion q(t + tau) =
  * sum_{n=0..p+1} a_n tau^n from a series function (for a recorded system
- * nz_compiled_motion_series, mech_graph.h), chooses the step size from the
+ * nz_recording_motion_series, mech_graph.h), chooses the step size from the
  * last coefficients (Jorba and Zou 2005, see taylor.c) and moves to the
  * polynomial's value and derivative at the step.  The polynomial is also the
  * dense output: the stepping loop (ode_run.c) reads the output points inside
@@ -58,9 +58,10 @@ typedef enum nz_taylor_failure {
   NZ_TAYLOR_ACCEL            /* the accel function (an output point's q'')    */
 } nz_taylor_failure;
 
-/* q(tau) and q'(tau) of a step's polynomial a_0 .. a_P (Horner); q and qd must not
+/* The increments of a step's polynomial a_0 .. a_P (P >= 2) over tau:
+ * dq = q(tau) - a_0 and dqd = q'(tau) - a_1 (Horner); dq and dqd must not
  * overlap a. */
-void nz_taylor_eval(int k, int P, const double *a, double tau, double *q, double *qd);
+void nz_taylor_increments(int k, int P, const double *a, double tau, double *dq, double *dqd);
 
 /* The order Jorba and Zou give for a tolerance eps (0 < eps < 1), >= 2. */
 int nz_taylor_order(double eps);

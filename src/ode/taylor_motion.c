@@ -70,6 +70,7 @@ static int motion_series(void *ctx, const nz_system *s, double t0, const double 
    * constrained one on the rows it holds, friction riding on the normal
    * forces of the sliding contacts */
   int na = nz_contacts_active(m->contacts, c->rows, c->couple, c->coef);
+  if (na < 0) return NZ_EARG;                  /* (the contacts say why) */
   if (na == 0) return s->series(s->mass_bias_ctx, NULL, NULL, t0, q0, qd0, NULL, NULL, p, a);
   for (int x = 0; x < na; x++) c->lam_sel[x] = c->lam[c->rows[x]];
   nz_series_selection sel = { na, c->rows, c->couple, c->coef };

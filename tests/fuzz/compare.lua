@@ -141,7 +141,7 @@ function M.system(r, sys, a, b, states)
   -- every function is recorded: none may fall back (its operations all
   -- record) unless it fails at the check states itself (nz.log(-1))
   for _, rec in ipairs(a.recording) do
-    if not rec.compiled and tostring(rec.why):find("^gives ") then
+    if not rec.recorded and tostring(rec.why):find("^gives ") then
       findings[#findings + 1] = { what = rec.label .. " fell back to Lua", state = "", why = tostring(rec.why) }
     end
   end

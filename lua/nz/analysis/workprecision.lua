@@ -58,6 +58,7 @@
 local plot = require "nz.draw.plot"
 local core = require "nz.core"
 local options = require "nz.base.options"
+local args = require "nz.base.args"
 
 local M = {}
 
@@ -93,12 +94,34 @@ local function max_error(tr, ref)
   return worst
 end
 
--- The methods a study can run: GSL's steppers, and taylor.
+-- The methods a study can run: GSL's steppers, taylor, and the
+-- variational integrators of orders 2 ("variational"), 4, 6, 8
+-- ("variational4", ...).
 local function method_names()
   local names = {}
   for i, m in ipairs(core.mech.ode_methods()) do names[i] = m.name end
-  names[#names + 1] = "taylor"
+  for _, m in ipairs{ "taylor", "variational", "variational4", "variational6", "variational8" } do names[#names + 1] = m end
   return names
+end
+M.method_names = method_names
+
+-- The options of sys:simulate that run `method` at the study's tolerance
+-- tol: rtol = tol, atol = tol / 100; a variational integrator of order p
+-- (fixed steps, no tolerance) at step = tol^(1/p), so that its error, C
+-- h^p, spans the same decades as the others' when C is about 1.
+-- A fixed step no longer than the output spacing, which sets the steps
+-- anyway (simulate would say so once): the options o of one run.
+function M.fit_step(o)
+  if not o.step then return o end
+  local dt = o.dt or (o.t1 - (o.t0 or 0)) / require("nz.motion.settings").defaults.points
+  if o.step > dt then o.step = dt end
+  return o
+end
+
+function M.method_options(method, tol)
+  local p = method == "variational" and 2 or tonumber(method:match("^variational(%d)$"))
+  if p then return { method = "variational", order = p, step = tol ^ (1 / p) } end
+  return { method = method, rtol = tol, atol = tol * 1e-2 }
 end
 
 -- The options' checkers (the methods' names are read at each check).
@@ -114,30 +137,42 @@ local function tolerance(v)
   return type(v) == "number" and v >= min_tol and v < 1, ("a tolerance from %g to 1 (each run takes rtol = tol, "
     .. "atol = tol / 100)"):format(min_tol)
 end
-local OPTIONS = options.declare("nz.workprecision", {
-  q0 = any, qd0 = any, t0 = any, t1 = any, dt = any,      -- simulate checks these
-  methods = list, tols = list, reference = function(v) return type(v) == "function", "a function(t) returning q" end,
-  reference_method = is_method, reference_tol = tolerance,
-  budget = function(v) return type(v) == "number" and v > 0 and v < math.huge, "seconds per point, a positive number" end,
-  x = function(v) return M.X[v] ~= nil, "\"time\", \"nfev\" or \"steps\"" end,
+-- The checkers of the options a study shares with nz.longrun.
+M.checks = {
   plot = function(v)
     return v == true or v == false or (type(v) == "string" and (v:match("%.svg$") or v:match("%.png$"))),
       "true, or a file name ending in .svg or .png"
   end,
   quiet = function(v) return type(v) == "boolean", "true or false" end,
   simulate = function(v) return type(v) == "table" and getmetatable(v) == nil, "a table of simulate's options" end,
+}
+local OPTIONS = options.declare("nz.workprecision", {
+  q0 = any, qd0 = any, t0 = any, t1 = any, dt = any,      -- simulate checks these
+  methods = list, tols = list, reference = function(v) return type(v) == "function", "a function(t) returning q" end,
+  reference_method = is_method, reference_tol = tolerance,
+  budget = function(v) return type(v) == "number" and v > 0 and v < math.huge, "seconds per point, a positive number" end,
+  x = function(v) return M.X[v] ~= nil, "\"time\", \"nfev\" or \"steps\"" end,
+  plot = M.checks.plot, quiet = M.checks.quiet, simulate = M.checks.simulate,
 })
 
--- The options, checked before anything runs: one error, from the caller's
--- line, naming the option ("bad argument #2 to 'workprecision' (...)").
-local function check(sys, opts)
-  local args = require("nz.base.args")
-  local function bad(fmt, ...) args.error("workprecision", 2, fmt, ...) end
+-- A study's call (nz.workprecision, nz.longrun) checked before anything
+-- runs: sys a system, opts a table of the options declared; each error
+-- from the caller's line, naming what is wrong ("bad argument #2 to
+-- 'workprecision' (...)").  Returns bad(fmt, ...), which raises such an
+-- error about the options.
+function M.check_call(name, sys, opts, declared, shape)
+  local function bad(fmt, ...) args.error(name, 2, fmt, ...) end
   if not require("nz.base.classes").is_system(sys) then
-    args.error("workprecision", 1, "a system from nz.system{...} expected, got %s", args.shown(sys))
+    args.error(name, 1, "a system from nz.system{...} expected, got %s", args.shown(sys))
   end
-  if type(opts) ~= "table" then bad("options {q0 =, t1 =, ...} expected, got %s", args.shown(opts)) end
-  args.options("workprecision", 2, opts, OPTIONS)
+  if type(opts) ~= "table" then bad("options %s expected, got %s", shape, args.shown(opts)) end
+  args.options(name, 2, opts, declared)
+  return bad
+end
+
+-- The options, checked before anything runs.
+local function check(sys, opts)
+  local bad = M.check_call("workprecision", sys, opts, OPTIONS, "{q0 =, t1 =, ...}")
   local names = method_names()
   local method = is_method
   -- the lists entry by entry, naming the entry
@@ -161,9 +196,10 @@ local function check(sys, opts)
     seen[tol] = i
   end
   -- the study sets these for every run: in 'simulate' they would be overwritten
-  for _, key in ipairs{ "method", "rtol", "atol" } do
+  for _, key in ipairs{ "method", "rtol", "atol", "step", "order" } do
     if opts.simulate and opts.simulate[key] ~= nil then
-      bad("option 'simulate': '%s' is set by the study for each run (methods =, tols = ; atol = tol / 100): drop it", key)
+      bad("option 'simulate': '%s' is set by the study for each run (methods =, tols = ; atol = tol / 100; a "
+        .. "variational integrator of order p: step = tol^(1/p)): drop it", key)
     end
   end
 end
@@ -173,8 +209,8 @@ end
 -- which sets the mode when the system is made).  Returns a function that
 -- restores the system's own mode (-1: in the background once a plan is
 -- used, 1: at first use, 0: never; graph_info's native_mode).
-local function one_evaluator(sys)
-  local c = sys.recording and sys.engine.compiled
+function M.one_evaluator(sys)
+  local c = sys.recording and sys.engine.recording
   if not c then return function() end end
   local own = c:info().native_mode
   if own == 0 then return function() end end
@@ -182,20 +218,20 @@ local function one_evaluator(sys)
   return function() c:set_native(own == 1 or nil) end
 end
 
-local function wait_for_compiles(sys)
-  local c = sys.recording and sys.engine.compiled
+function M.wait_for_compiles(sys)
+  local c = sys.recording and sys.engine.recording
   if c and c.native_wait then c:native_wait() end
 end
 
-local function native_state(sys)
+function M.native_state(sys)
   if not sys.recording then return nil end
   local info = sys:graph_info()
   return { plans = info.native_plans or 0, series = info.native_series or 0, seconds = info.native_seconds or 0,
-    why = info.native_why, mode = sys.engine.compiled:info().native_mode }
+    why = info.native_why, mode = sys.engine.recording:info().native_mode }
 end
 
 -- What the timed runs ran on, in words.
-local function evaluator_text(sys, state)
+function M.evaluator_text(sys, state)
   if not state then return "Lua functions (the system is not recorded: compile = false)" end
   if state.plans == 0 then
     return "interpreted graphs" .. (state.why and (" (no machine code: " .. state.why .. ")")
@@ -242,7 +278,8 @@ local function warm_up(sys, opts, methods, tols, run)
       local ok, tr = pcall(run, method, tol)
       if interrupted(ok, tr) then return nil, method, tol end
       if ok then ran = ran + 1; break end
-      o.skip = method == "taylor" and tostring(tr):match("method 'taylor' cannot run this system: ([^;\n]*)") or nil
+      o.skip = method == "taylor" and tostring(tr):match("method 'taylor' cannot run this system: ([^;\n]*)")
+        or method:match("^variational") and tostring(tr):match("method 'variational' (.-): take ") or nil
       if o.skip then break end
       o[tol] = tostring(tr)
       failures[#failures + 1] = o[tol]
@@ -313,7 +350,7 @@ local function measured_row(p, reference)
   -- (msadams, msbdf, dense = false) stopped at about every output
   -- point, or the interpolant's error control made many points step
   -- ends (nz/motion/simulate.lua says which in tr.stats.grid_why)
-  r.grid = r.method ~= "taylor" and tr.stats.grid_why ~= nil
+  r.grid = r.method ~= "taylor" and not r.method:match("^variational") and tr.stats.grid_why ~= nil
   r.grid_why = r.grid and tr.stats.grid_why or nil
   return r
 end
@@ -329,7 +366,7 @@ local function measure(sys, opts, methods, tols, budget, run)
   end
 
   -- 1. not timed: the reference, and a warm-up run per method
-  local before, untimed0 = native_state(sys), now()
+  local before, untimed0 = M.native_state(sys), now()
   local reference = opts.reference
   study.reference = "closed form"
   if not reference then
@@ -341,11 +378,11 @@ local function measure(sys, opts, methods, tols, budget, run)
   local outcome, method, tol = warm_up(sys, opts, methods, tols, run)
   if not outcome then
     stopped(method, tol)
-    study.evaluator = evaluator_text(sys, native_state(sys))
+    study.evaluator = M.evaluator_text(sys, M.native_state(sys))
     return rows
   end
-  wait_for_compiles(sys)
-  local warm = native_state(sys)
+  M.wait_for_compiles(sys)
+  local warm = M.native_state(sys)
   study.untimed_seconds = now() - untimed0
   study.compile_seconds = warm and (warm.seconds - before.seconds) or 0
   study.compiled = warm and (warm.plans - before.plans) or 0
@@ -369,17 +406,17 @@ local function measure(sys, opts, methods, tols, budget, run)
   local cut = time_points(points, budget, run)
   -- a plan compiled during the timed runs (one the warm-up did not use):
   -- the times before it ran on another evaluator; every point again
-  local final = native_state(sys)
+  local final = M.native_state(sys)
   if not cut and final and final.plans ~= warm.plans then
-    wait_for_compiles(sys)
-    study.retimed, warm = true, native_state(sys)
+    M.wait_for_compiles(sys)
+    study.retimed, warm = true, M.native_state(sys)
     for _, p in ipairs(points) do
       if p.tr then p.times, p.spent, p.wall_spent, p.active, p.tr, p.wall = {}, 0, 0, true, nil, nil end
     end
     cut = time_points(points, budget, run)
-    final = native_state(sys)
+    final = M.native_state(sys)
   end
-  study.evaluator = evaluator_text(sys, final)
+  study.evaluator = M.evaluator_text(sys, final)
   study.evaluator_changed = final and final.plans ~= warm.plans or nil
 
   for _, p in ipairs(points) do
@@ -412,10 +449,11 @@ function M.run(sys, opts)
   local function run(method, tol)
     local o = {}
     for k, v in pairs(base) do o[k] = v end
-    o.method, o.rtol, o.atol = method, tol, tol * 1e-2
+    for k, v in pairs(M.method_options(method, tol)) do o[k] = v end
+    M.fit_step(o)
     return sys:simulate(o)
   end
-  local restore = one_evaluator(sys)
+  local restore = M.one_evaluator(sys)
   local ok_study, rows = pcall(measure, sys, opts, methods, tols, budget, run)
   restore()
   if not ok_study then error(rows, 0) end
@@ -476,7 +514,7 @@ end
 function M.table(rows)
   M.flag(rows)
   local t = { { "method", "tol", "error", "time (s)", "median", "max", "runs", "rhs evals", "steps" } }
-  local skipped, taylor, grid, flagged = {}, false, false, {}
+  local skipped, taylor, variational, grid, flagged = {}, false, false, false, {}
   for _, r in ipairs(rows) do
     if r.status == "skipped" then           -- one row per method, not per tolerance
       if not skipped[r.method] then t[#t + 1] = { r.method, "all", "-", "-", "-", "-", "-", "-", r.message } end
@@ -492,6 +530,7 @@ function M.table(rows)
         r.time_max and ("%.3g"):format(r.time_max) or "-", tostring(r.runs or 1),
         tostring(r.nfev), tostring(r.steps) .. (r.grid and " (grid)" or "") }
       taylor = taylor or r.method == "taylor"
+      variational = variational or r.method:match("^variational") ~= nil
       grid = grid or r.grid
       if r.flag then flagged[#flagged + 1] = ("%s at %g"):format(r.method, r.tol) end
     end
@@ -516,7 +555,7 @@ function M.table(rows)
       .. "): the error does not follow the tolerance there (the method's error control, roundoff, or the "
       .. "reference's own error); the diagram draws these points apart, off the method's line"
   end
-  if next(skipped) then
+  if skipped.taylor then
     text = text .. "\nskipped: taylor runs recorded systems with constraints of order 0, 1 and 2 only"
   end
   if grid then
@@ -527,6 +566,10 @@ function M.table(rows)
   if taylor then
     text = text .. "\ntaylor: rhs evals counts the series of the motion (one per step, of order ~ -ln(tol)/2 + 1);"
       .. " its output points come off each step's polynomial (dt adds no steps)"
+  end
+  if variational then
+    text = text .. "\nvariational (of order p: variational, variational4, 6, 8): fixed steps, step = tol^(1/p); rhs "
+      .. "evals counts the evaluations of q'' (or of the Lagrangian, where Newton's method solves the steps)"
   end
   local advice = M.recommend(rows)
   if advice then text = text .. "\n" .. advice end

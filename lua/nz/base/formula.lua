@@ -451,6 +451,7 @@ end
 printers.tex = {
   sym = function(a)
     local info = a.info or {}
+    if info.tex then return info.tex end   -- written out by its maker (a contact's force, N_{floor})
     local n = M.tex_name(info.base or a.name)
     local d = info.dots or 0
     if d == 1 and info.frozen then return "\\dot{" .. n .. "}_{0}" end   -- held in T_0 (R_1 of sys:show{n = 1})

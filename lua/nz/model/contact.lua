@@ -8,7 +8,9 @@
 -- restitution e (0 <= e <= 1, 0 by default: the contact stays closed once
 -- reached), and Coulomb friction with mu (sliding) and mu_s (sticking,
 -- mu_s >= mu, default mu) along slip(t, q, qd, params), the slip velocity
--- (or a function of (t, q) whose rate it is).  nz.effects.contact and
+-- (or a function of (t, q) whose rate it is), or, with slip = {f1, f2}, the
+-- isotropic cone on the two slip velocities along orthonormal tangent
+-- directions.  nz.effects.contact and
 -- nz.effects.friction make the same for a scene.
 --
 -- The system keeps its equalities as they are (sys.nc, sys.engine: every
@@ -18,6 +20,7 @@
 -- simulation integrates that one in the current contact mode
 -- (nz/motion/contact_run.lua, src/mech/contact.c), and a system without contacts
 -- has none, so it costs nothing.
+local hypot = require("nz.core").hypot
 local where = require "nz.base.where"
 
 local M = {}
@@ -52,8 +55,11 @@ function M.check(spec, what, level)
     bad("static friction coefficient 'mu_s' must be a number >= mu = %s (sticking holds at least what sliding "
       .. "does), got %s", shown(spec.mu), shown(spec.mu_s))
   end
-  if spec.slip ~= nil and type(spec.slip) ~= "function" then
-    bad("'slip' must be a function(t, q, qd, params) giving the slip velocity, got %s", type(spec.slip))
+  local cone = type(spec.slip) == "table" and #spec.slip == 2 and type(spec.slip[1]) == "function"
+    and type(spec.slip[2]) == "function"
+  if spec.slip ~= nil and type(spec.slip) ~= "function" and not cone then
+    bad("'slip' must be a function(t, q, qd, params) giving the slip velocity, or {f1, f2}: the two slip velocities "
+      .. "along orthonormal tangent directions (an isotropic cone), got %s", type(spec.slip))
   end
   if spec.mu > 0 and not spec.slip then
     bad("friction (mu = %s) needs 'slip', the slip velocity: function(t, q, qd, params) (e.g. qd[1] for a block "
@@ -119,11 +125,20 @@ function M.attach(sys, def, contacts, bilateral)
     specs[j] = { gap = #C, e = c.e, mu = c.mu, mu_s = c.mu_s, at = c.at, name = name }
   end
   for j, c in ipairs(contacts) do
-    if c.slip then
+    if type(c.slip) == "function" then
       local slip = c.slip
       C[#C + 1] = where.wrap(function(t, q, qd, qdd, qddd, p) return slip(t, q, qd, p) end, slip,
         ("contact '%s' (its slip)"):format(names[j]))
       specs[j].slip = #C
+    elseif c.slip then   -- an isotropic cone: both slip velocities, and |v_t| for Taylor's series (contact.h)
+      local f1, f2, n = c.slip[1], c.slip[2], #C
+      C[n + 1] = where.wrap(function(t, q, qd, qdd, qddd, p) return f1(t, q, qd, p) end, f1,
+        ("contact '%s' (its slip)"):format(names[j]))
+      C[n + 2] = where.wrap(function(t, q, qd, qdd, qddd, p) return f2(t, q, qd, p) end, f2,
+        ("contact '%s' (its second slip)"):format(names[j]))
+      local function speed(t, q, qd, qdd, qddd, p) return hypot(f1(t, q, qd, p), f2(t, q, qd, p)) end
+      C[n + 3] = where.wrap(speed, f1, ("contact '%s' (its slip speed)"):format(names[j]))
+      specs[j].slip, specs[j].slip2, specs[j].speed = n + 1, n + 2, n + 3
     end
   end
   local cdef = {}

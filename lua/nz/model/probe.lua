@@ -129,7 +129,7 @@ local function vector_text(v) return require("nz.base.text").list(v, "%.6g") end
 local function unrecorded(sys)
   local e = sys.engine
   local recorded = {}
-  for _, r in ipairs(sys.recording or {}) do recorded[r.label] = r.compiled end
+  for _, r in ipairs(sys.recording or {}) do recorded[r.label] = r.recorded end
   local out = {}
   local function add(list, labels, slots, is_Q)
     for i, f in ipairs(list) do

@@ -388,12 +388,12 @@ end
 M.recorded_params = recorded_params
 
 -- Record what can be recorded of engine (the definition table the C
--- mechanics reads; lua/nz/system.lua): sets engine.compiled,
--- engine.compiled_params, engine.compiled_mass_bias, engine.params_absent
+-- mechanics reads; lua/nz/system.lua): sets engine.recording,
+-- engine.recording_params, engine.recorded_mass_bias, engine.params_absent
 -- (the names of params read while absent, which lua_system.c watches) and
--- returns the report { {label =, compiled =, why =, nodes =}, ...,
+-- returns the report { {label =, recorded =, why =, nodes =}, ...,
 -- seconds =, nodes = }.
-function M.compile(engine, levels, native)
+function M.record_system(engine, levels, native)
   local clock = os.clock()
   local k = engine.k
   local names, index = recorded_params(engine.params)
@@ -403,7 +403,7 @@ function M.compile(engine, levels, native)
   local nslots = 2
   for _, n in ipairs(levels) do nslots = math.max(nslots, n) end
   nslots = nslots + 2
-  local c = core.mech.compiled_new(k, #names, #engine.constraints, nslots)
+  local c = core.mech.recording_new(k, #names, #engine.constraints, nslots)
   if native ~= nil then c:set_native(native) end
 
   local done, report, absent = {}, { seconds = 0 }, {}
@@ -418,7 +418,7 @@ function M.compile(engine, levels, native)
       if not ok then ids, why = nil, bad end
     end
     done[f] = { ids = ids, why = why, label = label }
-    report[#report + 1] = { label = label, compiled = ids ~= nil, why = why }
+    report[#report + 1] = { label = label, recorded = ids ~= nil, why = why }
     return done[f]
   end
   -- A piece is compiled when every one of its functions is: the sum of theirs.
@@ -444,9 +444,9 @@ function M.compile(engine, levels, native)
   end
   -- M and h from the graphs when every piece they need is recorded.
   local function ok(name) return #engine[name] == 0 or have[name] end
-  engine.compiled = c
-  engine.compiled_params = names
-  engine.compiled_mass_bias = #engine.F > 0 and ok("F") and ok("V") and ok("Q")
+  engine.recording = c
+  engine.recording_params = names
+  engine.recorded_mass_bias = #engine.F > 0 and ok("F") and ok("V") and ok("Q")
   local list = {}
   for name in pairs(absent) do list[#list + 1] = name end
   table.sort(list)
@@ -454,7 +454,7 @@ function M.compile(engine, levels, native)
   engine.record_again = M.record_again
   report.seconds = os.clock() - clock
   report.nodes = c:info().nodes
-  engine.recording = report
+  engine.record_report = report
   return report
 end
 
@@ -470,15 +470,15 @@ function M.record_again(engine)
     if engine.params[name] ~= nil then added[#added + 1] = "params." .. name end
   end
   engine.retired = engine.retired or {}
-  engine.retired[#engine.retired + 1] = engine.compiled
-  local old = engine.recording
-  local report = M.compile(engine, engine.record_levels, engine.record_native)
+  engine.retired[#engine.retired + 1] = engine.recording
+  local old = engine.record_report
+  local report = M.record_system(engine, engine.record_levels, engine.record_native)
   if old then
     for key in pairs(old) do old[key] = nil end
     for key, v in pairs(report) do old[key] = v end
-    engine.recording = old
+    engine.record_report = old
   end
-  engine.recording.again = ("recorded again: %s %s added after the system was made (read while absent "
+  engine.record_report.again = ("recorded again: %s %s added after the system was made (read while absent "
     .. "when it was recorded)"):format(table.concat(added, ", "), #added == 1 and "was" or "were")
   -- the parameters each call checks: now with the new ones
   local names = recorded_params(engine.params)
@@ -491,11 +491,11 @@ end
 -- and print or export wrong equations without a word.
 function M.mass_bias_in_lua(sys)
   local e = sys.engine
-  if not e.compiled then return "every function runs in Lua (the system was made with compile = false)" end
-  if e.compiled_mass_bias then return nil end
+  if not e.recording then return "every function runs in Lua (the system was made with compile = false)" end
+  if e.recorded_mass_bias then return nil end
   local parts = {}
   for _, r in ipairs(sys.recording or {}) do
-    if not r.compiled and not r.label:find("^constraint") then parts[#parts + 1] = ("%s runs in Lua: %s"):format(r.label, r.why) end
+    if not r.recorded and not r.label:find("^constraint") then parts[#parts + 1] = ("%s runs in Lua: %s"):format(r.label, r.why) end
   end
   return #parts > 0 and table.concat(parts, "; ") or "a piece of T, V or Q runs in Lua (print(sys) says which)"
 end
@@ -506,7 +506,7 @@ end
 -- Record functions f(t, q, qd, params) of engine's state, each returning a
 -- number, into a graph of their own (inputs numbered as the system's:
 -- src/mech/mech_graph.h), each checked against its function at the sample
--- state on numbers, as the loop calls them where a graph fails.  Returns { compiled =,
+-- state on numbers, as the loop calls them where a graph fails.  Returns { recording =,
 -- nodes = {one node per function}, params = {names}, values = {their
 -- values now} }, or nil, the index of the first function that cannot be
 -- recorded, and why.
@@ -515,7 +515,7 @@ function M.state_functions(engine, list)
   local names, index = recorded_params(engine.params)
   local values = {}
   for p, name in ipairs(names) do values[p] = engine.params[name] end
-  local c = core.mech.compiled_new(k, #names, 0, 2)
+  local c = core.mech.recording_new(k, #names, 0, 2)
   local nodes = {}
   for i, f in ipairs(list) do
     local ids, why = record_function(c, f, 2, k, engine.params, index, false)
@@ -526,7 +526,7 @@ function M.state_functions(engine, list)
     if not ids then return nil, i, why end
     nodes[i] = ids[1]
   end
-  return { compiled = c, nodes = nodes, params = names, values = values }
+  return { recording = c, nodes = nodes, params = names, values = values }
 end
 
 -- ------------------------------------------------------------------ --
@@ -570,10 +570,10 @@ function M.jets_worst(a, b)
 end
 
 function M.diff_check(engine, levels, name)
-  if not engine.compiled then return end
+  if not engine.recording then return end
   local lua_engine = {}
   for key, v in pairs(engine) do lua_engine[key] = v end
-  lua_engine.compiled, lua_engine.compiled_mass_bias = nil, nil
+  lua_engine.recording, lua_engine.recorded_mass_bias = nil, nil
   local mech = core.mech
   local pieces = {}
   for _, p in ipairs{ "F", "T", "V", "Q" } do
@@ -582,7 +582,7 @@ function M.diff_check(engine, levels, name)
   for r = 1, #engine.constraints do pieces[#pieces + 1] = { "constraints", r, levels[r] or 4 } end
   for _, pc in ipairs(pieces) do
     -- a piece that runs in Lua on both sides has nothing to compare
-    for trial = 0, engine.compiled:piece_nodes(pc[1], pc[2]) > 0 and 8 or -1 do
+    for trial = 0, engine.recording:piece_nodes(pc[1], pc[2]) > 0 and 8 or -1 do
       local K, D = trial, trial % 4
       local tj = M.random_jet(SAMPLE_T + math.random() - 0.5, K, D)
       local lv, dlv = {}, {}

@@ -75,7 +75,7 @@ local function diagnose(f, nslots, k, params, index, is_Q)
   local before = upvalues(f)
   local np = 0
   for _ in pairs(index) do np = np + 1 end
-  local c = core.mech.compiled_new(k, np, 0, nslots)
+  local c = core.mech.recording_new(k, np, 0, nslots)
   pcall(record_function, c, f, nslots, k, params, index, is_Q, hook)
   for i, u in ipairs(upvalues(f)) do
     local old = before[i] and before[i].v

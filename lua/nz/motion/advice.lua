@@ -113,6 +113,13 @@ local function cheaper(cfg, nsteps, tt, ev)
       .. "about %.2gx cheaper per step), or rk8pd"):format(stiff and ("bsimp or msbdf (%s), or "):format(stiff_words(cfg, s)) or "",
       cfg.rtol * 1e3, lp, p, (p / lp) ^ 2)
   end
+  if cfg.method == "variational" then
+    -- fixed steps only; its error is C h^order, bounded in time
+    local p = cfg.order or 2
+    return ("a larger 'step' (the variational integrator's error, bounded in time, grows as step^%d)%s"):format(p,
+      p < 8 and (", or order = %d at a larger step (its error falls as step^%d; a step is %d substeps)")
+        :format(p + 2, p + 2, ({ [2] = 5, [4] = 9, [6] = 17 })[p]) or "")
+  end
   if cfg.step then
     return ("the steps are fixed ('step' = %g; rtol does nothing for fixed steps): a larger 'step', "
       .. "or adaptive steps (drop 'step')"):format(cfg.step)
@@ -143,7 +150,7 @@ end
 -- the system is not recorded): a one-time cost, not the run's pace.  A
 -- compile in the background costs the run nothing.
 local function compile_seconds(sys)
-  local c = sys.engine.compiled
+  local c = sys.engine.recording
   return c and c:info().native_waited or 0
 end
 M.compile_seconds = compile_seconds
@@ -158,7 +165,7 @@ function M.evaluator(sys, from)
     return ("interpreted graph for steps 1-%d, machine code from step %d (compiled in the background)")
       :format(from - 1, from), from
   end
-  local info = sys.engine.compiled and sys.engine.compiled:info()
+  local info = sys.engine.recording and sys.engine.recording:info()
   if from == 0 then
     return "interpreted graph" .. (info.native_compiling > 0 and " (machine code was still compiling)" or "")
   end
@@ -200,7 +207,7 @@ local NEAR = {
 -- computed is kept in nz.last).
 M.SWITCH_TOL = 100
 function M.rounding_flip(sys, cfg, engine, tt, y, qdd, why)
-  if not engine.compiled then return end
+  if not engine.recording then return end
   local k = sys.k
   local q, qd, ymax = {}, {}, 0
   for i = 1, k do

@@ -60,10 +60,13 @@ function M.begin(sys, cfg, q0, qd0, fail)
   local defs = {}
   -- (a gap receives (t, q, params), a slip (t, q, qd, params): of order 0
   -- and <= 1, as src/mech/contact.c takes them)
-  for j, s in ipairs(c.contacts) do defs[j] = { gap = s.gap, slip = s.slip, e = s.e, mu = s.mu, mu_s = s.mu_s } end
+  for j, s in ipairs(c.contacts) do
+    defs[j] = { gap = s.gap, slip = s.slip, slip2 = s.slip2, speed = s.speed, e = s.e, mu = s.mu, mu_s = s.mu_s }
+  end
   local engine = csys.engine
   engine.orders = orders
-  local cs = mech.contacts_new(engine, { nb = c.nb, orders = orders, contacts = defs, names = c.names })
+  local cs = mech.contacts_new(engine, { nb = c.nb, orders = orders, contacts = defs, names = c.names,
+    rtol = cfg.rtol, atol = cfg.atol })
   for j, kin in ipairs(mech.contacts_kinematics(cs, engine, cfg.t0, q0, qd0)) do
     if kin[1] < -M.START_TOL * kin[4] or (kin[4] == 0 and kin[1] < 0) then
       fail("contact '%s' (a unilateral constraint, gap >= 0) is violated at the start: its gap is %s at t = %s, q = %s: "
@@ -91,7 +94,10 @@ function Run:attach(tr, loop)
   for r = 1, self.sys.contact.nb do tr.lambda_names[r] = "lambda" .. r end
   for j, s in ipairs(self.specs) do
     tr.lambda_names[s.gap] = "N." .. self.names[j]
-    if s.slip then tr.lambda_names[s.slip] = "T." .. self.names[j] end
+    if s.slip2 then    -- an isotropic cone: its two components (its speed's column goes at the end: finish)
+      tr.lambda_names[s.slip], tr.lambda_names[s.slip2] = "T1." .. self.names[j], "T2." .. self.names[j]
+      tr.lambda_names[s.speed] = "|v_t|." .. self.names[j]
+    elseif s.slip then tr.lambda_names[s.slip] = "T." .. self.names[j] end
   end
   self:record_changes(self.cfg.t0, self.start.q, self.start.qd, self.start.qd_after, self.start.rep, true)
 end
@@ -101,27 +107,32 @@ local function energy(self, t, q, qd)
   return T
 end
 
-local KIND = { open = "opens", closed = "closes", stick = "sticks", ["slip+"] = "slips", ["slip-"] = "slips" }
+local KIND = { open = "opens", closed = "closes", stick = "sticks", ["slip+"] = "slips", ["slip-"] = "slips", slip = "slips" }
 
 -- tr.events for a transition at t from (q, qd) to qd_after, and the mode.
+-- An impact gives an event to each contact that takes an impulse: those
+-- that closed at a speed, and those touching at rest that pass the impulse
+-- on (Newton's cradle: the middle ball's contact with the third); the
+-- kinetic energy lost is on the first.
 function Run:record_changes(t, q, qd, qd_after, rep, start)
   local tr = self.tr
   local lost
   if rep.impact then
     local T0, T1 = energy(self, t, q, qd), energy(self, t, q, qd_after)
     lost = T0 and T1 and T0 - T1
+    tr.contacts.impacts = tr.contacts.impacts + 1
   end
   local states = {}
   for j, ch in ipairs(rep.contacts) do
     states[j] = ch.to
-    local kind = ch.impact and "impact" or (ch.to ~= ch.from and KIND[ch.to]) or nil
+    local struck = rep.impact and (ch.impact or (ch.share and ch.Pn > 0))
+    local kind = struck and "impact" or (ch.to ~= ch.from and KIND[ch.to]) or nil
     if kind and not (start and kind == "opens") then
       local ev = { name = self.names[j], contact = j, kind = kind, t = t, q = q, qd = qd, qd_after = qd_after,
         from = ch.from, to = ch.to, gap = ch.gap, normal_velocity = ch.vn_before, slip_velocity = ch.vt_before }
-      if ch.impact then
-        ev.impulse, ev.tangential_impulse, ev.speed = ch.Pn, ch.Pt, -ch.vn_before
+      if struck then
+        ev.impulse, ev.tangential_impulse, ev.speed = ch.Pn, ch.Pt, math.max(0, -ch.vn_before)
         ev.energy_lost, lost = lost, nil          -- the impact's loss, on its first contact
-        tr.contacts.impacts = tr.contacts.impacts + 1
       end
       if ch.zeno then
         ev.zeno = rep.zeno and rep.zeno.time
@@ -171,12 +182,23 @@ end
 function Run:finish(tr)
   tr.contacts.run = nil
   tr.contacts.final = tr.contacts.modes[#tr.contacts.modes].states
+  -- an isotropic cone's speed |v_t| is a row of Taylor's series, not a
+  -- force: its column (always 0) leaves tr.lambda
+  local drop = {}
+  for _, s in ipairs(self.specs) do if s.speed then drop[#drop + 1] = s.speed end end
+  if #drop == 0 then return end
+  table.sort(drop, function(a, b) return a > b end)
+  for _, r in ipairs(drop) do table.remove(tr.lambda_names, r) end
+  for _, row in ipairs(tr.lambda or {}) do
+    for _, r in ipairs(drop) do table.remove(row, r) end
+  end
 end
 
 -- ------------------------------------------------------------------ --
 -- What the trajectory shows                                          --
 
--- The summary line of print(tr).
+-- The summary line of print(tr): the impacts (each with its contacts'
+-- impulses), the other changes, the energy lost, Zeno, the final mode.
 function M.summary(tr)
   local c = tr.contacts
   local counts, lost = {}, 0
@@ -187,10 +209,14 @@ function M.summary(tr)
     end
   end
   local parts = {}
-  for _, kind in ipairs{ "impact", "closes", "opens", "sticks", "slips" } do
+  if counts.impact then
+    parts[1] = ("%d impact%s (%d impulse%s)"):format(c.impacts, c.impacts == 1 and "" or "s", counts.impact,
+      counts.impact == 1 and "" or "s")
+  end
+  for _, kind in ipairs{ "closes", "opens", "sticks", "slips" } do
     local n = counts[kind]
     if n then
-      local word = ({ impact = "impact", closes = "closing", opens = "opening", sticks = "stick", slips = "slip" })[kind]
+      local word = ({ closes = "closing", opens = "opening", sticks = "stick", slips = "slip" })[kind]
       parts[#parts + 1] = ("%d %s%s"):format(n, word, n == 1 and "" or "s")
     end
   end

@@ -1,7 +1,7 @@
 -- nz/motion/options.lua - the options of sys:simulate checked, and a run's
 -- configuration made from them (validate), with what the start needs at
--- the levels above q' (start_levels) and what method 'taylor' refuses
--- (check_taylor); every error from the user's line, naming the option and
+-- the levels above q' (start_levels) and what methods 'taylor' and
+-- 'variational' refuse; every error from the user's line, naming the option and
 -- what it accepts.  The first floor of a run: nz/motion/simulate.lua
 -- assembles options -> run (nz/motion/run.lua) -> trajectory.
 local core = require "nz.core"
@@ -20,7 +20,7 @@ M.level_option = level_option
 local known = options.declare("sys:simulate", {
   q0 = true, qd0 = true, t0 = true, t1 = true, dt = true, method = true, rtol = true, atol = true,
   step = true, events = true, project = true, baumgarte = true, monitors = true, progress = true,
-  check = true, h0 = true, event_tol = true, guess = true, qdd0 = true, dense = true,
+  check = true, h0 = true, event_tol = true, guess = true, qdd0 = true, dense = true, order = true,
 }, level_option)
 local known_monitors = { energy = true, work = true }
 
@@ -92,7 +92,41 @@ local function check_times(sys, cfg)
   check_positive(sys, cfg, "dt", "the output spacing")
 end
 
+-- A fixed step: positive, and not so short that the run takes more than
+-- MAX_FIXED_STEPS of them.
+local function check_fixed_step(sys, cfg)
+  check_positive(sys, cfg, "step", "a fixed step size")
+  local nsteps = (cfg.t1 - cfg.t0) / cfg.step
+  if nsteps > settings.MAX_FIXED_STEPS then
+    fail(sys, "'step' = %g over [%g, %g] means %.3g steps; at most %g: take step >= %.3g (or drop 'step' for adaptive steps)",
+      cfg.step, cfg.t0, cfg.t1, nsteps, settings.MAX_FIXED_STEPS, (cfg.t1 - cfg.t0) / settings.MAX_FIXED_STEPS)
+  end
+end
+
+-- The variational integrators (src/ode/variational.h): a fixed step and an
+-- order, no tolerance.
+local VARIATIONAL_ORDERS = { [2] = true, [4] = true, [6] = true, [8] = true }
+local function check_variational_stepping(sys, cfg)
+  if cfg.step == nil then
+    fail(sys, "method 'variational' takes a fixed step: give 'step' = h (the steps are then equal, no longer than h, "
+      .. "and land on each output time)")
+  end
+  check_fixed_step(sys, cfg)
+  if cfg.h0 ~= nil then fail(sys, "'h0' does not apply to method 'variational', whose steps are 'step': drop 'h0'") end
+  cfg.order = cfg.order or 2
+  if not VARIATIONAL_ORDERS[cfg.order] then
+    fail(sys, "'order' must be 2, 4, 6 or 8 (method 'variational': 2 is the trapezoidal rule, Stormer-Verlet; 4, 6 "
+      .. "and 8 its symmetric compositions), got %s", show(cfg.order))
+  end
+  check_positive(sys, cfg, "event_tol", "the tolerance on event times")
+end
+
 local function check_stepping(sys, cfg)
+  if cfg.method == "variational" then return check_variational_stepping(sys, cfg) end
+  if cfg.order ~= nil then
+    fail(sys, "'order' applies to method 'variational' (2, 4, 6 or 8); method '%s' %s: drop 'order'", tostring(cfg.method),
+      cfg.method == "taylor" and "takes its order from rtol/atol" or "has an order of its own")
+  end
   if cfg.method == "taylor" then
     -- Taylor's method (src/ode/taylor.c): order and step from rtol/atol,
     -- no fixed step and no first step to give.
@@ -112,10 +146,13 @@ local function check_stepping(sys, cfg)
     return
   end
   if type(cfg.method) ~= "string" then
-    fail(sys, "'method' must be the name of a GSL stepper (%s) or \"taylor\", got %s", table.concat(method_names(), " "), show(cfg.method))
+    fail(sys, "'method' must be the name of a GSL stepper (%s), \"taylor\" or \"variational\", got %s",
+      table.concat(method_names(), " "), show(cfg.method))
   end
   if not is_method(cfg.method) then
-    fail(sys, "unknown method '%s'; GSL's steppers are: %s; and taylor (Taylor's method: the series of the motion, with or without constraints) (option 'method')", cfg.method, table.concat(method_names(), " "))
+    fail(sys, "unknown method '%s'; GSL's steppers are: %s; taylor (Taylor's method: the series of the motion, with or "
+      .. "without constraints); and variational (variational integrators from the Lagrangian, fixed steps) (option "
+      .. "'method')", cfg.method, table.concat(method_names(), " "))
   end
   check_positive(sys, cfg, "rtol", "the relative tolerance")
   if not (cfg.rtol >= settings.MIN_RTOL and cfg.rtol <= 1) then
@@ -127,12 +164,7 @@ local function check_stepping(sys, cfg)
   check_positive(sys, cfg, "h0", "the first step", true)
   check_positive(sys, cfg, "event_tol", "the tolerance on event times")
   if cfg.step ~= nil then
-    check_positive(sys, cfg, "step", "a fixed step size")
-    local nsteps = (cfg.t1 - cfg.t0) / cfg.step
-    if nsteps > settings.MAX_FIXED_STEPS then
-      fail(sys, "'step' = %g over [%g, %g] means %.3g steps; at most %g: take step >= %.3g (or drop 'step' for adaptive steps)",
-        cfg.step, cfg.t0, cfg.t1, nsteps, settings.MAX_FIXED_STEPS, (cfg.t1 - cfg.t0) / settings.MAX_FIXED_STEPS)
-    end
+    check_fixed_step(sys, cfg)
     if cfg.method == "msadams" or cfg.method == "msbdf" then
       fail(sys, "'step' (a fixed step) does not work with method '%s', which chooses its own steps and order: "
         .. "drop 'step' and set rtol/atol, or take a one-step method (rk4, rk8pd, rk4imp, ...)", cfg.method)
@@ -361,6 +393,19 @@ function M.check_memory(sys, cfg, p, top)
   end
 end
 
+-- What the GSL steppers' loop alone does, refused by taylor and
+-- variational alike (refuse prefixes the method): the work monitor, a part
+-- of the GSL steppers' state (take `instead`), and projection or
+-- Baumgarte's terms under constraints (`why` the method has no use for
+-- them; without constraints both do nothing, said once by validate as for
+-- every method).
+local function gsl_state_only(sys, cfg, refuse, instead, why)
+  if cfg.monitors.work then
+    refuse("does not integrate the 'work' monitor (it is part of the GSL steppers' state): leave it out, or take %s",
+      instead)
+  end
+  if (cfg.project or cfg.alpha) and sys.nc > 0 then refuse("takes no 'project' or 'baumgarte': %s", why) end
+end
 
 -- What method 'taylor' does not do, refused from the user's line; p: the
 -- level of constraints of order >= 3 (nil when none).
@@ -371,22 +416,36 @@ local function check_taylor(sys, cfg, p)
       .. "level %d (a constraint on the third derivative or higher): take a GSL stepper (rk8pd, the default, "
       .. "or any of %s)", p, table.concat(method_names(), " "))
   end
-  if cfg.monitors.work then
-    refuse("does not integrate the 'work' monitor yet (it is part of the GSL steppers' state): leave it out, "
-      .. "or take rk8pd")
-  end
-  -- without constraints both do nothing, said once by validate as for
-  -- every method; with them taylor has no use for either
-  if (cfg.project or cfg.alpha) and sys.nc > 0 then
-    refuse("takes no 'project' or 'baumgarte': its series keeps the constraints to the order of the method "
-      .. "along each step (their drift is the truncation's: tr:violation() shows it); take rk8pd to project")
-  end
+  gsl_state_only(sys, cfg, refuse, "rk8pd", "its series keeps the constraints to the order of the method along each "
+    .. "step (their drift is the truncation's: tr:violation() shows it); take rk8pd to project")
   if not sys.recording then
     refuse("needs a recorded system (made with compile = true, the default): it builds the series on the graphs; "
       .. "take rk8pd for a system made with compile = false")
   end
 end
 M.method_names = method_names
+
+-- What method 'variational' does not do, refused from the user's line
+-- (src/ode/variational.h: holonomic constraints by the constrained
+-- discrete equations); p as check_taylor's.
+local function check_variational(sys, cfg, p)
+  local function refuse(msg, ...) fail(sys, "method 'variational' " .. msg, ...) end
+  local other = "take rk8pd, or taylor"
+  if sys.contact then
+    refuse("does not take unilateral contacts (their impacts break the discrete variational principle): %s", other)
+  end
+  if p then refuse("takes holonomic constraints (on q and t), and this system's are of order %d: %s", p, other) end
+  for r, m in ipairs(cfg.orders) do
+    if m == 1 then
+      refuse("takes holonomic constraints (on q and t), and constraint %d is on q' (nonholonomic: the discrete "
+        .. "Lagrange-d'Alembert principle for those is not built): %s", r, other)
+    elseif m ~= 0 then
+      refuse("takes holonomic constraints (on q and t), and constraint %d is of order %d (on q''): %s", r, m, other)
+    end
+  end
+  gsl_state_only(sys, cfg, refuse, "rk4 at the same step", "its discrete equations hold the constraints to rounding "
+    .. "at every step (RATTLE)")
+end
 
 -- A run's configuration from the user's options: validated, with the
 -- constraints' classification at the start (cfg.orders, cfg.linear), the
@@ -411,6 +470,7 @@ function M.prepare(sys, opts)
   end
   M.check_memory(sys, cfg, cfg.p, cfg.top)
   if cfg.method == "taylor" then check_taylor(sys, cfg, cfg.p) end
+  if cfg.method == "variational" then check_variational(sys, cfg, cfg.p) end
   return cfg
 end
 

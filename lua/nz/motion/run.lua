@@ -1,5 +1,6 @@
 -- nz/motion/run.lua - a run of sys:simulate: the integrator made for the
--- system (src/ode/ode.c's GSL steppers or Taylor's method, src/ode/taylor.c)
+-- system (src/ode/ode.c's GSL steppers, Taylor's method, src/ode/taylor.c,
+-- or a variational integrator, src/ode/variational.c)
 -- and stepped by the one stepping loop, in C (src/ode/ode_run.c).  The loop
 -- keeps the output grid, locates the events and watches the drift off the
 -- constraints; it asks this module, through hooks, for what only Lua knows
@@ -16,6 +17,7 @@ local record_graph = require "nz.model.record"
 local settings = require "nz.motion.settings"
 local options = require "nz.motion.options"
 local advice = require "nz.motion.advice"
+local variational = require "nz.motion.variational"
 local frontend = require "nz.base.frontend"
 local trajectory = require "nz.motion.trajectory"
 
@@ -176,7 +178,7 @@ local function events_hooks(run)
     local fs = {}
     for i, ev in ipairs(cfg.events) do fs[i] = ev.f end
     local rec, bad, reason = record_graph.state_functions(run.engine, fs)
-    if rec then evals = mech.ode_events_new(rec.compiled, rec.nodes, rec.values, run.k)
+    if rec then evals = mech.ode_events_new(rec.recording, rec.nodes, rec.values, run.k)
     elseif run.taylor then
       fail(sys, "method 'taylor' needs event functions it can record, and event '%s' cannot be (%s): take rk8pd, which "
         .. "calls it in Lua", cfg.events[bad].name, reason)
@@ -370,6 +372,7 @@ local function start(run)
     method = cfg.method, rtol = cfg.rtol, atol = cfg.atol, h0 = cfg.h0 or math.min(cfg.dt, 1e-3),
     work = cfg.monitors.work, orders = run.orders, linear = run.linear, alpha = cfg.alpha, beta = cfg.beta,
     level = cfg.p, top = cfg.top ~= nil, guess = run.guess, contacts = run.contact and run.contact.cs,
+    order = cfg.order, verlet = cfg.method == "variational" and variational.verlet(sys, run.engine),
   }
   run.ode = make_ode(run, run.ode_cfg)
   local evals, fallback, why = events_hooks(run)

@@ -86,7 +86,8 @@ function Trajectory:__tostring()
   local lines = {
     ("trajectory of '%s': %d points, t = %s .. %s, method %s (%s)"):format(self.system.name, n,
       n > 0 and ("%.6g"):format(self.t[1]) or "?", n > 0 and ("%.6g"):format(self.t[n]) or "?", self.method,
-      self.step and ("fixed step %g"):format(self.step) or ("rtol %g, atol %g"):format(self.rtol, self.atol)),
+      (self.method == "variational" and ("order %d, "):format(s.order) or "")
+        .. (self.step and ("fixed step %g"):format(self.step) or ("rtol %g, atol %g"):format(self.rtol, self.atol))),
     ("  cost: %d steps (%d rejected), %d right-hand sides, %d Jacobians, %.3f s"):format(
       s.steps, s.rejected, s.nfev, s.njev, s.wall),
     ("  status: %s%s"):format(self.status, self.message and (": " .. self.message) or ""),

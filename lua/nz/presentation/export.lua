@@ -30,9 +30,9 @@ local function fail(sys, ...) require("nz.base.where").method_error("export", sy
 -- The node ids of everything the code needs, in a table of named lists.
 local function outputs(sys, jacobian)
   local e = sys.engine
-  local c = e.compiled
+  local c = e.recording
   if not c then fail(sys, "the system is not recorded (made with compile = false): there is no graph to export") end
-  local k, np = sys.k, #(e.compiled_params or {})
+  local k, np = sys.k, #(e.recording_params or {})
   local function input(j, i) return 1 + np + j * k + (i - 1) end
   local in_lua = require("nz.model.record").mass_bias_in_lua(sys)
   if in_lua then fail(sys, "nothing to export: %s. Only recorded functions can be exported", in_lua) end
@@ -474,7 +474,7 @@ end
 
 local function c_file(sys, out, nodes, opts)
   local k = sys.k
-  local names = sys.engine.compiled_params or {}
+  local names = sys.engine.recording_params or {}
   local np = #names
   local w = {}
   local function add(s) w[#w + 1] = s end
@@ -668,7 +668,7 @@ end
 
 local function script_file(sys, out, nodes, opts, L)
   local k, nc, e = sys.k, sys.nc, sys.engine
-  local names = e.compiled_params or {}
+  local names = e.recording_params or {}
   local np = #names
   local py = L == PY
   local w = {}
@@ -746,7 +746,7 @@ end
 
 -- ------------------------------------------------------------------ --
 
-local OPTIONS = options.declare("sys:export", { "lang", "file", "main", "jacobian" })
+local OPTIONS = options.declare("sys:export", { "lang", "file", "main", "jacobian", "smooth" })
 local MAIN_OPTIONS = options.declare("sys:export main", { "q0", "qd0", "t0", "t1", "dt", "rtol", "atol" })
 
 function M.export(sys, opts)
@@ -765,10 +765,15 @@ function M.export(sys, opts)
       fail(sys, "main.t1 and main.dt: numbers with t1 > t0 and dt > 0 expected")
     end
   end
+  -- unilateral contacts have events and impacts the exported code does not:
+  -- refused, or with smooth = true the system without them, said first
+  local laws = sys.contact and require("nz.presentation.contact_laws")
+  if laws and not opts.smooth then fail(sys, "%s", laws.export_refusal(sys)) end
   local jac = opts.jacobian ~= false
   local out = outputs(sys, jac)
-  local nodes = sys.engine.compiled:nodes()
+  local nodes = sys.engine.recording:nodes()
   local text = lang == "c" and c_file(sys, out, nodes, opts) or script_file(sys, out, nodes, opts, L)
+  if laws then text = ("%s %s\n"):format(L.comment, laws.export_note(sys)) .. text end
   if opts.file then
     local f, err = io.open(opts.file, "w")
     if not f then fail(sys, "cannot write %s: %s", opts.file, tostring(err)) end

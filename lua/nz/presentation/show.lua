@@ -25,16 +25,16 @@ local derivative_symbol = order_n.symbol
 -- from q').
 local function reader(sys, c, frozen)
   local e = sys.engine
-  if not e.compiled then
+  if not e.recording then
     fail(sys, "the system is not recorded (made with compile = false), so there are no formulas to read: make it without compile = false")
   end
-  c = c or e.compiled
-  local k, np = sys.k, #(e.compiled_params or {})
+  c = c or e.recording
+  local k, np = sys.k, #(e.recording_params or {})
   local frozen_from = 1 + np + c:nslots() * k
   local function sym(input)
     if input == 0 then return formula.symbol("t", { lua = "t", base = "t" }) end
     if input <= np then
-      local name = e.compiled_params[input]
+      local name = e.recording_params[input]
       return formula.symbol(name, { lua = ("params[%q]"):format(name), base = name })
     end
     if input >= frozen_from then
@@ -104,7 +104,7 @@ end
 -- lhs is (3.1) of order n, built from F^(n) (nz/presentation/show_order.lua), and M and h
 -- are read off it: the coefficients of q'' and the rest (which would hold
 -- whatever else the collected form kept: by (2.1) nothing above q'').
-function M.equations(sys, n)
+function M.equations(sys, n, multipliers)
   local rd = reader(sys)
   local k = sys.k
   local lhs, rhs = {}, {}
@@ -140,8 +140,12 @@ function M.equations(sys, n)
     orders = constraints.orders(sys)
     for r = 1, sys.nc do
       phis[r], As[r] = constraint(sys, rd, r, orders[r])
-      local lam = formula.symbol("lambda" .. r, { lua = ("lambda[%d]"):format(r), base = "lambda_" .. r })
-      for i = 1, k do rhs[i] = formula.add(rhs[i], formula.mul(As[r][i], lam)) end
+      -- (multipliers: a contact system's, nz/presentation/contact_laws.lua; nil: no force)
+      local lam = multipliers and multipliers(r)
+        or not multipliers and formula.symbol("lambda" .. r, { lua = ("lambda[%d]"):format(r), base = "lambda_" .. r })
+      if lam then
+        for i = 1, k do rhs[i] = formula.add(rhs[i], formula.mul(As[r][i], lam)) end
+      end
     end
   end
   return { lhs = lhs, rhs = rhs, M = Mp, h = h, phi = phis, A = As, orders = orders, reader = rd, n = n, order = order }
@@ -363,7 +367,11 @@ function M.show(sys, opts)
     fail(sys, "option 'n': an integer order from 1 to %d expected, got %s", max_order, require("nz.base.args").shown(n))
   end
   n = n and math.tointeger(n)
-  local eq = M.equations(sys, n)
+  -- unilateral contacts: the equations of the contact system (its forces on
+  -- the right), its equalities as constraints, the contacts' laws after
+  local laws = sys.contact and require("nz.presentation.contact_laws")
+  local eq = M.equations(sys.contact and sys.contact.system or sys, n, laws and laws.multipliers(sys))
+  local nb = sys.contact and sys.contact.nb or sys.nc
   local k = sys.k
   if opts.lua then
     local what = n and ("the residuals of order %d, %s - Q - A^T lambda (Q includes -dV/dq),"):format(n,
@@ -386,7 +394,7 @@ function M.show(sys, opts)
     eq.lhs[i] = formula.ordered(eq.lhs[i], rank)
     polys[#polys + 1], polys[#polys + 2] = eq.lhs[i], eq.rhs[i]
   end
-  for r = 1, sys.nc do polys[#polys + 1] = eq.phi[r] end
+  for r = 1, #eq.phi do polys[#polys + 1] = eq.phi[r] end
   -- name repeated subexpressions when the equations run long
   -- a row: sum_j (M_ij) q_j'' + h_i = A^T lambda, each coefficient of q''
   -- whole (in parentheses when a sum), then the bias' terms
@@ -439,7 +447,10 @@ function M.show(sys, opts)
     for i = 1, k do
       out[#out + 1] = ("  %s &= %s \\\\"):format(rows[i][1], rows[i][2])
     end
-    for r = 1, sys.nc do out[#out + 1] = ("  %s &= 0 \\\\"):format(formula.print(eq.phi[r], "tex", names, true)) end
+    for r = 1, nb do out[#out + 1] = ("  %s &= 0 \\\\"):format(formula.print(eq.phi[r], "tex", names, true)) end
+    if laws then
+      for _, l in ipairs(laws.show_lines(sys, eq, "tex", names)) do out[#out + 1] = "  " .. l .. " \\\\" end
+    end
     for _, e in ipairs(where) do
       out[#out + 1] = ("  %s &= %s \\\\"):format(names[e.key]:gsub("^(%a)(%d+)$", "%1_{%2}"), formula.print_atom(e.atom, formula.printers.tex, nil))
     end
@@ -483,12 +494,16 @@ function M.show(sys, opts)
   for i = 1, k do
     out[#out + 1] = ("  %-" .. width .. "s:  %s = %s"):format(sys.coords[i], rows[i][1], rows[i][2])
   end
-  if sys.nc > 0 then
+  if nb > 0 then
     out[#out + 1] = "with the constraints"
-    for r = 1, sys.nc do
+    for r = 1, nb do
       out[#out + 1] = ("  (%d)  %s = 0   (order %d: A = dPhi/d%s)"):format(r, formula.print(eq.phi[r], "text", names, true),
         eq.orders[r], order_n.level(eq.orders[r]))
     end
+  end
+  if laws then
+    out[#out + 1] = "with the unilateral contacts (N: the normal force on the gap's gradient, T: the friction on the slip's)"
+    for _, l in ipairs(laws.show_lines(sys, eq, "text", names)) do out[#out + 1] = l end
   end
   if #where > 0 then
     out[#out + 1] = "where"

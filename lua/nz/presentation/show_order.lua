@@ -31,12 +31,12 @@ end
 -- i) -> d node/dq_i^(j) }, or nil and why.
 function M.graph(sys, n)
   local e = sys.engine
-  local src = e.compiled
-  local k, np = sys.k, #(e.compiled_params or {})
+  local src = e.recording
+  local k, np = sys.k, #(e.recording_params or {})
   local F = src:piece_outputs("F", 1)
   if #F == 0 then return nil, "T (or L) is not recorded" end
   local nslots = n + 2
-  local c = core.mech.compiled_new(k, np, 0, nslots)
+  local c = core.mech.recording_new(k, np, 0, nslots)
   c:set_native(false)
   -- the input numbers of t, the parameters and the slots are the same in
   -- both layouts (mech_graph.h): F is copied as it is

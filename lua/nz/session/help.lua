@@ -192,7 +192,7 @@ upvalue); a parameter it read while absent (p.c or 1) and that appears
 later makes the system record again (print(sys) says so).  Other numbers
 read from upvalues or globals are baked in when the system is made.
 sys:graph_info() gives the graph's size, the recording time and what runs
-as machine code; compile = false keeps everything in Lua.
+as machine code; compile = false means do not record: everything runs in Lua.
 
 Methods (t a number, q, qd, qdd tables of k numbers); help(sys.NAME) shows
 one, e.g. help(sys.simulate):
@@ -281,14 +281,15 @@ one, e.g. help(sys.simulate):
         t must increase; at least 8 points.  An integrator of order p shows
         its defect falling by 2^p when its step is halved
   sys:graph_info()           the recording's figures: nodes, record_seconds,
-                             mass_bias_nodes, functions compiled (recorded)
+                             mass_bias_nodes, functions recorded (also
+                             .compiled, its old name)
                              and interpreted, native_plans, native_series,
                              native_compiling (in the background),
                              native_seconds (compiling took), native_waited
                              (runs waited), native_why (why no machine code)
   sys:simulate{q0 =, qd0 =, t1 = [, t0, dt, method, rtol, atol, step, h0,
-        events, event_tol, project, baumgarte, monitors, progress, check,
-        dense]}  a trajectory (help(tr.NAME): its methods).
+        order, events, event_tol, project, baumgarte, monitors, progress,
+        check, dense]}  a trajectory (help(tr.NAME): its methods).
         Defaults: t0 = 0; qd0 at rest; dt = (t1 - t0)/200 (the output grid);
         method = "rk8pd"; rtol = 1e-10, atol = 1e-12; step none (adaptive;
         step = h: fixed steps of at most h); h0 = min(dt, 1e-3) (the first
@@ -342,6 +343,26 @@ one, e.g. help(sys.simulate):
         integration again; their functions must be recordable).  Not with
         taylor: constraints of order 3 or more, project and baumgarte, the
         work monitor, step and h0 (each refused with the method to take).
+        method = "variational", step = h [, order = 2 | 4 | 6 | 8]: a
+        variational integrator built from the Lagrangian L = T - V (Marsden
+        and West): the discrete action of the trapezoidal rule made
+        stationary, step by step, so that the energy stays within a bound
+        for all time (no drift) and the momentum of every symmetry of L (the
+        angular momentum of a central force, the momentum of a cyclic
+        coordinate) is kept to rounding.  A constant mass matrix with
+        forces that do not depend on qd (particles, Cartesian coordinates):
+        Stormer-Verlet, explicit, one evaluation of qdd a step; any other L:
+        the discrete Euler-Lagrange equations by Newton with the exact
+        Jacobian from the jets.  Forces Q by the discrete Lagrange-
+        d'Alembert principle; holonomic constraints (on q and t) held to
+        rounding at every step (RATTLE).  order = 4, 6, 8: symmetric
+        compositions of the order-2 step (Suzuki's 5 steps; Kahan and Li's
+        9 and 17), each as conservative.  Output velocities from the
+        discrete Legendre transform; events located as for rk4.  step is
+        required (equal steps, at most h, landing on each output time);
+        not with rtol, atol, h0, constraints on qd or qdd (nonholonomic),
+        contacts, project, baumgarte or the work monitor (each refused with
+        the reason).  order applies to this method only.
   sys:simulate{..., qdd0 =, q3d0 = ..., guess =}  constraints of order
                              p >= 3 (linear in their top derivative): the
                              state is q, qd,
@@ -428,8 +449,8 @@ one, e.g. help(sys.simulate):
                              q^(N) (whole for N = 1, held velocities written
                              th'_0); lua, mass, bias, reduced, tex as above
   sys:export{lang = "c" | "python" | "octave", file = "name.c"
-             [, jacobian = false, main = {q0 =, qd0 =, t1 =, dt = [, t0,
-             rtol, atol]}]}
+             [, jacobian = false, smooth = true, main = {q0 =, qd0 =,
+             t1 =, dt = [, t0, rtol, atol]}]}
                              the equations as code that runs without nzlua:
                              nzx_accel (q'' and lambda: the saddle-point
                              system by an included LU), nzx_rhs (f = (q', q'')),
@@ -440,7 +461,10 @@ one, e.g. help(sys.simulate):
                              Constraints of order 0, 1 and 2 are exported (one
                              of order 2 must be linear in q''); the others,
                              and functions that run in Lua, are refused with
-                             the reason
+                             the reason.  A system with unilateral contacts is
+                             refused (the code has no events or impacts);
+                             smooth = true writes it without its contacts and
+                             says so on the file's first line
   sys:energy_integral()      whether H = T2 - T0 + V is a first integral and why
                              (L free of t, constraints homogeneous in the
                              velocities, no force doing work), checked at
@@ -596,17 +620,25 @@ three touching balls hit at v leaves with (-1/3, 2/3, 2/3) v, where a real
 cradle's quick sequence of binary impacts gives (0, 0, v); a small gap
 between the balls (1 mm) gives that sequence and that outcome.  Coulomb
 friction: mu (sliding), mu_s >= mu (sticking), slip = function(t, q, qd,
-params), the slip velocity (or a function of (t, q) whose rate it is); it
-sticks where the slip velocity reaches 0 and the force to hold is within
-mu_s lambda, and slides again where it leaves that cone.  Painleve's paradox
-is an error naming the contact.  Impacts accumulating in finite time
-(Zeno) end in persistent contact: tr.contacts.zeno[i] has .accumulation,
-the time the impacts predicted (a bouncing ball's t1 (1 + e)/(1 - e)), .t,
-the last impact's, made plastic, from which the contact is held, and
-.contact, its name.  at = function(t, q, params) -> {x, y, z}: the point
-tr:animate draws while it is held.  Every method runs it (the GSL steppers
-and taylor; events on their dense output).  tr.events lists each impact,
-closing, opening, stick and slip; tr.contacts the modes; sys:accel and the
+params), the slip velocity (or a function of (t, q) whose rate it is), or
+slip = {f1, f2}: the two slip velocities along orthonormal tangent
+directions, the isotropic cone |F_t| <= mu lambda with the friction against
+the slip in any direction (a puck on ice); it sticks where the slip velocity
+reaches 0 and the force to hold is within mu_s lambda, and slides again where
+it leaves that cone.  Contacts that depend on each other (a block on two
+corners with friction at both, a table on four legs) are held together: the
+motion is unique, their forces are the least-norm ones that are admissible
+(m g/2 per corner, m g/4 per leg).  Painleve's paradox is an error naming the
+contact.  Impacts accumulating in finite time (Zeno), or rebounds below what
+the run resolves, end in persistent contact: tr.contacts.zeno[i] has
+.accumulation, the time the impacts predicted (a bouncing ball's t1 (1 +
+e)/(1 - e)), .t, the last impact's, made plastic, from which the contact is
+held, and .contact, its name.  at = function(t, q, params) -> {x, y, z}: the
+point tr:animate draws while it is held.  Every method runs it (the GSL
+steppers and taylor; events on their dense output; taylor cannot start an
+isotropic cone sliding from rest).  tr.events lists each contact's impulse
+at an impact, and each closing, opening, stick and slip; tr.contacts the
+modes; sys:show{} writes the contacts' forces and laws; sys:accel and the
 other methods see the system without its contacts.  nz.effects.contact and
 friction declare the same in a scene.  docs/theory.md §13.]] },
   { name = "scene", section = "scenes",
@@ -664,6 +696,38 @@ accelerations and the value your equation gives.  Prints the verdict and
 returns ok, text (typed at the prompt, the verdict shows once); options
 {states = 10, tol = 1e-8, seed = 4711, quiet = true (print nothing)}.  Write
 the equations with nz.sin etc.]] },
+  { name = "longrun", section = "mechanics",
+    usage = "nz.longrun(sys, {q0 =, qd0 =, t0 =, t1 =, methods =, tol =, period =, from =, samples =, integrals =, "
+      .. "plot =, quiet =, simulate =})",
+    summary = "what accuracy costs over time: the error of the first integrals against time, its growth, the cost",
+    text = [[
+Runs the same motion over a long span once with each method and watches
+its first integrals: the energy T + V (integrals = {energy = false} leaves
+it out) and any given as integrals = {name = function(t, q, qd) return
+value end} (an angular momentum, say).  Each one's error |I(t) - I(t0)|
+(relative to |I(t0)| where that is not 0), at samples = 1000 output points,
+goes into a table with its growth: the exponent of a least-squares fit on
+log-log axes of its RMS over windows of a factor sqrt(10) in time, from
+`from` on (10 periods, or 10 samples), with the processor time of the run,
+per period when period = P is given (and the time axis in periods).  What
+the exponent says: about 1, a drift (a step whose error has a sign: rk4,
+rk8pd); 0.5, Brouwer's law (the rounding's random walk alone: taylor at
+rtol = atol = 1e-15); 0, bounded (method = "variational": its energy
+oscillates, the momentum of a symmetry is kept to rounding).
+methods: names as nz.workprecision takes them, run at tol (1e-10: rtol =
+tol, atol = tol / 100; variational, variational4, ..., at step =
+tol^(1/order)), or tables of simulate's options {method = "variational",
+step = P/400, order = 4, name = "verlet"}; the default rk8pd, taylor and
+variational.  A warm-up run per method over a hundredth of the span builds
+and compiles its plans first (not timed; one evaluator for the study, as
+nz.workprecision).  plot = true draws the errors against time (log-log, a
+line per method and integral, each point the largest error of its bin) in
+the terminal, plot = "file.svg" (or .png) to a file, a notebook inline;
+quiet = true prints nothing; simulate = {...} adds options to every run (not
+method, rtol, atol, step, order, dt).  Returns the rows {method, integral,
+error (RMS over the last window), final (at t1), exponent, windows, seconds,
+per_unit, steps, nfev, status}, which print as the table; a method that
+fails has its rows marked failed with the message.]] },
   { name = "workprecision", section = "mechanics",
     usage = "nz.workprecision(sys, {q0 =, qd0 =, t0 =, t1 =, dt =, methods =, tols =, reference =, reference_method =, "
       .. "reference_tol =, budget =, x =, plot =, quiet =, simulate =})",
@@ -707,7 +771,11 @@ method, a tolerance <= 0, ...) is one error naming it.
 Defaults: methods rk4, rkf45, rkck, rk8pd, rk4imp, bsimp, msadams, msbdf,
 taylor (taylor runs free and constrained recorded systems; it is skipped, with
 the reason, for constraints of order 3 or more, a system that is not
-recorded, the work monitor, or whatever else it cannot run);
+recorded, the work monitor, or whatever else it cannot run); methods may also
+name variational, variational4, variational6, variational8 (method =
+"variational" of order 2, 4, 6, 8: fixed steps, run at step = tol^(1/order)
+so that their errors span the same decades; skipped, with the reason, where
+they do not apply);
 tols 1e-4, 1e-6, 1e-8, 1e-10; dt as simulate's (the output grid the error is
 measured on: with dense output it adds no steps).  The table ends with the
 cheapest method for each accuracy, and the methods within the noise of it
@@ -806,7 +874,7 @@ else ~/.cache/nzlua (no HOME: no cache, the interpreter runs).
   nz.cache.dir()    the directory, or nil and why there is none
 Each object is checked before it is loaded (owner, mode, size, a checksum,
 its ELF segments); a damaged one is removed and compiled again.  Compiles
-run in the background (sys.engine.compiled:native_wait() waits for them);
+run in the background (sys.engine.recording:native_wait() waits for them);
 NZLUA_CACHE_MAX bounds the cache (default 100M, least recently used out
 first), NZLUA_CC_TIMEOUT limits a compile (300 s), NZLUA_CC_JOBS the
 compiles at once (2), NZLUA_KEEP_C=1 keeps the generated C.]] },

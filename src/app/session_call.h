@@ -1,7 +1,7 @@
-/* nzlua.h - what the program's main file (nzlua.c) lends the kernel
- * (kernel_io.c): running a function as the session runs a chunk. */
-#ifndef NZ_NZLUA_H
-#define NZ_NZLUA_H
+/* session_call.h - running a function as the session runs a chunk: for the
+ * session and script runner (nzlua.c) and the kernel (kernel_io.c). */
+#ifndef NZ_SESSION_CALL_H
+#define NZ_SESSION_CALL_H
 #include <lua.h>
 
 /* lua_pcall of the function below narg arguments, as the session runs a
