@@ -18,7 +18,8 @@
  * Prints ns per accel (median of SAMPLES samples, each a loop of at least
  * ~10 ms, clock_gettime) for k = 2, 4, 8, 16, 32, then the state and the
  * accelerations at k = 8 with 17 digits (bench/accel_scaling.lua reads
- * them).  The state: th_i = 0.7 sin(1.3 i + 0.5), thd_i = 0.9 cos(0.7 i + 0.2). */
+ * them); `pendulum_c accel K...` times the K given (up to KMAX, for
+ * bench/scale.lua), `pendulum_c sim K T1 TOL` integrates (below).  The state: th_i = 0.7 sin(1.3 i + 0.5), thd_i = 0.9 cos(0.7 i + 0.2). */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -27,15 +28,20 @@
 #include <gsl/gsl_errno.h>
 #include <gsl/gsl_odeiv2.h>
 
-#define KMAX 32
+#define KMAX 128
 #define SAMPLES 9
 #define LINK 0.5
 #define GRAV 9.81
 
+/* Wall time, or this process's processor time when PENDULUM_C_CPU is set
+ * (bench/scale.lua: on a shared machine the time a process is not running
+ * is not its own). */
 static double now(void)
 {
+  static int cpu = -1;
+  if (cpu < 0) cpu = getenv("PENDULUM_C_CPU") != NULL;
   struct timespec ts;
-  clock_gettime(CLOCK_MONOTONIC, &ts);
+  clock_gettime(cpu ? CLOCK_PROCESS_CPUTIME_ID : CLOCK_MONOTONIC, &ts);
   return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
@@ -195,9 +201,25 @@ static int sim_main(int argc, char **argv)
   return 0;
 }
 
+/* "accel K..." (bench/scale.lua): the ns per accel of each K, one line
+ * "accel K NS" each. */
+static int accel_main(int argc, char **argv)
+{
+  for (int i = 2; i < argc; i++) {
+    int k = atoi(argv[i]);
+    if (k < 1 || k > KMAX) {
+      fprintf(stderr, "pendulum_c: usage: pendulum_c accel K... (K = 1..%d)\n", KMAX);
+      return 2;
+    }
+    printf("accel %d %.1f\n", k, 1e9 * time_accel(k));
+  }
+  return 0;
+}
+
 int main(int argc, char **argv)
 {
   if (argc > 1 && !strcmp(argv[1], "sim")) return sim_main(argc, argv);
+  if (argc > 1 && !strcmp(argv[1], "accel")) return accel_main(argc, argv);
   const int ks[] = { 2, 4, 8, 16, 32 };
   printf("Hand-written C accelerations of the n-link pendulum of bench/mech.lua (M, h by formula, Cholesky)\n");
   printf("%4s %12s\n", "k", "ns/accel");

@@ -47,3 +47,7 @@ build/nzlua bench/sweep.lua
 echo
 # Contacts, impacts and friction against their closed forms.
 build/nzlua bench/contact.lua
+echo
+# Issue 34: research-size systems, n = 4..64 (BENCH_SCALE_MAX=128 adds the
+# largest: minutes more), compile and speed of both emitters of machine code.
+build/nzlua bench/scale.lua

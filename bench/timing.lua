@@ -24,22 +24,24 @@ M.median = median
 -- 0.02); samples are taken up to o.samples (default 7) within o.budget
 -- seconds (default 2), and at least one: a call of 3 s is timed once, a
 -- call of 1 us many times.  The first call warms up and, when a sample is
--- one call, counts as the first sample.
+-- one call, counts as the first sample.  o.clock: another clock (os.clock,
+-- the process's processor time).
 function M.per_call(f, o)
   o = o or {}
   local want_sample, max_samples, budget = o.sample or 0.02, o.samples or 7, o.budget or 2
-  local t0 = M.now()
+  local now = o.clock or M.now
+  local t0 = now()
   f()
-  local first = M.now() - t0
+  local first = now() - t0
   local reps = first >= want_sample and 1 or math.ceil(want_sample / math.max(first, 1e-9))
   local nsamples = math.max(1, math.min(max_samples, math.floor(budget / math.max(first * reps, 1e-9))))
   if nsamples > 1 and nsamples % 2 == 0 then nsamples = nsamples - 1 end
   local times = {}
   if reps == 1 then times[1] = first end
   while #times < nsamples do
-    local s = M.now()
+    local s = now()
     for _ = 1, reps do f() end
-    times[#times + 1] = (M.now() - s) / reps
+    times[#times + 1] = (now() - s) / reps
   end
   return median(times), #times
 end

@@ -210,7 +210,7 @@ describe("messages name the user's code first", function()
     fails("bad argument #3 to 'residual' (q: " .. two .. ", got a table of 1 entry)", function()
       return (sys:residual(2, 0, { 0.1 }, qd, { 0, 0 })) end)
     -- options of accel: unknown, mistyped
-    fails("bad argument #4 to 'accel' (unknown option 'bogus' (options: check, lambda, maxit, qdd, rcond_min, tol))",
+    fails("bad argument #4 to 'accel' (unknown option 'bogus' (options: check, lambda, maxit, out, qdd, rcond_min, tol))",
       function() return (sys:accel(0, q, qd, { bogus = 1 })) end)
     fails("bad argument #4 to 'accel' (option 'check': true or false expected, got the string \"no\")",
       function() return (sys:accel(0, q, qd, { check = "no" })) end)

@@ -38,6 +38,57 @@ describe("accelerations against equations derived by hand", function()
   end)
 end)
 
+describe("sys:accel into a table of the caller's (opts.out)", function()
+  it("writes qdd into opts.out and returns it: the hand-derived accelerations, no table made per call", function()
+    local case = systems.double_pendulum(true)
+    local o = { out = { 7, 7, 7 } }
+    for _ = 1, STATES do
+      local t, q, qd = case.draw()
+      local got, lambda = case.sys:accel(t, q, qd, o)
+      local want = case.accel(t, q, qd)
+      assert(got == o.out, "opts.out is not what accel returned")
+      assert(max_diff(want, got) <= 1e-11 * (1 + max_abs(want)), ("engine %s, hand %s"):format(vec(got), vec(want)))
+      assert(got[3] == 7, "entries past k are the caller's")
+      assert(#lambda == 0 and next(lambda) == nil, "multipliers of a system without constraints")
+      h.checkerror("cannot be written", function() lambda[1] = 1 end)
+    end
+    -- The same calls allocate: new tables for qdd and lambda each time,
+    -- and none with opts.out (the collector stopped, Lua's own count).
+    local t, q, qd = case.draw()
+    local function grown(f)
+      collectgarbage("collect")
+      collectgarbage("stop")
+      local before = collectgarbage("count")
+      for _ = 1, 1000 do f() end
+      local kb = collectgarbage("count") - before
+      collectgarbage("restart")
+      return kb
+    end
+    local plain = grown(function() case.sys:accel(t, q, qd) end)
+    local into = grown(function() case.sys:accel(t, q, qd, o) end)
+    assert(plain > 50 and into < 2, ("1000 calls made %.1f KB of tables, %.1f KB with opts.out"):format(plain, into))
+  end)
+  it("with constraints: qdd into opts.out, the multipliers as without it", function()
+    local cs = require "tests.constraint_systems"
+    local case = cs.sleigh()
+    local t, q, qd = case.draw()
+    local qdd, lambda = case.sys:accel(t, q, qd)
+    local o = { out = {} }
+    local got, lambda2 = case.sys:accel(t, q, qd, o)
+    assert(got == o.out and #got == #qdd and #lambda2 == #lambda and #lambda == 1)
+    for i = 1, #qdd do assert(got[i] == qdd[i]) end
+    assert(lambda2[1] == lambda[1])
+  end)
+  it("refuses an out that is not a plain table, naming the option", function()
+    local case = systems.double_pendulum(true)
+    local t, q, qd = case.draw()
+    h.checkerror("option 'out': a plain table (it receives qdd)", function() case.sys:accel(t, q, qd, { out = 3 }) end)
+    h.checkerror("option 'out': a plain table (it receives qdd)", function()
+      case.sys:accel(t, q, qd, { out = setmetatable({}, {}) })
+    end)
+  end)
+end)
+
 describe("all forms and all orders agree", function()
   -- The residual is affine in qdd, so agreement at an arbitrary qdd (not the
   -- motion's) is the stronger test.  Orders 1..12; Wassmuth's form needs

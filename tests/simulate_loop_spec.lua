@@ -439,7 +439,7 @@ describe("the options of the loop", function()
   end)
   it("the memory cap refuses a grid too fine, with the limit and a dt that fits", function()
     local saved = simulate.MAX_MEMORY
-    simulate.MAX_MEMORY = 1e5                   -- 464 bytes a point (1 DOF): 1001 points do not fit
+    simulate.MAX_MEMORY = 5e4                   -- 80 bytes a point (1 DOF): 1001 points do not fit
     local ok, err = pcall(pendulum.simulate, pendulum, { q0 = { 1 }, t1 = 1, dt = 0.001 })
     simulate.MAX_MEMORY = saved
     assert.are.equal(false, ok)

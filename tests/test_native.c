@@ -20,6 +20,7 @@
 #include "graph/graph_native.h"
 #include "jets/series.h"
 #include "graph/graph_series.h"
+#include "graph/native_tables.h"
 #include "graph/series_native.h"
 #include "graph/native_elf.h"
 #include "test_util.h"
@@ -38,6 +39,10 @@
 
 static char cache[64];   /* a fresh directory per run: every first compile compiles */
 static char why[600];
+/* The emitter the checks run on (NZLUA_COMPACT, native_tables.h): every
+ * check of the interpreter against machine code runs twice, once on
+ * straight-line code, once on compact code. */
+static const char *code = "straight-line code";
 
 static uint64_t rng = 0x9E3779B97F4A7C15ULL;
 static double urand(void) { return test_urand(&rng); }
@@ -156,8 +161,8 @@ static void check_specials(void)
        * input is never refused for itself): nothing to refuse but through +. */
       int total = !strcmp(name, "sign") && s < 2;
       gsl_test(bad || !accepted || (!refused && !total),
-               "%s as %s: native = interpreter bit for bit at %d pairs of special values (%d accepted, %d refused)",
-               name, how[s], NSPEC * NSPEC, accepted, refused);
+               "%s as %s: %s = interpreter bit for bit at %d pairs of special values (%d accepted, %d refused)",
+               name, how[s], code, NSPEC * NSPEC, accepted, refused);
       nz_native_free(f);
       nz_graph_plan_free(p);
     }
@@ -292,9 +297,9 @@ static void check_random(int size, int nout, int points)
   /* Every kind of node but fn as such. */
   int want = NZ_GOP_COUNT - 1 + NZ_FN_COUNT;
   gsl_test(bad || accepted < points / 2 || kinds < want,
-           "random graph of %d nodes (%d kinds of node of %d), %d outputs: native = interpreter bit for bit "
+           "random graph of %d nodes (%d kinds of node of %d), %d outputs: %s = interpreter bit for bit "
            "at %d points (%d accepted; compiled in %.2f s)",
-           nz_graph_size(g), kinds, want, nout, points, accepted, tc);
+           nz_graph_size(g), kinds, want, nout, code, points, accepted, tc);
   nz_native_free(f);
   nz_graph_plan_free(p);
   nz_graph_free(g);
@@ -326,7 +331,7 @@ static void check_rewrites(void)
     accepted += ok;
   }
   gsl_test(bad || accepted < 100000,
-           "sin(atan x), x^-1, exp(log x) and others a compiler may rewrite: native = interpreter at 1e5 points");
+           "sin(atan x), x^-1, exp(log x) and others a compiler may rewrite: %s = interpreter at 1e5 points", code);
   nz_native_free(f);
   nz_graph_plan_free(p);
   nz_graph_free(g);
@@ -359,14 +364,14 @@ static void check_refusals(void)
     nz_status sb = f ? nz_native_eval(f, &c[i].bad, &out) : NZ_OK;
     nz_status sg = f ? nz_native_eval(f, &c[i].good, &out) : NZ_EDOM;
     gsl_test(!f || sb != NZ_EDOM || sg != NZ_OK || !same_bits(out, c[i].want),
-             "%s is refused (NZ_EDOM), and the same code gives %.17g elsewhere", c[i].what, c[i].want);
+             "%s: %s refuses it (NZ_EDOM), and the same code gives %.17g elsewhere", c[i].what, code, c[i].want);
     nz_native_free(f);
   }
   /* A constant that is not finite: the interpreter refuses every call. */
   int k = nz_graph_op(g, NZ_GOP_ADD, x, nz_graph_const(g, INFINITY));
   nz_native *f = compile(g, &k, 1);
   double in = 1.0, out;
-  gsl_test(!f || nz_native_eval(f, &in, &out) != NZ_EDOM, "a graph with an infinite constant is refused");
+  gsl_test(!f || nz_native_eval(f, &in, &out) != NZ_EDOM, "a graph with an infinite constant is refused (%s)", code);
   nz_native_free(f);
   nz_graph_free(g);
 }
@@ -566,14 +571,14 @@ static void check_cache_dir(void)
  * one feature each that runs or loads code when loaded, each refused with
  * its reason; the plain one, and every object nzlua compiled into this
  * run's cache, accepted. */
-static int elf_verdict(const char *flags, const char *code, char *reason, size_t n)
+static int elf_verdict(const char *flags, const char *body, char *reason, size_t n)
 {
   char c[256], so[256], cmd[1200];
   snprintf(c, sizeof c, "%s/elf-case.c", cache);
   snprintf(so, sizeof so, "%s/elf-case.so", cache);
   FILE *f = fopen(c, "w");
   if (!f) return -2;
-  fprintf(f, "#include <stdio.h>\ndouble nzlua_plain(double x) { return 2 * x; }\n%s\n", code);
+  fprintf(f, "#include <stdio.h>\ndouble nzlua_plain(double x) { return 2 * x; }\n%s\n", body);
   fclose(f);
   snprintf(cmd, sizeof cmd, "cc -fPIC -shared %s -o %s %s -lm 2>/dev/null", flags, so, c);
   if (system(cmd) != 0) return -2;
@@ -720,8 +725,8 @@ static void check_pendulum(int k)
     accepted += ok;
   }
   gsl_test(!f || !p || bad || accepted < 100,
-           "%d-link pendulum, M and h (%d nodes): native = interpreter bit for bit at 100 states", k,
-           f ? nz_native_nodes(f) : 0);
+           "%d-link pendulum, M and h (%d nodes): %s = interpreter bit for bit at 100 states", k,
+           f ? nz_native_nodes(f) : 0, code);
   nz_native_free(f);
   nz_graph_plan_free(p);
   nz_graph_free(g);
@@ -878,8 +883,8 @@ static void check_series_random(int size, int nout, int points, int K)
   /* every kernel but the branches' (step, copy of a select) and abs's */
   gsl_test(bad || same != points || failed == 0 || failed == points || kinds < 20,
            "series of a random graph without branches (%d nodes, %d kinds of kernel), %d outputs to order %d: "
-           "machine code = interpreter bit for bit at %d of %d points (%d refused alike; compiled in %.2f s)",
-           nz_graph_size(g), kinds, nout, K, same, points, failed, tc);
+           "%s = interpreter bit for bit at %d of %d points (%d refused alike; compiled in %.2f s)",
+           nz_graph_size(g), kinds, nout, K, code, same, points, failed, tc);
   if (p) nz_series_native_detach(p);
   nz_series_native_free(sn);
   nz_graph_plan_free(p);
@@ -947,7 +952,7 @@ static void check_series_ode2(void)
       break;
     }
     nz_series_native_attach(sn, p);
-    double in0[8] = { got[0], got[1], got[2], got[3], 0.3, 0.5, 0.6, 0.7 };
+    double in0[8] = { got[0], got[1], got[2], got[3], 0.3, 0.1 * 5, 0.1 * 6, 0.1 * 7 };   /* ode2_reference's */
     if (nz_graph_series_begin(p, N, in0) || nz_series_native_ode2(sn, p, N, got)) {
       printf("# ode2: refused at point %d\n", pt);
       bad++;
@@ -960,8 +965,8 @@ static void check_series_ode2(void)
         break;
       }
   }
-  gsl_test(bad || runs < 10, "the fused loop of a second-order ODE on a random graph = the interpreter order by order, "
-                             "bit for bit (%d runs to order 18 and 30)", runs);
+  gsl_test(bad || runs < 10, "the fused loop of a second-order ODE on a random graph (%s) = the interpreter order by "
+                             "order, bit for bit (%d runs to order 18 and 30)", code, runs);
   nz_series_native_detach(p);
   nz_series_native_free(sn);
   nz_graph_plan_free(p);
@@ -1020,8 +1025,52 @@ static void check_series_domains(void)
     nz_graph_plan_free(p);
     nz_graph_free(g);
   }
-  gsl_test(bad, "series as machine code refuses where begin refuses (sqrt 0, x^0.5 at 0, asin 1, acos -1, "
-                "atan2(0, 0), hypot(0, 0), 1/0, log 0): the interpreter's status and node, %d cases", n);
+  gsl_test(bad, "series as %s refuses where begin refuses (sqrt 0, x^0.5 at 0, asin 1, acos -1, "
+                "atan2(0, 0), hypot(0, 0), 1/0, log 0): the interpreter's status and node, %d cases", code, n);
+}
+
+/* Without NZLUA_COMPACT the emitter follows the size: a plan of more
+ * computed nodes than NZ_NATIVE_COMPACT_NODES and a series of more slots
+ * than NZ_SERIES_COMPACT_SLOTS get compact code, smaller ones straight-line
+ * code; each still the interpreter's bit for bit. */
+static void check_compact_by_size(void)
+{
+  int sizes[2] = { NZ_SERIES_COMPACT_SLOTS / 2, NZ_NATIVE_COMPACT_NODES * 3 }, bad = 0, kinds[2][2] = { { 0 } };
+  for (int big = 0; big < 2; big++) {
+    nz_graph *g = nz_graph_new();
+    int cap = sizes[big] + 8, *v = malloc((size_t)cap * sizeof *v), outs[256];
+    no_branches = 1;
+    int n = random_graph(g, sizes[big], v, cap), nout = n - 8 < 256 ? n - 8 : 256;
+    no_branches = 0;
+    for (int r = 0; r < nout; r++) outs[r] = v[n - 1 - (int)((long)r * (n - 8) / nout)];   /* spread: most nodes needed */
+    nz_graph_plan *p = nz_graph_plan_new(g, outs, nout);
+    nz_native *f = compile(g, outs, nout);
+    int ok;
+    char msg[200];
+    for (int t = 0; f && p && t < 20; t++) {
+      double in[8];
+      for (int i = 0; i < 8; i++) in[i] = 2 * urand() - 1;
+      if (agree(p, f, nout, in, &ok, msg, sizeof msg) && !bad++) printf("# %s\n", msg);
+    }
+    if (f && (nz_native_nodes(f) > NZ_NATIVE_COMPACT_NODES) != big) {
+      printf("# the %s plan has %d computed nodes\n", big ? "big" : "small", nz_native_nodes(f));
+      bad++;
+    }
+    double in0[8 * 4] = { 0 };
+    for (int i = 0; i < 8; i++) in0[i] = 0.1 * (i + 1);
+    nz_series_native *sn = p && !nz_graph_series_begin(p, 3, in0) ? nz_series_native_get(p, NULL, cache, 1, why, sizeof why) : NULL;
+    kinds[big][0] = f ? nz_native_compact_code(f) : -1;
+    kinds[big][1] = sn ? nz_series_native_compact_code(sn) : -1;
+    nz_series_native_free(sn);
+    nz_native_free(f);
+    nz_graph_plan_free(p);
+    nz_graph_free(g);
+    free(v);
+  }
+  gsl_test(bad || kinds[0][0] != 0 || kinds[0][1] != 0 || kinds[1][0] != 1 || kinds[1][1] != 1,
+           "by size: a graph of %d nodes gets straight-line code (%d) and so does its series (%d); one of %d nodes "
+           "gets compact code (%d) and so does its series (%d); both the interpreter's at 20 points",
+           sizes[0], kinds[0][0], kinds[0][1], sizes[1], kinds[1][0], kinds[1][1]);
 }
 
 int main(void)
@@ -1030,20 +1079,26 @@ int main(void)
   snprintf(cache, sizeof cache, "/tmp/nzlua-test-native-XXXXXX");
   if (!mkdtemp(cache)) { perror("mkdtemp"); return 1; }
   check_cache_dir();
-  check_refusals();
   check_cache();
   check_loaded_twice();
   check_concurrent();
   check_failures();
-  check_inert();
-  check_specials();
-  check_random(600, 4096, 200);
-  check_rewrites();
-  check_random(5000, 64, 50);
-  check_pendulum(8);
-  check_series_random(300, 100, 40, 24);
-  check_series_domains();
-  check_series_ode2();
+  for (int compact = 0; compact <= 1; compact++) {
+    setenv("NZLUA_COMPACT", compact ? "1" : "0", 1);
+    code = compact ? "compact code" : "straight-line code";
+    check_specials();
+    check_refusals();
+    check_random(600, 4096, 200);
+    check_rewrites();
+    check_random(5000, 64, 50);
+    check_pendulum(8);
+    check_series_random(300, 100, 40, 24);
+    check_series_domains();
+    check_series_ode2();
+  }
+  unsetenv("NZLUA_COMPACT");
+  check_compact_by_size();
+  check_inert();   /* every object compiled so far, of both emitters */
   if (!SANITIZED) time_native();
   /* Remove the cache of this run. */
   char cmd[128];

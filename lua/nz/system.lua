@@ -271,29 +271,49 @@ function System:mass_bias(t, q, qd)
 
 -- Accelerations, multipliers (one per constraint) and, with constraints, a
 -- report {iterations, residual, rcond, start}.  opts (constraints of second
--- order nonlinear in qdd): {qdd = guess, lambda = guess, tol =, maxit =}.
+-- order nonlinear in qdd): {qdd = guess, lambda = guess, tol =, maxit =};
+-- out = a table that receives qdd (entries 1 .. k) and is returned.
 -- (made once: accel is called on every step of a user's own loop)
 local ACCEL_OPTIONS = declare("sys:accel", {
   tol = positive, maxit = count, check = boolean,
   rcond_min = function(v) return finite(v) and v >= 0, "a finite number >= 0" end,
   qdd = function(v) return type(v) == "table", "a table of numbers (a first guess)" end,
   lambda = function(v) return type(v) == "table", "a table of numbers (a first guess)" end,
+  out = function(v) return type(v) == "table" and getmetatable(v) == nil, "a plain table (it receives qdd)" end,
 })
 
+-- The multipliers of a system without constraints when opts.out asked for
+-- no new table: one empty table for every call, which refuses to be written.
+local NO_MULTIPLIERS = setmetatable({}, {
+  __newindex = function() error("sys:accel: the multipliers of a system without constraints (with opts.out) are "
+    .. "an empty table shared by every call: it cannot be written", 2) end,
+  __metatable = false })
+
+-- qdd into opts.out when it is given (that table returned), else qdd.
+local function into_out(opts, qdd)
+  local out = opts and opts.out
+  if not out then return qdd end
+  for i = 1, #qdd do out[i] = qdd[i] end
+  return out
+end
+
+local accel_try = mech.accel_try
 function System:accel(t, q, qd, opts)
-  -- The common call first: C reads and checks the state, and gives nil
-  -- when something is wrong with it, for the checks below to say what.
-  if opts == nil and self.nc == 0 then
-    local qdd = mech.accel_try(self.engine, t, q, qd)
-    if qdd then return qdd, {} end
+  -- The common call first: C reads and checks the state (and opts, when it
+  -- is {out = table} alone), and gives nil when something is wrong with
+  -- them, for the checks below to say what.
+  if self.nc == 0 then
+    local qdd = accel_try(self.engine, t, q, qd, opts)
+    if qdd then return qdd, opts and NO_MULTIPLIERS or {} end
   end
   check_state(self, "accel", 1, t, q, qd)
   check_options("accel", 4, opts, ACCEL_OPTIONS)
   if opts and opts.qdd then check_vector(self, "accel", 4, "option 'qdd'", opts.qdd) end
   if opts and opts.lambda then check_vector(self, "accel", 4, "option 'lambda'", opts.lambda, self.nc, "one per constraint") end
-  if self.nc == 0 then return mech.accel(self.engine, t, q, qd), {} end
+  if self.nc == 0 then return into_out(opts, mech.accel(self.engine, t, q, qd)), opts and opts.out and NO_MULTIPLIERS or {} end
   local orders, linear = constraints.orders(self, { t = t, q = q, qd = qd })
   local qdd, lambda, report = mech.accel_constrained(self.engine, t, q, qd, orders, linear, opts)
+  qdd = into_out(opts, qdd)
   -- A state off the constraints of order <= 1 has accelerations all the
   -- same (those of (6.2) there), but no motion on them passes through it:
   -- said once per system, with the constraint and its value.

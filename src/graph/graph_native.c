@@ -43,6 +43,7 @@
 #include <string.h>
 #include <unistd.h>
 #include "graph/graph_native.h"
+#include "graph/graph_native_gen.h"
 #include "graph/native_object.h"
 
 #define GEN_VERSION "nzlua-native 2"
@@ -63,17 +64,18 @@
 struct nz_native {
   nz_native_object obj;
   int (*eval)(const double *, double *, double *);
-  int nin, nout, nodes;
-  double *w;   /* cross-function values, then a copy of in[] */
+  int nin, nout, nodes, compact;
+  double *w;   /* cross-function values (compact code: all values), then a copy of in[] */
   size_t nw;
+  nz_compact_data cd;   /* compact code's tables, until the object is loaded */
 };
 
 /* ------------------------------------------------------------------ */
 /* Generating the source                                                */
 
 static int is_small_integer(double p) { return p == floor(p) && fabs(p) <= 1e9; }
-static int unary_op(int op) { return op == NZ_GOP_NEG || op == NZ_GOP_POWC || op == NZ_GOP_FN; }
-static int computed(int op) { return op != NZ_GOP_CONST && op != NZ_GOP_INPUT; }
+#define unary_op nz_native_unary
+#define computed nz_native_computed
 /* Operands of a computed node: a; a, b; or a, b and the condition c. */
 static int noperands(int op) { return unary_op(op) ? 1 : op == NZ_GOP_SELECT ? 3 : 2; }
 static int operand(const nz_gnode *nd, int pos) { return pos == 0 ? nd->a : pos == 1 ? nd->b : nd->c; }
@@ -107,7 +109,7 @@ static int strict(const nz_gnode *nd, int pos, const nz_gnode *o)
 }
 
 /* The C function of each nz_jet_fn, or NULL when the native code lacks it. */
-static const char *fn_name(int fn)
+const char *nz_native_fn_name(int fn)
 {
   switch (fn) {
   case NZ_FN_EXP: return "exp";
@@ -135,7 +137,7 @@ static int supported(const nz_gnode *nd)
   case NZ_GOP_DIV: case NZ_GOP_NEG: case NZ_GOP_POWC: case NZ_GOP_POW: case NZ_GOP_ATAN2:
   case NZ_GOP_HYPOT:
     return 1;
-  case NZ_GOP_FN: return fn_name(nd->fn) != NULL;
+  case NZ_GOP_FN: return nz_native_fn_name(nd->fn) != NULL;
   case NZ_GOP_CMP: return nd->fn <= NZ_CMP_NE;
   case NZ_GOP_SELECT: return 1;
   default: return 0;
@@ -144,7 +146,7 @@ static int supported(const nz_gnode *nd)
 
 /* The kernels of graph.c that are not one libm call, with NaN for the
  * domain errors that libm would not make non-finite. */
-static const char helpers[] =
+const char nz_native_helpers[] =
   "#include <math.h>\n"
   "#if defined(__GNUC__)\n#define NZN_NOINLINE __attribute__((noinline))\n"
   "#else\n#define NZN_NOINLINE\n#endif\n"
@@ -165,23 +167,17 @@ static const char helpers[] =
   "  double as = a / s, bs = b / s;\n"
   "  return __builtin_sqrt(as * as + bs * bs) * s;\n}\n"
   "static inline double nzn_pow(double x, double y) { return x > 0.0 ? exp(y * log(x)) : NAN; }\n"
+  /* graph.c's d_powi (compact code; straight-line code unrolls it) */
+  "static inline double nzn_powi(double x, unsigned n)\n{\n"
+  "  double y = 1.0, base = x;\n"
+  "  while (n) {\n    if (n & 1u) y = y * base;\n    n >>= 1;\n    if (n) base = base * base;\n  }\n"
+  "  return y;\n}\n"
   "static inline double nzn_powc(double x, double p, int integer)\n{\n"
   "  if (x == 0.0) return integer || p < 0.0 ? NAN : 0.0;\n"
   "  if (x < 0.0 && !integer) return NAN;\n"
   "  return pow(x, p);\n}\n";
 
-typedef struct gen {
-  const nz_gnode *nd;
-  int top;
-  char *need;       /* node reached from the outputs */
-  char *check;      /* node tested for finiteness */
-  int *chunk;       /* function of a computed node */
-  int *last;        /* last function that reads it */
-  int *wslot;       /* its place in w[], or -1 */
-  int *out_head, *out_next;   /* outputs of each node, linked */
-  int nw, nodes, nchunks, ncheck, maxin, bad_const;
-  nz_sbuf *b;
-} gen;
+typedef nz_native_gen gen;
 
 /* How function `c` reads node id. */
 static void ref(const gen *G, int id, int c, char *s, size_t n)
@@ -216,7 +212,7 @@ static void emit_powi(gen *G, int id, const char *x, unsigned n, char *e, size_t
 }
 
 /* The C function of each nz_cmp (nd->fn checked by supported()). */
-static const char *cmp_name(int op)
+const char *nz_native_cmp_name(int op)
 {
   static const char *const names[] = { "nzn_lt", "nzn_le", "nzn_gt", "nzn_ge", "nzn_eq", "nzn_ne" };
   return names[op];
@@ -240,8 +236,8 @@ static void emit_node(gen *G, int id, int c, int *acc)
   case NZ_GOP_POW: snprintf(e, sizeof e, "nzn_pow(%s, %s)", a, b); break;
   case NZ_GOP_ATAN2: snprintf(e, sizeof e, "atan2(%s, %s)", a, b); break;
   case NZ_GOP_HYPOT: snprintf(e, sizeof e, "nzn_hypot(%s, %s)", a, b); break;
-  case NZ_GOP_FN: snprintf(e, sizeof e, "%s(%s)", fn_name(nd->fn), a); break;
-  case NZ_GOP_CMP: snprintf(e, sizeof e, "%s(%s, %s)", cmp_name(nd->fn), a, b); break;
+  case NZ_GOP_FN: snprintf(e, sizeof e, "%s(%s)", nz_native_fn_name(nd->fn), a); break;
+  case NZ_GOP_CMP: snprintf(e, sizeof e, "%s(%s, %s)", nz_native_cmp_name(nd->fn), a, b); break;
   case NZ_GOP_SELECT: snprintf(e, sizeof e, "nzn_select(%s, %s, %s)", k, a, b); break;
   case NZ_GOP_POWC: {
     double p = nd->v;
@@ -318,9 +314,6 @@ static void emit(gen *G, int n, const int *outputs)
 {
   nz_sbuf *b = G->b;
   int id = 0;
-  nz_sb_printf(b, "/* Generated by nzlua (%s): %d computed nodes, %d outputs, %d tested. */\n",
-            GEN_VERSION, G->nodes, n, G->ncheck);
-  nz_sb_printf(b, "%s", helpers);
   for (int c = 0; c < G->nchunks; c++) {
     int acc = 0;
     nz_sb_printf(b, "\nstatic NZN_NOINLINE double nzn_part%d(const double *restrict in, "
@@ -349,8 +342,8 @@ static void emit(gen *G, int n, const int *outputs)
 }
 
 /* The source for outputs[0..n-1] into *src (malloc'd); -1 with why. */
-static int generate(const nz_graph *g, const int *outputs, int n, char **src, gen *info, char *why,
-                    size_t whylen)
+static int generate(const nz_graph *g, const int *outputs, int n, char **src, gen *info, nz_compact_data *cd,
+                    char *why, size_t whylen)
 {
   int size = nz_graph_size(g), top = -1;
   for (int r = 0; r < n; r++) {
@@ -380,7 +373,11 @@ static int generate(const nz_graph *g, const int *outputs, int n, char **src, ge
   }
   for (size_t i = 0; i < m; i++) G.out_head[i] = -1;
   if (analyse(&G, outputs, n, why, whylen)) goto done;
-  emit(&G, n, outputs);
+  info->compact = nz_native_compact(G.nodes, NZ_NATIVE_COMPACT_NODES);
+  nz_sb_printf(&b, "/* Generated by nzlua (%s): %d computed nodes, %d outputs, %d tested, %s code. */\n%s",
+               GEN_VERSION, G.nodes, n, G.ncheck, info->compact ? "compact" : "straight-line", nz_native_helpers);
+  if (info->compact) nz_native_emit_compact(&G, outputs, n, cd);
+  else emit(&G, n, outputs);
   if (b.oom) {
     nz_native_say(why, whylen, "out of memory generating C for %d nodes", G.nodes);
     goto done;
@@ -403,6 +400,17 @@ done:
   return rc;
 }
 
+/* The object is loaded: its entry, and compact code's index tables
+ * written into it.  0, or -1 with why. */
+static int loaded(nz_native *f, char *why, size_t whylen)
+{
+  if (f->compact && nz_ctab_fill(f->obj.dl, &f->cd.tab, why, whylen)) return -1;
+  nz_compact_data_free(&f->cd);
+  /* POSIX: a data pointer from dlsym converts to a function pointer. */
+  memcpy(&f->eval, &f->obj.entry, sizeof f->eval);
+  return 0;
+}
+
 /* The object for these outputs: from the cache, else obtained as `how`
  * says (native_object.h: look up only, compile and wait, compile in the
  * background). */
@@ -418,26 +426,27 @@ static nz_native *native_get(const nz_graph *g, const int *outputs, int n, const
     nz_native_say(why, whylen, "nz_native_compile: no graph, outputs or cache directory");
     return NULL;
   }
-  if (generate(g, outputs, n, &src, &info, why, whylen)) return NULL;
   f = calloc(1, sizeof *f);
   if (!f) {
     nz_native_say(why, whylen, "out of memory");
-    goto fail;
+    return NULL;
   }
+  if (generate(g, outputs, n, &src, &info, &f->cd, why, whylen)) goto fail;
   f->nin = info.maxin;
   f->nout = n;
   f->nodes = info.nodes;
-  f->nw = (size_t)info.nw;
+  f->compact = info.compact;
+  f->nw = info.compact ? f->cd.nwork : (size_t)info.nw;
   f->w = malloc((f->nw + (size_t)f->nin + 1) * sizeof *f->w);
   if (!f->w) {
     nz_native_say(why, whylen, "out of memory");
     goto fail;
   }
-  int got = nz_native_object_get(src, GEN_VERSION, "nzg", "nzn_eval", info.nodes > BIG_GRAPH, how, cache_dir, t0,
+  /* compact code's constants stay in its workspace */
+  for (int i = 0; i < f->cd.ncon; i++) f->w[f->cd.con_at + i] = f->cd.con[i];
+  int got = nz_native_object_get(src, GEN_VERSION, "nzg", "nzn_eval", !info.compact && info.nodes > BIG_GRAPH, how, cache_dir, t0,
                                  &f->obj, why, whylen);
-  if (got < 0) goto fail;
-  /* POSIX: a data pointer from dlsym converts to a function pointer. */
-  if (got == 0) memcpy(&f->eval, &f->obj.entry, sizeof f->eval);
+  if (got < 0 || (got == 0 && loaded(f, why, whylen))) goto fail;
   free(src);
   return f;
 fail:
@@ -468,7 +477,7 @@ int nz_native_ready(nz_native *f, int wait, char *why, size_t whylen)
 {
   if (f->eval) return 0;
   int r = nz_native_object_ready(&f->obj, wait, why, whylen);
-  if (r == 0) memcpy(&f->eval, &f->obj.entry, sizeof f->eval);
+  if (r == 0 && loaded(f, why, whylen)) return -1;
   return r;
 }
 
@@ -494,6 +503,7 @@ void nz_native_free(nz_native *f)
 {
   if (!f) return;
   nz_native_object_close(&f->obj);
+  nz_compact_data_free(&f->cd);
   free(f->w);
   free(f);
 }
@@ -502,3 +512,4 @@ double nz_native_compile_seconds(const nz_native *f) { return f->obj.seconds; }
 double nz_native_waited(const nz_native *f) { return f->obj.waited; }
 const char *nz_native_path(const nz_native *f) { return f->obj.path; }
 int nz_native_nodes(const nz_native *f) { return f->nodes; }
+int nz_native_compact_code(const nz_native *f) { return f->compact; }

@@ -79,5 +79,7 @@ double nz_native_waited(const nz_native *f);
 /* The shared object's path, and the number of computed nodes it evaluates. */
 const char *nz_native_path(const nz_native *f);
 int nz_native_nodes(const nz_native *f);
+/* 1 when f is compact code, 0 straight-line code (see above). */
+int nz_native_compact_code(const nz_native *f);
 
 #endif

@@ -28,6 +28,7 @@
 #include <string.h>
 #include "graph/graph_series.h"
 #include "graph/native_object.h"
+#include "graph/series_gen.h"
 #include "graph/series_native.h"
 #include "jets/series.h"
 
@@ -40,8 +41,6 @@
  * Taylor's method for a tolerance of 1e-16 is 20). */
 #define ODE2_UNROLLED NZ_SERIES_MIN_ORDER
 
-/* The kernels the generated code calls through K, in this order. */
-enum { K_POWI, K_POW, K_QUAD, K_ATAN2, K_COUNT };
 static void (*const kernel_table[K_COUNT])(void) = {
   [K_POWI] = (void (*)(void))nz_series_powi_coef,
   [K_POW] = (void (*)(void))nz_series_pow_coef,
@@ -51,6 +50,8 @@ static void (*const kernel_table[K_COUNT])(void) = {
 
 struct nz_series_native {
   nz_native_object obj;
+  nz_ctab tab;           /* compact code's tables, until the object is loaded */
+  int compact;
   nz_series_code code;   /* NULL while it compiles */
   nz_series_loop ode2;   /* NULL: made without a second-order ODE */
   int ode2_wanted;
@@ -61,6 +62,8 @@ struct nz_series_native {
 /* The loaded object's functions. */
 static int entries(nz_series_native *s, char *why, size_t whylen)
 {
+  if (s->compact && nz_ctab_fill(s->obj.dl, &s->tab, why, whylen)) return -1;
+  nz_ctab_free(&s->tab);
   /* POSIX: a data pointer from dlsym converts to a function pointer. */
   memcpy(&s->code, &s->obj.entry, sizeof s->code);
   if (s->ode2_wanted) {
@@ -123,10 +126,6 @@ static int branch(const nz_series_slot *r)
          (r->gop == NZ_GOP_FN && (r->fn == NZ_FN_SIGN || r->fn == NZ_FN_ABS));
 }
 
-/* Slot i's kernel at coefficient k, as graph_series.c's series_coef; at k = 0
- * also the domain checks of its series_first for an order >= 1 that a
- * finite coefficient 0 would not reveal (the others give an infinity or a
- * NaN: log 0, 1/0, sqrt(-1), ...), into `bad`. */
 /* nzs_mul(SER(a), SER(b), kc) written out for a known kc: the same sums
  * in the same order, without a loop whose trip count changes at every call
  * (its exit was the costliest branch of a small plan). */
@@ -144,88 +143,104 @@ static void emit_product(nz_sbuf *b, int z, int a, int bb, int kc)
   nz_sb_printf(b, " SER(%d)[%d] = s; }\n", z, kc);
 }
 
-/* kc >= 0: the code for that coefficient only (k a constant in scope),
- * products written out. */
-static void emit_slot(nz_sbuf *b, const nz_series_slot *r, int i, int check, int kc)
+void nz_series_emit_kernel(nz_sbuf *b, int kernel, const nz_series_ref *r)
 {
-  char v[64];
-  int z = r->z, a = r->a, bb = r->b, w = r->aux;
-  nz_native_literal(v, sizeof v, r->v);
-  if (kc >= 0 && (r->kernel == NZ_SK_MUL || r->kernel == NZ_SK_SQR)) {
-    emit_product(b, z, a, r->kernel == NZ_SK_SQR ? a : bb, kc);
-    if (check) nz_sb_printf(b, "  c%d += SER(%d)[k] * 0.0;\n", i & 3, z);
-    return;
-  }
-  switch (r->kernel) {
-  case NZ_SK_ADD: nz_sb_printf(b, "  SER(%d)[k] = SER(%d)[k] + SER(%d)[k];\n", z, a, bb); break;
-  case NZ_SK_SUB: nz_sb_printf(b, "  SER(%d)[k] = SER(%d)[k] - SER(%d)[k];\n", z, a, bb); break;
-  case NZ_SK_MUL: nz_sb_printf(b, "  SER(%d)[k] = nzs_mul(SER(%d), SER(%d), k);\n", z, a, bb); break;
-  case NZ_SK_SQR: nz_sb_printf(b, "  SER(%d)[k] = nzs_mul(SER(%d), SER(%d), k);\n", z, a, a); break;
-  case NZ_SK_SCALE: nz_sb_printf(b, "  SER(%d)[k] = %s * SER(%d)[k];\n", z, v, a); break;
-  case NZ_SK_DIV: nz_sb_printf(b, "  SER(%d)[k] = nzs_div(SER(%d), SER(%d), SER(%d), k);\n", z, z, a, bb); break;
-  case NZ_SK_DIVC: nz_sb_printf(b, "  SER(%d)[k] = SER(%d)[k] / %s;\n", z, a, v); break;
+  const char *z = r->z, *a = r->a, *bb = r->b, *v = r->v, *vi = r->vi;
+  const char *const *w = r->w;
+  switch (kernel) {
+  case NZ_SK_ADD: nz_sb_printf(b, "  SER(%s)[k] = SER(%s)[k] + SER(%s)[k];\n", z, a, bb); break;
+  case NZ_SK_SUB: nz_sb_printf(b, "  SER(%s)[k] = SER(%s)[k] - SER(%s)[k];\n", z, a, bb); break;
+  case NZ_SK_MUL: nz_sb_printf(b, "  SER(%s)[k] = nzs_mul(SER(%s), SER(%s), k);\n", z, a, bb); break;
+  case NZ_SK_SQR: nz_sb_printf(b, "  SER(%s)[k] = nzs_mul(SER(%s), SER(%s), k);\n", z, a, a); break;
+  case NZ_SK_SCALE: nz_sb_printf(b, "  SER(%s)[k] = %s * SER(%s)[k];\n", z, v, a); break;
+  case NZ_SK_DIV: nz_sb_printf(b, "  SER(%s)[k] = nzs_div(SER(%s), SER(%s), SER(%s), k);\n", z, z, a, bb); break;
+  case NZ_SK_DIVC: nz_sb_printf(b, "  SER(%s)[k] = SER(%s)[k] / %s;\n", z, a, v); break;
   case NZ_SK_POWI:
-    nz_sb_printf(b, "  SER(%d)[k] = ((nzs_powi_f)K[%d])(SER(%d), SER(%d), %uu, k, L - 1);\n", z, K_POWI, w, a, r->n);
+    nz_sb_printf(b, "  SER(%s)[k] = ((nzs_powi_f)K[%d])(SER(%s), SER(%s), %uu, k, L - 1);\n", z, K_POWI, w[0], a, r->n);
     break;
   case NZ_SK_POWR:
-    nz_sb_printf(b, "  if (k == 0) bad |= SER(%d)[0] == 0.0;\n", a);
-    nz_sb_printf(b, "  SER(%d)[k] = ((nzs_pow_f)K[%d])(SER(%d), SER(%d), %s, k);\n", z, K_POW, z, a, v);
+    nz_sb_printf(b, "  if (k == 0) bad |= SER(%s)[0] == 0.0;\n", a);
+    nz_sb_printf(b, "  SER(%s)[k] = ((nzs_pow_f)K[%d])(SER(%s), SER(%s), %s, k);\n", z, K_POW, z, a, v);
     break;
   case NZ_SK_POW:   /* exp(y log x) */
-    nz_sb_printf(b, "  SER(%d)[k] = nzs_log(SER(%d), SER(%d), k);\n", w, w, a);
-    nz_sb_printf(b, "  SER(%d)[k] = nzs_mul(SER(%d), SER(%d), k);\n", w + 1, bb, w);
-    nz_sb_printf(b, "  SER(%d)[k] = nzs_exp(SER(%d), SER(%d), k);\n", z, z, w + 1);
+    nz_sb_printf(b, "  SER(%s)[k] = nzs_log(SER(%s), SER(%s), k);\n", w[0], w[0], a);
+    nz_sb_printf(b, "  SER(%s)[k] = nzs_mul(SER(%s), SER(%s), k);\n", w[1], bb, w[0]);
+    nz_sb_printf(b, "  SER(%s)[k] = nzs_exp(SER(%s), SER(%s), k);\n", z, z, w[1]);
     break;
-  case NZ_SK_EXP: nz_sb_printf(b, "  SER(%d)[k] = nzs_exp(SER(%d), SER(%d), k);\n", z, z, a); break;
-  case NZ_SK_LOG: nz_sb_printf(b, "  SER(%d)[k] = nzs_log(SER(%d), SER(%d), k);\n", z, z, a); break;
+  case NZ_SK_EXP: nz_sb_printf(b, "  SER(%s)[k] = nzs_exp(SER(%s), SER(%s), k);\n", z, z, a); break;
+  case NZ_SK_LOG: nz_sb_printf(b, "  SER(%s)[k] = nzs_log(SER(%s), SER(%s), k);\n", z, z, a); break;
   case NZ_SK_SQRT:
-    nz_sb_printf(b, "  if (k == 0) bad |= SER(%d)[0] == 0.0;\n", a);
-    nz_sb_printf(b, "  SER(%d)[k] = nzs_sqrt(SER(%d), SER(%d), k);\n", z, z, a);
+    nz_sb_printf(b, "  if (k == 0) bad |= SER(%s)[0] == 0.0;\n", a);
+    nz_sb_printf(b, "  SER(%s)[k] = nzs_sqrt(SER(%s), SER(%s), k);\n", z, z, a);
     break;
   case NZ_SK_SIN: case NZ_SK_SINH:
-    nz_sb_printf(b, "  nzs_sincos(SER(%d), SER(%d), SER(%d), k, %d);\n", z, w, a, r->kernel == NZ_SK_SINH);
+    nz_sb_printf(b, "  nzs_sincos(SER(%s), SER(%s), SER(%s), k, %d);\n", z, w[0], a, kernel == NZ_SK_SINH);
     break;
   case NZ_SK_COS: case NZ_SK_COSH:
-    nz_sb_printf(b, "  nzs_sincos(SER(%d), SER(%d), SER(%d), k, %d);\n", w, z, a, r->kernel == NZ_SK_COSH);
+    nz_sb_printf(b, "  nzs_sincos(SER(%s), SER(%s), SER(%s), k, %d);\n", w[0], z, a, kernel == NZ_SK_COSH);
     break;
   case NZ_SK_TAN: case NZ_SK_TANH:
-    nz_sb_printf(b, "  nzs_tan(SER(%d), SER(%d), SER(%d), k, %d);\n", z, w, a, r->kernel == NZ_SK_TANH);
+    nz_sb_printf(b, "  nzs_tan(SER(%s), SER(%s), SER(%s), k, %d);\n", z, w[0], a, kernel == NZ_SK_TANH);
     break;
   case NZ_SK_ATAN:   /* y' (1 + x^2) = x' */
-    nz_sb_printf(b, "  SER(%d)[k] = nzs_mul(SER(%d), SER(%d), k);\n", w, a, a);
-    nz_sb_printf(b, "  if (k == 0) { SER(%d)[0] += 1.0; SER(%d)[0] = atan(SER(%d)[0]); }\n", w, z, a);
-    nz_sb_printf(b, "  else SER(%d)[k] = ((nzs_quad_f)K[%d])(SER(%d), SER(%d), SER(%d), 1.0, k);\n", z, K_QUAD, z,
-                 a, w);
+    nz_sb_printf(b, "  SER(%s)[k] = nzs_mul(SER(%s), SER(%s), k);\n", w[0], a, a);
+    nz_sb_printf(b, "  if (k == 0) { SER(%s)[0] += 1.0; SER(%s)[0] = atan(SER(%s)[0]); }\n", w[0], z, a);
+    nz_sb_printf(b, "  else SER(%s)[k] = ((nzs_quad_f)K[%d])(SER(%s), SER(%s), SER(%s), 1.0, k);\n", z, K_QUAD, z,
+                 a, w[0]);
     break;
   case NZ_SK_ASIN: case NZ_SK_ACOS:   /* y' sqrt(1 - x^2) = +-x' */
-    nz_sb_printf(b, "  SER(%d)[k] = -nzs_mul(SER(%d), SER(%d), k);\n", w, a, a);
-    nz_sb_printf(b, "  if (k == 0) { SER(%d)[0] += 1.0; bad |= fabs(SER(%d)[0]) == 1.0; }\n", w, a);
-    nz_sb_printf(b, "  SER(%d)[k] = nzs_sqrt(SER(%d), SER(%d), k);\n", w + 1, w + 1, w);
-    nz_sb_printf(b, "  if (k == 0) SER(%d)[0] = %s(SER(%d)[0]);\n", z, r->kernel == NZ_SK_ASIN ? "asin" : "acos", a);
-    nz_sb_printf(b, "  else SER(%d)[k] = ((nzs_quad_f)K[%d])(SER(%d), SER(%d), SER(%d), %s, k);\n", z, K_QUAD, z,
-                 a, w + 1, r->kernel == NZ_SK_ASIN ? "1.0" : "-1.0");
+    nz_sb_printf(b, "  SER(%s)[k] = -nzs_mul(SER(%s), SER(%s), k);\n", w[0], a, a);
+    nz_sb_printf(b, "  if (k == 0) { SER(%s)[0] += 1.0; bad |= fabs(SER(%s)[0]) == 1.0; }\n", w[0], a);
+    nz_sb_printf(b, "  SER(%s)[k] = nzs_sqrt(SER(%s), SER(%s), k);\n", w[1], w[1], w[0]);
+    nz_sb_printf(b, "  if (k == 0) SER(%s)[0] = %s(SER(%s)[0]);\n", z, kernel == NZ_SK_ASIN ? "asin" : "acos", a);
+    nz_sb_printf(b, "  else SER(%s)[k] = ((nzs_quad_f)K[%d])(SER(%s), SER(%s), SER(%s), %s, k);\n", z, K_QUAD, z,
+                 a, w[1], kernel == NZ_SK_ASIN ? "1.0" : "-1.0");
     break;
   case NZ_SK_ATAN2:
-    nz_sb_printf(b, "  if (k == 0) bad |= SER(%d)[0] == 0.0 && SER(%d)[0] == 0.0;\n", a, bb);
-    nz_sb_printf(b, "  SER(%d)[k] = nzs_mul(SER(%d), SER(%d), k) + nzs_mul(SER(%d), SER(%d), k);\n", w, bb, bb, a, a);
-    nz_sb_printf(b, "  SER(%d)[k] = ((nzs_atan2_f)K[%d])(SER(%d), SER(%d), SER(%d), SER(%d), k);\n", z, K_ATAN2, z, a,
-                 bb, w);
+    nz_sb_printf(b, "  if (k == 0) bad |= SER(%s)[0] == 0.0 && SER(%s)[0] == 0.0;\n", a, bb);
+    nz_sb_printf(b, "  SER(%s)[k] = nzs_mul(SER(%s), SER(%s), k) + nzs_mul(SER(%s), SER(%s), k);\n", w[0], bb, bb, a,
+                 a);
+    nz_sb_printf(b, "  SER(%s)[k] = ((nzs_atan2_f)K[%d])(SER(%s), SER(%s), SER(%s), SER(%s), k);\n", z, K_ATAN2, z,
+                 a, bb, w[0]);
     break;
   case NZ_SK_HYPOT:   /* s sqrt((a/s)^2 + (b/s)^2), s = max(|a_0|, |b_0|) = v[i] */
-    nz_sb_printf(b, "  if (k == 0) { v[%d] = fmax(fabs(SER(%d)[0]), fabs(SER(%d)[0])); bad |= v[%d] == 0.0; }\n", i,
-                 a, bb, i);
-    nz_sb_printf(b, "  SER(%d)[k] = SER(%d)[k] / v[%d];\n", w, a, i);
-    nz_sb_printf(b, "  SER(%d)[k] = SER(%d)[k] / v[%d];\n", w + 1, bb, i);
-    nz_sb_printf(b, "  SER(%d)[k] = nzs_mul(SER(%d), SER(%d), k) + nzs_mul(SER(%d), SER(%d), k);\n", w + 2, w, w,
-                 w + 1, w + 1);
-    nz_sb_printf(b, "  SER(%d)[k] = nzs_sqrt(SER(%d), SER(%d), k);\n", w + 3, w + 3, w + 2);
-    nz_sb_printf(b, "  SER(%d)[k] = SER(%d)[k] * v[%d];\n", z, w + 3, i);
+    nz_sb_printf(b, "  if (k == 0) { %s = fmax(fabs(SER(%s)[0]), fabs(SER(%s)[0])); bad |= %s == 0.0; }\n", vi, a,
+                 bb, vi);
+    nz_sb_printf(b, "  SER(%s)[k] = SER(%s)[k] / %s;\n", w[0], a, vi);
+    nz_sb_printf(b, "  SER(%s)[k] = SER(%s)[k] / %s;\n", w[1], bb, vi);
+    nz_sb_printf(b, "  SER(%s)[k] = nzs_mul(SER(%s), SER(%s), k) + nzs_mul(SER(%s), SER(%s), k);\n", w[2], w[0],
+                 w[0], w[1], w[1]);
+    nz_sb_printf(b, "  SER(%s)[k] = nzs_sqrt(SER(%s), SER(%s), k);\n", w[3], w[3], w[2]);
+    nz_sb_printf(b, "  SER(%s)[k] = SER(%s)[k] * %s;\n", z, w[3], vi);
     break;
-  case NZ_SK_STEP: nz_sb_printf(b, "  SER(%d)[k] = k == 0 ? 1.0 : 0.0;   /* x^0 */\n", z); break;
-  case NZ_SK_COPY: nz_sb_printf(b, "  SER(%d)[k] = SER(%d)[k];\n", z, a); break;
-  default: nz_sb_printf(b, "  SER(%d)[k] = NAN;\n", z); break;
+  case NZ_SK_STEP: nz_sb_printf(b, "  SER(%s)[k] = k == 0 ? 1.0 : 0.0;   /* x^0 */\n", z); break;
+  case NZ_SK_COPY: nz_sb_printf(b, "  SER(%s)[k] = SER(%s)[k];\n", z, a); break;
+  default: nz_sb_printf(b, "  SER(%s)[k] = NAN;\n", z); break;
   }
-  if (check) nz_sb_printf(b, "  c%d += SER(%d)[k] * 0.0;\n", i & 3, z);
+}
+
+/* Slot i's kernel at coefficient k, as graph_series.c's series_coef; at k = 0
+ * also the domain checks of its series_first for an order >= 1 that a
+ * finite coefficient 0 would not reveal (the others give an infinity or a
+ * NaN: log 0, 1/0, sqrt(-1), ...), into `bad`.  kc >= 0: the code for
+ * that coefficient only (k a constant in scope), products written out. */
+static void emit_slot(nz_sbuf *b, const nz_series_slot *r, int i, int check, int kc)
+{
+  if (kc >= 0 && (r->kernel == NZ_SK_MUL || r->kernel == NZ_SK_SQR))
+    emit_product(b, r->z, r->a, r->kernel == NZ_SK_SQR ? r->a : r->b, kc);
+  else {
+    char z[16], a[16], bb[16], w[4][16], v[64], vi[32];
+    const char *wp[4] = { w[0], w[1], w[2], w[3] };
+    snprintf(z, sizeof z, "%d", r->z);
+    snprintf(a, sizeof a, "%d", r->a);
+    snprintf(bb, sizeof bb, "%d", r->b);
+    for (int j = 0; j < 4; j++) snprintf(w[j], sizeof w[j], "%d", r->aux + j);
+    nz_native_literal(v, sizeof v, r->v);
+    snprintf(vi, sizeof vi, "v[%d]", i);
+    nz_series_ref ref = { z, a, bb, { wp[0], wp[1], wp[2], wp[3] }, v, vi, r->n };
+    nz_series_emit_kernel(b, r->kernel, &ref);
+  }
+  if (check) nz_sb_printf(b, "  c%d += SER(%d)[k] * 0.0;\n", i & 3, r->z);
 }
 
 /* The inputs of coefficient n (a C expression) of a second-order ODE, with
@@ -274,7 +289,7 @@ static void emit_ode2_outputs(nz_sbuf *b, const nz_graph_plan *p, const nz_serie
  * from one order to the next; a failure is looked for once at the end (a
  * NaN only spoils later coefficients, and the caller then redoes all).
  * Beyond that order, and for big plans, a loop over the parts. */
-static void emit_ode2(nz_sbuf *b, const nz_graph_plan *p, const nz_series_ode2 *o, int nparts,
+static void emit_ode2(nz_sbuf *b, const nz_graph_plan *p, const nz_series_ode2 *o, int nparts, int straight,
                       const nz_series_slot *slots, int n, const char *used)
 {
   int nin = nz_graph_series_input_slots(p, NULL), *in_num = malloc(((size_t)nin + 1) * sizeof *in_num);
@@ -284,7 +299,7 @@ static void emit_ode2(nz_sbuf *b, const nz_graph_plan *p, const nz_series_ode2 *
                   "double *restrict a);\n"
                   "int nzs_ode2(int N, int L, double *restrict S, double *restrict v, void (*const *K)(void), "
                   "double *restrict a)\n{\n  const size_t l = (size_t)L;\n  (void)v; (void)K;\n");
-  if (nparts == 1 && n <= INLINE_SLOTS) {
+  if (straight && nparts == 1 && n <= INLINE_SLOTS) {
     /* the arena's stride as a constant (graph_series.h): every address a
      * constant offset from S, none computed or kept in a register */
     nz_sb_printf(b, "  if (N > %d || L != %d) goto loop;\n  {\n  const size_t l = %d;\n"
@@ -312,8 +327,10 @@ static void emit_ode2(nz_sbuf *b, const nz_graph_plan *p, const nz_series_ode2 *
   free(in_num);
 }
 
+/* The source: straight-line code, or compact code (series_compact.c)
+ * when compact is set, its tables into *tab. */
 static char *generate(const nz_graph_plan *p, const nz_series_ode2 *ode2, const nz_series_slot *slots, int n,
-                      int nseries, char *why, size_t whylen)
+                      int nseries, int compact, nz_ctab *tab, char *why, size_t whylen)
 {
   nz_sbuf b = { 0 };
   int nparts = (n + CHUNK - 1) / CHUNK;
@@ -333,11 +350,13 @@ static char *generate(const nz_graph_plan *p, const nz_series_ode2 *ode2, const 
   /* The kernels inlined into a small plan (3 % faster on Henon-Heiles);
    * called in a big one, which then compiles 7x faster (measured on a
    * random plan of 300 nodes: 0.7 s against 5 s). */
-  nz_sb_printf(&b, "/* Generated by nzlua (%s): coefficient k of %d computed slots, %d series. */\n%s%s",
-               SER_VERSION, n, nseries, n <= INLINE_SLOTS ? "#define NZS_KERNEL inline\n" : "", preamble);
+  nz_sb_printf(&b, "/* Generated by nzlua (%s): coefficient k of %d computed slots, %d series, %s code. */\n%s%s",
+               SER_VERSION, n, nseries, compact ? "compact" : "straight-line",
+               n <= INLINE_SLOTS ? "#define NZS_KERNEL inline\n" : "", preamble);
   /* one small part is inlined into the loop of ode2 */
-  nz_sb_printf(&b, "#define NZS_PART %s\n", nparts == 1 && n <= INLINE_SLOTS ? "inline" : "NZS_NOINLINE");
-  for (int c = 0; c < nparts; c++) {
+  nz_sb_printf(&b, "#define NZS_PART %s\n", !compact && nparts == 1 && n <= INLINE_SLOTS ? "inline" : "NZS_NOINLINE");
+  if (compact) nparts = nz_series_emit_compact(&b, slots, n, nseries, used, tab);
+  for (int c = 0; !compact && c < nparts; c++) {
     nz_sb_printf(&b, "\nstatic NZS_PART double nzs_part%d(int k, int L, double *restrict S, "
                      "double *restrict v, void (*const *K)(void))\n{\n"
                      "  const size_t l = (size_t)L;\n  double c0 = 0.0, c1 = 0.0, c2 = 0.0, c3 = 0.0;\n"
@@ -350,7 +369,7 @@ static char *generate(const nz_graph_plan *p, const nz_series_ode2 *ode2, const 
                    "{\n  double c = 0.0;\n");
   for (int c = 0; c < nparts; c++) nz_sb_printf(&b, "  c += nzs_part%d(k, L, S, v, K);\n", c);
   nz_sb_printf(&b, "  return !(c == 0.0);\n}\n");
-  if (ode2) emit_ode2(&b, p, ode2, nparts, slots, n, used);
+  if (ode2) emit_ode2(&b, p, ode2, nparts, !compact, slots, n, used);
   free(used);
   if (b.oom) {
     free(b.s);
@@ -385,14 +404,15 @@ nz_series_native *nz_series_native_get(const nz_graph_plan *p, const nz_series_o
                     slots[i].gop == NZ_GOP_FN ? nz_jet_fn_names[slots[i].fn] : "");
       goto fail;
     }
-  if (!(src = generate(p, ode2, slots, n, nseries, why, whylen))) goto fail;
+  s->compact = nz_native_compact(n, NZ_SERIES_COMPACT_SLOTS);
+  if (!(src = generate(p, ode2, slots, n, nseries, s->compact, &s->tab, why, whylen))) goto fail;
   /* -O2 for a small plan: Henon-Heiles' series (written out to order 24)
    * runs 19 % faster than at -O1 (1.52 against 1.88 ms for t = 0..2000 at
    * 1e-15, NZLUA_COPT to compare), which pays for the compiler's extra
    * ~0.2 s within a few runs; -O1 above 60 slots, where -O2's time to
    * compile grows faster than what it saves */
   s->ode2_wanted = ode2 != NULL;
-  int got = nz_native_object_get(src, SER_VERSION, "nzs", "nzs_next", n > INLINE_SLOTS, how, cache_dir, t0, &s->obj,
+  int got = nz_native_object_get(src, SER_VERSION, "nzs", "nzs_next", !s->compact && n > INLINE_SLOTS, how, cache_dir, t0, &s->obj,
                                  why, whylen);
   if (got < 0 || (got == 0 && entries(s, why, whylen))) goto fail;
   s->sig = nz_graph_series_signature(p);
@@ -432,10 +452,12 @@ void nz_series_native_free(nz_series_native *s)
 {
   if (!s) return;
   nz_native_object_close(&s->obj);
+  nz_ctab_free(&s->tab);
   free(s);
 }
 
 double nz_series_native_seconds(const nz_series_native *s) { return s->obj.seconds; }
 double nz_series_native_waited(const nz_series_native *s) { return s->obj.waited; }
 int nz_series_native_slots(const nz_series_native *s) { return s->slots; }
+int nz_series_native_compact_code(const nz_series_native *s) { return s->compact; }
 const char *nz_series_native_path(const nz_series_native *s) { return s->obj.path; }

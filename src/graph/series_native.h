@@ -64,6 +64,8 @@ void nz_series_native_free(nz_series_native *s);   /* NULL is harmless */
 double nz_series_native_seconds(const nz_series_native *s);
 double nz_series_native_waited(const nz_series_native *s);   /* of which a caller waited */
 int nz_series_native_slots(const nz_series_native *s);
+/* 1 when s is compact code, 0 straight-line code (graph_native.h). */
+int nz_series_native_compact_code(const nz_series_native *s);
 const char *nz_series_native_path(const nz_series_native *s);
 
 #endif

@@ -398,10 +398,6 @@ static const luaL_Reg contact_functions[] = {
 
 void nz_lua_open_contact(lua_State *L)
 {
-  if (luaL_newmetatable(L, NZ_CONTACTS_METATABLE)) {
-    lua_pushcfunction(L, contacts_gc);
-    lua_setfield(L, -2, "__gc");
-  }
-  lua_pop(L, 1);
+  nz_lua_gc_metatable(L, NZ_CONTACTS_METATABLE, contacts_gc);
   luaL_setfuncs(L, contact_functions, 0);
 }

@@ -23,6 +23,7 @@
 #include "lua/lua_native.h"
 #include "lua/lua_roots.h"
 #include "lua/lua_ode.h"
+#include "lua/lua_points.h"
 #include "lua/lua_series.h"
 #include "lua/lua_special.h"
 #include "lua/lua_sweep.h"
@@ -126,6 +127,7 @@ static int open_core(lua_State *L)
   nz_lua_open_linalg(L);
   nz_lua_open_roots(L);
   nz_lua_open_ode(L);
+  nz_lua_open_points(L);          /* a trajectory's output points */
   nz_lua_open_taylor(L);
   nz_lua_open_contact(L);        /* unilateral contacts for the integrators */
   nz_lua_open_sweep(L);          /* worker processes of nz.sweep */

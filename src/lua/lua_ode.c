@@ -16,6 +16,7 @@
 #include "lua/lua_contact.h"
 #include "lua/lua_graph.h"
 #include "lua/lua_ode.h"
+#include "lua/lua_points.h"
 #include "lua/lua_system.h"
 #include "lua/lua_taylor.h"
 #include "lua/lua_util.h"
@@ -641,28 +642,28 @@ static int lo_run_new(lua_State *L)
   return 1;
 }
 
-/* The buffered points appended to tr.t, tr.q, tr.qd, tr.qdd, tr.lambda (at
- * stack index tr, as record() in simulate.lua stores them) and, when pend
- * is a table, each point's state y and root q^(p) (false when none) to
- * pend.y[n] and pend.root[n], for what simulate.lua records in Lua; then
- * the buffer is emptied.  No Lua function runs here, so Ctrl-C's hook
- * cannot fire in the middle: a point is handed over whole or not at all. */
+/* The buffered points appended to the trajectory (at stack index tr): t to
+ * tr.t, q, q', q'' and lambda to its points in C (tr._points, lua_points.h:
+ * trajectory.lua makes a point's tables, tr.q[i] and the others, only when
+ * they are read; a table per point cost 100 times the run of a Henon-Heiles
+ * with 200,001 output points); when pend is a table, each point's state y
+ * and root q^(p) (false when none) to pend.y[n] and pend.root[n], for what
+ * run.lua records in Lua; then the buffer is emptied.  No Lua function runs
+ * here, so Ctrl-C's hook cannot fire in the middle: a point is handed over
+ * whole or not at all. */
 static void flush_points(lua_State *L, run_box *rb, int tr, int pend)
 {
-  static const char *const series[] = { "t", "q", "qd", "qdd", "lambda" };
+  int k = rb->ode->k, nc = rb->ode->nc, dim = rb->ode->dim, count = nz_run_count(rb->r);
   int base = lua_gettop(L);
-  for (int j = 0; j < 5; j++) {      /* at base + 1 .. base + 5 */
-    lua_pushstring(L, series[j]);
-    if (lua_rawget(L, tr) != LUA_TTABLE) luaL_error(L, "simulate: tr.%s is not a table", series[j]);
-  }
+  nz_points *points = nz_lua_points_of(L, tr, k, nc);
+  if (lua_getfield(L, tr, "t") != LUA_TTABLE) luaL_error(L, "simulate: tr.t is not a table");   /* base + 1 */
   int with_pend = lua_istable(L, pend);
-  if (with_pend) {                   /* at base + 6, base + 7 */
+  if (with_pend) {                   /* at base + 2, base + 3 */
     lua_getfield(L, pend, "y");
     lua_getfield(L, pend, "root");
-    luaL_checktype(L, base + 6, LUA_TTABLE);
-    luaL_checktype(L, base + 7, LUA_TTABLE);
+    luaL_checktype(L, base + 2, LUA_TTABLE);
+    luaL_checktype(L, base + 3, LUA_TTABLE);
   }
-  int k = rb->ode->k, nc = rb->ode->nc, dim = rb->ode->dim, count = nz_run_count(rb->r);
   lua_Integer first = (lua_Integer)lua_rawlen(L, base + 1) + 1;
   for (int i = 0; i < count; i++) {
     double t;
@@ -671,19 +672,12 @@ static void flush_points(lua_State *L, run_box *rb, int tr, int pend)
     lua_Integer n = first + i;
     if (with_pend) {                 /* first: a point in tr has its y in pend */
       nz_lua_push_vector(L, y, dim);
-      lua_rawseti(L, base + 6, n);
+      lua_rawseti(L, base + 2, n);
       if (root) nz_lua_push_vector(L, root, k);
       else lua_pushboolean(L, 0);
-      lua_rawseti(L, base + 7, n);
+      lua_rawseti(L, base + 3, n);
     }
-    nz_lua_push_vector(L, y, k);
-    nz_lua_push_vector(L, y + k, k);
-    nz_lua_push_vector(L, acc, k);
-    nz_lua_push_vector(L, acc + k, nc);
-    lua_rawseti(L, base + 5, n);
-    lua_rawseti(L, base + 4, n);
-    lua_rawseti(L, base + 3, n);
-    lua_rawseti(L, base + 2, n);
+    nz_lua_points_push(L, points, y, acc);
     lua_pushnumber(L, t);            /* last: #tr.t counts whole points */
     lua_rawseti(L, base + 1, n);
   }
@@ -976,20 +970,8 @@ static const luaL_Reg ode_functions[] = {
 /* Add the functions to the table on top of the stack (core.mech). */
 void nz_lua_open_ode(lua_State *L)
 {
-  if (luaL_newmetatable(L, NZ_ODE_METATABLE)) {
-    lua_pushcfunction(L, ode_gc);
-    lua_setfield(L, -2, "__gc");
-  }
-  lua_pop(L, 1);
-  if (luaL_newmetatable(L, NZ_EVENTS_METATABLE)) {
-    lua_pushcfunction(L, events_gc);
-    lua_setfield(L, -2, "__gc");
-  }
-  lua_pop(L, 1);
-  if (luaL_newmetatable(L, NZ_RUN_METATABLE)) {
-    lua_pushcfunction(L, run_gc);
-    lua_setfield(L, -2, "__gc");
-  }
-  lua_pop(L, 1);
+  nz_lua_gc_metatable(L, NZ_ODE_METATABLE, ode_gc);
+  nz_lua_gc_metatable(L, NZ_EVENTS_METATABLE, events_gc);
+  nz_lua_gc_metatable(L, NZ_RUN_METATABLE, run_gc);
   luaL_setfuncs(L, ode_functions, 0);
 }

@@ -450,12 +450,17 @@ static int hybrid_eval(void *vctx, nz_piece piece, int index, const nz_jet *t,
 typedef struct system_object {
   const void *def;            /* the table it was made for (a copy is another system) */
   nz_system sys;              /* ev is set at binding */
-  struct nz_recording *comp;   /* def.recording, kept alive by def */
+  struct nz_recording *comp;  /* def.recording, kept alive by def */
+  const void *comp_box;       /* def.recording's userdata, kept alive by the object's user value */
   int np;                     /* parameters of the recording */
   int absent;                 /* names of params its functions read while absent */
 } system_object;
 
 static const char *const SYSTEM_OBJECT = "nz.evaluator";
+/* The registry's copy of the object's metatable under a light key: telling
+ * an object from another userdata costs a pointer comparison per call
+ * instead of a lookup by name (sys:accel of a small system: 5 % of it). */
+static const char object_metatable_key = 0;
 
 /* The recording at def.recording, if any, and its hooks. */
 static void object_recording(lua_State *L, int def, system_object *o)
@@ -464,7 +469,8 @@ static void object_recording(lua_State *L, int def, system_object *o)
     lua_pop(L, 1);
     return;
   }
-  lua_pop(L, 1);
+  o->comp_box = lua_touserdata(L, -1);
+  lua_setiuservalue(L, -2, 1);   /* the object (below it) keeps the recording alive */
   o->np = nz_recording_nparams(o->comp);
   if (lua_getfield(L, def, "params_absent") == LUA_TTABLE) o->absent = (int)lua_rawlen(L, -1);
   lua_pop(L, 1);
@@ -483,12 +489,14 @@ static void object_recording(lua_State *L, int def, system_object *o)
 /* Make def's evaluator object (left on the stack). */
 static system_object *object_new(lua_State *L, int def)
 {
-  system_object *o = lua_newuserdatauv(L, sizeof *o, 0);
+  system_object *o = lua_newuserdatauv(L, sizeof *o, 1);
   memset(o, 0, sizeof *o);
   if (luaL_newmetatable(L, SYSTEM_OBJECT)) {
     lua_pushstring(L, SYSTEM_OBJECT);
     lua_setfield(L, -2, "__name");
   }
+  lua_pushvalue(L, -1);
+  lua_rawsetp(L, LUA_REGISTRYINDEX, &object_metatable_key);
   lua_setmetatable(L, -2);
   o->def = lua_topointer(L, def);
   lua_getfield(L, def, "k");
@@ -520,10 +528,16 @@ static system_object *object_new(lua_State *L, int def)
 static system_object *system_object_of(lua_State *L, int def)
 {
   system_object *o = NULL;
-  if (lua_getfield(L, def, "evaluator") == LUA_TUSERDATA) o = luaL_testudata(L, -1, SYSTEM_OBJECT);
+  if (lua_getfield(L, def, "evaluator") == LUA_TUSERDATA && lua_getmetatable(L, -1)) {
+    lua_rawgetp(L, LUA_REGISTRYINDEX, &object_metatable_key);
+    if (lua_rawequal(L, -1, -2)) o = lua_touserdata(L, -3);
+    lua_pop(L, 2);
+  }
   lua_pop(L, 1);
   if (o && o->def == lua_topointer(L, def)) {
-    int same = lua_getfield(L, def, "recording") == LUA_TUSERDATA ? nz_lua_torecording(L, -1) == o->comp : o->comp == NULL;
+    /* the same recording: the very userdata the object keeps alive */
+    int same = lua_getfield(L, def, "recording") == LUA_TUSERDATA ? lua_touserdata(L, -1) == o->comp_box && o->comp
+                                                                   : o->comp == NULL;
     lua_pop(L, 1);
     if (same) return o;
   }
@@ -559,7 +573,7 @@ static void check_param(lua_State *L, int def)
  * once; a run once per chunk of steps), not per evaluation. */
 static void check_params(lua_State *L, int def)
 {
-  if (lua_getfield(L, def, "param_names") != LUA_TTABLE) {
+  if (lua_getfield(L, def, "param_names") != LUA_TTABLE || lua_rawlen(L, -1) == 0) {
     lua_pop(L, 1);
     return;
   }
@@ -794,15 +808,22 @@ static int ls_mass_bias(lua_State *L)
   return 2;
 }
 
-/* Solve M qdd = -h into qdd and push it, or raise (accel and accel_try). */
+/* Solve M qdd = -h into qdd and push it (out > 0: into the table at that
+ * stack index, pushed again), or raise (accel and accel_try). */
 static int push_accel(lua_State *L, bound_system *b, double t, const double *q, const double *qd,
-                      double rcond_min, double *qdd)
+                      double rcond_min, double *qdd, int out)
 {
   nz_solve_info info;
   int st = nz_accel(&b->sys, t, q, qd, rcond_min, qdd, &info);
   if (st == NZ_ESINGULAR) return nz_lua_raise_singular_mass(L, 1, t, q, qd, b->sys.k, &info);
   if (st) return nz_lua_raise_core(L, b, st, "accel");
-  nz_lua_push_vector(L, qdd, b->sys.k);
+  if (out > 0) {
+    for (int i = 0; i < b->sys.k; i++) {
+      lua_pushnumber(L, qdd[i]);
+      lua_rawseti(L, out, i + 1);
+    }
+    lua_pushvalue(L, out);
+  } else nz_lua_push_vector(L, qdd, b->sys.k);
   return 1;
 }
 
@@ -812,28 +833,51 @@ static int ls_accel(lua_State *L)
   bound_system b;
   double t, *q = nz_lua_bind_tq_qd(L, 5, &b, 1, 0, &t, "accel");
   int k = b.sys.k;
-  return push_accel(L, &b, t, q, q + k, luaL_optnumber(L, 5, NZ_RCOND_MIN), q + 2 * k);
+  return push_accel(L, &b, t, q, q + k, luaL_optnumber(L, 5, NZ_RCOND_MIN), q + 2 * k, 0);
 }
 
-/* accel_try(def, t, q, qd) -> qdd, or nil when t, q or qd is not what
- * accel reads (sys:accel then checks them in Lua and says what is wrong):
- * the fast path of sys:accel, whose checks in Lua cost more than the
- * accelerations of a small system (1.5 us of 3 for the 8-link pendulum). */
+/* The output table of sys:accel's options at stack index opts: 0 for no
+ * options, the stack index of opts.out (pushed) when opts is {out = a
+ * plain table} and nothing else, -1 for anything else (the checks in Lua
+ * say what is wrong with it). */
+static int accel_out(lua_State *L, int opts)
+{
+  if (lua_isnoneornil(L, opts)) return 0;
+  if (lua_type(L, opts) != LUA_TTABLE || lua_getmetatable(L, opts)) return -1;
+  lua_pushnil(L);
+  int keys = 0;
+  while (keys < 2 && lua_next(L, opts)) {
+    keys++;
+    lua_pop(L, 1);
+  }
+  if (keys == 2) lua_pop(L, 1);   /* the key lua_next left */
+  if (keys != 1 || lua_getfield(L, opts, "out") != LUA_TTABLE || lua_getmetatable(L, -1)) return -1;
+  return lua_gettop(L);
+}
+
+/* accel_try(def, t, q, qd [, opts]) -> qdd, or nil when t, q, qd or opts
+ * is not what accel reads (sys:accel then checks them in Lua and says what
+ * is wrong): the fast path of sys:accel, whose checks in Lua cost more than
+ * the accelerations of a small system (1.5 us of 3 for the 8-link
+ * pendulum).  With opts = {out = table}, qdd is written into that table
+ * (entries 1 .. k), which is returned: a loop that passes the same options
+ * again makes no table per call. */
 static int ls_accel_try(lua_State *L)
 {
   bound_system b;
   double small[3 * 32], *q = small;
-  lua_settop(L, 4);
+  lua_settop(L, 5);
+  int out = accel_out(L, 5);
   nz_lua_bind_system(L, 1, &b);
   int k = b.sys.k;
   if (k > 32) q = lua_newuserdatauv(L, 3 * (size_t)k * sizeof(double), 0);
   double *qd = q + k, *qdd = qd + k, t = lua_tonumber(L, 2);
-  if (lua_type(L, 2) != LUA_TNUMBER || !isfinite(t) || !nz_lua_try_vector(L, 3, k, q) ||
+  if (out < 0 || lua_type(L, 2) != LUA_TNUMBER || !isfinite(t) || !nz_lua_try_vector(L, 3, k, q) ||
       !nz_lua_try_vector(L, 4, k, qd)) {
     lua_pushnil(L);
     return 1;
   }
-  return push_accel(L, &b, t, q, qd, NZ_RCOND_MIN, qdd);
+  return push_accel(L, &b, t, q, qd, NZ_RCOND_MIN, qdd, out);
 }
 
 /* energy(def, t, q, qd) -> T (nil without T), V, F, H */

@@ -478,3 +478,12 @@ int nz_lua_raise_accel_failure(lua_State *L, int def, const nz_accel_report *rep
   return nz_lua_raise_located(L);
 }
 
+
+void nz_lua_gc_metatable(lua_State *L, const char *name, lua_CFunction gc)
+{
+  if (luaL_newmetatable(L, name)) {
+    lua_pushcfunction(L, gc);
+    lua_setfield(L, -2, "__gc");
+  }
+  lua_pop(L, 1);
+}

@@ -36,6 +36,9 @@ int nz_lua_try_vector(lua_State *L, int idx, int k, double *v);
 void nz_lua_read_vector(lua_State *L, int idx, int k, double *v, const char *what, int allow_nil,
                         const char *fname);
 void nz_lua_push_vector(lua_State *L, const double *v, int k);
+/* The metatable called name, with gc as its __gc, made when it is not yet
+ * in the registry (the userdata types that own C memory). */
+void nz_lua_gc_metatable(lua_State *L, const char *name, lua_CFunction gc);
 /* The number in field name of the table at idx, dflt when it is nil (a
  * configuration table the library's Lua side built and checked). */
 double nz_lua_field_number(lua_State *L, int idx, const char *name, double dflt);

@@ -359,23 +359,26 @@ function M.top_guess(sys, g, p)
   return x
 end
 
--- The bytes one output point keeps (record below): a slot in each series
--- (t, q, qd, qdd, lambda, and the monitors'), counted twice for the arrays'
--- doubling, and the tables of q, qd, qdd, lambda, the higher levels and
--- q^(p), each a 64-byte header and 16 bytes per number rounded up to a power
--- of two.  Measured (collectgarbage, 10001 points): 410 bytes for a 1-DOF
--- pendulum (this gives 464), 482 with both monitors (560), 494 for a
--- constrained 2-DOF one (560), 691 for 5 DOF (800).
+-- The bytes one output point keeps: q, q', q'' and lambda as doubles in C
+-- (src/lua/lua_points.c), a slot in each Lua series (t, and the
+-- violation's and the monitors'), both counted twice for the arrays'
+-- doubling (and two more where run.lua records extras), and the tables of
+-- the higher levels and q^(p), each a 64-byte
+-- header and 16 bytes per number rounded up to a power of two.  Measured
+-- (collectgarbage and the C array's size, 5001 points): 65 bytes for a
+-- 1-DOF pendulum (this gives 80), 227 with both monitors (240), 222 for 5
+-- DOF (272).
 local function pow2(n) local c = n > 0 and 1 or 0; while c < n do c = 2 * c end; return c end
 function M.point_bytes(sys, cfg, p, top)
   local k, nc = sys.k, sys.nc
-  local series, tables, numbers = 5, 4, 3 * pow2(k) + pow2(nc)
+  local series, tables, numbers = 1, 0, 0
   if nc > 0 then series = series + 1 end                                  -- violation
   if cfg.monitors.energy then series = series + 2 end
   if cfg.monitors.work then series = series + 1 end
   if p and p > 3 then series, tables, numbers = series + 1, tables + p - 2, numbers + (p - 3) * pow2(k) end
   if top then series, tables, numbers = series + 1, tables + 1, numbers + pow2(k) end
-  return 32 * series + 64 * tables + 16 * numbers
+  if series > 1 then series = series + 2 end      -- run.lua's pend.y and pend.root, emptied but kept
+  return 16 * (3 * k + nc) + 32 * series + 64 * tables + 16 * numbers
 end
 
 -- The output points a run keeps must fit in settings.MAX_MEMORY bytes.

@@ -19,6 +19,7 @@ local options = require "nz.motion.options"
 local advice = require "nz.motion.advice"
 local variational = require "nz.motion.variational"
 local frontend = require "nz.base.frontend"
+local trajectory = require "nz.motion.trajectory"
 
 local mech = core.mech
 local fail, show, state_text = options.fail, options.show, advice.state_text
@@ -116,7 +117,7 @@ local function record_extras(run, n, t, yy, lambda, root)
     tr.branch = tr.branch or { from = cfg.guess and "guess" or "least squares", [constraints.level_name(cfg.p)] = root,
       lambda = lambda }
   end
-  if tr.energy then tr.energy[n], tr.generalized_energy[n] = sys:energy(t, tr.q[n], tr.qd[n]) end
+  if tr.energy then tr.energy[n], tr.generalized_energy[n] = sys:energy(t, split(yy, run.k)) end   -- (not tr.q[n]: that would make the point's tables)
   if tr.work then tr.work[n] = yy[2 * run.k + 1] end
 end
 
@@ -139,8 +140,7 @@ local function record(run, t, yy)
   local tr, k = run.tr, run.k
   local q, qd = split(yy, k)
   local qdd, lambda, root = mech.ode_accel(run.ode, run.engine, t, yy)
-  local n = #tr.t + 1
-  tr.t[n], tr.q[n], tr.qd[n], tr.qdd[n], tr.lambda[n] = t, q, qd, qdd, lambda
+  local n = trajectory.append(tr, t, q, qd, qdd, lambda)
   if run.pend then record_extras(run, n, t, yy, lambda, root) end
   run.cdone = n
 end

@@ -11,15 +11,62 @@ Trajectory.__index = Trajectory
 
 local M = { Trajectory = Trajectory }
 
+-- The points are kept in C (tr._points: q, q', q'' and the multipliers of
+-- each point in one array of doubles, src/lua/lua_points.c, which the loop
+-- appends to) and tr.t.  tr.q, tr.qd, tr.qdd and tr.lambda are views of
+-- them: point i's table is made when tr.q[i] is first read, then kept (the
+-- same table at every read), so a run with many output points pays for its
+-- numbers, not for four tables per point.  A view has the length of tr.t,
+-- and ipairs, pairs and table.unpack see every point.
+local GROUPS = { q = 1, qd = 2, qdd = 3, lambda = 4 }
+
+local function rows(tr, group)
+  local function row(self, i)
+    local r = tr._points and core.mech.points_row(tr._points, i, group)
+    if r then rawset(self, i, r) end
+    return r
+  end
+  return setmetatable({}, {
+    __index = function(self, i) return math.type(i) == "integer" and row(self, i) or nil end,
+    __len = function() return #tr.t end,
+    __pairs = function(self)
+      return function(_, i)
+        i = i + 1
+        if i <= #tr.t then return i, self[i] end
+      end, self, 0
+    end,
+  })
+end
+
 function M.new(sys, opts)
-  return setmetatable({
+  local tr = setmetatable({
     system = sys, coords = sys.coords, method = opts.method, rtol = opts.rtol, atol = opts.atol,
-    step = opts.step,
-    t = {}, q = {}, qd = {}, qdd = {}, lambda = {}, violation = sys.nc > 0 and {} or nil,
+    step = opts.step, t = {}, violation = sys.nc > 0 and {} or nil,
     energy = nil, generalized_energy = nil, work = nil, events = {},
     stats = { steps = 0, rejected = 0, nfev = 0, njev = 0, wall = 0 },
     status = "running",
   }, Trajectory)
+  for name, group in pairs(GROUPS) do tr[name] = rows(tr, group) end
+  return tr
+end
+
+-- A point appended from Lua (as the loop in C appends its points: the
+-- values first, t last); returns its index.
+function M.append(tr, t, q, qd, qdd, lambda)
+  tr._points = tr._points or core.mech.points_new(#q, #lambda)
+  core.mech.points_push(tr._points, q, qd, qdd, lambda)
+  local n = #tr.t + 1
+  tr.t[n] = t
+  return n
+end
+
+-- Column j of q, qd, qdd or lambda (src) as a new list: from the points in
+-- C where the trajectory keeps them, else from its points' tables.
+local function column_of(self, src, j)
+  if self._points then return core.mech.points_column(self._points, GROUPS[src], j) or {} end
+  local out, points = {}, self[src]
+  for i = 1, #self.t do out[i] = points[i][j] end
+  return out
 end
 
 function Trajectory:__len() return #self.t end
@@ -155,26 +202,20 @@ function Trajectory:column(name)
       .. "in simulate (quantities of this one: %s)", name, quantities(self))
   end
   for r, lname in ipairs(lambda_names(self)) do
-    if lname == name then
-      local out = {}
-      for i = 1, #self.t do out[i] = self.lambda[i][r] end
-      return out
-    end
+    if lname == name then return column_of(self, "lambda", r) end
   end
   local base, primes = name:match("^(.-)('*)$")
   for j, c in ipairs(self.coords) do
     if c == base then
       local m = #primes
       if m >= 3 and m <= highest(self) then return level_values(self, j, m) end
-      local src = (m == 0 and self.q) or (m == 1 and self.qd) or (m == 2 and self.qdd)
+      local src = ({ [0] = "q", "qd", "qdd" })[m]
       if not src then
         column_error("trajectory: no quantity %s: this run holds the derivatives up to %s only (constraints of "
           .. "order 3 or more give a run q''' and above) (quantities: %s)", quoted(name), c .. ("'"):rep(highest(self)),
           quantities(self))
       end
-      local out = {}
-      for i = 1, #self.t do out[i] = src[i][j] end
-      return out
+      return column_of(self, src, j)
     end
   end
   column_error("trajectory: no quantity %s (quantities: %s)", quoted(name), quantities(self))
@@ -182,36 +223,27 @@ end
 
 -- The header and the rows of tr:csv, to the open file f.
 local function write_csv(self, f)
-  local head = { "t" }
-  for _, c in ipairs(self.coords) do head[#head + 1] = c end
-  for _, c in ipairs(self.coords) do head[#head + 1] = c .. "'" end
-  for _, c in ipairs(self.coords) do head[#head + 1] = c .. "''" end
-  -- q''' and above where the run holds them (constraints of order >= 3), as tr:column gives them
-  local higher = {}
-  for m = 3, highest(self) do
-    for j, c in ipairs(self.coords) do
-      higher[#higher + 1] = level_values(self, j, m)
-      head[#head + 1] = c .. ("'"):rep(m)
-    end
+  local head, cols = { "t" }, { self.t }
+  local function add(name, col) head[#head + 1], cols[#cols + 1] = name, col end
+  for m, src in ipairs{ "q", "qd", "qdd" } do
+    for j, c in ipairs(self.coords) do add(c .. ("'"):rep(m - 1), column_of(self, src, j)) end
   end
-  for _, name in ipairs(lambda_names(self)) do head[#head + 1] = name end
-  local extra = {}
+  -- q''' and above where the run holds them (constraints of order >= 3), as tr:column gives them
+  for m = 3, highest(self) do
+    for j, c in ipairs(self.coords) do add(c .. ("'"):rep(m), level_values(self, j, m)) end
+  end
+  local names, width = lambda_names(self), #(self.lambda[1] or {})
+  for r = 1, width do add(names[r] or ("lambda" .. r), column_of(self, "lambda", r)) end
   for _, name in ipairs{ "violation", "E", "H", "work" } do
     local ok, col = pcall(self.column, self, name)
-    if ok and col then extra[#extra + 1] = col; head[#head + 1] = name end
+    if ok and col then add(name, col) end
   end
   assert(f:write(table.concat(head, ","), "\n"))
   -- each number in the shortest form that reads back exactly (as the session prints it)
   local number = require("nz.base.formula").number
+  local row = {}
   for i = 1, #self.t do
-    local row = { number(self.t[i]) }
-    for _, src in ipairs{ self.q[i], self.qd[i], self.qdd[i] } do
-      for j = 1, #src do row[#row + 1] = number(src[j]) end
-    end
-    for _, col in ipairs(higher) do row[#row + 1] = number(col[i]) end
-    local lam = self.lambda and self.lambda[i] or {}
-    for j = 1, #lam do row[#row + 1] = number(lam[j]) end
-    for _, col in ipairs(extra) do row[#row + 1] = number(col[i]) end
+    for c = 1, #cols do row[c] = number(cols[c][i]) end
     assert(f:write(table.concat(row, ","), "\n"))
   end
   assert(f:flush())

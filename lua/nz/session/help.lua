@@ -226,8 +226,11 @@ one, e.g. help(sys.simulate):
         (q, qd) is from the constraints of order <= 1; off them by over 1e-8
         of their terms, a warning once per system.  opts.check = false skips
         both (to measure their cost).  Singular systems name the
-        constraints involved.  opts: qdd, lambda, tol, maxit, rcond_min,
-        check; any other key is an error.  Every method checks its arguments
+        constraints involved.  opts.out = a table: qdd is written into it
+        (entries 1..k) and returned, and without constraints lambda is one
+        shared empty table: a loop that passes the same opts makes no table
+        per call.  opts: qdd, lambda, tol, maxit, rcond_min, check, out; any
+        other key is an error.  Every method checks its arguments
         (t, q, qd: k finite numbers each) and names the one that is wrong; a
         method called with a dot (sys.accel(...)) says to write a colon.
   sys:constraints([{quiet = true}])  the classification, one entry per
