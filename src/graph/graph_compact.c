@@ -7,7 +7,7 @@
  * (parsing, dead-store elimination and register allocation over functions
  * of thousands of them: about 0.17 ms of cc time per node at -O1), so a
  * plan of 40,000 nodes costs seconds of compiling.  Compact code is the
- * interpreter's loop (graph.c) with the dispatch compiled away: one loop
+ * interpreter's loop (graph_plan.c) with the dispatch compiled away: one loop
  * per block, its operands read through index tables that the loader writes
  * into the object (native_tables.h), so the source grows with the number
  * of blocks, not of nodes, and compiles in a fraction of a second for any

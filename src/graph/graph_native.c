@@ -4,7 +4,7 @@
  *
  * The generated code.  One `const double tN` per computed node, in the
  * graph's (topological) order; inputs read as in[k], constants written as
- * exact hexadecimal literals.  Each formula is the interpreter's (graph.c):
+ * exact hexadecimal literals.  Each formula is the interpreter's (graph_impl.h, graph_plan.c):
  * x^n by the same binary powering unrolled, x^y = exp(y log x), hypot scaled
  * by max(|a|, |b|), |x| as x < 0 ? -x : x, sign(x) as [x > 0] - [x < 0]
  * (so sign(-0) = +0 and sign(NaN) = 0, as the interpreter), cmp as 1.0 or
@@ -144,21 +144,21 @@ static int supported(const nz_gnode *nd)
   }
 }
 
-/* The kernels of graph.c that are not one libm call, with NaN for the
+/* The kernels of graph_impl.h that are not one libm call, with NaN for the
  * domain errors that libm would not make non-finite. */
 const char nz_native_helpers[] =
   "#include <math.h>\n"
   "#if defined(__GNUC__)\n#define NZN_NOINLINE __attribute__((noinline))\n"
   "#else\n#define NZN_NOINLINE\n#endif\n"
   "static inline double nzn_abs(double x) { return x < 0.0 ? -x : x; }\n"
-  /* sign(NaN) = 0 and sign(-0) = +0, as graph.c's d_fn */
+  /* sign(NaN) = 0 and sign(-0) = +0, as graph_impl.h's d_fn */
   "static inline double nzn_sign(double x) { return (double)((x > 0.0) - (x < 0.0)); }\n"
-  /* graph.c's d_cmp: NaN for a NaN operand (the interpreter refuses it) */
+  /* graph_impl.h's d_cmp: NaN for a NaN operand (the interpreter refuses it) */
   "#define NZN_CMP(name, op) static inline double name(double a, double b)\\\n"
   "{ return a != a || b != b ? NAN : a op b ? 1.0 : 0.0; }\n"
   "NZN_CMP(nzn_lt, <)\nNZN_CMP(nzn_le, <=)\nNZN_CMP(nzn_gt, >)\n"
   "NZN_CMP(nzn_ge, >=)\nNZN_CMP(nzn_eq, ==)\nNZN_CMP(nzn_ne, !=)\n"
-  /* graph.c's R_SELECT: a NaN condition fails */
+  /* graph_plan.c's R_SELECT: a NaN condition fails */
   "static inline double nzn_select(double c, double a, double b)\n"
   "{ return c != c ? NAN : c != 0.0 ? a : b; }\n"
   "static inline double nzn_hypot(double a, double b)\n{\n"
@@ -167,7 +167,7 @@ const char nz_native_helpers[] =
   "  double as = a / s, bs = b / s;\n"
   "  return __builtin_sqrt(as * as + bs * bs) * s;\n}\n"
   "static inline double nzn_pow(double x, double y) { return x > 0.0 ? exp(y * log(x)) : NAN; }\n"
-  /* graph.c's d_powi (compact code; straight-line code unrolls it) */
+  /* graph_impl.h's d_powi (compact code; straight-line code unrolls it) */
   "static inline double nzn_powi(double x, unsigned n)\n{\n"
   "  double y = 1.0, base = x;\n"
   "  while (n) {\n    if (n & 1u) y = y * base;\n    n >>= 1;\n    if (n) base = base * base;\n  }\n"
@@ -189,7 +189,7 @@ static void ref(const gen *G, int id, int c, char *s, size_t n)
   else snprintf(s, n, "w[%d]", G->wslot[id]);
 }
 
-/* x^n by the binary powering of graph.c's d_powi, unrolled into
+/* x^n by the binary powering of graph_impl.h's d_powi, unrolled into
  * statements: the squares tI_k, the product tI_y; e receives the result. */
 static void emit_powi(gen *G, int id, const char *x, unsigned n, char *e, size_t en)
 {

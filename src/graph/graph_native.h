@@ -1,9 +1,9 @@
 /* graph_native.h - expression graphs compiled to machine code.
  *
- * The plan interpreter of graph.c costs a few nanoseconds per node; the same
+ * The plan interpreter of graph_plan.c costs a few nanoseconds per node; the same
  * formulas written in C cost a fraction of one.  This module writes C for the
  * double evaluation of some outputs of a graph (straight-line code, one local
- * per node, the scalar kernels of graph.c copied in so that the results are
+ * per node, the scalar kernels of graph_impl.h copied in so that the results are
  * the interpreter's bit for bit), compiles it with the system's C compiler
  * into a shared object, and loads it back with dlopen.  The object is cached
  * in a cache on disk (native_object.h has its rules: trust, integrity, the

@@ -28,7 +28,7 @@ typedef struct nz_native_gen {
   int nw, nchunks;
 } nz_native_gen;
 
-/* The scalar kernels of graph.c that are not one libm call, as C source. */
+/* The scalar kernels of graph_impl.h that are not one libm call, as C source. */
 extern const char nz_native_helpers[];
 
 static inline int nz_native_computed(int op) { return op != NZ_GOP_CONST && op != NZ_GOP_INPUT; }

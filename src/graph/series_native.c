@@ -244,7 +244,7 @@ static void emit_slot(nz_sbuf *b, const nz_series_slot *r, int i, int check, int
 }
 
 /* The inputs of coefficient n (a C expression) of a second-order ODE, with
- * the very expressions of nz_recording_motion_series (mech_graph.c) so that
+ * the very expressions of nz_recording_motion_series (mech_graph_series.c) so that
  * the numbers are the same: q_i from a[n], q_i' from a[n + 1], t, the rest
  * constant. */
 static void emit_ode2_inputs(nz_sbuf *b, const nz_graph_plan *p, const nz_series_ode2 *o, const int *in_num, int nin,
