@@ -86,6 +86,44 @@ describe("a trajectory's points", function()
     end
   end)
 
+
+  it("of a contact run with isotropic cones: each multiplier's column is its entry in the rows, by name", function()
+    -- a cone's slip speed |v_t| is a row of the contact's series, not a
+    -- force: tr.lambda, its names and its columns leave it out alike (two
+    -- pucks, so that the first one's speed row lies between the forces)
+    local m, mu, g = 1.5, 0.4, 9.81
+    local function cone(name, z, x, y)
+      return nz.unilateral(function(t, q) return q[z] end, { name = name, mu = mu,
+        slip = { function(t, q, qd) return qd[x] end, function(t, q, qd) return qd[y] end } })
+    end
+    local pucks = nz.system{ name = "two pucks", coords = { "x1", "y1", "z1", "x2", "y2", "z2" },
+      T = function(t, q, qd) local s = 0; for i = 1, 6 do s = s + qd[i] ^ 2 end; return 0.5 * m * s end,
+      V = function(t, q) return m * g * (q[3] + q[6]) end,
+      constraints = { cone("a", 3, 1, 2), cone("b", 6, 4, 5) } }
+    for _, method in ipairs{ "rk8pd", "taylor" } do
+      local tr = pucks:simulate{ q0 = { 0, 0, 0, 0, 0, 0 }, qd0 = { 1, 1, 0, 2, -1, 0 }, t1 = 0.2, dt = 0.01,
+        method = method }
+      local names, n = tr.lambda_names, #tr.t
+      assert.are.equal(6, #names)
+      assert.are.equal(#names, #tr.lambda[1])
+      -- each puck slides: N = m g, T opposite its velocity, |T| = mu m g
+      local want = { ["N.a"] = m * g, ["N.b"] = m * g, ["T1.a"] = -mu * m * g / math.sqrt(2),
+        ["T2.a"] = -mu * m * g / math.sqrt(2), ["T1.b"] = -mu * m * g * 2 / math.sqrt(5),
+        ["T2.b"] = mu * m * g / math.sqrt(5) }
+      for r, name in ipairs(names) do
+        assert(want[name], "an unexpected column " .. name)
+        local col = tr:column(name)
+        assert(math.abs(col[n] - want[name]) <= 1e-9 * m * g, ("%s: %s = %.17g, want %.17g"):format(method, name,
+          col[n], want[name]))
+        assert.are.equal(n, #col)
+        for i = 1, n do
+          assert(col[i] == tr.lambda[i][r], ("%s: %s at point %d is %.17g, the row says %.17g"):format(method, name,
+            i, col[i], tr.lambda[i][r]))
+        end
+      end
+    end
+  end)
+
   it("cost no table per point: 20,001 points grow Lua's heap by far less than 20,001 tables", function()
     taylor(200, 200)
     collectgarbage()

@@ -178,6 +178,27 @@ function Run:located(e, te, ye)
   return false
 end
 
+-- Keep only the multipliers `keep` (their numbers, in order) in tr.lambda,
+-- its columns and its names: the rows made already lose the others, the
+-- rows the trajectory makes later from its points never have them
+-- (tr._lambda_cols, nz/motion/trajectory.lua).
+local function keep_lambda(tr, keep)
+  local names = {}
+  for c, j in ipairs(keep) do names[c] = tr.lambda_names and tr.lambda_names[j] end
+  if tr.lambda_names then tr.lambda_names = names end
+  for i, row in next, tr.lambda do
+    local kept = {}
+    for c, j in ipairs(keep) do kept[c] = row[j] end
+    rawset(tr.lambda, i, kept)
+  end
+  if tr._points then
+    local base = tr._lambda_cols
+    local cols = {}
+    for c, j in ipairs(keep) do cols[c] = base and base[j] or j end
+    tr._lambda_cols = cols
+  end
+end
+
 -- After the run.
 function Run:finish(tr)
   tr.contacts.run = nil
@@ -185,13 +206,11 @@ function Run:finish(tr)
   -- an isotropic cone's speed |v_t| is a row of Taylor's series, not a
   -- force: its column (always 0) leaves tr.lambda
   local drop = {}
-  for _, s in ipairs(self.specs) do if s.speed then drop[#drop + 1] = s.speed end end
-  if #drop == 0 then return end
-  table.sort(drop, function(a, b) return a > b end)
-  for _, r in ipairs(drop) do table.remove(tr.lambda_names, r) end
-  for _, row in ipairs(tr.lambda or {}) do
-    for _, r in ipairs(drop) do table.remove(row, r) end
-  end
+  for _, s in ipairs(self.specs) do if s.speed then drop[s.speed] = true end end
+  if next(drop) == nil then return end
+  local keep = {}
+  for r = 1, #tr.lambda_names do if not drop[r] then keep[#keep + 1] = r end end
+  keep_lambda(tr, keep)
 end
 
 -- ------------------------------------------------------------------ --

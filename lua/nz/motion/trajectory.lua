@@ -17,12 +17,20 @@ local M = { Trajectory = Trajectory }
 -- them: point i's table is made when tr.q[i] is first read, then kept (the
 -- same table at every read), so a run with many output points pays for its
 -- numbers, not for four tables per point.  A view has the length of tr.t,
--- and ipairs, pairs and table.unpack see every point.
+-- and ipairs, pairs and table.unpack see every point.  tr._lambda_cols,
+-- when set, lists the stored multipliers tr.lambda shows, in order (a
+-- contact run leaves out the rows that are no forces: contact_run.lua).
 local GROUPS = { q = 1, qd = 2, qdd = 3, lambda = 4 }
 
 local function rows(tr, group)
   local function row(self, i)
     local r = tr._points and core.mech.points_row(tr._points, i, group)
+    local cols = group == GROUPS.lambda and tr._lambda_cols
+    if r and cols then
+      local kept = {}
+      for c, j in ipairs(cols) do kept[c] = r[j] end
+      r = kept
+    end
     if r then rawset(self, i, r) end
     return r
   end
@@ -63,7 +71,10 @@ end
 -- Column j of q, qd, qdd or lambda (src) as a new list: from the points in
 -- C where the trajectory keeps them, else from its points' tables.
 local function column_of(self, src, j)
-  if self._points then return core.mech.points_column(self._points, GROUPS[src], j) or {} end
+  if self._points then
+    if src == "lambda" and self._lambda_cols then j = self._lambda_cols[j] end
+    return j and core.mech.points_column(self._points, GROUPS[src], j) or {}
+  end
   local out, points = {}, self[src]
   for i = 1, #self.t do out[i] = points[i][j] end
   return out
