@@ -1,7 +1,9 @@
 /* test_series.c - the coefficient kernels (series.c) and jets (jet.c) in C,
  * without Lua, against closed-form Taylor series; and the central-difference
  * Jacobian of constrained_series.c against a closed form; the SPD solve of
- * core/linalg.c against GSL's Cholesky and against an explicit inverse.  GSL's test functions
+ * core/linalg.c against GSL's Cholesky and against an explicit inverse; the
+ * seedings of nz_constraint_eval (mech.c) against a constraint's derivatives
+ * by hand.  GSL's test functions
  * print one PASS/FAIL line per check (GSL_TEST_VERBOSE style). */
 #include <math.h>
 #include <stdio.h>
@@ -14,8 +16,119 @@
 #include "core/linalg.h"
 #include "core/status.h"
 #include "mech/constrained_series.h"
+#include "mech/mech.h"
 #include "jets/jet.h"
 #include "jets/series.h"
+
+/* ------------------------------------------------------------------ */
+/* nz_constraint_eval's seedings (mech.h) against hand derivatives      */
+
+/* Phi = t q0 q1' + q0 q2''^2 + q1'''/2 on three coordinates, evaluated on
+ * whatever jets the seeding made (the constraint's four default slots). */
+static int phi_eval(void *ctx, nz_piece p, int index, const nz_jet *t, nz_jet *const *const *lv, int nl,
+                    nz_jet *const *out, const nz_direction *dir)
+{
+  (void)ctx, (void)index;
+  if (p != NZ_PIECE_PHI || nl < 4 || dir) return NZ_EARG;
+  int Ko = out[0]->order, D = out[0]->ntan;
+  double work[256];
+  nz_jet *a = nz_jet_alloc(Ko, D), *b = nz_jet_alloc(Ko, D);
+  int st = !a || !b ? NZ_ENOMEM : NZ_OK;
+  if (!st) st = nz_jet_mul(a, t, lv[0][0], work);
+  if (!st) st = nz_jet_mul(b, a, lv[1][1], work);           /* t q0 q1' */
+  if (!st) st = nz_jet_mul(a, lv[2][2], lv[2][2], work);
+  if (!st) st = nz_jet_mul(out[0], a, lv[0][0], work);      /* q0 q2''^2 */
+  if (!st) st = nz_jet_add(a, out[0], b);
+  if (!st) st = nz_jet_scale(b, lv[3][1], 0.5);
+  if (!st) st = nz_jet_add(out[0], a, b);
+  nz_jet_free(a);
+  nz_jet_free(b);
+  return st;
+}
+
+static void check_constraint_eval(void)
+{
+  nz_system s;
+  memset(&s, 0, sizeof s);
+  s.k = 3;
+  s.nc = 1;
+  s.has = 1u << NZ_PIECE_PHI;
+  s.ev.eval = phi_eval;
+  double t = 0.731, q[3] = { 1.385, -0.62, 0.27 }, qd[3] = { 0.41, 2.385, -1.1 }, qdd[3] = { -0.35, 0.92, 1.615 },
+         qddd[3] = { 0.8, -0.45, 1.3 };
+  const double *state[4] = { q, qd, qdd, qddd };
+  double phi = t * q[0] * qd[1] + q[0] * qdd[2] * qdd[2] + 0.5 * qddd[1], e, f;
+  nz_motion mo = { 0 };
+  nz_jet *o;
+
+  /* every slot as a whole and t: the partial derivatives */
+  nz_constraint_seeding partials = { .D = -1, .t_variable = 1, .count = -1, .by_slot = 1 };
+  int st = nz_constraint_eval(&s, 0, &mo, t, state, 4, &partials);
+  o = mo.out[0];
+  double want[13] = { 0 };
+  want[0] = t * qd[1] + qdd[2] * qdd[2];
+  want[3 + 1] = t * q[0];
+  want[6 + 2] = 2 * q[0] * qdd[2];
+  want[9 + 1] = 0.5;
+  want[12] = q[0] * qd[1];
+  e = st ? 1.0 : fabs(o->c[0] - phi);
+  for (int d = 0; !st && d < 13; d++) e = fmax(e, fabs(nz_jet_tangent(o, d)[0] - want[d]));
+  gsl_test(st || mo.nslots != 4 || o->ntan != 13 || e > 1e-14,
+           "constraint eval: slots as a whole and t as a variable give Phi and its 12 + 1 partials (%.3g)", e);
+
+  /* tangents on q'' by level, to order 1: d(Phi')/dq'' = dPhi/dq' + d/dt dPhi/dq'' */
+  nz_constraint_seeding row = { .K = 1, .D = 3, .first = 2, .count = 1 };
+  st = nz_constraint_eval(&s, 0, &mo, t, state, 4, &row);
+  o = mo.out[0];
+  double dphi = q[0] * qd[1] + t * qd[0] * qd[1] + t * q[0] * qdd[1] + qd[0] * qdd[2] * qdd[2]
+              + 2 * q[0] * qdd[2] * qddd[2];   /* q'''' = 0 */
+  double A1[3] = { 0.0, t * q[0], 2 * qd[0] * qdd[2] + 2 * q[0] * qddd[2] };
+  e = st ? 1.0 : fmax(fabs(o->c[0] - phi), fabs(o->c[1] - dphi));
+  for (int i = 0; !st && i < 3; i++) e = fmax(e, fabs(nz_jet_tangent(o, i)[1] - A1[i]));
+  gsl_test(st || e > 1e-14, "constraint eval: q'' seeded by level gives Phi' and its row dPhi'/dq'' (%.3g)", e);
+
+  /* q and q' by level, order 0: the state gradient */
+  nz_constraint_seeding grad = { .D = 6, .count = 2 };
+  st = nz_constraint_eval(&s, 0, &mo, t, state, 4, &grad);
+  o = mo.out[0];
+  double g[6] = { t * qd[1] + qdd[2] * qdd[2], 0, 0, 0, t * q[0], 0 };
+  e = 0.0;
+  for (int d = 0; !st && d < 6; d++) e = fmax(e, fabs(nz_jet_tangent(o, d)[0] - g[d]));
+  gsl_test(st || e > 1e-14, "constraint eval: q and q' seeded by level give the state gradient (%.3g)", e);
+
+  /* the series frozen but along v on slot 2: Phi, its slope and half its curvature along v */
+  double v[3] = { 0.3, -0.7, 1.1 };
+  nz_constraint_seeding curv = { .K = 2, .frozen = 1, .along_slot = 2, .along = v };
+  st = nz_constraint_eval(&s, 0, &mo, t, state, 4, &curv);
+  o = mo.out[0];
+  e = st ? 1.0 : fmax(fabs(o->c[0] - phi), fmax(fabs(o->c[1] - 2 * q[0] * qdd[2] * v[2]), fabs(o->c[2] - q[0] * v[2] * v[2])));
+  gsl_test(st || e > 1e-14, "constraint eval: frozen along v on q'' gives Phi, Phi_q'' v, v^T Phi_q''q'' v / 2 (%.3g)", e);
+
+  /* frozen along q''_2 alone, tangents on slot 2: column 2 of the Hessian in q'' */
+  nz_constraint_seeding hess = { .K = 1, .D = 3, .frozen = 1, .along_slot = 2, .along_index = 2, .first = 2,
+                                 .count = 1, .by_slot = 1 };
+  st = nz_constraint_eval(&s, 0, &mo, t, state, 4, &hess);
+  o = mo.out[0];
+  e = st ? 1.0 : fmax(fmax(fabs(nz_jet_tangent(o, 0)[1]), fabs(nz_jet_tangent(o, 1)[1])),
+                      fabs(nz_jet_tangent(o, 2)[1] - 2 * q[0]));
+  gsl_test(st || e > 1e-14, "constraint eval: frozen along q''_2 with q'' tangents gives the Hessian's column (%.3g)", e);
+
+  /* the check's tangent along the slots above 1, weighted */
+  double sizes[4] = { 1.0, 2.5, 1.75, 3.25 };
+  nz_constraint_seeding check = { .nslots = 4, .D = 1, .above = 1, .sizes = sizes };
+  st = nz_constraint_eval(&s, 0, &mo, t, state, 4, &check);
+  f = nz_check_slot_weight(2, 2, 3) * sizes[2] * 2 * q[0] * qdd[2] + nz_check_slot_weight(3, 1, 3) * sizes[3] * 0.5;
+  e = st ? 1.0 : fabs(nz_jet_tangent(mo.out[0], 0)[0] - f);
+  gsl_test(st || e > 1e-14 * fabs(f), "constraint eval: the check's tangent is the weighted derivative along q'', q''' (%.3g)", e);
+
+  /* slots the workspace does not have */
+  nz_constraint_seeding far = { .K = 2, .frozen = 1, .along_slot = 4, .along = v };
+  nz_constraint_seeding wide = { .D = 6, .first = 3, .count = 2, .by_slot = 1 };
+  gsl_test(nz_constraint_eval(&s, 0, &mo, t, state, 4, &far) != NZ_EARG
+           || nz_constraint_eval(&s, 0, &mo, t, state, 4, &wide) != NZ_EARG,
+           "constraint eval: a frozen series along slot 4, or tangents on slots 3 and 4, of 4 slots is NZ_EARG");
+  nz_motion_free(&mo);
+}
 
 #define K 40
 /* Closed-form coefficients below are sums of at most K products of O(1)
@@ -459,6 +572,7 @@ int main(void)
 {
   check_central_jacobian();
   gsl_test_verbose(1);
+  check_constraint_eval();
   check_ode2_coef();
   check_lu_lstsq();
   check_branches();

@@ -18,17 +18,11 @@
 int nz_constraint_partials(const nz_system *s, int r, double t, const double *const *state,
                            int nstate, double *value, double *dphi, double *dphidt)
 {
-  int k = s->k, L = nz_constraint_levels(s, r), D = L * k + 1;
-  nz_motion mo;
-  int st = nz_motion_init(&mo, k, L, 0, D, t, state, nstate);
-  if (st) return st;
-  nz_jet_free(mo.t);                            /* t carries direction L k */
-  if (!(mo.t = nz_jet_alloc(0, D))) { nz_motion_free(&mo); return NZ_ENOMEM; }
-  nz_jet_set_variable(mo.t, t, L * k);
-  for (int j = 0; j < L; j++)
-    for (int i = 0; i < k; i++) nz_motion_seed_slot(&mo, i, j * k + i, j);
-  st = nz_motion_eval(s, NZ_PIECE_PHI, r, &mo, NULL);
+  nz_motion mo = { 0 };          /* direction j k + i: slot j of q_i, for the L slots; L k: t */
+  nz_constraint_seeding sd = { .D = -1, .t_variable = 1, .count = -1, .by_slot = 1 };
+  int st = nz_constraint_eval(s, r, &mo, t, state, nstate, &sd);
   if (!st) {
+    int L = mo.nslots, k = mo.k;
     *value = mo.out[0]->c[0];
     for (int d = 0; d < L * k; d++) dphi[d] = nz_jet_tangent(mo.out[0], d)[0];
     *dphidt = nz_jet_tangent(mo.out[0], L * k)[0];
@@ -43,14 +37,9 @@ int nz_constraint_state_gradient(const nz_system *s, int r, int level, double t,
 {
   int k = s->k;
   if (level < 0 || level > 1) return NZ_EARG;
-  nz_motion mo;
-  int st = nz_motion_init(&mo, k, nz_constraint_levels(s, r), level, 2 * k, t, state, nstate);
-  if (st) return st;
-  for (int i = 0; i < k; i++) {             /* direction i: q_i; k + i: q'_i */
-    nz_motion_seed_level(&mo, i, i, 0);
-    nz_motion_seed_level(&mo, i, k + i, 1);
-  }
-  st = nz_motion_eval(s, NZ_PIECE_PHI, r, &mo, NULL);
+  nz_motion mo = { 0 };                     /* direction i: q_i; k + i: q'_i */
+  nz_constraint_seeding sd = { .K = level, .D = 2 * k, .count = 2 };
+  int st = nz_constraint_eval(s, r, &mo, t, state, nstate, &sd);
   if (!st) {
     double f = nz_factorial(level);         /* coefficient `level` holds Phi^(level) / level! */
     *value = f * mo.out[0]->c[level];
@@ -60,26 +49,12 @@ int nz_constraint_state_gradient(const nz_system *s, int r, int level, double t,
   return st;
 }
 
-/* Make every slot (and t) constant in the series variable. */
-static void freeze(nz_motion *mo)
-{
-  for (int c = 1; c <= mo->K; c++) {
-    mo->t->c[c] = 0.0;
-    for (int j = 0; j < mo->nslots; j++)
-      for (int i = 0; i < mo->k; i++) mo->slot[j][i]->c[c] = 0.0;
-  }
-}
-
 int nz_constraint_curvature(const nz_system *s, int r, int m, double t, const double *const *state,
                             int nstate, const double *v, double c[3])
 {
-  nz_motion mo;
-  int st = nz_motion_init(&mo, s->k, nz_constraint_levels(s, r), 2, 0, t, state, nstate);
-  if (st) return st;
-  if (m < 0 || m >= mo.nslots) { nz_motion_free(&mo); return NZ_EARG; }
-  freeze(&mo);
-  for (int i = 0; i < s->k; i++) mo.slot[m][i]->c[1] = v[i];
-  st = nz_motion_eval(s, NZ_PIECE_PHI, r, &mo, NULL);
+  nz_motion mo = { 0 };                     /* the series variable moves slot m along v alone */
+  nz_constraint_seeding sd = { .K = 2, .frozen = 1, .along_slot = m, .along = v };
+  int st = nz_constraint_eval(s, r, &mo, t, state, nstate, &sd);
   if (!st)
     for (int j = 0; j < 3; j++) c[j] = mo.out[0]->c[j];
   nz_motion_free(&mo);
@@ -158,11 +133,8 @@ static int row_in(const nz_system *s, nz_motion *mo, int r, int m, double t,
       (st = s->constraint_row(s->mass_bias_ctx, r, m, t, state, nstate, alpha, beta, A, value, NULL, NULL)) !=
         NZ_EARG)
     return st;
-  st = nz_motion_reset(mo, k, nz_constraint_levels(s, r), K, k, t, state, nstate);
-  if (st) return st;
-  if (dir && (st = nz_motion_set_direction(mo, dir))) return st;
-  for (int i = 0; i < k; i++) nz_motion_seed_level(mo, i, i, 2);
-  st = nz_motion_eval(s, NZ_PIECE_PHI, r, mo, NULL);
+  nz_constraint_seeding sd = { .K = K, .D = k, .dir = dir, .first = 2, .count = 1 };   /* tangents on q'' */
+  st = nz_constraint_eval(s, r, mo, t, state, nstate, &sd);
   if (!st) {
     read_row(mo->out[0], m, k, alpha, beta, A, value);
     if (dir && dA && dvalue) read_row(mo->dout[0], m, k, alpha, beta, dA, dvalue);  /* derivative outputs given with dir */
@@ -213,11 +185,9 @@ static int hessian_in(const nz_system *s, nz_motion *mo, int r, double t, const 
 {
   int k = s->k, st = NZ_OK;
   for (int j = 0; j < k && !st; j++) {
-    if ((st = nz_motion_reset(mo, k, nz_constraint_levels(s, r), 1, k, t, state, nstate))) return st;
-    freeze(mo);
-    mo->slot[2][j]->c[1] = 1.0;
-    for (int i = 0; i < k; i++) nz_motion_seed_slot(mo, i, i, 2);
-    st = nz_motion_eval(s, NZ_PIECE_PHI, r, mo, NULL);
+    nz_constraint_seeding sd = { .K = 1, .D = k, .frozen = 1, .along_slot = 2, .along_index = j,
+                                 .first = 2, .count = 1, .by_slot = 1 };
+    st = nz_constraint_eval(s, r, mo, t, state, nstate, &sd);
     if (!st)
       for (int i = 0; i < k; i++) H[i * k + j] = nz_jet_tangent(mo->out[0], i)[1];
   }
@@ -510,23 +480,19 @@ static double slot_size(const double *const *state, int k, int j)
  * and the evaluation needs a single tangent. */
 static int check_row(kkt *c, int r, const double *const *state, double *high)
 {
-  int k = c->k, m = c->orders[r], K = 2 - m, D = m == 2 ? k + 1 : 1, st;
+  int k = c->k, m = c->orders[r], D = m == 2 ? k + 1 : 1, st;
+  double sizes[NZ_CONSTRAINT_SLOTS];
+  for (int j = 0; j < NZ_CONSTRAINT_SLOTS; j++) sizes[j] = slot_size(state, k, j);
   if (c->s->constraint_row) {
-    double sizes[NZ_CONSTRAINT_SLOTS];
-    for (int j = 0; j < NZ_CONSTRAINT_SLOTS; j++) sizes[j] = slot_size(state, k, j);
     st = c->s->constraint_row(c->s->mass_bias_ctx, r, m, c->t, state, 3, c->alpha, c->beta,
                               m == 2 ? c->A + (size_t)r * k : NULL, &c->phi[r], sizes, high);
     if (st != NZ_EARG) return st;
   }
+  /* tangents on q'' for m = 2 (the row), the last along the slots above m */
+  nz_constraint_seeding sd = { .nslots = NZ_CONSTRAINT_SLOTS, .K = 2 - m, .D = D, .first = 2,
+                               .count = m == 2, .above = m, .sizes = sizes };
   nz_motion *mo = &c->mo;
-  if ((st = nz_motion_reset(mo, k, NZ_CONSTRAINT_SLOTS, K, D, c->t, state, 3))) return st;
-  if (m == 2)
-    for (int i = 0; i < k; i++) nz_motion_seed_level(mo, i, i, 2);
-  for (int j = m + 1; j < NZ_CONSTRAINT_SLOTS; j++) {
-    double sj = slot_size(state, k, j);
-    for (int i = 0; i < k; i++) nz_jet_tangent(mo->slot[j][i], D - 1)[0] += nz_check_slot_weight(j, i, k) * sj;
-  }
-  st = nz_motion_eval(c->s, NZ_PIECE_PHI, r, mo, NULL);
+  st = nz_constraint_eval(c->s, r, mo, c->t, state, 3, &sd);
   if (!st) {
     read_row(mo->out[0], m, k, c->alpha, c->beta, m == 2 ? c->A + (size_t)r * k : NULL, &c->phi[r]);
     *high = nz_jet_tangent(mo->out[0], D - 1)[0];

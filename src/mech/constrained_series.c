@@ -59,13 +59,9 @@ static int constraint_series(const nz_system *s, int r, int m, int Kphi, int Ka,
                              const double *const *levels, int nstate, double *phi, double *a)
 {
   int k = s->k, Kc = Kphi > Ka ? Kphi : Ka;
-  nz_motion mo;
-  int st = nz_motion_init(&mo, k, nz_constraint_levels(s, r), Kc, Ka >= 0 ? k : 0, t, levels, nstate);
-  if (st) return st;
-  if (m >= mo.nslots) { nz_motion_free(&mo); return NZ_EARG; }
-  if (Ka >= 0)
-    for (int i = 0; i < k; i++) nz_motion_seed_slot(&mo, i, i, m);
-  st = nz_motion_eval(s, NZ_PIECE_PHI, r, &mo, NULL);
+  nz_motion mo = { 0 };
+  nz_constraint_seeding sd = { .K = Kc, .D = Ka >= 0 ? k : 0, .first = m, .count = Ka >= 0, .by_slot = 1 };
+  int st = nz_constraint_eval(s, r, &mo, t, levels, nstate, &sd);
   if (!st) {
     for (int c = 0; c <= Kphi; c++) phi[c] = mo.out[0]->c[c];
     for (int i = 0; i < k && Ka >= 0; i++)
@@ -347,14 +343,9 @@ static int top_hessian(const nz_system *s, int r, int p, double t, const double 
   int k = s->k, st = NZ_OK;
   nz_motion mo = { 0 };   /* the k columns share its jets */
   for (int j = 0; j < k && !st; j++) {
-    if ((st = nz_motion_reset(&mo, k, nz_constraint_levels(s, r), 1, k, t, levels, nstate))) break;
-    if (p >= mo.nslots) { st = NZ_EARG; break; }
-    mo.t->c[1] = 0.0;
-    for (int a = 0; a < mo.nslots; a++)
-      for (int i = 0; i < k; i++) mo.slot[a][i]->c[1] = 0.0;
-    mo.slot[p][j]->c[1] = 1.0;
-    for (int i = 0; i < k; i++) nz_motion_seed_slot(&mo, i, i, p);
-    st = nz_motion_eval(s, NZ_PIECE_PHI, r, &mo, NULL);
+    nz_constraint_seeding sd = { .K = 1, .D = k, .frozen = 1, .along_slot = p, .along_index = j,
+                                 .first = p, .count = 1, .by_slot = 1 };
+    st = nz_constraint_eval(s, r, &mo, t, levels, nstate, &sd);
     if (!st)
       for (int i = 0; i < k; i++) H[i * k + j] = nz_jet_tangent(mo.out[0], i)[1];
   }

@@ -234,8 +234,8 @@ static int value_rate(nz_contacts *c, const nz_system *s, int r, double t, const
                       double out[2])
 {
   const double *state[3] = { q, qd, c->zero };
-  int st = nz_motion_reset(&c->mo, c->k, nz_constraint_levels(s, r), 1, 0, t, state, 3);
-  if (!st) st = nz_motion_eval(s, NZ_PIECE_PHI, r, &c->mo, NULL);
+  nz_constraint_seeding sd = { .K = 1 };   /* the series of Phi to order 1, no tangents */
+  int st = nz_constraint_eval(s, r, &c->mo, t, state, 3, &sd);
   if (!st) {
     out[0] = c->mo.out[0]->c[0];
     out[1] = c->mo.out[0]->c[1];

@@ -209,6 +209,46 @@ int nz_motion_eval(const nz_system *s, nz_piece p, int index, nz_motion *m, nz_j
   return s->ev.eval(s->ev.ctx, p, index, m->t, levels, nlevels, m->out, dp);
 }
 
+/* Every slot (and t) constant in the series variable. */
+static void freeze(nz_motion *mo)
+{
+  for (int c = 1; c <= mo->K; c++) {
+    mo->t->c[c] = 0.0;
+    for (int j = 0; j < mo->nslots; j++)
+      for (int i = 0; i < mo->k; i++) mo->slot[j][i]->c[c] = 0.0;
+  }
+}
+
+int nz_constraint_eval(const nz_system *s, int r, nz_motion *mo, double t, const double *const *state,
+                       int nstate, const nz_constraint_seeding *sd)
+{
+  int k = s->k, nslots = sd->nslots > 0 ? sd->nslots : nz_constraint_levels(s, r);
+  int count = sd->count < 0 ? nslots : sd->count, D = sd->D < 0 ? count * k + (sd->t_variable != 0) : sd->D;
+  int st = nz_motion_reset(mo, k, nslots, sd->K, D, t, state, nstate);
+  if (st) return st;
+  if (sd->t_variable) {                   /* t's jet gets the tangents' shape */
+    if (fit_jet(&mo->t, sd->K, D)) return NZ_ENOMEM;
+    nz_jet_set_variable(mo->t, t, count * k);
+  }
+  if (sd->dir && (st = nz_motion_set_direction(mo, sd->dir))) return st;
+  if (sd->frozen) {
+    if (sd->along_slot < 0 || sd->along_slot >= nslots) return NZ_EARG;
+    freeze(mo);
+    if (sd->along)
+      for (int i = 0; i < k; i++) mo->slot[sd->along_slot][i]->c[1] = sd->along[i];
+    else mo->slot[sd->along_slot][sd->along_index]->c[1] = 1.0;
+  }
+  if (sd->by_slot && count > 0 && (sd->first < 0 || sd->first + count > nslots)) return NZ_EARG;
+  for (int l = sd->first; l < sd->first + count; l++)
+    for (int i = 0; i < k; i++) {
+      if (sd->by_slot) nz_motion_seed_slot(mo, i, (l - sd->first) * k + i, l);
+      else nz_motion_seed_level(mo, i, (l - sd->first) * k + i, l);
+    }
+  for (int j = sd->above + 1; sd->sizes && j < nslots; j++)
+    for (int i = 0; i < k; i++) nz_jet_tangent(mo->slot[j][i], D - 1)[0] += nz_check_slot_weight(j, i, k) * sd->sizes[j];
+  return nz_motion_eval(s, NZ_PIECE_PHI, r, mo, NULL);
+}
+
 /* ------------------------------------------------------------------ */
 /* Primitives                                                           */
 

@@ -184,6 +184,39 @@ void nz_motion_seed_slot(nz_motion *m, int i, int d, int j);
  * nz_constraint_levels); NZ_EARG when the motion has fewer. */
 int nz_motion_eval(const nz_system *s, nz_piece p, int index, nz_motion *m, nz_jet **qd);
 nz_jet **nz_jets_alloc(int k, int K, int D);
+
+/* How constraint r's jets are seeded for one evaluation, as data, so that
+ * every primitive of constrained.c is a single call of nz_constraint_eval
+ * followed by reading mo->out[0] (and mo->dout[0]).  Zero means "none" for
+ * every field but K and D; the seedings are applied in the order listed. */
+typedef struct nz_constraint_seeding {
+  int nslots;        /* slots of the workspace; 0: nz_constraint_levels(s, r) */
+  int K, D;          /* order of the jets, number of tangents (D < 0: count k,
+                        and one more for t_variable) */
+  int t_variable;    /* t also carries tangent count k (after the ones below) */
+  const nz_state_direction *dir;   /* also differentiate along it (mo->dout) */
+  /* The series variable frozen: t and every slot constant in it, except
+   * slot along_slot, which moves by along[i] on q_i (along NULL: by 1 on
+   * q_along_index alone); along_slot outside the slots: NZ_EARG. */
+  int frozen, along_slot, along_index;
+  const double *along;
+  /* count * k tangents: tangent (l - first) k + i on q_i^(l) wherever it
+   * appears (nz_motion_seed_level), or with by_slot on slot l of q_i as a
+   * whole (nz_motion_seed_slot), first <= l < first + count (count < 0:
+   * every slot); a slot not in the workspace: NZ_EARG. */
+  int first, count, by_slot;
+  /* With sizes: tangent D - 1 along every slot j above `above`, q_i by
+   * nz_check_slot_weight(j, i, k) sizes[j] (the check of constrained.c). */
+  int above;
+  const double *sizes;
+} nz_constraint_seeding;
+
+/* Constraint r at (t, state) in the workspace mo (reset here; the caller
+ * frees it), its jets seeded as sd says: the output in mo->out[0], and its
+ * derivative along sd->dir in mo->dout[0].  Statuses of nz_motion_reset
+ * and nz_motion_eval. */
+int nz_constraint_eval(const nz_system *s, int r, nz_motion *mo, double t, const double *const *state,
+                       int nstate, const nz_constraint_seeding *sd);
 void nz_jets_free(nz_jet **v, int k);
 double nz_factorial(int n);
 
