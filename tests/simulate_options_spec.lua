@@ -144,6 +144,19 @@ describe("simulate's failures name the user's code first", function()
     assert(not msg:find("lua/nz/", 1, true), msg)
   end)
 
+  it("a system made with compile = false whose start is singular says so (the run's summary read a recording it has not)", function()
+    -- q1''' = 0.2 q1 q2'''^2: nonlinear in q''', and at q2''' = 0 its
+    -- derivative in q''' has no q2''' part, so (6.2) is singular at the start
+    local jerk = nz.system{ name = "jerk", coords = { "x", "y" }, compile = false,
+      T = function(t, q, qd) return 0.5 * 1.7 * (qd[1] ^ 2 + qd[2] ^ 2) end,
+      Q = function() return { 0.3, -0.45 } end,
+      constraints = { function(t, q, qd, qdd, qddd) return qddd[1] - 0.2 * q[1] * qddd[2] ^ 2 end } }
+    local msg = failure(jerk.simulate, jerk, { q0 = { 0.6, -0.2 }, qd0 = { 0.3, 1.1 },
+      qdd0 = { 0.3 / 1.7, -0.45 / 1.7 }, t1 = 1, dt = 0.1 })
+    contains(msg, "system 'jerk': a constraint nonlinear in q^(3)", "is singular")
+    assert(not msg:find("attempt to index", 1, true), msg)
+  end)
+
   it("an event that returns no number says so with the state", function()
     local msg = option_error(pendulum, { q0 = { 1 }, t1 = 1, events = { function() return "up" end } })
     contains(msg, "event 'event 1' must return a finite number, got the string \"up\" at t = 0, q = {1}, qd = {0}")

@@ -166,10 +166,10 @@ function M.evaluator(sys, from)
       :format(from - 1, from), from
   end
   local info = sys.engine.recording and sys.engine.recording:info()
+  if not info then return "jets, the functions in Lua (compile = false)" end
   if from == 0 then
     return "interpreted graph" .. (info.native_compiling > 0 and " (machine code was still compiling)" or "")
   end
-  if not info then return "jets, the functions in Lua (compile = false)" end
   if info.native_mode == 0 then return "interpreted graph (native = false)" end
   return "jets (a function of the system runs in Lua: print(sys) says which)"
 end
