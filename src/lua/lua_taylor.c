@@ -227,11 +227,8 @@ static taylor_box *new_box(lua_State *L)
 {
   taylor_box *tb = lua_newuserdatauv(L, sizeof *tb, 0);
   memset(tb, 0, sizeof *tb);
-  if (luaL_newmetatable(L, TAYLOR_RUN_METATABLE)) {
-    lua_pushcfunction(L, taylor_box_gc);
-    lua_setfield(L, -2, "__gc");
-  }
-  lua_setmetatable(L, -2);
+  nz_lua_gc_metatable(L, TAYLOR_RUN_METATABLE, taylor_box_gc);
+  luaL_setmetatable(L, TAYLOR_RUN_METATABLE);
   return tb;
 }
 
